@@ -1,0 +1,59 @@
+// Backend: one implementation of linear blend skinning (serial, openmp, sse, ...).
+// A backend prepares each mesh once (its own layout, its own device buffers); per frame
+// only the palette goes in and the vertices come out.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+
+#include "skinserve/core/mesh.h"
+#include "skinserve/core/status.h"
+
+namespace skinserve {
+
+struct BackendInfo {
+  std::string id;           // stable id, the same on the wire, in the CLI and in reports
+  std::string description;  // one line for humans
+  bool available = true;
+  std::string unavailable_reason;  // why not, when !available
+  std::string device;              // e.g. the CPU model or the OpenCL device name
+  int simd_width = 1;              // float lanes one instruction works on (1: scalar)
+  int threads = 1;                 // compute threads one frame occupies
+};
+
+// A backend's resident copy of one mesh. Backends derive from it to hold their layout.
+class PreparedMesh {
+ public:
+  explicit PreparedMesh(std::shared_ptr<const Mesh> mesh) : mesh_(std::move(mesh)) {}
+  virtual ~PreparedMesh() = default;
+  const Mesh& mesh() const { return *mesh_; }
+
+ private:
+  std::shared_ptr<const Mesh> mesh_;
+};
+
+// One frame of work, in the manner of ozz's SkinningJob: plain spans, Validate() first.
+//  - palette:   12 * joint_count finite floats (see palette.h).
+//  - positions: 3 * vertex_count floats written by the backend, x y z per vertex.
+//  - normals:   empty to skip normals; else 3 * vertex_count floats, unit length, and
+//               the mesh must have normals.
+struct SkinFrame {
+  std::span<const float> palette;
+  std::span<float> positions;
+  std::span<float> normals;
+
+  Status Validate(const Mesh& mesh) const;
+};
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual const BackendInfo& info() const = 0;
+  // Builds this backend's resident copy of `mesh`. Called once per mesh and backend.
+  virtual Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) = 0;
+  // Skins one validated frame. Thread-safe: may run concurrently, also on one mesh.
+  virtual Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) = 0;
+};
+
+}  // namespace skinserve

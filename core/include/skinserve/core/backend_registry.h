@@ -1,0 +1,16 @@
+// Every backend skinserve has, built once per engine (the OpenCL context and program
+// included), in the order of the design's table.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "skinserve/core/backend.h"
+
+namespace skinserve {
+
+// `threads`: compute threads a parallel backend uses for one frame (>= 1).
+// Backends that cannot run here are returned too, with available = false and the reason.
+std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads);
+
+}  // namespace skinserve

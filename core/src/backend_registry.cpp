@@ -1,0 +1,21 @@
+#include "skinserve/core/backend_registry.h"
+
+#include <algorithm>
+
+#include "backends/backend_factories.h"
+
+namespace skinserve {
+
+std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads) {
+  threads = std::max(threads, 1);
+  std::vector<std::unique_ptr<Backend>> backends;
+  backends.push_back(MakeSerialBackend());
+  backends.push_back(MakeOpenMpBackend(threads));
+  backends.push_back(MakeSseBackend());
+  backends.push_back(MakeSseOpenMpBackend(threads));
+  for (auto& backend : MakeOpenClBackends(threads)) backends.push_back(std::move(backend));
+  backends.push_back(MakePassthroughBackend());
+  return backends;
+}
+
+}  // namespace skinserve

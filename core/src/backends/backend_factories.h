@@ -1,0 +1,20 @@
+// Internal: one factory per backend source file; CreateAllBackends() calls them in order.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "skinserve/core/backend.h"
+
+namespace skinserve {
+
+std::unique_ptr<Backend> MakeSerialBackend();
+std::unique_ptr<Backend> MakeOpenMpBackend(int threads);
+std::unique_ptr<Backend> MakeSseBackend();
+std::unique_ptr<Backend> MakeSseOpenMpBackend(int threads);
+// {opencl, opencl-zerocopy}: one shared context, device, queue and built program. When
+// no OpenCL platform or device is present both are returned unavailable, with the reason.
+std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads);
+std::unique_ptr<Backend> MakePassthroughBackend();
+
+}  // namespace skinserve

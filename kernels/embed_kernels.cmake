@@ -1,0 +1,20 @@
+# Writes OUTPUT: one `inline constexpr std::string_view k<Name>Source` per file in SOURCES,
+# as a raw string literal (the .cl files must not contain the delimiter `)cl"`).
+set(text "// Generated from kernels/*.cl by embed_kernels.cmake. Do not edit.\n#pragma once\n#include <string_view>\n\nnamespace skinserve::kernels {\n")
+foreach(src IN LISTS SOURCES)
+  get_filename_component(stem ${src} NAME_WE)
+  # CamelCase the file stem: skin_lbs -> SkinLbs.
+  string(REPLACE "_" ";" parts "${stem}")
+  set(camel "")
+  foreach(p IN LISTS parts)
+    string(SUBSTRING "${p}" 0 1 head)
+    string(TOUPPER "${head}" head)
+    string(SUBSTRING "${p}" 1 -1 tail)
+    string(APPEND camel "${head}${tail}")
+  endforeach()
+  file(READ ${src} body)
+  string(APPEND text "inline constexpr std::string_view k${camel}Source = R\"cl(${body})cl\";\n")
+endforeach()
+string(APPEND text "}  // namespace skinserve::kernels\n")
+file(WRITE ${OUTPUT}.tmp "${text}")
+file(COPY_FILE ${OUTPUT}.tmp ${OUTPUT} ONLY_IF_DIFFERENT)
