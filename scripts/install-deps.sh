@@ -8,14 +8,14 @@ BUILD_PACKAGES=(
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers
   libglm-dev libcli11-dev libspdlog-dev libfmt-dev
-  libtinygltf-dev nlohmann-json3-dev libstb-dev
+  libtinygltf-dev nlohmann-json3-dev libstb-dev libcairo2-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   clang-format
 )
 # What the binaries need at run time (the container's runtime stage uses this list).
 RUNTIME_PACKAGES=(
   pocl-opencl-icd ocl-icd-libopencl1 clinfo
-  libgrpc++1.51 libprotobuf32 libspdlog1.10 libfmt9 libgomp1
+  libgrpc++1.51 libprotobuf32 libspdlog1.10 libfmt9 libgomp1 libtinygltf2d libcairo2 libssl3
 )
 # The interop test (a client nobody here wrote) and the plots.
 TEST_PACKAGES=(
