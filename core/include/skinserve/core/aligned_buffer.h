@@ -22,8 +22,8 @@ class AlignedBuffer {
   explicit AlignedBuffer(std::size_t count) : size_(count) {
     if (count == 0) return;
     // Round the allocation up to whole cache lines; std::aligned_alloc requires it.
-    std::size_t bytes = (count * sizeof(T) + kBufferAlignment - 1) / kBufferAlignment *
-                        kBufferAlignment;
+    std::size_t bytes =
+        (count * sizeof(T) + kBufferAlignment - 1) / kBufferAlignment * kBufferAlignment;
     data_ = static_cast<T*>(std::aligned_alloc(kBufferAlignment, bytes));
     if (data_ == nullptr) throw std::bad_alloc();
     std::memset(static_cast<void*>(data_), 0, bytes);

@@ -12,7 +12,7 @@
 
 namespace skinserve {
 
-inline constexpr uint32_t kMaxInfluences = 8;      // B: influences per vertex, 1..8
+inline constexpr uint32_t kMaxInfluences = 8;       // B: influences per vertex, 1..8
 inline constexpr uint32_t kMaxJointsLimit = 65535;  // joint indices are uint16
 inline constexpr float kWeightSumTolerance = 1e-3f;
 
