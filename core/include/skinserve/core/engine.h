@@ -81,6 +81,10 @@ class Engine {
   // Enabled backends in a stable order, available or not (with the reason).
   std::vector<BackendInfo> Backends() const;
 
+  // Checks an upload's declared shape against the limits and the mesh budget before any
+  // array is received or allocated (INVALID_ARGUMENT or RESOURCE_EXHAUSTED).
+  Status CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
+                        bool has_normals) const;
   // Validates and stores a mesh (dedupe by content id; LRU eviction beyond the budget).
   Result<MeshInfo> AddMesh(const MeshArrays& arrays);
   Result<MeshInfo> GetMesh(const std::string& id) const;
