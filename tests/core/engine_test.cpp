@@ -1,0 +1,173 @@
+// The engine's contract: errors by code and message, results against the reference,
+// bounded queues, dedupe, shutdown.
+#include "skinserve/core/engine.h"
+
+#include <gtest/gtest.h>
+
+#include <future>
+#include <thread>
+
+#include "skinserve/core/reference.h"
+#include "skinserve/core/synthetic.h"
+
+namespace skinserve {
+namespace {
+
+std::unique_ptr<Engine> MakeEngine(EngineOptions options = {}) {
+  if (options.enabled_backends.empty()) options.enabled_backends = {"serial", "passthrough"};
+  auto engine = Engine::Create(options);
+  EXPECT_TRUE(engine.ok()) << engine.status().ToString();
+  return std::move(engine).value();
+}
+
+struct Frame {
+  std::vector<float> positions;
+  std::vector<float> normals;
+  SkinRequest Request(const MeshInfo& mesh, const std::string& backend, uint64_t frame,
+                      bool with_normals = false) {
+    positions.assign(3ull * mesh.vertex_count, 0.0f);
+    normals.assign(with_normals ? 3ull * mesh.vertex_count : 0, 0.0f);
+    return {mesh.id, backend, MakeSyntheticPalette(mesh.joint_count, 11, frame), positions,
+            normals};
+  }
+};
+
+TEST(EngineTest, SkinsAgainstTheReference) {
+  auto engine = MakeEngine();
+  const MeshArrays arrays =
+      MakeSyntheticMesh({.vertex_count = 777, .influences = 3, .normals = true});
+  auto info = engine->AddMesh(arrays);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  Frame frame;
+  SkinRequest request = frame.Request(*info, "serial", 5, /*with_normals=*/true);
+  const std::vector<float> palette = request.palette;
+  FrameTiming timing;
+  ASSERT_TRUE(engine->SkinBlocking(std::move(request), &timing).ok());
+  auto mesh = Mesh::Create(arrays).value();
+  const Deviation d = CompareWithReference(*mesh, palette, frame.positions, frame.normals);
+  EXPECT_TRUE(d.within_tolerance()) << d.max_position_error << " " << d.max_normal_error;
+  EXPECT_GT(timing.compute_ns, 0);
+  const EngineStats stats = engine->Stats();
+  EXPECT_EQ(stats.backends[0].id, "serial");
+  EXPECT_EQ(stats.backends[0].frames, 1u);
+  EXPECT_EQ(stats.backends[0].vertices, 777u);
+}
+
+TEST(EngineTest, DedupesMeshesByContent) {
+  auto engine = MakeEngine();
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 10});
+  auto first = engine->AddMesh(arrays);
+  auto second = engine->AddMesh(arrays);
+  ASSERT_TRUE(first.ok() && second.ok());
+  EXPECT_EQ(first->id, second->id);
+  EXPECT_FALSE(first->already_stored);
+  EXPECT_TRUE(second->already_stored);
+  EXPECT_EQ(engine->Stats().meshes, 1u);
+  EXPECT_TRUE(engine->DeleteMesh(first->id));
+  EXPECT_EQ(engine->GetMesh(first->id).status().code(), StatusCode::kNotFound);
+}
+
+TEST(EngineTest, NamesWhatIsWrongWithARequest) {
+  auto engine = MakeEngine();
+  auto info = engine->AddMesh(MakeSyntheticMesh({.vertex_count = 10})).value();
+  Frame frame;
+
+  SkinRequest unknown_mesh = frame.Request(info, "serial", 0);
+  unknown_mesh.mesh_id = "feed";
+  Status s = engine->Submit(unknown_mesh, [](Status, FrameTiming) { FAIL(); });
+  EXPECT_EQ(s.code(), StatusCode::kNotFound);
+  EXPECT_NE(s.message().find("upload it again"), std::string::npos) << s.message();
+
+  s = engine->Submit(frame.Request(info, "warp-drive", 0), [](Status, FrameTiming) { FAIL(); });
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("available backends: serial, passthrough"), std::string::npos)
+      << s.message();
+
+  s = engine->Submit(frame.Request(info, "sse", 0), [](Status, FrameTiming) { FAIL(); });
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << "not enabled in this engine";
+
+  SkinRequest short_palette = frame.Request(info, "serial", 0);
+  short_palette.palette.pop_back();
+  s = engine->Submit(short_palette, [](Status, FrameTiming) { FAIL(); });
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("expected 12 * joint_count = 924"), std::string::npos) << s.message();
+
+  SkinRequest nan_palette = frame.Request(info, "serial", 0);
+  nan_palette.palette[12 * 3 + 6] = std::numeric_limits<float>::quiet_NaN();
+  s = engine->Submit(nan_palette, [](Status, FrameTiming) { FAIL(); });
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("palette[joint 3][row 1, col 2]"), std::string::npos) << s.message();
+
+  SkinRequest normals_without = frame.Request(info, "serial", 0, /*with_normals=*/true);
+  s = engine->Submit(normals_without, [](Status, FrameTiming) { FAIL(); });
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("mesh has none"), std::string::npos) << s.message();
+}
+
+TEST(EngineTest, RejectsUnknownEnabledBackend) {
+  auto engine = Engine::Create({.enabled_backends = {"serial", "quantum"}});
+  ASSERT_FALSE(engine.ok());
+  EXPECT_NE(engine.status().message().find("'quantum'"), std::string::npos);
+}
+
+TEST(EngineTest, AFullQueueSaysResourceExhausted) {
+  auto engine = MakeEngine({.compute_threads = 1, .queue_capacity = 2});
+  auto info = engine->AddMesh(MakeSyntheticMesh({.vertex_count = 100})).value();
+  Frame frames[4];
+  // The first frame's completion holds the only compute thread until we let it go.
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  std::promise<void> first_done;
+  ASSERT_TRUE(engine
+                  ->Submit(frames[0].Request(info, "serial", 0),
+                           [&](Status, FrameTiming) {
+                             first_done.set_value();
+                             released.wait();
+                           })
+                  .ok());
+  first_done.get_future().wait();
+  std::atomic<int> answered{0};
+  auto count = [&](Status status, FrameTiming) {
+    EXPECT_TRUE(status.ok());
+    answered.fetch_add(1);
+  };
+  EXPECT_TRUE(engine->Submit(frames[1].Request(info, "serial", 1), count).ok());
+  EXPECT_TRUE(engine->Submit(frames[2].Request(info, "serial", 2), count).ok());
+  Status full = engine->Submit(frames[3].Request(info, "serial", 3), count);
+  EXPECT_EQ(full.code(), StatusCode::kResourceExhausted);
+  EXPECT_NE(full.message().find("queue is full"), std::string::npos) << full.message();
+  release.set_value();
+  engine->Shutdown();
+  EXPECT_EQ(answered.load(), 2);
+  EXPECT_EQ(engine->Stats().rejected_queue_full, 1u);
+}
+
+TEST(EngineTest, ShutdownFinishesQueuedFramesThenRefuses) {
+  auto engine = MakeEngine({.compute_threads = 1});
+  auto info = engine->AddMesh(MakeSyntheticMesh({.vertex_count = 5000})).value();
+  std::vector<Frame> frames(20);
+  std::atomic<int> ok{0};
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_TRUE(engine
+                    ->Submit(frames[i].Request(info, "serial", i),
+                             [&](Status s, FrameTiming) { ok.fetch_add(s.ok()); })
+                    .ok());
+  }
+  engine->Shutdown();
+  EXPECT_EQ(ok.load(), 20);
+  Frame late;
+  EXPECT_EQ(engine->Submit(late.Request(info, "serial", 0), [](Status, FrameTiming) {}).code(),
+            StatusCode::kUnavailable);
+}
+
+TEST(EngineTest, ChecksUploadShapesBeforeAllocating) {
+  auto engine = MakeEngine({.mesh_budget_bytes = 1000, .mesh = {.limits = {.max_vertices = 500}}});
+  EXPECT_EQ(engine->CheckMeshShape(501, 1, 1, false).code(), StatusCode::kResourceExhausted);
+  EXPECT_EQ(engine->CheckMeshShape(100, 1, 1, false).code(), StatusCode::kResourceExhausted)
+      << "100 vertices x 18 bytes exceed the 1000-byte budget";
+  EXPECT_TRUE(engine->CheckMeshShape(50, 1, 1, false).ok());
+  EXPECT_EQ(engine->CheckMeshShape(50, 9, 1, false).code(), StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace skinserve
