@@ -19,7 +19,7 @@ RUNTIME_PACKAGES=(
 )
 # The interop test (a client nobody here wrote) and the plots.
 TEST_PACKAGES=(
-  python3 python3-grpcio python3-grpc-tools python3-numpy python3-matplotlib
+  python3 python3-grpcio python3-grpc-tools python3-numpy python3-matplotlib gnuplot-nox
 )
 
 want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}")
