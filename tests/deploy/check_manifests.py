@@ -1,0 +1,155 @@
+#!/usr/bin/env python3
+"""Checks that the deployment files agree with each other and with the project.
+
+yamllint checks the syntax and style; this checks what a cluster would only tell us at
+apply time, or never: the version label everywhere equals project(VERSION), the CPU the
+pods get equals the compute threads they run, the probes are native gRPC probes on the
+served port, the grace period outlasts the drain, and the Service, autoscaler and
+disruption budget select the Deployment's pods.
+
+usage: check_manifests.py <repository root>
+"""
+import pathlib
+import re
+import sys
+
+import yaml
+
+failures = []
+
+
+def check(condition, message):
+    if not condition:
+        failures.append(message)
+    return condition
+
+
+def cpu_cores(quantity):
+    q = str(quantity)
+    return float(q[:-1]) / 1000 if q.endswith("m") else float(q)
+
+
+def duration_seconds(text):
+    """'30s', '1m', '1500ms' or a plain number of seconds."""
+    m = re.fullmatch(r"\s*([0-9.]+)\s*(ms|s|m)?\s*", str(text))
+    if not m:
+        raise ValueError(f"not a duration: {text!r}")
+    value, unit = float(m.group(1)), m.group(2) or "s"
+    return value / 1000 if unit == "ms" else value * 60 if unit == "m" else value
+
+
+def main(root):
+    root = pathlib.Path(root)
+    cmake = (root / "CMakeLists.txt").read_text()
+    version = re.search(r"project\(skinserve\s+VERSION\s+([0-9][0-9.]*)", cmake).group(1)
+
+    docs = {}
+    for path in sorted((root / "deploy" / "k8s").glob("*.yaml")):
+        for doc in yaml.safe_load_all(path.read_text()):
+            if doc:
+                docs[doc["kind"]] = doc
+                labels = doc["metadata"].get("labels", {})
+                check(labels.get("app.kubernetes.io/version") == version,
+                      f"{path.name}: {doc['kind']} label app.kubernetes.io/version is "
+                      f"{labels.get('app.kubernetes.io/version')!r}, project is {version}")
+    for kind in ("Deployment", "Service", "HorizontalPodAutoscaler",
+                 "PodDisruptionBudget", "ConfigMap"):
+        check(kind in docs, f"k8s/: no {kind}")
+    if failures:
+        return
+
+    config = docs["ConfigMap"]["data"]
+    dep = docs["Deployment"]
+    pod = dep["spec"]["template"]
+    pod_labels = pod["metadata"]["labels"]
+    check(pod_labels.get("app.kubernetes.io/version") == version,
+          "Deployment: pod template version label differs from the project version")
+    check(dep["spec"]["selector"]["matchLabels"].items() <= pod_labels.items(),
+          "Deployment: selector does not match its pod template")
+    check(dep["spec"].get("replicas", 1) >= 2, "Deployment: fewer than 2 replicas")
+
+    (container,) = pod["spec"]["containers"]
+    check(container["image"].endswith(":" + version),
+          f"Deployment: image {container['image']} is not tagged {version}")
+    ports = {p["name"]: p["containerPort"] for p in container["ports"]}
+    listen_port = int(config["SKINSERVE_LISTEN"].rsplit(":", 1)[1])
+    check(ports.get("grpc") == listen_port,
+          f"Deployment: containerPort grpc {ports.get('grpc')} != SKINSERVE_LISTEN port")
+    refs = [e["configMapRef"]["name"] for e in container.get("envFrom", [])
+            if "configMapRef" in e]
+    check(docs["ConfigMap"]["metadata"]["name"] in refs,
+          "Deployment: the ConfigMap is not in envFrom")
+
+    threads = int(config["SKINSERVE_COMPUTE_THREADS"])
+    res = container["resources"]
+    check(cpu_cores(res["requests"]["cpu"]) == threads == cpu_cores(res["limits"]["cpu"]),
+          f"Deployment: cpu request/limit {res['requests']['cpu']}/{res['limits']['cpu']} "
+          f"!= SKINSERVE_COMPUTE_THREADS {threads}")
+    if "POCL_MAX_PTHREAD_COUNT" in config:
+        check(int(config["POCL_MAX_PTHREAD_COUNT"]) == threads,
+              "ConfigMap: POCL_MAX_PTHREAD_COUNT != SKINSERVE_COMPUTE_THREADS")
+
+    for probe in ("readinessProbe", "livenessProbe", "startupProbe"):
+        p = container.get(probe)
+        if check(p is not None, f"Deployment: no {probe}"):
+            check(p.get("grpc", {}).get("port") == listen_port,
+                  f"Deployment: {probe} is not a native grpc probe on port {listen_port}")
+
+    grace = pod["spec"].get("terminationGracePeriodSeconds", 30)
+    drain_key = next((k for k in config if "DRAIN" in k), None)
+    if check(drain_key is not None, "ConfigMap: no SKINSERVE_*DRAIN* setting"):
+        drain = duration_seconds(config[drain_key])
+        pre_stop = container.get("lifecycle", {}).get("preStop", {})
+        pause = 0.0
+        if "exec" in pre_stop and pre_stop["exec"]["command"][0] == "sleep":
+            pause = float(pre_stop["exec"]["command"][1])
+        if "sleep" in pre_stop:
+            pause = float(pre_stop["sleep"]["seconds"])
+        check(grace > pause + drain,
+              f"Deployment: terminationGracePeriodSeconds {grace} <= preStop {pause} s + "
+              f"drain {drain} s")
+
+    svc = docs["Service"]
+    check(svc["spec"].get("clusterIP") == "None", "Service: not headless (clusterIP: None)")
+    check(svc["spec"]["selector"].items() <= pod_labels.items(),
+          "Service: selector does not match the pods")
+    svc_ports = svc["spec"]["ports"]
+    check(any(p.get("targetPort") in ("grpc", listen_port) for p in svc_ports),
+          "Service: no port to the grpc containerPort")
+
+    hpa = docs["HorizontalPodAutoscaler"]
+    check(hpa["apiVersion"] == "autoscaling/v2", "HPA: not autoscaling/v2")
+    check(hpa["spec"]["scaleTargetRef"]["name"] == dep["metadata"]["name"],
+          "HPA: does not target the Deployment")
+    check(any(m["type"] == "Resource" and m["resource"]["name"] == "cpu"
+              for m in hpa["spec"]["metrics"]), "HPA: no CPU metric")
+    check(hpa["spec"]["minReplicas"] >= 2, "HPA: minReplicas below 2")
+
+    pdb = docs["PodDisruptionBudget"]
+    check(pdb["spec"]["selector"]["matchLabels"].items() <= pod_labels.items(),
+          "PDB: selector does not match the pods")
+
+    dockerfile = (root / "deploy" / "Dockerfile").read_text()
+    m = re.search(r"^ARG VERSION=(\S+)", dockerfile, re.M)
+    check(m and m.group(1) == version, "Dockerfile: ARG VERSION default != project version")
+    check("org.opencontainers.image.version" in dockerfile, "Dockerfile: no version label")
+    check(re.search(r"^HEALTHCHECK", dockerfile, re.M) is not None, "Dockerfile: no HEALTHCHECK")
+    check(re.search(r"^USER (?!0\b|root\b)", dockerfile, re.M) is not None,
+          "Dockerfile: does not switch to a non-root USER")
+
+    compose = yaml.safe_load((root / "deploy" / "compose.yaml").read_text())
+    image = compose["services"]["server"]["image"]
+    check(f":-{version}}}" in image, f"compose.yaml: default image version is not {version}")
+    load = compose["services"]["load"]
+    check(load["depends_on"]["server"]["condition"] == "service_healthy",
+          "compose.yaml: load does not wait for a healthy server")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 2:
+        sys.exit(__doc__)
+    main(sys.argv[1])
+    for f in failures:
+        print("FAIL:", f)
+    print("check_manifests: " + ("ok" if not failures else f"{len(failures)} problem(s)"))
+    sys.exit(1 if failures else 0)
