@@ -1,0 +1,16 @@
+// Internal: the two OpenCL backends over one shared runtime.
+#pragma once
+
+#include <memory>
+
+#include "opencl_runtime.h"
+#include "skinserve/core/backend.h"
+
+namespace skinserve {
+
+BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id,
+                              const char* description);
+std::unique_ptr<Backend> MakeOpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime);
+std::unique_ptr<Backend> MakeOpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime);
+
+}  // namespace skinserve
