@@ -1,0 +1,150 @@
+// Properties every backend must have, checked against values the test computes itself:
+// the identity palette returns the rest pose, one rigid transform for all joints moves
+// every vertex rigidly, every output element is written, results do not depend on the
+// output's alignment or on other threads skinning the same mesh.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <thread>
+
+#include "backend_fixture.h"
+#include "skinserve/core/reference.h"
+#include "skinserve/core/synthetic.h"
+
+namespace skinserve::testing {
+namespace {
+
+class BackendPropertiesTest : public ::testing::TestWithParam<std::string> {
+ protected:
+  Backend& backend() { return BackendById(GetParam()); }
+  static std::shared_ptr<const Mesh> MakeMesh(uint32_t vertices, uint32_t influences) {
+    return Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
+                                           .influences = influences,
+                                           .normals = true,
+                                           .seed = vertices + influences}))
+        .value();
+  }
+};
+
+TEST_P(BackendPropertiesTest, IdentityPaletteReturnsTheRestPose) {
+  SKIP_IF_UNAVAILABLE(backend());
+  for (uint32_t b : {1u, 3u, 8u}) {
+    auto mesh = MakeMesh(517, b);
+    auto prepared = backend().Prepare(mesh).value();
+    const Output out = SkinOnce(backend(), *prepared, MakeIdentityPalette(77), true);
+    for (std::size_t i = 0; i < out.positions.size(); ++i) {
+      ASSERT_NEAR(out.positions[i], mesh->positions()[i], 1e-5) << "B=" << b << " element " << i;
+      ASSERT_NEAR(out.normals[i], mesh->normals()[i], 1e-5) << "B=" << b << " element " << i;
+    }
+  }
+}
+
+TEST_P(BackendPropertiesTest, OneRigidTransformForAllJointsMovesEveryVertexRigidly) {
+  SKIP_IF_UNAVAILABLE(backend());
+  // A rotation of 0.7 rad about the unit axis (2, 3, 6) / 7, then a translation.
+  const double angle = 0.7, c = std::cos(angle), s = std::sin(angle);
+  const double x = 2.0 / 7, y = 3.0 / 7, z = 6.0 / 7;
+  const double r[3][3] = {{c + x * x * (1 - c), x * y * (1 - c) - z * s, x * z * (1 - c) + y * s},
+                          {y * x * (1 - c) + z * s, c + y * y * (1 - c), y * z * (1 - c) - x * s},
+                          {z * x * (1 - c) - y * s, z * y * (1 - c) + x * s, c + z * z * (1 - c)}};
+  const double t[3] = {0.5, -1.25, 2.0};
+  std::vector<float> palette(12 * 77);
+  for (int j = 0; j < 77; ++j) {
+    for (int row = 0; row < 3; ++row) {
+      for (int col = 0; col < 3; ++col) palette[12 * j + 4 * row + col] = float(r[row][col]);
+      palette[12 * j + 4 * row + 3] = float(t[row]);
+    }
+  }
+  auto mesh = MakeMesh(1003, 4);
+  auto prepared = backend().Prepare(mesh).value();
+  const Output out = SkinOnce(backend(), *prepared, palette, true);
+  for (uint32_t v = 0; v < mesh->vertex_count(); ++v) {
+    const float* p = &mesh->positions()[3 * v];
+    const float* n = &mesh->normals()[3 * v];
+    for (int row = 0; row < 3; ++row) {
+      const double expected_p = r[row][0] * p[0] + r[row][1] * p[1] + r[row][2] * p[2] + t[row];
+      const double expected_n = r[row][0] * n[0] + r[row][1] * n[1] + r[row][2] * n[2];
+      ASSERT_NEAR(out.positions[3 * v + row], expected_p, 1e-5) << "vertex " << v;
+      ASSERT_NEAR(out.normals[3 * v + row], expected_n, 1e-5) << "vertex " << v;
+    }
+  }
+}
+
+TEST_P(BackendPropertiesTest, WritesEveryOutputElementAtAnyAlignment) {
+  SKIP_IF_UNAVAILABLE(backend());
+  auto mesh = MakeMesh(1001, 2);
+  auto prepared = backend().Prepare(mesh).value();
+  const auto palette = MakeSyntheticPalette(77, 5, 3);
+  // Outputs start one float past an aligned address, with sentinels around them.
+  const std::size_t n = 3ull * mesh->vertex_count();
+  std::vector<float> positions(n + 2, -7.0f), normals(n + 2, -7.0f);
+  std::fill(positions.begin() + 1, positions.end() - 1, std::nanf(""));
+  std::fill(normals.begin() + 1, normals.end() - 1, std::nanf(""));
+  const SkinFrame frame{palette, std::span<float>(positions).subspan(1, n),
+                        std::span<float>(normals).subspan(1, n)};
+  ASSERT_TRUE(backend().Skin(*prepared, frame).ok());
+  const Deviation d = CompareWithReference(*mesh, palette, frame.positions, frame.normals);
+  EXPECT_TRUE(d.within_tolerance()) << d.max_position_error << " " << d.max_normal_error;
+  EXPECT_EQ(positions.front(), -7.0f);
+  EXPECT_EQ(positions.back(), -7.0f);
+  EXPECT_EQ(normals.front(), -7.0f);
+  EXPECT_EQ(normals.back(), -7.0f);
+}
+
+TEST_P(BackendPropertiesTest, ConcurrentFramesOnOneMeshStayCorrect) {
+  SKIP_IF_UNAVAILABLE(backend());
+  auto mesh = MakeMesh(20011, 3);
+  auto prepared = backend().Prepare(mesh).value();
+  std::vector<std::thread> threads;
+  std::vector<Deviation> deviations(4);
+  for (int i = 0; i < 4; ++i) {
+    threads.emplace_back([&, i] {
+      for (int frame = 0; frame < 3; ++frame) {
+        const auto palette = MakeSyntheticPalette(77, 100 + i, frame);
+        const Output out = SkinOnce(backend(), *prepared, palette, frame % 2 == 0);
+        const Deviation d = CompareWithReference(*mesh, palette, out.positions, out.normals);
+        if (!d.within_tolerance()) deviations[i] = d;
+      }
+    });
+  }
+  for (auto& thread : threads) thread.join();
+  for (const Deviation& d : deviations) {
+    EXPECT_EQ(d.max_position_error, 0.0) << "a concurrent frame was wrong";
+    EXPECT_EQ(d.max_normal_error, 0.0);
+  }
+}
+
+std::string IdName(const ::testing::TestParamInfo<std::string>& param) {
+  std::string name = param.param;
+  for (char& ch : name) {
+    if (ch == '-') ch = '_';
+  }
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(AllBackends, BackendPropertiesTest,
+                         ::testing::ValuesIn(ComputingBackendIds()), IdName);
+
+TEST(PassthroughBackendTest, ReturnsTheRestPoseWhateverThePalette) {
+  Backend& backend = BackendById("passthrough");
+  auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = 99, .normals = true})).value();
+  auto prepared = backend.Prepare(mesh).value();
+  const Output out = SkinOnce(backend, *prepared, MakeSyntheticPalette(77, 1, 1), true);
+  EXPECT_TRUE(std::equal(out.positions.begin(), out.positions.end(), mesh->positions().begin()));
+  EXPECT_TRUE(std::equal(out.normals.begin(), out.normals.end(), mesh->normals().begin()));
+}
+
+TEST(BackendListTest, HasEveryPaperBackendInTheDesignOrder) {
+  std::vector<std::string> ids;
+  for (const auto& backend : AllBackends()) ids.push_back(backend->info().id);
+  const std::vector<std::string> expected = {
+      "serial", "openmp", "sse", "sse-openmp", "opencl", "opencl-zerocopy", "passthrough"};
+  EXPECT_EQ(ids, expected);
+  for (const auto& backend : AllBackends()) {
+    EXPECT_TRUE(backend->info().available)
+        << backend->info().id << ": " << backend->info().unavailable_reason;
+  }
+}
+
+}  // namespace
+}  // namespace skinserve::testing
