@@ -1,0 +1,101 @@
+#include "paper_tables.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <set>
+#include <sstream>
+
+#include "workload_cache.h"
+
+namespace skinserve::bench {
+namespace {
+
+std::vector<std::string> Split(const std::string& s, char sep) {
+  std::vector<std::string> parts;
+  std::stringstream stream(s);
+  for (std::string part; std::getline(stream, part, sep);) parts.push_back(part);
+  return parts;
+}
+
+}  // namespace
+
+void PaperTablesReporter::ReportRuns(const std::vector<Run>& runs) {
+  ConsoleReporter::ReportRuns(runs);
+  for (const Run& run : runs) {
+    // Medians when repeated, the single run otherwise.
+    if (run.run_type == Run::RT_Aggregate && run.aggregate_name != "median") continue;
+    if (run.run_type == Run::RT_Iteration && run.repetitions > 1) continue;
+    const std::vector<std::string> name = Split(run.run_name.function_name, '/');
+    if (name.size() == 1 && name[0] == "BM_MemoryBandwidth") {
+      auto it = run.counters.find("bytes_per_second");
+      if (it != run.counters.end()) bandwidth_bytes_per_second_ = it->second.value;
+      continue;
+    }
+    if (name.size() != 4) continue;
+    auto it = run.counters.find("vertices_per_second");
+    if (it == run.counters.end()) continue;
+    rates_[{name[0], name[1], static_cast<uint32_t>(std::stoul(name[2])),
+            static_cast<uint32_t>(std::stoul(name[3]))}] = it->second.value;
+  }
+}
+
+void PaperTablesReporter::PrintTables(const std::vector<std::string>& backends) const {
+  for (const char* kind : {"BM_Skin", "BM_SkinNormals"}) {
+    std::set<uint32_t> vertices, bones;
+    for (const auto& [key, rate] : rates_) {
+      if (std::get<0>(key) != kind) continue;
+      vertices.insert(std::get<2>(key));
+      bones.insert(std::get<3>(key));
+    }
+    if (vertices.empty()) continue;
+    const std::string what = std::string(kind) == "BM_Skin" ? "positions" : "positions+normals";
+    auto rate = [&](const std::string& backend, uint32_t v, uint32_t b) {
+      auto it = rates_.find({kind, backend, v, b});
+      return it == rates_.end() ? 0.0 : it->second;
+    };
+    fmt::print("\n== Speedup over serial ({}, 77 joints; medians of one run) ==\n", what);
+    for (const std::string& backend : backends) {
+      fmt::print("\n{}\n{:>10}", backend, "vertices");
+      for (uint32_t b : bones) fmt::print(" {:>8}", fmt::format("B={}", b));
+      fmt::print("\n");
+      for (uint32_t v : vertices) {
+        fmt::print("{:>10}", v);
+        for (uint32_t b : bones) {
+          const double serial = rate("serial", v, b), mine = rate(backend, v, b);
+          fmt::print(" {:>8}", serial > 0 && mine > 0 ? fmt::format("{:.2f}x", mine / serial)
+                                                      : std::string("-"));
+        }
+        fmt::print("\n");
+      }
+    }
+    fmt::print("\nMillion vertices per second ({})\n{:>16}", what, "backend \\ V,B");
+    const uint32_t v_max = *vertices.rbegin(), b_max = *bones.rbegin();
+    for (uint32_t v : vertices) fmt::print(" {:>10}", fmt::format("{}k,{}", v / 1000, b_max));
+    fmt::print("\n");
+    for (const std::string& backend : backends) {
+      fmt::print("{:>16}", backend);
+      for (uint32_t v : vertices) fmt::print(" {:>10.1f}", rate(backend, v, b_max) / 1e6);
+      fmt::print("\n");
+    }
+    if (bandwidth_bytes_per_second_ > 0) {
+      std::string fastest;
+      double best = 0;
+      for (const std::string& backend : backends) {
+        if (backend == "passthrough") continue;
+        if (rate(backend, v_max, b_max) > best)
+          best = rate(backend, v_max, b_max), fastest = backend;
+      }
+      const double bytes = BytesPerVertex(b_max, what != "positions");
+      const double bound = bandwidth_bytes_per_second_ / bytes;
+      fmt::print(
+          "\nMemory bandwidth (copy, all cores): {:.1f} GB/s; at {} B/vertex the bound is {:.0f} "
+          "M vertices/s.\nFastest at {} x {}: {} with {:.0f} M vertices/s = {:.0f}% of the "
+          "bound.\n",
+          bandwidth_bytes_per_second_ / 1e9, bytes, bound / 1e6, v_max, b_max, fastest, best / 1e6,
+          100 * best / bound);
+    }
+  }
+}
+
+}  // namespace skinserve::bench

@@ -1,0 +1,177 @@
+// skinserve-bench: Backend::Skin timed per backend over the paper's grid, plus the
+// machine's memory bandwidth, so each figure can be read against its physical bound.
+//
+//   skinserve-bench                    every benchmark, Google Benchmark's usual output
+//   skinserve-bench --paper-tables     the grid (positions only), medians of 3, then the
+//                                      paper's tables 2 and 3 layout
+// Filters: --backends=a,b  --vertices=25000,100000  --bones=1,2  --normals (paper tables
+// with normals too). Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
+#include <benchmark/benchmark.h>
+#include <fmt/format.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <cstring>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "paper_tables.h"
+#include "skinserve/core/aligned_buffer.h"
+#include "skinserve/core/backend_registry.h"
+#include "workload_cache.h"
+
+namespace skinserve::bench {
+namespace {
+
+struct Options {
+  bool paper_tables = false;
+  bool normals_in_tables = false;
+  std::vector<std::string> backends;
+  std::vector<uint32_t> vertices = {25'000, 100'000, 400'000, 1'600'000};
+  std::vector<uint32_t> bones = {1, 2, 3, 4};
+};
+
+template <typename T>
+std::vector<T> ParseList(const std::string& s) {
+  std::vector<T> out;
+  std::stringstream stream(s);
+  for (std::string item; std::getline(stream, item, ',');) {
+    if constexpr (std::is_same_v<T, std::string>) {
+      out.push_back(item);
+    } else {
+      out.push_back(static_cast<T>(std::stoul(item)));
+    }
+  }
+  return out;
+}
+
+// Takes our flags out of argv, leaving Google Benchmark's.
+Options ParseOptions(int* argc, char** argv) {
+  Options options;
+  int kept = 1;
+  for (int i = 1; i < *argc; ++i) {
+    const std::string arg = argv[i];
+    auto value = [&](const char* prefix) -> const char* {
+      return arg.rfind(prefix, 0) == 0 ? argv[i] + std::strlen(prefix) : nullptr;
+    };
+    if (arg == "--paper-tables") {
+      options.paper_tables = true;
+    } else if (arg == "--normals") {
+      options.normals_in_tables = true;
+    } else if (const char* list = value("--backends=")) {
+      options.backends = ParseList<std::string>(list);
+    } else if (const char* counts = value("--vertices=")) {
+      options.vertices = ParseList<uint32_t>(counts);
+    } else if (const char* bones = value("--bones=")) {
+      options.bones = ParseList<uint32_t>(bones);
+    } else {
+      argv[kept++] = argv[i];
+    }
+  }
+  *argc = kept;
+  return options;
+}
+
+WorkloadCache& Cache() {
+  static WorkloadCache cache;
+  return cache;
+}
+
+void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
+                   bool normals) {
+  const Workload& workload = Cache().Get(vertices, bones);
+  const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones);
+  AlignedBuffer<float> positions(3ull * vertices), out_normals(normals ? 3ull * vertices : 0);
+  std::size_t frame = 0;
+  for (auto _ : state) {
+    const SkinFrame skin{workload.palettes[frame++ % workload.palettes.size()], positions.span(),
+                         out_normals.span()};
+    if (Status s = backend->Skin(prepared, skin); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+      break;
+    }
+    benchmark::DoNotOptimize(positions.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["vertices_per_second"] =
+      benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
+  state.SetBytesProcessed(
+      static_cast<int64_t>(state.iterations() * vertices * BytesPerVertex(bones, normals)));
+}
+
+// STREAM-style scaled copy over 256 MB on every core: what memory can move, read + write.
+void MemoryBandwidth(benchmark::State& state) {
+  constexpr std::size_t kFloats = 64ull << 20;
+  static AlignedBuffer<float> source(kFloats), target(kFloats);
+  const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (std::size_t i = 0; i < kFloats; ++i) source[i] = 1.0f, target[i] = 0.0f;  // first touch
+  for (auto _ : state) {
+    float* out = target.data();
+    const float* in = source.data();
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (std::size_t i = 0; i < kFloats; ++i) out[i] = 1.0001f * in[i];
+    benchmark::ClobberMemory();
+  }
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * 2 * kFloats * sizeof(float)));
+}
+
+}  // namespace
+}  // namespace skinserve::bench
+
+int main(int argc, char** argv) {
+  using namespace skinserve;
+  using namespace skinserve::bench;
+  Options options = ParseOptions(&argc, argv);
+  const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  static std::vector<std::unique_ptr<Backend>> backends = CreateAllBackends(threads);
+
+  std::vector<std::string> measured;
+  for (const auto& backend : backends) {
+    const BackendInfo& info = backend->info();
+    const bool wanted = options.backends.empty() ||
+                        std::count(options.backends.begin(), options.backends.end(), info.id);
+    if (!wanted) continue;
+    if (!info.available) {
+      fmt::print(stderr, "skipping {}: {}\n", info.id, info.unavailable_reason);
+      continue;
+    }
+    measured.push_back(info.id);
+  }
+  // serial first in the tables even when not asked for: every speedup is against it.
+  for (bool normals : {false, true}) {
+    if (options.paper_tables && normals && !options.normals_in_tables) continue;
+    for (uint32_t v : options.vertices) {
+      for (uint32_t b : options.bones) {
+        for (const auto& backend : backends) {
+          if (std::count(measured.begin(), measured.end(), backend->info().id) == 0) continue;
+          const std::string name = fmt::format(
+              "{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", backend->info().id, v, b);
+          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals)
+              ->UseRealTime()
+              ->Unit(benchmark::kMicrosecond);
+        }
+      }
+    }
+  }
+  benchmark::RegisterBenchmark("BM_MemoryBandwidth", MemoryBandwidth)
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond);
+
+  std::vector<char*> args(argv, argv + argc);
+  std::string repetitions = "--benchmark_repetitions=3",
+              aggregates = "--benchmark_report_aggregates_only=true";
+  if (options.paper_tables) {
+    args.push_back(repetitions.data());
+    args.push_back(aggregates.data());
+  }
+  int args_count = static_cast<int>(args.size());
+  benchmark::Initialize(&args_count, args.data());
+  if (benchmark::ReportUnrecognizedArguments(args_count, args.data())) return 1;
+  PaperTablesReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  if (options.paper_tables) reporter.PrintTables(measured);
+  benchmark::Shutdown();
+  return 0;
+}
