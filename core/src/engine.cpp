@@ -182,13 +182,16 @@ Status Engine::CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64
   return impl_->store_.CheckFits(MeshByteSize(vertex_count, influences, has_normals));
 }
 
-Result<MeshInfo> Engine::AddMesh(const MeshArrays& arrays) {
+Result<MeshInfo> Engine::AddMesh(const MeshArrays& arrays,
+                                 std::optional<WeightPolicy> weight_policy) {
   if (Status s = CheckMeshShape(arrays.vertex_count, arrays.influences, arrays.joint_count,
                                 !arrays.normals.empty());
       !s.ok()) {
     return s;
   }
-  auto mesh = Mesh::Create(arrays, impl_->options_.mesh);
+  MeshOptions mesh_options = impl_->options_.mesh;
+  if (weight_policy) mesh_options.weight_policy = *weight_policy;
+  auto mesh = Mesh::Create(arrays, mesh_options);
   if (!mesh.ok()) return mesh.status();
   bool already_stored = false;
   if (Status s = impl_->store_.Insert(*mesh, &already_stored); !s.ok()) return s;

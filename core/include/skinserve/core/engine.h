@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -86,7 +87,9 @@ class Engine {
   Status CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
                         bool has_normals) const;
   // Validates and stores a mesh (dedupe by content id; LRU eviction beyond the budget).
-  Result<MeshInfo> AddMesh(const MeshArrays& arrays);
+  // `weight_policy` overrides the engine's (options().mesh) for this mesh.
+  Result<MeshInfo> AddMesh(const MeshArrays& arrays,
+                           std::optional<WeightPolicy> weight_policy = std::nullopt);
   Result<MeshInfo> GetMesh(const std::string& id) const;
   bool DeleteMesh(const std::string& id);
 

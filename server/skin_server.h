@@ -1,0 +1,37 @@
+// SkinServer: the gRPC server around an Engine. It listens at once with health
+// NOT_SERVING, builds the engine (and with it the OpenCL program), then reports SERVING.
+// Used by main and, in-process, by the integration tests.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <chrono>
+#include <memory>
+
+#include "server_options.h"
+#include "skinning_service.h"
+
+namespace skinserve::server {
+
+class SkinServer {
+ public:
+  static Result<std::unique_ptr<SkinServer>> Start(const ServerOptions& options);
+  ~SkinServer();
+
+  int port() const { return port_; }
+  Engine& engine() { return *engine_; }
+  // NOT_SERVING, refuse new calls, let in-flight ones finish within `grace` (then cancel
+  // them), finish the engine's queued frames. Idempotent.
+  void Shutdown(std::chrono::milliseconds grace);
+  void Wait();
+
+ private:
+  SkinServer() = default;
+  std::unique_ptr<SkinningService> service_;
+  std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<Engine> engine_;
+  int port_ = 0;
+  std::once_flag shutdown_once_;
+};
+
+}  // namespace skinserve::server

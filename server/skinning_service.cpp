@@ -1,0 +1,75 @@
+#include "skinning_service.h"
+
+#include "mesh_upload_reactor.h"
+#include "skin_reactor.h"
+#include "stream_skin_reactor.h"
+#include "wire_codec.h"
+
+namespace skinserve::server {
+namespace {
+
+grpc::ServerUnaryReactor* Done(grpc::CallbackServerContext* context, const Status& status) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  reactor->Finish(ToGrpc(status));
+  return reactor;
+}
+
+const Status kWarmingUp = Unavailable("the server is starting: backends are being built");
+
+}  // namespace
+
+grpc::ServerReadReactor<v1::UploadMeshRequest>* SkinningService::UploadMesh(
+    grpc::CallbackServerContext*, v1::MeshInfo* response) {
+  return new MeshUploadReactor(engine_.load(), response);
+}
+
+grpc::ServerUnaryReactor* SkinningService::GetMesh(grpc::CallbackServerContext* context,
+                                                   const v1::GetMeshRequest* request,
+                                                   v1::MeshInfo* response) {
+  Engine* engine = engine_.load();
+  if (engine == nullptr) return Done(context, kWarmingUp);
+  auto info = engine->GetMesh(request->mesh_id());
+  if (info.ok()) *response = ToWire(*info);
+  return Done(context, info.status());
+}
+
+grpc::ServerUnaryReactor* SkinningService::DeleteMesh(grpc::CallbackServerContext* context,
+                                                      const v1::DeleteMeshRequest* request,
+                                                      v1::DeleteMeshResponse* response) {
+  Engine* engine = engine_.load();
+  if (engine == nullptr) return Done(context, kWarmingUp);
+  response->set_deleted(engine->DeleteMesh(request->mesh_id()));
+  return Done(context, Status::Ok());
+}
+
+grpc::ServerWriteReactor<v1::SkinResponse>* SkinningService::Skin(grpc::CallbackServerContext*,
+                                                                  const v1::SkinRequest* request) {
+  return new SkinReactor(engine_.load(), default_backend_, *request);
+}
+
+grpc::ServerBidiReactor<v1::SkinRequest, v1::SkinResponse>* SkinningService::StreamSkin(
+    grpc::CallbackServerContext*) {
+  return new StreamSkinReactor(engine_.load(), default_backend_, stream_window_, &open_streams_);
+}
+
+grpc::ServerUnaryReactor* SkinningService::ListBackends(grpc::CallbackServerContext* context,
+                                                        const v1::ListBackendsRequest*,
+                                                        v1::ListBackendsResponse* response) {
+  Engine* engine = engine_.load();
+  if (engine == nullptr) return Done(context, kWarmingUp);
+  for (const BackendInfo& info : engine->Backends()) *response->add_backends() = ToWire(info);
+  response->set_default_backend(default_backend_);
+  return Done(context, Status::Ok());
+}
+
+grpc::ServerUnaryReactor* SkinningService::GetServerStats(grpc::CallbackServerContext* context,
+                                                          const v1::GetServerStatsRequest*,
+                                                          v1::ServerStats* response) {
+  Engine* engine = engine_.load();
+  if (engine == nullptr) return Done(context, kWarmingUp);
+  *response = ToWire(engine->Stats());
+  response->set_open_streams(open_streams_.load());
+  return Done(context, Status::Ok());
+}
+
+}  // namespace skinserve::server

@@ -1,0 +1,45 @@
+// The Skinning service: each RPC translates wire messages to the engine and back.
+#pragma once
+
+#include <atomic>
+#include <string>
+
+#include "skinserve/core/engine.h"
+#include "skinserve/v1/skinning.grpc.pb.h"
+
+namespace skinserve::server {
+
+class SkinningService final : public v1::Skinning::CallbackService {
+ public:
+  SkinningService(std::string default_backend, int stream_window)
+      : default_backend_(std::move(default_backend)), stream_window_(stream_window) {}
+  // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
+  void SetEngine(Engine* engine) { engine_.store(engine); }
+
+  grpc::ServerReadReactor<v1::UploadMeshRequest>* UploadMesh(grpc::CallbackServerContext*,
+                                                             v1::MeshInfo* response) override;
+  grpc::ServerUnaryReactor* GetMesh(grpc::CallbackServerContext* context,
+                                    const v1::GetMeshRequest* request,
+                                    v1::MeshInfo* response) override;
+  grpc::ServerUnaryReactor* DeleteMesh(grpc::CallbackServerContext* context,
+                                       const v1::DeleteMeshRequest* request,
+                                       v1::DeleteMeshResponse* response) override;
+  grpc::ServerWriteReactor<v1::SkinResponse>* Skin(grpc::CallbackServerContext*,
+                                                   const v1::SkinRequest* request) override;
+  grpc::ServerBidiReactor<v1::SkinRequest, v1::SkinResponse>* StreamSkin(
+      grpc::CallbackServerContext*) override;
+  grpc::ServerUnaryReactor* ListBackends(grpc::CallbackServerContext* context,
+                                         const v1::ListBackendsRequest* request,
+                                         v1::ListBackendsResponse* response) override;
+  grpc::ServerUnaryReactor* GetServerStats(grpc::CallbackServerContext* context,
+                                           const v1::GetServerStatsRequest* request,
+                                           v1::ServerStats* response) override;
+
+ private:
+  std::atomic<Engine*> engine_{nullptr};
+  const std::string default_backend_;
+  const int stream_window_;
+  std::atomic<uint64_t> open_streams_{0};
+};
+
+}  // namespace skinserve::server

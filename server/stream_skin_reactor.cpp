@@ -1,0 +1,106 @@
+#include "stream_skin_reactor.h"
+
+#include "wire_codec.h"
+
+namespace skinserve::server {
+
+StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend, int window,
+                                     std::atomic<uint64_t>* open_streams)
+    : engine_(engine),
+      default_backend_(std::move(default_backend)),
+      window_(static_cast<std::size_t>(std::max(window, 1))),
+      open_streams_(open_streams) {
+  open_streams_->fetch_add(1);
+  std::lock_guard lock(mutex_);
+  if (engine_ == nullptr) {
+    finished_ = true;
+    Finish(ToGrpc(Unavailable("the server is starting: backends are being built")));
+    return;
+  }
+  PumpLocked();
+}
+
+void StreamSkinReactor::OnReadDone(bool ok) {
+  std::lock_guard lock(mutex_);
+  reading_ = false;
+  if (!ok) {
+    reads_done_ = true;  // the client half-closed (or went away)
+    PumpLocked();
+    return;
+  }
+  auto job = std::make_shared<FrameJob>();
+  frames_.push_back(job);
+  SkinRequest engine_request;
+  Status status = job->Prepare(request_, *engine_, default_backend_, &engine_request);
+  if (status.ok()) {
+    refs_.fetch_add(1);
+    status = engine_->Submit(std::move(engine_request), [this, job](Status s, FrameTiming t) {
+      OnFrameDone(job, std::move(s), t);
+    });
+    if (!status.ok()) refs_.fetch_sub(1);
+  }
+  if (!status.ok()) job->Complete(std::move(status), {});  // answered with its error
+  PumpLocked();
+}
+
+void StreamSkinReactor::OnFrameDone(const std::shared_ptr<FrameJob>& job, Status status,
+                                    FrameTiming timing) {
+  {
+    std::lock_guard lock(mutex_);
+    job->Complete(std::move(status), timing);
+    PumpLocked();
+  }
+  Unref();
+}
+
+void StreamSkinReactor::OnWriteDone(bool ok) {
+  std::lock_guard lock(mutex_);
+  writing_ = false;
+  if (!ok) {  // the client is gone: nothing more can be delivered
+    if (!finished_) {
+      finished_ = true;
+      Finish(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away"));
+    }
+    return;
+  }
+  PumpLocked();
+}
+
+void StreamSkinReactor::OnCancel() {
+  std::lock_guard lock(mutex_);
+  if (!finished_) {
+    finished_ = true;
+    Finish(grpc::Status::CANCELLED);
+  }
+}
+
+void StreamSkinReactor::OnDone() {
+  open_streams_->fetch_sub(1);
+  Unref();
+}
+
+void StreamSkinReactor::PumpLocked() {
+  if (finished_) return;
+  // Write the oldest frame's next part once it is done: responses keep request order.
+  if (!writing_ && !frames_.empty() && frames_.front()->done()) {
+    if (frames_.front()->NextPart(&part_)) {
+      writing_ = true;
+      if (part_.last()) frames_.pop_front();
+      StartWrite(&part_);
+    }
+  }
+  if (!reading_ && !reads_done_ && frames_.size() < window_) {
+    reading_ = true;
+    StartRead(&request_);
+  }
+  if (reads_done_ && frames_.empty() && !writing_) {
+    finished_ = true;
+    Finish(grpc::Status::OK);
+  }
+}
+
+void StreamSkinReactor::Unref() {
+  if (refs_.fetch_sub(1) == 1) delete this;
+}
+
+}  // namespace skinserve::server
