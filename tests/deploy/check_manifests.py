@@ -80,14 +80,14 @@ def main(root):
     check(docs["ConfigMap"]["metadata"]["name"] in refs,
           "Deployment: the ConfigMap is not in envFrom")
 
-    threads = int(config["SKINSERVE_COMPUTE_THREADS"])
+    threads = int(config["SKINSERVE_THREADS"])
     res = container["resources"]
     check(cpu_cores(res["requests"]["cpu"]) == threads == cpu_cores(res["limits"]["cpu"]),
           f"Deployment: cpu request/limit {res['requests']['cpu']}/{res['limits']['cpu']} "
-          f"!= SKINSERVE_COMPUTE_THREADS {threads}")
+          f"!= SKINSERVE_THREADS {threads}")
     if "POCL_MAX_PTHREAD_COUNT" in config:
         check(int(config["POCL_MAX_PTHREAD_COUNT"]) == threads,
-              "ConfigMap: POCL_MAX_PTHREAD_COUNT != SKINSERVE_COMPUTE_THREADS")
+              "ConfigMap: POCL_MAX_PTHREAD_COUNT != SKINSERVE_THREADS")
 
     for probe in ("readinessProbe", "livenessProbe", "startupProbe"):
         p = container.get(probe)
@@ -96,9 +96,8 @@ def main(root):
                   f"Deployment: {probe} is not a native grpc probe on port {listen_port}")
 
     grace = pod["spec"].get("terminationGracePeriodSeconds", 30)
-    drain_key = next((k for k in config if "DRAIN" in k), None)
-    if check(drain_key is not None, "ConfigMap: no SKINSERVE_*DRAIN* setting"):
-        drain = duration_seconds(config[drain_key])
+    if check("SKINSERVE_DRAIN_SECONDS" in config, "ConfigMap: no SKINSERVE_DRAIN_SECONDS"):
+        drain = duration_seconds(config["SKINSERVE_DRAIN_SECONDS"])
         pre_stop = container.get("lifecycle", {}).get("preStop", {})
         pause = 0.0
         if "exec" in pre_stop and pre_stop["exec"]["command"][0] == "sleep":
