@@ -2,11 +2,26 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
+#include <unistd.h>
+
 #include <csignal>
 #include <thread>
 
 #include "server_options.h"
 #include "skin_server.h"
+
+namespace {
+
+// The handler only writes the signal number to a pipe (async-signal-safe); a normal
+// thread reads it and drains. Whichever thread the kernel picks gets the same result.
+int signal_pipe[2] = {-1, -1};
+
+void OnSignal(int signal) {
+  const unsigned char byte = static_cast<unsigned char>(signal);
+  [[maybe_unused]] const ssize_t written = write(signal_pipe[1], &byte, 1);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace skinserve::server;
@@ -16,12 +31,14 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::from_str(options.log_level));
 
-  // SIGTERM and SIGINT are taken by one thread with sigwait, never by gRPC's threads.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  if (pipe(signal_pipe) != 0) {
+    spdlog::error("cannot create the signal pipe");
+    return 1;
+  }
+  struct sigaction action = {};
+  action.sa_handler = OnSignal;
+  sigaction(SIGTERM, &action, nullptr);
+  sigaction(SIGINT, &action, nullptr);
 
   auto server = SkinServer::Start(options);
   if (!server.ok()) {
@@ -29,8 +46,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::thread([&] {
-    int signal = 0;
-    sigwait(&signals, &signal);
+    unsigned char signal = 0;
+    while (read(signal_pipe[0], &signal, 1) != 1) {
+    }
     spdlog::info("{}: shutting down", signal == SIGTERM ? "SIGTERM" : "SIGINT");
     (*server)->Shutdown(
         std::chrono::milliseconds(static_cast<int64_t>(options.drain_seconds * 1000)));

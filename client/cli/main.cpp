@@ -1,0 +1,25 @@
+// skinserve-cli: talk to a skinserve server from the shell.
+#include <CLI/CLI.hpp>
+
+#include "commands.h"
+
+int main(int argc, char** argv) {
+  using namespace skinserve::cli;
+  CLI::App app{"skinserve-cli: upload meshes, skin frames and check a skinserve server"};
+  CommonOptions common;
+  app.add_option("--target", common.target,
+                 "gRPC target of the server(s), e.g. 127.0.0.1:50051 or "
+                 "ipv4:127.0.0.1:50051,127.0.0.1:50052 (round_robin)")
+      ->envname("SKINSERVE_TARGET")
+      ->capture_default_str();
+  app.require_subcommand(1);
+  AddHealthCommand(app, common);
+  AddBackendsCommand(app, common);
+  AddUploadCommand(app, common);
+  AddSkinCommand(app, common);
+  AddStreamCommand(app, common);
+  AddStatsCommand(app, common);
+  AddVerifyCommand(app, common);
+  CLI11_PARSE(app, argc, argv);
+  return common.exit_code;
+}

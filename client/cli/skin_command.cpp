@@ -1,0 +1,48 @@
+#include <fmt/format.h>
+
+#include "commands.h"
+#include "skinserve/client/channel.h"
+#include "skinserve/core/reference.h"
+
+namespace skinserve::cli {
+
+void AddSkinCommand(CLI::App& app, CommonOptions& common) {
+  auto* command = app.add_subcommand(
+      "skin", "upload a synthetic mesh, skin one frame, check it against the float64 reference");
+  auto mesh = std::make_shared<MeshOptionsCli>();
+  mesh->Add(command);
+  auto backend = std::make_shared<std::string>();
+  auto frame = std::make_shared<uint64_t>(0);
+  command->add_option("--backend", *backend, "backend id (default: the server's)");
+  command->add_option("--frame", *frame, "frame number (selects the pose)")->capture_default_str();
+  command->callback([&common, mesh, backend, frame] {
+    client::SkinClient client(client::MakeChannel(common.target));
+    const MeshArrays arrays = MakeSyntheticMesh(mesh->spec);
+    auto info = client.Upload(arrays);
+    if (!info.ok()) {
+      common.exit_code = Report(info.status());
+      return;
+    }
+    const auto palette = MakeSyntheticPalette(arrays.joint_count, mesh->spec.seed, *frame);
+    client::FrameResult result;
+    Status s = client.Skin(info->mesh_id(), *backend, palette, *frame, mesh->spec.normals, &result);
+    if (!s.ok()) {
+      common.exit_code = Report(s);
+      return;
+    }
+    auto local = Mesh::Create(arrays).value();
+    const Deviation d = CompareWithReference(*local, palette, result.positions, result.normals);
+    fmt::print("frame {}: {} vertices; queued {:.3f} ms, compute {:.3f} ms, encode {:.3f} ms\n",
+               result.frame, result.positions.size() / 3, result.timing.queued_ns() / 1e6,
+               result.timing.compute_ns() / 1e6, result.timing.encode_ns() / 1e6);
+    fmt::print("vertex 0: ({:.5f}, {:.5f}, {:.5f})\n", result.positions[0], result.positions[1],
+               result.positions[2]);
+    fmt::print(
+        "max error vs float64 reference: positions {:.3g} (tolerance {:.3g}), normals "
+        "{:.3g}\n",
+        d.max_position_error, d.position_tolerance, d.max_normal_error);
+    common.exit_code = d.within_tolerance() ? 0 : 1;
+  });
+}
+
+}  // namespace skinserve::cli

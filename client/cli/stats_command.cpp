@@ -1,0 +1,40 @@
+#include <fmt/format.h>
+
+#include "commands.h"
+#include "skinserve/client/channel.h"
+
+namespace skinserve::cli {
+
+void AddStatsCommand(CLI::App& app, CommonOptions& common) {
+  auto* command = app.add_subcommand("stats", "the server's counters per backend");
+  auto json = std::make_shared<bool>(false);
+  command->add_flag("--frames-only", *json, "print only the total frames served (for scripts)");
+  command->callback([&common, json] {
+    client::SkinClient client(client::MakeChannel(common.target));
+    auto stats = client.GetServerStats();
+    if (!stats.ok()) {
+      common.exit_code = Report(stats.status());
+      return;
+    }
+    uint64_t total = 0;
+    for (const auto& b : stats->backends()) total += b.frames();
+    if (*json) {
+      fmt::print("{}\n", total);
+      return;
+    }
+    fmt::print("{:<16} {:>10} {:>14} {:>8} {:>12}\n", "backend", "frames", "vertices", "errors",
+               "compute ms");
+    for (const auto& b : stats->backends()) {
+      fmt::print("{:<16} {:>10} {:>14} {:>8} {:>12.1f}\n", b.id(), b.frames(), b.vertices(),
+                 b.errors(), b.compute_ns_total() / 1e6);
+    }
+    fmt::print("total frames {}; queue {}/{}; compute threads {}; open streams {}\n", total,
+               stats->queue_depth(), stats->queue_capacity(), stats->compute_threads(),
+               stats->open_streams());
+    fmt::print("meshes {} using {} of {} bytes; evictions {}; frames refused (queue full) {}\n",
+               stats->meshes(), stats->mesh_bytes(), stats->mesh_budget_bytes(), stats->evictions(),
+               stats->rejected_queue_full());
+  });
+}
+
+}  // namespace skinserve::cli

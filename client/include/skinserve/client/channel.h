@@ -1,0 +1,28 @@
+// Channels to skinserve: one address, or several behind gRPC's client-side round_robin
+// (e.g. "ipv4:127.0.0.1:50051,127.0.0.1:50052", or a DNS name with many A records).
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "skinserve/core/status.h"
+
+namespace skinserve::client {
+
+inline constexpr char kDefaultTarget[] = "127.0.0.1:50051";
+
+// Balances per call (and per stream) across every address the target resolves to.
+std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target);
+
+// Asks the standard health service; OK when it answers SERVING, else why not.
+Status CheckHealth(grpc::Channel& channel, std::chrono::milliseconds timeout);
+// Polls CheckHealth until SERVING or `timeout`.
+Status WaitUntilServing(grpc::Channel& channel, std::chrono::milliseconds timeout);
+
+// gRPC status -> core status, keeping the code and the message.
+Status FromGrpc(const grpc::Status& status);
+
+}  // namespace skinserve::client

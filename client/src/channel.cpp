@@ -1,0 +1,66 @@
+#include "skinserve/client/channel.h"
+
+#include <fmt/format.h>
+
+#include <thread>
+
+#include "grpc/health/v1/health.grpc.pb.h"
+
+namespace skinserve::client {
+
+std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target) {
+  grpc::ChannelArguments args;
+  args.SetServiceConfigJSON(R"({"loadBalancingConfig": [{"round_robin": {}}]})");
+  // Large frames arrive in parts of at most 1 MiB: the default limits are enough.
+  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
+}
+
+Status FromGrpc(const grpc::Status& status) {
+  switch (status.error_code()) {
+    case grpc::StatusCode::OK:
+      return Status::Ok();
+    case grpc::StatusCode::INVALID_ARGUMENT:
+      return InvalidArgument(status.error_message());
+    case grpc::StatusCode::NOT_FOUND:
+      return NotFound(status.error_message());
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      return ResourceExhausted(status.error_message());
+    case grpc::StatusCode::FAILED_PRECONDITION:
+      return FailedPrecondition(status.error_message());
+    case grpc::StatusCode::UNAVAILABLE:
+      return Unavailable(status.error_message());
+    default:
+      return Internal(fmt::format("gRPC status {}: {}", static_cast<int>(status.error_code()),
+                                  status.error_message()));
+  }
+}
+
+Status CheckHealth(grpc::Channel& channel, std::chrono::milliseconds timeout) {
+  auto stub = grpc::health::v1::Health::NewStub(
+      std::shared_ptr<grpc::Channel>(&channel, [](grpc::Channel*) {}));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + timeout);
+  grpc::health::v1::HealthCheckRequest request;
+  grpc::health::v1::HealthCheckResponse response;
+  grpc::Status status = stub->Check(&context, request, &response);
+  if (!status.ok()) return FromGrpc(status);
+  if (response.status() != grpc::health::v1::HealthCheckResponse::SERVING) {
+    return Unavailable(
+        fmt::format("health: {}",
+                    grpc::health::v1::HealthCheckResponse::ServingStatus_Name(response.status())));
+  }
+  return Status::Ok();
+}
+
+Status WaitUntilServing(grpc::Channel& channel, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  Status last = Unavailable("not asked yet");
+  while (std::chrono::steady_clock::now() < deadline) {
+    last = CheckHealth(channel, std::chrono::milliseconds(1000));
+    if (last.ok()) return last;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return Unavailable(fmt::format("not SERVING after {} ms: {}", timeout.count(), last.message()));
+}
+
+}  // namespace skinserve::client

@@ -1,0 +1,112 @@
+#include "skinserve/client/frame_stream.h"
+
+#include <fmt/format.h>
+
+#include <deque>
+
+#include "skinserve/client/channel.h"
+
+namespace skinserve::client {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct InFlight {
+  uint64_t frame;
+  Clock::time_point sent;
+};
+
+}  // namespace
+
+Status StreamFrames(SkinClient& client, const StreamOptions& options, const PaletteSource& palette,
+                    const FrameSink& sink, StreamSummary* summary_out) {
+  StreamSummary summary;
+  const uint64_t end = options.first_frame + options.frames;
+  uint64_t next = options.first_frame;
+  std::deque<uint64_t> resend;  // frames to send again after a re-upload
+  std::deque<InFlight> in_flight;
+  const std::size_t window = static_cast<std::size_t>(std::max(options.window, 1));
+  int reuploads = 0;
+  Status status;
+
+  auto report_failed = [&](uint64_t frame, const Status& why, Clock::time_point sent) {
+    FrameResult failed;
+    failed.frame = frame;
+    failed.status = why;
+    ++summary.failed;
+    sink(failed, Clock::now() - sent);
+  };
+
+  while (next < end || !resend.empty()) {
+    grpc::ClientContext context;
+    auto stream = client.stub().StreamSkin(&context);
+    bool broken = false;
+    auto fill = [&] {
+      while (!broken && in_flight.size() < window && (!resend.empty() || next < end)) {
+        const bool again = !resend.empty();
+        const uint64_t frame = again ? resend.front() : next;
+        v1::SkinRequest request;
+        request.set_mesh_id(options.mesh_id);
+        request.set_backend(options.backend);
+        request.set_frame(frame);
+        request.set_palette(EncodePalette(palette(frame)));
+        request.set_want_normals(options.want_normals);
+        in_flight.push_back({frame, Clock::now()});
+        if (again) {
+          resend.pop_front();
+        } else {
+          ++next;
+          ++summary.sent;
+        }
+        if (!stream->Write(request)) broken = true;
+      }
+    };
+    fill();
+    while (!broken && !in_flight.empty()) {
+      FrameResult result;
+      FrameAssembler assembler;
+      v1::SkinResponse part;
+      bool complete = false;
+      while (!complete && stream->Read(&part)) complete = assembler.Add(part, &result);
+      if (!complete) {
+        broken = true;
+        break;
+      }
+      const InFlight head = in_flight.front();
+      in_flight.pop_front();
+      if (result.frame != head.frame) {
+        result.status = Internal(
+            fmt::format("frame {} answered where frame {} was due", result.frame, head.frame));
+      }
+      if (result.status.code() == StatusCode::kNotFound && reuploads < options.max_reuploads &&
+          client.Reupload(options.mesh_id).ok()) {
+        ++reuploads;
+        ++summary.reuploads;
+        resend.push_back(head.frame);
+      } else if (!result.status.ok()) {
+        ++summary.failed;
+        sink(result, Clock::now() - head.sent);
+      } else {
+        ++summary.answered;
+        sink(result, Clock::now() - head.sent);
+      }
+      fill();
+    }
+    stream->WritesDone();
+    status = FromGrpc(stream->Finish());
+    if (!broken && status.ok()) continue;  // everything so far answered; more to send?
+    if (status.ok()) status = Internal("the stream ended with frames unanswered");
+    // The stream broke: its unanswered frames are failed, never silently dropped.
+    for (const InFlight& f : in_flight) report_failed(f.frame, status, f.sent);
+    in_flight.clear();
+    if (status.code() != StatusCode::kUnavailable ||
+        summary.reconnects >= static_cast<uint64_t>(options.max_reconnects)) {
+      break;
+    }
+    ++summary.reconnects;
+  }
+  if (summary_out != nullptr) *summary_out = summary;
+  return status;
+}
+
+}  // namespace skinserve::client
