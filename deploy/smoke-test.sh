@@ -132,7 +132,7 @@ until podman healthcheck run "$name" >/dev/null 2>&1; do
   sleep 1
 done
 say "healthy after $(($(date +%s) - start)) s:" \
-  "$(podman exec "$name" skinserve-cli health --target "127.0.0.1:$port" 2>&1 | tr '\n' ' ')"
+  "$(podman exec "$name" skinserve-cli --target "127.0.0.1:$port" health 2>&1 | tr '\n' ' ')"
 
 # ---- load on every backend, with correctness checks ------------------------------------
 say "load: every backend, $duration each, every frame checked against the reference"
