@@ -29,7 +29,6 @@ int main(int argc, char** argv) {
   CLI::App app{"skinserve: remote linear blend skinning over gRPC (skinserve.v1.Skinning)"};
   AddServerOptions(app, options);
   CLI11_PARSE(app, argc, argv);
-  spdlog::set_level(spdlog::level::from_str(options.log_level));
 
   if (pipe(signal_pipe) != 0) {
     spdlog::error("cannot create the signal pipe");

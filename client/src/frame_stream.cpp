@@ -14,6 +14,7 @@ using Clock = std::chrono::steady_clock;
 struct InFlight {
   uint64_t frame;
   Clock::time_point sent;
+  int uploads_before;  // re-uploads done when it was sent
 };
 
 }  // namespace
@@ -51,7 +52,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         request.set_frame(frame);
         request.set_palette(EncodePalette(palette(frame)));
         request.set_want_normals(options.want_normals);
-        in_flight.push_back({frame, Clock::now()});
+        in_flight.push_back({frame, Clock::now(), reuploads});
         if (again) {
           resend.pop_front();
         } else {
@@ -78,8 +79,11 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         result.status = Internal(
             fmt::format("frame {} answered where frame {} was due", result.frame, head.frame));
       }
-      if (result.status.code() == StatusCode::kNotFound && reuploads < options.max_reuploads &&
-          client.Reupload(options.mesh_id).ok()) {
+      const bool not_found = result.status.code() == StatusCode::kNotFound;
+      if (not_found && head.uploads_before < reuploads) {
+        resend.push_back(head.frame);  // sent before the last re-upload: just send again
+      } else if (not_found && reuploads < options.max_reuploads &&
+                 client.Reupload(options.mesh_id).ok()) {
         ++reuploads;
         ++summary.reuploads;
         resend.push_back(head.frame);

@@ -202,7 +202,9 @@ Result<MeshInfo> Engine::AddMesh(const MeshArrays& arrays,
 
 Result<MeshInfo> Engine::GetMesh(const std::string& id) const {
   MeshStore::Lease entry = impl_->store_.Acquire(id);
-  if (!entry) return NotFound(fmt::format("mesh '{}' is not stored on this server", id));
+  if (!entry) {
+    return NotFound(fmt::format("mesh '{}' is not stored on this server; upload it again", id));
+  }
   MeshInfo info = DescribeMesh(*entry->mesh());
   info.already_stored = true;
   return info;

@@ -1,0 +1,146 @@
+// Bad input gets the right status code and a message naming the field and the limit, and
+// loses nothing: no half mesh is stored, a bad frame does not end its stream.
+#include <gtest/gtest.h>
+
+#include "skinserve/client/frame_stream.h"
+#include "skinserve/core/synthetic.h"
+#include "test_server.h"
+
+namespace skinserve::testing {
+namespace {
+
+void ExpectStatus(const Status& s, StatusCode code, const std::string& needle) {
+  EXPECT_EQ(s.code(), code) << s.ToString();
+  EXPECT_NE(s.message().find(needle), std::string::npos)
+      << "message: " << s.message() << "\nexpected to contain: " << needle;
+}
+
+// Sends `messages` as one UploadMesh call; returns its status.
+Status RawUpload(client::SkinClient& c, const std::vector<v1::UploadMeshRequest>& messages) {
+  grpc::ClientContext context;
+  v1::MeshInfo info;
+  auto writer = c.stub().UploadMesh(&context, &info);
+  for (const auto& m : messages) {
+    if (!writer->Write(m)) break;
+  }
+  writer->WritesDone();
+  return client::FromGrpc(writer->Finish());
+}
+
+v1::UploadMeshRequest Header(uint32_t v, uint32_t b, uint32_t j, bool normals = false) {
+  v1::UploadMeshRequest m;
+  m.mutable_header()->set_vertex_count(v);
+  m.mutable_header()->set_influences(b);
+  m.mutable_header()->set_joint_count(j);
+  m.mutable_header()->set_has_normals(normals);
+  return m;
+}
+
+v1::UploadMeshRequest Chunk(v1::MeshArray array, uint64_t offset, const void* data,
+                            std::size_t bytes) {
+  v1::UploadMeshRequest m;
+  m.mutable_chunk()->set_array(array);
+  m.mutable_chunk()->set_offset(offset);
+  m.mutable_chunk()->set_data(static_cast<const char*>(data), bytes);
+  return m;
+}
+
+TEST(BadInputTest, UploadsThatDisagreeWithTheirHeaderStoreNothing) {
+  TestServer t;
+  const MeshArrays a = MakeSyntheticMesh({.vertex_count = 100, .influences = 2});
+  const auto positions = Chunk(v1::MESH_ARRAY_POSITIONS, 0, a.positions.data(), 1200);
+  const auto joints = Chunk(v1::MESH_ARRAY_JOINTS, 0, a.joints.data(), 400);
+  const auto weights = Chunk(v1::MESH_ARRAY_WEIGHTS, 0, a.weights.data(), 800);
+
+  ExpectStatus(RawUpload(*t.client, {positions}), StatusCode::kInvalidArgument,
+               "chunk before header");
+  ExpectStatus(RawUpload(*t.client, {Header(100, 2, 77), positions, joints}),
+               StatusCode::kInvalidArgument, "upload truncated: weights has 0 of 200 values");
+  ExpectStatus(RawUpload(*t.client, {Header(100, 2, 77), positions, positions}),
+               StatusCode::kInvalidArgument, "positions chunk at offset 0; expected offset 300");
+  ExpectStatus(RawUpload(*t.client, {Header(50, 2, 77), positions}), StatusCode::kInvalidArgument,
+               "positions chunk ends at value 300, past the 150 values the header implies");
+  ExpectStatus(RawUpload(*t.client, {Header(100, 2, 77),
+                                     Chunk(v1::MESH_ARRAY_NORMALS, 0, a.positions.data(), 12)}),
+               StatusCode::kInvalidArgument, "header says has_normals = false");
+  ExpectStatus(RawUpload(*t.client,
+                         {Header(100, 2, 77), Chunk(v1::MESH_ARRAY_JOINTS, 0, a.joints.data(), 3)}),
+               StatusCode::kInvalidArgument, "not whole 2-byte values");
+  ExpectStatus(RawUpload(*t.client, {Header(100, 2, 77), Header(100, 2, 77)}),
+               StatusCode::kInvalidArgument, "header sent twice");
+  ExpectStatus(RawUpload(*t.client, {}), StatusCode::kInvalidArgument, "without a header");
+
+  // A joint index past joint_count is caught by validation once the arrays are complete.
+  MeshArrays bad = a;
+  bad.joints[2 * 17 + 1] = 77;
+  ExpectStatus(
+      RawUpload(*t.client, {Header(100, 2, 77), positions,
+                            Chunk(v1::MESH_ARRAY_JOINTS, 0, bad.joints.data(), 400), weights}),
+      StatusCode::kInvalidArgument,
+      "joints[vertex 17, influence 1] = 77 is not below joint_count 77");
+
+  EXPECT_EQ(t.client->GetServerStats()->meshes(), 0u) << "no half mesh may be stored";
+  EXPECT_TRUE(RawUpload(*t.client, {Header(100, 2, 77), positions, joints, weights}).ok());
+  EXPECT_EQ(t.client->GetServerStats()->meshes(), 1u);
+}
+
+TEST(BadInputTest, SizesOverTheLimitsAreRefusedFromTheHeader) {
+  server::ServerOptions options;
+  options.max_vertices = 1000;
+  options.max_joints = 64;
+  options.mesh_budget_mb = 1;
+  TestServer t(options);
+  ExpectStatus(RawUpload(*t.client, {Header(1001, 2, 10)}), StatusCode::kResourceExhausted,
+               "vertex_count 1001 exceeds the limit of 1000 vertices");
+  ExpectStatus(RawUpload(*t.client, {Header(10, 2, 65)}), StatusCode::kResourceExhausted,
+               "joint_count 65 exceeds the limit of 64 joints");
+  ExpectStatus(RawUpload(*t.client, {Header(10, 9, 10)}), StatusCode::kInvalidArgument,
+               "influences is 9; it must be 1..8");
+  ExpectStatus(RawUpload(*t.client, {Header(0, 2, 10)}), StatusCode::kInvalidArgument,
+               "vertex_count is 0");
+  // 4e9 vertices would be 100+ GB: refused before any allocation.
+  ExpectStatus(RawUpload(*t.client, {Header(4'000'000'000u, 8, 10)}),
+               StatusCode::kResourceExhausted, "exceeds the limit");
+}
+
+TEST(BadInputTest, BadFramesGetTheirErrorAndTheStreamGoesOn) {
+  TestServer t;
+  auto info = t.client->Upload(MakeSyntheticMesh({.vertex_count = 200, .influences = 2}));
+  ASSERT_TRUE(info.ok());
+  const auto good = MakeSyntheticPalette(77, 1, 0);
+  client::FrameResult result;
+
+  ExpectStatus(t.client->Skin("0000", "serial", good, 0, false, &result), StatusCode::kNotFound,
+               "upload it again");
+  ExpectStatus(t.client->Skin(info->mesh_id(), "warp", good, 0, false, &result),
+               StatusCode::kInvalidArgument,
+               "available backends: serial, openmp, sse, sse-openmp, opencl, opencl-zerocopy, "
+               "passthrough");
+  std::vector<float> short_palette(good.begin(), good.end() - 12);
+  ExpectStatus(t.client->Skin(info->mesh_id(), "serial", short_palette, 0, false, &result),
+               StatusCode::kInvalidArgument, "expected 12 * joint_count = 924");
+  std::vector<float> nan_palette = good;
+  nan_palette[12 * 5 + 3] = std::nanf("");
+  ExpectStatus(t.client->Skin(info->mesh_id(), "serial", nan_palette, 0, false, &result),
+               StatusCode::kInvalidArgument, "palette[joint 5][row 0, col 3]");
+  ExpectStatus(t.client->Skin(info->mesh_id(), "serial", good, 0, true, &result),
+               StatusCode::kInvalidArgument, "has no normals");
+
+  // On one stream: frame 1 is bad, frames 0 and 2 are fine and still answered in order.
+  std::vector<std::pair<uint64_t, Status>> answers;
+  Status s = client::StreamFrames(
+      *t.client, {.mesh_id = info->mesh_id(), .backend = "sse", .frames = 3},
+      [&](uint64_t f) { return f == 1 ? nan_palette : good; },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) {
+        answers.push_back({r.frame, r.status});
+      });
+  EXPECT_TRUE(s.ok()) << s.ToString();
+  ASSERT_EQ(answers.size(), 3u);
+  EXPECT_TRUE(answers[0].second.ok());
+  ExpectStatus(answers[1].second, StatusCode::kInvalidArgument, "is not finite");
+  EXPECT_TRUE(answers[2].second.ok());
+  EXPECT_EQ(answers[2].first, 2u);
+}
+
+}  // namespace
+}  // namespace skinserve::testing

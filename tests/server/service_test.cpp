@@ -1,0 +1,143 @@
+// Every RPC of skinserve.v1.Skinning against a real server over loopback, with results
+// checked against the float64 reference.
+#include <gtest/gtest.h>
+
+#include "skinserve/client/frame_stream.h"
+#include "skinserve/core/reference.h"
+#include "skinserve/core/synthetic.h"
+#include "test_server.h"
+
+namespace skinserve::testing {
+namespace {
+
+void ExpectMatchesReference(const MeshArrays& arrays, std::span<const float> palette,
+                            const client::FrameResult& result, bool normals) {
+  ASSERT_TRUE(result.status.ok()) << result.status.ToString();
+  auto mesh = Mesh::Create(arrays).value();
+  const Deviation d = CompareWithReference(
+      *mesh, palette, result.positions,
+      normals ? std::span<const float>(result.normals) : std::span<const float>());
+  EXPECT_TRUE(d.within_tolerance())
+      << "frame " << result.frame << ": position error " << d.max_position_error
+      << ", normal error " << d.max_normal_error;
+}
+
+TEST(ServiceTest, HealthBackendsUploadGetDeleteStats) {
+  TestServer t;
+  EXPECT_TRUE(client::CheckHealth(t.client->channel(), std::chrono::seconds(5)).ok());
+  auto backends = t.client->ListBackends();
+  ASSERT_TRUE(backends.ok());
+  EXPECT_EQ(backends->backends_size(), 7);
+  EXPECT_EQ(backends->default_backend(), "sse-openmp");
+
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 1234, .influences = 3});
+  auto first = t.client->Upload(arrays);
+  ASSERT_TRUE(first.ok()) << first.status().ToString();
+  EXPECT_EQ(first->vertex_count(), 1234u);
+  EXPECT_FALSE(first->already_stored());
+  auto again = t.client->Upload(arrays);  // same content: same id, stored once
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->mesh_id(), first->mesh_id());
+  EXPECT_TRUE(again->already_stored());
+  EXPECT_EQ(t.client->GetServerStats()->meshes(), 1u);
+
+  auto got = t.client->GetMesh(first->mesh_id());
+  ASSERT_TRUE(got.ok());
+  EXPECT_EQ(got->influences(), 3u);
+  EXPECT_EQ(*t.client->DeleteMesh(first->mesh_id()), true);
+  EXPECT_EQ(*t.client->DeleteMesh(first->mesh_id()), false);
+  EXPECT_EQ(t.client->GetMesh(first->mesh_id()).status().code(), StatusCode::kNotFound);
+}
+
+TEST(ServiceTest, EveryBackendThroughSkinAndStreamSkin) {
+  TestServer t;
+  const MeshArrays arrays =
+      MakeSyntheticMesh({.vertex_count = 3001, .influences = 4, .normals = true, .seed = 9});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok());
+  const auto list = t.client->ListBackends();
+  ASSERT_TRUE(list.ok());
+  for (const auto& backend : list->backends()) {
+    if (!backend.available() || backend.id() == "passthrough") continue;
+    SCOPED_TRACE(backend.id());
+    const auto palette = MakeSyntheticPalette(77, 3, 0);
+    client::FrameResult result;
+    ASSERT_TRUE(t.client->Skin(info->mesh_id(), backend.id(), palette, 0, true, &result).ok());
+    ExpectMatchesReference(arrays, palette, result, true);
+
+    int frames = 0;
+    Status s = client::StreamFrames(
+        *t.client, {.mesh_id = info->mesh_id(), .backend = backend.id(), .frames = 6},
+        [](uint64_t f) { return MakeSyntheticPalette(77, 3, f); },
+        [&](client::FrameResult& r, std::chrono::nanoseconds) {
+          EXPECT_EQ(r.frame, static_cast<uint64_t>(frames)) << "answers keep request order";
+          ExpectMatchesReference(arrays, MakeSyntheticPalette(77, 3, r.frame), r, false);
+          ++frames;
+        });
+    EXPECT_TRUE(s.ok()) << s.ToString();
+    EXPECT_EQ(frames, 6);
+  }
+  const auto stats = t.client->GetServerStats();
+  ASSERT_TRUE(stats.ok());
+  for (const auto& b : stats->backends()) {
+    if (b.id() != "passthrough") {
+      EXPECT_EQ(b.frames(), 7u) << b.id();
+    }
+  }
+}
+
+TEST(ServiceTest, LargeMeshThroughDefaultMessageLimits) {
+  TestServer t;
+  // 1.6M vertices x 4 bones: ~58 MB up, 19 MB (38 MB with normals) back per frame.
+  const MeshArrays arrays =
+      MakeSyntheticMesh({.vertex_count = 1'600'000, .influences = 4, .normals = true, .seed = 5});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  const auto palette = MakeSyntheticPalette(77, 1, 4);
+  client::FrameResult result;
+  Status s = t.client->Skin(info->mesh_id(), "sse-openmp", palette, 4, true, &result);
+  ASSERT_TRUE(s.ok()) << s.ToString();
+  ExpectMatchesReference(arrays, palette, result, true);
+
+  int frames = 0;
+  s = client::StreamFrames(
+      *t.client, {.mesh_id = info->mesh_id(), .backend = "opencl-zerocopy", .frames = 2},
+      [&](uint64_t) { return palette; },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) {
+        ExpectMatchesReference(arrays, palette, r, false);
+        ++frames;
+      });
+  EXPECT_TRUE(s.ok()) << s.ToString();
+  EXPECT_EQ(frames, 2);
+}
+
+TEST(ServiceTest, ReuploadsTransparentlyWhenTheServerForgotTheMesh) {
+  TestServer t;
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 500, .influences = 2});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok());
+  // As if the server restarted: the mesh is gone.
+  ASSERT_TRUE(t.server->engine().DeleteMesh(info->mesh_id()));
+  const auto palette = MakeSyntheticPalette(77, 2, 0);
+  client::FrameResult result;
+  ASSERT_TRUE(t.client->Skin(info->mesh_id(), "serial", palette, 0, false, &result).ok());
+  ExpectMatchesReference(arrays, palette, result, false);
+
+  ASSERT_TRUE(t.server->engine().DeleteMesh(info->mesh_id()));
+  client::StreamSummary summary;
+  int frames = 0;
+  Status s = client::StreamFrames(
+      *t.client, {.mesh_id = info->mesh_id(), .backend = "sse", .frames = 5},
+      [](uint64_t f) { return MakeSyntheticPalette(77, 2, f); },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) {
+        ExpectMatchesReference(arrays, MakeSyntheticPalette(77, 2, r.frame), r, false);
+        ++frames;
+      },
+      &summary);
+  EXPECT_TRUE(s.ok()) << s.ToString();
+  EXPECT_EQ(frames, 5);
+  EXPECT_GE(summary.reuploads, 1u);
+}
+
+}  // namespace
+}  // namespace skinserve::testing
