@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Builds skinserve, starts the server on loopback, streams the paper's main case (100k
+# vertices, 2 bones, 77 joints) on every backend through the real service, prints the
+# table, and stops the server. Extra arguments go to the load run.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build="${SKINSERVE_BUILD_DIR:-$root/build}"
+bash "$root/scripts/build.sh"
+
+port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+target="127.0.0.1:$port"
+log=$(mktemp)
+"$build/server/skinserve" --listen "$target" --log-level warn >"$log" 2>&1 &
+server=$!
+stop() {
+  kill -TERM "$server" 2>/dev/null || true
+  wait "$server" 2>/dev/null || true
+  rm -f "$log"
+}
+trap stop EXIT
+if ! "$build/client/skinserve-cli" --target "$target" health --wait 60 >/dev/null; then
+  echo "demo: the server did not become SERVING; its log:" >&2
+  cat "$log" >&2
+  exit 1
+fi
+echo "skinserve on $target; backends:"
+"$build/client/skinserve-cli" --target "$target" backends
+echo
+if [ -x "$build/client/load/skinserve-load" ]; then
+  "$build/client/load/skinserve-load" --target "$target" --backends all --vertices 100000 \
+    --bones 2 --streams 2 --window 4 --duration 3 --warmup 1 --check-every 25 "$@"
+else
+  echo "Streaming 300 frames of 100k vertices x 2 bones (77 joints) per backend:"
+  for backend in serial openmp sse sse-openmp opencl opencl-zerocopy passthrough; do
+    "$build/client/skinserve-cli" --target "$target" stream --vertices 100000 --bones 2 \
+      --backend "$backend" --frames 300 --window 8
+  done
+fi
+echo
+"$build/client/skinserve-cli" --target "$target" verify
