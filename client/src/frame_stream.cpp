@@ -38,12 +38,13 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     sink(failed, Clock::now() - sent);
   };
 
-  while (next < end || !resend.empty()) {
+  auto more_new = [&] { return next < end && !(options.stop != nullptr && options.stop->load()); };
+  while (more_new() || !resend.empty()) {
     grpc::ClientContext context;
     auto stream = client.stub().StreamSkin(&context);
     bool broken = false;
     auto fill = [&] {
-      while (!broken && in_flight.size() < window && (!resend.empty() || next < end)) {
+      while (!broken && in_flight.size() < window && (!resend.empty() || more_new())) {
         const bool again = !resend.empty();
         const uint64_t frame = again ? resend.front() : next;
         v1::SkinRequest request;

@@ -62,6 +62,12 @@ Result<v1::MeshInfo> SkinClient::Upload(const MeshArrays& arrays, WeightPolicy w
   return SendUpload(arrays, weight_policy);
 }
 
+void SkinClient::Remember(const std::string& mesh_id, std::shared_ptr<const MeshArrays> arrays,
+                          WeightPolicy weight_policy) {
+  std::lock_guard lock(mutex_);
+  uploaded_[mesh_id] = {std::move(arrays), weight_policy};
+}
+
 Status SkinClient::Reupload(const std::string& mesh_id) {
   Uploaded uploaded;
   {

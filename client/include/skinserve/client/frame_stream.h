@@ -5,6 +5,7 @@
 // continues on a new stream, which the channel's round_robin places on a live replica.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <string>
@@ -22,7 +23,12 @@ struct StreamOptions {
   uint64_t frames = 100;
   int window = 4;          // frames in flight
   int max_reconnects = 3;  // new streams after UNAVAILABLE
-  int max_reuploads = 3;   // uploads after NOT_FOUND
+  // Uploads after NOT_FOUND. Behind round_robin an upload may land on another replica
+  // than the stream's, so allow a few.
+  int max_reuploads = 8;
+  // When set and true, no new frame is sent (those in flight are still answered): for
+  // runs bounded by time rather than by `frames`.
+  const std::atomic<bool>* stop = nullptr;
 };
 
 using PaletteSource = std::function<std::vector<float>(uint64_t frame)>;

@@ -52,6 +52,10 @@ class SkinClient {
   // the arrays are validated locally first, with the same errors the server would give).
   Result<v1::MeshInfo> Upload(const MeshArrays& arrays,
                               WeightPolicy weight_policy = WeightPolicy::kReject);
+  // Lets this client re-upload `arrays` as `mesh_id` when a server answers NOT_FOUND,
+  // without uploading now (e.g. another client of the same process uploaded it).
+  void Remember(const std::string& mesh_id, std::shared_ptr<const MeshArrays> arrays,
+                WeightPolicy weight_policy = WeightPolicy::kReject);
   // Uploads again the mesh that had `mesh_id`, if this client uploaded it.
   Status Reupload(const std::string& mesh_id);
   Result<v1::MeshInfo> GetMesh(const std::string& mesh_id);

@@ -1,0 +1,219 @@
+#include "load_report.h"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+
+namespace skinserve::load {
+namespace {
+
+std::string ErrorsText(const RunResult& r) {
+  std::string text;
+  for (const auto& [code, count] : r.errors)
+    text += fmt::format("{}{}={}", text.empty() ? "" : ",", code, count);
+  return text.empty() ? "0" : text;
+}
+
+}  // namespace
+
+double SerialFramesPerSecond(const std::vector<RunResult>& results, const RunResult& of) {
+  for (const RunResult& r : results) {
+    if (r.backend == "serial" && r.vertices == of.vertices && r.bones == of.bones &&
+        r.normals == of.normals) {
+      return r.frames_per_second();
+    }
+  }
+  return 0;
+}
+
+void PrintTable(const std::vector<RunResult>& results, bool open_loop) {
+  fmt::print(
+      "{:<16} {:>8} {:>2} {:>7} {:>9} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} "
+      "{:>7} {:>7}{} {}\n",
+      "backend", "vertices", "B", "frames", "frames/s", "Mvert/s", "MB/s", "p50 ms", "p90 ms",
+      "p99 ms", "max ms", "queue", "compute", "encode", "speedup",
+      open_loop ? fmt::format(" {:>6} {:>7}", "late", "dropped") : "", "errors");
+  for (const RunResult& r : results) {
+    const LatencySummary l = Summarize(r.latencies_ms);
+    const double serial = SerialFramesPerSecond(results, r);
+    fmt::print(
+        "{:<16} {:>8} {:>2} {:>7} {:>9.1f} {:>9.1f} {:>8.1f} {:>7.2f} {:>7.2f} {:>7.2f} "
+        "{:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>7}{} {}{}\n",
+        r.backend, r.vertices, r.bones, r.frames, r.frames_per_second(),
+        r.vertices_per_second() / 1e6, r.megabytes_per_second(), l.p50, l.p90, l.p99, l.max,
+        r.mean(r.server_queue_ms_sum), r.mean(r.server_compute_ms_sum),
+        r.mean(r.server_encode_ms_sum),
+        serial > 0 ? fmt::format("{:.2f}x", r.frames_per_second() / serial) : "-",
+        open_loop ? fmt::format(" {:>6} {:>7}", r.late, r.dropped) : "", ErrorsText(r),
+        r.mismatches > 0 ? fmt::format(" MISMATCHES={}", r.mismatches) : "");
+  }
+}
+
+void PrintSpeedupTables(const std::vector<RunResult>& results) {
+  std::vector<std::string> backends;
+  std::set<uint32_t> vertices, bones;
+  for (const RunResult& r : results) {
+    if (std::find(backends.begin(), backends.end(), r.backend) == backends.end()) {
+      backends.push_back(r.backend);
+    }
+    vertices.insert(r.vertices);
+    bones.insert(r.bones);
+  }
+  fmt::print("\n== Speedup over serial through the service (frames/s ratio, same run) ==\n");
+  for (const std::string& backend : backends) {
+    fmt::print("\n{}\n{:>10}", backend, "vertices");
+    for (uint32_t b : bones) fmt::print(" {:>8}", fmt::format("B={}", b));
+    fmt::print("\n");
+    for (uint32_t v : vertices) {
+      fmt::print("{:>10}", v);
+      for (uint32_t b : bones) {
+        std::string cell = "-";
+        for (const RunResult& r : results) {
+          if (r.backend != backend || r.vertices != v || r.bones != b) continue;
+          const double serial = SerialFramesPerSecond(results, r);
+          if (serial > 0) cell = fmt::format("{:.2f}x", r.frames_per_second() / serial);
+        }
+        fmt::print(" {:>8}", cell);
+      }
+      fmt::print("\n");
+    }
+  }
+}
+
+Status WriteJson(const std::string& path, const std::vector<RunResult>& results) {
+  nlohmann::json doc;
+  doc["results"] = nlohmann::json::array();
+  for (const RunResult& r : results) {
+    const LatencySummary l = Summarize(r.latencies_ms);
+    nlohmann::json item = {
+        {"backend", r.backend},
+        {"vertices", r.vertices},
+        {"bones", r.bones},
+        {"normals", r.normals},
+        {"frames", r.frames},
+        {"seconds", r.seconds},
+        {"frames_per_second", r.frames_per_second()},
+        {"vertices_per_second", r.vertices_per_second()},
+        {"megabytes_per_second", r.megabytes_per_second()},
+        {"latency_ms", {{"p50", l.p50}, {"p90", l.p90}, {"p99", l.p99}, {"max", l.max}}},
+        {"server_ms",
+         {{"queue", r.mean(r.server_queue_ms_sum)},
+          {"compute", r.mean(r.server_compute_ms_sum)},
+          {"encode", r.mean(r.server_encode_ms_sum)}}},
+        {"errors", r.errors},
+        {"checked", r.checked},
+        {"mismatches", r.mismatches},
+        {"sent", r.sent},
+        {"late", r.late},
+        {"dropped", r.dropped}};
+    const double serial = SerialFramesPerSecond(results, r);
+    if (serial > 0) item["speedup_over_serial"] = r.frames_per_second() / serial;
+    doc["results"].push_back(item);
+  }
+  std::ofstream out(path);
+  out << doc.dump(2) << "\n";
+  if (!out) return InvalidArgument(fmt::format("--json: cannot write {}", path));
+  return Status::Ok();
+}
+
+Status WriteCsv(const std::string& path, const std::vector<RunResult>& results) {
+  std::ofstream out(path);
+  out << "backend,vertices,bones,normals,frames,seconds,frames_per_second,vertices_per_second,"
+         "megabytes_per_second,p50_ms,p90_ms,p99_ms,max_ms,queue_ms,compute_ms,encode_ms,"
+         "errors,mismatches,late,dropped,speedup_over_serial\n";
+  for (const RunResult& r : results) {
+    const LatencySummary l = Summarize(r.latencies_ms);
+    const double serial = SerialFramesPerSecond(results, r);
+    out << fmt::format(
+        "{},{},{},{},{},{:.3f},{:.3f},{:.0f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},"
+        "{:.3f},{:.3f},{:.3f},{},{},{},{},{}\n",
+        r.backend, r.vertices, r.bones, r.normals ? 1 : 0, r.frames, r.seconds,
+        r.frames_per_second(), r.vertices_per_second(), r.megabytes_per_second(), l.p50, l.p90,
+        l.p99, l.max, r.mean(r.server_queue_ms_sum), r.mean(r.server_compute_ms_sum),
+        r.mean(r.server_encode_ms_sum), r.error_count(), r.mismatches, r.late, r.dropped,
+        serial > 0 ? fmt::format("{:.3f}", r.frames_per_second() / serial) : "");
+  }
+  if (!out) return InvalidArgument(fmt::format("--csv: cannot write {}", path));
+  return Status::Ok();
+}
+
+Status WritePlot(const std::string& path, const std::vector<RunResult>& results) {
+  if (system("command -v gnuplot >/dev/null 2>&1") != 0) {
+    return FailedPrecondition("--plot needs gnuplot (Debian package gnuplot-nox)");
+  }
+  char data_path[] = "/tmp/skinserve-plot-XXXXXX";
+  const int fd = mkstemp(data_path);
+  if (fd < 0) return Internal("--plot: cannot create a temporary file");
+  close(fd);
+  std::set<std::pair<uint32_t, uint32_t>> workloads;
+  for (const RunResult& r : results) workloads.insert({r.vertices, r.bones});
+  {
+    std::ofstream data(data_path);
+    for (const RunResult& r : results) {
+      data << fmt::format("\"{} {}k/{}\" {:.3f}\n", r.backend, r.vertices / 1000, r.bones,
+                          r.frames_per_second());
+    }
+  }
+  std::string script = fmt::format(
+      "set terminal pngcairo size 1200,700 font ',10'\nset output '{}'\n"
+      "set title 'skinserve: frames per second through the service (higher is better)'\n"
+      "set style data histograms\nset style fill solid 0.8 border -1\nset boxwidth 0.8\n"
+      "set xtics rotate by -45\nset ylabel 'frames/s'\nset grid ytics\nunset key\n"
+      "plot '{}' using 2:xtic(1) linecolor rgb '#3b6ea8'\n",
+      path, data_path);
+  std::string heat_data;
+  if (workloads.size() > 1) {
+    // The sweep's heat map: backends x (vertices, bones), colour = speedup over serial.
+    std::vector<std::string> backends;
+    for (const RunResult& r : results) {
+      if (std::find(backends.begin(), backends.end(), r.backend) == backends.end()) {
+        backends.push_back(r.backend);
+      }
+    }
+    heat_data = std::string(data_path) + "-heat";
+    std::ofstream heat(heat_data);
+    std::string xtics, ytics;
+    int x = 0;
+    for (const auto& [v, b] : workloads) {
+      xtics += fmt::format("{}\"{}k/{}\" {}", x ? ", " : "", v / 1000, b, x);
+      for (std::size_t y = 0; y < backends.size(); ++y) {
+        for (const RunResult& r : results) {
+          if (r.backend == backends[y] && r.vertices == v && r.bones == b) {
+            const double serial = SerialFramesPerSecond(results, r);
+            heat << fmt::format("{} {} {:.3f}\n", x, y,
+                                serial > 0 ? r.frames_per_second() / serial : 0);
+          }
+        }
+      }
+      ++x;
+    }
+    for (std::size_t y = 0; y < backends.size(); ++y) {
+      ytics += fmt::format("{}\"{}\" {}", y ? ", " : "", backends[y], y);
+    }
+    std::string heat_png = path;
+    const auto dot = heat_png.rfind('.');
+    heat_png.insert(dot == std::string::npos ? heat_png.size() : dot, "-speedup");
+    script += fmt::format(
+        "set output '{}'\nset title 'speedup over serial through the service (vertices/bones)'\n"
+        "unset style\nset xtics ({}) rotate by -45\nset ytics ({})\nset cblabel 'x serial'\n"
+        "set palette rgbformulae 33,13,10\nset view map\nset xrange [-0.5:{}]\n"
+        "set yrange [-0.5:{}]\nplot '{}' using 1:2:3 with image, '' using 1:2:(sprintf('%.1f',$3)) "
+        "with labels font ',8'\n",
+        heat_png, xtics, ytics, x - 0.5, backends.size() - 0.5, heat_data);
+  }
+  FILE* gnuplot = popen("gnuplot", "w");
+  if (gnuplot == nullptr) return Internal("--plot: cannot run gnuplot");
+  fputs(script.c_str(), gnuplot);
+  const int code = pclose(gnuplot);
+  std::remove(data_path);
+  if (!heat_data.empty()) std::remove(heat_data.c_str());
+  if (code != 0) return Internal(fmt::format("--plot: gnuplot failed ({})", code));
+  return Status::Ok();
+}
+
+}  // namespace skinserve::load

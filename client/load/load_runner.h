@@ -1,0 +1,31 @@
+// One load run: `streams` concurrent StreamSkin streams on one backend, closed loop (each
+// keeps `window` frames in flight) or open loop (`rate` frames per second per stream, on
+// schedule whatever the answers do).
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "load_stats.h"
+#include "workload.h"
+
+namespace skinserve::load {
+
+struct RunConfig {
+  std::string target = "127.0.0.1:50051";
+  std::string backend;
+  int streams = 2;
+  int window = 4;
+  double duration_seconds = 3;  // measured time, after the warm-up
+  double warmup_seconds = 1;    // answers before this are not counted (errors are)
+  double rate = 0;              // frames/s per stream; 0: closed loop
+  uint64_t check_every = 0;     // compare every Nth answer with the float64 reference
+};
+
+// Called now and then with the fraction done (for a progress bar).
+using Progress = std::function<void(double fraction)>;
+
+RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
+                  const Progress& progress);
+
+}  // namespace skinserve::load

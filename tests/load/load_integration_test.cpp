@@ -1,0 +1,155 @@
+// skinserve-load against real servers on loopback: what it reports must equal what the
+// servers say they served (nothing lost, nothing counted twice).
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "skinserve/client/channel.h"
+#include "skinserve/client/skin_client.h"
+
+namespace skinserve::testing {
+namespace {
+
+int NextPort() {
+  static int next = 45000 + static_cast<int>(getpid() % 2000) * 5;
+  return next++;
+}
+
+// A skinserve child process on a loopback port, stopped with SIGTERM.
+class ServerProcess {
+ public:
+  ServerProcess() : target_("127.0.0.1:" + std::to_string(NextPort())) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      execl(SKINSERVE_SERVER_BINARY, SKINSERVE_SERVER_BINARY, "--listen", target_.c_str(),
+            "--log-level", "warn", static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    auto channel = client::MakeChannel(target_);
+    ready_ = client::WaitUntilServing(*channel, std::chrono::seconds(30)).ok();
+  }
+  ~ServerProcess() {
+    kill(pid_, SIGTERM);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+  }
+  const std::string& target() const { return target_; }
+  bool ready() const { return ready_; }
+  // Frames served per backend, from the server's own stats.
+  std::map<std::string, uint64_t> FramesServed() const {
+    client::SkinClient c(client::MakeChannel(target_));
+    std::map<std::string, uint64_t> frames;
+    auto stats = c.GetServerStats();
+    EXPECT_TRUE(stats.ok()) << stats.status().ToString();
+    if (stats.ok()) {
+      for (const auto& b : stats->backends()) frames[b.id()] = b.frames();
+    }
+    return frames;
+  }
+
+ private:
+  std::string target_;
+  pid_t pid_ = -1;
+  bool ready_ = false;
+};
+
+nlohmann::json RunLoad(const std::string& args, int* exit_code) {
+  const std::string json = ::testing::TempDir() + "load-" + std::to_string(NextPort()) + ".json";
+  const std::string command =
+      std::string(SKINSERVE_LOAD_BINARY) + " " + args + " --json " + json + " > /dev/null";
+  const int status = std::system(command.c_str());
+  *exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(json);
+  nlohmann::json doc;
+  if (in) in >> doc;
+  return doc;
+}
+
+std::map<std::string, uint64_t> FramesReported(const nlohmann::json& doc) {
+  std::map<std::string, uint64_t> frames;
+  for (const auto& r : doc["results"]) {
+    EXPECT_TRUE(r["errors"].empty()) << r.dump();
+    EXPECT_EQ(r["mismatches"], 0) << r.dump();
+    frames[r["backend"]] += r["frames"].get<uint64_t>();
+  }
+  return frames;
+}
+
+TEST(LoadIntegrationTest, ClosedLoopCountsEqualWhatTheServerServed) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  int code = 0;
+  const nlohmann::json doc =
+      RunLoad("--target " + server.target() +
+                  " --backends serial,sse-openmp,opencl-zerocopy,passthrough --vertices 20000"
+                  " --bones 3 --streams 3 --window 3 --duration 1 --warmup 0 --check-every 5",
+              &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(doc["results"].size(), 4u);
+  for (const auto& r : doc["results"]) {
+    EXPECT_GT(r["frames"], 0) << r.dump();
+    EXPECT_GT(r["checked"], 0) << r.dump();
+    for (const char* key : {"p50", "p90", "p99", "max"}) EXPECT_GT(r["latency_ms"][key], 0);
+    EXPECT_GT(r["server_ms"]["compute"], 0);
+    EXPECT_NEAR(
+        r["speedup_over_serial"].get<double>(),
+        r["frames_per_second"].get<double>() / doc["results"][0]["frames_per_second"].get<double>(),
+        1e-9);
+  }
+  const auto served = server.FramesServed();
+  for (const auto& [backend, frames] : FramesReported(doc)) {
+    EXPECT_EQ(frames, served.at(backend)) << backend;
+  }
+}
+
+TEST(LoadIntegrationTest, OpenLoopSendsOnScheduleAndCountsMatch) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  int code = 0;
+  const nlohmann::json doc =
+      RunLoad("--target " + server.target() +
+                  " --backends sse --vertices 5000 --bones 2 --rate 50 --streams 2 --duration 1"
+                  " --warmup 0 --check-every 3",
+              &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(doc["results"].size(), 1u);
+  const auto& r = doc["results"][0];
+  // 2 streams at 50 fps for ~1 s: about 100 frames scheduled, each sent or dropped.
+  const uint64_t scheduled = r["sent"].get<uint64_t>() + r["dropped"].get<uint64_t>();
+  EXPECT_GE(scheduled, 90u);
+  EXPECT_LE(scheduled, 110u);
+  EXPECT_EQ(r["frames"], r["sent"]) << "every frame sent was answered";
+  EXPECT_EQ(FramesReported(doc).at("sse"), server.FramesServed().at("sse"));
+}
+
+TEST(LoadIntegrationTest, RoundRobinSpreadsStreamsOverTwoServers) {
+  ServerProcess a, b;
+  ASSERT_TRUE(a.ready() && b.ready());
+  const std::string target = "ipv4:" + a.target() + "," + b.target();
+  int code = 0;
+  const nlohmann::json doc =
+      RunLoad("--target " + target +
+                  " --backends serial --vertices 10000 --bones 2 --streams 4 --window 2"
+                  " --duration 1 --warmup 0 --check-every 7",
+              &code);
+  EXPECT_EQ(code, 0);
+  const uint64_t from_a = a.FramesServed().at("serial"), from_b = b.FramesServed().at("serial");
+  EXPECT_GT(from_a, 0u) << "round_robin left a replica idle";
+  EXPECT_GT(from_b, 0u) << "round_robin left a replica idle";
+  EXPECT_EQ(FramesReported(doc).at("serial"), from_a + from_b);
+}
+
+TEST(LoadIntegrationTest, FailsWhenTheServerIsUnreachable) {
+  int code = 0;
+  RunLoad("--target 127.0.0.1:1 --duration 1", &code);
+  EXPECT_NE(code, 0);
+}
+
+}  // namespace
+}  // namespace skinserve::testing
