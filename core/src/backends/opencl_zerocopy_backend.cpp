@@ -72,6 +72,7 @@ class OpenClZeroCopyBackend final : public Backend {
       if (out->get() == nullptr) continue;
       if (Status s = SyncToHost(*out, frame.positions.size_bytes()); !s.ok()) return s;
     }
+    // One wait for the whole in-order sequence: kernel, map, unmap.
     if (cl_int err = clFinish(runtime_->queue()); err != CL_SUCCESS) {
       return ClError("clFinish", err);
     }
@@ -79,11 +80,13 @@ class OpenClZeroCopyBackend final : public Backend {
   }
 
  private:
-  // Map and unmap: makes the kernel's writes visible in the host memory the buffer wraps
-  // (a no-op on PoCL's CPU device, a copy on a device with memory of its own).
+  // Enqueues a map and an unmap: they make the kernel's writes visible in the host memory
+  // the buffer wraps (nothing to do on PoCL's CPU device, a copy on a device with memory
+  // of its own). Non-blocking: the in-order queue orders them after the kernel, and the
+  // caller's clFinish is the one wait (a blocking map would be a second one).
   Status SyncToHost(const ClBuffer& buffer, std::size_t bytes) {
     cl_int err = CL_SUCCESS;
-    void* mapped = clEnqueueMapBuffer(runtime_->queue(), buffer.get(), CL_TRUE, CL_MAP_READ, 0,
+    void* mapped = clEnqueueMapBuffer(runtime_->queue(), buffer.get(), CL_FALSE, CL_MAP_READ, 0,
                                       bytes, 0, nullptr, nullptr, &err);
     if (err != CL_SUCCESS) return ClError("clEnqueueMapBuffer", err);
     err = clEnqueueUnmapMemObject(runtime_->queue(), buffer.get(), mapped, 0, nullptr, nullptr);
