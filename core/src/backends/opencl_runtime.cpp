@@ -78,8 +78,10 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(int threads) {
   cl_uint platform_count = 0;
   cl_int err = clGetPlatformIDs(0, nullptr, &platform_count);
   if (err != CL_SUCCESS || platform_count == 0) {
-    return FailedPrecondition(fmt::format(
-        "no OpenCL platform found ({}); install an ICD such as pocl-opencl-icd", ClErrorName(err)));
+    return FailedPrecondition(
+        fmt::format("no OpenCL platform found (clGetPlatformIDs: {} ({})); install an ICD such as "
+                    "pocl-opencl-icd",
+                    ClErrorName(err), err));
   }
   std::vector<cl_platform_id> platforms(platform_count);
   clGetPlatformIDs(platform_count, platforms.data(), nullptr);
