@@ -63,6 +63,8 @@ const char* ClErrorName(cl_int code) {
     SKINSERVE_CL_ERROR(CL_INVALID_EVENT_WAIT_LIST)
     SKINSERVE_CL_ERROR(CL_INVALID_OPERATION)
 #undef SKINSERVE_CL_ERROR
+    case -1001:  // the ICD loader found no platform at all
+      return "CL_PLATFORM_NOT_FOUND_KHR";
     default:
       return "CL_UNKNOWN_ERROR";
   }
