@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "influence_dispatch.h"
 #include "skinserve/core/backend.h"
 
 namespace skinserve::scalar {
@@ -55,24 +56,8 @@ void SkinScalarRange(const Mesh& mesh, const SkinFrame& frame, std::size_t first
 // Calls SkinScalarRange<B> for the mesh's B (1..8).
 inline void SkinScalar(const Mesh& mesh, const SkinFrame& frame, std::size_t first,
                        std::size_t last) {
-  switch (mesh.influences()) {
-    case 1:
-      return SkinScalarRange<1>(mesh, frame, first, last);
-    case 2:
-      return SkinScalarRange<2>(mesh, frame, first, last);
-    case 3:
-      return SkinScalarRange<3>(mesh, frame, first, last);
-    case 4:
-      return SkinScalarRange<4>(mesh, frame, first, last);
-    case 5:
-      return SkinScalarRange<5>(mesh, frame, first, last);
-    case 6:
-      return SkinScalarRange<6>(mesh, frame, first, last);
-    case 7:
-      return SkinScalarRange<7>(mesh, frame, first, last);
-    case 8:
-      return SkinScalarRange<8>(mesh, frame, first, last);
-  }
+  WithInfluences(mesh.influences(),
+                 [&](auto b) { SkinScalarRange<decltype(b)::value>(mesh, frame, first, last); });
 }
 
 }  // namespace skinserve::scalar

@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "influence_dispatch.h"
 #include "skinserve/core/backend.h"
 
 namespace skinserve::sse {
@@ -69,24 +70,8 @@ void SkinSseRange(const Mesh& mesh, const SkinFrame& frame, std::size_t first, s
 }
 
 inline void SkinSse(const Mesh& mesh, const SkinFrame& frame, std::size_t first, std::size_t last) {
-  switch (mesh.influences()) {
-    case 1:
-      return SkinSseRange<1>(mesh, frame, first, last);
-    case 2:
-      return SkinSseRange<2>(mesh, frame, first, last);
-    case 3:
-      return SkinSseRange<3>(mesh, frame, first, last);
-    case 4:
-      return SkinSseRange<4>(mesh, frame, first, last);
-    case 5:
-      return SkinSseRange<5>(mesh, frame, first, last);
-    case 6:
-      return SkinSseRange<6>(mesh, frame, first, last);
-    case 7:
-      return SkinSseRange<7>(mesh, frame, first, last);
-    case 8:
-      return SkinSseRange<8>(mesh, frame, first, last);
-  }
+  WithInfluences(mesh.influences(),
+                 [&](auto b) { SkinSseRange<decltype(b)::value>(mesh, frame, first, last); });
 }
 
 }  // namespace skinserve::sse
