@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package skinserve needs to build, test and run.
 # Idempotent: packages already present are left alone; needs root (or sudo).
+#   install-deps.sh [all]   everything: build, run, tests, plots (the default)
+#   install-deps.sh build   what compiling needs (the container's build stage)
+#   install-deps.sh runtime what the binaries need to run (the container's runtime stage)
 set -euo pipefail
 
 BUILD_PACKAGES=(
@@ -24,9 +27,10 @@ TEST_PACKAGES=(
 
 want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}")
 case "${1:-all}" in
-  runtime) want=("${RUNTIME_PACKAGES[@]}") ;;
+  runtime) want=("${RUNTIME_PACKAGES[@]}") ;;                      # the container's runtime stage
+  build) want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}") ;;  # compile, no test tools
   all) ;;
-  *) echo "usage: $0 [all|runtime]" >&2; exit 2 ;;
+  *) echo "usage: $0 [all|build|runtime]" >&2; exit 2 ;;
 esac
 
 missing=()
