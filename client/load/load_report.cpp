@@ -163,7 +163,8 @@ Status WritePlot(const std::string& path, const std::vector<RunResult>& results)
       "set terminal pngcairo size 1200,700 font ',10'\nset output '{}'\n"
       "set title 'skinserve: frames per second through the service (higher is better)'\n"
       "set style data histograms\nset style fill solid 0.8 border -1\nset boxwidth 0.8\n"
-      "set xtics rotate by -45\nset ylabel 'frames/s'\nset yrange [0:*]\nset grid ytics\nunset key\n"
+      "set xtics rotate by -45\nset ylabel 'frames/s'\nset yrange [0:*]\nset grid ytics\nunset "
+      "key\n"
       "plot '{}' using 2:xtic(1) linecolor rgb '#3b6ea8'\n",
       path, data_path);
   std::string heat_data;

@@ -48,12 +48,18 @@ Options Parse(int argc, char** argv) {
   Options o;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
-    if (key == "--target") o.target = value;
-    else if (key == "--backend") o.backend = value;
-    else if (key == "--streams") o.streams = std::stoi(value);
-    else if (key == "--window") o.window = std::stoi(value);
-    else if (key == "--seconds") o.seconds = std::stod(value);
-    else if (key == "--vertices") o.vertices = static_cast<uint32_t>(std::stoul(value));
+    if (key == "--target")
+      o.target = value;
+    else if (key == "--backend")
+      o.backend = value;
+    else if (key == "--streams")
+      o.streams = std::stoi(value);
+    else if (key == "--window")
+      o.window = std::stoi(value);
+    else if (key == "--seconds")
+      o.seconds = std::stod(value);
+    else if (key == "--vertices")
+      o.vertices = static_cast<uint32_t>(std::stoul(value));
     else {
       fmt::print(stderr, "unknown option {}\n", key);
       std::exit(2);
@@ -71,7 +77,7 @@ Options Parse(int argc, char** argv) {
 struct Tally {
   std::mutex mutex;
   uint64_t sent = 0, answered = 0, failed = 0, reconnects = 0, reuploads = 0;  // summaries
-  uint64_t sink_ok = 0, sink_failed = 0, wrong = 0;                           // the sink's view
+  uint64_t sink_ok = 0, sink_failed = 0, wrong = 0;                            // the sink's view
   uint64_t unbalanced_streams = 0;  // streams whose own sent != answered + failed
   std::map<std::string, uint64_t> failed_by_code, stream_status;
 };
@@ -153,10 +159,12 @@ int main(int argc, char** argv) {
 
   auto to_json = [](const std::map<std::string, uint64_t>& m) {
     std::string out = "{";
-    for (const auto& [k, v] : m) out += fmt::format("{}\"{}\": {}", out.size() > 1 ? ", " : "", k, v);
+    for (const auto& [k, v] : m)
+      out += fmt::format("{}\"{}\": {}", out.size() > 1 ? ", " : "", k, v);
     return out + "}";
   };
-  const bool balanced = tally.sent == tally.answered + tally.failed && tally.unbalanced_streams == 0;
+  const bool balanced =
+      tally.sent == tally.answered + tally.failed && tally.unbalanced_streams == 0;
   const bool sink_agrees = tally.sink_ok == tally.answered && tally.sink_failed == tally.failed;
   fmt::print(
       "{{\"backend\": \"{}\", \"streams\": {}, \"sent\": {}, \"answered\": {}, \"failed\": {}, "
