@@ -26,6 +26,7 @@ name="skinserve-smoke-$$"
 load_name="skinserve-smoke-load-$$"
 volume="skinserve-smoke-pocl-$$"
 work=$(mktemp -d "${TMPDIR:-/tmp}/skinserve-smoke.XXXXXX")
+trap 'rm -rf "$work"' EXIT  # replaced by the full clean-up once podman is in play
 
 say() { echo "smoke: $*"; }
 skip() { echo "smoke: SKIPPED: $*"; exit "$SKIP"; }
