@@ -139,7 +139,9 @@ wait "$driver_pid" || driver_rc=$?
 cat "$work/load.out"
 echo "driver: $(cat "$work/driver.json")"
 [ -s "$work/driver.err" ] && sed 's/^/driver stderr: /' "$work/driver.err" | tail -5
-[ "$load_rc" -ne 124 ] && [ "$driver_rc" -ne 124 ] || fail "a client did not finish in 120 s"
+if [ "$load_rc" -eq 124 ] || [ "$driver_rc" -eq 124 ]; then
+  fail "a client did not finish in 120 s"
+fi
 
 after=()
 for i in "${!ports[@]}"; do
