@@ -1,15 +1,21 @@
-// CpuBackend: a backend made of one skinning loop over a vertex range, run on the calling
-// thread (info.threads == 1) or split across info.threads OpenMP threads. The four CPU
-// backends differ only in the loop and the description.
+// CpuBackend: a backend made of one skinning kernel over vertex ranges, run on the
+// calling thread (info.threads == 1) or split across info.threads OpenMP threads. The
+// four CPU backends differ only in the kernel and the description.
 #pragma once
+
+#include <new>
 
 #include "parallel_range.h"
 #include "skinserve/core/backend.h"
 
 namespace skinserve {
 
-// SkinRange: void(const Mesh&, const SkinFrame&, std::size_t first, std::size_t last).
-template <auto SkinRange>
+// A Kernel provides
+//  - Kernel::FramePalette, constructible from the frame's palette: the palette in the
+//    kernel's own layout, built once per frame on the calling thread and then only read;
+//  - Kernel::SkinRange(const Mesh&, const FramePalette&, const SkinFrame&, first, last),
+//    which writes exactly the outputs of vertices [first, last).
+template <typename Kernel>
 class CpuBackend final : public Backend {
  public:
   explicit CpuBackend(BackendInfo info) : info_(std::move(info)) {}
@@ -19,12 +25,18 @@ class CpuBackend final : public Backend {
   }
   Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) override {
     const Mesh& mesh = prepared.mesh();
-    if (info_.threads <= 1) {
-      SkinRange(mesh, frame, 0, mesh.vertex_count());
-    } else {
-      ParallelOverVertices(
-          mesh.vertex_count(), info_.threads,
-          [&](std::size_t first, std::size_t last) { SkinRange(mesh, frame, first, last); });
+    try {
+      const typename Kernel::FramePalette palette(frame.palette);
+      if (info_.threads <= 1) {
+        Kernel::SkinRange(mesh, palette, frame, 0, mesh.vertex_count());
+      } else {
+        ParallelOverVertices(mesh.vertex_count(), info_.threads,
+                             [&](std::size_t first, std::size_t last) {
+                               Kernel::SkinRange(mesh, palette, frame, first, last);
+                             });
+      }
+    } catch (const std::bad_alloc&) {  // a palette layout larger than any seen so far
+      return ResourceExhausted(info_.id + ": out of memory for the frame's palette");
     }
     return Status::Ok();
   }

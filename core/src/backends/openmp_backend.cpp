@@ -8,7 +8,7 @@
 namespace skinserve {
 
 std::unique_ptr<Backend> MakeOpenMpBackend(int threads) {
-  return std::make_unique<CpuBackend<scalar::SkinScalar>>(
+  return std::make_unique<CpuBackend<scalar::ScalarKernel>>(
       BackendInfo{.id = "openmp",
                   .description = "the scalar loop across threads with OpenMP",
                   .device = CpuModelName(),

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 
 #include "influence_dispatch.h"
 #include "skinserve/core/backend.h"
@@ -13,9 +14,8 @@ namespace skinserve::scalar {
 
 // Skins vertices [first, last) of `mesh` into `frame` with B influences per vertex.
 template <int B>
-void SkinScalarRange(const Mesh& mesh, const SkinFrame& frame, std::size_t first,
-                     std::size_t last) {
-  const float* palette = frame.palette.data();
+void SkinScalarRange(const Mesh& mesh, const float* palette, const SkinFrame& frame,
+                     std::size_t first, std::size_t last) {
   const float* positions = mesh.positions().data();
   const float* normals = mesh.normals().data();
   const uint16_t* joints = mesh.joints().data();
@@ -53,11 +53,16 @@ void SkinScalarRange(const Mesh& mesh, const SkinFrame& frame, std::size_t first
   }
 }
 
-// Calls SkinScalarRange<B> for the mesh's B (1..8).
-inline void SkinScalar(const Mesh& mesh, const SkinFrame& frame, std::size_t first,
-                       std::size_t last) {
-  WithInfluences(mesh.influences(),
-                 [&](auto b) { SkinScalarRange<decltype(b)::value>(mesh, frame, first, last); });
-}
+// The kernel of CpuBackend (cpu_backend.h): the palette as it comes, SkinScalarRange<B>
+// for the mesh's B (1..8).
+struct ScalarKernel {
+  using FramePalette = std::span<const float>;
+  static void SkinRange(const Mesh& mesh, FramePalette palette, const SkinFrame& frame,
+                        std::size_t first, std::size_t last) {
+    WithInfluences(mesh.influences(), [&](auto b) {
+      SkinScalarRange<decltype(b)::value>(mesh, palette.data(), frame, first, last);
+    });
+  }
+};
 
 }  // namespace skinserve::scalar

@@ -8,7 +8,7 @@
 namespace skinserve {
 
 std::unique_ptr<Backend> MakeSerialBackend() {
-  return std::make_unique<CpuBackend<scalar::SkinScalar>>(
+  return std::make_unique<CpuBackend<scalar::ScalarKernel>>(
       BackendInfo{.id = "serial",
                   .description = "scalar C++ on one thread (the baseline)",
                   .device = CpuModelName()});

@@ -7,11 +7,11 @@
 namespace skinserve {
 
 std::unique_ptr<Backend> MakeSseBackend() {
-  return std::make_unique<CpuBackend<sse::SkinSse>>(
-      BackendInfo{.id = "sse",
-                  .description = "SSE intrinsics on one thread (a matrix row per register)",
-                  .device = CpuModelName(),
-                  .simd_width = 4});
+  return std::make_unique<CpuBackend<sse::SseKernel>>(BackendInfo{
+      .id = "sse",
+      .description = "SSE2 on one thread: a matrix column per register, 4 vertices a step",
+      .device = CpuModelName(),
+      .simd_width = 4});
 }
 
 }  // namespace skinserve

@@ -7,7 +7,7 @@
 namespace skinserve {
 
 std::unique_ptr<Backend> MakeSseOpenMpBackend(int threads) {
-  return std::make_unique<CpuBackend<sse::SkinSse>>(
+  return std::make_unique<CpuBackend<sse::SseKernel>>(
       BackendInfo{.id = "sse-openmp",
                   .description = "the SSE loop across threads with OpenMP",
                   .device = CpuModelName(),

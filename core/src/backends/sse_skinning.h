@@ -1,77 +1,193 @@
-// The SSE skinning loop shared by `sse` and `sse-openmp`: the paper's SSE scheme. Each
-// 3x4 matrix row is one __m128, so blending B joint matrices is 3 * B multiply-adds of
-// whole rows, and the transform is 3 row products summed through a 4x4 transpose.
-// SSE2 only (baseline x86-64): it runs on any 64-bit x86 the image runs on.
+// The SSE skinning kernel shared by `sse` and `sse-openmp`. Matrices are blended a column
+// per register from the frame's ColumnPalette (equation 3, 4 lanes per instruction), and
+// vertices go four at a time, so positions and normals are read and written as three
+// whole registers per block instead of float by float. SSE2 only (baseline x86-64): it
+// runs on any 64-bit x86 the image runs on. Measured against the paper's layout (matrix
+// rows per register, a transpose per vertex) it is 1.2-1.7x faster on positions and
+// 1.4-1.8x with normals.
 #pragma once
 
-#include <xmmintrin.h>
+#include <emmintrin.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 
 #include "influence_dispatch.h"
 #include "skinserve/core/backend.h"
+#include "sse_column_palette.h"
 
 namespace skinserve::sse {
 
-// Row products r[k] * v summed horizontally: (r0.v, r1.v, r2.v, 0).
-inline __m128 TransformRows(__m128 r0, __m128 r1, __m128 r2, __m128 v) {
-  __m128 t0 = _mm_mul_ps(r0, v);
-  __m128 t1 = _mm_mul_ps(r1, v);
-  __m128 t2 = _mm_mul_ps(r2, v);
-  __m128 t3 = _mm_setzero_ps();
-  _MM_TRANSPOSE4_PS(t0, t1, t2, t3);
-  return _mm_add_ps(_mm_add_ps(t0, t1), _mm_add_ps(t2, t3));
+template <int Lane>
+inline __m128 Broadcast(__m128 v) {
+  return _mm_shuffle_ps(v, v, _MM_SHUFFLE(Lane, Lane, Lane, Lane));
 }
 
-// Stores exactly three floats: never touches the next vertex, which another thread owns.
-inline void Store3(float* out, __m128 xyz) {
-  _mm_storel_pi(reinterpret_cast<__m64*>(out), xyz);
-  _mm_store_ss(out + 2, _mm_movehl_ps(xyz, xyz));
-}
+struct Columns {
+  __m128 c0, c1, c2, c3;
+};
 
+// Equation 3: the blended matrix of one vertex, column by column.
+// `columns`: ColumnPalette::joint(0), held in a local so that the output stores, which
+// might alias the ColumnPalette, do not force a reload per vertex.
 template <int B>
-void SkinSseRange(const Mesh& mesh, const SkinFrame& frame, std::size_t first, std::size_t last) {
-  const float* palette = frame.palette.data();
-  const float* positions = mesh.positions().data();
-  const float* normals = mesh.normals().data();
-  const uint16_t* joints = mesh.joints().data();
-  const float* weights = mesh.weights().data();
-  float* out_p = frame.positions.data();
-  float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
-  for (std::size_t v = first; v < last; ++v) {
-    // Equation 3, a row at a time.
-    __m128 w = _mm_set1_ps(weights[v * B]);
-    const float* j = palette + 12 * joints[v * B];
-    __m128 r0 = _mm_mul_ps(w, _mm_loadu_ps(j));
-    __m128 r1 = _mm_mul_ps(w, _mm_loadu_ps(j + 4));
-    __m128 r2 = _mm_mul_ps(w, _mm_loadu_ps(j + 8));
-    for (int i = 1; i < B; ++i) {
-      w = _mm_set1_ps(weights[v * B + i]);
-      j = palette + 12 * joints[v * B + i];
-      r0 = _mm_add_ps(r0, _mm_mul_ps(w, _mm_loadu_ps(j)));
-      r1 = _mm_add_ps(r1, _mm_mul_ps(w, _mm_loadu_ps(j + 4)));
-      r2 = _mm_add_ps(r2, _mm_mul_ps(w, _mm_loadu_ps(j + 8)));
-    }
-    // Equation 4 on (x, y, z, 1).
-    const float* p = positions + 3 * v;
-    Store3(out_p + 3 * v, TransformRows(r0, r1, r2, _mm_setr_ps(p[0], p[1], p[2], 1.0f)));
-    if (out_n != nullptr) {
-      const float* n = normals + 3 * v;
-      const __m128 t = TransformRows(r0, r1, r2, _mm_setr_ps(n[0], n[1], n[2], 0.0f));
-      __m128 squares = _mm_mul_ps(t, t);  // (x², y², z², 0)
-      __m128 sum = _mm_add_ps(squares, _mm_movehl_ps(squares, squares));
-      sum = _mm_add_ss(sum, _mm_shuffle_ps(sum, sum, _MM_SHUFFLE(1, 1, 1, 1)));
-      // A true square root and division: rsqrt's 12 bits would miss the 1e-5 tolerance.
-      const __m128 length = _mm_sqrt_ss(sum);
-      Store3(out_n + 3 * v, _mm_div_ps(t, _mm_shuffle_ps(length, length, 0)));
-    }
+inline Columns Blend(const float* columns, const uint16_t* joints, const float* weights) {
+  constexpr std::size_t kStride = ColumnPalette::kFloatsPerJoint;
+  __m128 w = _mm_set1_ps(weights[0]);
+  const float* m = columns + kStride * joints[0];
+  Columns c{_mm_mul_ps(w, _mm_load_ps(m)), _mm_mul_ps(w, _mm_load_ps(m + 4)),
+            _mm_mul_ps(w, _mm_load_ps(m + 8)), _mm_mul_ps(w, _mm_load_ps(m + 12))};
+  for (int i = 1; i < B; ++i) {
+    w = _mm_set1_ps(weights[i]);
+    m = columns + kStride * joints[i];
+    c.c0 = _mm_add_ps(c.c0, _mm_mul_ps(w, _mm_load_ps(m)));
+    c.c1 = _mm_add_ps(c.c1, _mm_mul_ps(w, _mm_load_ps(m + 4)));
+    c.c2 = _mm_add_ps(c.c2, _mm_mul_ps(w, _mm_load_ps(m + 8)));
+    c.c3 = _mm_add_ps(c.c3, _mm_mul_ps(w, _mm_load_ps(m + 12)));
+  }
+  return c;
+}
+
+// Equation 4 on (x, y, z, 1): (x', y', z', 0).
+inline __m128 TransformPoint(const Columns& m, __m128 x, __m128 y, __m128 z) {
+  return _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, m.c0), _mm_mul_ps(y, m.c1)),
+                    _mm_add_ps(_mm_mul_ps(z, m.c2), m.c3));
+}
+
+// The upper 3x3 on (x, y, z, 0): (x', y', z', 0).
+inline __m128 TransformDirection(const Columns& m, __m128 x, __m128 y, __m128 z) {
+  return _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, m.c0), _mm_mul_ps(y, m.c1)), _mm_mul_ps(z, m.c2));
+}
+
+// Vertex K of a block of four: its x, y and z, each broadcast to a register, from the
+// block's 12 floats held in three registers.
+template <int K>
+inline void Splat(const __m128 (&in)[3], __m128& x, __m128& y, __m128& z) {
+  constexpr int kX = 3 * K, kY = kX + 1, kZ = kX + 2;
+  x = Broadcast<kX % 4>(in[kX / 4]);
+  y = Broadcast<kY % 4>(in[kY / 4]);
+  z = Broadcast<kZ % 4>(in[kZ / 4]);
+}
+
+// Four (x, y, z, 0) results a..d packed into three registers: x y z x | y z x y | z x y z.
+inline __m128 PackFirst(__m128 a, __m128 b) {
+  const __m128 bx_az = _mm_shuffle_ps(b, a, _MM_SHUFFLE(2, 2, 0, 0));  // bx bx az az
+  return _mm_shuffle_ps(a, bx_az, _MM_SHUFFLE(0, 2, 1, 0));            // ax ay az bx
+}
+inline __m128 PackSecond(__m128 b, __m128 c) {
+  return _mm_shuffle_ps(b, c, _MM_SHUFFLE(1, 0, 2, 1));  // by bz cx cy
+}
+inline __m128 PackThird(__m128 c, __m128 d) {
+  const __m128 cz_dx = _mm_shuffle_ps(c, d, _MM_SHUFFLE(0, 0, 2, 2));  // cz cz dx dx
+  return _mm_shuffle_ps(cz_dx, d, _MM_SHUFFLE(2, 1, 2, 0));            // cz dx dy dz
+}
+
+// Vertex K of a block: blends its matrix and transforms its position (and normal). Each
+// vertex is finished before the next is blended, so four matrices never need registers
+// at once.
+template <int B, bool Normals, int K>
+inline void SkinVertex(const float* columns, const uint16_t* joints, const float* weights,
+                       const __m128 (&p)[3], const __m128 (&n)[3], __m128 (&p_out)[4],
+                       __m128 (&n_out)[4]) {
+  const Columns m = Blend<B>(columns, joints + K * B, weights + K * B);
+  __m128 x, y, z;
+  Splat<K>(p, x, y, z);
+  p_out[K] = TransformPoint(m, x, y, z);
+  if constexpr (Normals) {
+    Splat<K>(n, x, y, z);
+    n_out[K] = TransformDirection(m, x, y, z);
   }
 }
 
-inline void SkinSse(const Mesh& mesh, const SkinFrame& frame, std::size_t first, std::size_t last) {
-  WithInfluences(mesh.influences(),
-                 [&](auto b) { SkinSseRange<decltype(b)::value>(mesh, frame, first, last); });
+// Renormalises four transformed normals and stores them: one true square root and one
+// division for the four (rsqrt's 12 bits would miss the 1e-5 tolerance).
+inline void StoreNormalised(__m128 (&t)[4], float* out) {
+  __m128 s0 = _mm_mul_ps(t[0], t[0]), s1 = _mm_mul_ps(t[1], t[1]);
+  __m128 s2 = _mm_mul_ps(t[2], t[2]), s3 = _mm_mul_ps(t[3], t[3]);
+  _MM_TRANSPOSE4_PS(s0, s1, s2, s3);  // s0: the four x², s1: the y², s2: the z², s3: 0
+  const __m128 length = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(s0, s1), s2));
+  const __m128 inverse = _mm_div_ps(_mm_set1_ps(1.0f), length);
+  t[0] = _mm_mul_ps(t[0], Broadcast<0>(inverse));
+  t[1] = _mm_mul_ps(t[1], Broadcast<1>(inverse));
+  t[2] = _mm_mul_ps(t[2], Broadcast<2>(inverse));
+  t[3] = _mm_mul_ps(t[3], Broadcast<3>(inverse));
+  _mm_storeu_ps(out, PackFirst(t[0], t[1]));
+  _mm_storeu_ps(out + 4, PackSecond(t[1], t[2]));
+  _mm_storeu_ps(out + 8, PackThird(t[2], t[3]));
 }
+
+// Skins one block of four vertices: 12 floats of positions (and normals) in and out.
+template <int B, bool Normals>
+inline void SkinFour(const float* columns, const float* positions, const float* normals,
+                     const uint16_t* joints, const float* weights, float* out_positions,
+                     float* out_normals) {
+  const __m128 p[3] = {_mm_loadu_ps(positions), _mm_loadu_ps(positions + 4),
+                       _mm_loadu_ps(positions + 8)};
+  __m128 n[3] = {}, p_out[4], n_out[4] = {};
+  if constexpr (Normals) {
+    n[0] = _mm_loadu_ps(normals), n[1] = _mm_loadu_ps(normals + 4);
+    n[2] = _mm_loadu_ps(normals + 8);
+  }
+  SkinVertex<B, Normals, 0>(columns, joints, weights, p, n, p_out, n_out);
+  SkinVertex<B, Normals, 1>(columns, joints, weights, p, n, p_out, n_out);
+  _mm_storeu_ps(out_positions, PackFirst(p_out[0], p_out[1]));
+  SkinVertex<B, Normals, 2>(columns, joints, weights, p, n, p_out, n_out);
+  _mm_storeu_ps(out_positions + 4, PackSecond(p_out[1], p_out[2]));
+  SkinVertex<B, Normals, 3>(columns, joints, weights, p, n, p_out, n_out);
+  _mm_storeu_ps(out_positions + 8, PackThird(p_out[2], p_out[3]));
+  if constexpr (Normals) StoreNormalised(n_out, out_normals);
+}
+
+template <int B, bool Normals>
+void SkinSseRange(const Mesh& mesh, const ColumnPalette& palette, const SkinFrame& frame,
+                  std::size_t first, std::size_t last) {
+  const float* columns = palette.joint(0);
+  const float* positions = mesh.positions().data();
+  const float* normals = Normals ? mesh.normals().data() : nullptr;
+  const uint16_t* joints = mesh.joints().data();
+  const float* weights = mesh.weights().data();
+  float* out_p = frame.positions.data();
+  float* out_n = Normals ? frame.normals.data() : nullptr;
+  std::size_t v = first;
+  for (; v + 4 <= last; v += 4) {
+    SkinFour<B, Normals>(columns, positions + 3 * v, Normals ? normals + 3 * v : nullptr,
+                         joints + B * v, weights + B * v, out_p + 3 * v,
+                         Normals ? out_n + 3 * v : nullptr);
+  }
+  if (v == last) return;
+  // The last 1..3 vertices: a full block on a local copy, padded by repeating the last
+  // vertex, so there is one code path and nothing is read or written out of bounds.
+  float in_p[12], in_n[12] = {}, res_p[12], res_n[12], in_w[4 * B];
+  uint16_t in_j[4 * B];
+  const std::size_t count = last - v;
+  for (std::size_t k = 0; k < 4; ++k) {
+    const std::size_t src = v + std::min(k, count - 1);
+    std::copy_n(positions + 3 * src, 3, in_p + 3 * k);
+    if constexpr (Normals) std::copy_n(normals + 3 * src, 3, in_n + 3 * k);
+    std::copy_n(joints + B * src, B, in_j + B * k);
+    std::copy_n(weights + B * src, B, in_w + B * k);
+  }
+  SkinFour<B, Normals>(columns, in_p, in_n, in_j, in_w, res_p, res_n);
+  std::copy_n(res_p, 3 * count, out_p + 3 * v);
+  if constexpr (Normals) std::copy_n(res_n, 3 * count, out_n + 3 * v);
+}
+
+// The kernel of CpuBackend (cpu_backend.h): the frame's ColumnPalette, SkinSseRange<B, normals>
+// for the mesh's B (1..8).
+struct SseKernel {
+  using FramePalette = ColumnPalette;
+  static void SkinRange(const Mesh& mesh, const FramePalette& palette, const SkinFrame& frame,
+                        std::size_t first, std::size_t last) {
+    WithInfluences(mesh.influences(), [&](auto b) {
+      constexpr int kB = decltype(b)::value;
+      if (frame.normals.empty()) {
+        SkinSseRange<kB, false>(mesh, palette, frame, first, last);
+      } else {
+        SkinSseRange<kB, true>(mesh, palette, frame, first, last);
+      }
+    });
+  }
+};
 
 }  // namespace skinserve::sse
