@@ -157,9 +157,31 @@ TEST(BackendListTest, HasEveryPaperBackendInTheDesignOrder) {
   const std::vector<std::string> expected = {
       "serial", "openmp", "sse", "sse-openmp", "opencl", "opencl-zerocopy", "passthrough"};
   EXPECT_EQ(ids, expected);
+}
+
+TEST(BackendListTest, CpuBackendsAreAvailableAndDescribeThemselves) {
+  // SSE2 is part of x86-64, so nothing but OpenCL may be missing on a machine we run on.
   for (const auto& backend : AllBackends()) {
-    EXPECT_TRUE(backend->info().available)
-        << backend->info().id << ": " << backend->info().unavailable_reason;
+    const BackendInfo& info = backend->info();
+    if (info.id.rfind("opencl", 0) == 0) continue;
+    EXPECT_TRUE(info.available) << info.id << ": " << info.unavailable_reason;
+    EXPECT_FALSE(info.description.empty()) << info.id;
+    EXPECT_FALSE(info.device.empty()) << info.id;
+    EXPECT_GE(info.threads, 1) << info.id;
+  }
+  EXPECT_EQ(BackendById("serial").info().simd_width, 1);
+  EXPECT_EQ(BackendById("openmp").info().threads, 2);
+  EXPECT_EQ(BackendById("sse").info().simd_width, 4);
+  EXPECT_EQ(BackendById("sse-openmp").info().threads, 2);
+}
+
+TEST(BackendListTest, OpenClBackendsAreAvailableOrSayWhyNot) {
+  for (const char* id : {"opencl", "opencl-zerocopy"}) {
+    const BackendInfo& info = BackendById(id).info();
+    if (!info.available) {
+      EXPECT_FALSE(info.unavailable_reason.empty()) << id;
+      GTEST_SKIP() << id << " unavailable: " << info.unavailable_reason;
+    }
   }
 }
 
