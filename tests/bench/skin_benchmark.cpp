@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <exception>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -123,7 +124,25 @@ void MemoryBandwidth(benchmark::State& state) {
 int main(int argc, char** argv) {
   using namespace skinserve;
   using namespace skinserve::bench;
-  Options options = ParseOptions(&argc, argv);
+  Options options;
+  try {
+    options = ParseOptions(&argc, argv);
+  } catch (const std::exception&) {  // std::stoul on a malformed list
+    fmt::print(stderr, "skinserve-bench: --vertices= and --bones= take comma-separated counts\n");
+    return 2;
+  }
+  const auto bad_bones = [](uint32_t b) { return b < 1 || b > kMaxInfluences; };
+  if (std::count(options.vertices.begin(), options.vertices.end(), 0u) != 0 ||
+      std::any_of(options.bones.begin(), options.bones.end(), bad_bones)) {
+    fmt::print(stderr, "skinserve-bench: vertex counts must be >= 1 and bones 1..{}\n",
+               kMaxInfluences);
+    return 2;
+  }
+  // Every speedup in the tables is against serial: measure it even when not asked for.
+  if (options.paper_tables && !options.backends.empty() &&
+      std::count(options.backends.begin(), options.backends.end(), "serial") == 0) {
+    options.backends.push_back("serial");
+  }
   const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   static std::vector<std::unique_ptr<Backend>> backends = CreateAllBackends(threads);
 
@@ -139,7 +158,6 @@ int main(int argc, char** argv) {
     }
     measured.push_back(info.id);
   }
-  // serial first in the tables even when not asked for: every speedup is against it.
   for (bool normals : {false, true}) {
     if (options.paper_tables && normals && !options.normals_in_tables) continue;
     for (uint32_t v : options.vertices) {
