@@ -177,13 +177,15 @@ int main(int argc, char** argv) {
       ->UseRealTime()
       ->Unit(benchmark::kMillisecond);
 
-  std::vector<char*> args(argv, argv + argc);
+  // Our defaults go first, so that the same flags given on the command line win.
   std::string repetitions = "--benchmark_repetitions=3",
               aggregates = "--benchmark_report_aggregates_only=true";
+  std::vector<char*> args = {argv[0]};
   if (options.paper_tables) {
     args.push_back(repetitions.data());
     args.push_back(aggregates.data());
   }
+  args.insert(args.end(), argv + 1, argv + argc);
   int args_count = static_cast<int>(args.size());
   benchmark::Initialize(&args_count, args.data());
   if (benchmark::ReportUnrecognizedArguments(args_count, args.data())) return 1;
