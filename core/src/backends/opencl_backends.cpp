@@ -2,16 +2,36 @@
 
 #include <fmt/format.h>
 
+#include <exception>
+
 #include "backend_factories.h"
 #include "unavailable_backend.h"
 
 namespace skinserve {
+namespace {
+
+constexpr const char* kCopyId = "opencl";
+constexpr const char* kZeroCopyId = "opencl-zerocopy";
+
+std::vector<std::unique_ptr<Backend>> UnavailableBackends(const std::string& reason) {
+  std::vector<std::unique_ptr<Backend>> backends;
+  for (const char* id : {kCopyId, kZeroCopyId}) {
+    BackendInfo info;
+    info.id = id;
+    info.description = "OpenCL";
+    info.unavailable_reason = reason;
+    backends.push_back(std::make_unique<UnavailableBackend>(std::move(info)));
+  }
+  return backends;
+}
+
+}  // namespace
 
 BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id,
                               const char* description) {
   BackendInfo info;
   info.id = id;
-  info.description = fmt::format("{} (PoCL {})", description, runtime.version());
+  info.description = fmt::format("{} ({})", description, runtime.platform_version());
   info.device = runtime.device_name();
   info.simd_width = runtime.vector_width();
   info.threads = runtime.compute_units();
@@ -19,21 +39,17 @@ BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id,
 }
 
 std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads) {
-  std::vector<std::unique_ptr<Backend>> backends;
-  auto runtime = OpenClRuntime::Create(threads);
-  if (!runtime.ok()) {
-    for (const char* id : {"opencl", "opencl-zerocopy"}) {
-      BackendInfo info;
-      info.id = id;
-      info.description = "OpenCL";
-      info.unavailable_reason = runtime.status().message();
-      backends.push_back(std::make_unique<UnavailableBackend>(std::move(info)));
-    }
+  // Never throws: an engine without OpenCL still serves every other backend.
+  try {
+    auto runtime = OpenClRuntime::Create(threads);
+    if (!runtime.ok()) return UnavailableBackends(runtime.status().message());
+    std::vector<std::unique_ptr<Backend>> backends;
+    backends.push_back(MakeOpenClCopyBackend(*runtime));
+    backends.push_back(MakeOpenClZeroCopyBackend(*runtime));
     return backends;
+  } catch (const std::exception& e) {
+    return UnavailableBackends(fmt::format("OpenCL start-up failed: {}", e.what()));
   }
-  backends.push_back(MakeOpenClCopyBackend(*runtime));
-  backends.push_back(MakeOpenClZeroCopyBackend(*runtime));
-  return backends;
 }
 
 }  // namespace skinserve

@@ -1,6 +1,9 @@
 // `opencl`: the paper's plain OpenCL path. The mesh is copied into device buffers once;
 // each frame writes the palette to the device and reads the result back.
+#include <vector>
+
 #include "opencl_backends.h"
+#include "skinserve/core/palette.h"
 
 namespace skinserve {
 namespace {
@@ -8,7 +11,8 @@ namespace {
 struct OpenClPreparedMesh final : PreparedMesh {
   using PreparedMesh::PreparedMesh;
   ClBuffer positions, normals, joints, weights;
-  ClBuffer palette, out_positions, out_normals;  // per-frame traffic, reused
+  // Per-frame traffic, reused by every frame (frames are serialised by the runtime).
+  ClBuffer palette, out_positions, out_normals;
 };
 
 class OpenClCopyBackend final : public Backend {
@@ -24,6 +28,7 @@ class OpenClCopyBackend final : public Backend {
     auto prepared = std::make_unique<OpenClPreparedMesh>(mesh);
     constexpr cl_mem_flags kCopyIn = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
     struct Plan {
+      const char* what;
       ClBuffer* buffer;
       cl_mem_flags flags;
       std::size_t bytes;
@@ -31,17 +36,20 @@ class OpenClCopyBackend final : public Backend {
     };
     const std::size_t xyz_bytes = mesh->positions().size_bytes();
     std::vector<Plan> plan = {
-        {&prepared->positions, kCopyIn, xyz_bytes, mesh->positions().data()},
-        {&prepared->joints, kCopyIn, mesh->joints().size_bytes(), mesh->joints().data()},
-        {&prepared->weights, kCopyIn, mesh->weights().size_bytes(), mesh->weights().data()},
-        {&prepared->palette, CL_MEM_READ_ONLY, 48ull * mesh->joint_count(), nullptr},
-        {&prepared->out_positions, CL_MEM_WRITE_ONLY, xyz_bytes, nullptr}};
+        {"positions", &prepared->positions, kCopyIn, xyz_bytes, mesh->positions().data()},
+        {"joints", &prepared->joints, kCopyIn, mesh->joints().size_bytes(), mesh->joints().data()},
+        {"weights", &prepared->weights, kCopyIn, mesh->weights().size_bytes(),
+         mesh->weights().data()},
+        {"palette", &prepared->palette, CL_MEM_READ_ONLY,
+         kFloatsPerJoint * sizeof(float) * mesh->joint_count(), nullptr},
+        {"output positions", &prepared->out_positions, CL_MEM_WRITE_ONLY, xyz_bytes, nullptr}};
     if (mesh->has_normals()) {
-      plan.push_back({&prepared->normals, kCopyIn, xyz_bytes, mesh->normals().data()});
-      plan.push_back({&prepared->out_normals, CL_MEM_WRITE_ONLY, xyz_bytes, nullptr});
+      plan.push_back({"normals", &prepared->normals, kCopyIn, xyz_bytes, mesh->normals().data()});
+      plan.push_back(
+          {"output normals", &prepared->out_normals, CL_MEM_WRITE_ONLY, xyz_bytes, nullptr});
     }
     for (const Plan& p : plan) {
-      auto buffer = runtime_->CreateBuffer(p.flags, p.bytes, p.host);
+      auto buffer = runtime_->CreateBuffer(p.what, p.flags, p.bytes, p.host);
       if (!buffer.ok()) return buffer.status();
       *p.buffer = std::move(buffer).value();
     }
@@ -50,27 +58,39 @@ class OpenClCopyBackend final : public Backend {
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
     const auto& prepared = static_cast<const OpenClPreparedMesh&>(base);
-    const Mesh& mesh = prepared.mesh();
     const bool with_normals = !frame.normals.empty();
+    if (with_normals && prepared.out_normals.get() == nullptr) {
+      return InvalidArgument("normals requested, but the mesh has none");
+    }
     cl_command_queue queue = runtime_->queue();
     std::lock_guard lock(runtime_->mutex());
-    // In-order queue: write, run, read happen in sequence; the last read blocks.
+    // In-order queue: write, run, read happen in sequence and the last read blocks, so
+    // the palette and outputs the caller passed are in use only within this call.
     if (cl_int err = clEnqueueWriteBuffer(queue, prepared.palette.get(), CL_FALSE, 0,
                                           frame.palette.size_bytes(), frame.palette.data(), 0,
                                           nullptr, nullptr);
         err != CL_SUCCESS) {
       return ClError("clEnqueueWriteBuffer(palette)", err);
     }
-    const SkinKernelArgs args{prepared.palette.get(),    prepared.positions.get(),
-                              prepared.normals.get(),    prepared.joints.get(),
-                              prepared.weights.get(),    prepared.out_positions.get(),
-                              prepared.out_normals.get()};
-    if (Status s = runtime_->EnqueueSkin(mesh, args, with_normals); !s.ok()) return s;
+    SkinKernelArgs args{.palette = prepared.palette.get(),
+                        .joints = prepared.joints.get(),
+                        .weights = prepared.weights.get(),
+                        .positions = prepared.positions.get(),
+                        .out_positions = prepared.out_positions.get()};
+    if (with_normals) {
+      args.normals = prepared.normals.get();
+      args.out_normals = prepared.out_normals.get();
+    }
+    if (Status s = runtime_->EnqueueSkin(prepared.mesh(), args); !s.ok()) {
+      clFinish(queue);  // the palette write may still read the caller's memory
+      return s;
+    }
     if (with_normals) {
       if (cl_int err = clEnqueueReadBuffer(queue, prepared.out_normals.get(), CL_FALSE, 0,
                                            frame.normals.size_bytes(), frame.normals.data(), 0,
                                            nullptr, nullptr);
           err != CL_SUCCESS) {
+        clFinish(queue);
         return ClError("clEnqueueReadBuffer(normals)", err);
       }
     }
@@ -78,6 +98,7 @@ class OpenClCopyBackend final : public Backend {
                                          frame.positions.size_bytes(), frame.positions.data(), 0,
                                          nullptr, nullptr);
         err != CL_SUCCESS) {
+      clFinish(queue);
       return ClError("clEnqueueReadBuffer(positions)", err);
     }
     return Status::Ok();
