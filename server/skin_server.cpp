@@ -57,6 +57,7 @@ void SkinServer::Shutdown(std::chrono::milliseconds grace) {
   std::call_once(shutdown_once_, [&] {
     if (server_) {
       server_->GetHealthCheckService()->SetServingStatus(false);
+      service_->Drain();  // streams end UNAVAILABLE once their frames are answered
       spdlog::info("draining: up to {} ms for in-flight calls", grace.count());
       server_->Shutdown(std::chrono::system_clock::now() + grace);
     }

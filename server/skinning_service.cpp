@@ -68,7 +68,7 @@ grpc::ServerUnaryReactor* SkinningService::GetServerStats(grpc::CallbackServerCo
   Engine* engine = engine_.load();
   if (engine == nullptr) return Done(context, kWarmingUp);
   *response = ToWire(engine->Stats());
-  response->set_open_streams(open_streams_.load());
+  response->set_open_streams(open_streams_.count());
   return Done(context, Status::Ok());
 }
 

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <string>
 
+#include "open_streams.h"
 #include "skinserve/core/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
@@ -15,6 +16,9 @@ class SkinningService final : public v1::Skinning::CallbackService {
       : default_backend_(std::move(default_backend)), stream_window_(stream_window) {}
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }
+  // Shutdown: open streams answer the frames they have read and end UNAVAILABLE; new
+  // streams are refused. Unary calls and Skin finish as usual.
+  void Drain() { open_streams_.DrainAll(); }
 
   grpc::ServerReadReactor<v1::UploadMeshRequest>* UploadMesh(grpc::CallbackServerContext*,
                                                              v1::MeshInfo* response) override;
@@ -39,7 +43,7 @@ class SkinningService final : public v1::Skinning::CallbackService {
   std::atomic<Engine*> engine_{nullptr};
   const std::string default_backend_;
   const int stream_window_;
-  std::atomic<uint64_t> open_streams_{0};
+  OpenStreams open_streams_;
 };
 
 }  // namespace skinserve::server

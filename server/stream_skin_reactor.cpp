@@ -1,33 +1,38 @@
 #include "stream_skin_reactor.h"
 
+#include <fmt/format.h>
+
 #include "wire_codec.h"
 
 namespace skinserve::server {
 
 StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend, int window,
-                                     std::atomic<uint64_t>* open_streams)
+                                     OpenStreams* open_streams)
     : engine_(engine),
       default_backend_(std::move(default_backend)),
       window_(static_cast<std::size_t>(std::max(window, 1))),
       open_streams_(open_streams) {
-  open_streams_->fetch_add(1);
+  const bool accepted = open_streams_->Add(this);
   std::lock_guard lock(mutex_);
   if (engine_ == nullptr) {
-    finished_ = true;
-    Finish(ToGrpc(Unavailable("the server is starting: backends are being built")));
-    return;
+    FinishLocked(ToGrpc(Unavailable("the server is starting: backends are being built")));
+  } else if (!accepted) {
+    FinishLocked(ToGrpc(Unavailable("the server is shutting down; use another replica")));
+  } else {
+    PumpLocked();
   }
-  PumpLocked();
 }
 
 void StreamSkinReactor::OnReadDone(bool ok) {
   std::lock_guard lock(mutex_);
   reading_ = false;
+  if (finished_) return;  // ended meanwhile (drained or cancelled): nobody awaits an answer
   if (!ok) {
     reads_done_ = true;  // the client half-closed (or went away)
     PumpLocked();
     return;
   }
+  last_frame_read_ = request_.frame();
   auto job = std::make_shared<FrameJob>();
   frames_.push_back(job);
   SkinRequest engine_request;
@@ -57,10 +62,7 @@ void StreamSkinReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mutex_);
   writing_ = false;
   if (!ok) {  // the client is gone: nothing more can be delivered
-    if (!finished_) {
-      finished_ = true;
-      Finish(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away"));
-    }
+    FinishLocked(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away"));
     return;
   }
   PumpLocked();
@@ -68,15 +70,18 @@ void StreamSkinReactor::OnWriteDone(bool ok) {
 
 void StreamSkinReactor::OnCancel() {
   std::lock_guard lock(mutex_);
-  if (!finished_) {
-    finished_ = true;
-    Finish(grpc::Status::CANCELLED);
-  }
+  FinishLocked(grpc::Status::CANCELLED);
 }
 
 void StreamSkinReactor::OnDone() {
-  open_streams_->fetch_sub(1);
+  open_streams_->Remove(this);
   Unref();
+}
+
+void StreamSkinReactor::Drain() {
+  std::lock_guard lock(mutex_);
+  draining_ = true;
+  PumpLocked();
 }
 
 void StreamSkinReactor::PumpLocked() {
@@ -89,14 +94,30 @@ void StreamSkinReactor::PumpLocked() {
       StartWrite(&part_);
     }
   }
-  if (!reading_ && !reads_done_ && frames_.size() < window_) {
+  if (!reading_ && !reads_done_ && !draining_ && frames_.size() < window_) {
     reading_ = true;
     StartRead(&request_);
   }
-  if (reads_done_ && frames_.empty() && !writing_) {
-    finished_ = true;
-    Finish(grpc::Status::OK);
+  if (!frames_.empty() || writing_) return;
+  if (reads_done_) {
+    FinishLocked(grpc::Status::OK);
+  } else if (draining_) {
+    // Every frame read has been answered; the client resends the rest elsewhere.
+    FinishLocked(ToGrpc(Unavailable(
+        last_frame_read_
+            ? fmt::format("the server is shutting down: every frame read on this stream was "
+                          "answered (the last read was frame {}); send later frames to another "
+                          "replica",
+                          *last_frame_read_)
+            : std::string("the server is shutting down; no frame was read on this stream; "
+                          "send them to another replica"))));
   }
+}
+
+void StreamSkinReactor::FinishLocked(const grpc::Status& status) {
+  if (finished_) return;
+  finished_ = true;
+  Finish(status);
 }
 
 void StreamSkinReactor::Unref() {

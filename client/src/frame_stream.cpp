@@ -43,8 +43,13 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     grpc::ClientContext context;
     auto stream = client.stub().StreamSkin(&context);
     bool broken = false;
+    // A failed Write means the server has ended the stream (e.g. it is shutting down); the
+    // answers it sent before are still to be read, and gRPC's Finish only returns once
+    // they are, so stop writing but keep reading.
+    bool writes_closed = false;
     auto fill = [&] {
-      while (!broken && in_flight.size() < window && (!resend.empty() || more_new())) {
+      while (!broken && !writes_closed && in_flight.size() < window &&
+             (!resend.empty() || more_new())) {
         const bool again = !resend.empty();
         const uint64_t frame = again ? resend.front() : next;
         v1::SkinRequest request;
@@ -60,7 +65,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
           ++next;
           ++summary.sent;
         }
-        if (!stream->Write(request)) broken = true;
+        if (!stream->Write(request)) writes_closed = true;
       }
     };
     fill();
@@ -97,9 +102,10 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
       }
       fill();
     }
-    stream->WritesDone();
+    if (!writes_closed) stream->WritesDone();
     status = FromGrpc(stream->Finish());
-    if (!broken && status.ok()) continue;  // everything so far answered; more to send?
+    // Everything so far answered on a stream that ended cleanly: more to send?
+    if (!broken && !writes_closed && status.ok()) continue;
     if (status.ok()) status = Internal("the stream ended with frames unanswered");
     // The stream broke: its unanswered frames are failed, never silently dropped.
     for (const InFlight& f : in_flight) report_failed(f.frame, status, f.sent);

@@ -1,0 +1,30 @@
+// OpenStreams: the StreamSkin calls in progress, so that a shutdown can drain them. A
+// drained stream stops reading, answers every frame it has read and ends with
+// UNAVAILABLE, which tells its client to go on elsewhere at once, instead of streaming
+// on through the grace period and then being cancelled.
+#pragma once
+
+#include <cstddef>
+#include <mutex>
+#include <unordered_set>
+
+namespace skinserve::server {
+
+class StreamSkinReactor;
+
+class OpenStreams {
+ public:
+  // Registers `stream`; false once draining (the stream should end at once).
+  bool Add(StreamSkinReactor* stream);
+  void Remove(StreamSkinReactor* stream);
+  // Drains every open stream and refuses new ones. Idempotent.
+  void DrainAll();
+  std::size_t count() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::unordered_set<StreamSkinReactor*> streams_;
+  bool draining_ = false;
+};
+
+}  // namespace skinserve::server
