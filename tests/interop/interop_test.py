@@ -130,8 +130,10 @@ def main():
             worst_p = worst_n = 0.0
             for f, palette in enumerate(palettes):
                 want_p, want_n = reference(*mesh, palette)
-                worst_p = max(worst_p, float(np.max(np.abs(got[f][0] - want_p))))
-                worst_n = max(worst_n, float(np.max(np.abs(got[f][1] - want_n))))
+                # np.max, not max(): a NaN (a vertex no part delivered, or a NaN result)
+                # must fail the check, and Python's max(x, nan) returns x.
+                worst_p = float(np.max([worst_p, np.max(np.abs(got[f][0] - want_p))]))
+                worst_n = float(np.max([worst_n, np.max(np.abs(got[f][1] - want_n))]))
             # Tolerance: float32 rounding of |M p| <= ~1.1 * 2 * sqrt(3) + 0.5, and unit normals.
             ok = len(got) == len(palettes) and worst_p <= 1e-4 and worst_n <= 1e-5 \
                 and not np.isnan(worst_p) and not np.isnan(worst_n)
