@@ -173,9 +173,14 @@ int main(int argc, char** argv) {
       }
     }
   }
+  // The bound is what memory can do, and other processes only ever slow a run down: the
+  // tables take the best repetition ("max" of bytes_per_second), not the median.
   benchmark::RegisterBenchmark("BM_MemoryBandwidth", MemoryBandwidth)
       ->UseRealTime()
-      ->Unit(benchmark::kMillisecond);
+      ->Unit(benchmark::kMillisecond)
+      ->ComputeStatistics("max", [](const std::vector<double>& values) {
+        return *std::max_element(values.begin(), values.end());
+      });
 
   // Our defaults go first, so that the same flags given on the command line win.
   std::string repetitions = "--benchmark_repetitions=3",
