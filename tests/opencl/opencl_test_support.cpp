@@ -1,0 +1,66 @@
+#include "opencl_test_support.h"
+
+#include <cstdlib>
+#include <sstream>
+
+#include "backends/backend_factories.h"
+#include "skinserve/core/reference.h"
+#include "skinserve/core/synthetic.h"
+
+namespace skinserve::testing {
+
+// Read before anything creates the runtime (static initialisation of this file).
+static const bool kPoclThreadsPreset = std::getenv("POCL_MAX_PTHREAD_COUNT") != nullptr;
+
+bool PoclThreadsPresetByEnvironment() { return kPoclThreadsPreset; }
+
+const std::vector<std::unique_ptr<Backend>>& OpenClBackends() {
+  static const auto* backends =
+      new std::vector<std::unique_ptr<Backend>>(MakeOpenClBackends(kOpenClTestThreads));
+  return *backends;
+}
+
+std::vector<std::string> OpenClBackendIds() { return {"opencl", "opencl-zerocopy"}; }
+
+Backend& OpenClBackend(const std::string& id) {
+  for (const auto& backend : OpenClBackends()) {
+    if (backend->info().id == id) return *backend;
+  }
+  ADD_FAILURE() << "MakeOpenClBackends returned no backend '" << id << "'";
+  std::abort();
+}
+
+std::string BackendTestName(const ::testing::TestParamInfo<std::string>& param) {
+  std::string name = param.param;
+  for (char& ch : name) {
+    if (ch == '-') ch = '_';
+  }
+  return name;
+}
+
+std::shared_ptr<const Mesh> SyntheticMesh(uint32_t vertices, uint32_t influences, uint32_t joints,
+                                          bool normals, uint64_t seed) {
+  auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
+                                              .influences = influences,
+                                              .joint_count = joints,
+                                              .normals = normals,
+                                              .seed = seed}));
+  if (!mesh.ok()) {
+    ADD_FAILURE() << "synthetic mesh: " << mesh.status().ToString();
+    std::abort();
+  }
+  return *mesh;
+}
+
+std::string ReferenceMismatch(const Mesh& mesh, std::span<const float> palette,
+                              std::span<const float> positions, std::span<const float> normals) {
+  const Deviation d = CompareWithReference(mesh, palette, positions, normals);
+  if (d.within_tolerance()) return "";
+  std::ostringstream out;
+  out << "position error " << d.max_position_error << " (tolerance " << d.position_tolerance
+      << "), normal error " << d.max_normal_error << " (tolerance " << d.normal_tolerance
+      << "), worst vertex " << d.worst_vertex;
+  return out.str();
+}
+
+}  // namespace skinserve::testing

@@ -1,0 +1,46 @@
+// Shared by the OpenCL tests: the two OpenCL backends of one runtime for the whole test
+// process, and checked frames against the float64 reference.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "skinserve/core/backend.h"
+#include "skinserve/core/mesh.h"
+
+namespace skinserve::testing {
+
+// Compute threads the test runtime is created with: not this machine's core count, so
+// the test can tell that PoCL took it.
+inline constexpr int kOpenClTestThreads = 3;
+
+// Whether POCL_MAX_PTHREAD_COUNT was set before the runtime was created.
+bool PoclThreadsPresetByEnvironment();
+// {opencl, opencl-zerocopy} from MakeOpenClBackends(kOpenClTestThreads), created once.
+const std::vector<std::unique_ptr<Backend>>& OpenClBackends();
+std::vector<std::string> OpenClBackendIds();
+Backend& OpenClBackend(const std::string& id);
+// A test name from a backend id ("opencl-zerocopy" -> "opencl_zerocopy").
+std::string BackendTestName(const ::testing::TestParamInfo<std::string>& param);
+
+std::shared_ptr<const Mesh> SyntheticMesh(uint32_t vertices, uint32_t influences, uint32_t joints,
+                                          bool normals, uint64_t seed);
+
+// "" when `positions` (and `normals`, unless empty) match the float64 reference for
+// `palette`; else what differs, by how much, and where.
+std::string ReferenceMismatch(const Mesh& mesh, std::span<const float> palette,
+                              std::span<const float> positions, std::span<const float> normals);
+
+// Skips the current test when the backend cannot run here, naming the reason.
+#define SKIP_IF_OPENCL_UNAVAILABLE(backend)                                  \
+  if (!(backend).info().available) {                                         \
+    GTEST_SKIP() << (backend).info().id                                      \
+                 << " unavailable: " << (backend).info().unavailable_reason; \
+  }
+
+}  // namespace skinserve::testing
