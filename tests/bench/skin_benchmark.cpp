@@ -6,6 +6,9 @@
 //                                      paper's tables 2 and 3 layout
 // Filters: --backends=a,b  --vertices=25000,100000  --bones=1,2  --normals (paper tables
 // with normals too). Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
+// Run it on an otherwise idle machine: with another process on a core, libgomp's default
+// spin-wait makes the OpenMP backends' frames wait for a 4 ms scheduler tick (wall time
+// twice the CPU time); OMP_WAIT_POLICY=passive limits that, at some cost on small frames.
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 #include <omp.h>
