@@ -14,19 +14,20 @@
  *    one vector sqrt and division (scalar sqrt + div per normal cost more than the blend).
  *  - The blended matrix is a float8 (rows 0 and 1) and a float4 (row 2): two FMAs per
  *    influence. The transform itself is scalar FMAs: cheaper than dot() on float4, which
- *    needs shuffles and horizontal adds. 25-40% fewer cycles than one vertex per item
- *    with float4 rows and dot().
- *  - PoCL cannot vectorise across work-items here: the palette lookup would become a
- *    gather per matrix element, which measured 3x slower at B = 4.
+ *    needs shuffles and horizontal adds. Together: 17-40% less CPU time per frame than
+ *    one vertex per item with float4 rows, dot() and a branch on normals.
+ *  - Vectorising across work-items (PoCL's usual way) does not pay here: the palette
+ *    lookup becomes a gather per matrix element; a scalar kernel that PoCL did vectorise
+ *    so measured 3x slower at B = 4.
  *  - The last work-item clamps its vertex indices to V - 1 (recomputing, within itself,
  *    the last vertex) instead of branching per vertex; items past the end return.
- * Normals use rsqrt (a sqrt and a true division on this device): full precision, never native_ or half_ maths,
- * so they match a float64 reference to 1e-5.
+ * Normals use rsqrt (a sqrt and a true division on this device): full precision, never
+ * native_ or half_ maths, so they match a float64 reference to 1e-5.
  */
 
 /* The host passes -DSKIN_VERTICES_PER_ITEM; skin_normals_b* is written out for four. */
 #if !defined(SKIN_VERTICES_PER_ITEM) || SKIN_VERTICES_PER_ITEM != 4
-#error "SKIN_VERTICES_PER_ITEM must be 4 (see OpenClRuntime::EnqueueSkin)"
+#error "SKIN_VERTICES_PER_ITEM must be 4 (kVerticesPerItem in core/src/backends/opencl_runtime.cpp)"
 #endif
 
 /* Rows 0-1 and row 2 of one vertex's blended 3x4 matrix. */
