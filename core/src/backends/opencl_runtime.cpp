@@ -281,6 +281,9 @@ Status OpenClRuntime::EnqueueSkin(const Mesh& mesh, const SkinKernelArgs& args) 
   const cl_uint count = mesh.vertex_count();
   if (count == 0) return Status::Ok();
   const bool with_normals = args.out_normals != nullptr;
+  if (with_normals && args.normals == nullptr) {
+    return Internal("output normals without input normals: the mesh has none");
+  }
   cl_kernel kernel = kernels_[with_normals ? 1 : 0][influences - 1];
   // Argument order: see SKIN_ARGS in kernels/linear_blend_skinning.cl.
   const cl_mem buffers[] = {args.palette, args.joints, args.weights, args.positions,
