@@ -29,8 +29,8 @@ struct CharacterNode {
 // A glTF skin: its joints are nodes; palette[j] = model(joints[j]) * inverse_bind[j].
 struct CharacterSkin {
   std::string name;
-  std::vector<int> joints;                // node index per joint (the palette's order)
-  std::vector<glm::mat4> inverse_bind;    // one per joint (identity when the file omits them)
+  std::vector<int> joints;              // node index per joint (the palette's order)
+  std::vector<glm::mat4> inverse_bind;  // one per joint (identity when the file omits them)
 };
 
 // One skinned primitive of one skinned mesh node, ready for Mesh::Create.
