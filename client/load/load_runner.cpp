@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <deque>
 #include <mutex>
 #include <thread>
@@ -16,9 +17,12 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Accumulates answers from every stream into one RunResult.
+// Accumulates answers from every stream into one RunResult. Callers say whether a frame
+// belongs to the measured part; errors count either way.
 class Recorder {
  public:
+  // `measure_from`: the start of the measured part, or Clock::time_point::max() when the
+  // streams announce it (frame-count runs, StartMeasuring).
   Recorder(const RunConfig& config, const Workload& workload, Clock::time_point measure_from)
       : config_(config), workload_(workload), measure_from_(measure_from) {
     result_.backend = config.backend;
@@ -27,8 +31,19 @@ class Recorder {
     result_.normals = workload.normals;
   }
 
+  // Time-bounded runs: has the measured part begun?
+  bool Measuring() {
+    std::lock_guard lock(mutex_);
+    return Clock::now() >= measure_from_;
+  }
+  // Frame-count runs: the measured part begins with the first stream that starts it.
+  void StartMeasuring(Clock::time_point when) {
+    std::lock_guard lock(mutex_);
+    measure_from_ = std::min(measure_from_, when);
+  }
+
   // One answered (or failed) frame; `late` only means something in open loop.
-  void Record(const client::FrameResult& frame, double latency_ms, bool late) {
+  void Record(const client::FrameResult& frame, double latency_ms, bool late, bool measured) {
     const Clock::time_point now = Clock::now();
     bool mismatch = false, checked = false;
     if (frame.status.ok() && config_.check_every > 0 &&
@@ -52,7 +67,7 @@ class Recorder {
       ++result_.errors[StatusCodeName(frame.status.code())];
       return;
     }
-    if (now < measure_from_) return;  // warm-up
+    if (!measured) return;  // warm-up
     ++result_.frames;
     result_.late += late;
     result_.latencies_ms.push_back(latency_ms);
@@ -70,8 +85,13 @@ class Recorder {
     result_.sent += sent;
     result_.dropped += dropped;
   }
+  uint64_t frames() {
+    std::lock_guard lock(mutex_);
+    return result_.frames;
+  }
   RunResult Finish(Clock::time_point stopped) {
     std::lock_guard lock(mutex_);
+    if (measure_from_ == Clock::time_point::max()) return result_;  // never measured
     const Clock::time_point end = last_answer_ > measure_from_ ? last_answer_ : stopped;
     result_.seconds = std::chrono::duration<double>(end - measure_from_).count();
     return result_;
@@ -80,15 +100,19 @@ class Recorder {
  private:
   const RunConfig& config_;
   const Workload& workload_;
-  const Clock::time_point measure_from_;
   std::atomic<uint64_t> answered_{0};
   std::mutex mutex_;
+  Clock::time_point measure_from_;
   RunResult result_;
   Clock::time_point last_answer_{};
 };
 
+// Keeps `window` frames in flight. Time-bounded: until `stop`, counting the answers that
+// arrive after the warm-up. Frame-count: unmeasured frames until `warm`, then exactly
+// `config.frames` measured ones.
 void ClosedLoopStream(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
-                      const std::atomic<bool>& stop, Recorder& recorder) {
+                      const std::atomic<bool>& stop, const std::atomic<bool>& warm,
+                      Recorder& recorder) {
   client::SkinClient client(client::MakeChannel(config.target));
   client.Remember(mesh_id, workload.arrays);  // re-uploads where a replica lacks the mesh
   client::StreamOptions options{.mesh_id = mesh_id,
@@ -97,20 +121,48 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
                                 .frames = UINT64_MAX / 2,
                                 .window = config.window,
                                 .stop = &stop};
-  client::StreamSummary summary;
-  Status status = client::StreamFrames(
-      client, options, [&](uint64_t f) { return workload.Palette(f); },
-      [&](client::FrameResult& r, std::chrono::nanoseconds latency) {
-        recorder.Record(r, latency.count() / 1e6, false);
-      },
-      &summary);
-  if (!status.ok()) recorder.RecordStreamError(status);
+  const auto run = [&](bool measured_phase, uint64_t* sent) {
+    const bool count_by_time = config.frames == 0;
+    uint64_t measured_sent = 0;
+    client::StreamSummary summary;
+    Status status = client::StreamFrames(
+        client, options,
+        [&](uint64_t f) {
+          if (measured_phase && (!count_by_time || recorder.Measuring())) ++measured_sent;
+          return workload.Palette(f);
+        },
+        [&](client::FrameResult& r, std::chrono::nanoseconds latency) {
+          const bool measured = measured_phase && (!count_by_time || recorder.Measuring());
+          recorder.Record(r, latency.count() / 1e6, false, measured);
+        },
+        &summary);
+    if (measured_phase) recorder.AddSentAndDropped(measured_sent, 0);
+    if (sent != nullptr) *sent = summary.sent;
+    if (!status.ok()) recorder.RecordStreamError(status);
+    return status.ok();
+  };
+  if (config.frames == 0) {
+    run(true, nullptr);
+    return;
+  }
+  uint64_t warmup_sent = 0;
+  if (config.warmup_seconds > 0) {
+    options.stop = &warm;
+    if (!run(false, &warmup_sent)) return;
+  }
+  recorder.StartMeasuring(Clock::now());
+  options.stop = nullptr;
+  options.first_frame = warmup_sent;
+  options.frames = config.frames;
+  run(true, nullptr);
 }
 
 // Sends frame k at start + k / rate whatever happened to earlier frames, and measures
 // latency from that scheduled time, so a slow answer cannot hide the frames behind it
 // (no coordinated omission). A frame whose time comes while `window` frames are still
-// unanswered is dropped: not sent, and counted.
+// unanswered is dropped: not sent, and counted. Whether a frame is measured depends on its
+// scheduled time (time-bounded runs) or its number (frame-count runs: warm-up * rate
+// frames first, then `config.frames` measured ones, then the stream ends).
 void OpenLoopStream(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
                     const std::atomic<bool>& stop, Clock::time_point start, Recorder& recorder) {
   client::SkinClient client(client::MakeChannel(config.target));
@@ -139,9 +191,17 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   start = std::max(start, Clock::now());
   const auto period =
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / config.rate));
+  const uint64_t warmup_frames =
+      config.frames > 0 ? static_cast<uint64_t>(std::ceil(config.warmup_seconds * config.rate)) : 0;
+  const uint64_t last_frame = config.frames > 0 ? warmup_frames + config.frames : UINT64_MAX;
+  if (config.frames > 0) recorder.StartMeasuring(start + warmup_frames * period);
+  struct Scheduled {
+    Clock::time_point due;
+    bool measured;
+  };
   std::mutex mutex;
-  std::deque<std::pair<uint64_t, Clock::time_point>> scheduled;  // sent, unanswered
-  uint64_t sent = 0, dropped = 0;
+  std::deque<Scheduled> scheduled;  // sent, unanswered
+  uint64_t sent = 0, dropped = 0;   // measured frames only
 
   std::thread reader([&] {
     v1::SkinResponse part;
@@ -149,30 +209,31 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     client::FrameAssembler assembler;
     while (stream->Read(&part)) {
       if (!assembler.Add(part, &result)) continue;
-      Clock::time_point due;
+      Scheduled frame;
       {
         std::lock_guard lock(mutex);
-        due = scheduled.front().second;
+        frame = scheduled.front();
         scheduled.pop_front();
       }
-      const auto latency = Clock::now() - due;
+      const auto latency = Clock::now() - frame.due;
       recorder.Record(result, std::chrono::duration<double, std::milli>(latency).count(),
-                      latency > period);
+                      latency > period, frame.measured);
       result = client::FrameResult();
       assembler = client::FrameAssembler();
     }
   });
-  for (uint64_t k = 0; !stop.load(); ++k) {
+  for (uint64_t k = 0; k < last_frame && !stop.load(); ++k) {
     const Clock::time_point due = start + k * period;
     std::this_thread::sleep_until(due);
     if (stop.load()) break;
+    const bool measured = config.frames > 0 ? k >= warmup_frames : recorder.Measuring();
     {
       std::lock_guard lock(mutex);
       if (scheduled.size() >= static_cast<std::size_t>(config.window)) {
-        ++dropped;
+        dropped += measured;
         continue;
       }
-      scheduled.push_back({k, due});
+      scheduled.push_back({due, measured});
     }
     v1::SkinRequest request;
     request.set_mesh_id(mesh_id);
@@ -180,7 +241,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     request.set_frame(k);
     request.set_palette(client::EncodePalette(workload.Palette(k)));
     request.set_want_normals(workload.normals);
-    ++sent;
+    sent += measured;
     if (!stream->Write(request)) break;
   }
   stream->WritesDone();
@@ -206,23 +267,38 @@ RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::
       std::chrono::duration<double>(config.warmup_seconds));
   const auto total = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(config.warmup_seconds + config.duration_seconds));
-  Recorder recorder(config, workload, start + warmup);
-  std::atomic<bool> stop{false};
+  const bool by_frames = config.frames > 0;
+  Recorder recorder(config, workload, by_frames ? Clock::time_point::max() : start + warmup);
+  std::atomic<bool> stop{false}, warm{false};
+  std::atomic<int> running{config.streams};
   std::vector<std::thread> streams;
   for (int s = 0; s < config.streams; ++s) {
     streams.emplace_back([&] {
       if (config.rate > 0) {
         OpenLoopStream(config, workload, mesh_id, stop, start, recorder);
       } else {
-        ClosedLoopStream(config, workload, mesh_id, stop, recorder);
+        ClosedLoopStream(config, workload, mesh_id, stop, warm, recorder);
       }
+      --running;
     });
   }
-  while (Clock::now() < start + total) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    if (progress)
-      progress(std::min(1.0, (Clock::now() - start) / std::chrono::duration<double>(total)));
+  const auto report = [&](double fraction) {
+    if (progress) progress(std::clamp(fraction, 0.0, 1.0));
+  };
+  if (by_frames) {
+    const double wanted = static_cast<double>(config.frames) * config.streams;
+    while (running.load() > 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      if (!warm.load() && Clock::now() >= start + warmup) warm.store(true);
+      report(recorder.frames() / wanted);
+    }
+  } else {
+    while (Clock::now() < start + total) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      report((Clock::now() - start) / std::chrono::duration<double>(total));
+    }
   }
+  report(1.0);
   stop.store(true);
   const Clock::time_point stopped = Clock::now();
   for (auto& stream : streams) stream.join();

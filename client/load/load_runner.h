@@ -16,8 +16,9 @@ struct RunConfig {
   std::string backend;
   int streams = 2;
   int window = 4;
-  double duration_seconds = 3;  // measured time, after the warm-up
+  double duration_seconds = 3;  // measured time, after the warm-up (when frames == 0)
   double warmup_seconds = 1;    // answers before this are not counted (errors are)
+  uint64_t frames = 0;          // > 0: measure this many frames per stream, not a duration
   double rate = 0;              // frames/s per stream; 0: closed loop
   uint64_t check_every = 0;     // compare every Nth answer with the float64 reference
 };

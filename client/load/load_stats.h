@@ -31,7 +31,7 @@ struct RunResult {
   std::map<std::string, uint64_t> errors;  // by gRPC status code name
   uint64_t checked = 0;                    // frames compared with the float64 reference
   uint64_t mismatches = 0;
-  uint64_t sent = 0;     // open loop: frames sent on schedule
+  uint64_t sent = 0;     // frames sent in the measured part (open loop: on schedule)
   uint64_t late = 0;     // open loop: answered after their deadline
   uint64_t dropped = 0;  // open loop: not sent (window full at their time)
 

@@ -1,5 +1,5 @@
 // skinserve-load: what each backend delivers through the real service.
-//   closed loop   --streams N --window W --duration S
+//   closed loop   --streams N --window W --duration S (or --frames N per stream)
 //   open loop     --rate FPS (per stream), late and dropped frames reported
 //   --sweep paper the paper's grid over every backend, tables 2 and 3 layout
 //   --capacity    the most concurrent 60 fps streams held with p99 within one frame
@@ -190,6 +190,9 @@ int main(int argc, char** argv) {
   app.add_option("--window", o.run.window, "frames in flight per stream")->capture_default_str();
   app.add_option("--duration", o.run.duration_seconds, "measured seconds per run")
       ->capture_default_str();
+  app.add_option("--frames", o.run.frames,
+                 "measure this many frames per stream (after the warm-up) instead of --duration")
+      ->excludes("--duration");
   app.add_option("--warmup", o.run.warmup_seconds, "seconds before measuring")
       ->capture_default_str();
   app.add_option("--rate", o.run.rate,

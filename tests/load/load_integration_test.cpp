@@ -128,6 +128,48 @@ TEST(LoadIntegrationTest, OpenLoopSendsOnScheduleAndCountsMatch) {
   EXPECT_EQ(FramesReported(doc).at("sse"), server.FramesServed().at("sse"));
 }
 
+TEST(LoadIntegrationTest, FrameCountClosedLoopMeasuresExactlyThatManyFramesPerStream) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  int code = 0;
+  nlohmann::json doc = RunLoad("--target " + server.target() +
+                                   " --backends sse --vertices 5000 --bones 2 --streams 3"
+                                   " --window 4 --frames 40 --warmup 0 --check-every 4",
+                               &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(doc["results"].size(), 1u);
+  EXPECT_EQ(doc["results"][0]["frames"], 120) << doc.dump();
+  EXPECT_EQ(doc["results"][0]["sent"], 120) << doc.dump();
+  EXPECT_EQ(server.FramesServed().at("sse"), 120u) << "no warm-up: the server served just those";
+
+  // With a warm-up the server serves more than is measured, and the measured count is exact.
+  doc = RunLoad("--target " + server.target() +
+                    " --backends sse --vertices 5000 --bones 2 --streams 3 --window 4"
+                    " --frames 40 --warmup 0.3",
+                &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(doc["results"].size(), 1u);
+  EXPECT_EQ(doc["results"][0]["frames"], 120) << doc.dump();
+  EXPECT_GT(server.FramesServed().at("sse"), 240u) << "warm-up frames went unserved";
+}
+
+TEST(LoadIntegrationTest, FrameCountOpenLoopSchedulesExactlyThatManyFramesPerStream) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  int code = 0;
+  const nlohmann::json doc =
+      RunLoad("--target " + server.target() +
+                  " --backends sse --vertices 5000 --bones 2 --rate 50 --streams 2 --frames 30"
+                  " --warmup 0 --check-every 3",
+              &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(doc["results"].size(), 1u);
+  const auto& r = doc["results"][0];
+  EXPECT_EQ(r["sent"].get<uint64_t>() + r["dropped"].get<uint64_t>(), 60u) << r.dump();
+  EXPECT_EQ(r["frames"], r["sent"]) << "every frame sent was answered";
+  EXPECT_EQ(server.FramesServed().at("sse"), r["frames"].get<uint64_t>());
+}
+
 TEST(LoadIntegrationTest, RoundRobinSpreadsStreamsOverTwoServers) {
   ServerProcess a, b;
   ASSERT_TRUE(a.ready() && b.ready());
