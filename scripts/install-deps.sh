@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package skinserve needs to build, test and run.
 # Idempotent: packages already present are left alone; needs root (or sudo).
-#   install-deps.sh [all]   everything: build, run, tests, plots (the default)
+#   install-deps.sh [all]   everything: build, run, tests, plots, deploy tests (the default)
 #   install-deps.sh build   what compiling needs (the container's build stage)
 #   install-deps.sh runtime what the binaries need to run (the container's runtime stage)
 set -euo pipefail
@@ -24,8 +24,13 @@ RUNTIME_PACKAGES=(
 TEST_PACKAGES=(
   python3 python3-grpcio python3-grpc-tools python3-numpy python3-matplotlib gnuplot-nox
 )
+# The deployment tests: manifests lint, and the container image built and run with podman
+# (deploy/smoke-test.sh).
+DEPLOY_PACKAGES=(
+  yamllint podman runc debootstrap
+)
 
-want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}")
+want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}")
 case "${1:-all}" in
   runtime) want=("${RUNTIME_PACKAGES[@]}") ;;                      # the container's runtime stage
   build) want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}") ;;  # compile, no test tools
