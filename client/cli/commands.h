@@ -29,6 +29,7 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common);
 void AddStreamCommand(CLI::App& app, CommonOptions& common);
 void AddStatsCommand(CLI::App& app, CommonOptions& common);
 void AddVerifyCommand(CLI::App& app, CommonOptions& common);
+void AddAnimateCommand(CLI::App& app, CommonOptions& common);
 
 // Prints `status` to stderr and returns its exit code (0 for OK).
 int Report(const Status& status);

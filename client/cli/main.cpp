@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   AddStreamCommand(app, common);
   AddStatsCommand(app, common);
   AddVerifyCommand(app, common);
+  AddAnimateCommand(app, common);
   CLI11_PARSE(app, argc, argv);
   return common.exit_code;
 }
