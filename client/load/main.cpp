@@ -23,6 +23,8 @@ struct Options {
   uint32_t vertices = 100'000, bones = 2, joints = 77;
   bool normals = false;
   uint64_t seed = 1;
+  std::string mesh;  // a glTF file instead of the synthetic mesh
+  int primitive = 0;
   std::string sweep;
   bool capacity = false;
   int capacity_max_streams = 64;
@@ -66,6 +68,12 @@ Result<std::string> Upload(client::SkinClient& client, const Workload& w) {
   return info->mesh_id();
 }
 
+// The glTF character when --mesh names one, else the synthetic mesh of this shape.
+Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bones, uint64_t seed) {
+  if (!o.mesh.empty()) return MakeGltfWorkload(o.mesh, o.primitive, o.normals);
+  return MakeWorkload(vertices, bones, o.joints, o.normals, seed);
+}
+
 int RunMain(const Options& o) {
   client::SkinClient client(client::MakeChannel(o.run.target));
   if (Status s = client::WaitUntilServing(client.channel(), std::chrono::seconds(10)); !s.ok()) {
@@ -92,7 +100,9 @@ int RunMain(const Options& o) {
   if (o.capacity) {
     // Open loop at the given rate; grow the stream count until p99 exceeds one frame or a
     // frame is dropped or fails, then bisect.
-    const Workload w = MakeWorkload(o.vertices, o.bones, o.joints, o.normals, o.seed);
+    auto loaded = LoadWorkload(o, o.vertices, o.bones, o.seed);
+    if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
+    const Workload& w = *loaded;
     auto mesh = Upload(client, w);
     if (!mesh.ok()) return fmt::print(stderr, "error: {}\n", mesh.status().ToString()), 1;
     const double budget_ms = 1000.0 / o.run.rate;
@@ -100,7 +110,7 @@ int RunMain(const Options& o) {
     fmt::print(
         "capacity of {} at {:.0f} fps per stream, {} vertices x {} bones: p99 <= {:.1f} "
         "ms, nothing dropped\n{:>8} {:>9} {:>9} {:>9} {:>8} {:>8} {:>7}\n",
-        backend, o.run.rate, o.vertices, o.bones, budget_ms, "streams", "frames/s", "p99 ms",
+        backend, o.run.rate, w.vertices, w.bones, budget_ms, "streams", "frames/s", "p99 ms",
         "max ms", "late", "dropped", "holds");
     auto probe = [&](int streams) {
       RunConfig config = o.run;
@@ -130,7 +140,9 @@ int RunMain(const Options& o) {
                bad == 0 ? fmt::format(", the most tried: {}", o.capacity_max_streams) : "");
   } else {
     for (const auto& [v, b] : grid) {
-      const Workload w = MakeWorkload(v, b, o.joints, o.normals, o.seed + v + b);
+      auto loaded = LoadWorkload(o, v, b, o.seed + v + b);
+      if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
+      const Workload& w = *loaded;
       auto mesh = Upload(client, w);
       if (!mesh.ok()) return fmt::print(stderr, "error: {}\n", mesh.status().ToString()), 1;
       for (const std::string& backend : *backends) {
@@ -202,6 +214,12 @@ int main(int argc, char** argv) {
                  "compare every Nth answer with a local float64 reference (0: never)")
       ->capture_default_str();
   app.add_option("--sweep", o.sweep, "'paper': 25k..1600k vertices x 1..4 bones, every backend");
+  app.add_option("--mesh", o.mesh,
+                 "a glTF 2.0 character (.glb/.gltf) as the mesh; palettes sample its first clip, "
+                 "a new time each frame")
+      ->excludes("--vertices", "--bones", "--joints", "--sweep");
+  app.add_option("--primitive", o.primitive, "--mesh: which skinned primitive")
+      ->capture_default_str();
   app.add_flag("--capacity", o.capacity,
                "find the most concurrent --rate streams (default 60 fps) held with p99 within "
                "one frame and nothing dropped, on the first --backends entry");

@@ -1,7 +1,13 @@
 #include "workload.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
+#include "skinserve/core/character/animation.h"
+#include "skinserve/core/character/gltf_import.h"
 #include "skinserve/core/synthetic.h"
 
 namespace skinserve::load {
@@ -23,6 +29,49 @@ Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool n
   w.mesh = *mesh;
   for (int f = 0; f < kDistinctPalettes; ++f) {
     w.palettes.push_back(MakeSyntheticPalette(joints, seed, f));
+  }
+  return w;
+}
+
+Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool normals) {
+  auto character = LoadGltfFile(path);
+  if (!character.ok()) {
+    // The importer names the file itself in most errors: never twice.
+    if (character.status().message().starts_with(path + ":")) return character.status();
+    return Status(character.status().code(),
+                  fmt::format("{}: {}", path, character.status().message()));
+  }
+  if (primitive < 0 || static_cast<std::size_t>(primitive) >= character->primitives.size()) {
+    return InvalidArgument(
+        fmt::format("--primitive {} is not below the {} skinned primitive(s) of {}", primitive,
+                    character->primitives.size(), path));
+  }
+  const SkinnedPrimitive& p = character->primitives[static_cast<std::size_t>(primitive)];
+  if (normals && p.arrays.normals.empty()) {
+    return InvalidArgument(fmt::format("--normals: {} has no normals in {}", p.name, path));
+  }
+  const AnimationClip* clip = character->FindClip("");
+  if (clip == nullptr) return InvalidArgument(fmt::format("{} has no animation clip", path));
+
+  Workload w;
+  w.vertices = p.arrays.vertex_count;
+  w.bones = p.arrays.influences;
+  w.joints = p.arrays.joint_count;
+  w.normals = normals;
+  w.arrays = std::make_shared<const MeshArrays>(p.arrays);
+  auto mesh = Mesh::Create(*w.arrays);
+  if (!mesh.ok()) {
+    return Status(mesh.status().code(), fmt::format("{}: {}", p.name, mesh.status().message()));
+  }
+  w.mesh = *mesh;
+  // One palette per 1/30 s of the clip; frame f % size wraps around its duration.
+  const auto count =
+      static_cast<int>(std::clamp(std::ceil(clip->duration * kGltfWorkloadFps), 1.0, 3600.0));
+  for (int f = 0; f < count; ++f) {
+    auto palette =
+        SkinPalette(*character, SampleClip(*character, *clip, f / kGltfWorkloadFps), p.skin);
+    if (!palette.ok()) return palette.status();
+    w.palettes.push_back(std::move(*palette));
   }
   return w;
 }

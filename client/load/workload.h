@@ -1,11 +1,14 @@
-// What a load run sends: a mesh (synthetic, deterministic from a seed) and palettes that
-// change every frame, plus the local Mesh used to check sampled answers.
+// What a load run sends: a mesh (synthetic, deterministic from a seed, or a glTF
+// character's) and palettes that change every frame, plus the local Mesh used to check
+// sampled answers.
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "skinserve/core/mesh.h"
+#include "skinserve/core/status.h"
 
 namespace skinserve::load {
 
@@ -27,5 +30,14 @@ struct Workload {
 
 Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool normals,
                       uint64_t seed);
+
+// Frames of clip time per second in a glTF workload's palettes.
+inline constexpr double kGltfWorkloadFps = 30.0;
+
+// Skinned primitive `primitive` of the glTF file at `path`; palettes sample the file's first
+// clip every 1 / kGltfWorkloadFps s over its duration, so frame f shows time f / 30 s
+// wrapped around the clip. INVALID_ARGUMENT (naming the file) when it does not import, has
+// no such primitive or no clip, or `normals` is asked of a mesh without them.
+Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool normals);
 
 }  // namespace skinserve::load
