@@ -1,0 +1,102 @@
+#!/usr/bin/env bash
+# End to end with real glTF characters: a skinserve server on a free loopback port,
+#   skinserve-cli animate CesiumMan.glb --render   OBJ and PNG per frame and a contact sheet
+#   skinserve-cli animate --clip <unknown>         non-zero exit, the file's clips listed
+#   skinserve-load --mesh RiggedSimple.glb         two backends, answers checked, exit 0
+# The characters come from the shared assets folder, which the product never needs: when it
+# is missing the test is skipped (exit 77) with the reason.
+# usage: animate-e2e-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD ASSETS-DIR
+set -euo pipefail
+
+if [ $# -ne 4 ]; then
+  echo "usage: $0 skinserve skinserve-cli skinserve-load assets-dir" >&2
+  exit 2
+fi
+server=$1 cli=$2 load=$3 assets=$4
+for f in CesiumMan.glb RiggedSimple.glb; do
+  if [ ! -f "$assets/$f" ]; then
+    echo "SKIPPED: $assets/$f is missing (the shared glTF test characters are not here)"
+    exit 77
+  fi
+done
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/skinserve-animate.XXXXXX")
+pid=""
+say() { echo "animate-e2e: $*"; }
+fail() { echo "animate-e2e: FAILED: $*" >&2; exit 1; }
+cleanup() {
+  local rc=$?
+  if [ -n "$pid" ]; then
+    kill -TERM "$pid" 2>/dev/null || true
+    for _ in $(seq 1 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+    kill -KILL "$pid" 2>/dev/null || true
+    wait "$pid" 2>/dev/null || true
+  fi
+  if [ $rc -ne 0 ]; then
+    echo "--- server log, last 15 lines"
+    tail -15 "$work/server.log" 2>/dev/null || true
+  fi
+  rm -rf "$work"
+  exit $rc
+}
+trap cleanup EXIT
+trap 'exit 130' INT TERM
+
+port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+target=127.0.0.1:$port
+"$server" --listen "$target" --log-level warn >"$work/server.log" 2>&1 &
+pid=$!
+"$cli" --target "$target" health --wait 60 >/dev/null || fail "server on $target not SERVING after 60 s"
+
+# ---- animate: 0.5 s at 10 fps is frames 0..4 --------------------------------------------
+out=$work/out
+say "skinserve-cli animate CesiumMan.glb --seconds 0.5 --fps 10 --render"
+timeout 120 "$cli" --target "$target" animate "$assets/CesiumMan.glb" --seconds 0.5 --fps 10 \
+  --backend sse --render --out "$out" || fail "animate exited $?"
+for i in 0 1 2 3 4; do
+  for ext in obj png; do
+    [ -s "$out/frame_000$i.$ext" ] || fail "$out/frame_000$i.$ext missing or empty"
+  done
+done
+[ ! -e "$out/frame_0005.obj" ] || fail "frame_0005.obj written: more frames than 0.5 s at 10 fps"
+[ -s "$out/contact-sheet.png" ] || fail "contact-sheet.png missing"
+# Every vertex of the character (SOURCES.md: 3273), faces, and a pose that moves.
+vertices=$(grep -c '^v ' "$out/frame_0000.obj")
+[ "$vertices" -eq 3273 ] || fail "frame_0000.obj has $vertices vertices, not 3273"
+grep -q '^f ' "$out/frame_0000.obj" || fail "frame_0000.obj has no faces"
+! cmp -s "$out/frame_0000.obj" "$out/frame_0004.obj" || fail "frames 0 and 4 are identical"
+python3 - "$out" <<'PY' || fail "PNG sizes"
+import struct, sys
+def size(path):
+    with open(path, "rb") as f:
+        head = f.read(24)
+    assert head[:8] == b"\x89PNG\r\n\x1a\n", path + ": not a PNG"
+    return struct.unpack(">II", head[16:24])
+out = sys.argv[1]
+assert size(out + "/frame_0000.png") == (640, 640), size(out + "/frame_0000.png")
+w, h = size(out + "/contact-sheet.png")
+assert w == 1024 and h > 0, (w, h)
+PY
+
+# ---- a clip the file does not have -------------------------------------------------------
+say "skinserve-cli animate --clip NoSuchClip"
+if "$cli" --target "$target" animate "$assets/CesiumMan.glb" --clip NoSuchClip --out "$work/bad" \
+  2>"$work/bad.err"; then
+  fail "animate --clip NoSuchClip exited 0"
+fi
+grep -q "Anim_0" "$work/bad.err" || fail "the error does not list the clips: $(cat "$work/bad.err")"
+
+# ---- load client with a glTF workload -----------------------------------------------------
+say "skinserve-load --mesh RiggedSimple.glb --backends serial,sse --duration 1"
+timeout 120 "$load" --target "$target" --mesh "$assets/RiggedSimple.glb" --backends serial,sse \
+  --duration 1 --warmup 0 --check-every 5 --json "$work/load.json" ||
+  fail "skinserve-load exited $?"
+python3 - "$work/load.json" <<'PY' || fail "load report"
+import json, sys
+results = json.load(open(sys.argv[1]))["results"]
+assert [r["backend"] for r in results] == ["serial", "sse"], results
+for r in results:
+    assert r["vertices"] == 960 and r["frames"] > 0 and r["checked"] > 0, r
+    assert r["mismatches"] == 0 and not r["errors"], r
+PY
+say "passed"
