@@ -13,9 +13,7 @@
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/core/character/animation.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/render/bounds.h"
-#include "skinserve/render/camera.h"
+#include "skinserve/render/character_camera.h"
 #include "skinserve/render/contact_sheet.h"
 #include "skinserve/render/mesh_renderer.h"
 #include "skinserve/render/obj_writer.h"
@@ -58,21 +56,6 @@ Status CheckOptions(const AnimateOptions& o) {
   return Status::Ok();
 }
 
-// The camera every frame shares: framing the character's rest pose, skinned here (float64
-// reference) so that the box is in the same space as the server's output.
-Result<render::Camera> RestPoseCamera(const Character& character, const SkinnedPrimitive& primitive,
-                                      int width, int height) {
-  auto palette = SkinPalette(character, RestPose(character), primitive.skin);
-  if (!palette.ok()) return palette.status();
-  auto mesh = Mesh::Create(primitive.arrays);
-  if (!mesh.ok()) return mesh.status();
-  const ReferenceFrame rest = ReferenceSkin(**mesh, *palette);
-  const std::vector<float> positions(rest.positions.begin(), rest.positions.end());
-  auto bounds = render::BoundsOf(positions);
-  if (!bounds.ok()) return bounds.status();
-  return render::Camera::Framing(*bounds, width, height);
-}
-
 std::string FrameLabel(uint64_t frame, double fps) {
   return fmt::format("frame {}  t = {:.3f} s", frame, static_cast<double>(frame) / fps);
 }
@@ -98,7 +81,7 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
   if (auto first = palette_at(0); !first.ok()) return Report(first.status());
   std::optional<render::Camera> camera;
   if (o.render) {
-    auto rest = RestPoseCamera(*character, primitive, o.width, o.height);
+    auto rest = render::RestPoseCamera(*character, primitive, o.width, o.height);
     if (!rest.ok()) return Report(rest.status());
     camera = *rest;
   }

@@ -1,0 +1,69 @@
+// A real character through the renderer: CesiumMan skinned locally (float64 reference) over
+// its whole clip, every frame drawn from the one rest-pose camera. Each image must show the
+// figure standing, inside the frame: a camera that loses limbs mid-clip fails here.
+// Skipped when the shared glTF assets are not on this machine.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+
+#include "png_pixels.h"
+#include "skinserve/core/character/animation.h"
+#include "skinserve/core/character/gltf_import.h"
+#include "skinserve/core/reference.h"
+#include "skinserve/render/character_camera.h"
+#include "skinserve/render/mesh_renderer.h"
+
+namespace skinserve::testing {
+namespace {
+
+TEST(CharacterRenderTest, EveryFrameOfTheClipStandsInsideTheRestPoseCamera) {
+  const std::string path = std::string(SKINSERVE_GLTF_ASSETS) + "/CesiumMan.glb";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " is missing";
+  auto character = LoadGltfFile(path);
+  ASSERT_TRUE(character.ok()) << character.status().ToString();
+  const SkinnedPrimitive& primitive = character->primitives.at(0);
+  const AnimationClip* clip = character->FindClip("");
+  ASSERT_NE(clip, nullptr);
+  auto camera = render::RestPoseCamera(*character, primitive, 240, 320);
+  ASSERT_TRUE(camera.ok()) << camera.status().ToString();
+  auto mesh = Mesh::Create(primitive.arrays);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+
+  render::RenderOptions options;
+  options.background = {1.0f, 1.0f, 1.0f};
+  for (int i = 0; i <= 10; ++i) {
+    const double t = clip->duration * i / 10.0;
+    auto palette = SkinPalette(*character, SampleClip(*character, *clip, t), primitive.skin);
+    ASSERT_TRUE(palette.ok()) << palette.status().ToString();
+    const ReferenceFrame frame = ReferenceSkin(**mesh, *palette);
+    const std::vector<float> positions(frame.positions.begin(), frame.positions.end());
+    const std::string png = ::testing::TempDir() + "cesium-" + std::to_string(i) + ".png";
+    ASSERT_TRUE(render::RenderPng(png, *camera, positions, primitive.indices, options).ok());
+
+    const Pixels p = ReadPng(png);
+    ASSERT_EQ(p.width, 240);
+    ASSERT_EQ(p.height, 320);
+    int min_x = p.width, max_x = -1, min_y = p.height, max_y = -1, covered = 0;
+    for (int y = 0; y < p.height; ++y) {
+      for (int x = 0; x < p.width; ++x) {
+        if (p.at(x, y) == 0xFFFFFFu) continue;
+        ++covered;
+        min_x = std::min(min_x, x), max_x = std::max(max_x, x);
+        min_y = std::min(min_y, y), max_y = std::max(max_y, y);
+      }
+    }
+    SCOPED_TRACE("t = " + std::to_string(t));
+    EXPECT_GT(covered, p.width * p.height / 20) << "almost blank";
+    EXPECT_GT(min_x, 0);
+    EXPECT_GT(min_y, 0);
+    EXPECT_LT(max_x, p.width - 1);
+    EXPECT_LT(max_y, p.height - 1);
+    // Standing: taller than wide, and most of the image's height.
+    EXPECT_GT(max_y - min_y, max_x - min_x);
+    EXPECT_GT(max_y - min_y, p.height / 2);
+  }
+}
+
+}  // namespace
+}  // namespace skinserve::testing
