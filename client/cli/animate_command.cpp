@@ -49,6 +49,9 @@ Status CheckOptions(const AnimateOptions& o) {
       return InvalidArgument(fmt::format("{} {} is not within 16..8192", name, value));
     }
   }
+  if (o.window < 1 || o.window > 1024) {
+    return InvalidArgument(fmt::format("--window {} is not within 1..1024", o.window));
+  }
   if (o.sheet_frames < 1 || o.sheet.columns < 1) {
     return InvalidArgument(fmt::format("--sheet-frames {} and --sheet-columns {} must be >= 1",
                                        o.sheet_frames, o.sheet.columns));
