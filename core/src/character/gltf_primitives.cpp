@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
 #include <limits>
 #include <optional>
 
