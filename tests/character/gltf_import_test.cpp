@@ -313,6 +313,42 @@ TEST(GltfImportTest, NormalizedIntegerRotationKeysConvertPerSpec) {
   }
 }
 
+// Positions and normals interleaved in one bufferView with byteStride 24 read the same as
+// the tightly packed originals; an accessor without a bufferView is zeros (spec), which for
+// normals the engine's validator refuses, named with the primitive.
+TEST(GltfImportTest, InterleavedAttributesAndAccessorWithoutBufferView) {
+  SKIP_WITHOUT_ASSET("RiggedSimple.glb");
+  Glb glb = ParseGlb(ReadBytes(AssetPath("RiggedSimple.glb")));
+  auto original = Load(BuildGlb(glb));
+  ASSERT_TRUE(original.ok()) << original.status().ToString();
+  const MeshArrays& o = original->primitives[0].arrays;
+  std::vector<float> interleaved;
+  for (std::size_t v = 0; v < o.vertex_count; ++v) {
+    for (int c = 0; c < 3; ++c) interleaved.push_back(o.positions[3 * v + c]);
+    for (int c = 0; c < 3; ++c) interleaved.push_back(o.normals[3 * v + c]);
+  }
+  const int view = AppendBufferView(glb, Bytes(interleaved.data(), 4 * interleaved.size()));
+  glb.json["bufferViews"][view]["byteStride"] = 24;
+  json& attributes = glb.json["meshes"][0]["primitives"][0]["attributes"];
+  for (const char* name : {"POSITION", "NORMAL"}) {
+    json& accessor = glb.json["accessors"][attributes[name].get<std::size_t>()];
+    accessor["bufferView"] = view;
+    accessor["byteOffset"] = std::string(name) == "NORMAL" ? 12 : 0;
+  }
+  auto strided = Load(BuildGlb(glb));
+  ASSERT_TRUE(strided.ok()) << strided.status().ToString();
+  EXPECT_EQ(strided->primitives[0].arrays.positions, o.positions);
+  EXPECT_EQ(strided->primitives[0].arrays.normals, o.normals);
+
+  glb.json["accessors"][attributes["NORMAL"].get<std::size_t>()].erase("bufferView");
+  auto zeros = Load(BuildGlb(glb));
+  ASSERT_FALSE(zeros.ok());
+  EXPECT_EQ(zeros.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(zeros.status().message().find("meshes[0].primitives[0]: normals[vertex 0] is the zero"),
+            std::string::npos)
+      << zeros.status().message();
+}
+
 // Weights channels (morph targets) are not skinning: skipped without an error. Two nodes
 // instancing the skinned mesh give two primitives; a primitive without joints is not one.
 TEST(GltfImportTest, WeightsChannelsIgnoredEverySkinnedNodeCounted) {
