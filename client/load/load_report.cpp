@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -142,6 +143,16 @@ Status WriteCsv(const std::string& path, const std::vector<RunResult>& results) 
   return Status::Ok();
 }
 
+std::string SpeedupPlotPath(const std::string& plot_path) {
+  std::string path = plot_path;
+  const auto dot = path.rfind('.');
+  const auto slash = path.rfind('/');
+  const bool has_extension =
+      dot != std::string::npos && (slash == std::string::npos || dot > slash);
+  path.insert(has_extension ? dot : path.size(), "-speedup");
+  return path;
+}
+
 Status WritePlot(const std::string& path, const std::vector<RunResult>& results) {
   if (system("command -v gnuplot >/dev/null 2>&1") != 0) {
     return FailedPrecondition("--plot needs gnuplot (Debian package gnuplot-nox)");
@@ -151,31 +162,49 @@ Status WritePlot(const std::string& path, const std::vector<RunResult>& results)
   if (fd < 0) return Internal("--plot: cannot create a temporary file");
   close(fd);
   std::set<std::pair<uint32_t, uint32_t>> workloads;
-  for (const RunResult& r : results) workloads.insert({r.vertices, r.bones});
-  {
-    std::ofstream data(data_path);
-    for (const RunResult& r : results) {
-      data << fmt::format("\"{} {}k/{}\" {:.3f}\n", r.backend, r.vertices / 1000, r.bones,
-                          r.frames_per_second());
+  std::vector<std::string> backends;  // in the order they ran
+  for (const RunResult& r : results) {
+    workloads.insert({r.vertices, r.bones});
+    if (std::find(backends.begin(), backends.end(), r.backend) == backends.end()) {
+      backends.push_back(r.backend);
     }
   }
+  const auto find = [&](const std::string& backend, uint32_t v, uint32_t b) -> const RunResult* {
+    for (const RunResult& r : results) {
+      if (r.backend == backend && r.vertices == v && r.bones == b) return &r;
+    }
+    return nullptr;
+  };
+  // Throughput bars: one cluster per workload, one bar per backend. A sweep spans two
+  // orders of magnitude of frames/s, hence the log scale there.
+  {
+    std::ofstream data(data_path);
+    data << "workload";
+    for (const std::string& backend : backends) data << " \"" << backend << "\"";
+    data << "\n";
+    for (const auto& [v, b] : workloads) {
+      data << fmt::format("\"{}k/{}\"", v / 1000, b);
+      for (const std::string& backend : backends) {
+        const RunResult* r = find(backend, v, b);
+        data << fmt::format(" {:.3f}", r != nullptr ? r->frames_per_second() : 0.0);
+      }
+      data << "\n";
+    }
+  }
+  const bool sweep = workloads.size() > 1;
   std::string script = fmt::format(
       "set terminal pngcairo size 1200,700 font ',10'\nset output '{}'\n"
-      "set title 'skinserve: frames per second through the service (higher is better)'\n"
-      "set style data histograms\nset style fill solid 0.8 border -1\nset boxwidth 0.8\n"
-      "set xtics rotate by -45\nset ylabel 'frames/s'\nset yrange [0:*]\nset grid ytics\nunset "
-      "key\n"
-      "plot '{}' using 2:xtic(1) linecolor rgb '#3b6ea8'\n",
-      path, data_path);
+      "set title 'skinserve: frames per second through the service, per workload "
+      "(vertices/bones; higher is better)'\n"
+      "set style data histograms\nset style histogram clustered gap 1\n"
+      "set style fill solid 0.85 border -1\nset ylabel 'frames/s{}'\n{}\nset grid ytics\n"
+      "set key outside right top\n"
+      "plot for [i=2:{}] '{}' using i:xtic(1) title columnheader(i)\n",
+      path, sweep ? " (log scale)" : "", sweep ? "set logscale y" : "set yrange [0:*]",
+      backends.size() + 1, data_path);
   std::string heat_data;
-  if (workloads.size() > 1) {
+  if (sweep) {
     // The sweep's heat map: backends x (vertices, bones), colour = speedup over serial.
-    std::vector<std::string> backends;
-    for (const RunResult& r : results) {
-      if (std::find(backends.begin(), backends.end(), r.backend) == backends.end()) {
-        backends.push_back(r.backend);
-      }
-    }
     heat_data = std::string(data_path) + "-heat";
     std::ofstream heat(heat_data);
     std::string xtics, ytics;
@@ -183,12 +212,10 @@ Status WritePlot(const std::string& path, const std::vector<RunResult>& results)
     for (const auto& [v, b] : workloads) {
       xtics += fmt::format("{}\"{}k/{}\" {}", x ? ", " : "", v / 1000, b, x);
       for (std::size_t y = 0; y < backends.size(); ++y) {
-        for (const RunResult& r : results) {
-          if (r.backend == backends[y] && r.vertices == v && r.bones == b) {
-            const double serial = SerialFramesPerSecond(results, r);
-            heat << fmt::format("{} {} {:.3f}\n", x, y,
-                                serial > 0 ? r.frames_per_second() / serial : 0);
-          }
+        if (const RunResult* r = find(backends[y], v, b)) {
+          const double serial = SerialFramesPerSecond(results, *r);
+          heat << fmt::format("{} {} {:.3f}\n", x, y,
+                              serial > 0 ? r->frames_per_second() / serial : 0);
         }
       }
       ++x;
@@ -196,16 +223,14 @@ Status WritePlot(const std::string& path, const std::vector<RunResult>& results)
     for (std::size_t y = 0; y < backends.size(); ++y) {
       ytics += fmt::format("{}\"{}\" {}", y ? ", " : "", backends[y], y);
     }
-    std::string heat_png = path;
-    const auto dot = heat_png.rfind('.');
-    heat_png.insert(dot == std::string::npos ? heat_png.size() : dot, "-speedup");
     script += fmt::format(
-        "set output '{}'\nset title 'speedup over serial through the service (vertices/bones)'\n"
-        "unset style\nset xtics ({}) rotate by -45\nset ytics ({})\nset cblabel 'x serial'\n"
+        "reset\nset terminal pngcairo size 1200,700 font ',10'\nset output '{}'\n"
+        "set title 'speedup over serial through the service (vertices/bones)'\n"
+        "set xtics ({}) rotate by -45\nset ytics ({})\nset cblabel 'x serial'\n"
         "set palette rgbformulae 33,13,10\nset view map\nset xrange [-0.5:{}]\n"
-        "set yrange [-0.5:{}]\nplot '{}' using 1:2:3 with image, '' using 1:2:(sprintf('%.1f',$3)) "
-        "with labels font ',8'\n",
-        heat_png, xtics, ytics, x - 0.5, backends.size() - 0.5, heat_data);
+        "set yrange [-0.5:{}]\nunset key\nplot '{}' using 1:2:3 with image, '' using "
+        "1:2:(sprintf('%.1f',$3)) with labels font ',8'\n",
+        SpeedupPlotPath(path), xtics, ytics, x - 0.5, backends.size() - 0.5, heat_data);
   }
   FILE* gnuplot = popen("gnuplot", "w");
   if (gnuplot == nullptr) return Internal("--plot: cannot run gnuplot");

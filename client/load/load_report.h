@@ -21,5 +21,7 @@ Status WriteCsv(const std::string& path, const std::vector<RunResult>& results);
 // Throughput bars per backend and workload; with a sweep, also a speedup heat map (a
 // second image next to `path`, "-speedup" before the extension). Uses gnuplot.
 Status WritePlot(const std::string& path, const std::vector<RunResult>& results);
+// Where WritePlot puts a sweep's speedup heat map: FILE-speedup.png next to FILE.png.
+std::string SpeedupPlotPath(const std::string& plot_path);
 
 }  // namespace skinserve::load

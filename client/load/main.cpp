@@ -171,6 +171,7 @@ int RunMain(const Options& o) {
       code = 1;
     } else {
       fmt::print("wrote {}\n", path);
+      if (write == &WritePlot && grid.size() > 1) fmt::print("wrote {}\n", SpeedupPlotPath(path));
     }
   }
   return code;
