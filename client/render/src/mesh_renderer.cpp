@@ -10,6 +10,7 @@
 #include <glm/geometric.hpp>
 
 #include "cairo_status.h"
+#include "triangle_arrays.h"
 
 namespace skinserve::render {
 namespace {
@@ -20,29 +21,6 @@ struct Triangle {
   float shade;  // Lambert factor, ambient included
 };
 
-Status CheckArrays(std::span<const float> positions, std::span<const uint32_t> indices) {
-  if (positions.size() % 3 != 0) {
-    return InvalidArgument(
-        fmt::format("positions: {} floats is not 3 per vertex", positions.size()));
-  }
-  if (indices.size() % 3 != 0) {
-    return InvalidArgument(fmt::format("indices: {} is not 3 per triangle", indices.size()));
-  }
-  const uint64_t vertex_count = positions.size() / 3;
-  for (std::size_t i = 0; i < indices.size(); ++i) {
-    if (indices[i] >= vertex_count) {
-      return InvalidArgument(fmt::format("indices[{}] = {} is not below vertex_count {}", i,
-                                         indices[i], vertex_count));
-    }
-  }
-  for (std::size_t i = 0; i < positions.size(); ++i) {
-    if (!std::isfinite(positions[i])) {
-      return InvalidArgument(fmt::format("positions[vertex {}] is not finite", i / 3));
-    }
-  }
-  return Status::Ok();
-}
-
 glm::vec3 Vertex(std::span<const float> positions, uint32_t v) {
   return {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]};
 }
@@ -51,7 +29,7 @@ glm::vec3 Vertex(std::span<const float> positions, uint32_t v) {
 
 Status RenderPng(const std::string& path, const Camera& camera, std::span<const float> positions,
                  std::span<const uint32_t> indices, const RenderOptions& options) {
-  if (Status s = CheckArrays(positions, indices); !s.ok()) return s;
+  if (Status s = CheckTriangleArrays(positions, {}, indices); !s.ok()) return s;
   const std::size_t vertex_count = positions.size() / 3;
   std::vector<Projected> projected(vertex_count);
   for (std::size_t v = 0; v < vertex_count; ++v) {

@@ -7,37 +7,13 @@
 #include <cstring>
 #include <memory>
 
+#include "triangle_arrays.h"
+
 namespace skinserve::render {
-namespace {
-
-Status CheckArrays(std::span<const float> positions, std::span<const float> normals,
-                   std::span<const uint32_t> indices) {
-  if (positions.size() % 3 != 0) {
-    return InvalidArgument(
-        fmt::format("positions: {} floats is not 3 per vertex", positions.size()));
-  }
-  if (!normals.empty() && normals.size() != positions.size()) {
-    return InvalidArgument(
-        fmt::format("normals: {} floats, positions have {}", normals.size(), positions.size()));
-  }
-  if (indices.size() % 3 != 0) {
-    return InvalidArgument(fmt::format("indices: {} is not 3 per triangle", indices.size()));
-  }
-  const uint64_t vertex_count = positions.size() / 3;
-  for (std::size_t i = 0; i < indices.size(); ++i) {
-    if (indices[i] >= vertex_count) {
-      return InvalidArgument(fmt::format("indices[{}] = {} is not below vertex_count {}", i,
-                                         indices[i], vertex_count));
-    }
-  }
-  return Status::Ok();
-}
-
-}  // namespace
 
 Status WriteObj(const std::string& path, std::span<const float> positions,
                 std::span<const float> normals, std::span<const uint32_t> indices) {
-  if (Status s = CheckArrays(positions, normals, indices); !s.ok()) return s;
+  if (Status s = CheckTriangleArrays(positions, normals, indices); !s.ok()) return s;
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "w"), &std::fclose);
   if (!file) return Internal(fmt::format("{}: cannot create: {}", path, std::strerror(errno)));
 
