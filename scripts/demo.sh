@@ -26,15 +26,7 @@ fi
 echo "skinserve on $target; backends:"
 "$build/client/skinserve-cli" --target "$target" backends
 echo
-if [ -x "$build/client/load/skinserve-load" ]; then
-  "$build/client/load/skinserve-load" --target "$target" --backends all --vertices 100000 \
-    --bones 2 --streams 2 --window 4 --duration 3 --warmup 1 --check-every 25 "$@"
-else
-  echo "Streaming 300 frames of 100k vertices x 2 bones (77 joints) per backend:"
-  for backend in serial openmp sse sse-openmp opencl opencl-zerocopy passthrough; do
-    "$build/client/skinserve-cli" --target "$target" stream --vertices 100000 --bones 2 \
-      --backend "$backend" --frames 300 --window 8
-  done
-fi
+"$build/client/load/skinserve-load" --target "$target" --backends all --vertices 100000 \
+  --bones 2 --streams 2 --window 4 --duration 3 --warmup 1 --check-every 25 "$@"
 echo
 "$build/client/skinserve-cli" --target "$target" verify
