@@ -1,5 +1,5 @@
 // Clip sampling and skin palettes against the test's own float64 evaluation of the glTF
-// formulas (gltf_test_support.cpp), on the shared characters and on hand-built ones for
+// formulas (gltf_test_support.cpp), on the repository's test characters and on hand-built ones for
 // the interpolations the assets lack (CUBICSPLINE).
 #include <gtest/gtest.h>
 
@@ -82,7 +82,7 @@ class AssetAnimationTest : public ::testing::TestWithParam<const char*> {};
 // inverse of its inverse bind matrix. Skinned by the float64 reference; tolerance 2e-6 *
 // (1 + max |p|), as the reference allows a float32 palette (CompareWithReference).
 TEST_P(AssetAnimationTest, BindPoseSkinsToRestPositions) {
-  SKIP_WITHOUT_ASSET(GetParam());
+  REQUIRE_ASSET(GetParam());
   auto character = LoadGltfFile(AssetPath(GetParam()));
   ASSERT_TRUE(character.ok()) << character.status().ToString();
   const SkinnedPrimitive& p = character->primitives[0];
@@ -104,7 +104,7 @@ TEST_P(AssetAnimationTest, BindPoseSkinsToRestPositions) {
 }
 
 TEST_P(AssetAnimationTest, SamplingAndPalettesMatchFloat64Spec) {
-  SKIP_WITHOUT_ASSET(GetParam());
+  REQUIRE_ASSET(GetParam());
   const std::vector<uint8_t> bytes = ReadBytes(AssetPath(GetParam()));
   const RefCharacter ref = ReadReference(ParseGlb(bytes));
   auto character = LoadGltfBytes(bytes);

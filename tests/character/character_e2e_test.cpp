@@ -1,5 +1,5 @@
-// End to end: each shared character imported, its primitive uploaded to a real server on
-// loopback, palettes sampled from its clip streamed on every available backend, and the
+// End to end: each test character (tests/assets/gltf) imported, its primitive uploaded to a real
+// server on loopback, palettes sampled from its clip streamed on every available backend, and the
 // server's vertices compared with an independent float64 skinning of the glTF file (the
 // test's own reading, sampling, hierarchy, inverse bind and linear blend).
 #include <gtest/gtest.h>
@@ -39,7 +39,7 @@ double FrameScale(const RefPrimitive& p, const std::vector<double>& palette) {
 class CharacterEndToEndTest : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(CharacterEndToEndTest, ServerSkinsTheClipLikeFloat64Gltf) {
-  SKIP_WITHOUT_ASSET(GetParam());
+  REQUIRE_ASSET(GetParam());
   const std::vector<uint8_t> bytes = ReadBytes(AssetPath(GetParam()));
   const RefCharacter ref = ReadReference(ParseGlb(bytes));
   auto character = LoadGltfBytes(bytes);

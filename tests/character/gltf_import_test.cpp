@@ -1,5 +1,6 @@
-// The glTF importer on the shared test characters and on variants of them edited in memory:
-// figures from SOURCES.md, and every array against an independent reading of the file.
+// The glTF importer on the repository's test characters (tests/assets/gltf) and on variants of them
+// edited in memory: figures from SOURCES.md, and every array against an independent reading of the
+// file.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -37,7 +38,7 @@ class AssetImportTest : public ::testing::TestWithParam<AssetFacts> {};
 
 TEST_P(AssetImportTest, MatchesSourcesMd) {
   const AssetFacts& facts = GetParam();
-  SKIP_WITHOUT_ASSET(facts.file);
+  REQUIRE_ASSET(facts.file);
   auto character = LoadGltfFile(AssetPath(facts.file));
   ASSERT_TRUE(character.ok()) << character.status().ToString();
   ASSERT_EQ(character->primitives.size(), 1u);
@@ -64,7 +65,7 @@ TEST_P(AssetImportTest, MatchesSourcesMd) {
 
 TEST_P(AssetImportTest, ArraysMatchAnIndependentReading) {
   const AssetFacts& facts = GetParam();
-  SKIP_WITHOUT_ASSET(facts.file);
+  REQUIRE_ASSET(facts.file);
   const std::vector<uint8_t> bytes = ReadBytes(AssetPath(facts.file));
   const RefCharacter ref = ReadReference(ParseGlb(bytes));
   auto character = Load(bytes);
@@ -134,7 +135,7 @@ INSTANTIATE_TEST_SUITE_P(Assets, AssetImportTest, ::testing::ValuesIn(kAssets),
 // The same character as .gltf JSON with its buffer in a .bin next to it, and with the
 // buffer inline as a data: URI.
 TEST(GltfImportTest, GltfWithBinFileAndDataUriImportLikeTheGlb) {
-  SKIP_WITHOUT_ASSET("RiggedSimple.glb");
+  REQUIRE_ASSET("RiggedSimple.glb");
   const std::vector<uint8_t> bytes = ReadBytes(AssetPath("RiggedSimple.glb"));
   auto from_glb = Load(bytes);
   ASSERT_TRUE(from_glb.ok()) << from_glb.status().ToString();
@@ -185,7 +186,7 @@ TEST(GltfImportTest, MissingFileNamesThePath) {
 
 // Nodes given as matrices (including a mirror) decompose to the TRS that composes them.
 TEST(GltfImportTest, MatrixNodesDecomposeToTheirTrs) {
-  SKIP_WITHOUT_ASSET("CesiumMan.glb");
+  REQUIRE_ASSET("CesiumMan.glb");
   const std::vector<uint8_t> bytes = ReadBytes(AssetPath("CesiumMan.glb"));
   Glb glb = ParseGlb(bytes);
   const RefCharacter ref = ReadReference(glb);
@@ -230,7 +231,7 @@ std::vector<uint8_t> Bytes(const void* data, std::size_t size) {
 // Quantised weights (UNSIGNED_BYTE and UNSIGNED_SHORT, normalized), UNSIGNED_SHORT joints
 // and a second set of four influences: read per spec and renormalised per vertex.
 TEST(GltfImportTest, QuantisedWeightsShortJointsAndEightInfluences) {
-  SKIP_WITHOUT_ASSET("RiggedSimple.glb");
+  REQUIRE_ASSET("RiggedSimple.glb");
   Glb glb = ParseGlb(ReadBytes(AssetPath("RiggedSimple.glb")));
   const RefCharacter ref = ReadReference(glb);
   const std::size_t v_count = ref.primitive.vertex_count;
@@ -279,7 +280,7 @@ TEST(GltfImportTest, QuantisedWeightsShortJointsAndEightInfluences) {
 // Rotation keys stored as normalized SHORT and BYTE convert per the spec:
 // max(c / 32767, -1) and max(c / 127, -1).
 TEST(GltfImportTest, NormalizedIntegerRotationKeysConvertPerSpec) {
-  SKIP_WITHOUT_ASSET("RiggedSimple.glb");
+  REQUIRE_ASSET("RiggedSimple.glb");
   Glb glb = ParseGlb(ReadBytes(AssetPath("RiggedSimple.glb")));
   json& animation = glb.json["animations"][0];
   std::size_t channel = 0;
@@ -317,7 +318,7 @@ TEST(GltfImportTest, NormalizedIntegerRotationKeysConvertPerSpec) {
 // the tightly packed originals; an accessor without a bufferView is zeros (spec), which for
 // normals the engine's validator refuses, named with the primitive.
 TEST(GltfImportTest, InterleavedAttributesAndAccessorWithoutBufferView) {
-  SKIP_WITHOUT_ASSET("RiggedSimple.glb");
+  REQUIRE_ASSET("RiggedSimple.glb");
   Glb glb = ParseGlb(ReadBytes(AssetPath("RiggedSimple.glb")));
   auto original = Load(BuildGlb(glb));
   ASSERT_TRUE(original.ok()) << original.status().ToString();
@@ -352,7 +353,7 @@ TEST(GltfImportTest, InterleavedAttributesAndAccessorWithoutBufferView) {
 // Weights channels (morph targets) are not skinning: skipped without an error. Two nodes
 // instancing the skinned mesh give two primitives; a primitive without joints is not one.
 TEST(GltfImportTest, WeightsChannelsIgnoredEverySkinnedNodeCounted) {
-  SKIP_WITHOUT_ASSET("RiggedSimple.glb");
+  REQUIRE_ASSET("RiggedSimple.glb");
   Glb glb = ParseGlb(ReadBytes(AssetPath("RiggedSimple.glb")));
   json& animation = glb.json["animations"][0];
   animation["channels"].push_back({{"sampler", 0}, {"target", {{"node", 4}, {"path", "weights"}}}});

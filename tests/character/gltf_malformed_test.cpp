@@ -19,9 +19,7 @@ using nlohmann::json;
 class MalformedGltfTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (!AssetExists("RiggedSimple.glb")) {
-      GTEST_SKIP() << "test asset " << AssetPath("RiggedSimple.glb") << " is missing";
-    }
+    REQUIRE_ASSET("RiggedSimple.glb");
     bytes_ = ReadBytes(AssetPath("RiggedSimple.glb"));
     glb_ = ParseGlb(bytes_);
   }

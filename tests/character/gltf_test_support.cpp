@@ -73,7 +73,7 @@ Mat4 Compose(const double t[3], const double q_in[4], const double s[3]) {
 }
 
 std::string AssetPath(const std::string& file) {
-  return std::string(SKINSERVE_TEST_ASSETS_DIR) + "/gltf/" + file;
+  return std::string(SKINSERVE_TEST_ASSETS_DIR) + "/" + file;
 }
 
 bool AssetExists(const std::string& file) { return std::filesystem::exists(AssetPath(file)); }

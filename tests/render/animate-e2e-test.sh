@@ -3,8 +3,7 @@
 #   skinserve-cli animate CesiumMan.glb --render   OBJ and PNG per frame and a contact sheet
 #   skinserve-cli animate --clip <unknown>         non-zero exit, the file's clips listed
 #   skinserve-load --mesh RiggedSimple.glb         two backends, answers checked, exit 0
-# The characters come from the shared assets folder, which the product never needs: when it
-# is missing the test is skipped (exit 77) with the reason.
+# The characters are the repository's (tests/assets/gltf); a missing one fails the test.
 # usage: animate-e2e-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD ASSETS-DIR
 set -euo pipefail
 
@@ -15,8 +14,8 @@ fi
 server=$1 cli=$2 load=$3 assets=$4
 for f in CesiumMan.glb RiggedSimple.glb; do
   if [ ! -f "$assets/$f" ]; then
-    echo "SKIPPED: $assets/$f is missing (the shared glTF test characters are not here)"
-    exit 77
+    echo "animate-e2e: FAILED: $assets/$f is missing (part of the repository: git checkout it)" >&2
+    exit 1
   fi
 done
 
