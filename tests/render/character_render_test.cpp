@@ -1,6 +1,7 @@
-// A real character through the renderer: CesiumMan skinned locally (float64 reference) over
-// its whole clip, every frame drawn from the one rest-pose camera. Each image must show the
-// figure standing, inside the frame: a camera that loses limbs mid-clip fails here.
+// A real character through the renderer: CesiumMan's whole character (CharacterMeshes)
+// skinned locally (float64 reference, normals included: smooth shading) over its whole
+// clip, every frame drawn from the one camera that frames the clip. Each image must show
+// the figure standing, inside the frame: a camera that loses limbs mid-clip fails here.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 
 #include "png_pixels.h"
 #include "skinserve/core/character/animation.h"
+#include "skinserve/core/character/character_mesh.h"
 #include "skinserve/core/character/gltf_import.h"
 #include "skinserve/core/reference.h"
 #include "skinserve/render/character_camera.h"
@@ -16,30 +18,41 @@
 namespace skinserve::testing {
 namespace {
 
-TEST(CharacterRenderTest, EveryFrameOfTheClipStandsInsideTheRestPoseCamera) {
+TEST(CharacterRenderTest, EveryFrameOfTheClipStandsInsideTheClipCamera) {
   const std::string path = std::string(SKINSERVE_GLTF_ASSETS) + "/CesiumMan.glb";
   ASSERT_TRUE(std::filesystem::exists(path))
       << path << " is missing: it is part of the repository (tests/assets/gltf)";
   auto character = LoadGltfFile(path);
   ASSERT_TRUE(character.ok()) << character.status().ToString();
-  const SkinnedPrimitive& primitive = character->primitives.at(0);
+  auto meshes = CharacterMeshes(*character);
+  ASSERT_TRUE(meshes.ok()) << meshes.status().ToString();
+  ASSERT_EQ(meshes->size(), 1u);
+  const CharacterMesh& whole = meshes->front();
   const AnimationClip* clip = character->FindClip("");
   ASSERT_NE(clip, nullptr);
-  auto camera = render::RestPoseCamera(*character, primitive, 240, 320);
+  const uint64_t frames = 61;  // 2 s at 30 fps
+  const std::vector<Pose> poses = render::ClipPoses(*character, *clip, 30.0, frames);
+  EXPECT_EQ(poses.size(), 32u);
+  auto camera = render::CharacterCamera(*character, *meshes, poses, 240, 320);
   ASSERT_TRUE(camera.ok()) << camera.status().ToString();
-  auto mesh = Mesh::Create(primitive.arrays);
+  auto mesh = Mesh::Create(whole.arrays);
   ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
 
   render::RenderOptions options;
   options.background = {1.0f, 1.0f, 1.0f};
   for (int i = 0; i <= 10; ++i) {
     const double t = clip->duration * i / 10.0;
-    auto palette = SkinPalette(*character, SampleClip(*character, *clip, t), primitive.skin);
+    auto palette = SkinPalette(*character, SampleClip(*character, *clip, t), whole.skin);
     ASSERT_TRUE(palette.ok()) << palette.status().ToString();
     const ReferenceFrame frame = ReferenceSkin(**mesh, *palette);
     const std::vector<float> positions(frame.positions.begin(), frame.positions.end());
+    const std::vector<float> normals(frame.normals.begin(), frame.normals.end());
+    ASSERT_FALSE(normals.empty());
     const std::string png = ::testing::TempDir() + "cesium-" + std::to_string(i) + ".png";
-    ASSERT_TRUE(render::RenderPng(png, *camera, positions, primitive.indices, options).ok());
+    const render::RenderPart part{positions, normals, whole.indices};
+    ASSERT_TRUE(
+        render::RenderPng(png, *camera, std::span<const render::RenderPart>(&part, 1), options)
+            .ok());
 
     const Pixels p = ReadPng(png);
     ASSERT_EQ(p.width, 240);

@@ -1,5 +1,6 @@
-// The camera and the Cairo renderer: images of the right size, not blank, the subject
-// framed inside them, upright, shaded, nearer triangles over farther ones.
+// The camera and the renderer: images of the right size, not blank, the subject framed
+// inside them, upright, shaded (smoothly with normals), nearer surfaces over farther ones
+// pixel by pixel.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -107,7 +108,7 @@ TEST(RendererTest, PngOfTheCameraSizeShadedWithTheSilhouetteInside) {
   EXPECT_LT(max_y, png.height - 1);
   EXPECT_GT(max_y - min_y, png.height / 2);
   // Front, side and top of the box face the light differently: several flat shades (edges
-  // add antialiased blends on top).
+  // add blends of the 2 x 2 samples on top).
   EXPECT_GE(colours.size(), 3u);
   EXPECT_EQ(background, png.at(0, 0));
 }
@@ -139,6 +140,70 @@ TEST(RendererTest, NearerTrianglesCoverFartherOnesWhateverTheirOrder) {
   const uint32_t behind = ReadPng(dir + "back-only.png").at(x, y);
   EXPECT_EQ(a, b);
   EXPECT_NE(a, behind) << "the front quad is not visible over the back one";
+}
+
+// Two triangles with one footprint that cross in depth: A's right half is nearer the
+// camera, B's left half. A painter's sort draws one over the other everywhere; a depth
+// buffer shows B on the left and A on the right, whatever the order they come in. A and B
+// are separate parts: the parts of a frame share one depth buffer.
+TEST(RendererTest, CrossingTrianglesAreOrderedPerPixel) {
+  const std::vector<float> a = {-1, -1, -1, 1, -1, 1, 0, 1, 0};  // z = x
+  const std::vector<float> b = {-1, -1, 1, 1, -1, -1, 0, 1, 0};  // z = -x
+  const std::vector<uint32_t> tri = {0, 1, 2};
+  render::CameraOptions front;  // straight down -z, so that left/right is -x/+x
+  front.azimuth_degrees = 0;
+  front.elevation_degrees = 0;
+  const render::Camera camera = render::Camera::Framing({{-1, -1, -1}, {1, 1, 1}}, 200, 200, front);
+  const render::RenderPart pa{a, {}, tri}, pb{b, {}, tri};
+  const std::string dir = ::testing::TempDir();
+  const std::vector<render::RenderPart> ab = {pa, pb}, ba = {pb, pa}, a_only = {pa}, b_only = {pb};
+  for (const auto& [name, parts] : {std::pair{"ab", &ab}, std::pair{"ba", &ba},
+                                    std::pair{"a", &a_only}, std::pair{"b", &b_only}}) {
+    ASSERT_TRUE(render::RenderPng(dir + "cross-" + name + ".png", camera, *parts).ok()) << name;
+  }
+  const Pixels both = ReadPng(dir + "cross-ab.png"), reversed = ReadPng(dir + "cross-ba.png");
+  const Pixels only_a = ReadPng(dir + "cross-a.png"), only_b = ReadPng(dir + "cross-b.png");
+  EXPECT_EQ(both.rgb, reversed.rgb) << "the image depends on the order of the triangles";
+  // Left and right of the crossing line x = 0, at the height of the footprint's middle.
+  const render::Projected left = camera.Project({-0.3f, -0.5f, 0.3f});
+  const render::Projected right = camera.Project({0.3f, -0.5f, 0.3f});
+  const int ly = static_cast<int>(left.y), lx = static_cast<int>(left.x);
+  const int ry = static_cast<int>(right.y), rx = static_cast<int>(right.x);
+  ASSERT_NE(only_a.at(lx, ly), only_b.at(lx, ly)) << "A and B must be told apart by shade";
+  ASSERT_NE(only_a.at(rx, ry), only_b.at(rx, ry));
+  EXPECT_EQ(both.at(lx, ly), only_b.at(lx, ly)) << "left of the crossing B is nearer";
+  EXPECT_EQ(both.at(rx, ry), only_a.at(rx, ry)) << "right of the crossing A is nearer";
+}
+
+// A flat square whose vertex normals turn from left to right: shaded smoothly (the shade
+// changes pixel by pixel across it) with normals, one flat shade without.
+TEST(RendererTest, VertexNormalsShadeSmoothly) {
+  const std::vector<float> positions = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+  const float s = std::sqrt(0.5f);
+  const std::vector<float> normals = {-s, 0, s, s, 0, s, s, 0, s, -s, 0, s};
+  const std::vector<uint32_t> indices = {0, 1, 2, 0, 2, 3};
+  render::CameraOptions front;
+  front.azimuth_degrees = 0;
+  front.elevation_degrees = 0;
+  const render::Camera camera = render::Camera::Framing({{-1, -1, 0}, {1, 1, 0}}, 120, 120, front);
+  const std::string dir = ::testing::TempDir();
+  const render::RenderPart smooth{positions, normals, indices}, flat{positions, {}, indices};
+  ASSERT_TRUE(render::RenderPng(dir + "smooth.png", camera, std::span(&smooth, 1)).ok());
+  ASSERT_TRUE(render::RenderPng(dir + "flat.png", camera, std::span(&flat, 1)).ok());
+  const Pixels sp = ReadPng(dir + "smooth.png"), fp = ReadPng(dir + "flat.png");
+  // Along the middle row, inside the square (away from its antialiased edges).
+  const int y = sp.height / 2;
+  const int x0 = static_cast<int>(camera.Project({-0.9f, 0, 0}).x);
+  const int x1 = static_cast<int>(camera.Project({0.9f, 0, 0}).x);
+  std::set<uint32_t> smooth_shades, flat_shades;
+  for (int x = x0; x <= x1; ++x) {
+    smooth_shades.insert(sp.at(x, y));
+    flat_shades.insert(fp.at(x, y));
+  }
+  EXPECT_EQ(flat_shades.size(), 1u);
+  EXPECT_GE(smooth_shades.size(), 10u) << "normals turning across the square shade it smoothly";
+  // The light comes from a touch left of the viewer: the left-turned side is brighter.
+  EXPECT_GT(sp.at(x0, y) & 0xFF0000u, sp.at(x1, y) & 0xFF0000u);
 }
 
 TEST(RendererTest, BadInputAndUnwritablePathsAreErrors) {

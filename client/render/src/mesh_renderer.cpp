@@ -10,84 +10,115 @@
 #include <glm/geometric.hpp>
 
 #include "cairo_status.h"
+#include "depth_raster.h"
 #include "triangle_arrays.h"
 
 namespace skinserve::render {
 namespace {
 
-struct Triangle {
-  float depth;  // of its centroid: the painter's sort key
-  uint32_t first_index;
-  float shade;  // Lambert factor, ambient included
-};
+glm::vec3 Vec3(std::span<const float> values, uint32_t v) {
+  return {values[3 * v], values[3 * v + 1], values[3 * v + 2]};
+}
 
-glm::vec3 Vertex(std::span<const float> positions, uint32_t v) {
-  return {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]};
+// Draws one part's triangles into `raster`.
+void DrawPart(const RenderPart& part, const Camera& camera, const RenderOptions& options,
+              const glm::vec3& light, float samples, DepthRaster* raster) {
+  const std::size_t vertex_count = part.positions.size() / 3;
+  std::vector<Projected> projected(vertex_count);
+  for (std::size_t v = 0; v < vertex_count; ++v) {
+    projected[v] = camera.Project(Vec3(part.positions, static_cast<uint32_t>(v)));
+  }
+  const bool smooth = !part.normals.empty();
+  auto shade = [&](const glm::vec3& normal) {
+    const float lambert = std::max(0.0f, glm::dot(normal, light));
+    return glm::min(options.color * (options.ambient + (1.0f - options.ambient) * lambert),
+                    glm::vec3(1.0f));
+  };
+  const auto& indices = part.indices;
+  for (std::size_t i = 0; i < indices.size(); i += 3) {
+    const uint32_t corner[3] = {indices[i], indices[i + 1], indices[i + 2]};
+    if (projected[corner[0]].depth <= 0 || projected[corner[1]].depth <= 0 ||
+        projected[corner[2]].depth <= 0) {
+      continue;
+    }
+    const glm::vec3 pa = Vec3(part.positions, corner[0]);
+    const glm::vec3 face =
+        glm::cross(Vec3(part.positions, corner[1]) - pa, Vec3(part.positions, corner[2]) - pa);
+    const float length = glm::length(face);
+    if (!(length > 0.0f)) continue;
+    // Seen from behind: culled, or lit as its visible side (every normal turned over).
+    const bool from_behind = glm::dot(face, camera.eye() - pa) < 0.0f;
+    if (from_behind && options.cull_back_faces) continue;
+    const float facing = from_behind ? -1.0f : 1.0f;
+    RasterVertex r[3];
+    for (int k = 0; k < 3; ++k) {
+      const Projected& p = projected[corner[k]];
+      r[k].x = p.x * samples;
+      r[k].y = p.y * samples;
+      r[k].depth = p.depth;
+      glm::vec3 n = face / length;
+      if (smooth) {
+        const glm::vec3 vertex_normal = Vec3(part.normals, corner[k]);
+        const float n_length = glm::length(vertex_normal);
+        if (n_length > 0.0f) n = vertex_normal / n_length;
+      }
+      r[k].normal = n * facing;
+    }
+    raster->Triangle(r[0], r[1], r[2], shade);
+  }
 }
 
 }  // namespace
 
-Status RenderPng(const std::string& path, const Camera& camera, std::span<const float> positions,
-                 std::span<const uint32_t> indices, const RenderOptions& options) {
-  if (Status s = CheckTriangleArrays(positions, {}, indices); !s.ok()) return s;
-  const std::size_t vertex_count = positions.size() / 3;
-  std::vector<Projected> projected(vertex_count);
-  for (std::size_t v = 0; v < vertex_count; ++v) {
-    projected[v] = camera.Project(Vertex(positions, static_cast<uint32_t>(v)));
+Status RenderPng(const std::string& path, const Camera& camera, std::span<const RenderPart> parts,
+                 const RenderOptions& options) {
+  for (std::size_t p = 0; p < parts.size(); ++p) {
+    if (Status s = CheckTriangleArrays(parts[p].positions, parts[p].normals, parts[p].indices);
+        !s.ok()) {
+      if (parts.size() == 1) return s;
+      return InvalidArgument(fmt::format("part {}: {}", p, s.message()));
+    }
+  }
+  if (options.samples_per_side < 1 || options.samples_per_side > 4) {
+    return InvalidArgument(
+        fmt::format("samples_per_side = {} is not within 1..4", options.samples_per_side));
+  }
+  SurfacePtr surface;
+  ContextPtr context;
+  if (Status s = CreateCanvas(camera.width(), camera.height(), &surface, &context); !s.ok()) {
+    return s;
   }
   // From the viewer, above and a touch to the left: fixed, since the camera is. With the
   // default camera a box's front, side and top get about 0.7, 0.3 and 0.6 of full light,
   // so the shape reads at a glance.
   const glm::vec3 light =
       glm::normalize(-camera.forward() + 0.5f * camera.up() - 0.1f * camera.right());
+  const int n = options.samples_per_side;
+  DepthRaster raster(camera.width() * n, camera.height() * n, options.background);
+  for (const RenderPart& part : parts) {
+    DrawPart(part, camera, options, light, static_cast<float>(n), &raster);
+  }
 
-  std::vector<Triangle> triangles;
-  triangles.reserve(indices.size() / 3);
-  for (std::size_t i = 0; i < indices.size(); i += 3) {
-    const uint32_t a = indices[i], b = indices[i + 1], c = indices[i + 2];
-    if (projected[a].depth <= 0 || projected[b].depth <= 0 || projected[c].depth <= 0) continue;
-    const glm::vec3 pa = Vertex(positions, a), pb = Vertex(positions, b), pc = Vertex(positions, c);
-    glm::vec3 normal = glm::cross(pb - pa, pc - pa);
-    const float length = glm::length(normal);
-    if (!(length > 0.0f)) continue;
-    normal /= length;
-    if (glm::dot(normal, camera.eye() - pa) < 0.0f) {
-      if (options.cull_back_faces) continue;
-      normal = -normal;  // seen from behind: lit as its visible side
+  // Each pixel is the mean of its samples, written straight into Cairo's ARGB32 surface.
+  cairo_surface_flush(surface.get());
+  unsigned char* data = cairo_image_surface_get_data(surface.get());
+  const int stride = cairo_image_surface_get_stride(surface.get());
+  const float inverse_count = 1.0f / static_cast<float>(n * n);
+  for (int y = 0; y < camera.height(); ++y) {
+    auto* row = reinterpret_cast<uint32_t*>(data + static_cast<std::size_t>(y) * stride);
+    for (int x = 0; x < camera.width(); ++x) {
+      glm::vec3 sum(0.0f);
+      for (int sy = 0; sy < n; ++sy) {
+        for (int sx = 0; sx < n; ++sx) sum += raster.at(x * n + sx, y * n + sy);
+      }
+      const glm::vec3 rgb = glm::clamp(sum * inverse_count, 0.0f, 1.0f) * 255.0f + 0.5f;
+      row[x] = 0xFF000000u | (static_cast<uint32_t>(rgb.r) << 16) |
+               (static_cast<uint32_t>(rgb.g) << 8) | static_cast<uint32_t>(rgb.b);
     }
-    const float lambert = std::max(0.0f, glm::dot(normal, light));
-    triangles.push_back({(projected[a].depth + projected[b].depth + projected[c].depth) / 3.0f,
-                         static_cast<uint32_t>(i),
-                         options.ambient + (1.0f - options.ambient) * lambert});
   }
-  std::sort(triangles.begin(), triangles.end(),
-            [](const Triangle& x, const Triangle& y) { return x.depth > y.depth; });
+  cairo_surface_mark_dirty(surface.get());
 
-  SurfacePtr surface;
-  ContextPtr context;
-  if (Status s = CreateCanvas(camera.width(), camera.height(), &surface, &context); !s.ok()) {
-    return s;
-  }
   cairo_t* cr = context.get();
-  cairo_set_source_rgb(cr, options.background.r, options.background.g, options.background.b);
-  cairo_paint(cr);
-  // Each triangle is stroked in its own colour as well as filled: antialiased edges of
-  // neighbours would otherwise let the background show through as hairline seams.
-  cairo_set_line_width(cr, 0.75);
-  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
-  for (const Triangle& t : triangles) {
-    const Projected& a = projected[indices[t.first_index]];
-    const Projected& b = projected[indices[t.first_index + 1]];
-    const Projected& c = projected[indices[t.first_index + 2]];
-    cairo_move_to(cr, a.x, a.y);
-    cairo_line_to(cr, b.x, b.y);
-    cairo_line_to(cr, c.x, c.y);
-    cairo_close_path(cr);
-    const glm::vec3 rgb = glm::min(options.color * t.shade, glm::vec3(1.0f));
-    cairo_set_source_rgb(cr, rgb.r, rgb.g, rgb.b);
-    cairo_fill_preserve(cr);
-    cairo_stroke(cr);
-  }
   if (!options.label.empty()) {
     cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
     const double size = std::max(10.0, camera.height() / 32.0);
@@ -97,6 +128,12 @@ Status RenderPng(const std::string& path, const Camera& camera, std::span<const 
     cairo_show_text(cr, options.label.c_str());
   }
   return FinishPng(cr, surface.get(), path);
+}
+
+Status RenderPng(const std::string& path, const Camera& camera, std::span<const float> positions,
+                 std::span<const uint32_t> indices, const RenderOptions& options) {
+  const RenderPart part{.positions = positions, .normals = {}, .indices = indices};
+  return RenderPng(path, camera, std::span<const RenderPart>(&part, 1), options);
 }
 
 }  // namespace skinserve::render
