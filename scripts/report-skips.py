@@ -7,6 +7,8 @@ whose cases call GTEST_SKIP() still exits 0 and passes. So both are read back:
   RESULTS/gtest/*.xml  GTEST_OUTPUT=xml:RESULTS/gtest/: every gtest case with result="skipped"
 With --fail (scripts/test.sh passes it when CI=true) any of them is an error: CI expects
 every test to run, and a skip there means the runner lacks something the test needs.
+SKINSERVE_MAY_SKIP (comma-separated ctest names, or "binary: Suite.Case" names as printed)
+lists skips a runner is known and allowed to have; they are printed but do not fail.
 
 usage: report-skips.py RESULTS [--fail]
 """
@@ -57,10 +59,11 @@ def main():
     if not skips:
         print("every test ran: none skipped")
         return 0
+    allowed = {n.strip() for n in os.environ.get("SKINSERVE_MAY_SKIP", "").split(",") if n.strip()}
     print(f"{len(skips)} test(s) did not run:")
     for name, why in skips:
-        print(f"  {name}: {why}")
-    if fail:
+        print(f"  {name}: {why}{' (allowed by SKINSERVE_MAY_SKIP)' if name in allowed else ''}")
+    if fail and any(name not in allowed for name, _ in skips):
         print("error: CI expects every test to run; make the runner provide what the tests "
               "above need (their reasons say what)", file=sys.stderr)
         return 1

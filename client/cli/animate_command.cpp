@@ -1,18 +1,27 @@
 // skinserve-cli animate: a glTF character's clip, skinned by the server frame by frame,
-// written as OBJ meshes and optionally PNG images and a contact sheet.
+// written as OBJ meshes and optionally PNG images and a contact sheet. The whole character:
+// one mesh per skin (its primitives concatenated), one stream per mesh, one OBJ (a group
+// per primitive) and one image per frame.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
+#include <thread>
 
 #include "character_input.h"
 #include "commands.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/core/character/animation.h"
+#include "skinserve/core/character/character_mesh.h"
 #include "skinserve/render/character_camera.h"
 #include "skinserve/render/contact_sheet.h"
 #include "skinserve/render/mesh_renderer.h"
@@ -30,7 +39,7 @@ struct AnimateOptions {
   std::string out;
   bool render = false;
   int width = 640, height = 640;
-  int primitive = 0;
+  int primitive = -1;  // -1: the whole character
   int window = 4;
   int sheet_frames = 8;
   render::SheetOptions sheet;
@@ -63,13 +72,69 @@ std::string FrameLabel(uint64_t frame, double fps) {
   return fmt::format("frame {}  t = {:.3f} s", frame, static_cast<double>(frame) / fps);
 }
 
+// The answers of one frame from every mesh's stream, gathered until the last arrives.
+// Streams run one thread each; a stream that gets ahead of the slowest by more than
+// `lead` frames waits before sending (answers waiting for their frame's other meshes stay
+// bounded), unless the run stops.
+class FrameGather {
+ public:
+  FrameGather(std::size_t meshes, uint64_t lead, const std::atomic<bool>* stop)
+      : answered_(meshes, 0), lead_(lead), stop_(stop) {}
+
+  // Blocks until `frame` may be sent: it is less than `lead` frames ahead of the slowest
+  // mesh's answers (the slowest mesh itself never waits).
+  void WaitToSend(uint64_t frame) {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] {
+      return *stop_ || frame < *std::min_element(answered_.begin(), answered_.end()) + lead_;
+    });
+  }
+
+  // Adds mesh `mesh`'s answer; returns the whole frame once every mesh's answer is in.
+  std::optional<std::vector<client::FrameResult>> Add(std::size_t mesh,
+                                                      client::FrameResult result) {
+    std::lock_guard lock(mutex_);
+    ++answered_[mesh];
+    changed_.notify_all();
+    const uint64_t frame = result.frame;
+    auto& parts = pending_[frame];
+    if (parts.empty()) parts.resize(answered_.size());
+    parts[mesh] = std::move(result);
+    if (++arrived_[frame] < answered_.size()) return std::nullopt;
+    std::vector<client::FrameResult> whole = std::move(pending_[frame]);
+    pending_.erase(frame);
+    arrived_.erase(frame);
+    return whole;
+  }
+
+  // Wakes every waiting sender (after `stop` was set).
+  void Stop() {
+    { std::lock_guard lock(mutex_); }  // a waiter is asleep or has not yet seen `stop`
+    changed_.notify_all();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<uint64_t> answered_;  // per mesh
+  std::map<uint64_t, std::vector<client::FrameResult>> pending_;
+  std::map<uint64_t, std::size_t> arrived_;
+  uint64_t lead_;
+  const std::atomic<bool>* stop_;
+};
+
 int Animate(const CommonOptions& common, const AnimateOptions& o) {
   if (Status s = CheckOptions(o); !s.ok()) return Report(s);
   auto character = ImportCharacter(o.file);
   if (!character.ok()) return Report(character.status());
-  auto picked = PickPrimitive(*character, o.primitive, o.file);
-  if (!picked.ok()) return Report(picked.status());
-  const SkinnedPrimitive& primitive = **picked;
+  if (o.primitive >= 0) {
+    if (auto picked = PickPrimitive(*character, o.primitive, o.file); !picked.ok()) {
+      return Report(picked.status());
+    }
+  }
+  auto built = CharacterMeshes(*character, o.primitive);
+  if (!built.ok()) return Report(built.status());
+  const std::vector<CharacterMesh>& meshes = *built;
   auto clip = PickClip(*character, o.clip, o.file);
   if (!clip.ok()) return Report(clip.status());
 
@@ -78,15 +143,18 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
   const uint64_t frames = std::max<uint64_t>(1, std::llround(seconds * o.fps));
   // Sampled as frames are sent (a long clip of a big skeleton would not fit in memory);
   // frame 0 first, so that a palette error shows before anything is uploaded.
-  auto palette_at = [&](uint64_t i) {
-    return SkinPalette(*character, SampleClip(*character, **clip, i / o.fps), primitive.skin);
+  auto palette_at = [&](uint64_t i, const CharacterMesh& mesh) {
+    return SkinPalette(*character, SampleClip(*character, **clip, i / o.fps), mesh.skin);
   };
-  if (auto first = palette_at(0); !first.ok()) return Report(first.status());
+  for (const CharacterMesh& mesh : meshes) {
+    if (auto first = palette_at(0, mesh); !first.ok()) return Report(first.status());
+  }
   std::optional<render::Camera> camera;
   if (o.render) {
-    auto rest = render::RestPoseCamera(*character, primitive, o.width, o.height);
-    if (!rest.ok()) return Report(rest.status());
-    camera = *rest;
+    const std::vector<Pose> poses = render::ClipPoses(*character, **clip, o.fps, frames);
+    auto framing = render::CharacterCamera(*character, meshes, poses, o.width, o.height);
+    if (!framing.ok()) return Report(framing.status());
+    camera = *framing;
   }
   std::error_code error;
   std::filesystem::create_directories(o.out, error);
@@ -94,65 +162,116 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
     return Report(Internal(fmt::format("--out {}: cannot create: {}", o.out, error.message())));
   }
 
-  client::SkinClient client(client::MakeChannel(common.target));
-  auto info = client.Upload(primitive.arrays);
-  if (!info.ok()) return Report(info.status());
-  fmt::print("{}: {}  {} vertices, {} joints, {} triangles; clip '{}' ({:.3f} s)\n", primitive.name,
-             info->mesh_id(), info->vertex_count(), info->joint_count(),
-             primitive.indices.size() / 3, (*clip)->name, (*clip)->duration);
+  // One client per mesh (each remembers its mesh, to upload it again to a replica that
+  // lacks it), on one channel.
+  auto channel = client::MakeChannel(common.target);
+  std::vector<std::unique_ptr<client::SkinClient>> clients;
+  std::vector<std::string> mesh_ids;
+  for (const CharacterMesh& mesh : meshes) {
+    clients.push_back(std::make_unique<client::SkinClient>(channel));
+    auto info = clients.back()->Upload(mesh.arrays);
+    if (!info.ok()) {
+      return Report(
+          Status(info.status().code(), fmt::format("{}: {}", mesh.name, info.status().message())));
+    }
+    mesh_ids.push_back(info->mesh_id());
+    fmt::print("{}: {}  {} vertices, {} joints, {} triangles, {} primitive(s)\n", mesh.name,
+               info->mesh_id(), info->vertex_count(), info->joint_count(), mesh.indices.size() / 3,
+               mesh.parts.size());
+  }
+  fmt::print("clip '{}' ({:.3f} s)\n", (*clip)->name, (*clip)->duration);
 
-  // Files are written as answers arrive; the first failure (a palette's, a frame's or a
-  // file's) stops sending and is reported. StreamFrames calls the palette source and the
-  // sink on this thread.
+  // Files are written as each frame's last answer arrives; the first failure (a
+  // palette's, a frame's or a file's) stops sending and is reported.
   std::atomic<bool> stop{false};
+  std::mutex error_mutex;
   Status first_error;
-  uint64_t written_obj = 0, written_png = 0;
-  double compute_ms = 0;
+  std::atomic<uint64_t> written_obj{0}, written_png{0};
+  std::atomic<int64_t> compute_ns{0};
+  FrameGather gather(meshes.size(), 2 * static_cast<uint64_t>(o.window), &stop);
   auto fail = [&](Status s) {
-    if (first_error.ok()) first_error = std::move(s);
+    {
+      std::lock_guard lock(error_mutex);
+      if (first_error.ok()) first_error = std::move(s);
+    }
     stop = true;
+    gather.Stop();
   };
-  client::StreamOptions stream{.mesh_id = info->mesh_id(),
-                               .backend = o.backend,
-                               .want_normals = !primitive.arrays.normals.empty(),
-                               .frames = frames,
-                               .window = o.window,
-                               .stop = &stop};
-  client::StreamSummary summary;
+  auto write_frame = [&](std::vector<client::FrameResult>& parts) {
+    const uint64_t frame = parts.front().frame;
+    std::vector<render::ObjMesh> obj;
+    std::vector<render::RenderPart> render_parts;
+    for (std::size_t m = 0; m < meshes.size(); ++m) {
+      render::ObjMesh mesh{.positions = parts[m].positions,
+                           .normals = parts[m].normals,
+                           .indices = meshes[m].indices,
+                           .groups = {}};
+      for (const PrimitiveSpan& part : meshes[m].parts) {
+        mesh.groups.push_back({part.name, part.first_index, part.index_count});
+      }
+      obj.push_back(std::move(mesh));
+      render_parts.push_back({parts[m].positions, parts[m].normals, meshes[m].indices});
+    }
+    Status s = render::WriteObj(render::FrameFileName(o.out, frame, "obj"), obj);
+    if (!s.ok()) return fail(s);
+    ++written_obj;
+    if (!camera) return;
+    // Unlabelled: the frames play as a sequence; the contact sheet labels its cells.
+    s = render::RenderPng(render::FrameFileName(o.out, frame, "png"), *camera, render_parts);
+    if (!s.ok()) return fail(s);
+    ++written_png;
+  };
+
+  std::vector<client::StreamSummary> summaries(meshes.size());
+  std::vector<Status> streamed(meshes.size());
   const auto started = std::chrono::steady_clock::now();
-  Status streamed = client::StreamFrames(
-      client, stream,
-      [&](uint64_t f) {
-        auto palette = palette_at(f);
-        if (palette.ok()) return std::move(*palette);
-        fail(palette.status());  // the server rejects the empty palette; we stop sending
-        return std::vector<float>();
-      },
-      [&](client::FrameResult& result, std::chrono::nanoseconds) {
-        if (!result.status.ok()) {
-          return fail(Status(result.status.code(),
-                             fmt::format("frame {}: {}", result.frame, result.status.message())));
-        }
-        if (!first_error.ok()) return;
-        compute_ms += result.timing.compute_ns() / 1e6;
-        Status s = render::WriteObj(render::FrameFileName(o.out, result.frame, "obj"),
-                                    result.positions, result.normals, primitive.indices);
-        if (!s.ok()) return fail(s);
-        ++written_obj;
-        if (!camera) return;
-        // Unlabelled: the frames play as a sequence; the contact sheet labels its cells.
-        s = render::RenderPng(render::FrameFileName(o.out, result.frame, "png"), *camera,
-                              result.positions, primitive.indices);
-        if (!s.ok()) return fail(s);
-        ++written_png;
-      },
-      &summary);
+  std::vector<std::thread> threads;
+  for (std::size_t m = 0; m < meshes.size(); ++m) {
+    threads.emplace_back([&, m] {
+      client::StreamOptions stream{.mesh_id = mesh_ids[m],
+                                   .backend = o.backend,
+                                   .want_normals = !meshes[m].arrays.normals.empty(),
+                                   .frames = frames,
+                                   .window = o.window,
+                                   .stop = &stop};
+      streamed[m] = client::StreamFrames(
+          *clients[m], stream,
+          [&](uint64_t f) {
+            gather.WaitToSend(f);
+            if (stop) return std::vector<float>();  // never sent: the stream stops first
+            auto palette = palette_at(f, meshes[m]);
+            if (palette.ok()) return std::move(*palette);
+            fail(palette.status());  // the server rejects the empty palette; we stop sending
+            return std::vector<float>();
+          },
+          [&](client::FrameResult& result, std::chrono::nanoseconds) {
+            if (!result.status.ok()) {
+              return fail(
+                  Status(result.status.code(), fmt::format("{}: frame {}: {}", meshes[m].name,
+                                                           result.frame, result.status.message())));
+            }
+            compute_ns += static_cast<int64_t>(result.timing.compute_ns());
+            auto whole = gather.Add(m, std::move(result));
+            if (whole && !stop) write_frame(*whole);
+          },
+          &summaries[m]);
+    });
+  }
+  for (std::thread& t : threads) t.join();
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  if (!streamed.ok()) return Report(streamed);
+  for (std::size_t m = 0; m < meshes.size(); ++m) {
+    if (!streamed[m].ok()) {
+      return Report(
+          Status(streamed[m].code(), fmt::format("{}: {}", meshes[m].name, streamed[m].message())));
+    }
+  }
   if (!first_error.ok()) return Report(first_error);
-  if (summary.answered != frames) {
-    return Report(Internal(fmt::format("{} of {} frames answered", summary.answered, frames)));
+  for (std::size_t m = 0; m < meshes.size(); ++m) {
+    if (summaries[m].answered != frames) {
+      return Report(Internal(fmt::format("{}: {} of {} frames answered", meshes[m].name,
+                                         summaries[m].answered, frames)));
+    }
   }
 
   std::string sheet_note;
@@ -163,14 +282,16 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
     }
     const std::string path = o.out + "/contact-sheet.png";
     if (Status s = render::WriteContactSheet(path, sheet, o.sheet); !s.ok()) return Report(s);
-    sheet_note = fmt::format(", {} PNG frames and {} ({} frames)", written_png, path, sheet.size());
+    sheet_note =
+        fmt::format(", {} PNG frames and {} ({} frames)", written_png.load(), path, sheet.size());
   }
   fmt::print(
-      "{} frames ({:.3f} s at {} fps) on {}: {:.2f} s, {:.1f} frames/s with files written, "
-      "server compute {:.3f} ms/frame\nwrote {} OBJ frames{} in {}\n",
-      frames, static_cast<double>(frames) / o.fps, o.fps,
+      "{} frames ({:.3f} s at {} fps), {} mesh(es) on {}: {:.2f} s, {:.1f} frames/s with files "
+      "written, server compute {:.3f} ms/frame\nwrote {} OBJ frames{} in {}\n",
+      frames, static_cast<double>(frames) / o.fps, o.fps, meshes.size(),
       o.backend.empty() ? "the default backend" : o.backend, elapsed, frames / elapsed,
-      compute_ms / static_cast<double>(frames), written_obj, sheet_note, o.out);
+      static_cast<double>(compute_ns.load()) / 1e6 / static_cast<double>(frames),
+      written_obj.load(), sheet_note, o.out);
   return 0;
 }
 
@@ -193,8 +314,8 @@ void AddAnimateCommand(CLI::App& app, CommonOptions& common) {
                     "also draw each frame as PNG (Cairo, fixed camera) and a contact sheet");
   command->add_option("--width", o->width, "PNG width")->capture_default_str();
   command->add_option("--height", o->height, "PNG height")->capture_default_str();
-  command->add_option("--primitive", o->primitive, "which skinned primitive of the file")
-      ->capture_default_str();
+  command->add_option("--primitive", o->primitive,
+                      "only this skinned primitive (default: every one, the whole character)");
   command->add_option("--window", o->window, "frames in flight")->capture_default_str();
   command
       ->add_option("--sheet-frames", o->sheet_frames, "frames on the contact sheet, evenly spaced")

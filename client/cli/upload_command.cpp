@@ -3,6 +3,7 @@
 #include "character_input.h"
 #include "commands.h"
 #include "skinserve/client/channel.h"
+#include "skinserve/core/character/character_mesh.h"
 
 namespace skinserve::cli {
 namespace {
@@ -13,20 +14,27 @@ void PrintInfo(const std::string& name, const v1::MeshInfo& info) {
              info.joint_count(), info.bytes(), info.already_stored() ? " (already stored)" : "");
 }
 
-// Every skinned primitive of the character, one mesh each.
+// The whole character: one mesh per skin, its primitives concatenated (what `animate`
+// streams), each listed with its primitives.
 int UploadCharacter(client::SkinClient& client, const std::string& path) {
   if (!IsGltfPath(path)) {
     return Report(InvalidArgument(fmt::format("{}: not a .glb or .gltf file", path)));
   }
   auto character = ImportCharacter(path);
   if (!character.ok()) return Report(character.status());
-  for (const SkinnedPrimitive& primitive : character->primitives) {
-    auto info = client.Upload(primitive.arrays);
+  auto meshes = CharacterMeshes(*character);
+  if (!meshes.ok()) return Report(meshes.status());
+  for (const CharacterMesh& mesh : *meshes) {
+    auto info = client.Upload(mesh.arrays);
     if (!info.ok()) {
-      return Report(Status(info.status().code(),
-                           fmt::format("{}: {}", primitive.name, info.status().message())));
+      return Report(
+          Status(info.status().code(), fmt::format("{}: {}", mesh.name, info.status().message())));
     }
-    PrintInfo(primitive.name, *info);
+    PrintInfo(mesh.name, *info);
+    for (const PrimitiveSpan& part : mesh.parts) {
+      fmt::print("  {}: vertices {}..{}, {} triangles\n", part.name, part.first_vertex,
+                 part.first_vertex + part.vertex_count - 1, part.index_count / 3);
+    }
   }
   return 0;
 }
@@ -36,14 +44,14 @@ int UploadCharacter(client::SkinClient& client, const std::string& path) {
 void AddUploadCommand(CLI::App& app, CommonOptions& common) {
   auto* command = app.add_subcommand(
       "upload",
-      "upload a glTF character's skinned meshes (FILE.glb or .gltf), or else a synthetic mesh; "
-      "prints the ids");
+      "upload a glTF character (FILE.glb or .gltf: one mesh per skin, its primitives "
+      "together), or else a synthetic mesh; prints the ids");
   auto mesh = std::make_shared<MeshOptionsCli>();
   mesh->Add(command);
   auto file = std::make_shared<std::string>();
   command->add_option("file", *file,
-                      "glTF 2.0 character: every skinned primitive is uploaded (the synthetic "
-                      "mesh options are then ignored)");
+                      "glTF 2.0 character: every skinned primitive is uploaded, one mesh per skin "
+                      "(the synthetic mesh options are then ignored)");
   command->callback([&common, mesh, file] {
     client::SkinClient client(client::MakeChannel(common.target));
     if (!file->empty()) {

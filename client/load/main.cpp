@@ -23,8 +23,8 @@ struct Options {
   uint32_t vertices = 100'000, bones = 2, joints = 77;
   bool normals = false;
   uint64_t seed = 1;
-  std::string mesh;  // a glTF file instead of the synthetic mesh
-  int primitive = 0;
+  std::string mesh;    // a glTF file instead of the synthetic mesh
+  int primitive = -1;  // --mesh: -1 is the whole character
   std::string sweep;
   bool capacity = false;
   int capacity_max_streams = 64;
@@ -219,8 +219,8 @@ int main(int argc, char** argv) {
                  "a glTF 2.0 character (.glb/.gltf) as the mesh; palettes sample its first clip, "
                  "a new time each frame")
       ->excludes("--vertices", "--bones", "--joints", "--sweep");
-  app.add_option("--primitive", o.primitive, "--mesh: which skinned primitive")
-      ->capture_default_str();
+  app.add_option("--primitive", o.primitive,
+                 "--mesh: only this skinned primitive (default: the whole character)");
   app.add_flag("--capacity", o.capacity,
                "find the most concurrent --rate streams (default 60 fps) held with p99 within "
                "one frame and nothing dropped, on the first --backends entry");

@@ -3,15 +3,21 @@
 #   skinserve-cli animate CesiumMan.glb --render   OBJ and PNG per frame and a contact sheet
 #   skinserve-cli animate --clip <unknown>         non-zero exit, the file's clips listed
 #   skinserve-load --mesh RiggedSimple.glb         two backends, answers checked, exit 0
+#   a hand-made character with two skins (skinserve-test-scene two-skins):
+#     skinserve-cli upload                         one mesh per skin
+#     skinserve-cli animate --render               one OBJ per frame with a group per
+#                                                  primitive, every vertex, one image
+#     skinserve-cli animate --primitive 1          that primitive alone
+#     skinserve-load --mesh                        the whole character, answers checked
 # The characters are the repository's (tests/assets/gltf); a missing one fails the test.
-# usage: animate-e2e-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD ASSETS-DIR
+# usage: animate-e2e-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD ASSETS-DIR TEST-SCENE
 set -euo pipefail
 
-if [ $# -ne 4 ]; then
-  echo "usage: $0 skinserve skinserve-cli skinserve-load assets-dir" >&2
+if [ $# -ne 5 ]; then
+  echo "usage: $0 skinserve skinserve-cli skinserve-load assets-dir skinserve-test-scene" >&2
   exit 2
 fi
-server=$1 cli=$2 load=$3 assets=$4
+server=$1 cli=$2 load=$3 assets=$4 scene=$5
 for f in CesiumMan.glb RiggedSimple.glb; do
   if [ ! -f "$assets/$f" ]; then
     echo "animate-e2e: FAILED: $assets/$f is missing (part of the repository: git checkout it)" >&2
@@ -96,6 +102,44 @@ results = json.load(open(sys.argv[1]))["results"]
 assert [r["backend"] for r in results] == ["serial", "sse"], results
 for r in results:
     assert r["vertices"] == 960 and r["frames"] > 0 and r["checked"] > 0, r
+    assert r["mismatches"] == 0 and not r["errors"], r
+PY
+# ---- a whole character of several skins and primitives ----------------------------------
+two=$work/two-skins.glb
+facts=$("$scene" two-skins "$two") || fail "skinserve-test-scene exited $?"
+say "two-skins.glb: $facts"
+total=${facts%% vertices*}
+names=${facts#*primitives: }
+"$cli" --target "$target" upload "$two" >"$work/upload.txt" || fail "upload exited $?"
+meshes=$(grep -c '^[^ ].*: [0-9a-f]\{64\}' "$work/upload.txt" || true)
+[ "$meshes" -eq 2 ] || fail "upload stored $meshes meshes, not one per skin (2): $(cat "$work/upload.txt")"
+
+say "skinserve-cli animate two-skins.glb --render"
+timeout 120 "$cli" --target "$target" animate "$two" --fps 10 --seconds 0.5 --backend sse \
+  --render --width 160 --height 160 --out "$work/two" || fail "animate exited $?"
+for i in 0 1 2 3 4; do
+  [ -s "$work/two/frame_000$i.obj" ] || fail "two-skins frame_000$i.obj missing or empty"
+  [ -s "$work/two/frame_000$i.png" ] || fail "two-skins frame_000$i.png missing or empty"
+done
+vertices=$(grep -c '^v ' "$work/two/frame_0004.obj")
+[ "$vertices" -eq "$total" ] || fail "frame_0004.obj has $vertices vertices, the character $total"
+groups=$(grep '^g ' "$work/two/frame_0004.obj" | cut -d' ' -f2- | tr '\n' ' ' | sed 's/ $//')
+[ "$groups" = "$names" ] || fail "frame_0004.obj groups '$groups', primitives '$names'"
+
+say "skinserve-cli animate two-skins.glb --primitive 1"
+timeout 60 "$cli" --target "$target" animate "$two" --fps 10 --seconds 0.2 --primitive 1 \
+  --out "$work/one" || fail "animate --primitive 1 exited $?"
+groups=$(grep '^g ' "$work/one/frame_0000.obj" | cut -d' ' -f2-)
+[ "$groups" = "$(echo "$names" | cut -d' ' -f2)" ] || fail "--primitive 1 wrote groups '$groups'"
+
+say "skinserve-load --mesh two-skins.glb"
+timeout 120 "$load" --target "$target" --mesh "$two" --backends sse --duration 1 --warmup 0 \
+  --check-every 3 --json "$work/two-load.json" || fail "skinserve-load --mesh two-skins exited $?"
+python3 - "$work/two-load.json" "$total" <<'PY' || fail "two-skins load report"
+import json, sys
+results = json.load(open(sys.argv[1]))["results"]
+for r in results:
+    assert r["vertices"] == int(sys.argv[2]) and r["frames"] > 0 and r["checked"] > 0, r
     assert r["mismatches"] == 0 and not r["errors"], r
 PY
 say "passed"

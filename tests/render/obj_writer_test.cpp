@@ -5,12 +5,15 @@
 
 #include <fstream>
 #include <sstream>
+#include <string>
 #include <vector>
 
 namespace skinserve::testing {
 namespace {
 
 struct ParsedObj {
+  std::vector<std::string> groups;       // in file order
+  std::vector<std::size_t> group_faces;  // faces under each group
   std::vector<float> positions, normals;
   std::vector<uint32_t> faces;         // 1-based, as in the file
   std::vector<uint32_t> face_normals;  // the index after "//", when present
@@ -29,7 +32,13 @@ ParsedObj Parse(const std::string& path) {
         words >> word;
         (tag == "v" ? obj.positions : obj.normals).push_back(std::stof(word));
       }
+    } else if (tag == "g") {
+      std::string name;
+      std::getline(words >> std::ws, name);
+      obj.groups.push_back(name);
+      obj.group_faces.push_back(0);
     } else if (tag == "f") {
+      if (!obj.group_faces.empty()) ++obj.group_faces.back();
       for (std::string word; words >> word;) {
         const auto slashes = word.find("//");
         obj.faces.push_back(static_cast<uint32_t>(std::stoul(word.substr(0, slashes))));
@@ -67,6 +76,38 @@ TEST(ObjWriterTest, WithoutNormalsFacesNameOnlyVertices) {
   EXPECT_TRUE(obj.normals.empty());
   EXPECT_EQ(obj.faces, (std::vector<uint32_t>{1, 2, 3}));
   EXPECT_TRUE(obj.face_normals.empty());
+}
+
+// A character's frame: two meshes (one per skin), the first with normals and two groups,
+// the second without normals and one group. Faces are renumbered past the meshes before
+// them; normal indices count only the meshes that have normals.
+TEST(ObjWriterTest, MeshesAndGroupsOfAWholeCharacter) {
+  const std::vector<float> p1 = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0};
+  const std::vector<float> n1 = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+  const std::vector<uint32_t> i1 = {0, 1, 2, 1, 3, 2};
+  const std::vector<float> p2 = {5, 0, 0, 6, 0, 0, 5, 1, 0};
+  const std::vector<uint32_t> i2 = {0, 1, 2};
+  const std::vector<render::ObjMesh> meshes = {
+      {.positions = p1,
+       .normals = n1,
+       .indices = i1,
+       .groups = {{"Body/0", 0, 3}, {"Hat/0", 3, 3}}},
+      {.positions = p2, .normals = {}, .indices = i2, .groups = {{"Other/0", 0, 3}}}};
+  const std::string path = ::testing::TempDir() + "obj-groups.obj";
+  ASSERT_TRUE(render::WriteObj(path, meshes).ok());
+  const ParsedObj obj = Parse(path);
+  EXPECT_EQ(obj.groups, (std::vector<std::string>{"Body/0", "Hat/0", "Other/0"}));
+  EXPECT_EQ(obj.group_faces, (std::vector<std::size_t>{1, 1, 1}));
+  EXPECT_EQ(obj.positions.size(), p1.size() + p2.size());
+  EXPECT_EQ(obj.normals, n1);
+  EXPECT_EQ(obj.faces, (std::vector<uint32_t>{1, 2, 3, 2, 4, 3, 5, 6, 7}));
+  EXPECT_EQ(obj.face_normals, (std::vector<uint32_t>{1, 2, 3, 2, 4, 3}));
+
+  std::vector<render::ObjMesh> bad = meshes;
+  bad[1].groups[0].index_count = 6;
+  EXPECT_EQ(render::WriteObj(path, bad).message(),
+            "mesh 1: group 'Other/0': indices [0, +6) are not whole triangles within the 3 "
+            "indices");
 }
 
 TEST(ObjWriterTest, ErrorsNameTheFieldAndTheLimit) {

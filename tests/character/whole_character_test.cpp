@@ -1,0 +1,211 @@
+// Whole characters end to end: hand-made glTF files (test_scenes.h) written by the test,
+// imported, grouped into one mesh per skin (CharacterMeshes), uploaded to a real server on
+// loopback and streamed on every available CPU/OpenCL backend; every primitive's vertices
+// and normals in each answer are compared with a float64 skinning of the scene the file was
+// written from (the test's own glTF formulas, not the importer).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "gltf_test_support.h"
+#include "skinserve/client/frame_stream.h"
+#include "skinserve/core/character/character_mesh.h"
+#include "skinserve/core/character/gltf_import.h"
+#include "test_scenes.h"
+#include "test_server.h"
+
+namespace skinserve::testing {
+namespace {
+
+// As in character_e2e_test.cpp: 1e-5 * (1 + S) with S bounding |M p| (here: the largest
+// |coordinate| of the expected frame plus one, which bounds it for these unit-scale scenes),
+// normals 1e-5.
+constexpr double kPositionTolerance = 1e-5;
+constexpr double kNormalTolerance = 1e-5;
+
+struct Imported {
+  Character character;
+  std::vector<CharacterMesh> meshes;
+};
+
+Imported Import(const Scene& scene) {
+  const std::vector<uint8_t> bytes = WriteGlb(scene);
+  auto character = LoadGltfBytes(bytes);
+  EXPECT_TRUE(character.ok()) << character.status().ToString();
+  if (!character.ok()) return {};
+  auto meshes = CharacterMeshes(*character);
+  EXPECT_TRUE(meshes.ok()) << meshes.status().ToString();
+  if (!meshes.ok()) return {};
+  return {std::move(*character), std::move(*meshes)};
+}
+
+// The file's primitives, in the importer's order, are the scene's (node, primitive) pairs.
+void ExpectPrimitivesAreTheScenes(const Imported& c, const Scene& scene) {
+  const std::vector<ScenePrimitiveRef> expected = SkinnedPrimitives(scene);
+  ASSERT_EQ(c.character.primitives.size(), expected.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(c.character.primitives[i].node, expected[i].node) << i;
+    EXPECT_EQ(c.character.primitives[i].skin, expected[i].skin) << i;
+    EXPECT_EQ(c.character.primitives[i].name, expected[i].name) << i;
+  }
+}
+
+// Streams `times` through every available backend, one stream per mesh; checks every part
+// of every answer against ReferenceFrame. Returns the number of backends run.
+int ExpectServerMatchesReference(const Imported& c, const Scene& scene,
+                                 const std::vector<double>& times) {
+  const std::vector<ScenePrimitiveRef> prims = SkinnedPrimitives(scene);
+  TestServer t;
+  std::vector<std::string> ids;
+  for (const CharacterMesh& mesh : c.meshes) {
+    auto info = t.client->Upload(mesh.arrays);
+    EXPECT_TRUE(info.ok()) << info.status().ToString();
+    if (!info.ok()) return 0;
+    EXPECT_EQ(info->vertex_count(), mesh.arrays.vertex_count);
+    ids.push_back(info->mesh_id());
+  }
+  auto list = t.client->ListBackends();
+  EXPECT_TRUE(list.ok()) << list.status().ToString();
+  if (!list.ok()) return 0;
+  int backends_run = 0;
+  for (const auto& backend : list->backends()) {
+    if (!backend.available() || backend.id() == "passthrough") continue;
+    SCOPED_TRACE(backend.id());
+    ++backends_run;
+    for (std::size_t m = 0; m < c.meshes.size(); ++m) {
+      const CharacterMesh& mesh = c.meshes[m];
+      SCOPED_TRACE(mesh.name);
+      uint64_t answered = 0;
+      Status s = client::StreamFrames(
+          *t.client,
+          {.mesh_id = ids[m],
+           .backend = backend.id(),
+           .want_normals = true,
+           .frames = times.size()},
+          [&](uint64_t frame) {
+            auto palette =
+                SkinPalette(c.character,
+                            SampleClip(c.character, c.character.clips[0], times[frame]), mesh.skin);
+            EXPECT_TRUE(palette.ok()) << palette.status().ToString();
+            return palette.ok() ? *palette : std::vector<float>();
+          },
+          [&](client::FrameResult& r, std::chrono::nanoseconds) {
+            ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+            ++answered;
+            ASSERT_EQ(r.positions.size(), 3u * mesh.arrays.vertex_count);
+            ASSERT_EQ(r.normals.size(), r.positions.size());
+            for (const PrimitiveSpan& part : mesh.parts) {
+              const RefFrame expected = ReferenceFrame(
+                  scene, prims[static_cast<std::size_t>(part.primitive)], times[r.frame]);
+              ASSERT_EQ(expected.positions.size(), 3u * part.vertex_count) << part.name;
+              double scale = 0;
+              for (double x : expected.positions) scale = std::max(scale, std::fabs(x));
+              const double tolerance = kPositionTolerance * (1 + scale);
+              for (std::size_t i = 0; i < expected.positions.size(); ++i) {
+                const std::size_t at = 3 * std::size_t{part.first_vertex} + i;
+                ASSERT_NEAR(r.positions[at], expected.positions[i], tolerance)
+                    << part.name << " vertex " << i / 3 << " t " << times[r.frame];
+                ASSERT_NEAR(r.normals[at], expected.normals[i], kNormalTolerance)
+                    << part.name << " vertex " << i / 3 << " t " << times[r.frame];
+              }
+            }
+          });
+      EXPECT_TRUE(s.ok()) << s.ToString();
+      EXPECT_EQ(answered, times.size());
+    }
+  }
+  return backends_run;
+}
+
+TEST(WholeCharacterTest, SeveralPrimitivesOfOneSkinTravelAsOneMesh) {
+  const Scene scene = SeveralPrimitivesOneSkin();
+  const Imported c = Import(scene);
+  ExpectPrimitivesAreTheScenes(c, scene);
+  // Body's 3 primitives and Hat's 1, on two nodes with one skin: one mesh, four parts.
+  ASSERT_EQ(c.meshes.size(), 1u);
+  const CharacterMesh& mesh = c.meshes[0];
+  EXPECT_EQ(mesh.skin, 0);
+  ASSERT_EQ(mesh.parts.size(), 4u);
+  uint32_t vertices = 0;
+  std::size_t indices = 0;
+  for (std::size_t i = 0; i < mesh.parts.size(); ++i) {
+    const PrimitiveSpan& part = mesh.parts[i];
+    const SkinnedPrimitive& p = c.character.primitives[i];
+    EXPECT_EQ(part.primitive, static_cast<int>(i));
+    EXPECT_EQ(part.first_vertex, vertices);
+    EXPECT_EQ(part.vertex_count, p.arrays.vertex_count);
+    EXPECT_EQ(part.first_index, indices);
+    ASSERT_EQ(part.index_count, p.indices.size());
+    for (std::size_t k = 0; k < p.indices.size(); ++k) {
+      EXPECT_EQ(mesh.indices[part.first_index + k], p.indices[k] + part.first_vertex);
+    }
+    vertices += part.vertex_count;
+    indices += part.index_count;
+  }
+  EXPECT_EQ(mesh.arrays.vertex_count, vertices);
+  EXPECT_EQ(mesh.indices.size(), indices);
+  EXPECT_EQ(mesh.arrays.joint_count, 2u);
+  EXPECT_GE(ExpectServerMatchesReference(c, scene, {0.0, 0.3, 1.0, 1.7, 2.0}), 4);
+}
+
+TEST(WholeCharacterTest, TwoSkinsTravelAsTwoMeshesEachWithItsPalette) {
+  const Scene scene = TwoSkins();
+  const Imported c = Import(scene);
+  ExpectPrimitivesAreTheScenes(c, scene);
+  ASSERT_EQ(c.meshes.size(), 2u);
+  EXPECT_EQ(c.meshes[0].skin, 0);
+  EXPECT_EQ(c.meshes[0].parts.size(), 2u);
+  EXPECT_EQ(c.meshes[1].skin, 1);
+  EXPECT_EQ(c.meshes[1].parts.size(), 1u);
+  EXPECT_EQ(c.meshes[1].parts[0].first_vertex, 0u);
+  EXPECT_GE(ExpectServerMatchesReference(c, scene, {0.0, 0.5, 1.2, 1.5}), 4);
+}
+
+TEST(WholeCharacterTest, AMovingParentCarriesTheSkinnedMeshOnceAndItsOwnTransformIsIgnored) {
+  const Scene scene = MovingParent();
+  const Imported c = Import(scene);
+  ExpectPrimitivesAreTheScenes(c, scene);
+  ASSERT_EQ(c.meshes.size(), 1u);
+  const std::vector<double> times = {0.0, 0.5, 1.0, 1.6, 2.0};
+  EXPECT_GE(ExpectServerMatchesReference(c, scene, times), 4);
+
+  // Only Mover is animated and the clip starts at the rest pose, so each vertex at time t is
+  // its bind position carried by Mover's motion: W(t) * W(0)^-1 * p. No palette, no inverse
+  // bind, no skinning code: if the mesh node's own transform were applied, or Mover's
+  // twice, this fails.
+  const CharacterMesh& mesh = c.meshes[0];
+  for (double t : times) {
+    const Mat4 now = WorldMatrix(scene, 0, t), rest = WorldMatrix(scene, 0, 0.0);
+    auto palette =
+        SkinPalette(c.character, SampleClip(c.character, c.character.clips[0], t), mesh.skin);
+    ASSERT_TRUE(palette.ok()) << palette.status().ToString();
+    for (std::size_t v = 0; v < mesh.arrays.vertex_count; ++v) {
+      const float* p = &mesh.arrays.positions[3 * v];
+      // rest^-1 * p (rest is rigid: transpose of its rotation), then now * that.
+      double local[3];
+      for (int r = 0; r < 3; ++r) {
+        local[r] = 0;
+        for (int k = 0; k < 3; ++k) local[r] += rest[4 * r + k] * (p[k] - rest[12 + k]);
+      }
+      double expected[3];
+      for (int r = 0; r < 3; ++r) {
+        expected[r] = now[12 + r];
+        for (int k = 0; k < 3; ++k) expected[r] += now[4 * k + r] * local[k];
+      }
+      // The float64 skinning of the importer's palette must land there too.
+      const std::size_t b = mesh.arrays.influences;
+      for (int r = 0; r < 3; ++r) {
+        double got = 0;
+        for (std::size_t i = 0; i < b; ++i) {
+          const float* row = &(*palette)[12 * mesh.arrays.joints[v * b + i] + 4 * r];
+          got += mesh.arrays.weights[v * b + i] *
+                 (row[0] * double{p[0]} + row[1] * double{p[1]} + row[2] * double{p[2]} + row[3]);
+        }
+        EXPECT_NEAR(got, expected[r], 1e-5) << "vertex " << v << " t " << t;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace skinserve::testing
