@@ -305,7 +305,7 @@ std::vector<ScenePrimitiveRef> SkinnedPrimitives(const Scene& scene) {
   return out;
 }
 
-RefFrame ReferenceFrame(const Scene& scene, const ScenePrimitiveRef& p, double t) {
+RefFrame SceneFrame(const Scene& scene, const ScenePrimitiveRef& p, double t) {
   RefCharacter ref;
   ref.nodes = RefNodes(scene);
   const SceneSkin& skin = scene.skins[static_cast<std::size_t>(p.skin)];

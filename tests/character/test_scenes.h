@@ -63,7 +63,7 @@ std::vector<ScenePrimitiveRef> SkinnedPrimitives(const Scene& scene);
 
 // Primitive `p` skinned in float64 at time `t` of the clip (the mesh node's own transform
 // plays no part, as glTF requires).
-RefFrame ReferenceFrame(const Scene& scene, const ScenePrimitiveRef& p, double t);
+RefFrame SceneFrame(const Scene& scene, const ScenePrimitiveRef& p, double t);
 
 // The world matrix of node `node` at time `t` (column-major).
 Mat4 WorldMatrix(const Scene& scene, int node, double t);

@@ -51,7 +51,7 @@ void ExpectPrimitivesAreTheScenes(const Imported& c, const Scene& scene) {
 }
 
 // Streams `times` through every available backend, one stream per mesh; checks every part
-// of every answer against ReferenceFrame. Returns the number of backends run.
+// of every answer against SceneFrame. Returns the number of backends run.
 int ExpectServerMatchesReference(const Imported& c, const Scene& scene,
                                  const std::vector<double>& times) {
   const std::vector<ScenePrimitiveRef> prims = SkinnedPrimitives(scene);
@@ -95,7 +95,7 @@ int ExpectServerMatchesReference(const Imported& c, const Scene& scene,
             ASSERT_EQ(r.positions.size(), 3u * mesh.arrays.vertex_count);
             ASSERT_EQ(r.normals.size(), r.positions.size());
             for (const PrimitiveSpan& part : mesh.parts) {
-              const RefFrame expected = ReferenceFrame(
+              const RefFrame expected = SceneFrame(
                   scene, prims[static_cast<std::size_t>(part.primitive)], times[r.frame]);
               ASSERT_EQ(expected.positions.size(), 3u * part.vertex_count) << part.name;
               double scale = 0;

@@ -1,5 +1,6 @@
 // A fixed perspective camera that frames a bounding box: every frame of an animation is
-// drawn with the camera of its rest pose, so motion shows as motion, not as reframing.
+// drawn with one camera (character_camera.h: the box over the whole clip), so motion shows
+// as motion, not as reframing.
 #pragma once
 
 #include <glm/vec3.hpp>
@@ -15,7 +16,7 @@ struct CameraOptions {
   float elevation_degrees = 12.0f;
   float field_of_view_degrees = 30.0f;
   // Space left on every side of the projected box, as a fraction of the image: room for
-  // limbs that leave the rest pose's box during the clip.
+  // poses between the sampled ones that reach past the box.
   float margin = 0.1f;
 };
 
