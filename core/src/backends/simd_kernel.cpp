@@ -49,36 +49,27 @@ struct Blended {
   V v[kVectorsPerJoint];  // the blended matrix's four columns, flat
 };
 
-// Equation 3: sum of w_i * M_{j_i}, the last weight being 1 - the others.
+// Equation 3 with the last weight 1 - the others: M_last + sum over i < B - 1 of
+// w_i (M_i - M_last). The differences go to the adders, which are otherwise idle, and
+// every weight is broadcast straight from memory: the multipliers, the bottleneck, do
+// B - 1 multiply-adds per record vector instead of B.
 template <int B, typename Joint>
 HWY_INLINE Blended Blend(const float* HWY_RESTRICT columns, const Joint* HWY_RESTRICT joints,
                          const float* HWY_RESTRICT weights) {
   const D d;
   Blended m;
-  const float* record = columns + kFloatsPerJoint * joints[0];
-  if constexpr (B == 1) {
-    for (std::size_t k = 0; k < kVectorsPerJoint; ++k) m.v[k] = hn::Load(d, record + k * kLanes);
-    return m;
-  } else {
-    float last = 1.0f - weights[0];
-    V w = hn::Set(d, weights[0]);
-    for (std::size_t k = 0; k < kVectorsPerJoint; ++k) {
-      m.v[k] = hn::Mul(w, hn::Load(d, record + k * kLanes));
+  const float* last = columns + kFloatsPerJoint * joints[B - 1];
+  for (std::size_t k = 0; k < kVectorsPerJoint; ++k) {
+    const V base = hn::Load(d, last + k * kLanes);
+    V sum = base;
+    for (int i = 0; i < B - 1; ++i) {
+      const float* record = columns + kFloatsPerJoint * joints[i];
+      sum =
+          hn::MulAdd(hn::Set(d, weights[i]), hn::Sub(hn::Load(d, record + k * kLanes), base), sum);
     }
-    for (int i = 1; i < B; ++i) {
-      if (i < B - 1) {
-        w = hn::Set(d, weights[i]);
-        last -= weights[i];
-      } else {
-        w = hn::Set(d, last);
-      }
-      record = columns + kFloatsPerJoint * joints[i];
-      for (std::size_t k = 0; k < kVectorsPerJoint; ++k) {
-        m.v[k] = hn::MulAdd(w, hn::Load(d, record + k * kLanes), m.v[k]);
-      }
-    }
-    return m;
+    m.v[k] = sum;
   }
+  return m;
 }
 
 #if HWY_TARGET == HWY_SCALAR
@@ -102,7 +93,7 @@ struct Spread {
   V keep_xyz;  // 1 1 1 0 per 128-bit block
   V unit_w;    // 0 0 0 1 per 128-bit block
   using Indices = decltype(hn::SetTableIndices(D(), static_cast<const int32_t*>(nullptr)));
-  Indices first, second;
+  Indices first;
   Spread() {
     const D d;
     alignas(16) static constexpr float kKeep[4] = {1, 1, 1, 0};
@@ -111,9 +102,7 @@ struct Spread {
     unit_w = hn::LoadDup128(d, kUnit);
     alignas(64) static constexpr int32_t kFirst[16] = {0, 0, 0, 0, 1, 1, 1, 1,
                                                        2, 2, 2, 2, 3, 3, 3, 3};
-    alignas(64) static constexpr int32_t kSecond[8] = {2, 2, 2, 2, 3, 3, 3, 3};
     first = hn::SetTableIndices(d, kFirst);
-    second = hn::SetTableIndices(d, kLanes == 8 ? kSecond : kFirst);
   }
 };
 
@@ -129,14 +118,18 @@ HWY_INLINE V4 TransformQuad(DD d, const hn::Vec<DD>* HWY_RESTRICT m, const Sprea
     const auto xc = Point ? hn::MulAdd(m[0], x, m[3]) : hn::Mul(m[0], x);
     return hn::MulAdd(m[2], z, hn::MulAdd(m[1], y, xc));
   } else {
-    const auto xyz = hn::LoadDup128(d, p);
-    const auto xyzh = Point ? hn::MulAdd(xyz, s.keep_xyz, s.unit_w) : hn::Mul(xyz, s.keep_xyz);
     const hn::Half<DD> dh;
     if constexpr (kN == 8) {
-      const auto product = hn::MulAdd(m[1], hn::TableLookupLanes(xyzh, s.second),
-                                      hn::Mul(m[0], hn::TableLookupLanes(xyzh, s.first)));
+      // (x x x x y y y y) and (z z z z h h h h): broadcasts from memory and two blends,
+      // which leave the multipliers and the shuffle unit alone.
+      const auto first = hn::ConcatUpperLower(d, hn::Set(d, p[1]), hn::Set(d, p[0]));
+      const auto second =
+          hn::ConcatUpperLower(d, hn::Set(d, Point ? 1.0f : 0.0f), hn::Set(d, p[2]));
+      const auto product = hn::MulAdd(m[1], second, hn::Mul(m[0], first));
       return hn::Add(hn::LowerHalf(dh, product), hn::UpperHalf(dh, product));
     } else {
+      const auto xyz = hn::LoadDup128(d, p);
+      const auto xyzh = Point ? hn::MulAdd(xyz, s.keep_xyz, s.unit_w) : hn::Mul(xyz, s.keep_xyz);
       const auto product = hn::Mul(m[0], hn::TableLookupLanes(xyzh, s.first));
       const auto sum8 = hn::Add(hn::LowerHalf(dh, product), hn::UpperHalf(dh, product));
       const hn::Half<hn::Half<DD> > dq;
