@@ -1,5 +1,5 @@
 // The `simd` skinning kernel, written once with Google Highway and compiled for every
-// target the build allows (x86: EMU128, SSE4, AVX2, AVX3; Arm: NEON, SVE...); the
+// target the build allows (x86: SCALAR, SSE4, AVX2, AVX3; Arm: NEON); the
 // baseline stays plain x86-64 and SelectKernel() picks the best target the CPU runs.
 //
 // Per vertex: the blended matrix is B multiply-adds of whole palette records (a joint's
@@ -11,9 +11,11 @@
 // time, four vertices per step, while the chunk is still in L1.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_kernel.cpp"
-// SSSE3 would add compile time and nothing over SSE4 on any CPU we run on.
+// SSSE3 would add compile time and nothing over SSE4 on any CPU we run on. SVE is left
+// out: its vectors are sizeless and cannot live in the kernel's arrays and structs, so Arm
+// runs the NEON target (every arm64 CPU has it).
 #ifndef HWY_DISABLED_TARGETS
-#define HWY_DISABLED_TARGETS HWY_SSSE3
+#define HWY_DISABLED_TARGETS (HWY_SSSE3 | HWY_SVE | HWY_SVE2 | HWY_SVE_256 | HWY_SVE2_128)
 #endif
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 // Order matters: foreach_target.h first, then highway.h.
@@ -46,6 +48,8 @@ using V4 = hn::Vec<D4>;
 #endif
 
 struct Blended {
+  // Declared here so it is compiled for this target (NEON's vectors refuse an implicit one).
+  Blended() {}
   V v[kVectorsPerJoint];  // the blended matrix's four columns, flat
 };
 
