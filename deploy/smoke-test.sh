@@ -159,7 +159,7 @@ podman exec "$name" skinserve-cli --target "127.0.0.1:$port" backends >"$work/ba
 sed 's/^/  /' "$work/backends.txt"
 unavailable=$(awk 'NR > 1 && $2 == "no" { print $1 }' "$work/backends.txt" | tr '\n' ' ')
 [ -z "$unavailable" ] || fail "backends unavailable in the container: $unavailable"
-for id in serial openmp sse sse-openmp opencl opencl-zerocopy passthrough; do
+for id in serial openmp sse sse-openmp simd simd-openmp opencl opencl-zerocopy passthrough; do
   awk -v id="$id" '$1 == id && $2 == "yes" { found = 1 } END { exit !found }' \
     "$work/backends.txt" || fail "backend $id missing or unavailable"
 done
@@ -183,7 +183,8 @@ sed 's/^/  /' "$work/load.out"
 python3 - "$work/load.json" <<'PY' || fail "load report shows problems"
 import json, sys
 results = json.load(open(sys.argv[1]))["results"]
-want = {"serial", "openmp", "sse", "sse-openmp", "opencl", "opencl-zerocopy", "passthrough"}
+want = {"serial", "openmp", "sse", "sse-openmp", "simd", "simd-openmp", "opencl", "opencl-zerocopy",
+        "passthrough"}
 seen = {r["backend"] for r in results}
 bad = [r["backend"] for r in results
        if r["errors"] or r["mismatches"] or not r["checked"] or not r["frames"]]

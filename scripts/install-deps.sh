@@ -30,10 +30,17 @@ DEPLOY_PACKAGES=(
   yamllint podman runc debootstrap
 )
 
-want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}")
+# The `simd` backends: Google Highway (run-time SIMD dispatch).
+SIMD_BUILD_PACKAGES=(libhwy-dev)
+SIMD_RUNTIME_PACKAGES=(libhwy1)
+
+want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}"
+  "${SIMD_BUILD_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}")
 case "${1:-all}" in
-  runtime) want=("${RUNTIME_PACKAGES[@]}") ;;                      # the container's runtime stage
-  build) want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}") ;;  # compile, no test tools
+  runtime) want=("${RUNTIME_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}") ;;  # runtime stage
+  build)  # compile, no test tools
+    want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${SIMD_BUILD_PACKAGES[@]}"
+      "${SIMD_RUNTIME_PACKAGES[@]}") ;;
   all) ;;
   *) echo "usage: $0 [all|build|runtime]" >&2; exit 2 ;;
 esac

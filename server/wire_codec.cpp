@@ -61,6 +61,7 @@ v1::BackendInfo ToWire(const BackendInfo& info) {
   wire.set_unavailable_reason(info.unavailable_reason);
   wire.set_device(info.device);
   wire.set_simd_width(info.simd_width);
+  wire.set_simd_target(info.simd_target);
   wire.set_threads(info.threads);
   return wire;
 }

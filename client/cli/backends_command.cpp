@@ -16,8 +16,9 @@ void AddBackendsCommand(CLI::App& app, CommonOptions& common) {
     }
     fmt::print("{:<16} {:<9} {:>4} {:>7}  {}\n", "id", "available", "simd", "threads", "device");
     for (const auto& b : list->backends()) {
-      fmt::print("{:<16} {:<9} {:>4} {:>7}  {}{}\n", b.id(), b.available() ? "yes" : "no",
+      fmt::print("{:<16} {:<9} {:>4} {:>7}  {}{}{}\n", b.id(), b.available() ? "yes" : "no",
                  b.simd_width(), b.threads(), b.device(),
+                 b.simd_target().empty() ? "" : " [" + b.simd_target() + "]",
                  b.available() ? "" : "  (" + b.unavailable_reason() + ")");
     }
     fmt::print("default: {}\n", list->default_backend());

@@ -155,7 +155,8 @@ TEST(BackendListTest, HasEveryPaperBackendInTheDesignOrder) {
   std::vector<std::string> ids;
   for (const auto& backend : AllBackends()) ids.push_back(backend->info().id);
   const std::vector<std::string> expected = {
-      "serial", "openmp", "sse", "sse-openmp", "opencl", "opencl-zerocopy", "passthrough"};
+      "serial", "openmp",          "sse",        "sse-openmp", "simd", "simd-openmp",
+      "opencl", "opencl-zerocopy", "passthrough"};
   EXPECT_EQ(ids, expected);
 }
 

@@ -74,11 +74,19 @@ void PaperTablesReporter::PrintTables(const std::vector<std::string>& backends) 
     }
     fmt::print("\nMillion vertices per second ({})\n{:>16}", what, "backend \\ V,B");
     const uint32_t v_max = *vertices.rbegin(), b_max = *bones.rbegin();
+    // The memory bound at the largest frame: what the copy bandwidth allows at the bytes
+    // a vertex of the uploaded layout moves (the `simd` stream moves fewer, see README).
+    const double bound_at_max =
+        bandwidth_bytes_per_second_ / BytesPerVertex(b_max, what != "positions");
     for (uint32_t v : vertices) fmt::print(" {:>10}", fmt::format("{}k,{}", v / 1000, b_max));
+    if (bound_at_max > 0) fmt::print(" {:>10}", "% of bound");
     fmt::print("\n");
     for (const std::string& backend : backends) {
       fmt::print("{:>16}", backend);
       for (uint32_t v : vertices) fmt::print(" {:>10.1f}", rate(backend, v, b_max) / 1e6);
+      if (bound_at_max > 0) {
+        fmt::print(" {:>9.0f}%", 100 * rate(backend, v_max, b_max) / bound_at_max);
+      }
       fmt::print("\n");
     }
     if (bandwidth_bytes_per_second_ > 0) {

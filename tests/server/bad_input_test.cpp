@@ -114,8 +114,8 @@ TEST(BadInputTest, BadFramesGetTheirErrorAndTheStreamGoesOn) {
                "upload it again");
   ExpectStatus(t.client->Skin(info->mesh_id(), "warp", good, 0, false, &result),
                StatusCode::kInvalidArgument,
-               "available backends: serial, openmp, sse, sse-openmp, opencl, opencl-zerocopy, "
-               "passthrough");
+               "available backends: serial, openmp, sse, sse-openmp, simd, simd-openmp, opencl, "
+               "opencl-zerocopy, passthrough");
   std::vector<float> short_palette(good.begin(), good.end() - 12);
   ExpectStatus(t.client->Skin(info->mesh_id(), "serial", short_palette, 0, false, &result),
                StatusCode::kInvalidArgument, "expected 12 * joint_count = 924");

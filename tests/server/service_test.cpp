@@ -4,6 +4,7 @@
 
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/core/reference.h"
+#include "skinserve/core/simd_targets.h"
 #include "skinserve/core/synthetic.h"
 #include "test_server.h"
 
@@ -27,8 +28,15 @@ TEST(ServiceTest, HealthBackendsUploadGetDeleteStats) {
   EXPECT_TRUE(client::CheckHealth(t.client->channel(), std::chrono::seconds(5)).ok());
   auto backends = t.client->ListBackends();
   ASSERT_TRUE(backends.ok());
-  EXPECT_EQ(backends->backends_size(), 7);
+  EXPECT_EQ(backends->backends_size(), 9);
   EXPECT_EQ(backends->default_backend(), "sse-openmp");
+  for (const auto& info : backends->backends()) {  // the run-time SIMD target travels
+    if (info.id() == "simd" || info.id() == "simd-openmp") {
+      EXPECT_EQ(info.simd_target(), RunnableSimdTargets().front()) << info.id();
+    } else {
+      EXPECT_EQ(info.simd_target(), "") << info.id();
+    }
+  }
 
   const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 1234, .influences = 3});
   auto first = t.client->Upload(arrays);

@@ -12,6 +12,8 @@ std::unique_ptr<Backend> MakeSerialBackend();
 std::unique_ptr<Backend> MakeOpenMpBackend(int threads);
 std::unique_ptr<Backend> MakeSseBackend();
 std::unique_ptr<Backend> MakeSseOpenMpBackend(int threads);
+// `simd` (threads <= 1) or `simd-openmp`, capped by $SKINSERVE_SIMD_MAX_TARGET when set.
+std::unique_ptr<Backend> MakeSimdBackend(int threads);
 // {opencl, opencl-zerocopy}: one shared context, device, queue and built program. When
 // no OpenCL platform or device is present both are returned unavailable, with the reason.
 std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads);

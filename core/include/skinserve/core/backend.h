@@ -19,6 +19,7 @@ struct BackendInfo {
   std::string unavailable_reason;  // why not, when !available
   std::string device;              // e.g. the CPU model or the OpenCL device name
   int simd_width = 1;              // float lanes one instruction works on (1: scalar)
+  std::string simd_target;         // SIMD target chosen at run time (`simd`), e.g. "AVX2"
   int threads = 1;                 // compute threads one frame occupies
 };
 

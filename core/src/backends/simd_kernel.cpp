@@ -1,0 +1,313 @@
+// The `simd` skinning kernel, written once with Google Highway and compiled for every
+// target the build allows (x86: SCALAR, SSE4, AVX2, AVX3; Arm: NEON); the
+// baseline stays plain x86-64 and SelectKernel() picks the best target the CPU runs.
+//
+// Per vertex: the blended matrix is B multiply-adds of whole palette records (a joint's
+// 16 floats are one 512-bit, two 256-bit or four 128-bit vectors, so every lane works),
+// then (x, y, z, 1) times its four columns, summed to one 128-bit (x', y', z', 0).
+// Results are stored 4 floats at a time at 3-float steps: each store's fourth float is
+// overwritten by the next vertex, and the last vertex of a range goes through a local
+// copy so nothing outside the range is touched. Normals are renormalised a chunk at a
+// time, four vertices per step, while the chunk is still in L1.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "backends/simd_kernel.cpp"
+// SSSE3 would add compile time and nothing over SSE4 on any CPU we run on. SVE is left
+// out: its vectors are sizeless and cannot live in the kernel's arrays and structs, so Arm
+// runs the NEON target (every arm64 CPU has it).
+#ifndef HWY_DISABLED_TARGETS
+#define HWY_DISABLED_TARGETS (HWY_SSSE3 | HWY_SVE | HWY_SVE2 | HWY_SVE_256 | HWY_SVE2_128)
+#endif
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+// Order matters: foreach_target.h first, then highway.h.
+#include <hwy/highway.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "backends/influence_dispatch.h"
+#include "backends/simd_stream.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace skinserve::simd {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+using D = hn::CappedTag<float, kFloatsPerJoint>;  // at most one palette record
+using V = hn::Vec<D>;
+constexpr std::size_t kLanes = hn::MaxLanes(D());
+constexpr std::size_t kVectorsPerJoint = kFloatsPerJoint / kLanes;
+static_assert(kLanes == 1 || (kLanes >= 4 && kFloatsPerJoint % kLanes == 0),
+              "HWY_SCALAR, or 4, 8 or 16 float lanes");
+// HWY_SCALAR (the fallback of x86-64 CPUs without SSE4: GCC 12.2 has no EMU128) has one
+// lane; every other target has 128-bit vectors for one vertex's (x', y', z', 0).
+#if HWY_TARGET != HWY_SCALAR
+using D4 = hn::FixedTag<float, 4>;
+using V4 = hn::Vec<D4>;
+#endif
+
+struct Blended {
+  // Declared here so it is compiled for this target (NEON's vectors refuse an implicit one).
+  Blended() {}
+  V v[kVectorsPerJoint];  // the blended matrix's four columns, flat
+};
+
+// Equation 3 with the last weight 1 - the others: M_last + sum over i < B - 1 of
+// w_i (M_i - M_last). The differences go to the adders, which are otherwise idle, and
+// every weight is broadcast straight from memory: the multipliers, the bottleneck, do
+// B - 1 multiply-adds per record vector instead of B.
+template <int B, typename Joint>
+HWY_INLINE Blended Blend(const float* HWY_RESTRICT columns, const Joint* HWY_RESTRICT joints,
+                         const float* HWY_RESTRICT weights) {
+  const D d;
+  Blended m;
+  const float* last = columns + kFloatsPerJoint * joints[B - 1];
+  for (std::size_t k = 0; k < kVectorsPerJoint; ++k) {
+    const V base = hn::Load(d, last + k * kLanes);
+    V sum = base;
+    for (int i = 0; i < B - 1; ++i) {
+      const float* record = columns + kFloatsPerJoint * joints[i];
+      sum =
+          hn::MulAdd(hn::Set(d, weights[i]), hn::Sub(hn::Load(d, record + k * kLanes), base), sum);
+    }
+    m.v[k] = sum;
+  }
+  return m;
+}
+
+#if HWY_TARGET == HWY_SCALAR
+struct Spread {};
+
+// HWY_SCALAR: one vector per float of the blended matrix.
+template <bool Point>
+HWY_INLINE void Transform(const Blended& m, const Spread&, const float* HWY_RESTRICT p,
+                          float* HWY_RESTRICT out) {
+  float c[kFloatsPerJoint];
+  for (std::size_t k = 0; k < kFloatsPerJoint; ++k) c[k] = hn::GetLane(m.v[k]);
+  for (int r = 0; r < 3; ++r) {
+    out[r] = c[r] * p[0] + c[4 + r] * p[1] + c[8 + r] * p[2] + (Point ? c[12 + r] : 0.0f);
+  }
+  out[3] = 0.0f;
+}
+#else
+// Constants of one range, built once: the lane tables that spread (x, y, z, h) over the
+// column blocks.
+struct Spread {
+  V keep_xyz;  // 1 1 1 0 per 128-bit block
+  V unit_w;    // 0 0 0 1 per 128-bit block
+  using Indices = decltype(hn::SetTableIndices(D(), static_cast<const int32_t*>(nullptr)));
+  Indices first;
+  Spread() {
+    const D d;
+    alignas(16) static constexpr float kKeep[4] = {1, 1, 1, 0};
+    alignas(16) static constexpr float kUnit[4] = {0, 0, 0, 1};
+    keep_xyz = hn::LoadDup128(d, kKeep);
+    unit_w = hn::LoadDup128(d, kUnit);
+    alignas(64) static constexpr int32_t kFirst[16] = {0, 0, 0, 0, 1, 1, 1, 1,
+                                                       2, 2, 2, 2, 3, 3, 3, 3};
+    first = hn::SetTableIndices(d, kFirst);
+  }
+};
+
+// Equation 4: the matrix times (x, y, z, h) with h = 1 for points and 0 for directions.
+// `p` must have 4 readable floats (the fourth is ignored).
+// (Templated on the tag so that only the branch of this target's width is compiled.)
+template <bool Point, class DD>
+HWY_INLINE V4 TransformQuad(DD d, const hn::Vec<DD>* HWY_RESTRICT m, const Spread& s,
+                            const float* HWY_RESTRICT p) {
+  constexpr std::size_t kN = hn::MaxLanes(DD());
+  if constexpr (kN == 4) {
+    const auto x = hn::Set(d, p[0]), y = hn::Set(d, p[1]), z = hn::Set(d, p[2]);
+    const auto xc = Point ? hn::MulAdd(m[0], x, m[3]) : hn::Mul(m[0], x);
+    return hn::MulAdd(m[2], z, hn::MulAdd(m[1], y, xc));
+  } else {
+    const hn::Half<DD> dh;
+    if constexpr (kN == 8) {
+      // (x x x x y y y y) and (z z z z h h h h): broadcasts from memory and two blends,
+      // which leave the multipliers and the shuffle unit alone.
+      const auto first = hn::ConcatUpperLower(d, hn::Set(d, p[1]), hn::Set(d, p[0]));
+      const auto second =
+          hn::ConcatUpperLower(d, hn::Set(d, Point ? 1.0f : 0.0f), hn::Set(d, p[2]));
+      const auto product = hn::MulAdd(m[1], second, hn::Mul(m[0], first));
+      return hn::Add(hn::LowerHalf(dh, product), hn::UpperHalf(dh, product));
+    } else {
+      const auto xyz = hn::LoadDup128(d, p);
+      const auto xyzh = Point ? hn::MulAdd(xyz, s.keep_xyz, s.unit_w) : hn::Mul(xyz, s.keep_xyz);
+      const auto product = hn::Mul(m[0], hn::TableLookupLanes(xyzh, s.first));
+      const auto sum8 = hn::Add(hn::LowerHalf(dh, product), hn::UpperHalf(dh, product));
+      const hn::Half<hn::Half<DD> > dq;
+      return hn::Add(hn::LowerHalf(dq, sum8), hn::UpperHalf(dq, sum8));
+    }
+  }
+}
+
+template <bool Point>
+HWY_INLINE void Transform(const Blended& m, const Spread& s, const float* HWY_RESTRICT p,
+                          float* HWY_RESTRICT out) {
+  hn::StoreU(TransformQuad<Point>(D(), m.v, s, p), D4(), out);
+}
+#endif  // HWY_TARGET == HWY_SCALAR
+
+// One vertex: 4 floats stored at each output (the fourth is scratch, see the top).
+template <int B, bool Normals, typename Joint>
+HWY_INLINE void SkinVertex(const float* HWY_RESTRICT columns, const Spread& s,
+                           const float* HWY_RESTRICT p, const float* HWY_RESTRICT n,
+                           const Joint* HWY_RESTRICT joints, const float* HWY_RESTRICT weights,
+                           float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n) {
+  const Blended m = Blend<B>(columns, joints, weights);
+  Transform<true>(m, s, p, out_p);
+  if constexpr (Normals) Transform<false>(m, s, n, out_n);
+}
+
+// Scales normals [first, last) to unit length: one square root and one division per
+// four vertices (rsqrt's 12 bits would miss the 1e-5 tolerance).
+HWY_INLINE void Renormalise(float* HWY_RESTRICT normals, std::size_t first, std::size_t last) {
+  std::size_t v = first;
+#if HWY_TARGET != HWY_SCALAR
+  const D4 d4;
+  for (; v + 4 <= last; v += 4) {
+    V4 x, y, z;
+    hn::LoadInterleaved3(d4, normals + 3 * v, x, y, z);
+    const V4 length = hn::Sqrt(hn::MulAdd(x, x, hn::MulAdd(y, y, hn::Mul(z, z))));
+    const V4 inverse = hn::Div(hn::Set(d4, 1.0f), length);
+    hn::StoreInterleaved3(hn::Mul(x, inverse), hn::Mul(y, inverse), hn::Mul(z, inverse), d4,
+                          normals + 3 * v);
+  }
+#endif
+  for (; v < last; ++v) {
+    float* n = normals + 3 * v;
+    const float inverse = 1.0f / std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    n[0] *= inverse, n[1] *= inverse, n[2] *= inverse;
+  }
+}
+
+template <int B, bool Normals, typename Joint>
+void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
+                const float* HWY_RESTRICT columns, float* HWY_RESTRICT out_p,
+                float* HWY_RESTRICT out_n, std::size_t first, std::size_t last) {
+  constexpr std::size_t kWeights = B - 1;
+  constexpr std::size_t kChunk = 256;  // vertices whose normals are renormalised at once
+  const Spread s;
+  const float* HWY_RESTRICT positions = stream.positions;
+  const float* HWY_RESTRICT normals = stream.normals;
+  const float* HWY_RESTRICT weights = stream.weights;
+  for (std::size_t chunk = first; chunk < last; chunk += kChunk) {
+    const std::size_t chunk_end = std::min(last, chunk + kChunk);
+    // Every vertex but the range's last stores straight into the outputs.
+    const std::size_t direct_end = std::min(chunk_end, last - 1);
+    for (std::size_t v = chunk; v < direct_end; ++v) {
+      SkinVertex<B, Normals>(columns, s, positions + 3 * v, Normals ? normals + 3 * v : nullptr,
+                             joints + B * v, weights + kWeights * v, out_p + 3 * v,
+                             Normals ? out_n + 3 * v : nullptr);
+    }
+    if (chunk_end == last) {  // the last vertex: local copies in and out
+      const std::size_t v = last - 1;
+      float in_p[4] = {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2], 0};
+      float in_n[4] = {};
+      if constexpr (Normals) std::copy_n(normals + 3 * v, 3, in_n);
+      float res_p[4], res_n[4];
+      SkinVertex<B, Normals>(columns, s, in_p, in_n, joints + B * v, weights + kWeights * v, res_p,
+                             res_n);
+      std::copy_n(res_p, 3, out_p + 3 * v);
+      if constexpr (Normals) std::copy_n(res_n, 3, out_n + 3 * v);
+    }
+    if constexpr (Normals) Renormalise(out_n, chunk, chunk_end);
+  }
+}
+
+void SkinRange(const VertexStream& stream, const float* columns, float* out_p, float* out_n,
+               std::size_t first, std::size_t last) {
+  if (first >= last) return;
+  WithInfluences(stream.influences, [&](auto b) {
+    constexpr int kB = decltype(b)::value;
+    const auto run = [&](const auto* joints) {
+      if (out_n == nullptr) {
+        SkinRangeT<kB, false>(stream, joints, columns, out_p, out_n, first, last);
+      } else {
+        SkinRangeT<kB, true>(stream, joints, columns, out_p, out_n, first, last);
+      }
+    };
+    if (stream.joints8 != nullptr) {
+      run(stream.joints8);
+    } else {
+      run(stream.joints16);
+    }
+  });
+}
+
+Kernel GetKernel() {
+  return Kernel{.skin_range = &SkinRange,
+                .target = hwy::TargetName(HWY_TARGET),
+                .lanes = static_cast<int>(kLanes)};
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace skinserve::simd
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+#include <mutex>
+
+namespace skinserve::simd {
+
+HWY_EXPORT(GetKernel);
+
+namespace {
+
+std::mutex& TargetMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
+// Compiled here and run by this CPU, as a Highway target mask (lower bit: better).
+int64_t RunnableMask() {
+  hwy::SetSupportedTargetsForTest(0);  // the CPU's own answer
+  return hwy::SupportedTargets() & HWY_TARGETS;
+}
+
+std::vector<std::string> Names(int64_t mask) {
+  std::vector<std::string> names;
+  for (int bit = 0; bit < 63; ++bit) {
+    if (mask & (int64_t{1} << bit)) names.emplace_back(hwy::TargetName(int64_t{1} << bit));
+  }
+  return names;
+}
+
+}  // namespace
+
+std::vector<std::string> RunnableTargets() {
+  std::lock_guard<std::mutex> lock(TargetMutex());
+  return Names(RunnableMask());
+}
+
+bool SelectKernel(const std::string& max_target, Kernel* kernel, std::string* error) {
+  std::lock_guard<std::mutex> lock(TargetMutex());
+  const int64_t runnable = RunnableMask();
+  int64_t allowed = runnable;
+  if (!max_target.empty()) {
+    int64_t cap = 0;
+    for (int bit = 0; bit < 63 && cap == 0; ++bit) {
+      const int64_t target = int64_t{1} << bit;
+      if ((runnable & target) && max_target == hwy::TargetName(target)) cap = target;
+    }
+    if (cap == 0) {
+      std::string list;
+      for (const std::string& name : Names(runnable)) list += (list.empty() ? "" : ", ") + name;
+      *error = "SIMD target '" + max_target + "' is not one this build runs here (" + list + ")";
+      return false;
+    }
+    allowed = runnable & ~(cap - 1);  // drop every better target
+  }
+  // Highway dispatches to the best target in SupportedTargets(): narrow it for this one
+  // look-up, then give the process back the CPU's own answer.
+  hwy::SetSupportedTargetsForTest(allowed);
+  hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+  *kernel = HWY_DYNAMIC_DISPATCH(GetKernel)();
+  hwy::SetSupportedTargetsForTest(0);
+  hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+  return true;
+}
+
+}  // namespace skinserve::simd
+#endif  // HWY_ONCE

@@ -1,0 +1,46 @@
+// The leaner vertex stream the `simd` backends read, and the kernel Highway picks for
+// this CPU. Positions and normals are the mesh's own arrays; joint indices shrink to
+// 8 bits when the mesh has at most 256 joints, and of each vertex's B weights only the
+// first B - 1 are stored: the mesh's weights sum to 1, so the kernel derives the last
+// one (no weights at all for B = 1). At B = 4 a vertex streams 40 bytes instead of 48.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace skinserve::simd {
+
+// Palette layout per joint: 16 floats, the four columns (m[0][c], m[1][c], m[2][c], 0),
+// 64-byte aligned, so one joint is one 512-bit, two 256-bit or four 128-bit vectors.
+inline constexpr std::size_t kFloatsPerJoint = 16;
+
+struct VertexStream {
+  uint32_t influences = 0;             // B, 1..8
+  const float* positions = nullptr;    // 3 per vertex
+  const float* normals = nullptr;      // 3 per vertex, or null
+  const uint8_t* joints8 = nullptr;    // B per vertex when joint_count <= 256, else null
+  const uint16_t* joints16 = nullptr;  // B per vertex otherwise
+  const float* weights = nullptr;      // B - 1 per vertex (null for B = 1)
+};
+
+// Skins vertices [first, last): positions always, normals when out_normals is not null
+// (the stream must have normals then). Writes exactly those vertices' outputs.
+using SkinRangeFn = void (*)(const VertexStream& stream, const float* columns, float* out_positions,
+                             float* out_normals, std::size_t first, std::size_t last);
+
+struct Kernel {
+  SkinRangeFn skin_range = nullptr;
+  const char* target = "";  // Highway's name of the target, e.g. "AVX3", "AVX2", "NEON"
+  int lanes = 0;            // float lanes per vector the kernel uses
+};
+
+// Targets compiled into this binary that this CPU runs, best first (Highway's names).
+std::vector<std::string> RunnableTargets();
+
+// The kernel of the best runnable target no better than `max_target` (empty: the best).
+// False, with `error` naming the runnable targets, when `max_target` is not one of them.
+bool SelectKernel(const std::string& max_target, Kernel* kernel, std::string* error);
+
+}  // namespace skinserve::simd
