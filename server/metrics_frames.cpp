@@ -56,9 +56,9 @@ std::map<std::string, BackendFrameMetrics> FrameMetrics::Snapshot() const {
   return backends_;
 }
 
-void FrameRecord::Begin(std::string backend) {
-  if (FrameMetrics::Installed() == nullptr) return;
-  backend_ = std::move(backend);
+void FrameRecord::Begin(const std::string& backend) {
+  if (FrameMetrics::Installed() == nullptr) return;  // metrics off: no copy, no clock
+  backend_ = backend;
   started_ = std::chrono::steady_clock::now();
   open_ = true;
 }

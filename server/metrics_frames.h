@@ -72,7 +72,7 @@ class FrameMetrics {
 // outcome. Cheap when no FrameMetrics is installed.
 class FrameRecord {
  public:
-  void Begin(std::string backend);
+  void Begin(const std::string& backend);
   void EndAnswered(const FrameTiming& timing, int64_t encode_ns);
   void EndFailed(StatusCode code);
 
