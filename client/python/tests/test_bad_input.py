@@ -59,3 +59,8 @@ def test_palette_joint_count_of_a_known_mesh(server, rng):
         mesh_id = client.upload(*random_mesh(rng, 50, 2, 10))
         with pytest.raises(ValueError, match="palette: 9 matrices, the mesh has 10 joints"):
             client.skin(mesh_id, random_palette(rng, 9))
+
+
+def test_joint_count_below_the_ids_used(offline, mesh):
+    with pytest.raises(ValueError, match="joint_count: 5, expected an int >= 10"):
+        offline.upload(**mesh, joint_count=5)

@@ -104,3 +104,12 @@ def test_server_errors_carry_code_and_message(client, rng):
         client.upload(positions, joints, weights)
     assert e.value.code == grpc.StatusCode.INVALID_ARGUMENT and "3" in e.value.message
     assert client.upload(positions, joints, weights, normalize_weights=True)
+
+
+def test_joint_count_beyond_the_ids_used(client, rng):
+    # A skin whose palette has joints no vertex uses (common in glTF files).
+    mesh = random_mesh(rng, 300, 2, JOINTS)
+    mesh_id = client.upload(*mesh, joint_count=JOINTS + 5)
+    palette = random_palette(rng, JOINTS + 5)
+    want, _ = skin(*mesh, palette)
+    assert max_error(client.skin(mesh_id, palette, backend="sse"), want) <= POSITION_TOLERANCE

@@ -95,16 +95,24 @@ class Client:
         self.close()
 
     # ---- meshes -----------------------------------------------------------------------
-    def upload(self, positions, joints, weights, normals=None, normalize_weights=False):
+    def upload(self, positions, joints, weights, normals=None, normalize_weights=False,
+               joint_count=None):
         """Stores a mesh and returns its id (the SHA-256 of its content).
 
         positions, normals: float32 (V, 3); joints: uint16 (V, B); weights: float32 (V, B),
         1 <= B <= 8. Weights must sum to 1 per vertex unless normalize_weights is set.
+        joint_count: the palettes' length (default: the largest joint id + 1).
         """
         _arrays.check_mesh(positions, joints, weights, normals)
+        used = int(joints.max()) + 1
+        if joint_count is None:
+            joint_count = used
+        elif not isinstance(joint_count, int) or joint_count < used:
+            raise ValueError(f"joint_count: {joint_count!r}, expected an int >= {used} "
+                             f"(joints refers to joint {used - 1})")
         header = pb.MeshHeader(
             vertex_count=positions.shape[0], influences=joints.shape[1],
-            joint_count=int(joints.max()) + 1, has_normals=normals is not None,
+            joint_count=joint_count, has_normals=normals is not None,
             weight_policy=(pb.WEIGHT_POLICY_NORMALIZE if normalize_weights
                            else pb.WEIGHT_POLICY_REJECT))
         requests = [pb.UploadMeshRequest(header=header)]
