@@ -29,6 +29,12 @@ TEST_PACKAGES=(
 DEPLOY_PACKAGES=(
   yamllint podman runc debootstrap
 )
+# Operations (issue 15): the metrics endpoint's HTTP server (cpp-httplib); promtool
+# (prometheus) and curl to check the exposition; the Python client's venv, pip install and
+# pytest (Debian's grpcio and numpy are its runtime).
+BUILD_PACKAGES+=(libcpp-httplib-dev)
+RUNTIME_PACKAGES+=(libcpp-httplib0.11)
+TEST_PACKAGES+=(prometheus curl python3-venv python3-pip python3-setuptools python3-pytest)
 
 # The `simd` backends: Google Highway (run-time SIMD dispatch).
 SIMD_BUILD_PACKAGES=(libhwy-dev)

@@ -8,6 +8,7 @@ namespace skinserve::server {
 
 Status FrameJob::Prepare(const v1::SkinRequest& request, const Engine& engine,
                          const std::string& default_backend, SkinRequest* engine_request) {
+  record_.Begin(request.backend().empty() ? default_backend : request.backend());
   frame_ = request.frame();
   auto mesh = engine.GetMesh(request.mesh_id());
   if (!mesh.ok()) return mesh.status();
@@ -32,6 +33,7 @@ void FrameJob::Complete(Status status, FrameTiming timing) {
   status_ = std::move(status);
   timing_ = timing;
   done_ = true;
+  if (!status_.ok()) record_.EndFailed(status_.code());
 }
 
 bool FrameJob::NextPart(v1::SkinResponse* part) {
@@ -64,6 +66,7 @@ bool FrameJob::NextPart(v1::SkinResponse* part) {
   encode_ns_ += std::chrono::duration_cast<std::chrono::nanoseconds>(
                     std::chrono::steady_clock::now() - started)
                     .count();
+  if (finished_) record_.EndAnswered(timing_, encode_ns_);
   v1::ServerTiming* timing = part->mutable_timing();
   timing->set_queued_ns(timing_.queued_ns);
   timing->set_compute_ns(timing_.compute_ns);

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "metrics_frames.h"
 #include "skinserve/core/engine.h"
 #include "skinserve/v1/skinning.pb.h"
 
@@ -41,6 +42,7 @@ class FrameJob {
   uint32_t next_vertex_ = 0;
   bool finished_ = false;
   int64_t encode_ns_ = 0;
+  FrameRecord record_;  // for the metrics
 };
 
 }  // namespace skinserve::server

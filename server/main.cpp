@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   ServerOptions options;
   CLI::App app{"skinserve: remote linear blend skinning over gRPC (skinserve.v1.Skinning)"};
   AddServerOptions(app, options);
+  app.set_version_flag("--version", "skinserve " SKINSERVE_VERSION);
   CLI11_PARSE(app, argc, argv);
 
   if (pipe(signal_pipe) != 0) {

@@ -63,6 +63,38 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_DRAIN_SECONDS")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--log-format", o.log_format,
+                 "text, or json: one JSON object per line (time, level, thread, message) for "
+                 "log pipelines")
+      ->envname("SKINSERVE_LOG_FORMAT")
+      ->check(CLI::IsMember({"text", "json"}))
+      ->capture_default_str();
+  app.add_option("--metrics-listen", o.metrics_listen,
+                 "address:port to serve Prometheus metrics on (GET /metrics); empty: off")
+      ->envname("SKINSERVE_METRICS_LISTEN");
+  app.add_option("--keepalive-seconds", o.keepalive_seconds,
+                 "ping an idle connection after this long, to find peers that are gone")
+      ->envname("SKINSERVE_KEEPALIVE_SECONDS")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--keepalive-timeout-seconds", o.keepalive_timeout_seconds,
+                 "close a connection whose ping is not answered within this long")
+      ->envname("SKINSERVE_KEEPALIVE_TIMEOUT_SECONDS")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-connection-age-seconds", o.max_connection_age_seconds,
+                 "ask clients to reconnect (GOAWAY) after this long (+-10% jitter), so they "
+                 "re-resolve and spread onto new replicas; 0: never")
+      ->envname("SKINSERVE_MAX_CONNECTION_AGE_SECONDS")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--max-connection-age-grace-seconds", o.max_connection_age_grace_seconds,
+                 "after the GOAWAY, how long calls in flight may finish before the connection "
+                 "is closed (longer than a frame; a longer stream ends UNAVAILABLE and the "
+                 "client library resumes it elsewhere)")
+      ->envname("SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
 }
 
 }  // namespace skinserve::server

@@ -22,6 +22,15 @@ struct ServerOptions {
   int stream_window = 16;
   std::string log_level = "info";
   double drain_seconds = 10;
+  std::string log_format = "text";  // text or json (one JSON object per line)
+  std::string metrics_listen;       // empty: no metrics endpoint
+  // Connection hygiene (see README, "Connections"): keepalive pings find dead peers; a
+  // maximum connection age makes clients reconnect, and so re-resolve, so that replicas
+  // added by a scale-up get their share; the grace lets the frames in flight finish.
+  double keepalive_seconds = 30;
+  double keepalive_timeout_seconds = 10;
+  double max_connection_age_seconds = 300;  // 0: connections never age out
+  double max_connection_age_grace_seconds = 30;
 
   EngineOptions ToEngineOptions() const;
 };

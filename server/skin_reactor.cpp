@@ -17,6 +17,7 @@ SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
     if (!status.ok()) refs_.fetch_sub(1);  // refused: the engine will not call back
   }
   if (!status.ok()) {
+    job_.Complete(status, {});  // the frame's verdict (for the metrics)
     std::lock_guard lock(mutex_);
     FinishLocked(ToGrpc(status));
   }

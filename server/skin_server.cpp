@@ -7,16 +7,30 @@
 
 #include <algorithm>
 
+#include "log_format.h"
+#include "metrics_frames.h"
+#include "metrics_text.h"
+
 namespace skinserve::server {
 
 Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& options) {
   spdlog::set_level(spdlog::level::from_str(options.log_level));
+  SetLogFormat(options.log_format);
   std::unique_ptr<SkinServer> server(new SkinServer());
   server->service_ =
       std::make_unique<SkinningService>(options.default_backend, options.stream_window);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  auto ms = [](double seconds) { return static_cast<int>(std::min(seconds * 1000, 2.0e9)); };
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, ms(options.keepalive_seconds));
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, ms(options.keepalive_timeout_seconds));
+  if (options.max_connection_age_seconds > 0) {
+    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS,
+                               ms(options.max_connection_age_seconds));
+    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS,
+                               ms(options.max_connection_age_grace_seconds));
+  }
   builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
   builder.RegisterService(server->service_.get());
   server->server_ = builder.BuildAndStart();
@@ -26,6 +40,15 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   grpc::HealthCheckServiceInterface* health = server->server_->GetHealthCheckService();
   health->SetServingStatus(false);
   spdlog::info("listening on {} (port {}); building backends", options.listen, server->port_);
+  if (!options.metrics_listen.empty()) {
+    FrameMetrics::Enable();
+    auto metrics = MetricsServer::Start(options.metrics_listen,
+                                        [s = server.get()] { return s->RenderMetrics(); });
+    if (!metrics.ok()) return metrics.status();
+    server->metrics_ = std::move(metrics).value();
+    spdlog::info("metrics on http://{}/metrics (port {})", options.metrics_listen,
+                 server->metrics_->port());
+  }
 
   auto engine = Engine::Create(options.ToEngineOptions());
   if (!engine.ok()) return engine.status();
@@ -46,7 +69,14 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
     }
   }
   server->service_->SetEngine(server->engine_.get());
+  if (FrameMetrics* frames = FrameMetrics::Installed()) {
+    std::vector<std::string> ids;
+    for (const BackendInfo& b : backends) ids.push_back(b.id);
+    frames->SetBackends(ids);
+  }
+  server->ready_engine_.store(server->engine_.get());
   health->SetServingStatus(true);
+  server->serving_.store(true);
   spdlog::info("serving");
   return server;
 }
@@ -55,6 +85,7 @@ SkinServer::~SkinServer() { Shutdown(std::chrono::milliseconds(0)); }
 
 void SkinServer::Shutdown(std::chrono::milliseconds grace) {
   std::call_once(shutdown_once_, [&] {
+    serving_.store(false);
     if (server_) {
       server_->GetHealthCheckService()->SetServingStatus(false);
       service_->Drain();  // streams end UNAVAILABLE once their frames are answered
@@ -63,8 +94,19 @@ void SkinServer::Shutdown(std::chrono::milliseconds grace) {
     }
     if (engine_) engine_->Shutdown();  // the frames still queued finish; nobody waits
     if (server_) server_->Wait();
+    if (metrics_) metrics_->Stop();  // scrapes are answered until every call is done
     spdlog::info("stopped");
   });
+}
+
+std::string SkinServer::RenderMetrics() const {
+  MetricsSnapshot snapshot;
+  snapshot.version = SKINSERVE_VERSION;
+  snapshot.serving = serving_.load();
+  snapshot.open_streams = service_->OpenStreamCount();
+  if (const Engine* engine = ready_engine_.load()) snapshot.engine = engine->Stats();
+  if (const FrameMetrics* frames = FrameMetrics::Installed()) snapshot.frames = frames->Snapshot();
+  return RenderPrometheusText(snapshot);
 }
 
 void SkinServer::Wait() {

@@ -5,9 +5,11 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <atomic>
 #include <chrono>
 #include <memory>
 
+#include "metrics_server.h"
 #include "server_options.h"
 #include "skinning_service.h"
 
@@ -19,6 +21,8 @@ class SkinServer {
   ~SkinServer();
 
   int port() const { return port_; }
+  // The metrics endpoint's port; 0 when --metrics-listen is not set.
+  int metrics_port() const { return metrics_ ? metrics_->port() : 0; }
   Engine& engine() { return *engine_; }
   // NOT_SERVING, refuse new calls, let in-flight ones finish within `grace` (then cancel
   // them), finish the engine's queued frames. Idempotent.
@@ -27,9 +31,14 @@ class SkinServer {
 
  private:
   SkinServer() = default;
+  std::string RenderMetrics() const;  // on the metrics server's threads
   std::unique_ptr<SkinningService> service_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<Engine> engine_;
+  std::atomic<Engine*> ready_engine_{nullptr};  // engine_, once built (for scrapes)
+  std::atomic<bool> serving_{false};
+  // Declared last: destroyed first, so no scrape outlives what it reads.
+  std::unique_ptr<MetricsServer> metrics_;
   int port_ = 0;
   std::once_flag shutdown_once_;
 };

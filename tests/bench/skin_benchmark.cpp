@@ -18,6 +18,7 @@
 #include <exception>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <thread>
 
 #include "paper_tables.h"
@@ -194,9 +195,27 @@ int main(int argc, char** argv) {
     args.push_back(aggregates.data());
   }
   args.insert(args.end(), argv + 1, argv + argc);
+  // --benchmark_format=json|csv: Google Benchmark's own reporter, nothing else on stdout
+  // (the paper tables belong to the console output only). The last occurrence wins, as in
+  // Google Benchmark's own parsing (read before Initialize, which removes the flags it knows).
+  std::string format = "console";
+  for (std::size_t i = 1; i < args.size(); ++i) {
+    constexpr std::string_view kFlag = "--benchmark_format=";
+    if (std::string_view(args[i]).rfind(kFlag, 0) == 0) format = args[i] + kFlag.size();
+  }
   int args_count = static_cast<int>(args.size());
   benchmark::Initialize(&args_count, args.data());
   if (benchmark::ReportUnrecognizedArguments(args_count, args.data())) return 1;
+  if (format != "console") {
+    if (options.paper_tables) {
+      fmt::print(stderr,
+                 "skinserve-bench: --paper-tables: the tables are printed with "
+                 "--benchmark_format=console only\n");
+    }
+    benchmark::RunSpecifiedBenchmarks();  // the reporter --benchmark_format names
+    benchmark::Shutdown();
+    return 0;
+  }
   PaperTablesReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
   if (options.paper_tables) reporter.PrintTables(measured);

@@ -75,6 +75,27 @@ def main(root):
     listen_port = int(config["SKINSERVE_LISTEN"].rsplit(":", 1)[1])
     check(ports.get("grpc") == listen_port,
           f"Deployment: containerPort grpc {ports.get('grpc')} != SKINSERVE_LISTEN port")
+    # Metrics: the port SKINSERVE_METRICS_LISTEN serves is the containerPort "metrics",
+    # and the pod's scrape annotations point at it.
+    if check("SKINSERVE_METRICS_LISTEN" in config, "ConfigMap: no SKINSERVE_METRICS_LISTEN"):
+        metrics_port = int(config["SKINSERVE_METRICS_LISTEN"].rsplit(":", 1)[1])
+        check(ports.get("metrics") == metrics_port,
+              f"Deployment: containerPort metrics {ports.get('metrics')} != "
+              f"SKINSERVE_METRICS_LISTEN port {metrics_port}")
+        notes = pod["metadata"].get("annotations", {})
+        check(notes.get("prometheus.io/scrape") == "true" and
+              notes.get("prometheus.io/port") == str(metrics_port) and
+              notes.get("prometheus.io/path") == "/metrics",
+              "Deployment: pod template lacks prometheus.io/scrape, port and path annotations "
+              f"for port {metrics_port}")
+    # Connection hygiene: connections age out (clients re-resolve and find new replicas),
+    # with a grace that lets a frame finish.
+    if check("SKINSERVE_MAX_CONNECTION_AGE_SECONDS" in config,
+             "ConfigMap: no SKINSERVE_MAX_CONNECTION_AGE_SECONDS"):
+        check(float(config["SKINSERVE_MAX_CONNECTION_AGE_SECONDS"]) > 0,
+              "ConfigMap: connections never age out")
+        check(float(config.get("SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS", 0)) >= 1,
+              "ConfigMap: SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS under a second")
     refs = [e["configMapRef"]["name"] for e in container.get("envFrom", [])
             if "configMapRef" in e]
     check(docs["ConfigMap"]["metadata"]["name"] in refs,
@@ -139,6 +160,12 @@ def main(root):
     compose = yaml.safe_load((root / "deploy" / "compose.yaml").read_text())
     image = compose["services"]["server"]["image"]
     check(f":-{version}}}" in image, f"compose.yaml: default image version is not {version}")
+    server_env = compose["services"]["server"].get("environment", {})
+    if check("SKINSERVE_METRICS_LISTEN" in server_env, "compose.yaml: no SKINSERVE_METRICS_LISTEN"):
+        compose_metrics = server_env["SKINSERVE_METRICS_LISTEN"].rsplit(":", 1)[1]
+        check(any(str(p).endswith(f":{compose_metrics}")
+                  for p in compose["services"]["server"].get("ports", [])),
+              f"compose.yaml: the metrics port {compose_metrics} is not published")
     load = compose["services"]["load"]
     check(load["depends_on"]["server"]["condition"] == "service_healthy",
           "compose.yaml: load does not wait for a healthy server")

@@ -11,6 +11,14 @@
 #            only UNAVAILABLE errors; scaleout-driver (the client library's StreamFrames,
 #            every answer checked) must account for every frame:
 #            sent = answered + reported failed, none wrong.
+#   grow     a scale-up seen by clients that resolve a DNS name, as behind a headless
+#            Service: the name resolves (native resolver, /etc/hosts in a private mount
+#            namespace) to two replicas on 127.0.0.1 and 127.0.0.2, one port; mid-run a
+#            third, on 127.0.0.3, joins the name. The servers' maximum
+#            connection age makes the clients reconnect and so re-resolve: the third
+#            replica must receive frames before the run ends. scaleout-driver streams
+#            clips (one StreamSkin call each), every answer checked and every frame
+#            accounted for. Needs root (unshare -m, mount --bind); else skipped.
 #
 # The servers are always stopped. Bounded: each run is a few seconds; the whole test well
 # under two minutes.
@@ -22,7 +30,15 @@ if [ $# -ne 5 ]; then
   exit 2
 fi
 mode=$1 server=$2 cli=$3 load=$4 driver=$5
-case "$mode" in balance | fault) ;; *) echo "unknown mode $mode" >&2; exit 2 ;; esac
+case "$mode" in balance | fault | grow) ;; *) echo "unknown mode $mode" >&2; exit 2 ;; esac
+if [ "$mode" = grow ] && [ -z "${SKINSERVE_SCALEOUT_NAMESPACE:-}" ]; then
+  # A private mount namespace, so the test's /etc/hosts is seen by this test alone.
+  if [ "$(id -u)" -ne 0 ] || ! command -v unshare >/dev/null; then
+    echo "scaleout[grow]: SKIPPED: needs root and unshare (a private /etc/hosts)"
+    exit 77
+  fi
+  SKINSERVE_SCALEOUT_NAMESPACE=1 exec unshare --mount --propagation private bash "$0" "$@"
+fi
 replicas=3
 work=$(mktemp -d "${TMPDIR:-/tmp}/skinserve-scaleout.XXXXXX")
 pids=()
@@ -54,6 +70,84 @@ trap 'exit 130' INT TERM
 free_port() {
   python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
 }
+
+if [ "$mode" = grow ]; then
+  name=skinserve.scaleout.test
+  port=$(free_port)
+  hosts="$work/hosts"
+  printf '127.0.0.1 localhost\n127.0.0.1 %s\n127.0.0.2 %s\n' "$name" "$name" >"$hosts"
+  mount --bind "$hosts" /etc/hosts
+  # One compute thread each. Connections age out after 2 s (+-10%): each GOAWAY makes the
+  # client re-resolve; the 10 s grace is longer than any clip of frames here.
+  start_replica() {  # index, address
+    "$server" --listen "$2:$port" --threads 1 --max-connection-age-seconds 2 \
+      --max-connection-age-grace-seconds 10 >"$work/server$1.log" 2>&1 &
+    pids+=($!)
+    ports+=("$2:$port")
+    "$cli" --target "$2:$port" health --wait 60 >/dev/null ||
+      fail "replica $1 ($2:$port) not SERVING after 60 s"
+  }
+  seconds_since() { python3 -c "import sys, time; print(f'{time.time() - float(sys.argv[1]):.1f}')" "$1"; }
+  start_replica 0 127.0.0.1
+  start_replica 1 127.0.0.2
+  # The third starts now but joins the name only mid-run, as a pod joins a headless
+  # Service's DNS once ready: what is timed is the clients finding it, not its start-up.
+  start_replica 2 127.0.0.3
+  run_seconds=45 grow_after=5
+  target="dns:///$name:$port"
+  say "3 replicas SERVING, 2 of them as $name; scaleout-driver (sse, 6 clients, clips of 30 frames," \
+    "${run_seconds} s) on $target with the native resolver"
+  started=$(date +%s.%N)
+  GRPC_DNS_RESOLVER=native timeout 120 "$driver" --target "$target" --backend sse \
+    --vertices 20000 --streams 6 --window 4 --seconds "$run_seconds" --clip-frames 30 \
+    >"$work/driver.json" 2>"$work/driver.err" &
+  driver_pid=$!
+  sleep "$grow_after"
+  [ "$("$cli" --target "127.0.0.3:$port" stats --frames-only)" -eq 0 ] ||
+    fail "replica 2 served frames before it joined $name"
+  # Appended in place: the bind mount holds this inode.
+  printf '127.0.0.3 %s\n' "$name" >>"$hosts"
+  added=$(date +%s.%N)
+  say "replica 2 (127.0.0.3:$port, SERVING, no frames yet) added to $name" \
+    "$(seconds_since "$started") s into the run"
+  first_seen=""
+  while kill -0 "$driver_pid" 2>/dev/null; do
+    n=$("$cli" --target "127.0.0.3:$port" stats --frames-only 2>/dev/null || echo 0)
+    if [ -z "$first_seen" ] && [ "$n" -gt 0 ]; then
+      first_seen=$(date +%s.%N)
+      say "replica 2 served its first frames $(seconds_since "$added") s after it was added" \
+        "($(seconds_since "$started") s into the run)"
+    fi
+    sleep 0.5
+  done
+  driver_rc=0
+  wait "$driver_pid" || driver_rc=$?
+  echo "driver: $(cat "$work/driver.json")"
+  [ -s "$work/driver.err" ] && sed 's/^/driver stderr: /' "$work/driver.err" | tail -5
+  counts=()
+  for i in 0 1 2; do counts+=("$("$cli" --target "${ports[$i]}" stats --frames-only)"); done
+  say "frames per replica at the end: ${counts[*]}"
+  python3 - "$work/driver.json" "$driver_rc" <<'EOF' || fail "accounting"
+import json, sys
+drv, rc = json.loads(open(sys.argv[1]).read()), int(sys.argv[2])
+problems = []
+if drv["sent"] != drv["answered"] + drv["failed"] or not drv["balanced"] or not drv["sink_agrees"]:
+    problems.append(f"frames lost: sent {drv['sent']}, answered {drv['answered']}, failed {drv['failed']}")
+if drv["wrong"] or drv["failed"] or drv["answered"] == 0 or rc != 0:
+    problems.append(f"wrong {drv['wrong']}, failed {drv['failed_by_code']}, exit {rc}")
+print(f"accounting: sent {drv['sent']} = answered {drv['answered']} (all correct) + failed "
+      f"{drv['failed']} in {drv['clips']} clips; reconnects {drv['reconnects']}, "
+      f"re-uploads {drv['reuploads']}")
+for p in problems:
+    print("problem:", p)
+sys.exit(1 if problems else 0)
+EOF
+  [ -n "$first_seen" ] && [ "${counts[2]}" -gt 0 ] ||
+    fail "replica 2, added after ${grow_after} s, served no frame in a ${run_seconds} s run"
+  say "PASSED: the replica added mid-run served ${counts[2]} of" \
+    "$((counts[0] + counts[1] + counts[2])) frames"
+  exit 0
+fi
 
 # ---- three replicas --------------------------------------------------------------------
 for i in $(seq 0 $((replicas - 1))); do

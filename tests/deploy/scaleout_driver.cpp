@@ -10,8 +10,12 @@
 // Prints one JSON object; exits 0 when sent == answered + failed (per stream and in
 // total), the sink saw each frame the summary counted, and no answer was wrong.
 //
+// With --clip-frames N each client streams clips of N frames, one StreamSkin call per clip,
+// as an animation client would: every new stream is placed by the channel's round_robin
+// over the replicas it knows at that moment (scaleout.grow: a replica added mid-run).
+//
 // usage: scaleout-driver --target T [--backend sse] [--streams 6] [--window 4]
-//                        [--seconds 8] [--vertices 20000]
+//                        [--seconds 8] [--vertices 20000] [--clip-frames 0 (one stream)]
 #include <fmt/format.h>
 
 #include <atomic>
@@ -42,6 +46,7 @@ struct Options {
   int window = 4;
   double seconds = 8;
   uint32_t vertices = 20'000;
+  uint64_t clip_frames = 0;  // 0: one stream per client for the whole run
 };
 
 Options Parse(int argc, char** argv) {
@@ -60,6 +65,8 @@ Options Parse(int argc, char** argv) {
       o.seconds = std::stod(value);
     else if (key == "--vertices")
       o.vertices = static_cast<uint32_t>(std::stoul(value));
+    else if (key == "--clip-frames")
+      o.clip_frames = std::stoull(value);
     else {
       fmt::print(stderr, "unknown option {}\n", key);
       std::exit(2);
@@ -68,7 +75,7 @@ Options Parse(int argc, char** argv) {
   if (o.target.empty() || argc % 2 == 0) {
     fmt::print(stderr,
                "usage: scaleout-driver --target T [--backend B] [--streams N] [--window W] "
-               "[--seconds S] [--vertices V]\n");
+               "[--seconds S] [--vertices V] [--clip-frames N]\n");
     std::exit(2);
   }
   return o;
@@ -79,6 +86,7 @@ struct Tally {
   uint64_t sent = 0, answered = 0, failed = 0, reconnects = 0, reuploads = 0;  // summaries
   uint64_t sink_ok = 0, sink_failed = 0, wrong = 0;                            // the sink's view
   uint64_t unbalanced_streams = 0;  // streams whose own sent != answered + failed
+  uint64_t stream_calls = 0;        // StreamFrames calls (clips)
   std::map<std::string, uint64_t> failed_by_code, stream_status;
 };
 
@@ -119,37 +127,53 @@ int main(int argc, char** argv) {
       // One channel per stream, as separate clients would have: round_robin spreads them.
       client::SkinClient client(client::MakeChannel(o.target));
       client.Remember(mesh_id, arrays);
-      client::StreamOptions options{.mesh_id = mesh_id,
-                                    .backend = o.backend,
-                                    .frames = UINT64_MAX / 2,
-                                    .window = o.window,
-                                    .stop = &stop};
+      const uint64_t clip = o.clip_frames > 0 ? o.clip_frames : UINT64_MAX / 2;
       client::StreamSummary summary;
-      const Status status = client::StreamFrames(
-          client, options, palette,
-          [&](client::FrameResult& r, std::chrono::nanoseconds) {
-            bool ok = r.status.ok(), right = true;
-            if (ok) {
-              const Deviation d = CompareWithReference(**mesh, palette(r.frame), r.positions, {});
-              right = d.within_tolerance();
-            }
-            std::lock_guard lock(tally.mutex);
-            if (!ok) {
-              ++tally.sink_failed;
-              ++tally.failed_by_code[StatusCodeName(r.status.code())];
-            } else {
-              ++tally.sink_ok;
-              tally.wrong += !right;
-            }
-          },
-          &summary);
+      Status status;
+      uint64_t calls = 0, unbalanced = 0;
+      for (uint64_t first = 0; !stop.load(); first += clip) {
+        client::StreamOptions options{.mesh_id = mesh_id,
+                                      .backend = o.backend,
+                                      .first_frame = first,
+                                      .frames = clip,
+                                      .window = o.window,
+                                      .stop = &stop};
+        client::StreamSummary one;
+        status = client::StreamFrames(
+            client, options, palette,
+            [&](client::FrameResult& r, std::chrono::nanoseconds) {
+              bool ok = r.status.ok(), right = true;
+              if (ok) {
+                const Deviation d = CompareWithReference(**mesh, palette(r.frame), r.positions, {});
+                right = d.within_tolerance();
+              }
+              std::lock_guard lock(tally.mutex);
+              if (!ok) {
+                ++tally.sink_failed;
+                ++tally.failed_by_code[StatusCodeName(r.status.code())];
+              } else {
+                ++tally.sink_ok;
+                tally.wrong += !right;
+              }
+            },
+            &one);
+        summary.sent += one.sent;
+        summary.answered += one.answered;
+        summary.failed += one.failed;
+        summary.reconnects += one.reconnects;
+        summary.reuploads += one.reuploads;
+        unbalanced += one.sent != one.answered + one.failed;
+        ++calls;
+        if (!status.ok()) break;
+      }
       std::lock_guard lock(tally.mutex);
       tally.sent += summary.sent;
       tally.answered += summary.answered;
       tally.failed += summary.failed;
       tally.reconnects += summary.reconnects;
       tally.reuploads += summary.reuploads;
-      tally.unbalanced_streams += summary.sent != summary.answered + summary.failed;
+      tally.unbalanced_streams += unbalanced;
+      tally.stream_calls += calls;
       ++tally.stream_status[StatusCodeName(status.code())];
     });
   }
@@ -168,10 +192,10 @@ int main(int argc, char** argv) {
   const bool sink_agrees = tally.sink_ok == tally.answered && tally.sink_failed == tally.failed;
   fmt::print(
       "{{\"backend\": \"{}\", \"streams\": {}, \"sent\": {}, \"answered\": {}, \"failed\": {}, "
-      "\"wrong\": {}, \"checked\": {}, \"reconnects\": {}, \"reuploads\": {}, "
+      "\"wrong\": {}, \"checked\": {}, \"reconnects\": {}, \"reuploads\": {}, \"clips\": {}, "
       "\"failed_by_code\": {}, \"stream_status\": {}, \"balanced\": {}, \"sink_agrees\": {}}}\n",
       o.backend, o.streams, tally.sent, tally.answered, tally.failed, tally.wrong, tally.sink_ok,
-      tally.reconnects, tally.reuploads, to_json(tally.failed_by_code),
+      tally.reconnects, tally.reuploads, tally.stream_calls, to_json(tally.failed_by_code),
       to_json(tally.stream_status), balanced, sink_agrees);
   return balanced && sink_agrees && tally.wrong == 0 && tally.sent > 0 ? 0 : 1;
 }

@@ -1,0 +1,57 @@
+"""Checks of the caller's arrays, before anything is sent: a ValueError names the array,
+what it is and what it must be. No silent conversion: a float64 array is refused rather
+than rounded behind the caller's back."""
+import numpy as np
+
+MAX_INFLUENCES = 8
+
+
+def _check(name, array, dtype, ndim):
+    if not isinstance(array, np.ndarray):
+        raise ValueError(f"{name}: expected a numpy.ndarray of {np.dtype(dtype).name}, "
+                         f"got {type(array).__name__}")
+    if array.dtype != np.dtype(dtype):
+        raise ValueError(f"{name}: dtype {array.dtype.name}, expected {np.dtype(dtype).name} "
+                         f"(convert with {name}.astype(numpy.{np.dtype(dtype).name}))")
+    if array.ndim != ndim:
+        raise ValueError(f"{name}: shape {array.shape}, expected {ndim} dimensions")
+
+
+def check_mesh(positions, joints, weights, normals):
+    _check("positions", positions, np.float32, 2)
+    if positions.shape[1] != 3 or positions.shape[0] == 0:
+        raise ValueError(f"positions: shape {positions.shape}, expected (V, 3) with V >= 1")
+    vertices = positions.shape[0]
+    _check("joints", joints, np.uint16, 2)
+    if joints.shape[0] != vertices or not 1 <= joints.shape[1] <= MAX_INFLUENCES:
+        raise ValueError(f"joints: shape {joints.shape}, expected ({vertices}, B) with "
+                         f"1 <= B <= {MAX_INFLUENCES} (one row per vertex of positions)")
+    _check("weights", weights, np.float32, 2)
+    if weights.shape != joints.shape:
+        raise ValueError(f"weights: shape {weights.shape}, expected {joints.shape} "
+                         "(the shape of joints)")
+    if normals is not None:
+        _check("normals", normals, np.float32, 2)
+        if normals.shape != positions.shape:
+            raise ValueError(f"normals: shape {normals.shape}, expected {positions.shape} "
+                             "(the shape of positions)")
+
+
+def check_palette(name, palette, joint_count=None):
+    """A (J, 3, 4) or (J, 12) float32 palette: J row-major 3x4 affine matrices."""
+    if not isinstance(palette, np.ndarray):
+        raise ValueError(f"{name}: expected a numpy.ndarray of float32, "
+                         f"got {type(palette).__name__}")
+    if palette.dtype != np.float32:
+        raise ValueError(f"{name}: dtype {palette.dtype.name}, expected float32 "
+                         f"(convert with {name}.astype(numpy.float32))")
+    if not ((palette.ndim == 3 and palette.shape[1:] == (3, 4)) or
+            (palette.ndim == 2 and palette.shape[1] == 12)) or palette.shape[0] == 0:
+        raise ValueError(f"{name}: shape {palette.shape}, expected (J, 3, 4) or (J, 12)")
+    if joint_count is not None and palette.shape[0] != joint_count:
+        raise ValueError(f"{name}: {palette.shape[0]} matrices, the mesh has {joint_count} "
+                         "joints")
+
+
+def little_endian_bytes(array, dtype):
+    return np.ascontiguousarray(array, dtype=np.dtype(dtype).newbyteorder("<")).tobytes()

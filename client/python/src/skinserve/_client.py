@@ -1,0 +1,289 @@
+"""Client: the Skinning service as NumPy arrays in, NumPy arrays out."""
+import contextlib
+import queue
+import threading
+
+import grpc
+import numpy as np
+
+from . import _arrays, _encoding
+from .v1 import skinning_pb2 as pb
+from .v1 import skinning_pb2_grpc as pb_grpc
+
+_CHUNK_BYTES = 1 << 20
+_ENCODINGS = {"float32": pb.ENCODING_FLOAT32, "float16": pb.ENCODING_FLOAT16,
+              "snorm16": pb.ENCODING_SNORM16}
+
+
+class SkinserveError(Exception):
+    """A call or a frame the server answered with an error: `code` (grpc.StatusCode) and
+    the server's own message."""
+
+    def __init__(self, code, message, frame=None):
+        self.code, self.message, self.frame = code, message, frame
+        where = f"frame {frame}: " if frame is not None else ""
+        super().__init__(f"{where}{code.name}: {message}")
+
+
+def _status_code(value):
+    for code in grpc.StatusCode:
+        if code.value[0] == value:
+            return code
+    return grpc.StatusCode.UNKNOWN
+
+
+def _rpc_error(error, frame=None):
+    return SkinserveError(error.code(), error.details(), frame)
+
+
+class _Frame:
+    """One frame's parts, assembled into (V, 3) float32 arrays."""
+
+    def __init__(self):
+        self.positions = self.normals = None
+        self.error = None
+
+    def add(self, part, want_normals):
+        if part.HasField("error"):
+            self.error = (_status_code(part.error.code), part.error.message)
+            return
+        if part.instances > 1:
+            raise SkinserveError(grpc.StatusCode.INTERNAL,
+                                 "a crowd answer to a single-instance request", part.frame)
+        if self.positions is None:
+            self.positions = np.empty((part.total_vertices, 3), dtype=np.float32)
+            if want_normals:
+                self.normals = np.empty((part.total_vertices, 3), dtype=np.float32)
+        b = part.bounds
+        bounds = (b.min_x, b.min_y, b.min_z, b.max_x, b.max_y, b.max_z)
+        rows = slice(part.first_vertex, part.first_vertex + part.vertex_count)
+        self.positions[rows] = _encoding.decode_values(part.positions, part.encoding,
+                                                       part.vertex_count, bounds)
+        if want_normals:
+            self.normals[rows] = _encoding.decode_values(part.normals, part.encoding,
+                                                         part.vertex_count, normals=True)
+
+    def result(self, want_normals):
+        return (self.positions, self.normals) if want_normals else self.positions
+
+
+class Client:
+    """A connection to skinserve at `target` ("host:port", or any gRPC target such as
+    "dns:///skinserve.default.svc:50051", balanced with round_robin).
+
+    Meshes uploaded through this client are remembered: a frame answered NOT_FOUND (the
+    replica evicted the mesh, or the call landed on another replica) uploads the mesh
+    again and resends the frame, as the C++ client library does.
+    """
+
+    def __init__(self, target, max_reuploads=8, max_reconnects=3):
+        self.target = target
+        self.max_reuploads, self.max_reconnects = max_reuploads, max_reconnects
+        options = [("grpc.service_config",
+                    '{"loadBalancingConfig": [{"round_robin": {}}]}')]
+        self._channel = grpc.insecure_channel(target, options=options)
+        self._stub = pb_grpc.SkinningStub(self._channel)
+        self._meshes = {}  # mesh id -> (requests to upload it again, joint count)
+
+    def close(self):
+        self._channel.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # ---- meshes -----------------------------------------------------------------------
+    def upload(self, positions, joints, weights, normals=None, normalize_weights=False,
+               joint_count=None):
+        """Stores a mesh and returns its id (the SHA-256 of its content).
+
+        positions, normals: float32 (V, 3); joints: uint16 (V, B); weights: float32 (V, B),
+        1 <= B <= 8. Weights must sum to 1 per vertex unless normalize_weights is set.
+        joint_count: the palettes' length (default: the largest joint id + 1).
+        """
+        _arrays.check_mesh(positions, joints, weights, normals)
+        used = int(joints.max()) + 1
+        if joint_count is None:
+            joint_count = used
+        elif not isinstance(joint_count, int) or joint_count < used:
+            raise ValueError(f"joint_count: {joint_count!r}, expected an int >= {used} "
+                             f"(joints refers to joint {used - 1})")
+        header = pb.MeshHeader(
+            vertex_count=positions.shape[0], influences=joints.shape[1],
+            joint_count=joint_count, has_normals=normals is not None,
+            weight_policy=(pb.WEIGHT_POLICY_NORMALIZE if normalize_weights
+                           else pb.WEIGHT_POLICY_REJECT))
+        requests = [pb.UploadMeshRequest(header=header)]
+        arrays = [(pb.MESH_ARRAY_POSITIONS, positions, "f4"),
+                  (pb.MESH_ARRAY_NORMALS, normals, "f4"),
+                  (pb.MESH_ARRAY_JOINTS, joints, "u2"),
+                  (pb.MESH_ARRAY_WEIGHTS, weights, "f4")]
+        for kind, array, dtype in arrays:
+            if array is None:
+                continue
+            data = _arrays.little_endian_bytes(array, dtype)
+            itemsize = np.dtype(dtype).itemsize
+            for offset in range(0, len(data), _CHUNK_BYTES):
+                requests.append(pb.UploadMeshRequest(chunk=pb.MeshChunk(
+                    array=kind, offset=offset // itemsize,
+                    data=data[offset:offset + _CHUNK_BYTES])))
+        info = self._upload(requests)
+        self._meshes[info.mesh_id] = (requests, header.joint_count)
+        return info.mesh_id
+
+    def _upload(self, requests):
+        try:
+            return self._stub.UploadMesh(iter(requests))
+        except grpc.RpcError as e:
+            raise _rpc_error(e) from None
+
+    def _reupload(self, mesh_id, error):
+        if mesh_id not in self._meshes:
+            raise error  # not uploaded through this client: nothing to send again
+        self._upload(self._meshes[mesh_id][0])
+
+    def _joint_count(self, mesh_id):
+        known = self._meshes.get(mesh_id)
+        return known[1] if known else None
+
+    # ---- frames -------------------------------------------------------------------------
+    def _request(self, mesh_id, palette, frame, backend, want_normals, encoding):
+        if encoding not in _ENCODINGS:
+            raise ValueError(f"encoding: '{encoding}', expected one of {sorted(_ENCODINGS)}")
+        return pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
+                              palette=_arrays.little_endian_bytes(palette, "f4"),
+                              want_normals=want_normals, encoding=_ENCODINGS[encoding])
+
+    def skin(self, mesh_id, palette, backend=None, want_normals=False, encoding="float32",
+             frame=0):
+        """One frame: palette float32 (J, 3, 4) -> positions (V, 3) float32, or
+        (positions, normals) with want_normals."""
+        _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
+        request = self._request(mesh_id, palette, frame, backend, want_normals, encoding)
+        for attempt in range(self.max_reuploads + 1):
+            result = _Frame()
+            try:
+                for part in self._stub.Skin(request):
+                    result.add(part, want_normals)
+                return result.result(want_normals)
+            except grpc.RpcError as e:
+                error = _rpc_error(e, frame)
+                if e.code() != grpc.StatusCode.NOT_FOUND or attempt == self.max_reuploads:
+                    raise error from None
+                self._reupload(mesh_id, error)
+        raise AssertionError("unreachable")
+
+    def stream(self, mesh_id, palettes, backend=None, want_normals=False, encoding="float32",
+               window=8):
+        """Frame after frame over one StreamSkin call: yields each frame's positions (or
+        (positions, normals)) in order. `palettes`: a sequence of float32 (J, 3, 4)
+        palettes (or an array (F, J, 3, 4)), all checked before the first is sent.
+
+        A frame answered NOT_FOUND re-uploads the mesh and the stream resumes from that
+        frame; a stream that ends UNAVAILABLE (a replica draining or gone) resumes on a new
+        stream (up to max_reconnects times); any other failed frame raises SkinserveError.
+        """
+        palettes = list(palettes)
+        joints = self._joint_count(mesh_id)
+        for i, palette in enumerate(palettes):
+            _arrays.check_palette(f"palettes[{i}]", palette, joints)
+        if window < 1:
+            raise ValueError(f"window: {window}, expected >= 1")
+        requests = [self._request(mesh_id, p, i, backend, want_normals, encoding)
+                    for i, p in enumerate(palettes)]
+        next_frame, reuploads, reconnects = 0, 0, 0
+        while next_frame < len(requests):
+            restart = None
+            with contextlib.closing(self._one_stream(requests, next_frame, window,
+                                                     want_normals)) as answers:
+                for index, frame in answers:
+                    if frame.error is None:
+                        next_frame = index + 1
+                        yield frame.result(want_normals)
+                        continue
+                    code, message = frame.error
+                    error = SkinserveError(code, message, index)
+                    if code != grpc.StatusCode.NOT_FOUND or reuploads >= self.max_reuploads:
+                        raise error
+                    restart = error
+                    break
+            if restart is not None:  # resume from the frame that was NOT_FOUND
+                reuploads += 1
+                self._reupload(mesh_id, restart)
+            elif next_frame < len(requests):  # the stream ended UNAVAILABLE early
+                reconnects += 1
+                if reconnects > self.max_reconnects:
+                    raise SkinserveError(grpc.StatusCode.UNAVAILABLE,
+                                         f"stream ended {reconnects} times", next_frame)
+
+    def _one_stream(self, requests, first, window, want_normals):
+        """Sends requests[first:] with at most `window` unanswered; yields (index, _Frame)
+        in order. Ends early (without raising) when the stream ends UNAVAILABLE."""
+        credits = threading.Semaphore(window)
+        stop = threading.Event()
+        outbox = queue.Queue()
+
+        def send():
+            for request in requests[first:]:
+                while not credits.acquire(timeout=0.1):
+                    if stop.is_set():
+                        return
+                if stop.is_set():
+                    return
+                outbox.put(request)
+            outbox.put(None)
+
+        def request_iterator():
+            while True:
+                request = outbox.get()
+                if request is None:
+                    return
+                yield request
+
+        sender = threading.Thread(target=send, daemon=True)
+        sender.start()
+        call = self._stub.StreamSkin(request_iterator())
+        frame, index = _Frame(), first
+        try:
+            for part in call:
+                frame.add(part, want_normals)
+                if part.last:
+                    credits.release()
+                    yield index, frame
+                    frame, index = _Frame(), index + 1
+        except grpc.RpcError as e:
+            if e.code() != grpc.StatusCode.UNAVAILABLE:
+                raise _rpc_error(e, index) from None
+        finally:
+            stop.set()
+            outbox.put(None)
+            call.cancel()
+            sender.join()
+
+    # ---- the server ----------------------------------------------------------------------
+    def backends(self):
+        """The server's backends: a list of dicts (id, description, available, ...)."""
+        try:
+            response = self._stub.ListBackends(pb.ListBackendsRequest())
+        except grpc.RpcError as e:
+            raise _rpc_error(e) from None
+        return [{"id": b.id, "description": b.description, "available": b.available,
+                 "unavailable_reason": b.unavailable_reason, "device": b.device,
+                 "simd_width": b.simd_width, "threads": b.threads,
+                 "default": b.id == response.default_backend} for b in response.backends]
+
+    def stats(self):
+        """The server's counters: a dict, with "backends" a dict by backend id."""
+        try:
+            s = self._stub.GetServerStats(pb.GetServerStatsRequest())
+        except grpc.RpcError as e:
+            raise _rpc_error(e) from None
+        out = {f: getattr(s, f) for f in (
+            "queue_depth", "queue_capacity", "compute_threads", "meshes", "mesh_bytes",
+            "mesh_budget_bytes", "evictions", "rejected_queue_full", "open_streams")}
+        out["backends"] = {b.id: {"frames": b.frames, "vertices": b.vertices,
+                                  "errors": b.errors, "compute_ns_total": b.compute_ns_total}
+                           for b in s.backends}
+        return out

@@ -1,0 +1,141 @@
+#include "metrics_text.h"
+
+#include <fmt/format.h>
+
+#include <iterator>
+
+namespace skinserve::server {
+
+namespace {
+
+// Label values escape backslash, double quote and newline.
+std::string Escape(const std::string& value) {
+  std::string out;
+  for (char c : value) {
+    if (c == '\\' || c == '"') out += '\\';
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
+    out += c;
+  }
+  return out;
+}
+
+// Shortest text that reads back as the same double ("0.00025", not "0.000250000").
+std::string Number(double v) { return fmt::format("{}", v); }
+
+class Writer {
+ public:
+  void Header(const char* name, const char* type, const char* help) {
+    fmt::format_to(std::back_inserter(out_), "# HELP {} {}\n# TYPE {} {}\n", name, help, name,
+                   type);
+  }
+  void Sample(const char* name, const std::string& labels, double value) {
+    fmt::format_to(std::back_inserter(out_), "{}{}{}{} {}\n", name, labels.empty() ? "" : "{",
+                   labels, labels.empty() ? "" : "}", Number(value));
+  }
+  void Sample(const std::string& name, const std::string& labels, double value) {
+    Sample(name.c_str(), labels, value);
+  }
+  void Histogram(const char* name, const std::string& labels, const DurationHistogram& h) {
+    uint64_t cumulative = 0;
+    for (std::size_t i = 0; i < h.kBounds.size(); ++i) {
+      cumulative += h.buckets[i];
+      Sample(fmt::format("{}_bucket", name),
+             fmt::format("{},le=\"{}\"", labels, Number(h.kBounds[i])),
+             static_cast<double>(cumulative));
+    }
+    Sample(fmt::format("{}_bucket", name), fmt::format("{},le=\"+Inf\"", labels),
+           static_cast<double>(h.count));
+    Sample(fmt::format("{}_sum", name), labels, h.sum_seconds);
+    Sample(fmt::format("{}_count", name), labels, static_cast<double>(h.count));
+  }
+  std::string Take() { return std::move(out_); }
+
+ private:
+  std::string out_;
+};
+
+std::string BackendLabel(const std::string& id) {
+  return fmt::format("backend=\"{}\"", Escape(id));
+}
+
+}  // namespace
+
+std::string RenderPrometheusText(const MetricsSnapshot& s) {
+  Writer w;
+  w.Header("skinserve_build_info", "gauge", "Always 1; the labels say which build runs.");
+  w.Sample("skinserve_build_info", fmt::format("version=\"{}\"", Escape(s.version)), 1);
+  w.Header("skinserve_serving", "gauge",
+           "1 while the server takes new calls; 0 while it starts (backends being built) or "
+           "drains.");
+  w.Sample("skinserve_serving", "", s.serving ? 1 : 0);
+
+  const EngineStats& e = s.engine;
+  w.Header("skinserve_frames_total", "counter", "Frames skinned, by backend.");
+  for (const BackendStats& b : e.backends) {
+    w.Sample("skinserve_frames_total", BackendLabel(b.id), static_cast<double>(b.frames));
+  }
+  w.Header("skinserve_vertices_total", "counter", "Vertices skinned, by backend.");
+  for (const BackendStats& b : e.backends) {
+    w.Sample("skinserve_vertices_total", BackendLabel(b.id), static_cast<double>(b.vertices));
+  }
+  w.Header("skinserve_frame_errors_total", "counter",
+           "Frames answered with an error, by backend and gRPC status code.");
+  for (const auto& [backend, f] : s.frames) {
+    for (const auto& [code, n] : f.errors_by_code) {
+      w.Sample("skinserve_frame_errors_total",
+               fmt::format("{},code=\"{}\"", BackendLabel(backend), code), static_cast<double>(n));
+    }
+  }
+  struct Histo {
+    const char* name;
+    const char* help;
+    DurationHistogram BackendFrameMetrics::*member;
+  };
+  const Histo histograms[] = {
+      {"skinserve_frame_queue_seconds",
+       "Time answered frames waited in the engine's queue for a compute thread.",
+       &BackendFrameMetrics::queue},
+      {"skinserve_frame_compute_seconds", "Time the backend took to skin answered frames.",
+       &BackendFrameMetrics::compute},
+      {"skinserve_frame_encode_seconds",
+       "Time spent writing answered frames' vertices into response messages.",
+       &BackendFrameMetrics::encode},
+      {"skinserve_frame_server_seconds",
+       "Time from reading a frame's request to producing its last response part (answered "
+       "and failed frames).",
+       &BackendFrameMetrics::server},
+  };
+  for (const Histo& h : histograms) {
+    w.Header(h.name, "histogram", h.help);
+    for (const auto& [backend, f] : s.frames)
+      w.Histogram(h.name, BackendLabel(backend), f.*h.member);
+  }
+
+  w.Header("skinserve_open_streams", "gauge", "StreamSkin calls in progress.");
+  w.Sample("skinserve_open_streams", "", static_cast<double>(s.open_streams));
+  w.Header("skinserve_meshes", "gauge", "Meshes stored.");
+  w.Sample("skinserve_meshes", "", static_cast<double>(e.meshes));
+  w.Header("skinserve_mesh_bytes", "gauge", "Memory held by stored meshes.");
+  w.Sample("skinserve_mesh_bytes", "", static_cast<double>(e.mesh_bytes));
+  w.Header("skinserve_mesh_budget_bytes", "gauge",
+           "Memory meshes may hold before the least recently used are evicted.");
+  w.Sample("skinserve_mesh_budget_bytes", "", static_cast<double>(e.mesh_budget_bytes));
+  w.Header("skinserve_mesh_evictions_total", "counter", "Meshes evicted to stay in the budget.");
+  w.Sample("skinserve_mesh_evictions_total", "", static_cast<double>(e.evictions));
+  w.Header("skinserve_queue_depth", "gauge", "Frames waiting for a compute thread.");
+  w.Sample("skinserve_queue_depth", "", static_cast<double>(e.queue_depth));
+  w.Header("skinserve_queue_capacity", "gauge",
+           "Frames that may wait; beyond, frames are refused (RESOURCE_EXHAUSTED).");
+  w.Sample("skinserve_queue_capacity", "", static_cast<double>(e.queue_capacity));
+  w.Header("skinserve_queue_rejections_total", "counter",
+           "Frames refused because the queue was full.");
+  w.Sample("skinserve_queue_rejections_total", "", static_cast<double>(e.rejected_queue_full));
+  w.Header("skinserve_compute_threads", "gauge", "Compute threads skinning frames.");
+  w.Sample("skinserve_compute_threads", "", static_cast<double>(e.compute_threads));
+  return w.Take();
+}
+
+}  // namespace skinserve::server

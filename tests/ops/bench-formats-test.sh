@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# skinserve-bench with Google Benchmark's output flags: --benchmark_format=json prints one
+# JSON document (with the paper tables asked for, they stay off it), csv prints CSV,
+# console prints the paper tables; --benchmark_out writes its own format alongside.
+# usage: bench-formats-test.sh SKINSERVE-BENCH WORK-DIR
+set -euo pipefail
+bench=$1 work=$2
+rm -rf "$work" && mkdir -p "$work"
+run=("$bench" --backends=serial,sse --vertices=1000 --bones=1 --benchmark_min_time=0.01)
+fail() { echo "bench-formats-test: FAILED: $*" >&2; exit 1; }
+
+"${run[@]}" --paper-tables --benchmark_format=json --benchmark_out="$work/out.csv" \
+  --benchmark_out_format=csv >"$work/stdout.json" 2>"$work/stderr.txt"
+python3 - "$work/stdout.json" <<'PY' || fail "json stdout"
+import json, sys
+doc = json.load(open(sys.argv[1]))  # the whole of stdout: nothing but the JSON
+names = [b["name"] for b in doc["benchmarks"]]
+assert any("serial" in n for n in names) and any("sse" in n for n in names), names
+print(f"bench-formats-test: json: {len(names)} results")
+PY
+grep -q "console only" "$work/stderr.txt" || fail "no note that the tables are console-only"
+grep -q "^name,iterations" "$work/out.csv" || fail "--benchmark_out csv"
+
+"${run[@]}" --benchmark_format=csv >"$work/stdout.csv" 2>/dev/null
+python3 - "$work/stdout.csv" <<'PY' || fail "csv stdout"
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+assert rows and all(r["name"] and float(r["real_time"]) > 0 for r in rows), rows
+print(f"bench-formats-test: csv: {len(rows)} rows")
+PY
+
+"${run[@]}" --paper-tables --benchmark_repetitions=1 >"$work/stdout.txt" 2>/dev/null
+grep -q "serial" "$work/stdout.txt" && grep -qi "speedup" "$work/stdout.txt" ||
+  fail "console output without the paper tables"
+echo "bench-formats-test: console: tables present; PASSED"
