@@ -1,5 +1,7 @@
 #include "server_options.h"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <thread>
 
@@ -7,9 +9,20 @@
 
 namespace skinserve::server {
 
+namespace {
+
+// The cores this process may run on (taskset, a container's cpuset), not the machine's.
+int UsableCores() {
+  cpu_set_t set;
+  if (sched_getaffinity(0, sizeof(set), &set) == 0) return std::max(1, CPU_COUNT(&set));
+  return std::max(1u, std::thread::hardware_concurrency());
+}
+
+}  // namespace
+
 int ServerOptions::ComputeThreads() const {
   if (threads > 0) return threads;
-  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()) - 1);
+  return std::max(1, UsableCores() - 1);
 }
 
 uint64_t ServerOptions::InflightBudgetBytes() const {
@@ -32,8 +45,8 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_LISTEN")
       ->capture_default_str();
   app.add_option("--threads", o.threads,
-                 "compute threads doing skinning, for all streams together (0: one per core "
-                 "less one, at least one: the rest is left to gRPC's threads)")
+                 "compute threads doing skinning, for all streams together (0: one per usable "
+                 "core less one, at least one: the rest is left to gRPC's threads)")
       ->envname("SKINSERVE_THREADS")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
