@@ -77,15 +77,30 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   request.backend.assign(wire.backend().empty() ? default_backend : wire.backend());
   request.palette = palette_;
   request.instances = instances_;
-  request.positions = Reuse(positions_, values);
-  request.normals = want_normals_ ? Reuse(normals_, values) : std::span<float>();
-
   const std::size_t vertex_bytes = arrays * 3 * EncodedBytesPerValue(encoding_);
   const std::size_t per_part = std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes);
   const std::size_t parts_per_instance =
       std::max<std::size_t>(1, (mesh_.vertex_count + per_part - 1) / per_part);
   part_count_ = parts_per_instance * instances_;
   if (parts_.size() < part_count_) parts_.resize(part_count_);
+
+  in_place_ = encoding_ == VertexEncoding::kFloat32 && part_count_ == 1;
+  if (in_place_) {  // malloc'd string bytes are aligned for floats (and SSE)
+    const auto floats = [&](std::string* bytes) {
+      return std::span<float>(reinterpret_cast<float*>(WritableBytes(bytes, values * 4).data()),
+                              values);
+    };
+    request.positions = floats(parts_[0].mutable_positions());
+    if (want_normals_) {
+      request.normals = floats(parts_[0].mutable_normals());
+    } else {
+      parts_[0].clear_normals();
+      request.normals = {};
+    }
+  } else {
+    request.positions = Reuse(positions_, values);
+    request.normals = want_normals_ ? Reuse(normals_, values) : std::span<float>();
+  }
   return Status::Ok();
 }
 
@@ -125,6 +140,18 @@ Status FrameJob::EncodeParts() {
     do {
       const uint32_t count = std::min(per_part, vertex_count - first);
       v1::SkinResponse& part = parts_[n++];
+      if (in_place_) {  // the vertices are in place already: set the rest only
+        part.clear_error();
+        part.clear_bounds();
+        part.set_frame(frame_);
+        part.set_first_vertex(0);
+        part.set_vertex_count(vertex_count);
+        part.set_total_vertices(vertex_count);
+        part.set_instance(0);
+        part.set_instances(1);
+        part.set_encoding(v1::ENCODING_FLOAT32);
+        break;
+      }
       part.Clear();
       part.set_frame(frame_);
       part.set_first_vertex(first);

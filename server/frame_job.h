@@ -67,6 +67,9 @@ class FrameJob final : public SkinJob {
   std::vector<float> positions_;  // sized to the largest frame; spans cover the current
   std::vector<float> normals_;
   std::vector<v1::SkinResponse> parts_;
+  // A float32 frame of one instance in one part is skinned straight into that part's
+  // bytes: no copy besides gRPC's serialisation.
+  bool in_place_ = false;
   std::size_t part_count_ = 0;
   std::size_t next_part_ = 0;
   Status result_;
