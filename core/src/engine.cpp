@@ -68,7 +68,7 @@ class Engine::Impl {
         fmt::format("backend '{}' is unknown; available backends: {}", id, available));
   }
 
-  // Everything a frame needs checked before it is queued; `entry` is the pinned mesh.
+  // The limits of a batch (Engine::CheckBatch).
   Status CheckBatch(uint32_t vertex_count, uint32_t instances) const {
     if (instances > options_.max_instances) {
       return InvalidArgument(
