@@ -1,10 +1,37 @@
 #include "server_options.h"
 
+#include <sched.h>
+
+#include <algorithm>
+#include <thread>
+
+#include "inflight_budget.h"
+
 namespace skinserve::server {
+
+namespace {
+
+// The cores this process may run on (taskset, a container's cpuset), not the machine's.
+int UsableCores() {
+  cpu_set_t set;
+  if (sched_getaffinity(0, sizeof(set), &set) == 0) return std::max(1, CPU_COUNT(&set));
+  return std::max(1u, std::thread::hardware_concurrency());
+}
+
+}  // namespace
+
+int ServerOptions::ComputeThreads() const {
+  if (threads > 0) return threads;
+  return std::max(1, UsableCores() - 1);
+}
+
+uint64_t ServerOptions::InflightBudgetBytes() const {
+  return inflight_budget_mb > 0 ? inflight_budget_mb << 20 : InflightBudget::DefaultLimitBytes();
+}
 
 EngineOptions ServerOptions::ToEngineOptions() const {
   EngineOptions engine;
-  engine.compute_threads = threads;
+  engine.compute_threads = ComputeThreads();
   engine.queue_capacity = queue;
   engine.mesh_budget_bytes = mesh_budget_mb << 20;
   engine.mesh.limits.max_vertices = max_vertices;
@@ -18,7 +45,8 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_LISTEN")
       ->capture_default_str();
   app.add_option("--threads", o.threads,
-                 "compute threads doing skinning, for all streams together (0: one per core)")
+                 "compute threads doing skinning, for all streams together (0: one per usable "
+                 "core less one, at least one: the rest is left to gRPC's threads)")
       ->envname("SKINSERVE_THREADS")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -53,6 +81,13 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "further ahead")
       ->envname("SKINSERVE_STREAM_WINDOW")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--inflight-budget-mb", o.inflight_budget_mb,
+                 "memory for frames in flight across all streams (palettes, skinned vertices, "
+                 "unwritten answers), MiB; frames beyond are answered RESOURCE_EXHAUSTED "
+                 "(0: a quarter of the machine's or the cgroup's memory)")
+      ->envname("SKINSERVE_INFLIGHT_BUDGET_MB")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error or off")
       ->envname("SKINSERVE_LOG_LEVEL")

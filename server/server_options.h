@@ -12,7 +12,7 @@ namespace skinserve::server {
 
 struct ServerOptions {
   std::string listen = "127.0.0.1:50051";
-  int threads = 0;                    // 0: one per core
+  int threads = 0;                    // 0: one per core less one (see ComputeThreads)
   std::vector<std::string> backends;  // empty: all
   std::string default_backend = "sse-openmp";
   uint64_t mesh_budget_mb = 4096;
@@ -31,8 +31,14 @@ struct ServerOptions {
   double keepalive_timeout_seconds = 10;
   double max_connection_age_seconds = 300;  // 0: connections never age out
   double max_connection_age_grace_seconds = 30;
+  uint64_t inflight_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
 
   EngineOptions ToEngineOptions() const;
+  // --threads, or by default one per core less one (at least one): gRPC's threads do most
+  // of a frame's work (messages, copies, the socket) and must not wait for cores that
+  // compute threads hold.
+  int ComputeThreads() const;
+  uint64_t InflightBudgetBytes() const;
 };
 
 // Registers the options on `app`, each with its SKINSERVE_* environment variable.

@@ -5,28 +5,27 @@
 namespace skinserve::server {
 
 SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
-                         const v1::SkinRequest& request) {
-  SkinRequest engine_request;
+                         const v1::SkinRequest& request, InflightBudget* budget)
+    : job_(static_cast<FrameJob::Listener*>(this), budget) {
   Status status = engine == nullptr
                       ? Unavailable("the server is starting: backends are being built")
-                      : job_.Prepare(request, *engine, default_backend, &engine_request);
+                      : job_.Prepare(request, *engine, default_backend);
   if (status.ok()) {
     refs_.fetch_add(1);
-    status = engine->Submit(std::move(engine_request),
-                            [this](Status s, FrameTiming t) { OnFrameDone(std::move(s), t); });
+    status = engine->Submit(&job_);
     if (!status.ok()) refs_.fetch_sub(1);  // refused: the engine will not call back
   }
   if (!status.ok()) {
-    job_.Complete(status, {});  // the frame's verdict (for the metrics)
+    job_.Fail(status);  // the frame's verdict (for the metrics)
     std::lock_guard lock(mutex_);
     FinishLocked(ToGrpc(status));
   }
 }
 
-void SkinReactor::OnFrameDone(Status status, FrameTiming timing) {
+void SkinReactor::OnFrameDone(FrameJob*) {
   {
     std::lock_guard lock(mutex_);
-    job_.Complete(std::move(status), timing);
+    job_.set_done();
     if (!job_.status().ok()) {
       FinishLocked(ToGrpc(job_.status()));
     } else {
@@ -52,8 +51,9 @@ void SkinReactor::OnCancel() {
 
 void SkinReactor::WriteNextLocked() {
   if (finished_) return;
-  if (job_.NextPart(&part_)) {
-    StartWrite(&part_);
+  bool last = false;
+  if (const v1::SkinResponse* part = job_.NextPart(&last)) {
+    StartWrite(part);
   } else {
     FinishLocked(grpc::Status::OK);
   }

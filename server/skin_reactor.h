@@ -13,23 +13,24 @@
 
 namespace skinserve::server {
 
-class SkinReactor final : public grpc::ServerWriteReactor<v1::SkinResponse> {
+class SkinReactor final : public grpc::ServerWriteReactor<v1::SkinResponse>,
+                          private FrameJob::Listener {
  public:
   SkinReactor(Engine* engine,  // null: warming up
-              const std::string& default_backend, const v1::SkinRequest& request);
+              const std::string& default_backend, const v1::SkinRequest& request,
+              InflightBudget* budget);
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
   void OnDone() override { Unref(); }
 
  private:
-  void OnFrameDone(Status status, FrameTiming timing);
+  void OnFrameDone(FrameJob* job) override;
   void WriteNextLocked();
   void FinishLocked(const grpc::Status& status);
   void Unref();
 
   std::mutex mutex_;
   FrameJob job_;
-  v1::SkinResponse part_;
   bool finished_ = false;
   // gRPC's reference (dropped in OnDone) and the engine's (dropped after its callback):
   // the reactor lives until both are gone.

@@ -44,12 +44,13 @@ grpc::ServerUnaryReactor* SkinningService::DeleteMesh(grpc::CallbackServerContex
 
 grpc::ServerWriteReactor<v1::SkinResponse>* SkinningService::Skin(grpc::CallbackServerContext*,
                                                                   const v1::SkinRequest* request) {
-  return new SkinReactor(engine_.load(), default_backend_, *request);
+  return new SkinReactor(engine_.load(), default_backend_, *request, &budget_);
 }
 
 grpc::ServerBidiReactor<v1::SkinRequest, v1::SkinResponse>* SkinningService::StreamSkin(
     grpc::CallbackServerContext*) {
-  return new StreamSkinReactor(engine_.load(), default_backend_, stream_window_, &open_streams_);
+  return new StreamSkinReactor(engine_.load(), default_backend_, stream_window_, &open_streams_,
+                               &budget_);
 }
 
 grpc::ServerUnaryReactor* SkinningService::ListBackends(grpc::CallbackServerContext* context,
@@ -69,6 +70,9 @@ grpc::ServerUnaryReactor* SkinningService::GetServerStats(grpc::CallbackServerCo
   if (engine == nullptr) return Done(context, kWarmingUp);
   *response = ToWire(engine->Stats());
   response->set_open_streams(open_streams_.count());
+  response->set_inflight_budget_bytes(budget_.limit());
+  response->set_inflight_bytes(budget_.used());
+  response->set_rejected_inflight_budget(budget_.refused());
   return Done(context, Status::Ok());
 }
 

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <string>
 
+#include "inflight_budget.h"
 #include "open_streams.h"
 #include "skinserve/core/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
@@ -12,8 +13,10 @@ namespace skinserve::server {
 
 class SkinningService final : public v1::Skinning::CallbackService {
  public:
-  SkinningService(std::string default_backend, int stream_window)
-      : default_backend_(std::move(default_backend)), stream_window_(stream_window) {}
+  SkinningService(std::string default_backend, int stream_window, uint64_t inflight_budget_bytes)
+      : default_backend_(std::move(default_backend)),
+        stream_window_(stream_window),
+        budget_(inflight_budget_bytes) {}
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }
   // Shutdown: open streams answer the frames they have read and end UNAVAILABLE; new
@@ -45,6 +48,7 @@ class SkinningService final : public v1::Skinning::CallbackService {
   const std::string default_backend_;
   const int stream_window_;
   OpenStreams open_streams_;
+  InflightBudget budget_;  // the bytes of frames in flight, all streams and Skin calls
 };
 
 }  // namespace skinserve::server

@@ -7,11 +7,13 @@
 namespace skinserve::server {
 
 StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend, int window,
-                                     OpenStreams* open_streams)
+                                     OpenStreams* open_streams, InflightBudget* budget)
     : engine_(engine),
       default_backend_(std::move(default_backend)),
       window_(static_cast<std::size_t>(std::max(window, 1))),
-      open_streams_(open_streams) {
+      open_streams_(open_streams),
+      budget_(budget) {
+  slots_.reserve(window_);
   const bool accepted = open_streams_->Add(this);
   std::lock_guard lock(mutex_);
   if (engine_ == nullptr) {
@@ -33,26 +35,29 @@ void StreamSkinReactor::OnReadDone(bool ok) {
     return;
   }
   last_frame_read_ = request_.frame();
-  auto job = std::make_shared<FrameJob>();
-  frames_.push_back(job);
-  SkinRequest engine_request;
-  Status status = job->Prepare(request_, *engine_, default_backend_, &engine_request);
+  const std::size_t slot = oldest_ + in_flight_;
+  if (slots_.size() < window_ && slot % window_ == slots_.size()) {
+    slots_.push_back(std::make_unique<FrameJob>(static_cast<FrameJob::Listener*>(this), budget_));
+  }
+  FrameJob& job = Slot(slot);
+  ++in_flight_;
+  Status status = job.Prepare(request_, *engine_, default_backend_);
   if (status.ok()) {
     refs_.fetch_add(1);
-    status = engine_->Submit(std::move(engine_request), [this, job](Status s, FrameTiming t) {
-      OnFrameDone(job, std::move(s), t);
-    });
+    status = engine_->Submit(&job);
     if (!status.ok()) refs_.fetch_sub(1);
   }
-  if (!status.ok()) job->Complete(std::move(status), {});  // answered with its error
+  if (!status.ok()) {  // answered with its error
+    job.Fail(std::move(status));
+    job.set_done();
+  }
   PumpLocked();
 }
 
-void StreamSkinReactor::OnFrameDone(const std::shared_ptr<FrameJob>& job, Status status,
-                                    FrameTiming timing) {
+void StreamSkinReactor::OnFrameDone(FrameJob* job) {
   {
     std::lock_guard lock(mutex_);
-    job->Complete(std::move(status), timing);
+    job->set_done();
     PumpLocked();
   }
   Unref();
@@ -61,6 +66,11 @@ void StreamSkinReactor::OnFrameDone(const std::shared_ptr<FrameJob>& job, Status
 void StreamSkinReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mutex_);
   writing_ = false;
+  if (writing_last_part_) {  // the oldest frame is answered: its slot is free again
+    writing_last_part_ = false;
+    oldest_ = (oldest_ + 1) % window_;
+    --in_flight_;
+  }
   if (!ok) {  // the client is gone: nothing more can be delivered
     FinishLocked(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away"));
     return;
@@ -87,18 +97,19 @@ void StreamSkinReactor::Drain() {
 void StreamSkinReactor::PumpLocked() {
   if (finished_) return;
   // Write the oldest frame's next part once it is done: responses keep request order.
-  if (!writing_ && !frames_.empty() && frames_.front()->done()) {
-    if (frames_.front()->NextPart(&part_)) {
+  if (!writing_ && in_flight_ > 0 && Slot(oldest_).done()) {
+    bool last = false;
+    if (const v1::SkinResponse* part = Slot(oldest_).NextPart(&last)) {
       writing_ = true;
-      if (part_.last()) frames_.pop_front();
-      StartWrite(&part_);
+      writing_last_part_ = last;
+      StartWrite(part);
     }
   }
-  if (!reading_ && !reads_done_ && !draining_ && frames_.size() < window_) {
+  if (!reading_ && !reads_done_ && !draining_ && in_flight_ < window_) {
     reading_ = true;
     StartRead(&request_);
   }
-  if (!frames_.empty() || writing_) return;
+  if (in_flight_ > 0 || writing_) return;
   if (reads_done_) {
     FinishLocked(grpc::Status::OK);
   } else if (draining_) {

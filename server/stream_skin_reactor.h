@@ -4,15 +4,18 @@
 // frames are written in order, one part at a time. A frame that fails is answered with
 // its error and the stream carries on. Drained (server shutdown), the stream reads no
 // more, answers the frames it has read and ends with UNAVAILABLE.
+// Each stream keeps up to `window` FrameJobs and reuses them in turn, so after the first
+// frames nothing is allocated per frame; their buffers count against the in-flight
+// budget until the stream ends.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
 
 #include <atomic>
-#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <vector>
 
 #include "frame_job.h"
 #include "open_streams.h"
@@ -21,10 +24,12 @@
 
 namespace skinserve::server {
 
-class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, v1::SkinResponse> {
+class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, v1::SkinResponse>,
+                                private FrameJob::Listener {
  public:
   StreamSkinReactor(Engine* engine,  // null: warming up
-                    std::string default_backend, int window, OpenStreams* open_streams);
+                    std::string default_backend, int window, OpenStreams* open_streams,
+                    InflightBudget* budget);
   void OnReadDone(bool ok) override;
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
@@ -37,7 +42,8 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, 
   void Release() { Unref(); }
 
  private:
-  void OnFrameDone(const std::shared_ptr<FrameJob>& job, Status status, FrameTiming timing);
+  void OnFrameDone(FrameJob* job) override;
+  FrameJob& Slot(std::size_t i) { return *slots_[i % window_]; }
   void PumpLocked();  // starts the next write, the next read or the finish, as due
   void FinishLocked(const grpc::Status& status);
   void Unref();
@@ -46,11 +52,16 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, 
   const std::string default_backend_;
   const std::size_t window_;
   OpenStreams* open_streams_;
+  InflightBudget* budget_;
 
   std::mutex mutex_;
   v1::SkinRequest request_;
-  v1::SkinResponse part_;
-  std::deque<std::shared_ptr<FrameJob>> frames_;  // in request order, oldest first
+  // The frames in flight, oldest first: slots [oldest_, oldest_ + in_flight_) mod window,
+  // created as the window first fills, then reused.
+  std::vector<std::unique_ptr<FrameJob>> slots_;
+  std::size_t oldest_ = 0;
+  std::size_t in_flight_ = 0;
+  bool writing_last_part_ = false;  // the write in progress ends the oldest frame
   std::optional<uint64_t> last_frame_read_;
   bool reading_ = false;
   bool reads_done_ = false;

@@ -4,8 +4,10 @@
 
 namespace skinserve {
 
-ComputePool::ComputePool(int threads, std::size_t capacity)
-    : capacity_(std::max<std::size_t>(capacity, 1)) {
+ComputePool::ComputePool(int threads, std::size_t capacity, uint64_t split_min_work)
+    : capacity_(std::max<std::size_t>(capacity, 1)),
+      split_min_work_(std::max<uint64_t>(split_min_work, 1)),
+      ring_(capacity_) {
   threads = std::max(threads, 1);
   free_threads_ = threads;
   workers_.reserve(threads);
@@ -14,14 +16,34 @@ ComputePool::ComputePool(int threads, std::size_t capacity)
 
 ComputePool::~ComputePool() { Shutdown(); }
 
-bool ComputePool::TrySubmit(int width, std::function<void()> task) {
+bool ComputePool::TrySubmit(const Task& task) {
   {
     std::lock_guard lock(mutex_);
-    if (stopping_ || queue_.size() >= capacity_) return false;
-    queue_.push_back({std::clamp(width, 1, size()), std::move(task)});
+    if (stopping_ || count_ >= capacity_) return false;
+    Task& slot = ring_[(head_ + count_) % capacity_];
+    slot = task;
+    slot.parts = std::max<uint32_t>(slot.parts, 1);
+    slot.min_width = std::clamp(slot.min_width, 1, size());
+    slot.max_width = std::clamp(slot.max_width, slot.min_width, size());
+    ++count_;
   }
   changed_.notify_all();
   return true;
+}
+
+bool ComputePool::TrySubmit(int width, std::function<void()> task) {
+  auto* owned = new std::function<void()>(std::move(task));
+  Task wrapped;
+  wrapped.run = [](void* context, uint32_t, int) {
+    auto* function = static_cast<std::function<void()>*>(context);
+    (*function)();
+    delete function;
+  };
+  wrapped.context = owned;
+  wrapped.min_width = wrapped.max_width = width;
+  if (TrySubmit(wrapped)) return true;
+  delete owned;
+  return false;
 }
 
 void ComputePool::Shutdown() {
@@ -37,26 +59,51 @@ void ComputePool::Shutdown() {
 
 std::size_t ComputePool::depth() const {
   std::lock_guard lock(mutex_);
-  return queue_.size();
+  return count_;
+}
+
+int ComputePool::peak_busy() const {
+  std::lock_guard lock(mutex_);
+  return peak_busy_;
+}
+
+int ComputePool::GrantLocked() const {
+  const Task& head = ring_[head_];
+  if (free_threads_ < head.min_width) return 0;
+  // Anything else waiting (another part of this task or another task) gets the other
+  // threads: side by side beats splitting, and nothing is woken that would then wait.
+  const bool others_wait = next_part_ + 1 < head.parts || count_ > 1;
+  if (head.max_width == head.min_width || others_wait) return head.min_width;
+  // Split, but keep one thread free for the frames that arrive meanwhile: a large frame
+  // started on an idle pool must not make every later small frame wait for it.
+  const uint64_t worth = std::max<uint64_t>(head.work / split_min_work_, 1);
+  const int spare = std::max(free_threads_ - 1, 1);
+  const int threads = static_cast<int>(std::min<uint64_t>(worth, spare));
+  return std::clamp(threads, head.min_width, head.max_width);
 }
 
 void ComputePool::WorkerLoop() {
   std::unique_lock lock(mutex_);
   while (true) {
-    // Head of line only: the oldest task starts first, once enough threads are free.
-    changed_.wait(lock, [this] {
-      return (stopping_ && queue_.empty()) ||
-             (!queue_.empty() && free_threads_ >= queue_.front().width);
-    });
-    if (queue_.empty()) return;
-    Task task = std::move(queue_.front());
-    queue_.pop_front();
-    free_threads_ -= task.width;
-    changed_.notify_all();  // the new head may fit in the threads still free
+    // Head of line only: the oldest task's parts start first, once enough threads are free.
+    changed_.wait(
+        lock, [this] { return (stopping_ && count_ == 0) || (count_ > 0 && GrantLocked() > 0); });
+    if (count_ == 0) return;
+    const int width = GrantLocked();
+    const Task task = ring_[head_];
+    const uint32_t part = next_part_++;
+    if (next_part_ >= task.parts) {
+      head_ = (head_ + 1) % capacity_;
+      --count_;
+      next_part_ = 0;
+    }
+    free_threads_ -= width;
+    peak_busy_ = std::max(peak_busy_, size() - free_threads_);
+    changed_.notify_all();  // the next part may fit in the threads still free
     lock.unlock();
-    task.run();
+    task.run(task.context, part, width);
     lock.lock();
-    free_threads_ += task.width;
+    free_threads_ += width;
     changed_.notify_all();
   }
 }

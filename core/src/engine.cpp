@@ -48,7 +48,7 @@ class Engine::Impl {
         backends_(std::move(backends)),
         counters_(backends_.size()),
         store_(options.mesh_budget_bytes, backends_.size()),
-        pool_(threads, options.queue_capacity) {
+        pool_(threads, options.queue_capacity, options.split_min_vertices) {
     options_.compute_threads = threads;
   }
 
@@ -68,8 +68,76 @@ class Engine::Impl {
         fmt::format("backend '{}' is unknown; available backends: {}", id, available));
   }
 
-  Status Submit(SkinRequest request, SkinDone done) {
+  // The limits of a batch (Engine::CheckBatch).
+  Status CheckBatch(uint32_t vertex_count, uint32_t instances) const {
+    if (instances > options_.max_instances) {
+      return InvalidArgument(
+          fmt::format("instances = {} exceeds the limit of {} instances per request", instances,
+                      options_.max_instances));
+    }
+    const uint64_t total_vertices = uint64_t{vertex_count} * std::max<uint32_t>(instances, 1);
+    if (total_vertices > options_.mesh.limits.max_vertices) {
+      return InvalidArgument(fmt::format(
+          "instances * vertex_count = {} * {} = {} exceeds the limit of {} vertices per frame",
+          instances, vertex_count, total_vertices, options_.mesh.limits.max_vertices));
+    }
+    return Status::Ok();
+  }
+
+  // Everything a frame needs checked before it is queued.
+  Status Check(const SkinRequest& request, const Mesh& mesh, uint32_t instances) const {
+    if (Status s = CheckBatch(mesh.vertex_count(), instances); !s.ok()) return s;
+    const std::size_t per_instance = 12ull * mesh.joint_count();
+    if (instances > 1 && request.palette.size() != per_instance * instances) {
+      const std::size_t whole = request.palette.size() / std::max<std::size_t>(per_instance, 1);
+      return InvalidArgument(
+          whole < instances
+              ? fmt::format("palette holds {} floats: instance {}'s palette is missing or short "
+                            "(a batch of {} instances of a mesh with {} joints needs 12 * {} * "
+                            "{} = {} floats)",
+                            request.palette.size(), whole, instances, mesh.joint_count(),
+                            mesh.joint_count(), instances, per_instance * instances)
+              : fmt::format("palette holds {} floats, more than the 12 * {} * {} = {} of a "
+                            "batch of {} instances",
+                            request.palette.size(), mesh.joint_count(), instances,
+                            per_instance * instances, instances));
+    }
+    const std::size_t outputs = 3ull * mesh.vertex_count();
+    if (request.positions.size() != outputs * instances) {
+      return InvalidArgument(fmt::format(
+          "positions output holds {} floats; expected 3 * vertex_count * instances = {}",
+          request.positions.size(), outputs * instances));
+    }
+    if (!request.normals.empty() && request.normals.size() != outputs * instances) {
+      return InvalidArgument(
+          fmt::format("normals output holds {} floats; expected 3 * vertex_count * instances = {}",
+                      request.normals.size(), outputs * instances));
+    }
+    for (uint32_t i = 0; i < instances; ++i) {
+      if (Status s = InstanceFrame(request, mesh, i).Validate(mesh); !s.ok()) {
+        if (instances == 1) return s;
+        return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
+      }
+    }
+    return Status::Ok();
+  }
+
+  static SkinFrame InstanceFrame(const SkinRequest& request, const Mesh& mesh, uint32_t i,
+                                 int threads = 0) {
+    const std::size_t palette = 12ull * mesh.joint_count();
+    const std::size_t outputs = 3ull * mesh.vertex_count();
+    SkinFrame frame{request.palette.subspan(std::min(request.palette.size(), i * palette)),
+                    request.positions.subspan(i * outputs, outputs),
+                    request.normals.empty() ? std::span<float>()
+                                            : request.normals.subspan(i * outputs, outputs),
+                    threads};
+    if (request.instances > 1) frame.palette = frame.palette.first(palette);  // sizes checked
+    return frame;
+  }
+
+  Status Submit(SkinJob* job, void (*run)(void*, uint32_t, int)) {
     if (shut_down_.load()) return Unavailable("the engine is shutting down");
+    const SkinRequest& request = job->request;
     Result<std::size_t> backend_index = FindBackend(request.backend);
     if (!backend_index.ok()) return backend_index.status();
     MeshStore::Lease entry = store_.Acquire(request.mesh_id);
@@ -77,22 +145,28 @@ class Engine::Impl {
       return NotFound(
           fmt::format("mesh '{}' is not stored on this server; upload it again", request.mesh_id));
     }
-    const SkinFrame frame{request.palette, request.positions, request.normals};
-    if (Status s = frame.Validate(*entry->mesh()); !s.ok()) return s;
+    const Mesh& mesh = *entry->mesh();
+    const uint32_t instances = std::max<uint32_t>(request.instances, 1);
+    if (Status s = Check(request, mesh, instances); !s.ok()) return s;
 
-    Backend& backend = *backends_[*backend_index];
-    const int64_t submitted = NowNs();
-    auto task = [this, index = *backend_index, &backend, entry = std::move(entry),
-                 request = std::move(request), done = std::move(done), submitted]() mutable {
-      FrameTiming timing;
-      const int64_t started = NowNs();
-      timing.queued_ns = started - submitted;
-      Status status = Run(index, backend, *entry, request);
-      timing.compute_ns = NowNs() - started;
-      entry.reset();  // unpin before the caller learns the frame is done
-      done(std::move(status), timing);
-    };
-    if (!pool_.TrySubmit(backend.info().threads, std::move(task))) {
+    const BackendInfo& info = backends_[*backend_index]->info();
+    job->engine_ = this;
+    job->backend_index_ = *backend_index;
+    job->vertex_count_ = mesh.vertex_count();
+    job->submitted_ns_ = NowNs();
+    job->started_ns_.store(0);
+    job->remaining_.store(instances);
+    job->status_ = Status::Ok();
+    job->lease_ = std::move(entry);
+    ComputePool::Task task;
+    task.run = run;
+    task.context = job;
+    task.parts = instances;
+    task.max_width = info.threads;
+    task.min_width = info.min_threads > 0 ? info.min_threads : info.threads;
+    task.work = mesh.vertex_count();
+    if (!pool_.TrySubmit(task)) {
+      job->lease_.reset();
       if (shut_down_.load()) return Unavailable("the engine is shutting down");
       rejected_.fetch_add(1);
       return ResourceExhausted(fmt::format(
@@ -103,25 +177,24 @@ class Engine::Impl {
     return Status::Ok();
   }
 
-  Status Run(std::size_t index, Backend& backend, MeshStore::Entry& entry,
-             const SkinRequest& request) {
-    Counters& counters = counters_[index];
+  // Skins instance `i` of `job` on `threads` threads.
+  Status RunInstance(SkinJob& job, uint32_t i, int threads) {
+    Backend& backend = *backends_[job.backend_index_];
+    auto& entry = *static_cast<MeshStore::Entry*>(job.lease_.get());
+    Counters& counters = counters_[job.backend_index_];
     Status status;
     const int64_t started = NowNs();
     try {
-      Result<const PreparedMesh*> prepared = entry.Prepared(index, backend);
+      Result<const PreparedMesh*> prepared = entry.Prepared(job.backend_index_, backend);
       status = prepared.ok()
-                   ? backend.Skin(**prepared, {request.palette, request.positions, request.normals})
+                   ? backend.Skin(**prepared, InstanceFrame(job.request, *entry.mesh(), i, threads))
                    : prepared.status();
     } catch (const std::exception& e) {
       status = Internal(fmt::format("backend '{}' failed: {}", backend.info().id, e.what()));
     }
     if (status.ok()) {
-      counters.frames.fetch_add(1);
-      counters.vertices.fetch_add(entry.mesh()->vertex_count());
+      counters.vertices.fetch_add(job.vertex_count_);
       counters.compute_ns.fetch_add(NowNs() - started);
-    } else {
-      counters.errors.fetch_add(1);
     }
     return status;
   }
@@ -210,10 +283,79 @@ Result<MeshInfo> Engine::GetMesh(const std::string& id) const {
   return info;
 }
 
+Status Engine::GetMesh(const std::string& id, MeshInfo* info) const {
+  MeshStore::Lease entry = impl_->store_.Acquire(id);
+  if (!entry) {
+    return NotFound(fmt::format("mesh '{}' is not stored on this server; upload it again", id));
+  }
+  const Mesh& mesh = *entry->mesh();
+  info->id.assign(mesh.id());
+  info->vertex_count = mesh.vertex_count();
+  info->influences = mesh.influences();
+  info->joint_count = mesh.joint_count();
+  info->has_normals = mesh.has_normals();
+  info->bytes = mesh.byte_size();
+  info->normalized_vertices = mesh.normalized_vertices();
+  info->already_stored = true;
+  return Status::Ok();
+}
+
+Status Engine::CheckBatch(uint32_t vertex_count, uint32_t instances) const {
+  return impl_->CheckBatch(vertex_count, instances);
+}
+
 bool Engine::DeleteMesh(const std::string& id) { return impl_->store_.Erase(id); }
 
+Status Engine::Submit(SkinJob* job) { return impl_->Submit(job, &Engine::RunPart); }
+
+void Engine::RunPart(void* context, uint32_t instance, int threads) {
+  auto& job = *static_cast<SkinJob*>(context);
+  auto& impl = *static_cast<Impl*>(job.engine_);
+  int64_t unset = 0;
+  job.started_ns_.compare_exchange_strong(unset, NowNs());
+  Status status = impl.RunInstance(job, instance, threads);
+  if (!status.ok()) {
+    std::lock_guard lock(job.status_mutex_);
+    if (job.status_.ok()) job.status_ = std::move(status);
+  }
+  if (job.remaining_.fetch_sub(1) != 1) return;
+  // The last instance: the frame is done.
+  FrameTiming timing;
+  const int64_t started = job.started_ns_.load();
+  timing.queued_ns = started - job.submitted_ns_;
+  timing.compute_ns = NowNs() - started;
+  Impl::Counters& counters = impl.counters_[job.backend_index_];
+  (job.status_.ok() ? counters.frames : counters.errors).fetch_add(1);
+  job.lease_.reset();  // unpin before the caller learns the frame is done
+  Status result = std::move(job.status_);
+  job.status_ = Status::Ok();
+  job.OnSkinned(std::move(result), timing);  // may reuse or delete the job: nothing after
+}
+
+namespace {
+
+// Engine::Submit(request, done): a job that owns its request and deletes itself.
+class CallbackJob final : public SkinJob {
+ public:
+  explicit CallbackJob(SkinDone done) : done_(std::move(done)) {}
+
+ private:
+  void OnSkinned(Status status, const FrameTiming& timing) override {
+    SkinDone done = std::move(done_);
+    delete this;
+    done(std::move(status), timing);
+  }
+  SkinDone done_;
+};
+
+}  // namespace
+
 Status Engine::Submit(SkinRequest request, SkinDone done) {
-  return impl_->Submit(std::move(request), std::move(done));
+  auto* job = new CallbackJob(std::move(done));
+  job->request = std::move(request);
+  Status status = Submit(job);
+  if (!status.ok()) delete job;
+  return status;
 }
 
 Status Engine::SkinBlocking(SkinRequest request, FrameTiming* timing) {
@@ -243,6 +385,7 @@ EngineStats Engine::Stats() const {
   stats.mesh_budget_bytes = impl_->store_.budget_bytes();
   stats.evictions = impl_->store_.evictions();
   stats.rejected_queue_full = impl_->rejected_.load();
+  stats.peak_busy_threads = impl_->pool_.peak_busy();
   return stats;
 }
 

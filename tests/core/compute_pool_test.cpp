@@ -5,7 +5,9 @@
 #include <atomic>
 #include <chrono>
 #include <future>
+#include <mutex>
 #include <thread>
+#include <vector>
 
 namespace skinserve {
 namespace {
@@ -82,6 +84,142 @@ TEST(ComputePoolTest, WideTasksClampToThePoolSize) {
   std::promise<void> done;
   ASSERT_TRUE(pool.TrySubmit(64, [&] { done.set_value(); }));
   EXPECT_EQ(done.get_future().wait_for(std::chrono::seconds(10)), std::future_status::ready);
+}
+
+// A flexible task (a parallel backend's frame) that records the threads it was granted.
+struct Grants {
+  std::mutex mutex;
+  std::vector<std::pair<int, int>> granted;  // (tag, threads) in start order
+  std::atomic<int> finished{0};
+};
+
+struct Tagged {
+  Grants* grants;
+  int tag;
+};
+
+ComputePool::Task Flexible(Tagged* tagged, int max_width, uint64_t work, uint32_t parts = 1) {
+  ComputePool::Task task;
+  task.run = [](void* context, uint32_t, int threads) {
+    auto* t = static_cast<Tagged*>(context);
+    {
+      std::lock_guard lock(t->grants->mutex);
+      t->grants->granted.emplace_back(t->tag, threads);
+    }
+    t->grants->finished.fetch_add(1);
+  };
+  task.context = tagged;
+  task.parts = parts;
+  task.min_width = 1;
+  task.max_width = max_width;
+  task.work = work;
+  return task;
+}
+
+// Holds `count` pool threads until released, so the test decides what waits.
+struct Blocker {
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  std::atomic<int> started{0};
+  void Occupy(ComputePool& pool, int count) {
+    for (int i = 0; i < count; ++i) {
+      ASSERT_TRUE(pool.TrySubmit(1, [this] {
+        started.fetch_add(1);
+        released.wait();
+      }));
+    }
+    while (started.load() < count) std::this_thread::yield();
+  }
+};
+
+TEST(ComputePoolTest, WaitingFramesRunSideBySideOneThreadEach) {
+  Grants grants;
+  std::vector<Tagged> tags = {{&grants, 0}, {&grants, 1}, {&grants, 2}};
+  ComputePool pool(4, 16, /*split_min_work=*/1000);
+  Blocker blocker;
+  blocker.Occupy(pool, 4);
+  // Three large frames of a 4-thread backend wait together: none is split while others wait.
+  for (auto& tag : tags) ASSERT_TRUE(pool.TrySubmit(Flexible(&tag, 4, 1'000'000)));
+  blocker.release.set_value();
+  pool.Shutdown();
+  ASSERT_EQ(grants.granted.size(), 3u);
+  EXPECT_EQ(grants.granted[0], std::make_pair(0, 1)) << "frame 1 waited behind it";
+  EXPECT_EQ(grants.granted[1], std::make_pair(1, 1)) << "frame 2 waited behind it";
+  EXPECT_EQ(grants.granted[2].first, 2);  // the last may take the threads left idle
+  EXPECT_LE(pool.peak_busy(), 4);
+}
+
+TEST(ComputePoolTest, ALoneFrameIsSplitOnlyWhenLargeEnough) {
+  Grants grants;
+  Tagged large{&grants, 0}, small{&grants, 1}, medium{&grants, 2};
+  ComputePool pool(4, 16, /*split_min_work=*/1000);
+  ASSERT_TRUE(pool.TrySubmit(Flexible(&large, 4, 1'000'000)));
+  while (grants.finished.load() < 1) std::this_thread::yield();
+  ASSERT_TRUE(pool.TrySubmit(Flexible(&small, 4, 999)));  // not worth waking a team
+  while (grants.finished.load() < 2) std::this_thread::yield();
+  ASSERT_TRUE(pool.TrySubmit(Flexible(&medium, 4, 2500)));  // worth two threads
+  pool.Shutdown();
+  ASSERT_EQ(grants.granted.size(), 3u);
+  EXPECT_EQ(grants.granted[0], std::make_pair(0, 3)) << "one thread stays free for arrivals";
+  EXPECT_EQ(grants.granted[1], std::make_pair(1, 1));
+  EXPECT_EQ(grants.granted[2], std::make_pair(2, 2));
+}
+
+TEST(ComputePoolTest, ACrowdsPartsRunSideBySide) {
+  std::atomic<int> busy{0}, peak{0};
+  struct Context {
+    std::atomic<int>* busy;
+    std::atomic<int>* peak;
+    std::atomic<int> parts{0};
+    std::promise<void> all;
+  } context{&busy, &peak};
+  ComputePool::Task task;
+  task.run = [](void* c, uint32_t, int threads) {
+    auto* ctx = static_cast<Context*>(c);
+    EXPECT_EQ(threads, 1);
+    const int now = ctx->busy->fetch_add(1) + 1;
+    int seen = ctx->peak->load();
+    while (now > seen && !ctx->peak->compare_exchange_weak(seen, now)) {
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ctx->busy->fetch_sub(1);
+    if (ctx->parts.fetch_add(1) + 1 == 6) ctx->all.set_value();
+  };
+  task.context = &context;
+  task.parts = 6;
+  task.max_width = 2;
+  task.work = 1'000'000;
+  ComputePool pool(2, 1, 1000);
+  ASSERT_TRUE(pool.TrySubmit(task));  // six parts take one queue slot
+  EXPECT_EQ(context.all.get_future().wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  pool.Shutdown();
+  EXPECT_EQ(context.parts.load(), 6);
+  EXPECT_EQ(peak.load(), 2) << "the parts ran side by side";
+  EXPECT_LE(pool.peak_busy(), 2);
+}
+
+TEST(ComputePoolTest, AFixedWidthTaskWaitsForItsThreadsAndKeepsItsTurn) {
+  ComputePool pool(2, 16);
+  Blocker blocker;
+  blocker.Occupy(pool, 1);  // one of two threads busy
+  std::mutex mutex;
+  std::vector<int> order;
+  auto record = [&](int tag) {
+    return [&, tag] {
+      std::lock_guard lock(mutex);
+      order.push_back(tag);
+    };
+  };
+  ASSERT_TRUE(pool.TrySubmit(2, record(0)));  // needs both: waits at the head
+  ASSERT_TRUE(pool.TrySubmit(1, record(1)));  // could run now, but arrived later
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  {
+    std::lock_guard lock(mutex);
+    EXPECT_TRUE(order.empty()) << "nothing overtakes the wide task at the head";
+  }
+  blocker.release.set_value();
+  pool.Shutdown();
+  EXPECT_EQ(order, (std::vector<int>{0, 1}));
 }
 
 }  // namespace

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <condition_variable>
 #include <future>
+#include <mutex>
 #include <thread>
 
 #include "skinserve/core/reference.h"
@@ -21,14 +23,15 @@ std::unique_ptr<Engine> MakeEngine(EngineOptions options = {}) {
 }
 
 struct Frame {
+  std::vector<float> palette;
   std::vector<float> positions;
   std::vector<float> normals;
   SkinRequest Request(const MeshInfo& mesh, const std::string& backend, uint64_t frame,
                       bool with_normals = false) {
+    palette = MakeSyntheticPalette(mesh.joint_count, 11, frame);
     positions.assign(3ull * mesh.vertex_count, 0.0f);
     normals.assign(with_normals ? 3ull * mesh.vertex_count : 0, 0.0f);
-    return {mesh.id, backend, MakeSyntheticPalette(mesh.joint_count, 11, frame), positions,
-            normals};
+    return {mesh.id, backend, palette, 1, positions, normals};
   }
 };
 
@@ -40,7 +43,7 @@ TEST(EngineTest, SkinsAgainstTheReference) {
   ASSERT_TRUE(info.ok()) << info.status().ToString();
   Frame frame;
   SkinRequest request = frame.Request(*info, "serial", 5, /*with_normals=*/true);
-  const std::vector<float> palette = request.palette;
+  const std::vector<float> palette = frame.palette;
   FrameTiming timing;
   ASSERT_TRUE(engine->SkinBlocking(std::move(request), &timing).ok());
   auto mesh = Mesh::Create(arrays).value();
@@ -87,13 +90,13 @@ TEST(EngineTest, NamesWhatIsWrongWithARequest) {
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << "not enabled in this engine";
 
   SkinRequest short_palette = frame.Request(info, "serial", 0);
-  short_palette.palette.pop_back();
+  short_palette.palette = short_palette.palette.first(short_palette.palette.size() - 1);
   s = engine->Submit(short_palette, [](Status, FrameTiming) { FAIL(); });
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("expected 12 * joint_count = 924"), std::string::npos) << s.message();
 
   SkinRequest nan_palette = frame.Request(info, "serial", 0);
-  nan_palette.palette[12 * 3 + 6] = std::numeric_limits<float>::quiet_NaN();
+  frame.palette[12 * 3 + 6] = std::numeric_limits<float>::quiet_NaN();
   s = engine->Submit(nan_palette, [](Status, FrameTiming) { FAIL(); });
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("palette[joint 3][row 1, col 2]"), std::string::npos) << s.message();
@@ -167,6 +170,113 @@ TEST(EngineTest, ChecksUploadShapesBeforeAllocating) {
       << "100 vertices x 18 bytes exceed the 1000-byte budget";
   EXPECT_TRUE(engine->CheckMeshShape(50, 1, 1, false).ok());
   EXPECT_EQ(engine->CheckMeshShape(50, 9, 1, false).code(), StatusCode::kInvalidArgument);
+}
+
+// The scheduler's fairness, asserted on progress and order, not on timings: a 1.6M-vertex
+// frame of a parallel backend does not hold every thread while 25k-vertex frames wait,
+// and a steady flood of 25k-vertex frames does not starve it.
+class SchedulerFairnessTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    engine_ = MakeEngine({.compute_threads = 2,
+                          .queue_capacity = 64,
+                          .enabled_backends = {"sse-openmp", "openmp"}})
+                  .release();
+    big_ = new MeshInfo(
+        engine_->AddMesh(MakeSyntheticMesh({.vertex_count = 1'600'000, .influences = 2})).value());
+    small_ = new MeshInfo(
+        engine_->AddMesh(MakeSyntheticMesh({.vertex_count = 25'000, .influences = 2})).value());
+  }
+  static void TearDownTestSuite() {
+    delete engine_;
+    delete big_;
+    delete small_;
+  }
+  static Engine* engine_;
+  static MeshInfo* big_;
+  static MeshInfo* small_;
+};
+Engine* SchedulerFairnessTest::engine_ = nullptr;
+MeshInfo* SchedulerFairnessTest::big_ = nullptr;
+MeshInfo* SchedulerFairnessTest::small_ = nullptr;
+
+TEST_F(SchedulerFairnessTest, ALargeFrameDoesNotHoldEveryThreadWhileSmallFramesWait) {
+  Frame big;
+  std::vector<Frame> small(20);
+  std::atomic<bool> big_done{false};
+  std::atomic<int> small_before_big{0}, small_done{0};
+  std::promise<void> all;
+  ASSERT_TRUE(engine_
+                  ->Submit(big.Request(*big_, "sse-openmp", 0),
+                           [&](Status s, FrameTiming) {
+                             EXPECT_TRUE(s.ok()) << s.ToString();
+                             big_done.store(true);
+                           })
+                  .ok());
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_TRUE(engine_
+                    ->Submit(small[i].Request(*small_, "sse-openmp", i),
+                             [&](Status s, FrameTiming) {
+                               EXPECT_TRUE(s.ok()) << s.ToString();
+                               if (!big_done.load()) small_before_big.fetch_add(1);
+                               if (small_done.fetch_add(1) + 1 == 20) all.set_value();
+                             })
+                    .ok());
+  }
+  all.get_future().wait();
+  // Split across both threads, the large frame would have kept every small one waiting.
+  EXPECT_GE(small_before_big.load(), 1);
+  EXPECT_LE(engine_->Stats().peak_busy_threads, 2);
+}
+
+TEST_F(SchedulerFairnessTest, AFloodOfSmallFramesDoesNotStarveALargeOne) {
+  constexpr int kInFlight = 8;
+  constexpr int kCap = 200'000;  // far beyond what FIFO order lets pass the large frame
+  std::vector<Frame> small(kInFlight);
+  Frame big;
+  std::atomic<bool> big_done{false};
+  std::atomic<int> submitted{0};
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::vector<int> slots;
+  for (int i = 0; i < kInFlight; ++i) slots.push_back(i);
+  auto submit_small = [&](int slot) {
+    return engine_->Submit(small[slot].Request(*small_, "openmp", submitted.fetch_add(1)),
+                           [&, slot](Status s, FrameTiming) {
+                             EXPECT_TRUE(s.ok()) << s.ToString();
+                             std::lock_guard lock(mutex);
+                             slots.push_back(slot);
+                             changed.notify_all();
+                           });
+  };
+  {
+    std::unique_lock lock(mutex);
+    for (int i = 0; i < kInFlight / 2; ++i) {
+      ASSERT_TRUE(submit_small(slots.back()).ok());
+      slots.pop_back();
+    }
+  }
+  ASSERT_TRUE(engine_
+                  ->Submit(big.Request(*big_, "openmp", 1),
+                           [&](Status s, FrameTiming) {
+                             EXPECT_TRUE(s.ok()) << s.ToString();
+                             std::lock_guard lock(mutex);
+                             big_done.store(true);
+                             changed.notify_all();
+                           })
+                  .ok());
+  std::unique_lock lock(mutex);
+  while (!big_done.load() && submitted.load() < kCap) {
+    changed.wait(lock, [&] { return big_done.load() || !slots.empty(); });
+    while (!big_done.load() && !slots.empty()) {
+      const int slot = slots.back();
+      slots.pop_back();
+      ASSERT_TRUE(submit_small(slot).ok());
+    }
+  }
+  EXPECT_TRUE(big_done.load()) << submitted.load() << " small frames passed it";
+  // Let the small frames in flight finish before their buffers go.
+  changed.wait(lock, [&] { return static_cast<int>(slots.size()) == kInFlight; });
 }
 
 }  // namespace

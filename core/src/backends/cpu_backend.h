@@ -3,6 +3,7 @@
 // four CPU backends differ only in the kernel and the description.
 #pragma once
 
+#include <algorithm>
 #include <new>
 
 #include "parallel_range.h"
@@ -18,7 +19,9 @@ namespace skinserve {
 template <typename Kernel>
 class CpuBackend final : public Backend {
  public:
-  explicit CpuBackend(BackendInfo info) : info_(std::move(info)) {}
+  explicit CpuBackend(BackendInfo info) : info_(std::move(info)) {
+    info_.min_threads = 1;  // a parallel loop runs on as few threads as it is given
+  }
   const BackendInfo& info() const override { return info_; }
   Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
     return std::make_unique<PreparedMesh>(std::move(mesh));  // skins the Mesh's own layout
@@ -27,10 +30,12 @@ class CpuBackend final : public Backend {
     const Mesh& mesh = prepared.mesh();
     try {
       const typename Kernel::FramePalette palette(frame.palette);
-      if (info_.threads <= 1) {
+      const int threads =
+          frame.threads > 0 ? std::min(frame.threads, info_.threads) : info_.threads;
+      if (threads <= 1) {
         Kernel::SkinRange(mesh, palette, frame, 0, mesh.vertex_count());
       } else {
-        ParallelOverVertices(mesh.vertex_count(), info_.threads,
+        ParallelOverVertices(mesh.vertex_count(), threads,
                              [&](std::size_t first, std::size_t last) {
                                Kernel::SkinRange(mesh, palette, frame, first, last);
                              });

@@ -20,7 +20,9 @@ struct BackendInfo {
   std::string device;              // e.g. the CPU model or the OpenCL device name
   int simd_width = 1;              // float lanes one instruction works on (1: scalar)
   std::string simd_target;         // SIMD target chosen at run time (`simd`), e.g. "AVX2"
-  int threads = 1;                 // compute threads one frame occupies
+  int threads = 1;                 // compute threads one frame occupies, at most
+  // The fewest threads a frame can run on (SkinFrame::threads); 0: exactly `threads`.
+  int min_threads = 0;
 };
 
 // A backend's resident copy of one mesh. Backends derive from it to hold their layout.
@@ -39,10 +41,13 @@ class PreparedMesh {
 //  - positions: 3 * vertex_count floats written by the backend, x y z per vertex.
 //  - normals:   empty to skip normals; else 3 * vertex_count floats, unit length, and
 //               the mesh must have normals.
+//  - threads:   the threads this frame may use, between info.min_threads and
+//               info.threads (the engine's scheduler decides); 0: info.threads.
 struct SkinFrame {
   std::span<const float> palette;
   std::span<float> positions;
   std::span<float> normals;
+  int threads = 0;
 
   Status Validate(const Mesh& mesh) const;
 };

@@ -2,9 +2,11 @@
 // the server is a thin translation of wire messages onto it.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
@@ -17,8 +19,13 @@
 namespace skinserve {
 
 struct EngineOptions {
-  int compute_threads = 0;                    // 0: one per core
-  std::size_t queue_capacity = 256;           // frames waiting for a compute thread
+  int compute_threads = 0;           // 0: one per core
+  std::size_t queue_capacity = 256;  // frames waiting for a compute thread
+  uint32_t max_instances = 64;       // crowd batches: instances per request
+  // A parallel backend's frame is split across threads only when nothing else waits and
+  // each thread gets at least this many vertices (waking a team costs ~10-50 us; a
+  // 25k-vertex, 2-bone frame takes ~50 us on one thread).
+  uint64_t split_min_vertices = 50'000;
   uint64_t mesh_budget_bytes = 4ull << 30;    // LRU eviction beyond this
   MeshOptions mesh;                           // limits and weight policy on ingest
   std::vector<std::string> enabled_backends;  // ids; empty: all
@@ -41,15 +48,47 @@ struct FrameTiming {
   int64_t compute_ns = 0;  // the backend's Skin call
 };
 
-// One frame to skin. The outputs are caller-owned and must stay valid until `done` runs.
+// One frame to skin: one instance of a mesh, or a crowd of `instances` instances (K), each
+// with its own palette, skinned side by side. Inputs and outputs are caller-owned and
+// must stay valid until the frame is done; instance i's arrays follow instance i-1's.
 struct SkinRequest {
   std::string mesh_id;
   std::string backend;
-  std::vector<float> palette;  // 12 * joint_count floats
-  std::span<float> positions;  // 3 * vertex_count
-  std::span<float> normals;    // empty: no normals
+  std::span<const float> palette;  // 12 * joint_count * K floats
+  uint32_t instances = 1;          // K; 0 means 1; at most EngineOptions::max_instances
+  std::span<float> positions;      // 3 * vertex_count * K
+  std::span<float> normals;        // empty: no normals; else 3 * vertex_count * K
 };
 using SkinDone = std::function<void(Status, FrameTiming)>;
+
+// A frame the caller owns and reuses frame after frame, so that the steady-state path
+// allocates nothing: fill `request`, Engine::Submit(job); OnSkinned runs once, on a compute
+// thread, after every instance is skinned. Resubmit only after OnSkinned has run.
+class SkinJob {
+ public:
+  SkinJob() = default;
+  SkinJob(const SkinJob&) = delete;
+  SkinJob& operator=(const SkinJob&) = delete;
+  virtual ~SkinJob() = default;
+
+  SkinRequest request;
+
+ protected:
+  virtual void OnSkinned(Status status, const FrameTiming& timing) = 0;
+
+ private:
+  friend class Engine;
+  // The engine's bookkeeping for the frame in flight.
+  std::shared_ptr<void> lease_;  // pins the mesh
+  void* engine_ = nullptr;
+  std::size_t backend_index_ = 0;
+  uint32_t vertex_count_ = 0;
+  int64_t submitted_ns_ = 0;
+  std::atomic<int64_t> started_ns_{0};
+  std::atomic<uint32_t> remaining_{0};
+  std::mutex status_mutex_;
+  Status status_;  // the first failure among the instances
+};
 
 struct BackendStats {
   std::string id;
@@ -69,6 +108,7 @@ struct EngineStats {
   uint64_t mesh_budget_bytes = 0;
   uint64_t evictions = 0;
   uint64_t rejected_queue_full = 0;
+  int peak_busy_threads = 0;  // most compute threads ever skinning at once
 };
 
 class Engine {
@@ -91,12 +131,21 @@ class Engine {
   Result<MeshInfo> AddMesh(const MeshArrays& arrays,
                            std::optional<WeightPolicy> weight_policy = std::nullopt);
   Result<MeshInfo> GetMesh(const std::string& id) const;
+  // The same into `info`, reusing its strings (no allocation once they have grown).
+  Status GetMesh(const std::string& id, MeshInfo* info) const;
+  // Whether a batch of `instances` (0 means 1) of a mesh of `vertex_count` vertices is
+  // within the limits (max_instances; instances * vertex_count <= max_vertices), so a
+  // caller can check before sizing its buffers. INVALID_ARGUMENT naming the limit.
+  Status CheckBatch(uint32_t vertex_count, uint32_t instances) const;
   bool DeleteMesh(const std::string& id);
 
   // Checks the request (unknown mesh: NOT_FOUND; unknown or unavailable backend, bad
-  // palette or output sizes: INVALID_ARGUMENT; full queue: RESOURCE_EXHAUSTED; shut down:
-  // UNAVAILABLE) and queues it. On OK, `done` is called exactly once, on a compute
-  // thread; on an error, `done` is never called.
+  // palette or output sizes, too many instances: INVALID_ARGUMENT naming the instance;
+  // full queue: RESOURCE_EXHAUSTED; shut down: UNAVAILABLE) and queues it. On OK,
+  // OnSkinned is called exactly once, on a compute thread; on an error, never.
+  // Allocates nothing.
+  Status Submit(SkinJob* job);
+  // The same for a request and a callback (allocates the job: for tools and tests).
   Status Submit(SkinRequest request, SkinDone done);
   // Submit and wait: for tools and tests.
   Status SkinBlocking(SkinRequest request, FrameTiming* timing = nullptr);
@@ -107,6 +156,7 @@ class Engine {
 
  private:
   class Impl;
+  static void RunPart(void* job, uint32_t instance, int threads);
   explicit Engine(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };

@@ -1,0 +1,37 @@
+// InflightBudget: the bytes that frames in flight may hold across all streams (their
+// palettes, skinned vertices and encoded answers, i.e. each stream's reusable frame
+// buffers). A frame that would take the total beyond the budget is refused with
+// RESOURCE_EXHAUSTED naming the budget, so slow or hostile readers cannot grow the
+// process without limit; the memory returns when their streams end.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+
+#include "skinserve/core/status.h"
+
+namespace skinserve::server {
+
+class InflightBudget {
+ public:
+  explicit InflightBudget(uint64_t limit_bytes) : limit_(limit_bytes) {}
+
+  // Takes `bytes` from the budget, or refuses (RESOURCE_EXHAUSTED) and takes nothing.
+  Status TryCharge(uint64_t bytes);
+  void Release(uint64_t bytes) { used_.fetch_sub(bytes); }
+
+  uint64_t limit() const { return limit_; }
+  uint64_t used() const { return used_.load(); }
+  uint64_t refused() const { return refused_.load(); }
+
+  // The default: a quarter of the memory this process may use (the cgroup's limit when
+  // one is set, else physical memory), so a replica in a container stays inside its quota.
+  static uint64_t DefaultLimitBytes();
+
+ private:
+  const uint64_t limit_;
+  std::atomic<uint64_t> used_{0};
+  std::atomic<uint64_t> refused_{0};
+};
+
+}  // namespace skinserve::server

@@ -1,0 +1,353 @@
+// Encodings and crowd batches through a real server: every encoding and batch size on
+// every backend, decoded with the shared codec and compared with the float64 reference
+// within the bound of the encoding used (the proto's formula); batches mixing good and
+// bad instances; one stream switching encodings between frames; the in-flight budget.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <thread>
+
+#include "skinserve/core/reference.h"
+#include "skinserve/core/synthetic.h"
+#include "skinserve/core/vertex_encoding.h"
+#include "skinserve/v1/skinning.grpc.pb.h"
+#include "test_server.h"
+
+namespace skinserve::testing {
+namespace {
+
+using Stream = grpc::ClientReaderWriter<v1::SkinRequest, v1::SkinResponse>;
+
+// One answered frame, decoded to float32 per instance.
+struct Answer {
+  grpc::StatusCode error = grpc::StatusCode::OK;
+  std::string message;
+  std::vector<std::vector<float>> positions, normals;
+  std::vector<Bounds> bounds;
+  std::vector<uint32_t> parts;  // per instance
+};
+
+v1::SkinRequest MakeRequest(const std::string& mesh_id, const std::string& backend, uint64_t frame,
+                            uint32_t instances, v1::Encoding encoding, bool normals,
+                            const std::vector<float>& palettes) {
+  v1::SkinRequest request;
+  request.set_mesh_id(mesh_id);
+  request.set_backend(backend);
+  request.set_frame(frame);
+  request.set_instances(instances);
+  request.set_encoding(encoding);
+  request.set_want_normals(normals);
+  request.set_palette(palettes.data(), palettes.size() * sizeof(float));
+  return request;
+}
+
+// K palettes, one pose per instance (so an instance answered with another's vertices fails).
+std::vector<float> CrowdPalettes(uint32_t joints, uint32_t instances, uint64_t frame) {
+  std::vector<float> palettes;
+  for (uint32_t i = 0; i < std::max(instances, 1u); ++i) {
+    const auto one = MakeSyntheticPalette(joints, 7 + i, frame + i);
+    palettes.insert(palettes.end(), one.begin(), one.end());
+  }
+  return palettes;
+}
+
+// Reads one frame's parts (or its error) and decodes them; checks every part's header.
+template <typename Reader>
+Answer ReadFrame(Reader& stream, uint64_t frame, uint32_t vertex_count, uint32_t instances,
+                 v1::Encoding encoding, bool normals) {
+  Answer answer;
+  const uint32_t k = std::max(instances, 1u);
+  answer.positions.assign(k, std::vector<float>(3ull * vertex_count, NAN));
+  answer.normals.assign(k, std::vector<float>(normals ? 3ull * vertex_count : 0, NAN));
+  answer.bounds.resize(k);
+  answer.parts.assign(k, 0);
+  const auto enc = static_cast<VertexEncoding>(encoding);
+  v1::SkinResponse part;
+  uint32_t expected_instance = 0, expected_first = 0;
+  while (true) {
+    if (!stream.Read(&part)) {
+      ADD_FAILURE() << "stream ended before frame " << frame << "'s last part";
+      answer.error = grpc::StatusCode::UNKNOWN;
+      return answer;
+    }
+    EXPECT_EQ(part.frame(), frame);
+    if (part.has_error()) {
+      EXPECT_TRUE(part.last());
+      answer.error = static_cast<grpc::StatusCode>(part.error().code());
+      answer.message = part.error().message();
+      return answer;
+    }
+    EXPECT_EQ(part.instances(), k);
+    EXPECT_EQ(part.encoding(), encoding);
+    EXPECT_EQ(part.total_vertices(), vertex_count);
+    // Parts come instance by instance, each in vertex order.
+    EXPECT_EQ(part.instance(), expected_instance);
+    EXPECT_EQ(part.first_vertex(), expected_first);
+    EXPECT_LE(part.positions().size() + part.normals().size(), 1u << 20);
+    const uint32_t i = std::min(part.instance(), k - 1);
+    const Bounds box{{part.bounds().min_x(), part.bounds().min_y(), part.bounds().min_z()},
+                     {part.bounds().max_x(), part.bounds().max_y(), part.bounds().max_z()}};
+    answer.bounds[i] = box;
+    ++answer.parts[i];
+    const std::size_t first = 3ull * part.first_vertex(), count = 3ull * part.vertex_count();
+    const auto bytes = [](const std::string& s) {
+      return std::span<const std::byte>(reinterpret_cast<const std::byte*>(s.data()), s.size());
+    };
+    Status s = DecodePositions(enc, bytes(part.positions()), box,
+                               std::span<float>(answer.positions[i]).subspan(first, count));
+    EXPECT_TRUE(s.ok()) << s.ToString();
+    if (normals) {
+      s = DecodeNormals(enc, bytes(part.normals()),
+                        std::span<float>(answer.normals[i]).subspan(first, count));
+      EXPECT_TRUE(s.ok()) << s.ToString();
+    }
+    expected_first += part.vertex_count();
+    if (expected_first >= vertex_count) {
+      ++expected_instance;
+      expected_first = 0;
+    }
+    if (part.last()) {
+      EXPECT_EQ(expected_instance, k) << "the last part ends the last instance";
+      return answer;
+    }
+  }
+}
+
+// Every decoded value within float32's tolerance plus the encoding's stated bound.
+void ExpectWithinBound(const Mesh& mesh, std::span<const float> palette,
+                       std::span<const float> positions, std::span<const float> normals,
+                       v1::Encoding encoding, const Bounds& box) {
+  const auto enc = static_cast<VertexEncoding>(encoding);
+  const ReferenceFrame reference = ReferenceSkin(mesh, palette);
+  const Deviation float32 = CompareWithReference(mesh, palette, positions, normals);
+  std::size_t outside = 0;
+  double worst = 0;
+  for (std::size_t v = 0; v < positions.size(); ++v) {
+    const double x = reference.positions[v];
+    const double error = std::abs(positions[v] - x);  // NaN: not <= bound
+    const double bound =
+        float32.position_tolerance + PositionEncodingError(enc, box, static_cast<int>(v % 3), x);
+    if (!(error <= bound)) ++outside;
+    worst = std::max(worst, error / bound);
+  }
+  for (std::size_t v = 0; v < normals.size(); ++v) {
+    const double n = reference.normals[v];
+    const double error = std::abs(normals[v] - n);
+    if (!(error <= float32.normal_tolerance + NormalEncodingError(enc, n))) ++outside;
+  }
+  EXPECT_EQ(outside, 0u) << "values outside the bound; worst error / bound " << worst;
+  if (encoding == v1::ENCODING_SNORM16) {  // the box is the instance's, as skinned
+    for (int axis = 0; axis < 3; ++axis) {
+      double lo = INFINITY, hi = -INFINITY;
+      for (std::size_t v = axis; v < reference.positions.size(); v += 3) {
+        lo = std::min(lo, reference.positions[v]);
+        hi = std::max(hi, reference.positions[v]);
+      }
+      EXPECT_NEAR(box.min[axis], lo, float32.position_tolerance);
+      EXPECT_NEAR(box.max[axis], hi, float32.position_tolerance);
+    }
+  }
+}
+
+constexpr v1::Encoding kEncodings[] = {v1::ENCODING_FLOAT32, v1::ENCODING_FLOAT16,
+                                       v1::ENCODING_SNORM16};
+
+TEST(EncodingBatchTest, EveryEncodingAndBatchSizeOnEveryBackendOnOneStream) {
+  TestServer t;
+  const MeshArrays arrays =
+      MakeSyntheticMesh({.vertex_count = 2000, .influences = 3, .normals = true, .seed = 4});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  auto mesh = Mesh::Create(arrays).value();
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  const auto list = t.client->ListBackends();
+  ASSERT_TRUE(list.ok());
+  int backends = 0;
+  for (const auto& backend : list->backends()) {
+    if (!backend.available() || backend.id() == "passthrough") continue;
+    ++backends;
+    SCOPED_TRACE(backend.id());
+    grpc::ClientContext context;
+    auto stream = stub->StreamSkin(&context);
+    uint64_t frame = 0;
+    // The encoding and the batch size change from frame to frame on the same stream.
+    for (uint32_t instances : {0u, 1u, 3u}) {
+      for (v1::Encoding encoding : kEncodings) {
+        for (bool normals : {false, true}) {
+          SCOPED_TRACE(::testing::Message()
+                       << "K=" << instances << " encoding=" << encoding << " normals=" << normals);
+          const auto palettes = CrowdPalettes(77, instances, frame);
+          ASSERT_TRUE(stream->Write(MakeRequest(info->mesh_id(), backend.id(), frame, instances,
+                                                encoding, normals, palettes)));
+          const Answer answer = ReadFrame(*stream, frame, 2000, instances, encoding, normals);
+          ASSERT_EQ(answer.error, grpc::StatusCode::OK) << answer.message;
+          for (uint32_t i = 0; i < std::max(instances, 1u); ++i) {
+            SCOPED_TRACE(::testing::Message() << "instance " << i);
+            ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77),
+                              answer.positions[i], answer.normals[i], encoding, answer.bounds[i]);
+          }
+          ++frame;
+        }
+      }
+    }
+    stream->WritesDone();
+    EXPECT_TRUE(stream->Finish().ok());
+  }
+  EXPECT_GE(backends, 4);
+}
+
+TEST(EncodingBatchTest, LargeInstancesComeInPartsOfAtMostOneMebibyte) {
+  TestServer t;
+  const MeshArrays arrays =
+      MakeSyntheticMesh({.vertex_count = 50'000, .influences = 2, .normals = true, .seed = 6});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok());
+  auto mesh = Mesh::Create(arrays).value();
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  grpc::ClientContext context;
+  auto stream = stub->StreamSkin(&context);
+  uint64_t frame = 0;
+  for (v1::Encoding encoding : kEncodings) {
+    SCOPED_TRACE(encoding);
+    const auto palettes = CrowdPalettes(77, 2, frame);
+    ASSERT_TRUE(
+        stream->Write(MakeRequest(info->mesh_id(), "sse", frame, 2, encoding, true, palettes)));
+    const Answer answer = ReadFrame(*stream, frame, 50'000, 2, encoding, true);
+    ASSERT_EQ(answer.error, grpc::StatusCode::OK) << answer.message;
+    // 24 bytes a vertex in float32 (2 parts per instance), 12 in the compact ones (1).
+    EXPECT_EQ(answer.parts[0], encoding == v1::ENCODING_FLOAT32 ? 2u : 1u);
+    for (uint32_t i = 0; i < 2; ++i) {
+      ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77),
+                        answer.positions[i], answer.normals[i], encoding, answer.bounds[i]);
+    }
+    ++frame;
+  }
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+}
+
+TEST(EncodingBatchTest, SkinTakesEncodingsAndBatchesToo) {
+  TestServer t;
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 900, .influences = 4});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok());
+  auto mesh = Mesh::Create(arrays).value();
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  const auto palettes = CrowdPalettes(77, 4, 2);
+  grpc::ClientContext context;
+  auto reader = stub->Skin(&context, MakeRequest(info->mesh_id(), "serial", 9, 4,
+                                                 v1::ENCODING_SNORM16, false, palettes));
+  const Answer answer = ReadFrame(*reader, 9, 900, 4, v1::ENCODING_SNORM16, false);
+  ASSERT_EQ(answer.error, grpc::StatusCode::OK) << answer.message;
+  EXPECT_TRUE(reader->Finish().ok());
+  for (uint32_t i = 0; i < 4; ++i) {
+    ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77), answer.positions[i],
+                      {}, v1::ENCODING_SNORM16, answer.bounds[i]);
+  }
+}
+
+TEST(EncodingBatchTest, BadInstancesAreNamedAndTheStreamGoesOn) {
+  TestServer t;
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 300, .influences = 2});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok());
+  auto mesh = Mesh::Create(arrays).value();
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  grpc::ClientContext context;
+  auto stream = stub->StreamSkin(&context);
+  const auto expect_error = [&](uint64_t frame, uint32_t instances, const std::vector<float>& p,
+                                const std::string& expected) {
+    ASSERT_TRUE(stream->Write(
+        MakeRequest(info->mesh_id(), "sse", frame, instances, v1::ENCODING_FLOAT32, false, p)));
+    const Answer answer = ReadFrame(*stream, frame, 300, instances, v1::ENCODING_FLOAT32, false);
+    EXPECT_EQ(answer.error, grpc::StatusCode::INVALID_ARGUMENT) << answer.message;
+    EXPECT_NE(answer.message.find(expected), std::string::npos) << answer.message;
+  };
+  const auto expect_good = [&](uint64_t frame, uint32_t instances, v1::Encoding encoding) {
+    const auto palettes = CrowdPalettes(77, instances, frame);
+    ASSERT_TRUE(stream->Write(
+        MakeRequest(info->mesh_id(), "sse", frame, instances, encoding, false, palettes)));
+    const Answer answer = ReadFrame(*stream, frame, 300, instances, encoding, false);
+    ASSERT_EQ(answer.error, grpc::StatusCode::OK) << answer.message;
+    for (uint32_t i = 0; i < instances; ++i) {
+      ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77),
+                        answer.positions[i], {}, encoding, answer.bounds[i]);
+    }
+  };
+
+  expect_good(0, 4, v1::ENCODING_SNORM16);
+  // Instance 2 of 4 has a NaN in joint 5.
+  auto bad = CrowdPalettes(77, 4, 1);
+  bad[2 * 12 * 77 + 5 * 12 + 3] = std::numeric_limits<float>::quiet_NaN();
+  expect_error(1, 4, bad, "instance 2: palette[joint 5][row 0, col 3]");
+  expect_good(2, 4, v1::ENCODING_FLOAT16);
+  // The palette of instance 3 of 5 is cut short.
+  auto short_batch = CrowdPalettes(77, 5, 3);
+  short_batch.resize(3 * 12 * 77 + 100);
+  expect_error(3, 5, short_batch, "instance 3's palette is missing or short");
+  // More palettes than instances.
+  expect_error(4, 2, CrowdPalettes(77, 3, 4), "more than the 12 * 77 * 2");
+  // Over the limit of instances per request.
+  expect_error(5, 65, CrowdPalettes(77, 65, 5), "instances = 65 exceeds the limit of 64");
+  // float16 overflow names the vertex instead of sending infinity.
+  auto far = CrowdPalettes(77, 2, 6);
+  for (std::size_t j = 0; j < 77; ++j) far[12 * 77 + j * 12 + 3] = 1e6f;  // instance 1, +x
+  ASSERT_TRUE(
+      stream->Write(MakeRequest(info->mesh_id(), "sse", 6, 2, v1::ENCODING_FLOAT16, false, far)));
+  const Answer overflow = ReadFrame(*stream, 6, 300, 2, v1::ENCODING_FLOAT16, false);
+  EXPECT_EQ(overflow.error, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(overflow.message.find("instance 1: "), std::string::npos) << overflow.message;
+  EXPECT_NE(overflow.message.find("vertex 0"), std::string::npos) << overflow.message;
+  // An unknown encoding.
+  ASSERT_TRUE(stream->Write(MakeRequest(info->mesh_id(), "sse", 7, 1, static_cast<v1::Encoding>(9),
+                                        false, CrowdPalettes(77, 1, 7))));
+  const Answer unknown = ReadFrame(*stream, 7, 300, 1, v1::ENCODING_FLOAT32, false);
+  EXPECT_EQ(unknown.error, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(unknown.message.find("encoding = 9 is unknown"), std::string::npos) << unknown.message;
+  expect_good(8, 3, v1::ENCODING_FLOAT32);  // nothing else on the stream was harmed
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+}
+
+TEST(EncodingBatchTest, FramesBeyondTheInflightBudgetAreRefusedAndTheMemoryReturns) {
+  server::ServerOptions options;
+  options.inflight_budget_mb = 1;
+  TestServer t(options);
+  // 100k vertices: 1.2 MB skinned + 1.2 MB encoded, more than the whole budget.
+  auto big = t.client->Upload(MakeSyntheticMesh({.vertex_count = 100'000, .influences = 2}));
+  auto small = t.client->Upload(MakeSyntheticMesh({.vertex_count = 1000, .influences = 2}));
+  ASSERT_TRUE(big.ok() && small.ok());
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  {
+    grpc::ClientContext context;
+    auto stream = stub->StreamSkin(&context);
+    const auto palette = CrowdPalettes(77, 1, 0);
+    ASSERT_TRUE(stream->Write(
+        MakeRequest(big->mesh_id(), "sse", 0, 1, v1::ENCODING_FLOAT32, false, palette)));
+    const Answer refused = ReadFrame(*stream, 0, 100'000, 1, v1::ENCODING_FLOAT32, false);
+    EXPECT_EQ(refused.error, grpc::StatusCode::RESOURCE_EXHAUSTED);
+    EXPECT_NE(refused.message.find("--inflight-budget-mb"), std::string::npos) << refused.message;
+    ASSERT_TRUE(stream->Write(
+        MakeRequest(small->mesh_id(), "sse", 1, 1, v1::ENCODING_FLOAT32, false, palette)));
+    const Answer answered = ReadFrame(*stream, 1, 1000, 1, v1::ENCODING_FLOAT32, false);
+    EXPECT_EQ(answered.error, grpc::StatusCode::OK) << answered.message;
+    auto stats = t.client->GetServerStats();
+    ASSERT_TRUE(stats.ok());
+    EXPECT_EQ(stats->inflight_budget_bytes(), 1u << 20);
+    EXPECT_GT(stats->inflight_bytes(), 0u) << "the stream's buffers are charged";
+    EXPECT_EQ(stats->rejected_inflight_budget(), 1u);
+    stream->WritesDone();
+    EXPECT_TRUE(stream->Finish().ok());
+  }
+  // The stream's buffers are given back once it ends.
+  uint64_t held = 1;
+  for (int i = 0; i < 100 && held != 0; ++i) {
+    held = t.client->GetServerStats()->inflight_bytes();
+    if (held != 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(held, 0u);
+}
+
+}  // namespace
+}  // namespace skinserve::testing
