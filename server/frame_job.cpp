@@ -67,6 +67,8 @@ bool FrameJob::NextPart(v1::SkinResponse* part) {
   v1::ServerTiming* timing = part->mutable_timing();
   timing->set_queued_ns(timing_.queued_ns);
   timing->set_compute_ns(timing_.compute_ns);
+  timing->set_device_transfer_ns(timing_.device_transfer_ns);
+  timing->set_device_kernel_ns(timing_.device_kernel_ns);
   timing->set_encode_ns(encode_ns_);  // so far; complete on the last part
   return true;
 }

@@ -22,6 +22,7 @@ struct ServerOptions {
   int stream_window = 16;
   std::string log_level = "info";
   double drain_seconds = 10;
+  std::string opencl_device;  // "": the first CPU device (PoCL), else the first device
 
   EngineOptions ToEngineOptions() const;
 };

@@ -6,14 +6,16 @@
 
 namespace skinserve {
 
-std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads) {
+std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads,
+                                                        const std::string& opencl_device) {
   threads = std::max(threads, 1);
   std::vector<std::unique_ptr<Backend>> backends;
   backends.push_back(MakeSerialBackend());
   backends.push_back(MakeOpenMpBackend(threads));
   backends.push_back(MakeSseBackend());
   backends.push_back(MakeSseOpenMpBackend(threads));
-  for (auto& backend : MakeOpenClBackends(threads)) backends.push_back(std::move(backend));
+  for (auto& backend : MakeOpenClBackends(threads, opencl_device))
+    backends.push_back(std::move(backend));
   backends.push_back(MakePassthroughBackend());
   return backends;
 }

@@ -87,7 +87,10 @@ class Engine::Impl {
       FrameTiming timing;
       const int64_t started = NowNs();
       timing.queued_ns = started - submitted;
-      Status status = Run(index, backend, *entry, request);
+      DeviceTiming device;
+      Status status = Run(index, backend, *entry, request, &device);
+      timing.device_transfer_ns = device.transfer_ns;
+      timing.device_kernel_ns = device.kernel_ns;
       timing.compute_ns = NowNs() - started;
       entry.reset();  // unpin before the caller learns the frame is done
       done(std::move(status), timing);
@@ -104,15 +107,15 @@ class Engine::Impl {
   }
 
   Status Run(std::size_t index, Backend& backend, MeshStore::Entry& entry,
-             const SkinRequest& request) {
+             const SkinRequest& request, DeviceTiming* device) {
     Counters& counters = counters_[index];
     Status status;
     const int64_t started = NowNs();
     try {
       Result<const PreparedMesh*> prepared = entry.Prepared(index, backend);
-      status = prepared.ok()
-                   ? backend.Skin(**prepared, {request.palette, request.positions, request.normals})
-                   : prepared.status();
+      status = prepared.ok() ? backend.Skin(**prepared, {request.palette, request.positions,
+                                                         request.normals, device})
+                             : prepared.status();
     } catch (const std::exception& e) {
       status = Internal(fmt::format("backend '{}' failed: {}", backend.info().id, e.what()));
     }
@@ -138,7 +141,15 @@ class Engine::Impl {
 Result<std::unique_ptr<Engine>> Engine::Create(const EngineOptions& options) {
   int threads = options.compute_threads;
   if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  std::vector<std::unique_ptr<Backend>> all = CreateAllBackends(threads);
+  std::vector<std::unique_ptr<Backend>> all = CreateAllBackends(threads, options.opencl_device);
+  if (!options.opencl_device.empty()) {
+    // The operator chose a device: not finding it is a start-up error, not a warning.
+    for (const auto& b : all) {
+      if (b->info().id == "opencl" && !b->info().available) {
+        return FailedPrecondition(b->info().unavailable_reason);
+      }
+    }
+  }
   std::vector<std::unique_ptr<Backend>> enabled;
   if (options.enabled_backends.empty()) {
     enabled = std::move(all);

@@ -3,6 +3,7 @@
 // only the palette goes in and the vertices come out.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
@@ -33,15 +34,24 @@ class PreparedMesh {
   std::shared_ptr<const Mesh> mesh_;
 };
 
+// Device time of one frame, from a backend that runs on a device with profiling events
+// (OpenCL); zero elsewhere.
+struct DeviceTiming {
+  int64_t transfer_ns = 0;  // host<->device copies, summed (they may overlap the kernels)
+  int64_t kernel_ns = 0;    // kernels, summed
+};
+
 // One frame of work, in the manner of ozz's SkinningJob: plain spans, Validate() first.
 //  - palette:   12 * joint_count finite floats (see palette.h).
 //  - positions: 3 * vertex_count floats written by the backend, x y z per vertex.
 //  - normals:   empty to skip normals; else 3 * vertex_count floats, unit length, and
 //               the mesh must have normals.
+//  - device_timing: null, or where a device backend writes the frame's device time.
 struct SkinFrame {
   std::span<const float> palette;
   std::span<float> positions;
   std::span<float> normals;
+  DeviceTiming* device_timing = nullptr;
 
   Status Validate(const Mesh& mesh) const;
 };

@@ -22,6 +22,10 @@ struct EngineOptions {
   uint64_t mesh_budget_bytes = 4ull << 30;    // LRU eviction beyond this
   MeshOptions mesh;                           // limits and weight policy on ingest
   std::vector<std::string> enabled_backends;  // ids; empty: all
+  // The OpenCL backends' device: "" (the first CPU device, else the first device), "cpu",
+  // "gpu", or part of a platform or device name. A choice that finds no device fails
+  // Engine::Create (with the devices there are); "" leaves OpenCL unavailable instead.
+  std::string opencl_device;
 };
 
 struct MeshInfo {
@@ -39,6 +43,9 @@ struct MeshInfo {
 struct FrameTiming {
   int64_t queued_ns = 0;   // from Submit until a compute thread took it
   int64_t compute_ns = 0;  // the backend's Skin call
+  // Of compute_ns, device time from profiling events (OpenCL backends; else 0):
+  int64_t device_transfer_ns = 0;  // host<->device transfers, summed
+  int64_t device_kernel_ns = 0;    // kernels, summed
 };
 
 // One frame to skin. The outputs are caller-owned and must stay valid until `done` runs.
