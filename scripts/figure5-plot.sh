@@ -58,12 +58,12 @@ i=0
 while IFS= read -r s; do
   awk -F'\t' -v s="$s" -v b="$bmax" '$1==s && $3==b {print $2, $4}' "$tmp/rates.tsv" |
     sort -n >"$tmp/s$i.dat"
-  plotcmd+="'$tmp/s$i.dat' using 1:2 with linespoints lw 2 title '$s', "
+  plotcmd+="'$tmp/s$i.dat' using 1:2 with linespoints lt $((i + 1)) lw 2 title '$s', "
   i=$((i + 1))
 done <<<"$series"
 kernel_bytes=$((bmax * 6 + 24))
-plotcmd+="$(awk -v b="$d2h" 'BEGIN{printf "%f", b/12/1e6}') with lines dt 2 lc 'black' title 'PCIe device->host bound (12 B/vertex)', "
-plotcmd+="$(awk -v b="$copy" -v k="$kernel_bytes" 'BEGIN{printf "%f", b/k/1e6}') with lines dt 3 lc 'gray' title 'device memory bound ($kernel_bytes B/vertex)'"
+plotcmd+="$(awk -v b="$d2h" 'BEGIN{printf "%f", b/12/1e6}') with lines dt 2 lw 2 lc 'black' title 'PCIe device->host bound (12 B/vertex)', "
+plotcmd+="$(awk -v b="$copy" -v k="$kernel_bytes" 'BEGIN{printf "%f", b/k/1e6}') with lines dt 4 lw 2 lc 'dark-red' title 'device memory bound ($kernel_bytes B/vertex)'"
 gnuplot <<GP
 set terminal pngcairo size 1100,700 font ',11'
 set output '$png'
@@ -74,5 +74,9 @@ set ylabel 'million vertices per second'
 set xtics (25000, 100000, 400000, 1600000)
 set key outside right
 set grid
+set xrange [18000:2200000]
+set yrange [10:200000]
+colors = "#9400d3 #009e73 #56b4e9 #e69f00 #f0c000 #0072b2 #e51e10 #000000 #cc79a7 #808080 #8b4513 #00ced1"
+do for [i=1:12] { set linetype i lc rgb word(colors, i) pt i }
 plot $plotcmd
 GP

@@ -24,13 +24,18 @@ RUNTIME_PACKAGES=(
 TEST_PACKAGES=(
   python3 python3-grpcio python3-grpc-tools python3-numpy python3-matplotlib gnuplot-nox
 )
+# Figure 5's table and plot from skinserve-bench's JSON (scripts/figure5-plot.sh).
+GPU_PACKAGES=(
+  jq gnuplot-nox
+)
 # The deployment tests: manifests lint, and the container image built and run with podman
 # (deploy/smoke-test.sh).
 DEPLOY_PACKAGES=(
   yamllint podman runc debootstrap
 )
 
-want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}")
+want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${GPU_PACKAGES[@]}"
+  "${DEPLOY_PACKAGES[@]}")
 case "${1:-all}" in
   runtime) want=("${RUNTIME_PACKAGES[@]}") ;;                      # the container's runtime stage
   build) want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}") ;;  # compile, no test tools
