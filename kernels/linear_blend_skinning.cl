@@ -21,13 +21,37 @@
  *    so measured 3x slower at B = 4.
  *  - The last work-item clamps its vertex indices to V - 1 (recomputing, within itself,
  *    the last vertex) instead of branching per vertex; items past the end return.
+ * On a GPU the same kernels run with a coalesced vertex order (SKIN_VERTEX below).
  * Normals use rsqrt (a sqrt and a true division on this device): full precision, never
  * native_ or half_ maths, so they match a float64 reference to 1e-5.
  */
 
-/* The host passes -DSKIN_VERTICES_PER_ITEM; skin_normals_b* is written out for four. */
+/* The host passes -DSKIN_VERTICES_PER_ITEM, -DSKIN_ITEMS_PER_GROUP and -DSKIN_COALESCED;
+ * skin_normals_b* is written out for four vertices per item. */
 #if !defined(SKIN_VERTICES_PER_ITEM) || SKIN_VERTICES_PER_ITEM != 4
 #error "SKIN_VERTICES_PER_ITEM must be 4 (kVerticesPerItem in core/src/backends/opencl_runtime.cpp)"
+#endif
+#if !defined(SKIN_ITEMS_PER_GROUP) || !defined(SKIN_COALESCED)
+#error "the host passes SKIN_ITEMS_PER_GROUP and SKIN_COALESCED"
+#endif
+
+/* The k-th vertex of this work-item. On a CPU (SKIN_COALESCED 0) an item takes four
+ * consecutive vertices, as measured above. On a GPU (1) a work-group of
+ * SKIN_ITEMS_PER_GROUP items takes 4 * SKIN_ITEMS_PER_GROUP consecutive vertices and
+ * item i takes i, i + SKIN_ITEMS_PER_GROUP, ...: neighbouring items (one warp) load and
+ * store neighbouring vertices, so each access is one coalesced transaction. Both count
+ * from the global id, so the host's global offset (a multiple of a group) starts a chunk
+ * of a frame. */
+#if SKIN_COALESCED
+#define SKIN_VERTEX(k)                                                              \
+  ((uint)(get_global_id(0) - get_local_id(0)) * SKIN_VERTICES_PER_ITEM +            \
+   (uint)(k) * SKIN_ITEMS_PER_GROUP + (uint)get_local_id(0))
+/* Several items may clamp to the last vertex: only the one that owns it stores it. */
+#define SKIN_KEEP(raw, count) ((raw) < (count))
+#else
+#define SKIN_VERTEX(k) ((uint)get_global_id(0) * SKIN_VERTICES_PER_ITEM + (uint)(k))
+/* Only this item recomputes the last vertex: storing it again costs no branch. */
+#define SKIN_KEEP(raw, count) 1
 #endif
 
 /* Rows 0-1 and row 2 of one vertex's blended 3x4 matrix. */
@@ -77,39 +101,44 @@ static inline float SquaredLength(const float3 t) { return fma(t.x, t.x, fma(t.y
 
 #define DEFINE_SKIN_KERNELS(B)                                                               \
   __kernel void skin_b##B(SKIN_ARGS) {                                                       \
-    const uint first = get_global_id(0) * SKIN_VERTICES_PER_ITEM;                            \
-    if (first >= vertex_count) return;                                                       \
+    if (SKIN_VERTEX(0) >= vertex_count) return;                                              \
     const uint last = vertex_count - 1;                                                      \
     _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                    \
-      const uint v = min(first + k, last);                                                   \
-      StorePosition(BlendPalette(palette, joints, weights, v, B), positions, out_positions,  \
-                    v);                                                                      \
+      const uint raw = SKIN_VERTEX(k), v = min(raw, last);                                   \
+      const Blended m = BlendPalette(palette, joints, weights, v, B);                        \
+      if (SKIN_KEEP(raw, vertex_count)) StorePosition(m, positions, out_positions, v);       \
     }                                                                                        \
   }                                                                                          \
   __kernel void skin_normals_b##B(SKIN_ARGS, const __global float* restrict normals,         \
                                   __global float* restrict out_normals) {                    \
-    const uint first = get_global_id(0) * SKIN_VERTICES_PER_ITEM;                            \
-    if (first >= vertex_count) return;                                                       \
+    const uint r0 = SKIN_VERTEX(0), r1 = SKIN_VERTEX(1), r2 = SKIN_VERTEX(2),                \
+               r3 = SKIN_VERTEX(3);                                                          \
+    if (r0 >= vertex_count) return;                                                          \
     const uint last = vertex_count - 1;                                                      \
-    const uint v0 = first, v1 = min(first + 1, last), v2 = min(first + 2, last),             \
-               v3 = min(first + 3, last);                                                    \
+    const uint v0 = r0, v1 = min(r1, last), v2 = min(r2, last), v3 = min(r3, last);          \
     const Blended m0 = BlendPalette(palette, joints, weights, v0, B);                        \
     const Blended m1 = BlendPalette(palette, joints, weights, v1, B);                        \
     const Blended m2 = BlendPalette(palette, joints, weights, v2, B);                        \
     const Blended m3 = BlendPalette(palette, joints, weights, v3, B);                        \
-    StorePosition(m0, positions, out_positions, v0);                                         \
-    StorePosition(m1, positions, out_positions, v1);                                         \
-    StorePosition(m2, positions, out_positions, v2);                                         \
-    StorePosition(m3, positions, out_positions, v3);                                         \
     const float3 t0 = TransformNormal(m0, normals, v0), t1 = TransformNormal(m1, normals, v1), \
                  t2 = TransformNormal(m2, normals, v2), t3 = TransformNormal(m3, normals, v3); \
     const float4 inverse_length =                                                            \
         rsqrt((float4)(SquaredLength(t0), SquaredLength(t1), SquaredLength(t2),              \
                        SquaredLength(t3)));                                                  \
+    StorePosition(m0, positions, out_positions, v0);                                         \
     vstore3(t0 * inverse_length.s0, v0, out_normals);                                        \
-    vstore3(t1 * inverse_length.s1, v1, out_normals);                                        \
-    vstore3(t2 * inverse_length.s2, v2, out_normals);                                        \
-    vstore3(t3 * inverse_length.s3, v3, out_normals);                                        \
+    if (SKIN_KEEP(r1, vertex_count)) {                                                       \
+      StorePosition(m1, positions, out_positions, v1);                                       \
+      vstore3(t1 * inverse_length.s1, v1, out_normals);                                      \
+    }                                                                                        \
+    if (SKIN_KEEP(r2, vertex_count)) {                                                       \
+      StorePosition(m2, positions, out_positions, v2);                                       \
+      vstore3(t2 * inverse_length.s2, v2, out_normals);                                      \
+    }                                                                                        \
+    if (SKIN_KEEP(r3, vertex_count)) {                                                       \
+      StorePosition(m3, positions, out_positions, v3);                                       \
+      vstore3(t3 * inverse_length.s3, v3, out_normals);                                      \
+    }                                                                                        \
   }
 
 DEFINE_SKIN_KERNELS(1)

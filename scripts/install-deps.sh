@@ -24,6 +24,10 @@ RUNTIME_PACKAGES=(
 TEST_PACKAGES=(
   python3 python3-grpcio python3-grpc-tools python3-numpy python3-matplotlib gnuplot-nox
 )
+# Figure 5's table and plot from skinserve-bench's JSON (scripts/figure5-plot.sh).
+GPU_PACKAGES=(
+  jq gnuplot-nox
+)
 # The deployment tests: manifests lint, and the container image built and run with podman
 # (deploy/smoke-test.sh).
 DEPLOY_PACKAGES=(
@@ -40,7 +44,7 @@ TEST_PACKAGES+=(prometheus curl python3-venv python3-pip python3-setuptools pyth
 SIMD_BUILD_PACKAGES=(libhwy-dev)
 SIMD_RUNTIME_PACKAGES=(libhwy1)
 
-want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}"
+want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${GPU_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}"
   "${SIMD_BUILD_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}")
 case "${1:-all}" in
   runtime) want=("${RUNTIME_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}") ;;  # runtime stage

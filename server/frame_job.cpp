@@ -195,6 +195,8 @@ Status FrameJob::EncodeParts() {
     v1::ServerTiming* timing = parts_[p].mutable_timing();
     timing->set_queued_ns(timing_.queued_ns);
     timing->set_compute_ns(timing_.compute_ns);
+    timing->set_device_transfer_ns(timing_.device_transfer_ns);
+    timing->set_device_kernel_ns(timing_.device_kernel_ns);
     timing->set_encode_ns(encode_ns);
   }
   return Status::Ok();

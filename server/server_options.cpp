@@ -37,6 +37,7 @@ EngineOptions ServerOptions::ToEngineOptions() const {
   engine.mesh.limits.max_vertices = max_vertices;
   engine.mesh.limits.max_joints = max_joints;
   engine.enabled_backends = backends;
+  engine.opencl_device = opencl_device;
   return engine;
 }
 
@@ -93,6 +94,11 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_LOG_LEVEL")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
       ->capture_default_str();
+  app.add_option("--opencl-device", o.opencl_device,
+                 "device of the OpenCL backends: cpu, gpu, or part of a platform or device name "
+                 "(default: the first CPU device, else the first device); no match is a start-up "
+                 "error listing the devices found")
+      ->envname("SKINSERVE_OPENCL_DEVICE");
   app.add_option("--drain-seconds", o.drain_seconds,
                  "on SIGTERM or SIGINT, how long in-flight frames may take to finish")
       ->envname("SKINSERVE_DRAIN_SECONDS")

@@ -6,7 +6,8 @@
 
 namespace skinserve {
 
-std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads) {
+std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads,
+                                                        const std::string& opencl_device) {
   threads = std::max(threads, 1);
   std::vector<std::unique_ptr<Backend>> backends;
   backends.push_back(MakeSerialBackend());
@@ -15,7 +16,8 @@ std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads) {
   backends.push_back(MakeSseOpenMpBackend(threads));
   backends.push_back(MakeSimdBackend(1));
   backends.push_back(MakeSimdBackend(threads));
-  for (auto& backend : MakeOpenClBackends(threads)) backends.push_back(std::move(backend));
+  for (auto& backend : MakeOpenClBackends(threads, opencl_device))
+    backends.push_back(std::move(backend));
   backends.push_back(MakePassthroughBackend());
   return backends;
 }

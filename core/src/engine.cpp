@@ -186,9 +186,12 @@ class Engine::Impl {
     const int64_t started = NowNs();
     try {
       Result<const PreparedMesh*> prepared = entry.Prepared(job.backend_index_, backend);
-      status = prepared.ok()
-                   ? backend.Skin(**prepared, InstanceFrame(job.request, *entry.mesh(), i, threads))
-                   : prepared.status();
+      DeviceTiming device;
+      SkinFrame frame = InstanceFrame(job.request, *entry.mesh(), i, threads);
+      frame.device_timing = &device;
+      status = prepared.ok() ? backend.Skin(**prepared, frame) : prepared.status();
+      job.device_transfer_ns_.fetch_add(device.transfer_ns);
+      job.device_kernel_ns_.fetch_add(device.kernel_ns);
     } catch (const std::exception& e) {
       status = Internal(fmt::format("backend '{}' failed: {}", backend.info().id, e.what()));
     }
@@ -211,7 +214,15 @@ class Engine::Impl {
 Result<std::unique_ptr<Engine>> Engine::Create(const EngineOptions& options) {
   int threads = options.compute_threads;
   if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  std::vector<std::unique_ptr<Backend>> all = CreateAllBackends(threads);
+  std::vector<std::unique_ptr<Backend>> all = CreateAllBackends(threads, options.opencl_device);
+  if (!options.opencl_device.empty()) {
+    // The operator chose a device: not finding it is a start-up error, not a warning.
+    for (const auto& b : all) {
+      if (b->info().id == "opencl" && !b->info().available) {
+        return FailedPrecondition(b->info().unavailable_reason);
+      }
+    }
+  }
   std::vector<std::unique_ptr<Backend>> enabled;
   if (options.enabled_backends.empty()) {
     enabled = std::move(all);
@@ -324,6 +335,8 @@ void Engine::RunPart(void* context, uint32_t instance, int threads) {
   const int64_t started = job.started_ns_.load();
   timing.queued_ns = started - job.submitted_ns_;
   timing.compute_ns = NowNs() - started;
+  timing.device_transfer_ns = job.device_transfer_ns_.exchange(0);  // summed over instances
+  timing.device_kernel_ns = job.device_kernel_ns_.exchange(0);
   Impl::Counters& counters = impl.counters_[job.backend_index_];
   (job.status_.ok() ? counters.frames : counters.errors).fetch_add(1);
   job.lease_.reset();  // unpin before the caller learns the frame is done

@@ -33,13 +33,27 @@ void PaperTablesReporter::ReportRuns(const std::vector<Run>& runs) {
       if (it != run.counters.end()) bandwidth_bytes_per_second_ = it->second.value;
       continue;
     }
+    if (name.size() == 1 && (name[0] == "BM_PcieHostToDevice" || name[0] == "BM_PcieDeviceToHost" ||
+                             name[0] == "BM_DeviceMemoryCopy")) {
+      if (aggregate && run.aggregate_name != "max") continue;
+      auto it = run.counters.find("bytes_per_second");
+      if (it != run.counters.end()) device_bounds_[name[0]] = it->second.value;
+      continue;
+    }
     // Medians when repeated, the single run otherwise.
     if (aggregate && run.aggregate_name != "median") continue;
     if (name.size() != 4) continue;
-    auto it = run.counters.find("vertices_per_second");
+    // Several threads (BM_SkinStreams): items, summed over the threads.
+    auto it =
+        run.counters.find(name[0] == "BM_SkinStreams" ? "items_per_second" : "vertices_per_second");
     if (it == run.counters.end()) continue;
-    rates_[{name[0], name[1], static_cast<uint32_t>(std::stoul(name[2])),
-            static_cast<uint32_t>(std::stoul(name[3]))}] = it->second.value;
+    const std::tuple key{name[0], name[1], static_cast<uint32_t>(std::stoul(name[2])),
+                         static_cast<uint32_t>(std::stoul(name[3]))};
+    rates_[key] = it->second.value;
+    if (auto kernel = run.counters.find("kernel_vertices_per_second");
+        kernel != run.counters.end()) {
+      kernel_rates_[key] = kernel->second.value;
+    }
   }
 }
 
@@ -111,6 +125,34 @@ void PaperTablesReporter::PrintTables(const std::vector<std::string>& backends) 
             "frame fits in cache; rerun with more --benchmark_repetitions.\n");
       }
     }
+  }
+}
+
+void PaperTablesReporter::PrintDeviceBounds() const {
+  auto bound = [&](const char* name) {
+    auto it = device_bounds_.find(name);
+    return it == device_bounds_.end() ? 0.0 : it->second;
+  };
+  const double h2d = bound("BM_PcieHostToDevice"), d2h = bound("BM_PcieDeviceToHost"),
+               copy = bound("BM_DeviceMemoryCopy");
+  if (d2h <= 0 || copy <= 0) return;
+  fmt::print(
+      "\n== OpenCL device against its bounds (best repetitions) ==\nPCIe host->device {:.1f} "
+      "GB/s, device->host {:.1f} GB/s (pinned); device memory copy {:.0f} GB/s (read + "
+      "write).\nFrame bound: 12 B/vertex of positions back over PCIe; kernel bound: BytesPerVertex "
+      "through device memory.\n",
+      h2d / 1e9, d2h / 1e9, copy / 1e9);
+  fmt::print("{:<16} {:>10} {:>3} {:>12} {:>8} {:>14} {:>8}\n", "backend", "vertices", "B",
+             "M vert/s", "% PCIe", "kernel M v/s", "% mem");
+  for (const auto& [key, rate] : rates_) {
+    const auto& [kind, backend, v, b] = key;
+    if (kind == "BM_SkinNormals" || backend.rfind("opencl", 0) != 0) continue;
+    auto kernel = kernel_rates_.find(key);
+    const double kernel_rate = kernel == kernel_rates_.end() ? 0.0 : kernel->second;
+    fmt::print("{:<16} {:>10} {:>3} {:>12.0f} {:>7.0f}% {:>14.0f} {:>7.0f}%{}\n", backend, v, b,
+               rate / 1e6, 100 * rate * 12 / d2h, kernel_rate / 1e6,
+               100 * kernel_rate * BytesPerVertex(b, false) / copy,
+               kind == "BM_SkinStreams" ? "  (streams)" : "");
   }
 }
 

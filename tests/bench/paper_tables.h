@@ -17,10 +17,15 @@ class PaperTablesReporter : public benchmark::ConsoleReporter {
   void ReportRuns(const std::vector<Run>& runs) override;
   // Prints the tables for the positions-only runs (and the normals runs, if any).
   void PrintTables(const std::vector<std::string>& backends) const;
+  // The OpenCL rates (transfers included, and kernel only) as shares of the device's
+  // bounds, when the device bandwidth benchmarks ran.
+  void PrintDeviceBounds() const;
 
  private:
   // (kind "BM_Skin" or "BM_SkinNormals", backend, vertices, bones) -> vertices per second
   std::map<std::tuple<std::string, std::string, uint32_t, uint32_t>, double> rates_;
+  std::map<std::tuple<std::string, std::string, uint32_t, uint32_t>, double> kernel_rates_;
+  std::map<std::string, double> device_bounds_;  // BM_Pcie*, BM_DeviceMemoryCopy: bytes/s
   double bandwidth_bytes_per_second_ = 0;
 };
 

@@ -5,7 +5,15 @@
 //   skinserve-bench --paper-tables     the grid (positions only), medians of 3, then the
 //                                      paper's tables 2 and 3 layout
 // Filters: --backends=a,b  --vertices=25000,100000  --bones=1,2  --normals (paper tables
-// with normals too). Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
+// with normals too). --opencl-device=gpu (cpu, gpu or part of a platform or device name,
+// as skinserve's option). --streams=N: the OpenCL backends also with N threads skinning
+// at once (BM_SkinStreams), frames of several streams in flight on the device.
+// Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
+//
+// OpenCL backends report per frame, from profiling events, the device's kernel_ns and
+// transfer_ns and kernel_vertices_per_second (kernel only); and the device's bounds are
+// measured in the same run: BM_PcieHostToDevice, BM_PcieDeviceToHost (pinned memory) and
+// BM_DeviceMemoryCopy (device to device, read + write).
 // Run it on an otherwise idle machine: with another process on a core, libgomp's default
 // spin-wait makes the OpenMP backends' frames wait for a 4 ms scheduler tick (wall time
 // twice the CPU time); OMP_WAIT_POLICY=passive limits that, at some cost on small frames.
@@ -21,6 +29,7 @@
 #include <string_view>
 #include <thread>
 
+#include "backends/opencl_runtime.h"
 #include "paper_tables.h"
 #include "skinserve/core/aligned_buffer.h"
 #include "skinserve/core/backend_registry.h"
@@ -35,6 +44,8 @@ struct Options {
   std::vector<std::string> backends;
   std::vector<uint32_t> vertices = {25'000, 100'000, 400'000, 1'600'000};
   std::vector<uint32_t> bones = {1, 2, 3, 4};
+  std::string opencl_device;
+  int streams = 1;
 };
 
 template <typename T>
@@ -70,6 +81,10 @@ Options ParseOptions(int* argc, char** argv) {
       options.vertices = ParseList<uint32_t>(counts);
     } else if (const char* bones = value("--bones=")) {
       options.bones = ParseList<uint32_t>(bones);
+    } else if (const char* device = value("--opencl-device=")) {
+      options.opencl_device = device;
+    } else if (const char* streams = value("--streams=")) {
+      options.streams = static_cast<int>(std::stoul(streams));
     } else {
       argv[kept++] = argv[i];
     }
@@ -88,21 +103,93 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
   const Workload& workload = Cache().Get(vertices, bones);
   const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones);
   AlignedBuffer<float> positions(3ull * vertices), out_normals(normals ? 3ull * vertices : 0);
-  std::size_t frame = 0;
+  std::size_t frame = state.thread_index();
+  DeviceTiming device, total;
   for (auto _ : state) {
     const SkinFrame skin{workload.palettes[frame++ % workload.palettes.size()], positions.span(),
-                         out_normals.span()};
+                         out_normals.span(), &device};
     if (Status s = backend->Skin(prepared, skin); !s.ok()) {
       state.SkipWithError(s.ToString().c_str());
       break;
     }
+    total.kernel_ns += device.kernel_ns;
+    total.transfer_ns += device.transfer_ns;
     benchmark::DoNotOptimize(positions.data());
     benchmark::ClobberMemory();
   }
+  // Items: summed over threads, over the run's real time (BM_SkinStreams).
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
   state.counters["vertices_per_second"] =
       benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
   state.SetBytesProcessed(
       static_cast<int64_t>(state.iterations() * vertices * BytesPerVertex(bones, normals)));
+  if (total.kernel_ns > 0 && state.iterations() > 0) {
+    const double frames = static_cast<double>(state.iterations());
+    state.counters["kernel_ns"] = benchmark::Counter(static_cast<double>(total.kernel_ns) / frames,
+                                                     benchmark::Counter::kAvgThreads);
+    state.counters["transfer_ns"] = benchmark::Counter(
+        static_cast<double>(total.transfer_ns) / frames, benchmark::Counter::kAvgThreads);
+    state.counters["kernel_vertices_per_second"] =
+        benchmark::Counter(vertices * frames * 1e9 / static_cast<double>(total.kernel_ns),
+                           benchmark::Counter::kAvgThreads);
+  }
+}
+
+// The device's bounds, measured with the runtime the OpenCL backends use (a second one
+// on the same device): PCIe each way between pinned host memory and the device, and a
+// device-to-device copy (bytes read + written).
+enum class DeviceBound { kHostToDevice, kDeviceToHost, kDeviceCopy, kPinnedCopyOut };
+
+void DeviceBandwidth(benchmark::State& state, OpenClRuntime* runtime, DeviceBound bound) {
+  const std::size_t bytes = bound == DeviceBound::kDeviceCopy ? (512ull << 20) : (64ull << 20);
+  auto lane = runtime->AcquireLane();
+  auto device = runtime->CreateBuffer("bandwidth", CL_MEM_READ_WRITE, bytes, nullptr);
+  auto target = runtime->CreateBuffer("bandwidth target", CL_MEM_READ_WRITE, bytes, nullptr);
+  PinnedBuffer pinned;
+  Status grown = runtime->GrowPinned(lane->compute, "bandwidth pinned", bytes, &pinned);
+  if (!device.ok() || !target.ok() || !grown.ok()) {
+    state.SkipWithError("cannot allocate the bandwidth buffers");
+    return;
+  }
+  std::memset(pinned.host, 1, bytes);
+  cl_int err = clEnqueueWriteBuffer(lane->compute, device->get(), CL_TRUE, 0, bytes, pinned.host, 0,
+                                    nullptr, nullptr);
+  for (auto _ : state) {
+    switch (bound) {
+      case DeviceBound::kHostToDevice:
+        err |= clEnqueueWriteBuffer(lane->compute, device->get(), CL_FALSE, 0, bytes, pinned.host,
+                                    0, nullptr, nullptr);
+        break;
+      case DeviceBound::kDeviceToHost:
+        err |= clEnqueueReadBuffer(lane->compute, device->get(), CL_FALSE, 0, bytes, pinned.host, 0,
+                                   nullptr, nullptr);
+        break;
+      case DeviceBound::kDeviceCopy:
+        err |= clEnqueueCopyBuffer(lane->compute, device->get(), target->get(), 0, 0, bytes, 0,
+                                   nullptr, nullptr);
+        break;
+      case DeviceBound::kPinnedCopyOut: {
+        // What the copy backend's copy-out can do: pinned memory to pageable, threads
+        // as in the benchmark's argument.
+        static AlignedBuffer<char> pageable(bytes);
+        const int threads = static_cast<int>(state.range(0));
+        const std::size_t piece = bytes / threads;
+#pragma omp parallel for num_threads(threads) schedule(static)
+        for (int t = 0; t < threads; ++t) {
+          std::memcpy(pageable.data() + t * piece, static_cast<char*>(pinned.host) + t * piece,
+                      piece);
+        }
+        benchmark::ClobberMemory();
+        break;
+      }
+    }
+    err |= clFinish(lane->compute);
+  }
+  if (err != CL_SUCCESS) state.SkipWithError("an OpenCL transfer failed");
+  clEnqueueUnmapMemObject(lane->compute, pinned.buffer.get(), pinned.host, 0, nullptr, nullptr);
+  clFinish(lane->compute);
+  const double moved = bound == DeviceBound::kDeviceCopy ? 2.0 * bytes : bytes;
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * moved));
 }
 
 // STREAM-style scaled copy over 256 MB on every core: what memory can move, read + write.
@@ -148,7 +235,16 @@ int main(int argc, char** argv) {
     options.backends.push_back("serial");
   }
   const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  static std::vector<std::unique_ptr<Backend>> backends = CreateAllBackends(threads);
+  static std::vector<std::unique_ptr<Backend>> backends =
+      CreateAllBackends(threads, options.opencl_device);
+  if (!options.opencl_device.empty()) {
+    for (const auto& backend : backends) {
+      if (backend->info().id == "opencl" && !backend->info().available) {
+        fmt::print(stderr, "skinserve-bench: {}\n", backend->info().unavailable_reason);
+        return 2;
+      }
+    }
+  }
 
   std::vector<std::string> measured;
   for (const auto& backend : backends) {
@@ -175,6 +271,50 @@ int main(int argc, char** argv) {
               ->Unit(benchmark::kMicrosecond);
         }
       }
+    }
+  }
+  const bool opencl_measured = std::count(measured.begin(), measured.end(), "opencl") +
+                                   std::count(measured.begin(), measured.end(), "opencl-zerocopy") >
+                               0;
+  if (opencl_measured && options.streams > 1) {
+    for (uint32_t v : options.vertices) {
+      for (uint32_t b : options.bones) {
+        for (const auto& backend : backends) {
+          const std::string& id = backend->info().id;
+          if (id.rfind("opencl", 0) != 0 || std::count(measured.begin(), measured.end(), id) == 0)
+            continue;
+          const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
+          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, false)
+              ->Threads(options.streams)
+              ->UseRealTime()
+              ->Unit(benchmark::kMicrosecond);
+        }
+      }
+    }
+  }
+  auto best = [](const std::vector<double>& values) {
+    return *std::max_element(values.begin(), values.end());
+  };
+  static std::shared_ptr<OpenClRuntime> bound_runtime;
+  if (opencl_measured) {
+    auto runtime = OpenClRuntime::Create({.threads = threads, .device = options.opencl_device});
+    if (runtime.ok()) {
+      bound_runtime = *runtime;
+      for (auto [name, bound] : {std::pair{"BM_PcieHostToDevice", DeviceBound::kHostToDevice},
+                                 std::pair{"BM_PcieDeviceToHost", DeviceBound::kDeviceToHost},
+                                 std::pair{"BM_DeviceMemoryCopy", DeviceBound::kDeviceCopy}}) {
+        benchmark::RegisterBenchmark(name, DeviceBandwidth, bound_runtime.get(), bound)
+            ->UseRealTime()
+            ->Unit(benchmark::kMicrosecond)
+            ->ComputeStatistics("max", best);
+      }
+      benchmark::RegisterBenchmark("BM_PinnedCopyOut", DeviceBandwidth, bound_runtime.get(),
+                                   DeviceBound::kPinnedCopyOut)
+          ->Arg(1)
+          ->Arg(threads)
+          ->UseRealTime()
+          ->Unit(benchmark::kMicrosecond)
+          ->ComputeStatistics("max", best);
     }
   }
   // The bound is what memory can do, and other processes only ever slow a run down: the
@@ -219,6 +359,7 @@ int main(int argc, char** argv) {
   PaperTablesReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
   if (options.paper_tables) reporter.PrintTables(measured);
+  reporter.PrintDeviceBounds();
   benchmark::Shutdown();
   return 0;
 }

@@ -3,17 +3,26 @@
 // on CL_MEM_USE_HOST_PTR memory in place, which is what makes `opencl-zerocopy` copy-free.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <limits>
 #include <string>
+#include <vector>
 
+#include "backends/backend_factories.h"
 #include "backends/opencl_runtime.h"
 #include "opencl_test_support.h"
 #include "skinserve/core/aligned_buffer.h"
+#include "skinserve/core/engine.h"
 #include "skinserve/core/synthetic.h"
 
 namespace skinserve::testing {
 namespace {
+
+// Whether the tests run on PoCL (the default device here and in CI) rather than on a
+// device chosen with SKINSERVE_OPENCL_DEVICE.
+bool OnPocl() { return OpenClBackends()[0]->info().description.find("PoCL") != std::string::npos; }
 
 TEST(OpenClRuntimeTest, BothBackendsAreAvailableWithTheirIdsAndDevice) {
   const auto& backends = OpenClBackends();
@@ -22,17 +31,83 @@ TEST(OpenClRuntimeTest, BothBackendsAreAvailableWithTheirIdsAndDevice) {
   EXPECT_EQ(backends[1]->info().id, "opencl-zerocopy");
   for (const auto& backend : backends) {
     const BackendInfo& info = backend->info();
-    // This machine, CI and the container install PoCL: unavailable here is a failure.
+    // This machine, CI and the container install PoCL; on the GPU machine the chosen
+    // device is there: unavailable is a failure.
     ASSERT_TRUE(info.available) << info.id << ": " << info.unavailable_reason;
     EXPECT_FALSE(info.device.empty()) << info.id;
-    EXPECT_NE(info.description.find("PoCL"), std::string::npos) << info.description;
-    EXPECT_GE(info.simd_width, 4) << info.id << ": a CPU device has at least SSE's 4 lanes";
+    if (OpenClTestDevice().empty()) {
+      EXPECT_NE(info.description.find("PoCL"), std::string::npos) << info.description;
+      EXPECT_GE(info.simd_width, 4) << info.id << ": a CPU device has at least SSE's 4 lanes";
+    }
     EXPECT_EQ(info.device, backends[0]->info().device) << "one shared device";
+  }
+}
+
+TEST(OpenClRuntimeTest, DeviceChoiceMatchesTypeOrNameAndNamesWhatThereIsWhenNot) {
+  SKIP_IF_OPENCL_UNAVAILABLE(*OpenClBackends()[0]);
+  const std::string device = OpenClBackends()[0]->info().device;
+  // Part of the device's name, in another case, finds it.
+  std::string part = device.substr(0, std::min<std::size_t>(device.size(), 6));
+  for (char& ch : part) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  auto by_name = OpenClRuntime::Create({.threads = kOpenClTestThreads, .device = part});
+  ASSERT_TRUE(by_name.ok()) << by_name.status().ToString();
+  EXPECT_EQ((*by_name)->device_name(), device);
+  if (OnPocl()) {
+    auto cpu = OpenClRuntime::Create({.threads = kOpenClTestThreads, .device = "cpu"});
+    ASSERT_TRUE(cpu.ok()) << cpu.status().ToString();
+    EXPECT_TRUE((*cpu)->is_cpu());
+    EXPECT_FALSE((*cpu)->staging()) << "PoCL shares host memory: no staging";
+  }
+  auto none = OpenClRuntime::Create({.threads = kOpenClTestThreads, .device = "no-such-device"});
+  ASSERT_FALSE(none.ok());
+  EXPECT_EQ(none.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(none.status().message().find("'no-such-device'"), std::string::npos)
+      << none.status().message();
+  EXPECT_NE(none.status().message().find("device '" + device + "'"), std::string::npos)
+      << "the error lists the devices found: " << none.status().message();
+  // The factory turns it into two unavailable backends carrying the same reason.
+  auto backends = MakeOpenClBackends(kOpenClTestThreads, "no-such-device");
+  ASSERT_EQ(backends.size(), 2u);
+  for (const auto& backend : backends) {
+    EXPECT_FALSE(backend->info().available);
+    EXPECT_EQ(backend->info().unavailable_reason, none.status().message());
+  }
+}
+
+// An engine (a server) told to use a device that is not there does not start.
+TEST(OpenClRuntimeTest, AnEngineWithAnUnmatchedDeviceChoiceFailsToStart) {
+  EngineOptions options;
+  options.compute_threads = 1;
+  options.opencl_device = "no-such-device";
+  auto engine = Engine::Create(options);
+  ASSERT_FALSE(engine.ok());
+  EXPECT_EQ(engine.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(engine.status().message().find("'no-such-device'"), std::string::npos)
+      << engine.status().message();
+}
+
+// Every frame reports its device time from the profiling events: some kernel time, and
+// some transfer time (the palette goes in, the result comes out).
+TEST(OpenClRuntimeTest, FramesReportKernelAndTransferTime) {
+  for (const std::string& id : OpenClBackendIds()) {
+    Backend& backend = OpenClBackend(id);
+    SKIP_IF_OPENCL_UNAVAILABLE(backend);
+    auto mesh = SyntheticMesh(70001, 3, 77, true, 11);
+    auto prepared = backend.Prepare(mesh);
+    ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+    const auto palette = MakeSyntheticPalette(77, 11, 0);
+    std::vector<float> positions(3 * 70001), normals(3 * 70001);
+    DeviceTiming timing;
+    ASSERT_TRUE(backend.Skin(**prepared, {palette, positions, normals, &timing}).ok()) << id;
+    EXPECT_GT(timing.kernel_ns, 0) << id;
+    EXPECT_GT(timing.transfer_ns, 0) << id;
+    EXPECT_EQ(ReferenceMismatch(*mesh, palette, positions, normals), "") << id;
   }
 }
 
 TEST(OpenClRuntimeTest, PoclRunsTheEnginesThreadCount) {
   SKIP_IF_OPENCL_UNAVAILABLE(*OpenClBackends()[0]);
+  if (!OnPocl()) GTEST_SKIP() << "not PoCL: " << OpenClBackends()[0]->info().description;
   if (PoclThreadsPresetByEnvironment()) {
     GTEST_SKIP() << "POCL_MAX_PTHREAD_COUNT was set before the test: the operator's choice wins";
   }
@@ -62,10 +137,11 @@ TEST(OpenClRuntimeTest, ClErrorsNameTheCallAndTheCode) {
 // buffers wrap: PoCL ran the kernel on it. Aligned and one float off alignment.
 TEST(OpenClRuntimeTest, PoclSkinsUseHostPtrBuffersInPlace) {
   SKIP_IF_OPENCL_UNAVAILABLE(*OpenClBackends()[0]);
-  if (OpenClBackends()[0]->info().description.find("PoCL") == std::string::npos) {
+  if (!OnPocl()) {
     GTEST_SKIP() << "not PoCL: other devices may copy (and then the map copies back)";
   }
-  auto runtime = OpenClRuntime::Create(kOpenClTestThreads);  // the process's PoCL, again
+  // The process's PoCL, again.
+  auto runtime = OpenClRuntime::Create({.threads = kOpenClTestThreads, .device = "cpu"});
   ASSERT_TRUE(runtime.ok()) << runtime.status().ToString();
   OpenClRuntime& cl = **runtime;
   constexpr uint32_t kVertices = 1001;
@@ -89,14 +165,16 @@ TEST(OpenClRuntimeTest, PoclSkinsUseHostPtrBuffersInPlace) {
       ASSERT_TRUE(buffer->ok()) << buffer->status().ToString();
     }
     {
-      std::lock_guard lock(cl.mutex());
-      ASSERT_TRUE(cl.EnqueueSkin(*mesh, {.palette = pal->get(),
-                                         .joints = joints->get(),
-                                         .weights = weights->get(),
-                                         .positions = positions->get(),
-                                         .out_positions = output->get()})
+      auto lane = cl.AcquireLane();
+      ASSERT_TRUE(cl.EnqueueSkin(*lane, *mesh,
+                                 {.palette = pal->get(),
+                                  .joints = joints->get(),
+                                  .weights = weights->get(),
+                                  .positions = positions->get(),
+                                  .out_positions = output->get()},
+                                 0, kVertices, nullptr)
                       .ok());
-      ASSERT_EQ(clFinish(cl.queue()), CL_SUCCESS);
+      ASSERT_EQ(clFinish(lane->compute), CL_SUCCESS);
     }
     EXPECT_EQ(ReferenceMismatch(*mesh, palette, out, {}), "")
         << "offset " << offset << " floats: the results are not in the wrapped host memory "

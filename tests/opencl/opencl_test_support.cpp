@@ -14,15 +14,27 @@ static const bool kPoclThreadsPreset = std::getenv("POCL_MAX_PTHREAD_COUNT") != 
 
 bool PoclThreadsPresetByEnvironment() { return kPoclThreadsPreset; }
 
+std::string OpenClTestDevice() {
+  const char* device = std::getenv("SKINSERVE_OPENCL_DEVICE");
+  return device == nullptr ? "" : device;
+}
+
 const std::vector<std::unique_ptr<Backend>>& OpenClBackends() {
-  static const auto* backends =
-      new std::vector<std::unique_ptr<Backend>>(MakeOpenClBackends(kOpenClTestThreads));
+  static const auto* backends = new std::vector<std::unique_ptr<Backend>>(
+      MakeOpenClBackends(kOpenClTestThreads, OpenClTestDevice()));
   return *backends;
 }
 
-std::vector<std::string> OpenClBackendIds() { return {"opencl", "opencl-zerocopy"}; }
+std::vector<std::string> OpenClBackendIds() {
+  return {"opencl", "opencl-zerocopy", "opencl-staging"};
+}
 
 Backend& OpenClBackend(const std::string& id) {
+  if (id == "opencl-staging") {
+    static const auto* staged = new std::vector<std::unique_ptr<Backend>>(
+        MakeOpenClBackends(kOpenClTestThreads, OpenClTestDevice(), /*force_staging=*/true));
+    return *staged->front();
+  }
   for (const auto& backend : OpenClBackends()) {
     if (backend->info().id == id) return *backend;
   }

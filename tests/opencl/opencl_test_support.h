@@ -21,8 +21,14 @@ inline constexpr int kOpenClTestThreads = 3;
 
 // Whether POCL_MAX_PTHREAD_COUNT was set before the runtime was created.
 bool PoclThreadsPresetByEnvironment();
-// {opencl, opencl-zerocopy} from MakeOpenClBackends(kOpenClTestThreads), created once.
+// The OpenCL device the tests run on: SKINSERVE_OPENCL_DEVICE, as the server reads it
+// ("" when unset: PoCL's CPU device here and in CI).
+std::string OpenClTestDevice();
+// {opencl, opencl-zerocopy} from MakeOpenClBackends(kOpenClTestThreads,
+// OpenClTestDevice()), created once.
 const std::vector<std::unique_ptr<Backend>>& OpenClBackends();
+// "opencl", "opencl-zerocopy", and "opencl-staging": the copy backend of a second runtime
+// forced onto the discrete-GPU path (pinned staging, chunks, lanes) even on PoCL.
 std::vector<std::string> OpenClBackendIds();
 Backend& OpenClBackend(const std::string& id);
 // A test name from a backend id ("opencl-zerocopy" -> "opencl_zerocopy").

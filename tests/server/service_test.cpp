@@ -72,6 +72,14 @@ TEST(ServiceTest, EveryBackendThroughSkinAndStreamSkin) {
     client::FrameResult result;
     ASSERT_TRUE(t.client->Skin(info->mesh_id(), backend.id(), palette, 0, true, &result).ok());
     ExpectMatchesReference(arrays, palette, result, true);
+    // The device's share of the frame: from OpenCL's profiling events, zero elsewhere.
+    if (backend.id().rfind("opencl", 0) == 0) {
+      EXPECT_GT(result.timing.device_kernel_ns(), 0);
+      EXPECT_GT(result.timing.device_transfer_ns(), 0);
+    } else {
+      EXPECT_EQ(result.timing.device_kernel_ns(), 0);
+      EXPECT_EQ(result.timing.device_transfer_ns(), 0);
+    }
 
     int frames = 0;
     Status s = client::StreamFrames(

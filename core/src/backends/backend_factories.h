@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "skinserve/core/backend.h"
@@ -14,9 +15,14 @@ std::unique_ptr<Backend> MakeSseBackend();
 std::unique_ptr<Backend> MakeSseOpenMpBackend(int threads);
 // `simd` (threads <= 1) or `simd-openmp`, capped by $SKINSERVE_SIMD_MAX_TARGET when set.
 std::unique_ptr<Backend> MakeSimdBackend(int threads);
-// {opencl, opencl-zerocopy}: one shared context, device, queue and built program. When
-// no OpenCL platform or device is present both are returned unavailable, with the reason.
-std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads);
+// {opencl, opencl-zerocopy}: one shared context, device, lanes and built program on the
+// device `device` chooses (see OpenClRuntimeOptions). When no OpenCL platform or device
+// is present, or none matches `device`, both are returned unavailable, with the reason.
+// `force_staging`: the discrete-GPU transfer path even on a CPU device, in chunks of 1024
+// vertices and more (tests).
+std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads,
+                                                         const std::string& device = "",
+                                                         bool force_staging = false);
 std::unique_ptr<Backend> MakePassthroughBackend();
 
 }  // namespace skinserve

@@ -27,21 +27,29 @@ std::vector<std::unique_ptr<Backend>> UnavailableBackends(const std::string& rea
 
 }  // namespace
 
-BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id,
-                              const char* description) {
+BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, const char* description,
+                              int threads) {
   BackendInfo info;
   info.id = id;
   info.description = fmt::format("{} ({})", description, runtime.platform_version());
   info.device = runtime.device_name();
   info.simd_width = runtime.vector_width();
-  info.threads = runtime.compute_units();
+  info.threads = threads;
   return info;
 }
 
-std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads) {
+std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads, const std::string& device,
+                                                         bool force_staging) {
   // Never throws: an engine without OpenCL still serves every other backend.
   try {
-    auto runtime = OpenClRuntime::Create(threads);
+    OpenClRuntimeOptions options{.threads = threads, .device = device};
+    if (force_staging) {
+      // The tests' configuration: small frames run in several chunks too.
+      options.force_staging = true;
+      options.max_chunks = 8;
+      options.min_chunk_vertices = 1024;
+    }
+    auto runtime = OpenClRuntime::Create(options);
     if (!runtime.ok()) return UnavailableBackends(runtime.status().message());
     std::vector<std::unique_ptr<Backend>> backends;
     backends.push_back(MakeOpenClCopyBackend(*runtime));

@@ -8,8 +8,9 @@
 
 namespace skinserve {
 
-BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id,
-                              const char* description);
+// `threads`: host threads one frame occupies.
+BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, const char* description,
+                              int threads);
 std::unique_ptr<Backend> MakeOpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime);
 std::unique_ptr<Backend> MakeOpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime);
 

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <string>
 #include <vector>
@@ -14,8 +15,10 @@ namespace {
 
 // Vertices one work-item skins; the kernel checks it gets the value it is written for.
 constexpr std::size_t kVerticesPerItem = 4;
-// Work-items per work-group (256 vertices): past 64, PoCL's per-group cost is noise.
+// Work-items per work-group (256 vertices): past 64, PoCL's per-group cost is noise; on
+// a GPU, two warps.
 constexpr std::size_t kItemsPerGroup = 64;
+static_assert(kVerticesPerItem * kItemsPerGroup == OpenClRuntime::kChunkAlignment);
 // What the ICD loader returns when it finds no platform at all (cl_khr_icd).
 constexpr cl_int kPlatformNotFoundKhr = -1001;
 
@@ -55,13 +58,27 @@ Status DeviceUint(cl_device_id device, cl_device_info what, const char* name, cl
   return Status::Ok();
 }
 
-struct Picked {
+std::string Lower(std::string s) {
+  for (char& ch : s) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return s;
+}
+
+struct DeviceEntry {
   cl_platform_id platform = nullptr;
   cl_device_id device = nullptr;
+  std::string platform_name, device_name;
+  cl_device_type type = 0;
 };
 
-// The first device of the first platform that has one.
-Result<Picked> PickDevice() {
+std::string TypeName(cl_device_type type) {
+  if (type & CL_DEVICE_TYPE_CPU) return "CPU";
+  if (type & CL_DEVICE_TYPE_GPU) return "GPU";
+  if (type & CL_DEVICE_TYPE_ACCELERATOR) return "accelerator";
+  return "other";
+}
+
+// Every device of every platform, in the ICD loader's order.
+Result<std::vector<DeviceEntry>> ListDevices() {
   cl_uint platform_count = 0;
   cl_int err = clGetPlatformIDs(0, nullptr, &platform_count);
   if (err == kPlatformNotFoundKhr || (err == CL_SUCCESS && platform_count == 0)) {
@@ -75,15 +92,72 @@ Result<Picked> PickDevice() {
   if (err = clGetPlatformIDs(platform_count, platforms.data(), nullptr); err != CL_SUCCESS) {
     return ClError("clGetPlatformIDs", err);
   }
+  std::vector<DeviceEntry> entries;
   std::string failures;
   for (cl_platform_id platform : platforms) {
-    cl_device_id device = nullptr;
-    err = clGetDeviceIDs(platform, CL_DEVICE_TYPE_ALL, 1, &device, nullptr);
-    if (err == CL_SUCCESS) return Picked{platform, device};
-    failures += fmt::format("; clGetDeviceIDs: {} ({})", ClErrorName(err), err);
+    auto platform_name =
+        PlatformString(platform, CL_PLATFORM_NAME, "clGetPlatformInfo(CL_PLATFORM_NAME)");
+    if (!platform_name.ok()) return platform_name.status();
+    cl_uint device_count = 0;
+    err = clGetDeviceIDs(platform, CL_DEVICE_TYPE_ALL, 0, nullptr, &device_count);
+    if (err != CL_SUCCESS || device_count == 0) {
+      failures += fmt::format("; platform '{}': clGetDeviceIDs: {} ({})", *platform_name,
+                              ClErrorName(err), err);
+      continue;
+    }
+    std::vector<cl_device_id> devices(device_count);
+    if (err = clGetDeviceIDs(platform, CL_DEVICE_TYPE_ALL, device_count, devices.data(), nullptr);
+        err != CL_SUCCESS) {
+      return ClError("clGetDeviceIDs", err);
+    }
+    for (cl_device_id device : devices) {
+      DeviceEntry entry{platform, device, *platform_name, "", 0};
+      auto name = DeviceString(device, CL_DEVICE_NAME, "clGetDeviceInfo(CL_DEVICE_NAME)");
+      if (!name.ok()) return name.status();
+      entry.device_name = *name;
+      if (err = clGetDeviceInfo(device, CL_DEVICE_TYPE, sizeof(entry.type), &entry.type, nullptr);
+          err != CL_SUCCESS) {
+        return ClError("clGetDeviceInfo(CL_DEVICE_TYPE)", err);
+      }
+      entries.push_back(std::move(entry));
+    }
   }
-  return FailedPrecondition(
-      fmt::format("no OpenCL device found on {} platform(s){}", platform_count, failures));
+  if (entries.empty()) {
+    return FailedPrecondition(
+        fmt::format("no OpenCL device found on {} platform(s){}", platform_count, failures));
+  }
+  return entries;
+}
+
+// See OpenClRuntimeOptions::device.
+Result<DeviceEntry> PickDevice(const std::string& choice) {
+  auto entries = ListDevices();
+  if (!entries.ok()) return entries.status();
+  const std::string wanted = Lower(choice);
+  auto matches = [&](const DeviceEntry& e) {
+    if (wanted == "cpu") return (e.type & CL_DEVICE_TYPE_CPU) != 0;
+    if (wanted == "gpu") return (e.type & CL_DEVICE_TYPE_GPU) != 0;
+    return Lower(e.platform_name).find(wanted) != std::string::npos ||
+           Lower(e.device_name).find(wanted) != std::string::npos;
+  };
+  if (wanted.empty()) {
+    for (const DeviceEntry& e : *entries) {
+      if (e.type & CL_DEVICE_TYPE_CPU) return e;
+    }
+    return entries->front();
+  }
+  for (const DeviceEntry& e : *entries) {
+    if (matches(e)) return e;
+  }
+  std::string found;
+  for (const DeviceEntry& e : *entries) {
+    found += fmt::format("{}platform '{}': device '{}' ({})", found.empty() ? "" : "; ",
+                         e.platform_name, e.device_name, TypeName(e.type));
+  }
+  return FailedPrecondition(fmt::format(
+      "OpenCL device choice '{}' (cpu, gpu, or part of a platform or device name) matches no "
+      "device; found: {}",
+      choice, found));
 }
 
 // "OpenCL 3.0 PoCL 3.1+debian  Linux, None+Asserts, ..." -> "OpenCL 3.0 PoCL 3.1+debian".
@@ -173,20 +247,34 @@ Status ClError(const char* call, cl_int code) {
   return out_of_memory ? ResourceExhausted(std::move(message)) : Internal(std::move(message));
 }
 
-Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(int threads) {
+Result<int64_t> ProfiledNs(const std::vector<cl_event>& events) {
+  int64_t total = 0;
+  for (cl_event event : events) {
+    cl_ulong start = 0, end = 0;
+    cl_int err =
+        clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_START, sizeof(start), &start, nullptr);
+    if (err == CL_SUCCESS) {
+      err = clGetEventProfilingInfo(event, CL_PROFILING_COMMAND_END, sizeof(end), &end, nullptr);
+    }
+    if (err != CL_SUCCESS) return ClError("clGetEventProfilingInfo", err);
+    total += static_cast<int64_t>(end - start);
+  }
+  return total;
+}
+
+Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntimeOptions& options) {
   // PoCL sizes its worker pool when the ICD loader first loads it, i.e. on the first
   // clGetPlatformIDs of the process: match the engine's compute threads, unless the
   // operator chose otherwise. (Called while the engine is built, before its threads run.)
-  setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(std::max(threads, 1)).c_str(),
-         /*overwrite=*/0);
-  auto picked = PickDevice();
+  const int threads = std::max(options.threads, 1);
+  setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(threads).c_str(), /*overwrite=*/0);
+  auto picked = PickDevice(options.device);
   if (!picked.ok()) return picked.status();
 
   std::shared_ptr<OpenClRuntime> runtime(new OpenClRuntime());
   runtime->device_ = picked->device;
-  auto name = DeviceString(picked->device, CL_DEVICE_NAME, "clGetDeviceInfo(CL_DEVICE_NAME)");
-  if (!name.ok()) return name.status();
-  runtime->device_name_ = *name;
+  runtime->device_name_ = picked->device_name;
+  runtime->is_cpu_ = (picked->type & CL_DEVICE_TYPE_CPU) != 0;
   auto version = PlatformString(picked->platform, CL_PLATFORM_VERSION,
                                 "clGetPlatformInfo(CL_PLATFORM_VERSION)");
   if (!version.ok()) return version.status();
@@ -204,25 +292,40 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(int threads) {
   }
   runtime->compute_units_ = static_cast<int>(units);
   runtime->vector_width_ = static_cast<int>(width);
+  runtime->staging_ = !runtime->is_cpu_ || options.force_staging;
 
   cl_int err = CL_SUCCESS;
   runtime->context_ = clCreateContext(nullptr, 1, &runtime->device_, nullptr, nullptr, &err);
   if (err != CL_SUCCESS) return ClError("clCreateContext", err);
-  runtime->queue_ = clCreateCommandQueue(runtime->context_, runtime->device_, 0, &err);
-  if (err != CL_SUCCESS) return ClError("clCreateCommandQueue", err);
-  if (Status s = runtime->Build(); !s.ok()) return s;
+  // On a GPU, consecutive work-items take consecutive vertices (coalesced loads and
+  // stores); on a CPU, each work-item takes four consecutive ones (see the kernel).
+  const std::string build_options = fmt::format(
+      "-cl-std=CL1.2 -DSKIN_VERTICES_PER_ITEM={} -DSKIN_ITEMS_PER_GROUP={} "
+      "-DSKIN_COALESCED={}",
+      kVerticesPerItem, kItemsPerGroup, runtime->is_cpu_ ? 0 : 1);
+  if (Status s = runtime->Build(build_options); !s.ok()) return s;
+  const int lanes = options.lanes > 0 ? options.lanes : (runtime->staging_ ? 4 : 1);
+  runtime->threads_ = threads;
+  runtime->max_chunks_ = options.max_chunks;
+  if (const char* chunks = std::getenv("SKINSERVE_OPENCL_CHUNKS");
+      runtime->max_chunks_ <= 0 && chunks != nullptr) {
+    runtime->max_chunks_ = std::atoi(chunks);
+  }
+  if (runtime->max_chunks_ <= 0) runtime->max_chunks_ = kDefaultChunks;
+  runtime->min_chunk_vertices_ =
+      std::max<uint32_t>(options.min_chunk_vertices, 1) + kChunkAlignment - 1;
+  runtime->min_chunk_vertices_ -= runtime->min_chunk_vertices_ % kChunkAlignment;
+  if (Status s = runtime->CreateLanes(lanes); !s.ok()) return s;
   if (Status s = runtime->Warm(); !s.ok()) return s;
   return runtime;
 }
 
-Status OpenClRuntime::Build() {
+Status OpenClRuntime::Build(const std::string& options) {
   const char* source = kernels::kLinearBlendSkinningSource.data();
   const std::size_t length = kernels::kLinearBlendSkinningSource.size();
   cl_int err = CL_SUCCESS;
   program_ = clCreateProgramWithSource(context_, 1, &source, &length, &err);
   if (err != CL_SUCCESS) return ClError("clCreateProgramWithSource", err);
-  const std::string options =
-      fmt::format("-cl-std=CL1.2 -DSKIN_VERTICES_PER_ITEM={}", kVerticesPerItem);
   err = clBuildProgram(program_, 1, &device_, options.c_str(), nullptr, nullptr);
   if (err != CL_SUCCESS) {
     std::size_t log_size = 0;
@@ -242,26 +345,75 @@ Status OpenClRuntime::Build() {
     return FailedPrecondition(
         fmt::format("clBuildProgram failed: {} ({}); build log:\n{}", ClErrorName(err), err, log));
   }
-  for (std::size_t normals = 0; normals < 2; ++normals) {
-    for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
-      const std::string name = fmt::format("{}{}", normals ? "skin_normals_b" : "skin_b", b);
-      cl_kernel kernel = clCreateKernel(program_, name.c_str(), &err);
-      if (err != CL_SUCCESS) return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
-      kernels_[normals][b - 1] = kernel;
+  return Status::Ok();
+}
+
+Status OpenClRuntime::CreateLanes(int count) {
+  for (int i = 0; i < count; ++i) {
+    auto lane = std::make_unique<OpenClLane>();
+    cl_int err = CL_SUCCESS;
+    // Profiling on: every frame reports its kernel and transfer time.
+    lane->compute = clCreateCommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE, &err);
+    if (err != CL_SUCCESS) return ClError("clCreateCommandQueue", err);
+    if (staging_) {
+      lane->transfer = clCreateCommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE, &err);
+      if (err != CL_SUCCESS) return ClError("clCreateCommandQueue(transfer)", err);
+    } else {
+      lane->transfer = lane->compute;
+      clRetainCommandQueue(lane->transfer);
     }
+    for (std::size_t normals = 0; normals < 2; ++normals) {
+      for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
+        const std::string name = fmt::format("{}{}", normals ? "skin_normals_b" : "skin_b", b);
+        cl_kernel kernel = clCreateKernel(program_, name.c_str(), &err);
+        if (err != CL_SUCCESS) return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
+        lane->kernels[normals][b - 1] = kernel;
+      }
+    }
+    free_lanes_.push_back(lane.get());
+    lanes_.push_back(std::move(lane));
   }
   return Status::Ok();
 }
 
 OpenClRuntime::~OpenClRuntime() {
-  for (auto& row : kernels_) {
-    for (cl_kernel kernel : row) {
-      if (kernel != nullptr) clReleaseKernel(kernel);
+  for (auto& lane : lanes_) {
+    for (auto& row : lane->kernels) {
+      for (cl_kernel kernel : row) {
+        if (kernel != nullptr) clReleaseKernel(kernel);
+      }
     }
+    // Unmapped before release: the buffers' destructors release them afterwards.
+    for (PinnedBuffer* pinned :
+         {&lane->pinned_palette, &lane->pinned_positions, &lane->pinned_normals}) {
+      if (pinned->host != nullptr) {
+        clEnqueueUnmapMemObject(lane->compute, pinned->buffer.get(), pinned->host, 0, nullptr,
+                                nullptr);
+      }
+    }
+    if (lane->compute != nullptr) clFinish(lane->compute);
+    if (lane->transfer != nullptr) clReleaseCommandQueue(lane->transfer);
+    if (lane->compute != nullptr) clReleaseCommandQueue(lane->compute);
   }
+  lanes_.clear();
   if (program_ != nullptr) clReleaseProgram(program_);
-  if (queue_ != nullptr) clReleaseCommandQueue(queue_);
   if (context_ != nullptr) clReleaseContext(context_);
+}
+
+OpenClRuntime::Lease OpenClRuntime::AcquireLane() {
+  std::unique_lock lock(lanes_mutex_);
+  lane_freed_.wait(lock, [this] { return !free_lanes_.empty(); });
+  OpenClLane* lane = free_lanes_.back();
+  free_lanes_.pop_back();
+  return Lease(this, lane, static_cast<int>(lanes_.size() - free_lanes_.size()));
+}
+
+void OpenClRuntime::Release(OpenClLane* lane) {
+  {
+    std::lock_guard lock(lanes_mutex_);
+    free_lanes_.push_back(lane);
+  }
+  lane_freed_.notify_one();
 }
 
 Result<ClBuffer> OpenClRuntime::CreateBuffer(const char* what, cl_mem_flags flags,
@@ -273,21 +425,71 @@ Result<ClBuffer> OpenClRuntime::CreateBuffer(const char* what, cl_mem_flags flag
   return ClBuffer(mem);
 }
 
-Status OpenClRuntime::EnqueueSkin(const Mesh& mesh, const SkinKernelArgs& args) {
+namespace {
+// Buffers grow in steps of this, so a slowly growing mesh does not reallocate every frame.
+constexpr std::size_t kGrowStep = 1u << 20;
+std::size_t RoundUp(std::size_t bytes) { return (bytes + kGrowStep - 1) / kGrowStep * kGrowStep; }
+}  // namespace
+
+Status OpenClRuntime::GrowBuffer(const char* what, cl_mem_flags flags, std::size_t bytes,
+                                 ClBuffer* buffer, std::size_t* capacity) {
+  if (buffer->get() != nullptr && *capacity >= bytes) return Status::Ok();
+  *buffer = ClBuffer();
+  *capacity = 0;
+  auto created = CreateBuffer(what, flags, RoundUp(bytes), nullptr);
+  if (!created.ok()) return created.status();
+  *buffer = std::move(created).value();
+  *capacity = RoundUp(bytes);
+  return Status::Ok();
+}
+
+Status OpenClRuntime::GrowPinned(cl_command_queue queue, const char* what, std::size_t bytes,
+                                 PinnedBuffer* pinned) {
+  if (pinned->host != nullptr && pinned->bytes >= bytes) return Status::Ok();
+  if (pinned->host != nullptr) {
+    cl_int err =
+        clEnqueueUnmapMemObject(queue, pinned->buffer.get(), pinned->host, 0, nullptr, nullptr);
+    if (err == CL_SUCCESS) err = clFinish(queue);
+    if (err != CL_SUCCESS)
+      return ClError(fmt::format("clEnqueueUnmapMemObject({})", what).c_str(), err);
+  }
+  *pinned = PinnedBuffer();
+  const std::size_t size = RoundUp(bytes);
+  auto buffer = CreateBuffer(what, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, size, nullptr);
+  if (!buffer.ok()) return buffer.status();
+  cl_int err = CL_SUCCESS;
+  void* host = clEnqueueMapBuffer(queue, buffer->get(), CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0,
+                                  size, 0, nullptr, nullptr, &err);
+  if (err != CL_SUCCESS) {
+    return ClError(fmt::format("clEnqueueMapBuffer({})", what).c_str(), err);
+  }
+  pinned->buffer = std::move(buffer).value();
+  pinned->host = host;
+  pinned->bytes = size;
+  return Status::Ok();
+}
+
+Status OpenClRuntime::EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args,
+                                  uint32_t first, uint32_t end, cl_event* event) {
   const uint32_t influences = mesh.influences();
   if (influences < 1 || influences > kMaxInfluences) {
     return Internal(fmt::format("no OpenCL kernel for {} influences", influences));
   }
-  const cl_uint count = mesh.vertex_count();
-  if (count == 0) return Status::Ok();
+  if (first % kChunkAlignment != 0 || end > mesh.vertex_count() || first > end) {
+    return Internal(
+        fmt::format("bad vertex range [{}, {}) of {}", first, end, mesh.vertex_count()));
+  }
+  if (first == end) return Status::Ok();
   const bool with_normals = args.out_normals != nullptr;
   if (with_normals && args.normals == nullptr) {
     return Internal("output normals without input normals: the mesh has none");
   }
-  cl_kernel kernel = kernels_[with_normals ? 1 : 0][influences - 1];
-  // Argument order: see SKIN_ARGS in kernels/linear_blend_skinning.cl.
+  cl_kernel kernel = lane.kernels[with_normals ? 1 : 0][influences - 1];
+  // Argument order: see SKIN_ARGS in kernels/linear_blend_skinning.cl. The kernel's
+  // vertex_count is the range's end: it clamps to end - 1, and never reads past it.
   const cl_mem buffers[] = {args.palette, args.joints, args.weights, args.positions,
                             args.out_positions};
+  const cl_uint count = end;
   cl_uint index = 0;
   for (const cl_mem& buffer : buffers) {
     if (cl_int err = clSetKernelArg(kernel, index++, sizeof(cl_mem), &buffer); err != CL_SUCCESS) {
@@ -304,11 +506,12 @@ Status OpenClRuntime::EnqueueSkin(const Mesh& mesh, const SkinKernelArgs& args) 
       }
     }
   }
-  const std::size_t items = (count + kVerticesPerItem - 1) / kVerticesPerItem;
+  const std::size_t offset = first / kVerticesPerItem;
+  const std::size_t items = (end - first + kVerticesPerItem - 1) / kVerticesPerItem;
   const std::size_t local = kItemsPerGroup;
   const std::size_t global = (items + local - 1) / local * local;
-  if (cl_int err =
-          clEnqueueNDRangeKernel(queue_, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr);
+  if (cl_int err = clEnqueueNDRangeKernel(lane.compute, kernel, 1, &offset, &global, &local, 0,
+                                          nullptr, event);
       err != CL_SUCCESS) {
     return ClError("clEnqueueNDRangeKernel", err);
   }
@@ -316,7 +519,8 @@ Status OpenClRuntime::EnqueueSkin(const Mesh& mesh, const SkinKernelArgs& args) 
 }
 
 // PoCL compiles a kernel's work-group function on its first launch (per work-group
-// size): do that now, for every kernel, so no client's first frame pays for it.
+// size), other drivers finish their own work on first use: do that now, for every kernel
+// on every lane, so no client's first frame pays for it.
 Status OpenClRuntime::Warm() {
   MeshArrays arrays{.vertex_count = 1,
                     .influences = kMaxInfluences,
@@ -339,20 +543,24 @@ Status OpenClRuntime::Warm() {
   for (const auto* r : {&pal, &pos, &nrm, &jnt, &wgt, &out, &out_n}) {
     if (!r->ok()) return r->status();
   }
-  // Each B needs its own mesh shape; the buffers above are large enough for every B.
-  for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
-    arrays.influences = b;
-    arrays.joints.assign(b, 0);
-    arrays.weights.assign(b, 1.0f / static_cast<float>(b));
-    auto mesh = Mesh::Create(arrays);
-    if (!mesh.ok()) return mesh.status();
-    SkinKernelArgs args{pal->get(), jnt->get(), wgt->get(), pos->get(), out->get()};
-    if (Status s = EnqueueSkin(**mesh, args); !s.ok()) return s;
-    args.normals = nrm->get();
-    args.out_normals = out_n->get();
-    if (Status s = EnqueueSkin(**mesh, args); !s.ok()) return s;
+  for (auto& lane : lanes_) {
+    // Each B needs its own mesh shape; the buffers above are large enough for every B.
+    for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
+      arrays.influences = b;
+      arrays.joints.assign(b, 0);
+      arrays.weights.assign(b, 1.0f / static_cast<float>(b));
+      auto mesh = Mesh::Create(arrays);
+      if (!mesh.ok()) return mesh.status();
+      SkinKernelArgs args{pal->get(), jnt->get(), wgt->get(), pos->get(), out->get()};
+      if (Status s = EnqueueSkin(*lane, **mesh, args, 0, 1, nullptr); !s.ok()) return s;
+      args.normals = nrm->get();
+      args.out_normals = out_n->get();
+      if (Status s = EnqueueSkin(*lane, **mesh, args, 0, 1, nullptr); !s.ok()) return s;
+    }
+    if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS) {
+      return ClError("clFinish(warm-up)", err);
+    }
   }
-  if (cl_int err = clFinish(queue_); err != CL_SUCCESS) return ClError("clFinish(warm-up)", err);
   return Status::Ok();
 }
 

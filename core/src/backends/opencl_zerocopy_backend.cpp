@@ -6,8 +6,14 @@
 // the outputs is only the synchronisation the OpenCL memory model asks for, and a no-op
 // on PoCL. That holds for any float-aligned pointer, not only 64-byte aligned ones:
 // checked with POCL_DEBUG=memory on PoCL 3.1 ("Basic device ALLOC" at the host address,
-// kernel writes visible before the map). On a device with memory of its own the map
-// would copy, and the results would still be correct.
+// kernel writes visible before the map).
+//
+// On a device with memory of its own (a discrete GPU) the same buffers mean: the data
+// lives in host memory and no transfer is enqueued; whatever crosses PCIe is the driver's
+// doing. NVIDIA's driver copies a USE_HOST_PTR buffer to the device when a kernel first
+// uses it (the mesh: once, then cached, as the buffers are read-only) and copies the
+// outputs back at the map, from the device into the caller's pageable memory. The map is
+// profiled as this frame's transfer time. README's "Figure 5 today" says when that wins.
 #include "opencl_backends.h"
 
 namespace skinserve {
@@ -23,7 +29,8 @@ class OpenClZeroCopyBackend final : public Backend {
   explicit OpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime)
       : runtime_(std::move(runtime)),
         info_(OpenClBackendInfo(*runtime_, "opencl-zerocopy",
-                                "OpenCL kernel on host memory in place, no copies")) {}
+                                "OpenCL kernel on host memory in place, no copies",
+                                runtime_->is_cpu() ? runtime_->compute_units() : 1)) {}
   const BackendInfo& info() const override { return info_; }
 
   Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
@@ -77,16 +84,27 @@ class OpenClZeroCopyBackend final : public Backend {
       args.normals = prepared.normals.get();
       args.out_normals = out_normals.get();
     }
-    std::lock_guard lock(runtime_->mutex());
-    Status status = runtime_->EnqueueSkin(prepared.mesh(), args);
-    if (status.ok()) status = SyncToHost(out_positions->get(), frame.positions.size_bytes());
+    auto lane = runtime_->AcquireLane();
+    ClEvents kernels, transfers;
+    Status status = runtime_->EnqueueSkin(*lane, prepared.mesh(), args, 0,
+                                          prepared.mesh().vertex_count(), kernels.Next());
+    if (status.ok()) {
+      status = SyncToHost(*lane, out_positions->get(), frame.positions.size_bytes(), transfers);
+    }
     if (status.ok() && with_normals) {
-      status = SyncToHost(out_normals.get(), frame.normals.size_bytes());
+      status = SyncToHost(*lane, out_normals.get(), frame.normals.size_bytes(), transfers);
     }
     // One wait for the whole in-order sequence (kernel, maps, unmaps), also after an
     // error: the buffers wrap the caller's memory and must be idle when this returns.
-    if (cl_int err = clFinish(runtime_->queue()); err != CL_SUCCESS && status.ok()) {
+    if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS && status.ok()) {
       status = ClError("clFinish", err);
+    }
+    if (status.ok() && frame.device_timing != nullptr) {
+      auto kernel_ns = ProfiledNs(kernels.all());
+      if (!kernel_ns.ok()) return kernel_ns.status();
+      auto transfer_ns = ProfiledNs(transfers.all());
+      if (!transfer_ns.ok()) return transfer_ns.status();
+      *frame.device_timing = {.transfer_ns = *transfer_ns, .kernel_ns = *kernel_ns};
     }
     return status;
   }
@@ -95,12 +113,12 @@ class OpenClZeroCopyBackend final : public Backend {
   // Enqueues a map and an unmap: they make the kernel's writes visible in the host memory
   // the buffer wraps. Non-blocking: the in-order queue orders them after the kernel, and
   // the caller's clFinish is the one wait (a blocking map would be a second one).
-  Status SyncToHost(cl_mem buffer, std::size_t bytes) {
+  Status SyncToHost(OpenClLane& lane, cl_mem buffer, std::size_t bytes, ClEvents& transfers) {
     cl_int err = CL_SUCCESS;
-    void* mapped = clEnqueueMapBuffer(runtime_->queue(), buffer, CL_FALSE, CL_MAP_READ, 0, bytes, 0,
-                                      nullptr, nullptr, &err);
+    void* mapped = clEnqueueMapBuffer(lane.compute, buffer, CL_FALSE, CL_MAP_READ, 0, bytes, 0,
+                                      nullptr, transfers.Next(), &err);
     if (err != CL_SUCCESS) return ClError("clEnqueueMapBuffer(output)", err);
-    err = clEnqueueUnmapMemObject(runtime_->queue(), buffer, mapped, 0, nullptr, nullptr);
+    err = clEnqueueUnmapMemObject(lane.compute, buffer, mapped, 0, nullptr, nullptr);
     if (err != CL_SUCCESS) return ClError("clEnqueueUnmapMemObject(output)", err);
     return Status::Ok();
   }

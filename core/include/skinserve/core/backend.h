@@ -3,6 +3,7 @@
 // only the palette goes in and the vertices come out.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
@@ -36,6 +37,13 @@ class PreparedMesh {
   std::shared_ptr<const Mesh> mesh_;
 };
 
+// Device time of one frame, from a backend that runs on a device with profiling events
+// (OpenCL); zero elsewhere.
+struct DeviceTiming {
+  int64_t transfer_ns = 0;  // host<->device copies, summed (they may overlap the kernels)
+  int64_t kernel_ns = 0;    // kernels, summed
+};
+
 // One frame of work, in the manner of ozz's SkinningJob: plain spans, Validate() first.
 //  - palette:   12 * joint_count finite floats (see palette.h).
 //  - positions: 3 * vertex_count floats written by the backend, x y z per vertex.
@@ -43,11 +51,13 @@ class PreparedMesh {
 //               the mesh must have normals.
 //  - threads:   the threads this frame may use, between info.min_threads and
 //               info.threads (the engine's scheduler decides); 0: info.threads.
+//  - device_timing: null, or where a device backend writes the frame's device time.
 struct SkinFrame {
   std::span<const float> palette;
   std::span<float> positions;
   std::span<float> normals;
   int threads = 0;
+  DeviceTiming* device_timing = nullptr;
 
   Status Validate(const Mesh& mesh) const;
 };

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "skinserve/core/backend.h"
@@ -11,6 +12,9 @@ namespace skinserve {
 
 // `threads`: compute threads a parallel backend uses for one frame (>= 1).
 // Backends that cannot run here are returned too, with available = false and the reason.
-std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads);
+// `opencl_device`: which OpenCL device the OpenCL backends use: "" (the first CPU device,
+// else the first device), "cpu", "gpu", or part of a platform or device name.
+std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads,
+                                                        const std::string& opencl_device = "");
 
 }  // namespace skinserve

@@ -29,6 +29,10 @@ struct EngineOptions {
   uint64_t mesh_budget_bytes = 4ull << 30;    // LRU eviction beyond this
   MeshOptions mesh;                           // limits and weight policy on ingest
   std::vector<std::string> enabled_backends;  // ids; empty: all
+  // The OpenCL backends' device: "" (the first CPU device, else the first device), "cpu",
+  // "gpu", or part of a platform or device name. A choice that finds no device fails
+  // Engine::Create (with the devices there are); "" leaves OpenCL unavailable instead.
+  std::string opencl_device;
 };
 
 struct MeshInfo {
@@ -46,6 +50,9 @@ struct MeshInfo {
 struct FrameTiming {
   int64_t queued_ns = 0;   // from Submit until a compute thread took it
   int64_t compute_ns = 0;  // the backend's Skin call
+  // Of compute_ns, device time from profiling events (OpenCL backends; else 0):
+  int64_t device_transfer_ns = 0;  // host<->device transfers, summed
+  int64_t device_kernel_ns = 0;    // kernels, summed
 };
 
 // One frame to skin: one instance of a mesh, or a crowd of `instances` instances (K), each
@@ -86,6 +93,8 @@ class SkinJob {
   int64_t submitted_ns_ = 0;
   std::atomic<int64_t> started_ns_{0};
   std::atomic<uint32_t> remaining_{0};
+  std::atomic<int64_t> device_transfer_ns_{0};  // OpenCL instances' device time, summed
+  std::atomic<int64_t> device_kernel_ns_{0};
   std::mutex status_mutex_;
   Status status_;  // the first failure among the instances
 };
