@@ -1,6 +1,8 @@
-// Encoding and decoding loops. Each hot loop is branch-free over plain arrays so that the
-// compiler vectorises it at the baseline ISA; a failed check is found again by a slow scan
-// that names the vertex, so the fast path carries only a flag.
+// Encoding and decoding loops. Each hot loop is branch-free so that it runs on SSE2 (the
+// x86-64 baseline): value-wise loops are left to the auto-vectoriser; loops over x y z
+// triples take 12 values (4 vertices) at a time as three 4-float vectors (GCC/Clang vector
+// extensions), so that each vector meets its own per-axis constants. A failed check only
+// sets a flag in the fast path; a slow scan then finds the value and names its vertex.
 #include "skinserve/core/vertex_encoding.h"
 
 #include <fmt/format.h>
@@ -21,12 +23,37 @@ constexpr const char* kAxisNames[3] = {"x", "y", "z"};
 constexpr const char* kMinFieldNames[3] = {"bounds.min_x", "bounds.min_y", "bounds.min_z"};
 constexpr const char* kMaxFieldNames[3] = {"bounds.max_x", "bounds.max_y", "bounds.max_z"};
 constexpr float kInvSnorm16Max = 1.0f / static_cast<float>(kSnorm16Max);
-// Adding and subtracting 1.5 * 2^23 rounds a float of magnitude < 2^22 to an integer,
-// to nearest even (the FPU's default mode), without SSE4.1's roundps.
-constexpr float kRoundMagic = 12582912.0f;
-// Values per block of the snorm16 loops: 4 vertices, so that the per-axis constants repeat
-// with the block and the inner loop is three full SSE vectors.
+constexpr float kRoundMagic = 12582912.0f;  // 1.5 * 2^23, see RoundToSnorm16
+// Values per block of the x y z loops: 4 vertices, three 4-float vectors.
 constexpr std::size_t kBlock = 12;
+
+// float -> binary16 bits for |value| < 65520 (finite), round to nearest even.
+// F. Giesen's float_to_half_fast3_rtne, written branch-free: both paths are computed.
+// Four floats / int32 / int16 lanes, and 16-bit values at any alignment: the wire's bytes
+// (a protobuf string) carry no alignment guarantee.
+using Float4 = float __attribute__((vector_size(16)));
+using Int4 = int32_t __attribute__((vector_size(16)));
+using Short4 = int16_t __attribute__((vector_size(8)));
+using UnalignedU16 = uint16_t __attribute__((aligned(1), may_alias));
+using UnalignedS16 = int16_t __attribute__((aligned(1), may_alias));
+
+inline Float4 Splat(float v) { return Float4{v, v, v, v}; }
+inline Float4 LoadFloat4(const float* p) {
+  Float4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void StoreFloat4(float* p, Float4 v) { std::memcpy(p, &v, sizeof v); }
+
+// Per-axis constants laid out for a 12-value block: lane l of vector k is axis (4k + l) % 3.
+struct AxisVectors {
+  Float4 v[3];
+  explicit AxisVectors(const float* per_axis) {
+    for (int k = 0; k < 3; ++k) {
+      for (int l = 0; l < 4; ++l) v[k][l] = per_axis[(4 * k + l) % 3];
+    }
+  }
+};
 
 // float -> binary16 bits for |value| < 65520 (finite), round to nearest even.
 // F. Giesen's float_to_half_fast3_rtne, written branch-free: both paths are computed.
@@ -42,8 +69,8 @@ inline uint16_t HalfBitsOfFinite(float value) {
   // Normal: rebias the exponent, round the 13 dropped bits to nearest even.
   const uint32_t odd = (magnitude >> 13) & 1u;
   const uint32_t normal = (magnitude - ((127u - 15u) << 23) + 0xfffu + odd) >> 13;
-  const uint32_t half = magnitude < (113u << 23) ? subnormal : normal;
-  return static_cast<uint16_t>(half | sign);
+  const uint32_t small = 0u - static_cast<uint32_t>(magnitude < (113u << 23));
+  return static_cast<uint16_t>((subnormal & small) | (normal & ~small) | sign);
 }
 
 // binary16 bits -> float, exact, branch-free.
@@ -57,17 +84,29 @@ inline float FloatOfHalfBits(uint16_t half) {
   // Zero/subnormal: renormalise through a float subtraction (exact).
   const uint32_t tiny = std::bit_cast<uint32_t>(std::bit_cast<float>(rebiased + (1u << 23)) -
                                                 std::bit_cast<float>(113u << 23));
+  const uint32_t is_special = 0u - static_cast<uint32_t>(exponent == kExponentMask);
+  const uint32_t is_tiny = 0u - static_cast<uint32_t>(exponent == 0);
   const uint32_t magnitude =
-      exponent == kExponentMask ? special : (exponent == 0 ? tiny : rebiased);
+      (special & is_special) | (tiny & is_tiny) | (rebiased & ~(is_special | is_tiny));
   return std::bit_cast<float>(magnitude | (static_cast<uint32_t>(half) & 0x8000u) << 16);
 }
 
-inline uint16_t LoadU16(const std::byte* p) {
-  uint16_t v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
+// Rounds to nearest even and clamps to [-32767, 32767]. Adding and subtracting 1.5 * 2^23
+// rounds a float of magnitude < 2^22 to an integer in the FPU's default mode, without
+// SSE4.1's roundps; larger values are clamped anyway.
+inline Short4 RoundToSnorm16(Float4 t) {
+  const Float4 magic = Splat(kRoundMagic);
+  const Float4 limit = Splat(static_cast<float>(kSnorm16Max));
+  Float4 r = (t + magic) - magic;
+  r = r > limit ? limit : r;
+  r = r < -limit ? -limit : r;
+  return __builtin_convertvector(__builtin_convertvector(r, Int4), Short4);
 }
-inline void StoreU16(std::byte* p, uint16_t v) { std::memcpy(p, &v, sizeof v); }
+inline int16_t RoundToSnorm16(float t) {
+  const float rounded = (t + kRoundMagic) - kRoundMagic;
+  const float clamped = std::min(std::max(rounded, -32767.0f), 32767.0f);
+  return static_cast<int16_t>(static_cast<int32_t>(clamped));
+}
 
 Status WrongOutputSize(const char* field, VertexEncoding encoding, std::size_t values,
                        std::size_t bytes) {
@@ -103,12 +142,6 @@ Snorm16Axes AxesOf(const Bounds& bounds) {
   return axes;
 }
 
-inline int16_t RoundToSnorm16(float t) {
-  const float rounded = (t + kRoundMagic) - kRoundMagic;
-  const float clamped = std::min(std::max(rounded, -32767.0f), 32767.0f);
-  return static_cast<int16_t>(static_cast<int32_t>(clamped));
-}
-
 Status PositionError(const char* what, std::size_t vertex, int axis, float value) {
   return InvalidArgument(
       fmt::format("positions[vertex {}][{}] = {} {}", vertex, kAxisNames[axis], value, what));
@@ -118,12 +151,12 @@ Status EncodeFloat16(const char* field, std::span<const float> values, std::span
                      std::size_t first_vertex) {
   const std::size_t n = values.size();
   const float* in = values.data();
-  std::byte* o = out.data();
+  auto* o = reinterpret_cast<UnalignedU16*>(out.data());
   uint32_t bad = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const float v = in[i];
     bad |= !(std::fabs(v) <= kFloat16Max);  // NaN fails too
-    StoreU16(o + 2 * i, HalfBitsOfFinite(v));
+    o[i] = HalfBitsOfFinite(v);
   }
   if (bad == 0) return Status::Ok();
   for (std::size_t i = 0; i < n; ++i) {
@@ -144,65 +177,66 @@ Status EncodeFloat16(const char* field, std::span<const float> values, std::span
 // double, value by value.
 void EncodeSnorm16PositionsInDouble(std::span<const float> positions, const Snorm16Axes& axes,
                                     std::span<std::byte> out) {
+  auto* o = reinterpret_cast<UnalignedS16*>(out.data());
   for (std::size_t i = 0; i < positions.size(); ++i) {
     const int a = static_cast<int>(i % 3);
     const double h = axes.half_extent[a];
     const double t =
         h > 0 ? (positions[i] - static_cast<double>(axes.centre[a])) / h * kSnorm16Max : 0.0;
-    const double q = std::clamp(std::nearbyint(t), -32767.0, 32767.0);
-    StoreU16(out.data() + 2 * i, static_cast<uint16_t>(static_cast<int16_t>(q)));
+    o[i] = static_cast<int16_t>(std::clamp(std::nearbyint(t), -32767.0, 32767.0));
   }
+}
+
+// Whether every value lies in its axis' [min, max] (NaN does not).
+bool InsideBox(std::span<const float> positions, const Bounds& bounds) {
+  const std::size_t n = positions.size();
+  const float* in = positions.data();
+  const AxisVectors lo(bounds.min.data()), hi(bounds.max.data());
+  Int4 outside = {0, 0, 0, 0};
+  std::size_t i = 0;
+  for (; i + kBlock <= n; i += kBlock) {
+    for (int k = 0; k < 3; ++k) {
+      const Float4 x = LoadFloat4(in + i + 4 * k);
+      outside |= ~((x >= lo.v[k]) & (x <= hi.v[k]));
+    }
+  }
+  bool inside = (outside[0] | outside[1] | outside[2] | outside[3]) == 0;
+  for (; i < n; ++i) inside &= in[i] >= bounds.min[i % 3] && in[i] <= bounds.max[i % 3];
+  return inside;
 }
 
 Status EncodeSnorm16Positions(std::span<const float> positions, const Bounds& bounds,
                               std::span<std::byte> out, std::size_t first_vertex) {
   const std::size_t n = positions.size();
   const float* in = positions.data();
-  std::byte* o = out.data();
-  // The box check, in its own loop so both loops stay simple enough to vectorise.
-  float lo[kBlock], hi[kBlock];
-  for (std::size_t j = 0; j < kBlock; ++j) {
-    lo[j] = bounds.min[j % 3];
-    hi[j] = bounds.max[j % 3];
-  }
-  uint32_t bad = 0;
-  std::size_t i = 0;
-  for (; i + kBlock <= n; i += kBlock) {
-    for (std::size_t j = 0; j < kBlock; ++j) bad |= !(in[i + j] >= lo[j] && in[i + j] <= hi[j]);
-  }
-  for (; i < n; ++i) bad |= !(in[i] >= lo[i % 3] && in[i] <= hi[i % 3]);
-  if (bad != 0) {
-    for (i = 0; i < n; ++i) {
+  if (!InsideBox(positions, bounds)) {
+    for (std::size_t i = 0; i < n; ++i) {
       const int a = static_cast<int>(i % 3);
       if (in[i] >= bounds.min[a] && in[i] <= bounds.max[a]) continue;
-      if (!std::isfinite(in[i]))
+      if (!std::isfinite(in[i])) {
         return PositionError("is not finite", first_vertex + i / 3, a, in[i]);
+      }
       return PositionError(
           fmt::format("is outside the box [{}, {}]", bounds.min[a], bounds.max[a]).c_str(),
           first_vertex + i / 3, a, in[i]);
     }
   }
-
   const Snorm16Axes axes = AxesOf(bounds);
   if (!axes.finite_scale) {
     EncodeSnorm16PositionsInDouble(positions, axes, out);
     return Status::Ok();
   }
-  float centre[kBlock], scale[kBlock];
-  for (std::size_t j = 0; j < kBlock; ++j) {
-    centre[j] = axes.centre[j % 3];
-    scale[j] = axes.scale[j % 3];
+  const AxisVectors centre(axes.centre), scale(axes.scale);
+  std::byte* o = out.data();
+  std::size_t i = 0;
+  for (; i + kBlock <= n; i += kBlock) {
+    for (int k = 0; k < 3; ++k) {
+      const Short4 q = RoundToSnorm16((LoadFloat4(in + i + 4 * k) - centre.v[k]) * scale.v[k]);
+      std::memcpy(o + 2 * (i + 4 * k), &q, sizeof q);
+    }
   }
-  for (i = 0; i + kBlock <= n; i += kBlock) {
-    int16_t q[kBlock];
-    for (std::size_t j = 0; j < kBlock; ++j)
-      q[j] = RoundToSnorm16((in[i + j] - centre[j]) * scale[j]);
-    std::memcpy(o + 2 * i, q, sizeof q);
-  }
-  for (; i < n; ++i) {
-    const int16_t q = RoundToSnorm16((in[i] - centre[i % 3]) * scale[i % 3]);
-    StoreU16(o + 2 * i, static_cast<uint16_t>(q));
-  }
+  auto* tail = reinterpret_cast<UnalignedS16*>(o);
+  for (; i < n; ++i) tail[i] = RoundToSnorm16((in[i] - axes.centre[i % 3]) * axes.scale[i % 3]);
   return Status::Ok();
 }
 
@@ -210,13 +244,13 @@ Status EncodeSnorm16Normals(std::span<const float> normals, std::span<std::byte>
                             std::size_t first_vertex) {
   const std::size_t n = normals.size();
   const float* in = normals.data();
-  std::byte* o = out.data();
+  auto* o = reinterpret_cast<UnalignedS16*>(out.data());
   constexpr float kLimit = 32767.5f;  // |n * 32767| below this rounds into [-32767, 32767]
   uint32_t bad = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const float t = in[i] * static_cast<float>(kSnorm16Max);
     bad |= !(std::fabs(t) < kLimit);
-    StoreU16(o + 2 * i, static_cast<uint16_t>(RoundToSnorm16(t)));
+    o[i] = RoundToSnorm16(t);
   }
   if (bad == 0) return Status::Ok();
   for (std::size_t i = 0; i < n; ++i) {
@@ -237,9 +271,9 @@ Status CheckDecodeLength(const char* field, VertexEncoding encoding,
 }
 
 void DecodeFloat16(std::span<const std::byte> bytes, std::span<float> out) {
-  const std::byte* in = bytes.data();
+  const auto* in = reinterpret_cast<const UnalignedU16*>(bytes.data());
   float* o = out.data();
-  for (std::size_t i = 0; i < out.size(); ++i) o[i] = FloatOfHalfBits(LoadU16(in + 2 * i));
+  for (std::size_t i = 0; i < out.size(); ++i) o[i] = FloatOfHalfBits(in[i]);
 }
 
 Status DecodeValues(const char* field, VertexEncoding encoding, std::span<const std::byte> bytes,
@@ -294,40 +328,41 @@ Result<Bounds> ComputeBounds(std::span<const float> positions, std::size_t first
   Bounds bounds;
   if (n == 0) return bounds;
   const float* in = positions.data();
-  float lo[kBlock], hi[kBlock];
-  for (std::size_t j = 0; j < kBlock; ++j) lo[j] = hi[j] = in[j % 3];
   // x - x is 0 for every finite x and NaN otherwise: one sum finds any non-finite value.
-  float poison[kBlock] = {};
+  Float4 lo[3], hi[3], poison[3];
+  for (int k = 0; k < 3; ++k) {
+    for (int l = 0; l < 4; ++l) lo[k][l] = hi[k][l] = in[(4 * k + l) % 3];
+    poison[k] = Splat(0.0f);
+  }
   std::size_t i = 0;
   for (; i + kBlock <= n; i += kBlock) {
-    for (std::size_t j = 0; j < kBlock; ++j) {
-      const float v = in[i + j];
-      lo[j] = std::min(lo[j], v);
-      hi[j] = std::max(hi[j], v);
-      poison[j] += v - v;
+    for (int k = 0; k < 3; ++k) {
+      const Float4 x = LoadFloat4(in + i + 4 * k);
+      lo[k] = x < lo[k] ? x : lo[k];
+      hi[k] = x > hi[k] ? x : hi[k];
+      poison[k] += x - x;
+    }
+  }
+  bool finite = true;
+  for (int a = 0; a < 3; ++a) bounds.min[a] = bounds.max[a] = in[a];
+  for (int k = 0; k < 3; ++k) {
+    for (int l = 0; l < 4; ++l) {
+      const int a = (4 * k + l) % 3;
+      bounds.min[a] = std::min(bounds.min[a], lo[k][l]);
+      bounds.max[a] = std::max(bounds.max[a], hi[k][l]);
+      finite = finite && poison[k][l] == 0.0f;
     }
   }
   for (; i < n; ++i) {
-    const std::size_t j = i % 3;
-    lo[j] = std::min(lo[j], in[i]);
-    hi[j] = std::max(hi[j], in[i]);
-    poison[j] += in[i] - in[i];
+    bounds.min[i % 3] = std::min(bounds.min[i % 3], in[i]);
+    bounds.max[i % 3] = std::max(bounds.max[i % 3], in[i]);
+    finite = finite && std::isfinite(in[i]);
   }
-  bool finite = true;
-  for (std::size_t j = 0; j < kBlock; ++j) finite = finite && poison[j] == 0.0f;
   if (!finite) {
     for (i = 0; i < n; ++i) {
       if (!std::isfinite(in[i])) {
         return PositionError("is not finite", first_vertex + i / 3, static_cast<int>(i % 3), in[i]);
       }
-    }
-  }
-  for (int a = 0; a < 3; ++a) {
-    bounds.min[a] = lo[a];
-    bounds.max[a] = hi[a];
-    for (std::size_t j = static_cast<std::size_t>(a) + 3; j < kBlock; j += 3) {
-      bounds.min[a] = std::min(bounds.min[a], lo[j]);
-      bounds.max[a] = std::max(bounds.max[a], hi[j]);
     }
   }
   return bounds;
@@ -395,25 +430,25 @@ Status DecodePositions(VertexEncoding encoding, std::span<const std::byte> bytes
   if (out.size() % 3 != 0) return NotATriple("positions", out.size());
   if (Status s = ValidateBounds(bounds); !s.ok()) return s;
   const Snorm16Axes axes = AxesOf(bounds);
-  float centre[kBlock], step[kBlock];
-  for (std::size_t j = 0; j < kBlock; ++j) {
-    centre[j] = axes.centre[j % 3];
-    step[j] = axes.half_extent[j % 3];
-  }
+  const AxisVectors centre(axes.centre), half_extent(axes.half_extent);
+  const Float4 inverse = Splat(kInvSnorm16Max);
   const std::size_t n = out.size();
   const std::byte* in = bytes.data();
   float* o = out.data();
   std::size_t i = 0;
   for (; i + kBlock <= n; i += kBlock) {
-    int16_t q[kBlock];
-    std::memcpy(q, in + 2 * i, sizeof q);
-    for (std::size_t j = 0; j < kBlock; ++j) {
-      o[i + j] = centre[j] + (static_cast<float>(q[j]) * kInvSnorm16Max) * step[j];
+    for (int k = 0; k < 3; ++k) {
+      Short4 q;
+      std::memcpy(&q, in + 2 * (i + 4 * k), sizeof q);
+      const Float4 x =
+          centre.v[k] + (__builtin_convertvector(q, Float4) * inverse) * half_extent.v[k];
+      StoreFloat4(o + i + 4 * k, x);
     }
   }
+  const auto* tail = reinterpret_cast<const UnalignedS16*>(in);
   for (; i < n; ++i) {
-    const auto q = static_cast<int16_t>(LoadU16(in + 2 * i));
-    o[i] = centre[i % 3] + (static_cast<float>(q) * kInvSnorm16Max) * step[i % 3];
+    o[i] = axes.centre[i % 3] +
+           (static_cast<float>(tail[i]) * kInvSnorm16Max) * axes.half_extent[i % 3];
   }
   return Status::Ok();
 }
@@ -422,11 +457,9 @@ Status DecodeNormals(VertexEncoding encoding, std::span<const std::byte> bytes,
                      std::span<float> out) {
   if (encoding != VertexEncoding::kSnorm16) return DecodeValues("normals", encoding, bytes, out);
   if (Status s = CheckDecodeLength("normals", encoding, bytes, out.size()); !s.ok()) return s;
-  const std::byte* in = bytes.data();
+  const auto* in = reinterpret_cast<const UnalignedS16*>(bytes.data());
   float* o = out.data();
-  for (std::size_t i = 0; i < out.size(); ++i) {
-    o[i] = static_cast<float>(static_cast<int16_t>(LoadU16(in + 2 * i))) * kInvSnorm16Max;
-  }
+  for (std::size_t i = 0; i < out.size(); ++i) o[i] = static_cast<float>(in[i]) * kInvSnorm16Max;
   return Status::Ok();
 }
 

@@ -284,11 +284,17 @@ TEST(VertexEncodingTest, BoundsRefuseNonFiniteNamingTheVertex) {
   b = ComputeBounds(positions, 40);
   EXPECT_NE(b.status().message().find("positions[vertex 48][y]"), std::string::npos)
       << b.status().message();
+  positions[25] = 1.0f;
+  positions[4] = std::numeric_limits<float>::infinity();  // in the 4-vertex blocks
+  b = ComputeBounds(positions);
+  EXPECT_NE(b.status().message().find("positions[vertex 1][y]"), std::string::npos)
+      << b.status().message();
   EXPECT_FALSE(ComputeBounds(std::vector<float>(4, 0.0f)).ok());  // not x y z triples
 }
 
 TEST(VertexEncodingTest, Snorm16RefusesValuesOutsideTheBox) {
   std::vector<float> positions = {0, 0, 0, 1, 1, 1, 0.5f, 0.5f, 0.5f};
+  positions.resize(39, 0.25f);  // 13 vertices: the 4-vertex blocks and the tail
   Bounds box = *ComputeBounds(positions);
   std::vector<std::byte> out(positions.size() * 2);
   positions[5] = 1.01f;  // vertex 1, z
@@ -298,6 +304,10 @@ TEST(VertexEncodingTest, Snorm16RefusesValuesOutsideTheBox) {
   positions[5] = std::numeric_limits<float>::quiet_NaN();
   s = EncodePositions(VertexEncoding::kSnorm16, positions, box, out);
   EXPECT_NE(s.message().find("not finite"), std::string::npos) << s.message();
+  positions[5] = 0.5f;
+  positions[37] = -0.01f;  // vertex 12, y: in the tail
+  s = EncodePositions(VertexEncoding::kSnorm16, positions, box, out);
+  EXPECT_NE(s.message().find("positions[vertex 12][y]"), std::string::npos) << s.message();
   box.max[1] = std::numeric_limits<float>::infinity();
   s = EncodePositions(VertexEncoding::kSnorm16, positions, box, out);
   EXPECT_NE(s.message().find("bounds.max_y"), std::string::npos) << s.message();
