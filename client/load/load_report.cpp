@@ -20,6 +20,13 @@ std::string ErrorsText(const RunResult& r) {
   return text.empty() ? "0" : text;
 }
 
+// The backend, with the encoding and crowd size when they are not float32 x 1.
+std::string BackendLabel(const RunResult& r) {
+  if (r.encoding == "float32" && r.instances <= 1) return r.backend;
+  return r.instances > 1 ? fmt::format("{}/{}x{}", r.backend, r.encoding, r.instances)
+                         : fmt::format("{}/{}", r.backend, r.encoding);
+}
+
 }  // namespace
 
 double SerialFramesPerSecond(const std::vector<RunResult>& results, const RunResult& of) {
@@ -45,7 +52,7 @@ void PrintTable(const std::vector<RunResult>& results, bool open_loop) {
     fmt::print(
         "{:<16} {:>8} {:>2} {:>7} {:>9.1f} {:>9.1f} {:>8.1f} {:>7.2f} {:>7.2f} {:>7.2f} "
         "{:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>7}{} {}{}\n",
-        r.backend, r.vertices, r.bones, r.frames, r.frames_per_second(),
+        BackendLabel(r), r.vertices, r.bones, r.frames, r.frames_per_second(),
         r.vertices_per_second() / 1e6, r.megabytes_per_second(), l.p50, l.p90, l.p99, l.max,
         r.mean(r.server_queue_ms_sum), r.mean(r.server_compute_ms_sum),
         r.mean(r.server_encode_ms_sum),
@@ -96,6 +103,9 @@ Status WriteJson(const std::string& path, const std::vector<RunResult>& results)
         {"vertices", r.vertices},
         {"bones", r.bones},
         {"normals", r.normals},
+        {"encoding", r.encoding},
+        {"instances", r.instances},
+        {"characters_per_second", r.frames_per_second() * r.instances},
         {"frames", r.frames},
         {"seconds", r.seconds},
         {"frames_per_second", r.frames_per_second()},

@@ -4,18 +4,50 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <deque>
 #include <mutex>
 #include <thread>
 
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/core/reference.h"
+#include "skinserve/core/encoded_reference.h"
+#include "skinserve/core/palette.h"
 
 namespace skinserve::load {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// Frame f's palette for a request: with K instances, K palettes back to back, instance k
+// posed as frame f + k of the workload (so that a crowd's characters differ). Returns a
+// view valid until the next call; the buffer keeps its capacity from frame to frame.
+class FramePalette {
+ public:
+  FramePalette(const Workload& workload, uint32_t instances)
+      : workload_(workload), instances_(std::max(instances, 1u)) {}
+  std::span<const float> operator()(uint64_t frame) {
+    if (instances_ == 1) return workload_.Palette(frame);
+    buffer_.clear();
+    for (uint32_t k = 0; k < instances_; ++k) {
+      const std::vector<float>& p = workload_.Palette(frame + k);
+      buffer_.insert(buffer_.end(), p.begin(), p.end());
+    }
+    return buffer_;
+  }
+
+ private:
+  const Workload& workload_;
+  const uint32_t instances_;
+  std::vector<float> buffer_;
+};
+
+// The identity pose: what `passthrough` (no compute) answers, as a palette.
+std::vector<float> IdentityPalette(uint32_t joints) {
+  std::vector<float> p(kFloatsPerJoint * joints, 0.0f);
+  for (uint32_t j = 0; j < joints; ++j) {
+    for (int r = 0; r < 3; ++r) p[kFloatsPerJoint * j + 5 * r] = 1.0f;
+  }
+  return p;
+}
 
 // Accumulates answers from every stream into one RunResult. Callers say whether a frame
 // belongs to the measured part; errors count either way.
@@ -24,11 +56,22 @@ class Recorder {
   // `measure_from`: the start of the measured part, or Clock::time_point::max() when the
   // streams announce it (frame-count runs, StartMeasuring).
   Recorder(const RunConfig& config, const Workload& workload, Clock::time_point measure_from)
-      : config_(config), workload_(workload), measure_from_(measure_from) {
+      : config_(config),
+        workload_(workload),
+        identity_(IdentityPalette(workload.joints)),
+        measure_from_(measure_from) {
     result_.backend = config.backend;
     result_.vertices = workload.vertices;
     result_.bones = workload.bones;
     result_.normals = workload.normals;
+    result_.encoding = VertexEncodingName(config.encoding);
+    result_.instances = std::max(config.instances, 1u);
+    // Open loop knows its frame count: no reallocation while measuring.
+    if (config.rate > 0) {
+      result_.latencies_ms.reserve(static_cast<std::size_t>(
+          config.rate * config.streams * (config.duration_seconds + config.warmup_seconds) +
+          1024));
+    }
   }
 
   // Time-bounded runs: has the measured part begun?
@@ -49,16 +92,7 @@ class Recorder {
     if (frame.status.ok() && config_.check_every > 0 &&
         answered_.fetch_add(1) % config_.check_every == 0) {
       checked = true;
-      if (config_.backend == "passthrough") {  // no compute: it must return the rest pose
-        const auto rest = workload_.mesh->positions();
-        mismatch =
-            !std::equal(rest.begin(), rest.end(), frame.positions.begin(), frame.positions.end());
-      } else {
-        const Deviation d = CompareWithReference(
-            *workload_.mesh, workload_.Palette(frame.frame), frame.positions,
-            workload_.normals ? std::span<const float>(frame.normals) : std::span<const float>());
-        mismatch = !d.within_tolerance();
-      }
+      mismatch = !Matches(frame);
     }
     std::lock_guard lock(mutex_);
     result_.checked += checked;
@@ -76,6 +110,35 @@ class Recorder {
     result_.server_encode_ms_sum += frame.timing.encode_ns() / 1e6;
     last_answer_ = std::max(last_answer_, now);
   }
+  // Every instance of a frame against the float64 reference, within the bound of the
+  // encoding it came in; `passthrough` (no compute) must return the rest pose.
+  bool Matches(const client::FrameResult& frame) const {
+    const uint32_t instances = std::max(config_.instances, 1u);
+    if (frame.instances != instances || frame.encoding != config_.encoding) return false;
+    for (uint32_t k = 0; k < instances; ++k) {
+      const std::span<const float> positions = frame.instance_positions(k);
+      const std::span<const float> normals =
+          workload_.normals ? frame.instance_normals(k) : std::span<const float>();
+      if (workload_.normals && normals.empty()) return false;
+      const bool passthrough = config_.backend == "passthrough";
+      if (passthrough && frame.encoding == VertexEncoding::kFloat32) {
+        const auto rest = workload_.mesh->positions();
+        if (!std::equal(rest.begin(), rest.end(), positions.begin(), positions.end())) {
+          return false;
+        }
+        continue;
+      }
+      const std::span<const float> palette =
+          passthrough ? std::span<const float>(identity_) : workload_.Palette(frame.frame + k);
+      if (!CompareEncodedWithReference(*workload_.mesh, palette, frame.encoding, frame.bounds[k],
+                                       positions, normals)
+               .within_tolerance()) {
+        return false;
+      }
+    }
+    return true;
+  }
+
   void RecordStreamError(const Status& status) {
     std::lock_guard lock(mutex_);
     ++result_.errors[StatusCodeName(status.code())];
@@ -100,6 +163,7 @@ class Recorder {
  private:
   const RunConfig& config_;
   const Workload& workload_;
+  const std::vector<float> identity_;
   std::atomic<uint64_t> answered_{0};
   std::mutex mutex_;
   Clock::time_point measure_from_;
@@ -115,9 +179,12 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
                       Recorder& recorder) {
   client::SkinClient client(client::MakeChannel(config.target));
   client.Remember(mesh_id, workload.arrays);  // re-uploads where a replica lacks the mesh
+  FramePalette palette(workload, config.instances);
   client::StreamOptions options{.mesh_id = mesh_id,
                                 .backend = config.backend,
                                 .want_normals = workload.normals,
+                                .encoding = config.encoding,
+                                .instances = config.instances,
                                 .frames = UINT64_MAX / 2,
                                 .window = config.window,
                                 .stop = &stop};
@@ -129,7 +196,7 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
         client, options,
         [&](uint64_t f) {
           if (measured_phase && (!count_by_time || recorder.Measuring())) ++measured_sent;
-          return workload.Palette(f);
+          return palette(f);
         },
         [&](client::FrameResult& r, std::chrono::nanoseconds latency) {
           const bool measured = measured_phase && (!count_by_time || recorder.Measuring());
@@ -178,7 +245,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     probe.set_mesh_id(mesh_id);
     probe.set_backend("passthrough");
     probe.set_frame(UINT64_MAX);
-    probe.set_palette(client::EncodePalette(workload.Palette(0)));
+    probe.set_palette(client::EncodePalette(workload.Palette(0)));  // one instance, float32
     if (!stream->Write(probe)) break;
     client::FrameResult result;
     client::FrameAssembler assembler;
@@ -200,10 +267,13 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     bool measured;
   };
   std::mutex mutex;
-  std::deque<Scheduled> scheduled;  // sent, unanswered
-  uint64_t sent = 0, dropped = 0;   // measured frames only
+  // Sent, unanswered, oldest first: a ring of `window` slots (never more are in flight).
+  std::vector<Scheduled> ring(static_cast<std::size_t>(std::max(config.window, 1)));
+  std::size_t ring_head = 0, in_flight = 0;
+  uint64_t sent = 0, dropped = 0;  // measured frames only
 
   std::thread reader([&] {
+    // One part and one result for the whole run (their buffers are reused).
     v1::SkinResponse part;
     client::FrameResult result;
     client::FrameAssembler assembler;
@@ -212,16 +282,23 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
       Scheduled frame;
       {
         std::lock_guard lock(mutex);
-        frame = scheduled.front();
-        scheduled.pop_front();
+        frame = ring[ring_head];
+        ring_head = (ring_head + 1) % ring.size();
+        --in_flight;
       }
       const auto latency = Clock::now() - frame.due;
       recorder.Record(result, std::chrono::duration<double, std::milli>(latency).count(),
                       latency > period, frame.measured);
-      result = client::FrameResult();
       assembler = client::FrameAssembler();
     }
   });
+  FramePalette palette(workload, config.instances);
+  v1::SkinRequest request;  // reused: only the frame number and the palette change
+  request.set_mesh_id(mesh_id);
+  request.set_backend(config.backend);
+  request.set_want_normals(workload.normals);
+  request.set_encoding(static_cast<v1::Encoding>(config.encoding));
+  request.set_instances(config.instances);
   for (uint64_t k = 0; k < last_frame && !stop.load(); ++k) {
     const Clock::time_point due = start + k * period;
     std::this_thread::sleep_until(due);
@@ -229,18 +306,14 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     const bool measured = config.frames > 0 ? k >= warmup_frames : recorder.Measuring();
     {
       std::lock_guard lock(mutex);
-      if (scheduled.size() >= static_cast<std::size_t>(config.window)) {
+      if (in_flight >= ring.size()) {
         dropped += measured;
         continue;
       }
-      scheduled.push_back({due, measured});
+      ring[(ring_head + in_flight++) % ring.size()] = {due, measured};
     }
-    v1::SkinRequest request;
-    request.set_mesh_id(mesh_id);
-    request.set_backend(config.backend);
     request.set_frame(k);
-    request.set_palette(client::EncodePalette(workload.Palette(k)));
-    request.set_want_normals(workload.normals);
+    client::EncodePaletteInto(palette(k), request.mutable_palette());
     sent += measured;
     if (!stream->Write(request)) break;
   }
@@ -250,11 +323,11 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   {
     std::lock_guard lock(mutex);
     // Sent but never answered: failed, not lost.
-    for (std::size_t i = 0; i < scheduled.size(); ++i) {
+    for (std::size_t i = 0; i < in_flight; ++i) {
       recorder.RecordStreamError(status.ok() ? Internal("unanswered") : status);
     }
   }
-  if (!status.ok() && scheduled.empty()) recorder.RecordStreamError(status);
+  if (!status.ok() && in_flight == 0) recorder.RecordStreamError(status);
   recorder.AddSentAndDropped(sent, dropped);
 }
 

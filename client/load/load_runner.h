@@ -7,6 +7,7 @@
 #include <string>
 
 #include "load_stats.h"
+#include "skinserve/core/vertex_encoding.h"
 #include "workload.h"
 
 namespace skinserve::load {
@@ -21,6 +22,8 @@ struct RunConfig {
   uint64_t frames = 0;          // > 0: measure this many frames per stream, not a duration
   double rate = 0;              // frames/s per stream; 0: closed loop
   uint64_t check_every = 0;     // compare every Nth answer with the float64 reference
+  VertexEncoding encoding = VertexEncoding::kFloat32;  // of the answers
+  uint32_t instances = 1;  // crowd batches: palettes per request, characters per stream
 };
 
 // Called now and then with the fraction done (for a progress bar).

@@ -24,7 +24,9 @@ struct RunResult {
   uint32_t vertices = 0;
   uint32_t bones = 0;
   bool normals = false;
-  uint64_t frames = 0;  // answered correctly within the measured window
+  std::string encoding = "float32";
+  uint32_t instances = 1;  // characters per frame (crowd batch)
+  uint64_t frames = 0;     // answered correctly within the measured window
   double seconds = 0;   // the measured window
   std::vector<double> latencies_ms;
   double server_queue_ms_sum = 0, server_compute_ms_sum = 0, server_encode_ms_sum = 0;
@@ -36,10 +38,13 @@ struct RunResult {
   uint64_t dropped = 0;  // open loop: not sent (window full at their time)
 
   double frames_per_second() const { return seconds > 0 ? frames / seconds : 0; }
-  double vertices_per_second() const { return frames_per_second() * vertices; }
-  // Vertex payload returned, in MB/s (12 bytes per vertex, 24 with normals).
+  // Every instance's vertices.
+  double vertices_per_second() const { return frames_per_second() * vertices * instances; }
+  // Vertex payload returned, in MB/s (12 bytes per vertex in float32, 6 in float16 and
+  // snorm16; twice that with normals).
   double megabytes_per_second() const {
-    return vertices_per_second() * (normals ? 24.0 : 12.0) / 1e6;
+    const double per_vertex = encoding == "float32" ? 12.0 : 6.0;
+    return vertices_per_second() * per_vertex * (normals ? 2 : 1) / 1e6;
   }
   double mean(double sum) const { return frames > 0 ? sum / frames : 0; }
   uint64_t error_count() const;

@@ -2,17 +2,21 @@
 //   closed loop   --streams N --window W --duration S (or --frames N per stream)
 //   open loop     --rate FPS (per stream), late and dropped frames reported
 //   --sweep paper the paper's grid over every backend, tables 2 and 3 layout
-//   --capacity    the most concurrent 60 fps streams held with p99 within one frame
+//   --capacity    the most characters (streams x --instances) held at 60 fps with p99
+//                 within one frame and nothing dropped, per --modes (encoding x crowd size)
 #include <fmt/format.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <sstream>
 
 #include "load_report.h"
 #include "load_runner.h"
 #include "skinserve/client/channel.h"
+#include "skinserve/client/malloc_tuning.h"
 #include "skinserve/client/skin_client.h"
+#include "skinserve/core/vertex_encoding.h"
 
 namespace skinserve::load {
 namespace {
@@ -28,8 +32,42 @@ struct Options {
   std::string sweep;
   bool capacity = false;
   int capacity_max_streams = 64;
+  std::string encoding = "float32";
+  std::string modes;  // --capacity: ENCODING[xK] list, e.g. float32,snorm16x16
   std::string json, csv, plot;
 };
+
+// An answer encoding and a crowd batch size: "snorm16x16" is snorm16 with 16 instances.
+struct Mode {
+  VertexEncoding encoding = VertexEncoding::kFloat32;
+  uint32_t instances = 1;
+  std::string Name() const {
+    return instances > 1 ? fmt::format("{}x{}", VertexEncodingName(encoding), instances)
+                         : VertexEncodingName(encoding);
+  }
+};
+
+Result<Mode> ParseMode(const std::string& text) {
+  const std::size_t x = text.find('x');
+  const auto encoding = ParseVertexEncoding(text.substr(0, x));
+  Mode mode;
+  if (!encoding) {
+    return InvalidArgument(fmt::format(
+        "mode '{}': the encoding must be float32, float16 or snorm16 (then xK: K instances)",
+        text));
+  }
+  mode.encoding = *encoding;
+  if (x != std::string::npos) {
+    const std::string k = text.substr(x + 1);
+    if (k.empty() || k.size() > 6 || k.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoul(k) == 0) {
+      return InvalidArgument(
+          fmt::format("mode '{}': K after 'x' must be a whole number >= 1", text));
+    }
+    mode.instances = static_cast<uint32_t>(std::stoul(k));
+  }
+  return mode;
+}
 
 // A progress bar on a terminal; nothing when stderr is not one.
 Progress MakeProgress(const std::string& label) {
@@ -40,6 +78,15 @@ Progress MakeProgress(const std::string& label) {
                std::string(30 - filled, ' '), fraction * 100);
     if (fraction >= 1.0) fmt::print(stderr, "\r{:80}\r", "");
   };
+}
+
+std::vector<std::string> SplitList(const std::string& text) {
+  std::vector<std::string> items;
+  std::stringstream stream(text);
+  for (std::string item; std::getline(stream, item, ',');) {
+    if (!item.empty()) items.push_back(item);
+  }
+  return items;
 }
 
 Result<std::vector<std::string>> ResolveBackends(client::SkinClient& client,
@@ -98,8 +145,8 @@ int RunMain(const Options& o) {
 
   std::vector<RunResult> results;
   if (o.capacity) {
-    // Open loop at the given rate; grow the stream count until p99 exceeds one frame or a
-    // frame is dropped or fails, then bisect.
+    // Open loop at the given rate, per mode; grow the stream count until p99 exceeds one
+    // frame or a frame is dropped or fails, then bisect. Characters = streams x instances.
     auto loaded = LoadWorkload(o, o.vertices, o.bones, o.seed);
     if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
     const Workload& w = *loaded;
@@ -107,37 +154,64 @@ int RunMain(const Options& o) {
     if (!mesh.ok()) return fmt::print(stderr, "error: {}\n", mesh.status().ToString()), 1;
     const double budget_ms = 1000.0 / o.run.rate;
     const std::string backend = backends->empty() ? "" : backends->front();
-    fmt::print(
-        "capacity of {} at {:.0f} fps per stream, {} vertices x {} bones: p99 <= {:.1f} "
-        "ms, nothing dropped\n{:>8} {:>9} {:>9} {:>9} {:>8} {:>8} {:>7}\n",
-        backend, o.run.rate, w.vertices, w.bones, budget_ms, "streams", "frames/s", "p99 ms",
-        "max ms", "late", "dropped", "holds");
-    auto probe = [&](int streams) {
-      RunConfig config = o.run;
-      config.backend = backend;
-      config.streams = streams;
-      RunResult r = RunLoad(config, w, *mesh, MakeProgress(fmt::format("{} streams", streams)));
-      const LatencySummary l = Summarize(r.latencies_ms);
-      const bool holds = l.p99 <= budget_ms && r.dropped == 0 && !r.failed() && r.frames > 0;
-      fmt::print("{:>8} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}\n", streams,
-                 r.frames_per_second(), l.p99, l.max, r.late, r.dropped, holds ? "yes" : "no");
-      results.push_back(std::move(r));
-      return holds;
-    };
-    int good = 0, bad = 0;
-    for (int n = 1; n <= o.capacity_max_streams; n *= 2) {
-      if (!probe(n)) {
-        bad = n;
-        break;
+    std::vector<Mode> modes;
+    for (const std::string& text : SplitList(o.modes)) {
+      auto mode = ParseMode(text);
+      if (!mode.ok()) return fmt::print(stderr, "error: --modes: {}\n", mode.status().message()), 2;
+      modes.push_back(*mode);
+    }
+    if (modes.empty()) modes.push_back({*ParseVertexEncoding(o.encoding), o.run.instances});
+    std::vector<std::pair<Mode, int>> held;  // characters per mode
+    for (const Mode& mode : modes) {
+      fmt::print(
+          "capacity of {} at {:.0f} fps per stream, {} vertices x {} bones, {}, {} instance(s) "
+          "per stream: p99 <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} {:>9} {:>9} {:>8} "
+          "{:>8} {:>7}\n",
+          backend, o.run.rate, w.vertices, w.bones, VertexEncodingName(mode.encoding),
+          mode.instances, budget_ms, "streams", "characters", "frames/s", "p99 ms", "max ms",
+          "late", "dropped", "holds");
+      auto probe = [&](int streams) {
+        RunConfig config = o.run;
+        config.backend = backend;
+        config.streams = streams;
+        config.encoding = mode.encoding;
+        config.instances = mode.instances;
+        RunResult r = RunLoad(config, w, *mesh,
+                              MakeProgress(fmt::format("{} {} streams", mode.Name(), streams)));
+        const LatencySummary l = Summarize(r.latencies_ms);
+        const bool holds = l.p99 <= budget_ms && r.dropped == 0 && !r.failed() && r.frames > 0;
+        fmt::print("{:>8} {:>10} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}\n", streams,
+                   streams * mode.instances, r.frames_per_second(), l.p99, l.max, r.late, r.dropped,
+                   holds ? "yes" : "no");
+        results.push_back(std::move(r));
+        return holds;
+      };
+      int good = 0, bad = 0;
+      for (int n = 1; n <= o.capacity_max_streams; n *= 2) {
+        if (!probe(n)) {
+          bad = n;
+          break;
+        }
+        good = n;
       }
-      good = n;
+      while (bad > 0 && bad - good > 1) {
+        const int mid = (good + bad) / 2;
+        (probe(mid) ? good : bad) = mid;
+      }
+      const int characters = good * static_cast<int>(mode.instances);
+      fmt::print(
+          "capacity: {} characters ({} streams x {} instances, {:.0f} fps, {}, {}{})\n", characters,
+          good, mode.instances, o.run.rate, backend, mode.Name(),
+          bad == 0 ? fmt::format(", the most streams tried: {}", o.capacity_max_streams) : "");
+      held.push_back({mode, characters});
     }
-    while (bad > 0 && bad - good > 1) {
-      const int mid = (good + bad) / 2;
-      (probe(mid) ? good : bad) = mid;
+    if (held.size() > 1) {
+      fmt::print("\ncharacters held at {:.0f} fps (p99 <= {:.1f} ms, nothing dropped), {}:\n",
+                 o.run.rate, budget_ms, backend);
+      for (const auto& [mode, characters] : held) {
+        fmt::print("  {:<14} {:>6}\n", mode.Name(), characters);
+      }
     }
-    fmt::print("capacity: {} concurrent {:.0f} fps streams ({}{})\n", good, o.run.rate, backend,
-               bad == 0 ? fmt::format(", the most tried: {}", o.capacity_max_streams) : "");
   } else {
     for (const auto& [v, b] : grid) {
       auto loaded = LoadWorkload(o, v, b, o.seed + v + b);
@@ -214,6 +288,18 @@ int main(int argc, char** argv) {
   app.add_option("--check-every", o.run.check_every,
                  "compare every Nth answer with a local float64 reference (0: never)")
       ->capture_default_str();
+  app.add_option("--encoding", o.encoding,
+                 "answers in float32 (as computed), float16 or snorm16 (quantised to each "
+                 "instance's box); checks allow the encoding's stated error")
+      ->check(CLI::IsMember({"float32", "float16", "snorm16"}))
+      ->capture_default_str();
+  app.add_option("--instances", o.run.instances,
+                 "crowd batches: K palettes per request, K characters per stream")
+      ->check(CLI::Range(1u, 1u << 16))
+      ->capture_default_str();
+  app.add_option("--modes", o.modes,
+                 "--capacity: one search per mode, ENCODING[xK] comma-separated, e.g. "
+                 "float32,snorm16x16 (default: --encoding with --instances)");
   app.add_option("--sweep", o.sweep, "'paper': 25k..1600k vertices x 1..4 bones, every backend");
   app.add_option("--mesh", o.mesh,
                  "a glTF 2.0 character (.glb/.gltf) as the mesh; palettes sample its first clip, "
@@ -230,6 +316,11 @@ int main(int argc, char** argv) {
   app.add_option("--csv", o.csv, "write results as CSV");
   app.add_option("--plot", o.plot, "write a PNG chart (gnuplot)");
   CLI11_PARSE(app, argc, argv);
+  // Frames arrive all the time: keep their buffers mapped (client/malloc_tuning.h).
+  if (!skinserve::client::TuneMallocForStreaming()) {
+    fmt::print(stderr, "warning: glibc refused the malloc settings for streaming\n");
+  }
+  o.run.encoding = *skinserve::ParseVertexEncoding(o.encoding);
   if (o.capacity) {
     if (o.run.rate <= 0) o.run.rate = 60;
     if (app.count("--vertices") == 0) o.vertices = 25'000;

@@ -17,6 +17,30 @@ struct InFlight {
   int uploads_before;  // re-uploads done when it was sent
 };
 
+// The frames in flight, oldest first: a ring of `window` slots allocated once (a deque
+// would allocate and free a block every few dozen frames).
+class InFlightRing {
+ public:
+  explicit InFlightRing(std::size_t window) : slots_(window) {}
+  bool empty() const { return size_ == 0; }
+  std::size_t size() const { return size_; }
+  void push_back(const InFlight& f) { slots_[(head_ + size_++) % slots_.size()] = f; }
+  const InFlight& front() const { return slots_[head_]; }
+  void pop_front() {
+    head_ = (head_ + 1) % slots_.size();
+    --size_;
+  }
+  template <typename F>
+  void ForEach(F f) const {
+    for (std::size_t i = 0; i < size_; ++i) f(slots_[(head_ + i) % slots_.size()]);
+  }
+  void clear() { head_ = size_ = 0; }
+
+ private:
+  std::vector<InFlight> slots_;
+  std::size_t head_ = 0, size_ = 0;
+};
+
 }  // namespace
 
 Status StreamFrames(SkinClient& client, const StreamOptions& options, const PaletteSource& palette,
@@ -25,10 +49,20 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   const uint64_t end = options.first_frame + options.frames;
   uint64_t next = options.first_frame;
   std::deque<uint64_t> resend;  // frames to send again after a re-upload
-  std::deque<InFlight> in_flight;
   const std::size_t window = static_cast<std::size_t>(std::max(options.window, 1));
+  InFlightRing in_flight(window);
   int reuploads = 0;
   Status status;
+  // One request, one response part and one result for the whole run: protobuf keeps the
+  // strings' capacity and the result its vectors', so steady frames allocate nothing here.
+  v1::SkinRequest request;
+  request.set_mesh_id(options.mesh_id);
+  request.set_backend(options.backend);
+  request.set_want_normals(options.want_normals);
+  request.set_encoding(static_cast<v1::Encoding>(options.encoding));
+  request.set_instances(options.instances);
+  v1::SkinResponse part;
+  FrameResult result;
 
   auto report_failed = [&](uint64_t frame, const Status& why, Clock::time_point sent) {
     FrameResult failed;
@@ -52,12 +86,8 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
              (!resend.empty() || more_new())) {
         const bool again = !resend.empty();
         const uint64_t frame = again ? resend.front() : next;
-        v1::SkinRequest request;
-        request.set_mesh_id(options.mesh_id);
-        request.set_backend(options.backend);
         request.set_frame(frame);
-        request.set_palette(EncodePalette(palette(frame)));
-        request.set_want_normals(options.want_normals);
+        EncodePaletteInto(palette(frame), request.mutable_palette());
         in_flight.push_back({frame, Clock::now(), reuploads});
         if (again) {
           resend.pop_front();
@@ -70,16 +100,14 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     };
     fill();
     while (!broken && !in_flight.empty()) {
-      FrameResult result;
       FrameAssembler assembler;
-      v1::SkinResponse part;
       bool complete = false;
       while (!complete && stream->Read(&part)) complete = assembler.Add(part, &result);
       if (!complete) {
         broken = true;
         break;
       }
-      const InFlight head = in_flight.front();
+      const InFlight head = in_flight.front();  // a copy: the slot is reused
       in_flight.pop_front();
       if (result.frame != head.frame) {
         result.status = Internal(
@@ -108,7 +136,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     if (!broken && !writes_closed && status.ok()) continue;
     if (status.ok()) status = Internal("the stream ended with frames unanswered");
     // The stream broke: its unanswered frames are failed, never silently dropped.
-    for (const InFlight& f : in_flight) report_failed(f.frame, status, f.sent);
+    in_flight.ForEach([&](const InFlight& f) { report_failed(f.frame, status, f.sent); });
     in_flight.clear();
     if (status.code() != StatusCode::kUnavailable ||
         summary.reconnects >= static_cast<uint64_t>(options.max_reconnects)) {

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include "skinserve/client/channel.h"
@@ -12,33 +13,125 @@ std::string EncodePalette(std::span<const float> palette) {
   return std::string(reinterpret_cast<const char*>(palette.data()), palette.size_bytes());
 }
 
+void EncodePaletteInto(std::span<const float> palette, std::string* bytes) {
+  bytes->resize(palette.size_bytes());
+  if (!palette.empty()) std::memcpy(bytes->data(), palette.data(), palette.size_bytes());
+}
+
+namespace {
+
+Bounds FromWire(const v1::Bounds& b) {
+  return {{b.min_x(), b.min_y(), b.min_z()}, {b.max_x(), b.max_y(), b.max_z()}};
+}
+
+}  // namespace
+
+bool FrameAssembler::Fail(const v1::SkinResponse& part, FrameResult* result, Status status) {
+  failed_ = true;
+  result->status = std::move(status);
+  result->positions.clear();  // keeps the capacity for the next frame
+  result->normals.clear();
+  result->bounds.clear();
+  return part.last();
+}
+
 bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
-  result->frame = part.frame();
-  if (part.has_error()) {
-    result->status = FromGrpc(
-        grpc::Status(static_cast<grpc::StatusCode>(part.error().code()), part.error().message()));
-    return part.last();
+  const uint32_t instances = std::max(part.instances(), 1u);  // 0: a server before crowds
+  const auto encoding = static_cast<VertexEncoding>(part.encoding());
+  if (!started_) {
+    started_ = true;
+    result->frame = part.frame();
+    result->status = Status::Ok();
+    result->timing = part.timing();
+    if (part.has_error()) {
+      return Fail(part, result,
+                  FromGrpc(grpc::Status(static_cast<grpc::StatusCode>(part.error().code()),
+                                        part.error().message())));
+    }
+    if (!v1::Encoding_IsValid(part.encoding())) {
+      return Fail(part, result,
+                  Internal(fmt::format("frame {}: unknown encoding {}", part.frame(),
+                                       static_cast<int>(part.encoding()))));
+    }
+    const uint64_t vertices = uint64_t{instances} * part.total_vertices();
+    if (vertices > kMaxFrameVertices) {
+      return Fail(
+          part, result,
+          Internal(fmt::format("frame {}: {} instances x {} vertices is more than the "
+                               "client accepts ({})",
+                               part.frame(), instances, part.total_vertices(), kMaxFrameVertices)));
+    }
+    result->vertices = part.total_vertices();
+    result->instances = instances;
+    result->encoding = encoding;
+    normals_ = !part.normals().empty();
+    result->positions.resize(3 * vertices);  // same size as last frame: no work
+    result->normals.resize(normals_ ? 3 * vertices : 0);
+    result->bounds.assign(instances, Bounds{});
   }
-  const std::size_t total = 3ull * part.total_vertices();
-  if (result->positions.size() != total) result->positions.resize(total);
-  const std::size_t offset = 3ull * part.first_vertex(), count = 3ull * part.vertex_count();
-  if (offset + count > total || part.positions().size() != count * sizeof(float) ||
-      (!part.normals().empty() && part.normals().size() != count * sizeof(float))) {
-    result->status =
-        Internal(fmt::format("frame {}: malformed part [{}, +{}) of {} vertices", part.frame(),
-                             part.first_vertex(), part.vertex_count(), part.total_vertices()));
-    return part.last();
+  if (failed_) return part.last();
+  const auto where = [&] {
+    return fmt::format("frame {}, instance {}, vertices [{}, +{})", part.frame(), part.instance(),
+                       part.first_vertex(), part.vertex_count());
+  };
+  if (part.frame() != result->frame || part.has_error() ||
+      part.total_vertices() != result->vertices || instances != result->instances ||
+      encoding != result->encoding || normals_ == part.normals().empty()) {
+    return Fail(part, result,
+                Internal(fmt::format("{}: the part does not match its frame's first part "
+                                     "(frame {}, {} x {} vertices, {}, normals {})",
+                                     where(), result->frame, result->instances, result->vertices,
+                                     VertexEncodingName(result->encoding), normals_)));
   }
-  std::memcpy(result->positions.data() + offset, part.positions().data(), part.positions().size());
-  if (!part.normals().empty()) {
-    if (result->normals.size() != total) result->normals.resize(total);
-    std::memcpy(result->normals.data() + offset, part.normals().data(), part.normals().size());
+  if (part.instance() != next_instance_ || part.first_vertex() != next_vertex_ ||
+      part.vertex_count() == 0 ||
+      uint64_t{part.first_vertex()} + part.vertex_count() > result->vertices) {
+    return Fail(part, result,
+                Internal(fmt::format("{}: out of order or out of range: instance {} vertex {} "
+                                     "was due, {} vertices per instance",
+                                     where(), next_instance_, next_vertex_, result->vertices)));
   }
-  received_ += part.vertex_count();
-  result->timing = part.timing();
-  if (part.last() && received_ != part.total_vertices()) {
-    result->status = Internal(fmt::format("frame {}: {} of {} vertices arrived", part.frame(),
-                                          received_, part.total_vertices()));
+  const Bounds bounds = FromWire(part.bounds());
+  Bounds& instance_bounds = result->bounds[part.instance()];
+  if (part.first_vertex() == 0) {
+    instance_bounds = bounds;
+  } else if (bounds != instance_bounds) {
+    return Fail(part, result,
+                Internal(fmt::format("{}: bounds differ from the instance's "
+                                     "first part",
+                                     where())));
+  }
+  const std::size_t offset =
+      3 * (uint64_t{part.instance()} * result->vertices + part.first_vertex());
+  const std::size_t count = 3ull * part.vertex_count();
+  const auto bytes = [](const std::string& s) {
+    return std::span<const std::byte>(reinterpret_cast<const std::byte*>(s.data()), s.size());
+  };
+  Status decoded = DecodePositions(encoding, bytes(part.positions()), bounds,
+                                   std::span<float>(result->positions).subspan(offset, count));
+  if (decoded.ok() && normals_) {
+    decoded = DecodeNormals(encoding, bytes(part.normals()),
+                            std::span<float>(result->normals).subspan(offset, count));
+  }
+  if (!decoded.ok()) {
+    return Fail(part, result, Internal(fmt::format("{}: {}", where(), decoded.message())));
+  }
+  next_vertex_ += part.vertex_count();
+  if (next_vertex_ == result->vertices) {
+    ++next_instance_;
+    next_vertex_ = 0;
+  }
+  if (part.last() && next_instance_ != result->instances) {
+    return Fail(part, result,
+                Internal(fmt::format("frame {}: ended at instance {} vertex {} of {} x {} "
+                                     "vertices",
+                                     part.frame(), next_instance_, next_vertex_, result->instances,
+                                     result->vertices)));
+  }
+  if (!part.last() && next_instance_ == result->instances) {
+    return Fail(part, result,
+                Internal(fmt::format("{}: the frame is complete but the part is not marked last",
+                                     where())));
   }
   return part.last();
 }
@@ -160,32 +253,47 @@ Result<v1::ServerStats> SkinClient::GetServerStats() {
 Status SkinClient::Skin(const std::string& mesh_id, const std::string& backend,
                         std::span<const float> palette, uint64_t frame, bool want_normals,
                         FrameResult* result) {
-  v1::SkinRequest request;
+  return Skin(mesh_id, palette, frame, {.backend = backend, .want_normals = want_normals}, result);
+}
+
+Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palette, uint64_t frame,
+                        const SkinOptions& options, FrameResult* result) {
+  std::unique_lock lock(skin_messages_mutex_, std::try_to_lock);
+  v1::SkinRequest own_request;
+  v1::SkinResponse own_part;
+  v1::SkinRequest& request = lock.owns_lock() ? skin_request_ : own_request;
+  v1::SkinResponse* part = lock.owns_lock() ? &skin_part_ : &own_part;
   request.set_mesh_id(mesh_id);
-  request.set_backend(backend);
+  request.set_backend(options.backend);
   request.set_frame(frame);
-  request.set_palette(EncodePalette(palette));
-  request.set_want_normals(want_normals);
-  Status status = SkinOnce(request, result);
+  EncodePaletteInto(palette, request.mutable_palette());
+  request.set_want_normals(options.want_normals);
+  request.set_encoding(static_cast<v1::Encoding>(options.encoding));
+  request.set_instances(options.instances);
+  Status status = SkinOnce(request, part, result);
   if (status.code() == StatusCode::kNotFound) {
     if (Status s = Reupload(mesh_id); !s.ok()) return status;  // the original NOT_FOUND
-    status = SkinOnce(request, result);
+    status = SkinOnce(request, part, result);
   }
   return status;
 }
 
-Status SkinClient::SkinOnce(const v1::SkinRequest& request, FrameResult* result) {
-  *result = FrameResult();
+Status SkinClient::SkinOnce(const v1::SkinRequest& request, v1::SkinResponse* part,
+                            FrameResult* result) {
   grpc::ClientContext context;
   auto reader = stub_->Skin(&context, request);
-  v1::SkinResponse part;
   FrameAssembler assembler;
   bool complete = false;
-  while (reader->Read(&part)) {
-    if (!complete) complete = assembler.Add(part, result);
+  while (reader->Read(part)) {
+    if (!complete) complete = assembler.Add(*part, result);
   }
   grpc::Status status = reader->Finish();
-  if (!status.ok()) return FromGrpc(status);
+  if (!status.ok()) {
+    result->status = FromGrpc(status);
+    result->positions.clear();
+    result->normals.clear();
+    return result->status;
+  }
   if (!complete) return Internal("the server ended the frame without its last part");
   return result->status;
 }

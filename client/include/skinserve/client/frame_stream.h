@@ -8,7 +8,9 @@
 #include <atomic>
 #include <chrono>
 #include <functional>
+#include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "skinserve/client/skin_client.h"
@@ -19,6 +21,10 @@ struct StreamOptions {
   std::string mesh_id;
   std::string backend;  // empty: the server's default
   bool want_normals = false;
+  VertexEncoding encoding = VertexEncoding::kFloat32;  // decoded to float32 for the sink
+  // Crowd batches: each frame's palette holds this many instances' palettes back to back,
+  // and its result this many vertex sets.
+  uint32_t instances = 1;
   uint64_t first_frame = 0;
   uint64_t frames = 100;
   int window = 4;          // frames in flight
@@ -31,8 +37,40 @@ struct StreamOptions {
   const std::atomic<bool>* stop = nullptr;
 };
 
-using PaletteSource = std::function<std::vector<float>(uint64_t frame)>;
+// Gives frame f's palette (12 * joints * instances floats). Best without waste: a callable
+// returning a std::span<const float> or a const reference to storage that stays valid until
+// the next call; the palette is copied straight into the reused request. A callable
+// returning a std::vector<float> by value also works (the vector is kept until the next
+// call), at the price of its allocation per frame.
+class PaletteSource {
+ public:
+  template <typename F>
+  requires std::is_invocable_v<F&, uint64_t> PaletteSource(
+      F source) {  // NOLINT: implicit, so that callers pass lambdas
+    using Returned = std::invoke_result_t<F&, uint64_t>;
+    if constexpr (std::is_lvalue_reference_v<Returned> ||
+                  std::is_same_v<std::remove_cvref_t<Returned>, std::span<const float>> ||
+                  std::is_same_v<std::remove_cvref_t<Returned>, std::span<float>>) {
+      source_ = [source = std::move(source)](uint64_t frame) mutable {
+        return std::span<const float>(source(frame));
+      };
+    } else {
+      source_ = [source = std::move(source), held = std::vector<float>()](uint64_t frame) mutable {
+        held = source(frame);
+        return std::span<const float>(held);
+      };
+    }
+  }
+  // Valid until the next call.
+  std::span<const float> operator()(uint64_t frame) const { return source_(frame); }
+
+ private:
+  std::function<std::span<const float>(uint64_t)> source_;
+};
+
 // Called once per frame sent, in order of answers; latency is from send to last part.
+// `result` is the stream's one reused FrameResult: valid only during the call (copy what
+// must outlive it, or move its vectors out, which costs the next frame an allocation).
 using FrameSink = std::function<void(FrameResult& result, std::chrono::nanoseconds latency)>;
 
 struct StreamSummary {

@@ -15,30 +15,65 @@
 
 #include "skinserve/core/mesh.h"
 #include "skinserve/core/status.h"
+#include "skinserve/core/vertex_encoding.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
 namespace skinserve::client {
 
 inline constexpr std::size_t kUploadChunkBytes = 1 << 20;
+// The most vertices (instances x vertices per instance) the client accepts in one frame.
+inline constexpr uint64_t kMaxFrameVertices = uint64_t{1} << 28;
 
-// One frame as the server returned it, reassembled from its parts.
+// One frame as the server returned it, reassembled from its parts and decoded to float32.
+// Meant to be reused from frame to frame: its vectors keep their capacity, so a steady
+// stream of frames of one shape allocates nothing here.
 struct FrameResult {
   uint64_t frame = 0;
-  Status status;  // the frame's own error, if it failed
-  std::vector<float> positions;
-  std::vector<float> normals;
+  Status status;           // the frame's own error, if it failed (then the arrays are empty)
+  uint32_t vertices = 0;   // per instance
+  uint32_t instances = 0;  // vertex sets held (1 for a single instance)
+  VertexEncoding encoding = VertexEncoding::kFloat32;  // how the server sent them
+  std::vector<float> positions;  // x y z, instance after instance: 3 * vertices each
+  std::vector<float> normals;    // as positions, or empty when not asked for
+  std::vector<Bounds> bounds;    // per instance: the box snorm16 positions were quantised to
   v1::ServerTiming timing;
+
+  std::span<const float> instance_positions(uint32_t instance) const {
+    return std::span<const float>(positions).subspan(3ull * vertices * instance, 3ull * vertices);
+  }
+  std::span<const float> instance_normals(uint32_t instance) const {
+    if (normals.empty()) return {};
+    return std::span<const float>(normals).subspan(3ull * vertices * instance, 3ull * vertices);
+  }
 };
 
-// Gathers a frame's parts; true once the part with `last` has arrived.
+// Gathers a frame's parts into a FrameResult, decoding each part's encoding; true once
+// the part with `last` has arrived. Parts must come as the contract says: instance by
+// instance, each in vertex order, ranges inside the frame, every part of one frame with
+// the same shape and encoding (and the same box within an instance). Anything else sets
+// result->status (INTERNAL, naming the frame, the instance and the range). Use a fresh
+// assembler per frame (it allocates nothing); the result may be reused.
 class FrameAssembler {
  public:
-  // Adds `part` to `result`; an error part or a part outside the frame's range sets
-  // result->status.
   bool Add(const v1::SkinResponse& part, FrameResult* result);
 
  private:
-  uint32_t received_ = 0;
+  bool Fail(const v1::SkinResponse& part, FrameResult* result, Status status);
+
+  bool started_ = false;
+  bool failed_ = false;
+  bool normals_ = false;
+  uint32_t next_instance_ = 0;
+  uint32_t next_vertex_ = 0;
+};
+
+// What a frame asks of the server besides its palette.
+struct SkinOptions {
+  std::string backend;  // empty: the server's default
+  bool want_normals = false;
+  VertexEncoding encoding = VertexEncoding::kFloat32;
+  // Crowd batch: palettes of this many instances back to back (1: a single instance).
+  uint32_t instances = 1;
 };
 
 class SkinClient {
@@ -68,9 +103,13 @@ class SkinClient {
   Status Skin(const std::string& mesh_id, const std::string& backend,
               std::span<const float> palette, uint64_t frame, bool want_normals,
               FrameResult* result);
+  // The same with an encoding and crowd batches. `result` is overwritten and may be reused
+  // from call to call (its vectors keep their capacity); so are this client's messages.
+  Status Skin(const std::string& mesh_id, std::span<const float> palette, uint64_t frame,
+              const SkinOptions& options, FrameResult* result);
 
  private:
-  Status SkinOnce(const v1::SkinRequest& request, FrameResult* result);
+  Status SkinOnce(const v1::SkinRequest& request, v1::SkinResponse* part, FrameResult* result);
   Result<v1::MeshInfo> SendUpload(const MeshArrays& arrays, WeightPolicy weight_policy);
 
   std::shared_ptr<grpc::Channel> channel_;
@@ -81,9 +120,16 @@ class SkinClient {
     WeightPolicy weight_policy;
   };
   std::map<std::string, Uploaded> uploaded_;  // by mesh id: for re-upload on NOT_FOUND
+  // Skin's messages, reused by whichever call holds the lock (a concurrent call uses its own).
+  std::mutex skin_messages_mutex_;
+  v1::SkinRequest skin_request_;
+  v1::SkinResponse skin_part_;
 };
 
 // Encodes a palette for the wire.
 std::string EncodePalette(std::span<const float> palette);
+// The same into `bytes` (e.g. a reused request's mutable_palette()): its capacity is
+// reused, no temporary string.
+void EncodePaletteInto(std::span<const float> palette, std::string* bytes);
 
 }  // namespace skinserve::client

@@ -1,0 +1,271 @@
+// FrameAssembler and the client library's reuse, against responses built here by hand:
+// every encoding decoded within its stated bound, crowd batches reassembled by instance
+// and vertex range, every malformed sequence of parts refused naming the frame, instance
+// and range, and a warm FrameResult filled again without one heap allocation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "alloc_counter.h"
+#include "skinserve/client/frame_stream.h"
+#include "skinserve/client/skin_client.h"
+
+namespace skinserve::client {
+namespace {
+
+// Random x y z triples per instance, different boxes per instance.
+std::vector<std::vector<float>> Instances(uint32_t count, uint32_t vertices, bool normals) {
+  std::mt19937 rng(count * 100 + vertices);
+  std::vector<std::vector<float>> out(count);
+  for (uint32_t k = 0; k < count; ++k) {
+    std::uniform_real_distribution<float> u(-1.0f - k, 2.0f + 3 * k);
+    for (uint32_t i = 0; i < 3 * vertices; ++i) out[k].push_back(u(rng));
+    if (normals) {
+      for (uint32_t v = 0; v < vertices; ++v) {
+        float* n = &out[k][3 * v];
+        const float length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (int a = 0; a < 3; ++a) n[a] /= length;
+      }
+    }
+  }
+  return out;
+}
+
+std::string Bytes(VertexEncoding e, std::span<const float> values, const Bounds& b, bool normals) {
+  std::string bytes(values.size() * EncodedBytesPerValue(e), '\0');
+  std::span<std::byte> out(reinterpret_cast<std::byte*>(bytes.data()), bytes.size());
+  const Status s = normals ? EncodeNormals(e, values, out) : EncodePositions(e, values, b, out);
+  EXPECT_TRUE(s.ok()) << s.ToString();
+  return bytes;
+}
+
+void SetBounds(const Bounds& b, v1::SkinResponse* part) {
+  v1::Bounds* w = part->mutable_bounds();
+  w->set_min_x(b.min[0]);
+  w->set_min_y(b.min[1]);
+  w->set_min_z(b.min[2]);
+  w->set_max_x(b.max[0]);
+  w->set_max_y(b.max[1]);
+  w->set_max_z(b.max[2]);
+}
+
+// The parts a server sends: per instance, ranges of at most `per_part` vertices, in order.
+std::vector<v1::SkinResponse> Parts(uint64_t frame, VertexEncoding e,
+                                    const std::vector<std::vector<float>>& positions,
+                                    const std::vector<std::vector<float>>* normals,
+                                    uint32_t per_part) {
+  std::vector<v1::SkinResponse> parts;
+  const auto instances = static_cast<uint32_t>(positions.size());
+  const auto vertices = static_cast<uint32_t>(positions[0].size() / 3);
+  for (uint32_t k = 0; k < instances; ++k) {
+    const Bounds box = ComputeBounds(positions[k]).value();
+    for (uint32_t first = 0; first < vertices; first += per_part) {
+      const uint32_t count = std::min(per_part, vertices - first);
+      v1::SkinResponse part;
+      part.set_frame(frame);
+      part.set_instance(k);
+      part.set_instances(instances);
+      part.set_first_vertex(first);
+      part.set_vertex_count(count);
+      part.set_total_vertices(vertices);
+      part.set_encoding(static_cast<v1::Encoding>(e));
+      part.mutable_timing()->set_compute_ns(1234);
+      if (e == VertexEncoding::kSnorm16) SetBounds(box, &part);
+      const std::span<const float> range(positions[k].data() + 3 * first, 3 * count);
+      part.set_positions(Bytes(e, range, box, false));
+      if (normals != nullptr) {
+        part.set_normals(Bytes(
+            e, std::span<const float>((*normals)[k].data() + 3 * first, 3 * count), box, true));
+      }
+      parts.push_back(std::move(part));
+    }
+  }
+  parts.back().set_last(true);
+  return parts;
+}
+
+// Feeds every part; returns whether the frame completed exactly at the last one.
+bool Assemble(const std::vector<v1::SkinResponse>& parts, FrameResult* result) {
+  FrameAssembler assembler;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const bool done = assembler.Add(parts[i], result);
+    if (done != (i + 1 == parts.size())) return false;
+  }
+  return true;
+}
+
+TEST(FrameAssemblerTest, EveryEncodingAndCrowdDecodesWithinItsBound) {
+  for (VertexEncoding e :
+       {VertexEncoding::kFloat32, VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
+    for (uint32_t instances : {1u, 3u}) {
+      const auto positions = Instances(instances, 1001, false);
+      const auto normals = Instances(instances, 1001, true);
+      const auto parts = Parts(42, e, positions, &normals, 300);  // 4 parts per instance
+      FrameResult r;
+      ASSERT_TRUE(Assemble(parts, &r));
+      ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+      EXPECT_EQ(r.frame, 42u);
+      EXPECT_EQ(r.instances, instances);
+      EXPECT_EQ(r.vertices, 1001u);
+      EXPECT_EQ(r.encoding, e);
+      EXPECT_EQ(r.timing.compute_ns(), 1234);
+      ASSERT_EQ(r.positions.size(), 3u * 1001 * instances);
+      for (uint32_t k = 0; k < instances; ++k) {
+        const Bounds box = ComputeBounds(positions[k]).value();
+        if (e == VertexEncoding::kSnorm16) {
+          EXPECT_EQ(r.bounds[k], box);
+        }
+        const auto p = r.instance_positions(k);
+        const auto n = r.instance_normals(k);
+        for (std::size_t i = 0; i < p.size(); ++i) {
+          const double x = positions[k][i];
+          ASSERT_LE(std::fabs(p[i] - x), PositionEncodingError(e, box, i % 3, x))
+              << VertexEncodingName(e) << " instance " << k << " value " << i;
+          ASSERT_LE(std::fabs(n[i] - normals[k][i]), NormalEncodingError(e, normals[k][i]));
+        }
+        if (e == VertexEncoding::kFloat32) {
+          EXPECT_TRUE(std::equal(p.begin(), p.end(), positions[k].begin()));
+        }
+      }
+    }
+  }
+}
+
+TEST(FrameAssemblerTest, AServerBeforeCrowdsAndEncodingsStillAssembles) {
+  // instances = 0 and encoding unset: one float32 instance, as old servers answer.
+  auto parts = Parts(7, VertexEncoding::kFloat32, Instances(1, 10, false), nullptr, 4);
+  for (auto& part : parts) part.clear_instances();
+  FrameResult r;
+  ASSERT_TRUE(Assemble(parts, &r));
+  EXPECT_TRUE(r.status.ok()) << r.status.ToString();
+  EXPECT_EQ(r.instances, 1u);
+  EXPECT_TRUE(r.normals.empty());
+}
+
+// Assembles `parts`, expects the frame to fail naming `message`, with empty arrays.
+void ExpectRefused(const std::vector<v1::SkinResponse>& parts, const std::string& message) {
+  FrameResult r;
+  FrameAssembler assembler;
+  for (const auto& part : parts) assembler.Add(part, &r);
+  EXPECT_EQ(r.status.code(), StatusCode::kInternal) << message;
+  EXPECT_NE(r.status.message().find(message), std::string::npos) << r.status.message();
+  EXPECT_TRUE(r.positions.empty());
+}
+
+TEST(FrameAssemblerTest, MalformedPartsAreRefusedNamingFrameInstanceAndRange) {
+  const auto good =
+      Parts(9, VertexEncoding::kSnorm16, Instances(2, 10, false), nullptr, 4);  // 3 per instance
+  auto parts = good;
+  parts[1].set_vertex_count(9);  // [4, +9) past 10 vertices
+  ExpectRefused(parts, "frame 9, instance 0, vertices [4, +9): out of order or out of range");
+  parts = good;
+  parts.erase(parts.begin() + 1);  // a missing range
+  ExpectRefused(parts, "instance 0 vertex 4 was due");
+  parts = good;
+  std::swap(parts[2], parts[3]);  // instance 1 begins before instance 0 ends
+  ExpectRefused(parts, "frame 9, instance 1, vertices [0, +4): out of order");
+  parts = good;
+  parts[3].set_instance(5);  // beyond the frame's instances
+  ExpectRefused(parts, "instance 5");
+  parts = good;
+  parts[1].set_total_vertices(11);
+  ExpectRefused(parts, "does not match its frame's first part");
+  parts = good;
+  parts[4].set_encoding(v1::ENCODING_FLOAT16);
+  ExpectRefused(parts, "does not match its frame's first part");
+  parts = good;
+  parts[1].set_positions(parts[1].positions().substr(1));
+  ExpectRefused(parts, "frame 9, instance 0, vertices [4, +4): positions: 23 bytes, expected 24");
+  parts = good;
+  parts[2].mutable_bounds()->set_max_y(parts[2].bounds().max_y() + 1);
+  ExpectRefused(parts, "bounds differ from the instance's first part");
+  parts = good;
+  parts[0].mutable_bounds()->set_max_x(INFINITY);
+  ExpectRefused(parts, "bounds.max_x");
+  parts = good;
+  parts[2].set_last(true);  // ends after instance 0 of 2
+  parts.resize(3);
+  ExpectRefused(parts, "ended at instance 1 vertex 0 of 2 x 10");
+  parts = good;
+  parts.back().set_last(false);  // complete, but never marked last
+  ExpectRefused(parts, "the frame is complete but the part is not marked last");
+  parts = good;
+  for (auto& part : parts) part.set_encoding(static_cast<v1::Encoding>(7));
+  ExpectRefused(parts, "unknown encoding 7");
+  parts = good;
+  parts[0].set_instances(1u << 30);
+  ExpectRefused(parts, "more than the client accepts");
+  parts = good;
+  parts[3].set_frame(10);
+  ExpectRefused(parts, "does not match");
+}
+
+TEST(FrameAssemblerTest, AnErrorPartFailsTheFrameWithItsCode) {
+  v1::SkinResponse part;
+  part.set_frame(3);
+  part.set_last(true);
+  part.mutable_error()->set_code(static_cast<int>(grpc::StatusCode::INVALID_ARGUMENT));
+  part.mutable_error()->set_message("instance 2: palette has 11 floats");
+  FrameResult r;
+  r.positions.assign(30, 1.0f);  // left over from an earlier frame
+  FrameAssembler assembler;
+  EXPECT_TRUE(assembler.Add(part, &r));
+  EXPECT_EQ(r.status.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(r.status.message(), "instance 2: palette has 11 floats");
+  EXPECT_TRUE(r.positions.empty());
+}
+
+TEST(FrameAssemblerTest, AWarmResultIsRefilledWithoutAllocating) {
+  const auto positions = Instances(4, 5000, false);
+  const auto normals = Instances(4, 5000, true);
+  for (VertexEncoding e :
+       {VertexEncoding::kFloat32, VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
+    const auto parts = Parts(1, e, positions, &normals, 2000);
+    FrameResult r;
+    ASSERT_TRUE(Assemble(parts, &r));  // warm: the vectors reach their size
+    const float* data = r.positions.data();
+    const uint64_t before = skinserve_alloc_counters()->allocations;
+    bool ok = true;
+    for (int frame = 0; frame < 10; ++frame) ok = ok && Assemble(parts, &r) && r.status.ok();
+    const uint64_t allocations = skinserve_alloc_counters()->allocations - before;
+    EXPECT_TRUE(ok) << r.status.ToString();
+    EXPECT_EQ(allocations, 0u) << VertexEncodingName(e);
+    EXPECT_EQ(r.positions.data(), data);
+  }
+  // The counter does count: a fresh result allocates.
+  const uint64_t before = skinserve_alloc_counters()->allocations;
+  FrameResult fresh;
+  ASSERT_TRUE(Assemble(Parts(1, VertexEncoding::kFloat32, positions, nullptr, 2000), &fresh));
+  EXPECT_GT(skinserve_alloc_counters()->allocations - before, 0u);
+}
+
+TEST(FrameAssemblerTest, PaletteIntoAReusedRequestAllocatesOnce) {
+  const std::vector<float> palette(12 * 77 * 16, 0.5f);
+  v1::SkinRequest request;
+  EncodePaletteInto(palette, request.mutable_palette());
+  ASSERT_EQ(request.palette().size(), palette.size() * 4);
+  EXPECT_EQ(std::memcmp(request.palette().data(), palette.data(), request.palette().size()), 0);
+  const uint64_t before = skinserve_alloc_counters()->allocations;
+  for (int i = 0; i < 10; ++i) EncodePaletteInto(palette, request.mutable_palette());
+  EXPECT_EQ(skinserve_alloc_counters()->allocations - before, 0u);
+}
+
+TEST(PaletteSourceTest, ViewsStayValidUntilTheNextCall) {
+  const std::vector<std::vector<float>> palettes = {{1, 2, 3}, {4, 5}};
+  // A reference: a view of the caller's storage, no copy.
+  PaletteSource by_reference(
+      [&](uint64_t f) -> const std::vector<float>& { return palettes[f % 2]; });
+  EXPECT_EQ(by_reference(1).data(), palettes[1].data());
+  // A vector by value: kept by the source until the next call.
+  PaletteSource by_value([](uint64_t f) { return std::vector<float>(f + 1, 7.0f); });
+  const std::span<const float> view = by_value(2);
+  ASSERT_EQ(view.size(), 3u);
+  EXPECT_EQ(view[2], 7.0f);
+}
+
+}  // namespace
+}  // namespace skinserve::client
