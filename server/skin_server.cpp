@@ -12,12 +12,13 @@ namespace skinserve::server {
 Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& options) {
   spdlog::set_level(spdlog::level::from_str(options.log_level));
   std::unique_ptr<SkinServer> server(new SkinServer());
-  server->service_ =
-      std::make_unique<SkinningService>(options.default_backend, options.stream_window);
+  server->service_ = std::make_unique<SkinningService>(options.default_backend,
+                                                       options.stream_window, options.max_streams);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
   builder.RegisterService(server->service_.get());
   server->server_ = builder.BuildAndStart();
   if (!server->server_ || server->port_ == 0) {

@@ -12,8 +12,10 @@ namespace skinserve::server {
 
 class SkinningService final : public v1::Skinning::CallbackService {
  public:
-  SkinningService(std::string default_backend, int stream_window)
-      : default_backend_(std::move(default_backend)), stream_window_(stream_window) {}
+  SkinningService(std::string default_backend, int stream_window, std::size_t max_streams)
+      : default_backend_(std::move(default_backend)),
+        stream_window_(stream_window),
+        open_streams_(max_streams) {}
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }
   // Shutdown: open streams answer the frames they have read and end UNAVAILABLE; new

@@ -12,12 +12,12 @@ StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend
       default_backend_(std::move(default_backend)),
       window_(static_cast<std::size_t>(std::max(window, 1))),
       open_streams_(open_streams) {
-  const bool accepted = open_streams_->Add(this);
+  const Status accepted = open_streams_->Add(this);
   std::lock_guard lock(mutex_);
   if (engine_ == nullptr) {
     FinishLocked(ToGrpc(Unavailable("the server is starting: backends are being built")));
-  } else if (!accepted) {
-    FinishLocked(ToGrpc(Unavailable("the server is shutting down; use another replica")));
+  } else if (!accepted.ok()) {
+    FinishLocked(ToGrpc(accepted));
   } else {
     PumpLocked();
   }
