@@ -30,7 +30,14 @@ DEPLOY_PACKAGES=(
   yamllint podman runc debootstrap
 )
 
-want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}")
+# Proof under stress: clang with its sanitizer and libFuzzer runtimes, libomp for TSan
+# (its libarcher), iproute2 for the network-fault test's namespaces and netem.
+STRESS_PACKAGES=(
+  clang-14 libclang-rt-14-dev libomp-14-dev iproute2 procps
+)
+
+want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}"
+  "${STRESS_PACKAGES[@]}")
 case "${1:-all}" in
   runtime) want=("${RUNTIME_PACKAGES[@]}") ;;                      # the container's runtime stage
   build) want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}") ;;  # compile, no test tools
