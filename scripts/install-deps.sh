@@ -40,12 +40,18 @@ BUILD_PACKAGES+=(libcpp-httplib-dev)
 RUNTIME_PACKAGES+=(libcpp-httplib0.11)
 TEST_PACKAGES+=(prometheus curl python3-venv python3-pip python3-setuptools python3-pytest)
 
+# Proof under stress: clang with its sanitizer and libFuzzer runtimes, libomp for TSan
+# (its libarcher), iproute2 for the network-fault test's namespaces and netem.
+STRESS_PACKAGES=(
+  clang-14 libclang-rt-14-dev libomp-14-dev iproute2 procps
+)
+
 # The `simd` backends: Google Highway (run-time SIMD dispatch).
 SIMD_BUILD_PACKAGES=(libhwy-dev)
 SIMD_RUNTIME_PACKAGES=(libhwy1)
 
 want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${GPU_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}"
-  "${SIMD_BUILD_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}")
+  "${STRESS_PACKAGES[@]}" "${SIMD_BUILD_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}")
 case "${1:-all}" in
   runtime) want=("${RUNTIME_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}") ;;  # runtime stage
   build)  # compile, no test tools

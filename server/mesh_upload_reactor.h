@@ -1,11 +1,11 @@
-// UploadMesh: a header, then the arrays in chunks. The header is checked against the
-// limits before anything is allocated; each chunk against the header; the mesh is stored
-// only once every array is complete and valid, so a failed or truncated upload leaves
-// nothing behind.
+// UploadMesh: a header, then the arrays in chunks, put together by MeshAssembly (which
+// stores the mesh only once every array is complete and valid, so a failed or truncated
+// upload leaves nothing behind).
 #pragma once
 
 #include <grpcpp/grpcpp.h>
 
+#include "mesh_assembly.h"
 #include "skinserve/core/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
@@ -18,18 +18,11 @@ class MeshUploadReactor final : public grpc::ServerReadReactor<v1::UploadMeshReq
   void OnDone() override { delete this; }
 
  private:
-  Status Accept(const v1::UploadMeshRequest& message);
-  Status AcceptHeader(const v1::MeshHeader& header);
-  Status AcceptChunk(const v1::MeshChunk& chunk);
   Status Store();
 
-  Engine* engine_;
+  MeshAssembly assembly_;
   v1::MeshInfo* response_;
   v1::UploadMeshRequest message_;
-  bool have_header_ = false;
-  bool normalize_weights_ = false;
-  MeshArrays arrays_;
-  uint64_t received_[5] = {};  // values received so far, by MeshArray number
 };
 
 }  // namespace skinserve::server

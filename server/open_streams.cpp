@@ -1,16 +1,24 @@
 #include "open_streams.h"
 
+#include <fmt/format.h>
+
 #include <vector>
 
 #include "stream_skin_reactor.h"
 
 namespace skinserve::server {
 
-bool OpenStreams::Add(StreamSkinReactor* stream) {
+Status OpenStreams::Add(StreamSkinReactor* stream) {
   std::lock_guard lock(mutex_);
-  if (draining_) return false;
+  if (draining_) return Unavailable("the server is shutting down; use another replica");
+  if (streams_.size() >= limit_) {
+    return ResourceExhausted(fmt::format(
+        "the server has {} StreamSkin streams open, its limit (--max-streams {}); retry "
+        "later or on another replica",
+        streams_.size(), limit_));
+  }
   streams_.insert(stream);
-  return true;
+  return Status::Ok();
 }
 
 void OpenStreams::Remove(StreamSkinReactor* stream) {

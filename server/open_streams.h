@@ -1,12 +1,14 @@
-// OpenStreams: the StreamSkin calls in progress, so that a shutdown can drain them. A
-// drained stream stops reading, answers every frame it has read and ends with
-// UNAVAILABLE, which tells its client to go on elsewhere at once, instead of streaming
-// on through the grace period and then being cancelled.
+// OpenStreams: the StreamSkin calls in progress, at most `limit` of them, so that a
+// shutdown can drain them. A drained stream stops reading, answers every frame it has
+// read and ends with UNAVAILABLE, which tells its client to go on elsewhere at once,
+// instead of streaming on through the grace period and then being cancelled.
 #pragma once
 
 #include <cstddef>
 #include <mutex>
 #include <unordered_set>
+
+#include "skinserve/core/status.h"
 
 namespace skinserve::server {
 
@@ -14,14 +16,17 @@ class StreamSkinReactor;
 
 class OpenStreams {
  public:
-  // Registers `stream`; false once draining (the stream should end at once).
-  bool Add(StreamSkinReactor* stream);
+  explicit OpenStreams(std::size_t limit) : limit_(limit) {}
+  // Registers `stream`. Otherwise the stream should end at once with the status:
+  // UNAVAILABLE once draining, RESOURCE_EXHAUSTED (naming the limit) when `limit` are open.
+  Status Add(StreamSkinReactor* stream);
   void Remove(StreamSkinReactor* stream);
   // Drains every open stream and refuses new ones. Idempotent.
   void DrainAll();
   std::size_t count() const;
 
  private:
+  const std::size_t limit_;
   mutable std::mutex mutex_;
   std::unordered_set<StreamSkinReactor*> streams_;
   bool draining_ = false;

@@ -90,6 +90,18 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_INFLIGHT_BUDGET_MB")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--max-streams-per-connection", o.max_streams_per_connection,
+                 "calls one client connection may have open at once (HTTP/2 "
+                 "MAX_CONCURRENT_STREAMS); further calls wait at the client")
+      ->envname("SKINSERVE_MAX_STREAMS_PER_CONNECTION")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-streams", o.max_streams,
+                 "StreamSkin streams open at once over all connections; beyond, a new stream "
+                 "is refused with RESOURCE_EXHAUSTED")
+      ->envname("SKINSERVE_MAX_STREAMS")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error or off")
       ->envname("SKINSERVE_LOG_LEVEL")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))

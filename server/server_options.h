@@ -20,6 +20,11 @@ struct ServerOptions {
   uint32_t max_joints = 1024;
   std::size_t queue = 256;
   int stream_window = 16;
+  // HTTP/2 streams (calls) one client connection may have open at once; more wait at the
+  // client until one ends (gRPC's GRPC_ARG_MAX_CONCURRENT_STREAMS).
+  int max_streams_per_connection = 128;
+  // StreamSkin streams open at once over all connections; more are refused.
+  std::size_t max_streams = 1024;
   std::string log_level = "info";
   double drain_seconds = 10;
   std::string log_format = "text";  // text or json (one JSON object per line)

@@ -18,7 +18,8 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   SetLogFormat(options.log_format);
   std::unique_ptr<SkinServer> server(new SkinServer());
   server->service_ = std::make_unique<SkinningService>(
-      options.default_backend, options.stream_window, options.InflightBudgetBytes());
+      options.default_backend, options.stream_window, options.max_streams,
+      options.InflightBudgetBytes());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -32,6 +33,7 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
                                ms(options.max_connection_age_grace_seconds));
   }
   builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
   builder.RegisterService(server->service_.get());
   server->server_ = builder.BuildAndStart();
   if (!server->server_ || server->port_ == 0) {

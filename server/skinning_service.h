@@ -13,9 +13,11 @@ namespace skinserve::server {
 
 class SkinningService final : public v1::Skinning::CallbackService {
  public:
-  SkinningService(std::string default_backend, int stream_window, uint64_t inflight_budget_bytes)
+  SkinningService(std::string default_backend, int stream_window, std::size_t max_streams,
+                  uint64_t inflight_budget_bytes)
       : default_backend_(std::move(default_backend)),
         stream_window_(stream_window),
+        open_streams_(max_streams),
         budget_(inflight_budget_bytes) {}
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }

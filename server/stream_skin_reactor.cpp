@@ -14,12 +14,12 @@ StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend
       open_streams_(open_streams),
       budget_(budget) {
   slots_.reserve(window_);
-  const bool accepted = open_streams_->Add(this);
+  const Status accepted = open_streams_->Add(this);
   std::lock_guard lock(mutex_);
   if (engine_ == nullptr) {
     FinishLocked(ToGrpc(Unavailable("the server is starting: backends are being built")));
-  } else if (!accepted) {
-    FinishLocked(ToGrpc(Unavailable("the server is shutting down; use another replica")));
+  } else if (!accepted.ok()) {
+    FinishLocked(ToGrpc(accepted));
   } else {
     PumpLocked();
   }

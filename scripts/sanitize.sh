@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# Sanitizer and fuzzing runs (clang-14; README "Proof under stress"):
+#   scripts/sanitize.sh asan [ctest args]  ASan+UBSan build of everything in build-asan (the
+#                                          fuzz targets too), then ctest there; without ctest
+#                                          args every test but the deploy label's (containers)
+#   scripts/sanitize.sh asan-ci            what CI runs of it (its time budget): the engine,
+#                                          backends, service, glTF importer and fuzz corpora
+#   scripts/sanitize.sh tsan               TSan build of the engine's tests in build-tsan, run
+#                                          with OpenMP's TSan support (libarcher)
+#   scripts/sanitize.sh fuzz [SECONDS]     each libFuzzer target of build-asan for SECONDS
+#                                          (default 25), from its seed corpus
+# Reports fail the run (halt_on_error); the suppressions in tests/sanitizers/ cover only
+# third-party frames, each with its reason.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+mode=${1:?usage: sanitize.sh asan|tsan|fuzz [args]}
+shift
+bash "$root/scripts/install-deps.sh"
+launcher=()
+if command -v ccache >/dev/null 2>&1; then
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+fi
+# -O2 keeps the tests' big frames fast enough; -g1 gives reports file:line at little cost.
+configure() {
+  cmake -S "$root" -B "$1" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \
+    "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" \
+    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" \
+    -DSKINSERVE_WERROR=OFF "${launcher[@]}" "${@:2}" >/dev/null
+}
+supp="$root/tests/sanitizers"
+export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:abort_on_error=0:strict_string_checks=1:detect_stack_use_after_return=1:check_initialization_order=1"
+export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
+
+case "$mode" in
+  asan | asan-ci)
+    build="$root/build-asan"
+    configure "$build" -DSKINSERVE_SANITIZE=address,undefined -DSKINSERVE_FUZZ=ON
+    if [ "$mode" = asan-ci ]; then
+      cmake --build "$build" -j "$(nproc)" --target skinserve skinserve_core_tests \
+        skinserve_backend_tests skinserve_service_tests skinserve_character_tests \
+        mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer
+      set -- -R '^(skinserve_(core|backend|service|character)_tests|.*_fuzzer\.corpus)$'
+    else
+      cmake --build "$build" -j "$(nproc)"
+      if [ $# -eq 0 ]; then set -- -LE deploy; fi
+    fi
+    cd "$build"
+    ctest --output-on-failure --timeout 1800 "$@"
+    ;;
+  tsan)
+    build="$root/build-tsan"
+    configure "$build" -DSKINSERVE_SANITIZE=thread
+    cmake --build "$build" -j "$(nproc)" --target skinserve_core_tests skinserve_backend_tests
+    # libarcher tells TSan about libomp's barriers and tasks: without it every OpenMP
+    # parallel loop reports false races (libomp itself is not instrumented).
+    export OMP_TOOL_LIBRARIES="$(llvm-config-14 --libdir)/libarcher.so" ARCHER_OPTIONS="verbose=1"
+    export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:ignore_noninstrumented_modules=1:suppressions=$supp/tsan.supp"
+    # The engine (compute pool, mesh store, scheduler) and every CPU backend; the OpenCL
+    # backends' threads are PoCL's, which TSan cannot see into.
+    "$build/tests/core/skinserve_core_tests" --gtest_brief=1
+    "$build/tests/backends/skinserve_backend_tests" --gtest_brief=1 --gtest_filter='-*opencl*:*OpenCL*'
+    ;;
+  fuzz)
+    seconds=${1:-25}
+    build="$root/build-asan"
+    [ -x "$build/tests/fuzz/mesh_upload_fuzzer" ] || {
+      echo "build-asan has no fuzz targets: run scripts/sanitize.sh asan first" >&2
+      exit 1
+    }
+    work=$(mktemp -d)
+    trap 'rm -rf "$work"' EXIT
+    for target in mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer; do
+      mkdir -p "$work/$target"
+      echo "== $target: ${seconds}s"
+      # New inputs go to the scratch folder (first); the repository's corpus is only read.
+      # A crash leaves crash-<sha1> in the current folder: add it to the corpus with its fix.
+      if ! "$build/tests/fuzz/$target" -max_total_time="$seconds" -timeout=10 \
+        -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$root/" \
+        "$work/$target" "$root/tests/fuzz/corpus/$target" 2>"$work/$target.log"; then
+        tail -n 60 "$work/$target.log"
+        echo "$target failed: its input is in $root/crash-* (or leak-*/timeout-*)" >&2
+        exit 1
+      fi
+      grep -E "stat::number_of_executed_units|stat::peak_rss_mb|Done" "$work/$target.log" || true
+    done
+    ;;
+  *)
+    echo "usage: sanitize.sh asan|tsan|fuzz [args]" >&2
+    exit 2
+    ;;
+esac
