@@ -3,12 +3,15 @@
 // the engine (palette validated against the mesh's joints, skinned on `serial`), then the
 // answer cut into response parts, which must cover the mesh's vertices exactly once.
 // mesh_id "m" stands for the mesh stored at start-up, so inputs can reach the skinning.
+#include <condition_variable>
 #include <cstdint>
 #include <cstdlib>
 #include <map>
+#include <mutex>
 
 #include "frame_job.h"
 #include "fuzz_engine.h"
+#include "inflight_budget.h"
 #include "skinserve/core/synthetic.h"
 
 using namespace skinserve;
@@ -29,6 +32,25 @@ const std::string& StoredMeshId() {
   return id;
 }
 
+// Waits for the engine's verdict on a job (OnFrameDone runs on a compute thread).
+class DoneListener final : public server::FrameJob::Listener {
+ public:
+  void OnFrameDone(server::FrameJob*) override {
+    std::lock_guard lock(mutex_);
+    done_ = true;
+    changed_.notify_all();
+  }
+  void Wait() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return done_; });
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  bool done_ = false;
+};
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -36,30 +58,36 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   v1::SkinRequest wire;
   if (!wire.ParseFromArray(data, static_cast<int>(size))) return 0;
   if (wire.mesh_id() == "m") wire.set_mesh_id(StoredMeshId());
-  server::FrameJob job;
-  SkinRequest request;
-  Status status = job.Prepare(wire, engine, "serial", &request);
-  if (status.ok()) status = engine.SkinBlocking(std::move(request));
-  job.Complete(status, {});
+  static server::InflightBudget budget(256ull << 20);
+  DoneListener listener;
+  server::FrameJob job(&listener, &budget);
+  Status status = job.Prepare(wire, engine, "serial");
+  if (status.ok()) status = engine.Submit(&job);
+  if (status.ok()) {
+    listener.Wait();
+    status = job.status();
+  } else {
+    job.Fail(status);
+  }
   // Parts: the last one is last; a failed frame is one error part; otherwise each
   // instance's vertex ranges follow each other and end at the mesh's vertex count.
-  v1::SkinResponse part;
   std::map<uint32_t, uint64_t> next_vertex;  // by instance
+  uint32_t total_vertices = 0;
   bool last = false;
-  while (job.NextPart(&part)) {
-    if (last) std::abort();
-    last = part.last();
-    if (part.has_error()) {
+  while (const v1::SkinResponse* part = job.NextPart(&last)) {
+    if (last != part->last()) std::abort();
+    if (part->has_error()) {
       if (status.ok() || !last) std::abort();
       continue;
     }
-    uint64_t& next = next_vertex[part.instance()];
-    if (part.first_vertex() != next || part.positions().empty()) std::abort();
-    next += part.vertex_count();
+    uint64_t& next = next_vertex[part->instance()];
+    if (part->first_vertex() != next || part->positions().empty()) std::abort();
+    next += part->vertex_count();
+    total_vertices = part->total_vertices();
   }
   if (!last) std::abort();
   for (const auto& [instance, count] : next_vertex) {
-    if (count != part.total_vertices()) std::abort();
+    if (count != total_vertices) std::abort();
   }
   return 0;
 }
