@@ -68,16 +68,34 @@ class Engine::Impl {
         fmt::format("backend '{}' is unknown; available backends: {}", id, available));
   }
 
+  // OK when backend `index` implements `method`; else an error naming the backends that do.
+  Status CheckMethod(std::size_t index, SkinningMethod method) const {
+    const BackendInfo& info = backends_[index]->info();
+    if (info.Supports(method)) return Status::Ok();
+    std::string supporting;
+    for (const auto& backend : backends_) {
+      const BackendInfo& other = backend->info();
+      if (other.available && other.Supports(method)) {
+        supporting += (supporting.empty() ? "" : ", ") + other.id;
+      }
+    }
+    return InvalidArgument(fmt::format(
+        "backend '{}' does not implement method {} (it implements {}); backends here that do: {}",
+        info.id, MethodName(method), MethodNames(info.methods),
+        supporting.empty() ? "none" : supporting));
+  }
+
   Status Submit(SkinRequest request, SkinDone done) {
     if (shut_down_.load()) return Unavailable("the engine is shutting down");
     Result<std::size_t> backend_index = FindBackend(request.backend);
     if (!backend_index.ok()) return backend_index.status();
+    if (Status s = CheckMethod(*backend_index, request.method); !s.ok()) return s;
     MeshStore::Lease entry = store_.Acquire(request.mesh_id);
     if (!entry) {
       return NotFound(
           fmt::format("mesh '{}' is not stored on this server; upload it again", request.mesh_id));
     }
-    const SkinFrame frame{request.palette, request.positions, request.normals};
+    const SkinFrame frame{request.palette, request.positions, request.normals, request.method};
     if (Status s = frame.Validate(*entry->mesh()); !s.ok()) return s;
 
     Backend& backend = *backends_[*backend_index];
@@ -110,9 +128,9 @@ class Engine::Impl {
     const int64_t started = NowNs();
     try {
       Result<const PreparedMesh*> prepared = entry.Prepared(index, backend);
-      status = prepared.ok()
-                   ? backend.Skin(**prepared, {request.palette, request.positions, request.normals})
-                   : prepared.status();
+      status = prepared.ok() ? backend.Skin(**prepared, {request.palette, request.positions,
+                                                         request.normals, request.method})
+                             : prepared.status();
     } catch (const std::exception& e) {
       status = Internal(fmt::format("backend '{}' failed: {}", backend.info().id, e.what()));
     }

@@ -1,4 +1,5 @@
-// Backend: one implementation of linear blend skinning (serial, openmp, sse, ...).
+// Backend: one implementation of skinning (serial, openmp, sse, ...): linear blend
+// skinning always, dual-quaternion skinning where info().methods lists it.
 // A backend prepares each mesh once (its own layout, its own device buffers); per frame
 // only the palette goes in and the vertices come out.
 #pragma once
@@ -6,8 +7,10 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "skinserve/core/mesh.h"
+#include "skinserve/core/skinning_method.h"
 #include "skinserve/core/status.h"
 
 namespace skinserve {
@@ -20,6 +23,9 @@ struct BackendInfo {
   std::string device;              // e.g. the CPU model or the OpenCL device name
   int simd_width = 1;              // float lanes one instruction works on (1: scalar)
   int threads = 1;                 // compute threads one frame occupies
+  std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};  // what Skin() implements
+
+  bool Supports(SkinningMethod method) const;
 };
 
 // A backend's resident copy of one mesh. Backends derive from it to hold their layout.
@@ -38,10 +44,12 @@ class PreparedMesh {
 //  - positions: 3 * vertex_count floats written by the backend, x y z per vertex.
 //  - normals:   empty to skip normals; else 3 * vertex_count floats, unit length, and
 //               the mesh must have normals.
+//  - method:    dual-quaternion also needs every joint matrix rigid (ValidateRigidPalette).
 struct SkinFrame {
   std::span<const float> palette;
   std::span<float> positions;
   std::span<float> normals;
+  SkinningMethod method = SkinningMethod::kLinear;
 
   Status Validate(const Mesh& mesh) const;
 };
@@ -52,7 +60,8 @@ class Backend {
   virtual const BackendInfo& info() const = 0;
   // Builds this backend's resident copy of `mesh`. Called once per mesh and backend.
   virtual Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) = 0;
-  // Skins one validated frame. Thread-safe: may run concurrently, also on one mesh.
+  // Skins one validated frame with a method info() lists (else INVALID_ARGUMENT).
+  // Thread-safe: may run concurrently, also on one mesh.
   virtual Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) = 0;
 };
 

@@ -45,9 +45,10 @@ struct FrameTiming {
 struct SkinRequest {
   std::string mesh_id;
   std::string backend;
-  std::vector<float> palette;  // 12 * joint_count floats
-  std::span<float> positions;  // 3 * vertex_count
-  std::span<float> normals;    // empty: no normals
+  std::vector<float> palette;                       // 12 * joint_count floats
+  std::span<float> positions;                       // 3 * vertex_count
+  std::span<float> normals;                         // empty: no normals
+  SkinningMethod method = SkinningMethod::kLinear;  // the backend must list it
 };
 using SkinDone = std::function<void(Status, FrameTiming)>;
 
@@ -93,8 +94,9 @@ class Engine {
   Result<MeshInfo> GetMesh(const std::string& id) const;
   bool DeleteMesh(const std::string& id);
 
-  // Checks the request (unknown mesh: NOT_FOUND; unknown or unavailable backend, bad
-  // palette or output sizes: INVALID_ARGUMENT; full queue: RESOURCE_EXHAUSTED; shut down:
+  // Checks the request (unknown mesh: NOT_FOUND; unknown or unavailable backend, a
+  // method the backend lacks, bad palette (for dual-quaternion: a joint that is not
+  // rigid) or output sizes: INVALID_ARGUMENT; full queue: RESOURCE_EXHAUSTED; shut down:
   // UNAVAILABLE) and queues it. On OK, `done` is called exactly once, on a compute
   // thread; on an error, `done` is never called.
   Status Submit(SkinRequest request, SkinDone done);
