@@ -42,23 +42,24 @@ Status ValidateRigidPalette(std::span<const float> palette) {
           "every element of R^T R - I within {}, det R > 0)",
           kRigidTolerance);
     };
-    for (int c = 0; c < 3; ++c) {
-      const double squared = dot(c, c);
-      if (std::fabs(squared - 1.0) > kRigidTolerance) {
-        return InvalidArgument(
-            fmt::format("palette[joint {}] is not rigid: column {} has length {} "
-                        "(scale); {}",
-                        j, c, std::sqrt(squared), rule()));
-      }
-    }
     for (int a = 0; a < 3; ++a) {
       for (int b = a + 1; b < 3; ++b) {
         const double d = dot(a, b);
         if (std::fabs(d) > kRigidTolerance) {
-          return InvalidArgument(fmt::format(
-              "palette[joint {}] is not rigid: columns {} and {} have dot product {} (shear); {}",
-              j, a, b, d, rule()));
+          return InvalidArgument(
+              fmt::format("palette[joint {}] is not rigid: columns {} and {} have dot product "
+                          "{:.6g} (shear); {}",
+                          j, a, b, d, rule()));
         }
+      }
+    }
+    for (int c = 0; c < 3; ++c) {
+      const double squared = dot(c, c);
+      if (std::fabs(squared - 1.0) > kRigidTolerance) {
+        return InvalidArgument(
+            fmt::format("palette[joint {}] is not rigid: column {} has length {:.6g} "
+                        "(scale); {}",
+                        j, c, std::sqrt(squared), rule()));
       }
     }
     // det R = c0 . (c1 x c2).
@@ -67,7 +68,7 @@ Status ValidateRigidPalette(std::span<const float> palette) {
                        col[0][2] * (col[1][0] * col[2][1] - col[1][1] * col[2][0]);
     if (det <= 0) {
       return InvalidArgument(fmt::format(
-          "palette[joint {}] is not rigid: det R = {} (a reflection); {}", j, det, rule()));
+          "palette[joint {}] is not rigid: det R = {:.6g} (a reflection); {}", j, det, rule()));
     }
   }
   return Status::Ok();
