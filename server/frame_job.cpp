@@ -18,6 +18,9 @@ Status FrameJob::Prepare(const v1::SkinRequest& request, const Engine& engine,
   }
   engine_request->mesh_id = request.mesh_id();
   engine_request->backend = request.backend().empty() ? default_backend : request.backend();
+  auto method = FromWire(request.method());
+  if (!method.ok()) return method.status();
+  engine_request->method = *method;
   if (Status s = DecodeFloats(request.palette(), "palette", &engine_request->palette); !s.ok()) {
     return s;
   }

@@ -58,6 +58,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         request.set_frame(frame);
         request.set_palette(EncodePalette(palette(frame)));
         request.set_want_normals(options.want_normals);
+        request.set_method(WireMethod(options.method));
         in_flight.push_back({frame, Clock::now(), reuploads});
         if (again) {
           resend.pop_front();

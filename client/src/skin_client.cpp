@@ -12,6 +12,11 @@ std::string EncodePalette(std::span<const float> palette) {
   return std::string(reinterpret_cast<const char*>(palette.data()), palette.size_bytes());
 }
 
+v1::SkinningMethod WireMethod(SkinningMethod method) {
+  return method == SkinningMethod::kDualQuaternion ? v1::SKINNING_METHOD_DUAL_QUATERNION
+                                                   : v1::SKINNING_METHOD_LINEAR;
+}
+
 bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
   result->frame = part.frame();
   if (part.has_error()) {
@@ -159,13 +164,14 @@ Result<v1::ServerStats> SkinClient::GetServerStats() {
 
 Status SkinClient::Skin(const std::string& mesh_id, const std::string& backend,
                         std::span<const float> palette, uint64_t frame, bool want_normals,
-                        FrameResult* result) {
+                        FrameResult* result, SkinningMethod method) {
   v1::SkinRequest request;
   request.set_mesh_id(mesh_id);
   request.set_backend(backend);
   request.set_frame(frame);
   request.set_palette(EncodePalette(palette));
   request.set_want_normals(want_normals);
+  request.set_method(WireMethod(method));
   Status status = SkinOnce(request, result);
   if (status.code() == StatusCode::kNotFound) {
     if (Status s = Reupload(mesh_id); !s.ok()) return status;  // the original NOT_FOUND

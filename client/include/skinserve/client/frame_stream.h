@@ -19,6 +19,7 @@ struct StreamOptions {
   std::string mesh_id;
   std::string backend;  // empty: the server's default
   bool want_normals = false;
+  SkinningMethod method = SkinningMethod::kLinear;
   uint64_t first_frame = 0;
   uint64_t frames = 100;
   int window = 4;          // frames in flight

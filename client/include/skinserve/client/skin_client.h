@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "skinserve/core/mesh.h"
+#include "skinserve/core/skinning_method.h"
 #include "skinserve/core/status.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
@@ -67,7 +68,7 @@ class SkinClient {
   // again and retries once.
   Status Skin(const std::string& mesh_id, const std::string& backend,
               std::span<const float> palette, uint64_t frame, bool want_normals,
-              FrameResult* result);
+              FrameResult* result, SkinningMethod method = SkinningMethod::kLinear);
 
  private:
   Status SkinOnce(const v1::SkinRequest& request, FrameResult* result);
@@ -85,5 +86,7 @@ class SkinClient {
 
 // Encodes a palette for the wire.
 std::string EncodePalette(std::span<const float> palette);
+// The wire's name of a skinning method.
+v1::SkinningMethod WireMethod(SkinningMethod method);
 
 }  // namespace skinserve::client

@@ -60,7 +60,8 @@ class Backend {
   virtual const BackendInfo& info() const = 0;
   // Builds this backend's resident copy of `mesh`. Called once per mesh and backend.
   virtual Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) = 0;
-  // Skins one validated frame with a method info() lists (else INVALID_ARGUMENT).
+  // Skins one validated frame whose method info() lists (the engine checks before it
+  // queues the frame; the CPU backends also refuse others with INVALID_ARGUMENT).
   // Thread-safe: may run concurrently, also on one mesh.
   virtual Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) = 0;
 };
