@@ -56,7 +56,8 @@ class Recorder {
       } else {
         const Deviation d = CompareWithReference(
             *workload_.mesh, workload_.Palette(frame.frame), frame.positions,
-            workload_.normals ? std::span<const float>(frame.normals) : std::span<const float>());
+            workload_.normals ? std::span<const float>(frame.normals) : std::span<const float>(),
+            workload_.method);
         mismatch = !d.within_tolerance();
       }
     }
@@ -118,6 +119,7 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
   client::StreamOptions options{.mesh_id = mesh_id,
                                 .backend = config.backend,
                                 .want_normals = workload.normals,
+                                .method = workload.method,
                                 .frames = UINT64_MAX / 2,
                                 .window = config.window,
                                 .stop = &stop};
@@ -241,6 +243,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     request.set_frame(k);
     request.set_palette(client::EncodePalette(workload.Palette(k)));
     request.set_want_normals(workload.normals);
+    request.set_method(client::WireMethod(workload.method));
     sent += measured;
     if (!stream->Write(request)) break;
   }
