@@ -78,6 +78,9 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   request.backend.assign(wire.backend().empty() ? default_backend : wire.backend());
   request.palette = palette_;
   request.instances = instances_;
+  Result<SkinningMethod> method = FromWire(wire.method());
+  if (!method.ok()) return method.status();
+  request.method = *method;
   const std::size_t vertex_bytes = arrays * 3 * EncodedBytesPerValue(encoding_);
   const std::size_t per_part = std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes);
   const std::size_t parts_per_instance =

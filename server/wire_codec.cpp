@@ -53,6 +53,24 @@ v1::MeshInfo ToWire(const MeshInfo& info) {
   return wire;
 }
 
+Result<SkinningMethod> FromWire(v1::SkinningMethod method) {
+  switch (method) {
+    case v1::SKINNING_METHOD_LINEAR:
+      return SkinningMethod::kLinear;
+    case v1::SKINNING_METHOD_DUAL_QUATERNION:
+      return SkinningMethod::kDualQuaternion;
+    default:
+      return InvalidArgument(
+          fmt::format("method = {} is unknown; known: 0 (linear), 1 (dual-quaternion)",
+                      static_cast<int>(method)));
+  }
+}
+
+v1::SkinningMethod ToWire(SkinningMethod method) {
+  return method == SkinningMethod::kDualQuaternion ? v1::SKINNING_METHOD_DUAL_QUATERNION
+                                                   : v1::SKINNING_METHOD_LINEAR;
+}
+
 v1::BackendInfo ToWire(const BackendInfo& info) {
   v1::BackendInfo wire;
   wire.set_id(info.id);
@@ -63,6 +81,7 @@ v1::BackendInfo ToWire(const BackendInfo& info) {
   wire.set_simd_width(info.simd_width);
   wire.set_simd_target(info.simd_target);
   wire.set_threads(info.threads);
+  for (SkinningMethod method : info.methods) wire.add_methods(ToWire(method));
   return wire;
 }
 

@@ -19,6 +19,11 @@ grpc::Status ToGrpc(const Status& status);
 // whole number of values.
 Status DecodeFloats(const std::string& bytes, const char* field, std::vector<float>* out);
 
+// The request's method; INVALID_ARGUMENT naming the field for a value this server does not
+// know (proto3 enums carry unknown numbers through).
+Result<SkinningMethod> FromWire(v1::SkinningMethod method);
+v1::SkinningMethod ToWire(SkinningMethod method);
+
 v1::MeshInfo ToWire(const MeshInfo& info);
 v1::BackendInfo ToWire(const BackendInfo& info);
 v1::ServerStats ToWire(const EngineStats& stats);

@@ -36,6 +36,7 @@ struct AnimateOptions {
   double fps = 30;
   double seconds = 0;  // 0: the clip's duration
   std::string backend;
+  SkinningMethod method = SkinningMethod::kLinear;
   std::string out;
   bool render = false;
   int width = 640, height = 640;
@@ -231,6 +232,7 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
       client::StreamOptions stream{.mesh_id = mesh_ids[m],
                                    .backend = o.backend,
                                    .want_normals = !meshes[m].arrays.normals.empty(),
+                                   .method = o.method,
                                    .frames = frames,
                                    .window = o.window,
                                    .stop = &stop};
@@ -309,6 +311,7 @@ void AddAnimateCommand(CLI::App& app, CommonOptions& common) {
   command->add_option("--fps", o->fps, "frames per second of clip time")->capture_default_str();
   command->add_option("--seconds", o->seconds, "clip time to cover (default: the clip's duration)");
   command->add_option("--backend", o->backend, "backend id (default: the server's)");
+  AddMethodOption(command, &o->method);
   command->add_option("--out", o->out, "output directory (created if missing)")->required();
   command->add_flag("--render", o->render,
                     "also draw each frame as PNG (Cairo, fixed camera) and a contact sheet");

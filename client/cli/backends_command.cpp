@@ -14,10 +14,16 @@ void AddBackendsCommand(CLI::App& app, CommonOptions& common) {
       common.exit_code = Report(list.status());
       return;
     }
-    fmt::print("{:<16} {:<9} {:>4} {:>7}  {}\n", "id", "available", "simd", "threads", "device");
+    fmt::print("{:<16} {:<9} {:>4} {:>7}  {:<23}  {}\n", "id", "available", "simd", "threads",
+               "methods", "device");
     for (const auto& b : list->backends()) {
-      fmt::print("{:<16} {:<9} {:>4} {:>7}  {}{}{}\n", b.id(), b.available() ? "yes" : "no",
-                 b.simd_width(), b.threads(), b.device(),
+      std::string methods;
+      for (int m : b.methods()) {
+        if (!methods.empty()) methods += ',';
+        methods += m == v1::SKINNING_METHOD_DUAL_QUATERNION ? "dual-quaternion" : "linear";
+      }
+      fmt::print("{:<16} {:<9} {:>4} {:>7}  {:<23}  {}{}{}\n", b.id(), b.available() ? "yes" : "no",
+                 b.simd_width(), b.threads(), methods, b.device(),
                  b.simd_target().empty() ? "" : " [" + b.simd_target() + "]",
                  b.available() ? "" : "  (" + b.unavailable_reason() + ")");
     }

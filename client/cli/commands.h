@@ -7,6 +7,7 @@
 #include <string>
 
 #include "skinserve/client/skin_client.h"
+#include "skinserve/core/skinning_method.h"
 #include "skinserve/core/synthetic.h"
 
 namespace skinserve::cli {
@@ -30,6 +31,10 @@ void AddStreamCommand(CLI::App& app, CommonOptions& common);
 void AddStatsCommand(CLI::App& app, CommonOptions& common);
 void AddVerifyCommand(CLI::App& app, CommonOptions& common);
 void AddAnimateCommand(CLI::App& app, CommonOptions& common);
+void AddTwistCommand(CLI::App& app, CommonOptions& common);
+
+// --method linear|dual-quaternion on `command`, into `method`.
+void AddMethodOption(CLI::App* command, SkinningMethod* method);
 
 // Prints `status` to stderr and returns its exit code (0 for OK).
 int Report(const Status& status);

@@ -1,5 +1,7 @@
 #include <fmt/format.h>
 
+#include <map>
+
 #include "commands.h"
 
 namespace skinserve::cli {
@@ -13,6 +15,17 @@ void MeshOptionsCli::Add(CLI::App* command) {
       ->capture_default_str();
   command->add_flag("--normals", spec.normals, "synthetic mesh: with normals");
   command->add_option("--seed", spec.seed, "synthetic mesh: seed")->capture_default_str();
+}
+
+void AddMethodOption(CLI::App* command, SkinningMethod* method) {
+  command
+      ->add_option("--method", *method,
+                   "skinning method: linear (default), or dual-quaternion (rigid joints only)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, SkinningMethod>{
+              {"linear", SkinningMethod::kLinear},
+              {"dual-quaternion", SkinningMethod::kDualQuaternion}},
+          CLI::ignore_case));
 }
 
 int Report(const Status& status) {

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   AddStatsCommand(app, common);
   AddVerifyCommand(app, common);
   AddAnimateCommand(app, common);
+  AddTwistCommand(app, common);
   CLI11_PARSE(app, argc, argv);
   return common.exit_code;
 }

@@ -13,9 +13,11 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common) {
   mesh->Add(command);
   auto backend = std::make_shared<std::string>();
   auto frame = std::make_shared<uint64_t>(0);
+  auto method = std::make_shared<SkinningMethod>(SkinningMethod::kLinear);
+  AddMethodOption(command, method.get());
   command->add_option("--backend", *backend, "backend id (default: the server's)");
   command->add_option("--frame", *frame, "frame number (selects the pose)")->capture_default_str();
-  command->callback([&common, mesh, backend, frame] {
+  command->callback([&common, mesh, backend, frame, method] {
     client::SkinClient client(client::MakeChannel(common.target));
     const MeshArrays arrays = MakeSyntheticMesh(mesh->spec);
     auto info = client.Upload(arrays);
@@ -23,15 +25,20 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common) {
       common.exit_code = Report(info.status());
       return;
     }
-    const auto palette = MakeSyntheticPalette(arrays.joint_count, mesh->spec.seed, *frame);
+    // Dual quaternions take rigid joints only: the synthetic palettes' mild scale is refused.
+    const auto palette = *method == SkinningMethod::kDualQuaternion
+                             ? MakeRigidPalette(arrays.joint_count, mesh->spec.seed, *frame)
+                             : MakeSyntheticPalette(arrays.joint_count, mesh->spec.seed, *frame);
     client::FrameResult result;
-    Status s = client.Skin(info->mesh_id(), *backend, palette, *frame, mesh->spec.normals, &result);
+    Status s = client.Skin(info->mesh_id(), *backend, palette, *frame, mesh->spec.normals, &result,
+                           *method);
     if (!s.ok()) {
       common.exit_code = Report(s);
       return;
     }
     auto local = Mesh::Create(arrays).value();
-    const Deviation d = CompareWithReference(*local, palette, result.positions, result.normals);
+    const Deviation d =
+        CompareWithReference(*local, palette, result.positions, result.normals, *method);
     fmt::print("frame {}: {} vertices; queued {:.3f} ms, compute {:.3f} ms, encode {:.3f} ms\n",
                result.frame, result.positions.size() / 3, result.timing.queued_ns() / 1e6,
                result.timing.compute_ns() / 1e6, result.timing.encode_ns() / 1e6);

@@ -15,6 +15,7 @@ void AddStreamCommand(CLI::App& app, CommonOptions& common) {
   command->add_option("--backend", options->backend, "backend id (default: the server's)");
   command->add_option("--frames", options->frames, "frames to stream")->capture_default_str();
   command->add_option("--window", options->window, "frames in flight")->capture_default_str();
+  AddMethodOption(command, &options->method);
   command->callback([&common, mesh, options] {
     client::SkinClient client(client::MakeChannel(common.target));
     const MeshArrays arrays = MakeSyntheticMesh(mesh->spec);
@@ -27,7 +28,9 @@ void AddStreamCommand(CLI::App& app, CommonOptions& common) {
     options->want_normals = mesh->spec.normals;
     std::vector<std::vector<float>> palettes;
     for (int i = 0; i < 16; ++i) {
-      palettes.push_back(MakeSyntheticPalette(arrays.joint_count, mesh->spec.seed, i));
+      palettes.push_back(options->method == SkinningMethod::kDualQuaternion
+                             ? MakeRigidPalette(arrays.joint_count, mesh->spec.seed, i)
+                             : MakeSyntheticPalette(arrays.joint_count, mesh->spec.seed, i));
     }
     Status first_error;
     client::StreamSummary summary;

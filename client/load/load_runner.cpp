@@ -131,7 +131,7 @@ class Recorder {
       const std::span<const float> palette =
           passthrough ? std::span<const float>(identity_) : workload_.Palette(frame.frame + k);
       if (!CompareEncodedWithReference(*workload_.mesh, palette, frame.encoding, frame.bounds[k],
-                                       positions, normals)
+                                       positions, normals, workload_.method)
                .within_tolerance()) {
         return false;
       }
@@ -183,6 +183,7 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
   client::StreamOptions options{.mesh_id = mesh_id,
                                 .backend = config.backend,
                                 .want_normals = workload.normals,
+                                .method = workload.method,
                                 .encoding = config.encoding,
                                 .instances = config.instances,
                                 .frames = UINT64_MAX / 2,
@@ -299,6 +300,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   request.set_want_normals(workload.normals);
   request.set_encoding(static_cast<v1::Encoding>(config.encoding));
   request.set_instances(config.instances);
+  request.set_method(client::WireMethod(workload.method));
   for (uint64_t k = 0; k < last_frame && !stop.load(); ++k) {
     const Clock::time_point due = start + k * period;
     std::this_thread::sleep_until(due);

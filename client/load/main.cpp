@@ -26,6 +26,7 @@ struct Options {
   std::string backends = "all";
   uint32_t vertices = 100'000, bones = 2, joints = 77;
   bool normals = false;
+  std::string method = "linear";
   uint64_t seed = 1;
   std::string mesh;    // a glTF file instead of the synthetic mesh
   int primitive = -1;  // --mesh: -1 is the whole character
@@ -89,15 +90,20 @@ std::vector<std::string> SplitList(const std::string& text) {
   return items;
 }
 
+// 'all': every available backend that implements `method`; else the listed ids.
 Result<std::vector<std::string>> ResolveBackends(client::SkinClient& client,
-                                                 const std::string& wanted) {
+                                                 const std::string& wanted, SkinningMethod method) {
   auto list = client.ListBackends();
   if (!list.ok()) return list.status();
   std::vector<std::string> ids;
   if (wanted == "all") {
     for (const auto& b : list->backends()) {
-      if (b.available()) {
+      const bool has_method = std::find(b.methods().begin(), b.methods().end(),
+                                        client::WireMethod(method)) != b.methods().end();
+      if (b.available() && has_method) {
         ids.push_back(b.id());
+      } else if (b.available()) {
+        fmt::print(stderr, "note: skipping {}: no {} skinning\n", b.id(), MethodName(method));
       } else {
         fmt::print(stderr, "note: skipping {}: {}\n", b.id(), b.unavailable_reason());
       }
@@ -117,8 +123,13 @@ Result<std::string> Upload(client::SkinClient& client, const Workload& w) {
 
 // The glTF character when --mesh names one, else the synthetic mesh of this shape.
 Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bones, uint64_t seed) {
-  if (!o.mesh.empty()) return MakeGltfWorkload(o.mesh, o.primitive, o.normals);
-  return MakeWorkload(vertices, bones, o.joints, o.normals, seed);
+  const SkinningMethod method = *ParseMethod(o.method);
+  if (!o.mesh.empty()) {
+    auto workload = MakeGltfWorkload(o.mesh, o.primitive, o.normals);
+    if (workload.ok()) workload->method = method;
+    return workload;
+  }
+  return MakeWorkload(vertices, bones, o.joints, o.normals, seed, method);
 }
 
 int RunMain(const Options& o) {
@@ -127,7 +138,7 @@ int RunMain(const Options& o) {
     fmt::print(stderr, "error: {}: {}\n", o.run.target, s.ToString());
     return 1;
   }
-  auto backends = ResolveBackends(client, o.backends);
+  auto backends = ResolveBackends(client, o.backends, *ParseMethod(o.method));
   if (!backends.ok()) {
     fmt::print(stderr, "error: {}\n", backends.status().ToString());
     return 1;
@@ -272,6 +283,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--joints", o.joints, "synthetic mesh: joints")->capture_default_str();
   app.add_flag("--normals", o.normals, "skin normals too");
+  app.add_option("--method", o.method,
+                 "skinning method: linear, or dual-quaternion (synthetic palettes are then "
+                 "rigid; 'all' backends means those that implement it)")
+      ->check(CLI::IsMember({"linear", "dual-quaternion"}))
+      ->capture_default_str();
   app.add_option("--seed", o.seed, "synthetic mesh and palettes seed")->capture_default_str();
   app.add_option("--streams", o.run.streams, "concurrent streams")->capture_default_str();
   app.add_option("--window", o.run.window, "frames in flight per stream")->capture_default_str();

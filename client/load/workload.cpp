@@ -14,12 +14,13 @@
 namespace skinserve::load {
 
 Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool normals,
-                      uint64_t seed) {
+                      uint64_t seed, SkinningMethod method) {
   Workload w;
   w.vertices = vertices;
   w.bones = bones;
   w.joints = joints;
   w.normals = normals;
+  w.method = method;
   w.arrays = std::make_shared<const MeshArrays>(MakeSyntheticMesh({.vertex_count = vertices,
                                                                    .influences = bones,
                                                                    .joint_count = joints,
@@ -29,7 +30,9 @@ Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool n
   if (!mesh.ok()) throw std::runtime_error(mesh.status().ToString());
   w.mesh = *mesh;
   for (int f = 0; f < kDistinctPalettes; ++f) {
-    w.palettes.push_back(MakeSyntheticPalette(joints, seed, f));
+    w.palettes.push_back(method == SkinningMethod::kDualQuaternion
+                             ? MakeRigidPalette(joints, seed, f)
+                             : MakeSyntheticPalette(joints, seed, f));
   }
   return w;
 }

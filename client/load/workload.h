@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "skinserve/core/mesh.h"
+#include "skinserve/core/skinning_method.h"
 #include "skinserve/core/status.h"
 
 namespace skinserve::load {
@@ -19,17 +20,20 @@ struct Workload {
   uint32_t bones = 0;
   uint32_t joints = 77;
   bool normals = false;
-  std::shared_ptr<const MeshArrays> arrays;  // shared by every stream's client
-  std::shared_ptr<const Mesh> mesh;          // for the float64 reference checks
-  std::vector<std::vector<float>> palettes;  // frame f uses palettes[f % size]
+  SkinningMethod method = SkinningMethod::kLinear;  // asked of the server, checked locally
+  std::shared_ptr<const MeshArrays> arrays;         // shared by every stream's client
+  std::shared_ptr<const Mesh> mesh;                 // for the float64 reference checks
+  std::vector<std::vector<float>> palettes;         // frame f uses palettes[f % size]
 
   const std::vector<float>& Palette(uint64_t frame) const {
     return palettes[frame % palettes.size()];
   }
 };
 
+// Dual-quaternion workloads get rigid palettes (MakeRigidPalette): the method refuses the
+// synthetic palettes' scale.
 Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool normals,
-                      uint64_t seed);
+                      uint64_t seed, SkinningMethod method = SkinningMethod::kLinear);
 
 // Frames of clip time per second in a glTF workload's palettes.
 inline constexpr double kGltfWorkloadFps = 30.0;

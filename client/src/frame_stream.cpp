@@ -88,6 +88,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         const uint64_t frame = again ? resend.front() : next;
         request.set_frame(frame);
         EncodePaletteInto(palette(frame), request.mutable_palette());
+        request.set_method(WireMethod(options.method));
         in_flight.push_back({frame, Clock::now(), reuploads});
         if (again) {
           resend.pop_front();

@@ -13,6 +13,11 @@ std::string EncodePalette(std::span<const float> palette) {
   return std::string(reinterpret_cast<const char*>(palette.data()), palette.size_bytes());
 }
 
+v1::SkinningMethod WireMethod(SkinningMethod method) {
+  return method == SkinningMethod::kDualQuaternion ? v1::SKINNING_METHOD_DUAL_QUATERNION
+                                                   : v1::SKINNING_METHOD_LINEAR;
+}
+
 void EncodePaletteInto(std::span<const float> palette, std::string* bytes) {
   bytes->resize(palette.size_bytes());
   if (!palette.empty()) std::memcpy(bytes->data(), palette.data(), palette.size_bytes());
@@ -252,8 +257,8 @@ Result<v1::ServerStats> SkinClient::GetServerStats() {
 
 Status SkinClient::Skin(const std::string& mesh_id, const std::string& backend,
                         std::span<const float> palette, uint64_t frame, bool want_normals,
-                        FrameResult* result) {
-  return Skin(mesh_id, palette, frame, {.backend = backend, .want_normals = want_normals}, result);
+                        FrameResult* result, SkinningMethod method) {
+  return Skin(mesh_id, palette, frame, {.backend = backend, .want_normals = want_normals, .method = method}, result);
 }
 
 Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palette, uint64_t frame,
@@ -268,6 +273,7 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   request.set_frame(frame);
   EncodePaletteInto(palette, request.mutable_palette());
   request.set_want_normals(options.want_normals);
+  request.set_method(WireMethod(options.method));
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
   Status status = SkinOnce(request, part, result);

@@ -68,6 +68,24 @@ class Engine::Impl {
         fmt::format("backend '{}' is unknown; available backends: {}", id, available));
   }
 
+  // OK when backend `index` implements `method`; else an error naming the backends that do.
+  Status CheckMethod(std::size_t index, SkinningMethod method) const {
+    const BackendInfo& info = backends_[index]->info();
+    if (info.Supports(method)) return Status::Ok();
+    std::string supporting;
+    for (const auto& backend : backends_) {
+      const BackendInfo& other = backend->info();
+      if (other.available && other.Supports(method)) {
+        supporting += (supporting.empty() ? "" : ", ") + other.id;
+      }
+    }
+    return InvalidArgument(fmt::format(
+        "backend '{}' does not implement method {} (it implements {}); backends here that do: {}",
+        info.id, MethodName(method), MethodNames(info.methods),
+        supporting.empty() ? "none" : supporting));
+  }
+
+
   // The limits of a batch (Engine::CheckBatch).
   Status CheckBatch(uint32_t vertex_count, uint32_t instances) const {
     if (instances > options_.max_instances) {
@@ -131,6 +149,7 @@ class Engine::Impl {
                     request.normals.empty() ? std::span<float>()
                                             : request.normals.subspan(i * outputs, outputs),
                     threads};
+    frame.method = request.method;
     if (request.instances > 1) frame.palette = frame.palette.first(palette);  // sizes checked
     return frame;
   }
@@ -140,6 +159,7 @@ class Engine::Impl {
     const SkinRequest& request = job->request;
     Result<std::size_t> backend_index = FindBackend(request.backend);
     if (!backend_index.ok()) return backend_index.status();
+    if (Status s = CheckMethod(*backend_index, request.method); !s.ok()) return s;
     MeshStore::Lease entry = store_.Acquire(request.mesh_id);
     if (!entry) {
       return NotFound(

@@ -41,8 +41,11 @@ ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette) {
 }
 
 Deviation CompareWithReference(const Mesh& mesh, std::span<const float> palette,
-                               std::span<const float> positions, std::span<const float> normals) {
-  const ReferenceFrame ref = ReferenceSkin(mesh, palette);
+                               std::span<const float> positions, std::span<const float> normals,
+                               SkinningMethod method) {
+  const ReferenceFrame ref = method == SkinningMethod::kDualQuaternion
+                                 ? ReferenceSkinDualQuaternion(mesh, palette)
+                                 : ReferenceSkin(mesh, palette);
   Deviation d;
   // S bounds |M p| for this frame: float32 rounding is relative to it, not to |p'|, which
   // may cancel to near zero.

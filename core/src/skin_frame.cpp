@@ -5,8 +5,18 @@
 
 namespace skinserve {
 
+bool BackendInfo::Supports(SkinningMethod method) const {
+  for (SkinningMethod m : methods) {
+    if (m == method) return true;
+  }
+  return false;
+}
+
 Status SkinFrame::Validate(const Mesh& mesh) const {
   if (Status s = ValidatePalette(palette, mesh.joint_count()); !s.ok()) return s;
+  if (method == SkinningMethod::kDualQuaternion) {
+    if (Status s = ValidateRigidPalette(palette); !s.ok()) return s;
+  }
   const std::size_t expected = 3ull * mesh.vertex_count();
   if (positions.size() != expected) {
     return InvalidArgument(

@@ -133,6 +133,28 @@ std::vector<float> MakeSyntheticPalette(uint32_t joint_count, uint64_t seed, uin
   return palette;
 }
 
+std::vector<float> MakeRigidPalette(uint32_t joint_count, uint64_t seed, uint64_t frame) {
+  std::vector<float> palette(kFloatsPerJoint * joint_count);
+  Random random((seed ^ 0x71d1dull) + 0x9e37ull * frame);
+  for (uint32_t j = 0; j < joint_count; ++j) {
+    // Shoemake's uniform random unit quaternion (w, x, y, z), then its rotation matrix.
+    const double u1 = random.Uniform(), u2 = random.Uniform(0, 2 * std::numbers::pi),
+                 u3 = random.Uniform(0, 2 * std::numbers::pi);
+    const double a = std::sqrt(1 - u1), b = std::sqrt(u1);
+    const double x = a * std::sin(u2), y = a * std::cos(u2), z = b * std::sin(u3),
+                 w = b * std::cos(u3);
+    const double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                            {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                            {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+    float* m = &palette[kFloatsPerJoint * j];
+    for (int row = 0; row < 3; ++row) {
+      for (int col = 0; col < 3; ++col) m[4 * row + col] = static_cast<float>(r[row][col]);
+      m[4 * row + 3] = static_cast<float>(random.Uniform(-2, 2));
+    }
+  }
+  return palette;
+}
+
 std::vector<float> MakeIdentityPalette(uint32_t joint_count) {
   std::vector<float> palette(kFloatsPerJoint * joint_count, 0.0f);
   for (uint32_t j = 0; j < joint_count; ++j) {

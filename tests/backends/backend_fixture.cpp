@@ -27,12 +27,20 @@ std::vector<std::string> ComputingBackendIds() {
   return ids;
 }
 
+std::vector<std::string> BackendIdsWithMethod(SkinningMethod method) {
+  std::vector<std::string> ids;
+  for (const auto& backend : AllBackends()) {
+    if (backend->info().Supports(method)) ids.push_back(backend->info().id);
+  }
+  return ids;
+}
+
 Output SkinOnce(Backend& backend, const PreparedMesh& prepared, std::span<const float> palette,
-                bool with_normals) {
+                bool with_normals, SkinningMethod method) {
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   const std::size_t n = 3ull * prepared.mesh().vertex_count();
   Output out{std::vector<float>(n, kNaN), std::vector<float>(with_normals ? n : 0, kNaN)};
-  const SkinFrame frame{palette, out.positions, out.normals};
+  const SkinFrame frame{palette, out.positions, out.normals, method};
   Status valid = frame.Validate(prepared.mesh());
   EXPECT_TRUE(valid.ok()) << valid.ToString();
   Status skinned = backend.Skin(prepared, frame);

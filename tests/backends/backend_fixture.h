@@ -25,7 +25,9 @@ struct Output {
 // Skins `palette` with `backend` into outputs pre-filled with NaN (so an unwritten
 // element shows up as an error).
 Output SkinOnce(Backend& backend, const PreparedMesh& prepared, std::span<const float> palette,
-                bool with_normals);
+                bool with_normals, SkinningMethod method = SkinningMethod::kLinear);
+// Ids of every backend whose info() lists `method`, available or not.
+std::vector<std::string> BackendIdsWithMethod(SkinningMethod method);
 
 // Skips the current test when the backend cannot run here, naming the reason.
 #define SKIP_IF_UNAVAILABLE(backend)                                         \

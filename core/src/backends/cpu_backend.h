@@ -1,10 +1,14 @@
-// CpuBackend: a backend made of one skinning kernel over vertex ranges, run on the
-// calling thread (info.threads == 1) or split across info.threads OpenMP threads. The
-// four CPU backends differ only in the kernel and the description.
+// CpuBackend: a backend made of skinning kernels over vertex ranges, run on the calling
+// thread (info.threads == 1) or split across info.threads OpenMP threads: a linear blend
+// kernel and, optionally, a dual-quaternion one. The CPU backends differ only in the
+// kernels and the description.
 #pragma once
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <new>
+#include <type_traits>
 
 #include "parallel_range.h"
 #include "skinserve/core/backend.h"
@@ -16,28 +20,47 @@ namespace skinserve {
 //    kernel's own layout, built once per frame on the calling thread and then only read;
 //  - Kernel::SkinRange(const Mesh&, const FramePalette&, const SkinFrame&, first, last),
 //    which writes exactly the outputs of vertices [first, last).
-template <typename Kernel>
+// DualQuaternionKernel is such a kernel for dual-quaternion skinning, or void when the
+// backend implements linear blend skinning only.
+template <typename Kernel, typename DualQuaternionKernel = void>
 class CpuBackend final : public Backend {
  public:
   explicit CpuBackend(BackendInfo info) : info_(std::move(info)) {
     info_.min_threads = 1;  // a parallel loop runs on as few threads as it is given
+    info_.methods = {SkinningMethod::kLinear};
+    if constexpr (!std::is_void_v<DualQuaternionKernel>) {
+      info_.methods.push_back(SkinningMethod::kDualQuaternion);
+    }
   }
   const BackendInfo& info() const override { return info_; }
   Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
     return std::make_unique<PreparedMesh>(std::move(mesh));  // skins the Mesh's own layout
   }
   Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) override {
-    const Mesh& mesh = prepared.mesh();
+    if (frame.method == SkinningMethod::kDualQuaternion) {
+      if constexpr (!std::is_void_v<DualQuaternionKernel>) {
+        return Run<DualQuaternionKernel>(prepared.mesh(), frame);
+      } else {
+        return InvalidArgument(fmt::format("backend '{}' does not implement {} skinning", info_.id,
+                                           MethodName(frame.method)));
+      }
+    }
+    return Run<Kernel>(prepared.mesh(), frame);
+  }
+
+ private:
+  template <typename K>
+  Status Run(const Mesh& mesh, const SkinFrame& frame) {
     try {
-      const typename Kernel::FramePalette palette(frame.palette);
+      const typename K::FramePalette palette(frame.palette);
       const int threads =
           frame.threads > 0 ? std::min(frame.threads, info_.threads) : info_.threads;
       if (threads <= 1) {
-        Kernel::SkinRange(mesh, palette, frame, 0, mesh.vertex_count());
+        K::SkinRange(mesh, palette, frame, 0, mesh.vertex_count());
       } else {
         ParallelOverVertices(mesh.vertex_count(), threads,
                              [&](std::size_t first, std::size_t last) {
-                               Kernel::SkinRange(mesh, palette, frame, first, last);
+                               K::SkinRange(mesh, palette, frame, first, last);
                              });
       }
     } catch (const std::bad_alloc&) {  // a palette layout larger than any seen so far
@@ -46,7 +69,6 @@ class CpuBackend final : public Backend {
     return Status::Ok();
   }
 
- private:
   BackendInfo info_;
 };
 

@@ -3,12 +3,13 @@
 #include "backend_factories.h"
 #include "cpu_backend.h"
 #include "cpu_model.h"
+#include "scalar_dual_quaternion_skinning.h"
 #include "scalar_skinning.h"
 
 namespace skinserve {
 
 std::unique_ptr<Backend> MakeSerialBackend() {
-  return std::make_unique<CpuBackend<scalar::ScalarKernel>>(
+  return std::make_unique<CpuBackend<scalar::ScalarKernel, scalar::ScalarDualQuaternionKernel>>(
       BackendInfo{.id = "serial",
                   .description = "scalar C++ on one thread (the baseline)",
                   .device = CpuModelName()});

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "skinserve/core/mesh.h"
+#include "skinserve/core/skinning_method.h"
 #include "skinserve/core/status.h"
 #include "skinserve/core/vertex_encoding.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
@@ -71,6 +72,7 @@ class FrameAssembler {
 struct SkinOptions {
   std::string backend;  // empty: the server's default
   bool want_normals = false;
+  SkinningMethod method = SkinningMethod::kLinear;
   VertexEncoding encoding = VertexEncoding::kFloat32;
   // Crowd batch: palettes of this many instances back to back (1: a single instance).
   uint32_t instances = 1;
@@ -102,7 +104,7 @@ class SkinClient {
   // again and retries once.
   Status Skin(const std::string& mesh_id, const std::string& backend,
               std::span<const float> palette, uint64_t frame, bool want_normals,
-              FrameResult* result);
+              FrameResult* result, SkinningMethod method = SkinningMethod::kLinear);
   // The same with an encoding and crowd batches. `result` is overwritten and may be reused
   // from call to call (its vectors keep their capacity); so are this client's messages.
   Status Skin(const std::string& mesh_id, std::span<const float> palette, uint64_t frame,
@@ -131,5 +133,7 @@ std::string EncodePalette(std::span<const float> palette);
 // The same into `bytes` (e.g. a reused request's mutable_palette()): its capacity is
 // reused, no temporary string.
 void EncodePaletteInto(std::span<const float> palette, std::string* bytes);
+// The wire's name of a skinning method.
+v1::SkinningMethod WireMethod(SkinningMethod method);
 
 }  // namespace skinserve::client

@@ -1,4 +1,5 @@
-// Backend: one implementation of linear blend skinning (serial, openmp, sse, ...).
+// Backend: one implementation of skinning (serial, openmp, sse, ...): linear blend
+// skinning always, dual-quaternion skinning where info().methods lists it.
 // A backend prepares each mesh once (its own layout, its own device buffers); per frame
 // only the palette goes in and the vertices come out.
 #pragma once
@@ -7,8 +8,10 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "skinserve/core/mesh.h"
+#include "skinserve/core/skinning_method.h"
 #include "skinserve/core/status.h"
 
 namespace skinserve {
@@ -24,6 +27,9 @@ struct BackendInfo {
   int threads = 1;                 // compute threads one frame occupies, at most
   // The fewest threads a frame can run on (SkinFrame::threads); 0: exactly `threads`.
   int min_threads = 0;
+  std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};  // what Skin() implements
+
+  bool Supports(SkinningMethod method) const;
 };
 
 // A backend's resident copy of one mesh. Backends derive from it to hold their layout.
@@ -52,12 +58,14 @@ struct DeviceTiming {
 //  - threads:   the threads this frame may use, between info.min_threads and
 //               info.threads (the engine's scheduler decides); 0: info.threads.
 //  - device_timing: null, or where a device backend writes the frame's device time.
+//  - method:    dual-quaternion also needs every joint matrix rigid (ValidateRigidPalette).
 struct SkinFrame {
   std::span<const float> palette;
   std::span<float> positions;
   std::span<float> normals;
   int threads = 0;
   DeviceTiming* device_timing = nullptr;
+  SkinningMethod method = SkinningMethod::kLinear;
 
   Status Validate(const Mesh& mesh) const;
 };
@@ -68,7 +76,9 @@ class Backend {
   virtual const BackendInfo& info() const = 0;
   // Builds this backend's resident copy of `mesh`. Called once per mesh and backend.
   virtual Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) = 0;
-  // Skins one validated frame. Thread-safe: may run concurrently, also on one mesh.
+  // Skins one validated frame whose method info() lists (the engine checks before it
+  // queues the frame; the CPU backends also refuse others with INVALID_ARGUMENT).
+  // Thread-safe: may run concurrently, also on one mesh.
   virtual Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) = 0;
 };
 

@@ -6,6 +6,7 @@
 #include <span>
 
 #include "skinserve/core/mesh.h"
+#include "skinserve/core/skinning_method.h"
 #include "skinserve/core/vertex_encoding.h"
 
 namespace skinserve {
@@ -22,10 +23,12 @@ struct EncodedDeviation {
 };
 
 // One instance's decoded positions (and normals, may be empty to skip them) in `encoding`,
-// quantised to `bounds` for snorm16 (as the response carried it).
+// quantised to `bounds` for snorm16 (as the response carried it), against the reference of
+// `method`.
 EncodedDeviation CompareEncodedWithReference(const Mesh& mesh, std::span<const float> palette,
                                              VertexEncoding encoding, const Bounds& bounds,
                                              std::span<const float> positions,
-                                             std::span<const float> normals);
+                                             std::span<const float> normals,
+                                             SkinningMethod method = SkinningMethod::kLinear);
 
 }  // namespace skinserve

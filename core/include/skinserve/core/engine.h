@@ -65,6 +65,7 @@ struct SkinRequest {
   uint32_t instances = 1;          // K; 0 means 1; at most EngineOptions::max_instances
   std::span<float> positions;      // 3 * vertex_count * K
   std::span<float> normals;        // empty: no normals; else 3 * vertex_count * K
+  SkinningMethod method = SkinningMethod::kLinear;  // the backend must list it
 };
 using SkinDone = std::function<void(Status, FrameTiming)>;
 
@@ -149,7 +150,8 @@ class Engine {
   bool DeleteMesh(const std::string& id);
 
   // Checks the request (unknown mesh: NOT_FOUND; unknown or unavailable backend, bad
-  // palette or output sizes, too many instances: INVALID_ARGUMENT naming the instance;
+  // palette or output sizes, too many instances, a method the backend lacks, for
+  // dual-quaternion a joint that is not rigid: INVALID_ARGUMENT naming the instance;
   // full queue: RESOURCE_EXHAUSTED; shut down: UNAVAILABLE) and queues it. On OK,
   // OnSkinned is called exactly once, on a compute thread; on an error, never.
   // Allocates nothing.

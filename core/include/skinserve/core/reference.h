@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "skinserve/core/mesh.h"
+#include "skinserve/core/skinning_method.h"
 
 namespace skinserve {
 
@@ -15,6 +16,13 @@ struct ReferenceFrame {
 };
 
 ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette);
+
+// The float64 dual-quaternion reference (dual_quaternion_reference.cpp), written apart
+// from the kernels on glm's dual quaternions: each joint matrix to a unit dual quaternion,
+// the vertex's B of them blended with signs against the first influence, normalised,
+// applied to the position; the normal rotated by the blended rotation. The palette must
+// be rigid (ValidateRigidPalette).
+ReferenceFrame ReferenceSkinDualQuaternion(const Mesh& mesh, std::span<const float> palette);
 
 struct Deviation {
   double max_position_error = 0;  // max |backend - reference| over every coordinate
@@ -30,8 +38,9 @@ struct Deviation {
 // Compares float32 results with the reference. Tolerance: positions 1e-5 * (1 + S), where
 // S bounds |M p| over the frame (max |p| * max row sum of |M| + max |t|); normals 1e-5
 // absolute (they are unit vectors). `normals` may be empty to skip them. A NaN anywhere
-// counts as an infinite error.
+// counts as an infinite error. `method` picks the reference; the tolerance is the same.
 Deviation CompareWithReference(const Mesh& mesh, std::span<const float> palette,
-                               std::span<const float> positions, std::span<const float> normals);
+                               std::span<const float> positions, std::span<const float> normals,
+                               SkinningMethod method = SkinningMethod::kLinear);
 
 }  // namespace skinserve

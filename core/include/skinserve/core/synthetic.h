@@ -26,6 +26,11 @@ MeshArrays MakeSyntheticMesh(const SyntheticMeshSpec& spec);
 // scale (0.9..1.1), varying smoothly with `frame`. 12 * joint_count floats, row-major 3x4.
 std::vector<float> MakeSyntheticPalette(uint32_t joint_count, uint64_t seed, uint64_t frame);
 
+// A rigid palette for dual-quaternion skinning: per joint a uniformly random rotation (any
+// angle, so neighbouring joints often sit in opposite quaternion hemispheres) and a
+// translation of up to 2 along each axis. Deterministic from seed and frame.
+std::vector<float> MakeRigidPalette(uint32_t joint_count, uint64_t seed, uint64_t frame);
+
 // The identity palette: skinning with it returns the rest pose.
 std::vector<float> MakeIdentityPalette(uint32_t joint_count);
 

@@ -1,0 +1,212 @@
+// Dual-quaternion skinning: every backend that lists it against the independent float64
+// reference (ReferenceSkinDualQuaternion, on glm) on random rigid palettes, B = 1..8,
+// vertex counts that leave tails, with and without normals; the twist, where it must keep
+// the tube's radius while linear blending collapses it; and the method lists.
+// Tolerance: CompareWithReference's (1e-5 relative to the frame's scale, 1e-5 on normals).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <tuple>
+
+#include "backend_fixture.h"
+#include "skinserve/core/reference.h"
+#include "skinserve/core/synthetic.h"
+#include "skinserve/core/twist_cylinder.h"
+
+namespace skinserve::testing {
+namespace {
+
+struct Case {
+  uint32_t vertices;
+  uint32_t influences;
+  uint32_t joints;
+  bool normals;
+};
+
+std::vector<Case> Cases() {
+  std::vector<Case> cases;
+  for (uint32_t v : {1u, 7u, 1001u}) {
+    for (uint32_t b = 1; b <= 8; ++b) {
+      for (uint32_t j : {1u, 77u}) {
+        for (bool n : {false, true}) cases.push_back({v, b, j, n});
+      }
+    }
+  }
+  cases.push_back({100003, 4, 77, true});
+  return cases;
+}
+
+class DualQuaternionConformanceTest
+    : public ::testing::TestWithParam<std::tuple<std::string, Case>> {};
+
+TEST_P(DualQuaternionConformanceTest, MatchesTheFloat64Reference) {
+  const auto& [id, c] = GetParam();
+  Backend& backend = BackendById(id);
+  SKIP_IF_UNAVAILABLE(backend);
+  const uint64_t seed = c.vertices * 131 + c.influences * 17 + c.joints + (c.normals ? 1 : 0);
+  auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = c.vertices,
+                                              .influences = c.influences,
+                                              .joint_count = c.joints,
+                                              .normals = c.normals,
+                                              .seed = seed}));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  auto prepared = backend.Prepare(*mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  for (uint64_t frame = 0; frame < 2; ++frame) {
+    const auto palette = MakeRigidPalette(c.joints, seed, frame);
+    const Output out =
+        SkinOnce(backend, **prepared, palette, c.normals, SkinningMethod::kDualQuaternion);
+    const Deviation d = CompareWithReference(**mesh, palette, out.positions, out.normals,
+                                             SkinningMethod::kDualQuaternion);
+    EXPECT_TRUE(d.within_tolerance())
+        << id << " V=" << c.vertices << " B=" << c.influences << " J=" << c.joints
+        << " normals=" << c.normals << " frame=" << frame << ": position error "
+        << d.max_position_error << " (tolerance " << d.position_tolerance << "), normal error "
+        << d.max_normal_error << " (tolerance " << d.normal_tolerance << "), worst vertex "
+        << d.worst_vertex;
+  }
+}
+
+std::string CaseName(const ::testing::TestParamInfo<std::tuple<std::string, Case>>& info) {
+  const auto& [id, c] = info.param;
+  std::string name = id + "_V" + std::to_string(c.vertices) + "_B" + std::to_string(c.influences) +
+                     "_J" + std::to_string(c.joints) + (c.normals ? "_normals" : "");
+  std::replace(name.begin(), name.end(), '-', '_');
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    DualQuaternionBackends, DualQuaternionConformanceTest,
+    ::testing::Combine(::testing::ValuesIn(BackendIdsWithMethod(SkinningMethod::kDualQuaternion)),
+                       ::testing::ValuesIn(Cases())),
+    CaseName);
+
+// The reference itself, on cases worked by hand: a joint's own rigid motion comes out
+// exactly, and two joints at +-90 degrees about one axis blend to the half-way rotation
+// whichever quaternion sign the conversion picks.
+TEST(DualQuaternionReferenceTest, OneJointIsItsRigidMotion) {
+  MeshArrays arrays{.vertex_count = 1,
+                    .influences = 1,
+                    .joint_count = 1,
+                    .positions = {1, 2, 3},
+                    .normals = {0, 0, 1},
+                    .joints = {0},
+                    .weights = {1}};
+  auto mesh = Mesh::Create(arrays);
+  ASSERT_TRUE(mesh.ok());
+  // 90 degrees about +z, then move by (10, 20, 30): (1, 2, 3) -> (-2, 1, 3) + t.
+  const std::vector<float> palette = {0, -1, 0, 10, 1, 0, 0, 20, 0, 0, 1, 30};
+  const ReferenceFrame ref = ReferenceSkinDualQuaternion(**mesh, palette);
+  EXPECT_NEAR(ref.positions[0], 8, 1e-12);
+  EXPECT_NEAR(ref.positions[1], 21, 1e-12);
+  EXPECT_NEAR(ref.positions[2], 33, 1e-12);
+  EXPECT_NEAR(ref.normals[2], 1, 1e-12);
+}
+
+TEST(DualQuaternionReferenceTest, BlendsAcrossHemispheresTheShortWay) {
+  // Joint 0: 170 degrees about +y; joint 1: -170 degrees (190). Their quaternions have a
+  // negative dot product; blended half and half the short way is 180 degrees, not 0.
+  const double a = 170 * std::numbers::pi / 180;
+  const float c = static_cast<float>(std::cos(a)), s = static_cast<float>(std::sin(a));
+  const std::vector<float> palette = {c, 0, s,  0, 0, 1, 0, 0, -s, 0, c, 0,
+                                      c, 0, -s, 0, 0, 1, 0, 0, s,  0, c, 0};
+  MeshArrays arrays{.vertex_count = 1,
+                    .influences = 2,
+                    .joint_count = 2,
+                    .positions = {0, 0, 1},
+                    .normals = {},
+                    .joints = {0, 1},
+                    .weights = {0.5f, 0.5f}};
+  auto mesh = Mesh::Create(arrays);
+  ASSERT_TRUE(mesh.ok());
+  const ReferenceFrame ref = ReferenceSkinDualQuaternion(**mesh, palette);
+  EXPECT_NEAR(ref.positions[0], 0, 1e-6);
+  EXPECT_NEAR(ref.positions[2], -1, 1e-6);
+}
+
+// The radius of the middle ring (weights 1/2, 1/2) around the cylinder's axis: min, max.
+std::pair<double, double> MiddleRingRadius(const TwistCylinder& cylinder,
+                                           std::span<const float> positions) {
+  const uint32_t ring = cylinder.rings / 2;
+  double lo = 1e30, hi = 0;
+  for (uint32_t k = 0; k < cylinder.segments; ++k) {
+    const float* p = &positions[3 * (ring * cylinder.segments + k)];
+    const double r = std::hypot(double{p[0]}, double{p[2]});
+    lo = std::min(lo, r), hi = std::max(hi, r);
+  }
+  return {lo, hi};
+}
+
+class TwistTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(TwistTest, DualQuaternionsKeepTheRadiusWhereLinearCollapses) {
+  Backend& backend = BackendById(GetParam());
+  SKIP_IF_UNAVAILABLE(backend);
+  const TwistCylinder cylinder = MakeTwistCylinder();
+  auto mesh = Mesh::Create(cylinder.mesh);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  auto prepared = backend.Prepare(*mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  for (int degrees = 0; degrees <= 180; degrees += 15) {
+    const auto palette = MakeTwistPalette(degrees);
+    const Output dqs =
+        SkinOnce(backend, **prepared, palette, true, SkinningMethod::kDualQuaternion);
+    const Output linear = SkinOnce(backend, **prepared, palette, false, SkinningMethod::kLinear);
+    const auto [dqs_min, dqs_max] = MiddleRingRadius(cylinder, dqs.positions);
+    const auto [linear_min, linear_max] = MiddleRingRadius(cylinder, linear.positions);
+    // Dual quaternions: a rotation by half the twist, the radius unchanged.
+    EXPECT_NEAR(dqs_min, cylinder.radius, 1e-5) << GetParam() << " at " << degrees << " degrees";
+    EXPECT_NEAR(dqs_max, cylinder.radius, 1e-5) << GetParam() << " at " << degrees << " degrees";
+    // Linear: the average of two rotations shrinks the ring to radius * cos(twist / 2).
+    const double collapsed = cylinder.radius * std::cos(degrees * std::numbers::pi / 360);
+    EXPECT_NEAR(linear_min, collapsed, 1e-5) << GetParam() << " at " << degrees << " degrees";
+    EXPECT_NEAR(linear_max, collapsed, 1e-5) << GetParam() << " at " << degrees << " degrees";
+    // And both agree with their float64 references everywhere, not only on that ring.
+    EXPECT_TRUE(CompareWithReference(**mesh, palette, dqs.positions, dqs.normals,
+                                     SkinningMethod::kDualQuaternion)
+                    .within_tolerance())
+        << GetParam() << " at " << degrees << " degrees";
+  }
+  // At 180 degrees linear blending has collapsed the middle ring onto the axis.
+  const Output linear =
+      SkinOnce(backend, **prepared, MakeTwistPalette(180), false, SkinningMethod::kLinear);
+  EXPECT_LT(MiddleRingRadius(cylinder, linear.positions).second, 1e-6);
+}
+
+INSTANTIATE_TEST_SUITE_P(DualQuaternionBackends, TwistTest,
+                         ::testing::ValuesIn(BackendIdsWithMethod(SkinningMethod::kDualQuaternion)),
+                         [](const ::testing::TestParamInfo<std::string>& param) {
+                           std::string name = param.param;
+                           std::replace(name.begin(), name.end(), '-', '_');
+                           return name;
+                         });
+
+TEST(DualQuaternionMethodsTest, TheCpuBackendsListItOthersDoNot) {
+  const std::vector<std::string> expected = {"serial", "openmp", "sse", "sse-openmp"};
+  EXPECT_EQ(BackendIdsWithMethod(SkinningMethod::kDualQuaternion), expected);
+  for (const auto& backend : AllBackends()) {
+    EXPECT_TRUE(backend->info().Supports(SkinningMethod::kLinear)) << backend->info().id;
+  }
+}
+
+TEST(DualQuaternionMethodsTest, APaletteThatIsNotRigidIsRefusedBeforeSkinning) {
+  auto mesh = Mesh::Create(MakeSyntheticMesh(
+      {.vertex_count = 10, .influences = 2, .joint_count = 3, .normals = false, .seed = 5}));
+  ASSERT_TRUE(mesh.ok());
+  std::vector<float> positions(30);
+  std::vector<float> palette = MakeRigidPalette(3, 5, 0);
+  const SkinFrame rigid{palette, positions, {}, SkinningMethod::kDualQuaternion};
+  EXPECT_TRUE(rigid.Validate(**mesh).ok());
+  palette = MakeSyntheticPalette(3, 5, 0);  // scaled by 0.9..1.1: fine for linear only
+  const SkinFrame scaled{palette, positions, {}, SkinningMethod::kDualQuaternion};
+  const Status s = scaled.Validate(**mesh);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("palette[joint 0] is not rigid"), std::string::npos) << s.message();
+  const SkinFrame linear{palette, positions, {}, SkinningMethod::kLinear};
+  EXPECT_TRUE(linear.Validate(**mesh).ok());
+}
+
+}  // namespace
+}  // namespace skinserve::testing
