@@ -9,8 +9,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "metrics_frames.h"
 #include "inflight_budget.h"
+#include "metrics_frames.h"
 #include "skinserve/core/engine.h"
 #include "skinserve/core/vertex_encoding.h"
 #include "skinserve/v1/skinning.pb.h"

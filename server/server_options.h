@@ -37,7 +37,7 @@ struct ServerOptions {
   double max_connection_age_seconds = 300;  // 0: connections never age out
   double max_connection_age_grace_seconds = 30;
   uint64_t inflight_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
-  std::string opencl_device;  // "": the first CPU device (PoCL), else the first device
+  std::string opencl_device;        // "": the first CPU device (PoCL), else the first device
 
   EngineOptions ToEngineOptions() const;
   // --threads, or by default one per core less one (at least one): gRPC's threads do most

@@ -17,9 +17,9 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   spdlog::set_level(spdlog::level::from_str(options.log_level));
   SetLogFormat(options.log_format);
   std::unique_ptr<SkinServer> server(new SkinServer());
-  server->service_ = std::make_unique<SkinningService>(
-      options.default_backend, options.stream_window, options.max_streams,
-      options.InflightBudgetBytes());
+  server->service_ =
+      std::make_unique<SkinningService>(options.default_backend, options.stream_window,
+                                        options.max_streams, options.InflightBudgetBytes());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;

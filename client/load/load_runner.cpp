@@ -69,8 +69,7 @@ class Recorder {
     // Open loop knows its frame count: no reallocation while measuring.
     if (config.rate > 0) {
       result_.latencies_ms.reserve(static_cast<std::size_t>(
-          config.rate * config.streams * (config.duration_seconds + config.warmup_seconds) +
-          1024));
+          config.rate * config.streams * (config.duration_seconds + config.warmup_seconds) + 1024));
     }
   }
 

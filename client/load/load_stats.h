@@ -27,7 +27,7 @@ struct RunResult {
   std::string encoding = "float32";
   uint32_t instances = 1;  // characters per frame (crowd batch)
   uint64_t frames = 0;     // answered correctly within the measured window
-  double seconds = 0;   // the measured window
+  double seconds = 0;      // the measured window
   std::vector<double> latencies_ms;
   double server_queue_ms_sum = 0, server_compute_ms_sum = 0, server_encode_ms_sum = 0;
   std::map<std::string, uint64_t> errors;  // by gRPC status code name

@@ -258,7 +258,8 @@ Result<v1::ServerStats> SkinClient::GetServerStats() {
 Status SkinClient::Skin(const std::string& mesh_id, const std::string& backend,
                         std::span<const float> palette, uint64_t frame, bool want_normals,
                         FrameResult* result, SkinningMethod method) {
-  return Skin(mesh_id, palette, frame, {.backend = backend, .want_normals = want_normals, .method = method}, result);
+  return Skin(mesh_id, palette, frame,
+              {.backend = backend, .want_normals = want_normals, .method = method}, result);
 }
 
 Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palette, uint64_t frame,

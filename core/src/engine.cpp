@@ -85,7 +85,6 @@ class Engine::Impl {
         supporting.empty() ? "none" : supporting));
   }
 
-
   // The limits of a batch (Engine::CheckBatch).
   Status CheckBatch(uint32_t vertex_count, uint32_t instances) const {
     if (instances > options_.max_instances) {
