@@ -61,6 +61,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   request.set_want_normals(options.want_normals);
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
+  request.set_method(WireMethod(options.method));
   v1::SkinResponse part;
   FrameResult result;
 
@@ -72,6 +73,8 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     sink(failed, Clock::now() - sent);
   };
 
+  int reconnects_in_a_row = 0;
+  uint64_t answered_at_reconnect = 0;
   auto more_new = [&] { return next < end && !(options.stop != nullptr && options.stop->load()); };
   while (more_new() || !resend.empty()) {
     grpc::ClientContext context;
@@ -88,7 +91,6 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         const uint64_t frame = again ? resend.front() : next;
         request.set_frame(frame);
         EncodePaletteInto(palette(frame), request.mutable_palette());
-        request.set_method(WireMethod(options.method));
         in_flight.push_back({frame, Clock::now(), reuploads});
         if (again) {
           resend.pop_front();
@@ -139,11 +141,17 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     // The stream broke: its unanswered frames are failed, never silently dropped.
     in_flight.ForEach([&](const InFlight& f) { report_failed(f.frame, status, f.sent); });
     in_flight.clear();
+    // A stream that got answers before it broke (e.g. one a server ended at its maximum
+    // connection age, or a replica that went away) starts the count anew: max_reconnects
+    // bounds reconnects in a row that bring no answer.
+    if (summary.answered > answered_at_reconnect) reconnects_in_a_row = 0;
     if (status.code() != StatusCode::kUnavailable ||
-        summary.reconnects >= static_cast<uint64_t>(options.max_reconnects)) {
+        reconnects_in_a_row >= options.max_reconnects) {
       break;
     }
+    ++reconnects_in_a_row;
     ++summary.reconnects;
+    answered_at_reconnect = summary.answered;
   }
   if (summary_out != nullptr) *summary_out = summary;
   return status;

@@ -28,8 +28,10 @@ struct StreamOptions {
   uint32_t instances = 1;
   uint64_t first_frame = 0;
   uint64_t frames = 100;
-  int window = 4;          // frames in flight
-  int max_reconnects = 3;  // new streams after UNAVAILABLE
+  int window = 4;  // frames in flight
+  // New streams after UNAVAILABLE, in a row without an answer between them: a long stream
+  // that servers end now and then (maximum connection age) goes on for ever.
+  int max_reconnects = 3;
   // Uploads after NOT_FOUND. Behind round_robin an upload may land on another replica
   // than the stream's, so allow a few.
   int max_reuploads = 8;
