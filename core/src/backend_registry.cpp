@@ -14,7 +14,7 @@ std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads,
   backends.push_back(MakeOpenMpBackend(threads));
   backends.push_back(MakeSseBackend());
   backends.push_back(MakeSseOpenMpBackend(threads));
-  backends.push_back(MakeSimdBackend(1));
+  backends.push_back(MakeSimdBackend(0));
   backends.push_back(MakeSimdBackend(threads));
   for (auto& backend : MakeOpenClBackends(threads, opencl_device))
     backends.push_back(std::move(backend));

@@ -40,7 +40,8 @@ Output SkinOnce(Backend& backend, const PreparedMesh& prepared, std::span<const 
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   const std::size_t n = 3ull * prepared.mesh().vertex_count();
   Output out{std::vector<float>(n, kNaN), std::vector<float>(with_normals ? n : 0, kNaN)};
-  const SkinFrame frame{palette, out.positions, out.normals, method};
+  const SkinFrame frame{
+      .palette = palette, .positions = out.positions, .normals = out.normals, .method = method};
   Status valid = frame.Validate(prepared.mesh());
   EXPECT_TRUE(valid.ok()) << valid.ToString();
   Status skinned = backend.Skin(prepared, frame);

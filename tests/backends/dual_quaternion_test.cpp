@@ -197,14 +197,17 @@ TEST(DualQuaternionMethodsTest, APaletteThatIsNotRigidIsRefusedBeforeSkinning) {
   ASSERT_TRUE(mesh.ok());
   std::vector<float> positions(30);
   std::vector<float> palette = MakeRigidPalette(3, 5, 0);
-  const SkinFrame rigid{palette, positions, {}, SkinningMethod::kDualQuaternion};
+  const SkinFrame rigid{
+      .palette = palette, .positions = positions, .method = SkinningMethod::kDualQuaternion};
   EXPECT_TRUE(rigid.Validate(**mesh).ok());
   palette = MakeSyntheticPalette(3, 5, 0);  // scaled by 0.9..1.1: fine for linear only
-  const SkinFrame scaled{palette, positions, {}, SkinningMethod::kDualQuaternion};
+  const SkinFrame scaled{
+      .palette = palette, .positions = positions, .method = SkinningMethod::kDualQuaternion};
   const Status s = scaled.Validate(**mesh);
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("palette[joint 0] is not rigid"), std::string::npos) << s.message();
-  const SkinFrame linear{palette, positions, {}, SkinningMethod::kLinear};
+  const SkinFrame linear{
+      .palette = palette, .positions = positions, .method = SkinningMethod::kLinear};
   EXPECT_TRUE(linear.Validate(**mesh).ok());
 }
 

@@ -106,8 +106,10 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
   std::size_t frame = state.thread_index();
   DeviceTiming device, total;
   for (auto _ : state) {
-    const SkinFrame skin{workload.palettes[frame++ % workload.palettes.size()], positions.span(),
-                         out_normals.span(), &device};
+    const SkinFrame skin{.palette = workload.palettes[frame++ % workload.palettes.size()],
+                         .positions = positions.span(),
+                         .normals = out_normals.span(),
+                         .device_timing = &device};
     if (Status s = backend->Skin(prepared, skin); !s.ok()) {
       state.SkipWithError(s.ToString().c_str());
       break;

@@ -31,8 +31,12 @@ class DualQuaternionContractTest : public ::testing::Test {
   }
 
   Status Skin(const std::string& backend, std::vector<float> palette) {
-    return engine_->SkinBlocking({info_.id, backend, std::move(palette), positions_, normals_,
-                                  SkinningMethod::kDualQuaternion});
+    return engine_->SkinBlocking({.mesh_id = info_.id,
+                                  .backend = backend,
+                                  .palette = palette,
+                                  .positions = positions_,
+                                  .normals = normals_,
+                                  .method = SkinningMethod::kDualQuaternion});
   }
 
   // A rigid palette with joint 3's matrix changed by `edit`.
@@ -113,9 +117,14 @@ TEST_F(DualQuaternionContractTest, SmallRoundingIsAccepted) {
 }
 
 TEST_F(DualQuaternionContractTest, LinearStillTakesScaledPalettes) {
+  const std::vector<float> scaled_palette = MakeSyntheticPalette(5, 9, 0);
   EXPECT_TRUE(engine_
-                  ->SkinBlocking({info_.id, "serial", MakeSyntheticPalette(5, 9, 0), positions_,
-                                  normals_, SkinningMethod::kLinear})
+                  ->SkinBlocking({.mesh_id = info_.id,
+                                  .backend = "serial",
+                                  .palette = scaled_palette,
+                                  .positions = positions_,
+                                  .normals = normals_,
+                                  .method = SkinningMethod::kLinear})
                   .ok());
 }
 

@@ -98,7 +98,13 @@ TEST(OpenClRuntimeTest, FramesReportKernelAndTransferTime) {
     const auto palette = MakeSyntheticPalette(77, 11, 0);
     std::vector<float> positions(3 * 70001), normals(3 * 70001);
     DeviceTiming timing;
-    ASSERT_TRUE(backend.Skin(**prepared, {palette, positions, normals, &timing}).ok()) << id;
+    ASSERT_TRUE(backend
+                    .Skin(**prepared, {.palette = palette,
+                                       .positions = positions,
+                                       .normals = normals,
+                                       .device_timing = &timing})
+                    .ok())
+        << id;
     EXPECT_GT(timing.kernel_ns, 0) << id;
     EXPECT_GT(timing.transfer_ns, 0) << id;
     EXPECT_EQ(ReferenceMismatch(*mesh, palette, positions, normals), "") << id;

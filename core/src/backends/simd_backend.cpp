@@ -110,8 +110,8 @@ class SimdBackend final : public Backend {
 std::vector<std::string> RunnableSimdTargets() { return simd::RunnableTargets(); }
 
 std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_target) {
-  BackendInfo info{.id = threads <= 1 ? "simd" : "simd-openmp",
-                   .description = threads <= 1
+  BackendInfo info{.id = threads <= 0 ? "simd" : "simd-openmp",
+                   .description = threads <= 0
                                       ? "Highway at the CPU's best SIMD target on one thread"
                                       : "the Highway loop across threads with OpenMP",
                    .device = CpuModelName(),

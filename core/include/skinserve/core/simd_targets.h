@@ -19,7 +19,8 @@ inline constexpr const char* kSimdMaxTargetVariable = "SKINSERVE_SIMD_MAX_TARGET
 // (x86: AVX3, AVX2, SSE4, EMU128; Arm: SVE2, SVE, NEON, EMU128...).
 std::vector<std::string> RunnableSimdTargets();
 
-// `simd` (threads <= 1) or `simd-openmp` at the best runnable target no better than
+// `simd` (threads <= 0: one thread, the caller's) or `simd-openmp` on `threads` threads (like
+// `sse-openmp`, even when that is one) at the best runnable target no better than
 // `max_target` (empty: the best). An unknown or unrunnable target gives an unavailable
 // backend whose reason names the runnable ones.
 std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_target);

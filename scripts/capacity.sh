@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# Characters per server in the set-ups the README reports (60 fps streams of 25k vertices x
+# 2 bones, p99 within one frame and nothing dropped), each with its own server on loopback:
+#   shared    server and load client on the same two cores (taskset -c 0,1)
+#   pinned    server on core 0 (--threads 1), load client on core 1 (backend sse)
+#   wide      server on cores 0,1 (--threads 2), load client on cores 2.. (a bigger machine)
+#   transport 100k x 2, 8 streams, window 4, every backend, on cores 0,1 for both
+# usage: scripts/capacity.sh [shared|pinned|wide|transport ...]   (default: shared pinned)
+# Env: SKINSERVE_BIN (folder with skinserve, skinserve-cli, skinserve-load; default build's),
+#      CAPACITY_SECONDS (measured seconds per probe, default 3).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+server_bin=${SKINSERVE_BIN:+$SKINSERVE_BIN/skinserve}
+load_bin=${SKINSERVE_BIN:+$SKINSERVE_BIN/skinserve-load}
+cli_bin=${SKINSERVE_BIN:+$SKINSERVE_BIN/skinserve-cli}
+server_bin=${server_bin:-$root/build/server/skinserve}
+load_bin=${load_bin:-$root/build/client/load/skinserve-load}
+cli_bin=${cli_bin:-$root/build/client/skinserve-cli}
+seconds=${CAPACITY_SECONDS:-3}
+cores=$(nproc)
+
+free_port() {
+  python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
+}
+
+# run_setup NAME SERVER_CPUS LOAD_CPUS SERVER_ARGS -- LOAD_ARGS...
+run_setup() {
+  local name=$1 server_cpus=$2 load_cpus=$3 server_args=$4
+  shift 5
+  local port log pid
+  port=$(free_port)
+  log=$(mktemp)
+  # shellcheck disable=SC2086 # server_args is a list of flags
+  taskset -c "$server_cpus" "$server_bin" --listen "127.0.0.1:$port" --log-level warn \
+    $server_args >"$log" 2>&1 &
+  pid=$!
+  if ! "$cli_bin" --target "127.0.0.1:$port" health --wait 120 >/dev/null; then
+    echo "$name: the server did not become SERVING:" >&2
+    cat "$log" >&2
+    exit 1
+  fi
+  echo "== $name: server on cpus $server_cpus ($server_args), load client on cpus $load_cpus"
+  echo "   $ taskset -c $load_cpus skinserve-load --target 127.0.0.1:$port $*"
+  local status=0
+  taskset -c "$load_cpus" "$load_bin" --target "127.0.0.1:$port" "$@" || status=$?
+  kill -TERM "$pid" 2>/dev/null || true
+  wait "$pid" 2>/dev/null || true
+  if [ $status -ne 0 ]; then
+    echo "   (load client exit $status; server log:)"
+    tail -5 "$log"
+  fi
+  rm -f "$log"
+  echo
+}
+
+probe=(--duration "$seconds" --warmup 0.5 --check-every 20)
+for setup in "${@:-shared pinned}"; do
+  for s in $setup; do
+    case "$s" in
+      shared)
+        run_setup shared 0,1 0,1 "" -- --capacity --capacity-max-streams 256 \
+          --modes float32,snorm16x16 "${probe[@]}"
+        ;;
+      pinned)
+        run_setup pinned 0 1 "--threads 1" -- --backends sse --rate 60 --streams 1 "${probe[@]}"
+        run_setup pinned 0 1 "--threads 1" -- --backends sse --capacity \
+          --capacity-max-streams 256 "${probe[@]}"
+        ;;
+      wide)
+        [ "$cores" -ge 4 ] || { echo "wide: needs at least 4 cores"; continue; }
+        run_setup wide 0,1 "2-$((cores - 1))" "--threads 2" -- --capacity \
+          --capacity-max-streams 512 --modes float32,snorm16x16 "${probe[@]}"
+        ;;
+      transport)
+        run_setup transport 0,1 0,1 "" -- --backends all --vertices 100000 --bones 2 \
+          --streams 8 --window 4 --duration 3 --warmup 1
+        ;;
+      *) echo "unknown set-up '$s'" >&2; exit 2 ;;
+    esac
+  done
+done
