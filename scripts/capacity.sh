@@ -62,7 +62,8 @@ for setup in "${@:-shared pinned}"; do
           --modes float32,snorm16x16 "${probe[@]}"
         ;;
       pinned)
-        run_setup pinned 0 1 "--threads 1" -- --backends sse --rate 60 --streams 1 "${probe[@]}"
+        run_setup pinned 0 1 "--threads 1" -- --backends sse --vertices 25000 --bones 2 --rate 60 \
+          --streams 1 "${probe[@]}"
         run_setup pinned 0 1 "--threads 1" -- --backends sse --capacity \
           --capacity-max-streams 256 "${probe[@]}"
         ;;
