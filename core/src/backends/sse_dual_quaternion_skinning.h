@@ -15,6 +15,7 @@
 #include "dual_quaternion_palette.h"
 #include "influence_dispatch.h"
 #include "skinserve/core/backend.h"
+#include "sse_blocks.h"
 
 namespace skinserve::sse {
 
@@ -152,28 +153,11 @@ void SkinSseDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& p
   const float* weights = mesh.weights().data();
   float* out_p = frame.positions.data();
   float* out_n = Normals ? frame.normals.data() : nullptr;
-  std::size_t v = first;
-  for (; v + 4 <= last; v += 4) {
-    SkinFourDualQuaternion<B, Normals>(
-        quaternions, positions + 3 * v, Normals ? normals + 3 * v : nullptr, joints + B * v,
-        weights + B * v, out_p + 3 * v, Normals ? out_n + 3 * v : nullptr);
-  }
-  if (v == last) return;
-  // The last 1..3 vertices: a full block on a local copy padded by repeating the last
-  // vertex, as in the linear kernel.
-  float in_p[12], in_n[12] = {}, res_p[12], res_n[12], in_w[4 * B];
-  uint16_t in_j[4 * B];
-  const std::size_t count = last - v;
-  for (std::size_t k = 0; k < 4; ++k) {
-    const std::size_t src = v + std::min(k, count - 1);
-    std::copy_n(positions + 3 * src, 3, in_p + 3 * k);
-    if constexpr (Normals) std::copy_n(normals + 3 * src, 3, in_n + 3 * k);
-    std::copy_n(joints + B * src, B, in_j + B * k);
-    std::copy_n(weights + B * src, B, in_w + B * k);
-  }
-  SkinFourDualQuaternion<B, Normals>(quaternions, in_p, in_n, in_j, in_w, res_p, res_n);
-  std::copy_n(res_p, 3 * count, out_p + 3 * v);
-  if constexpr (Normals) std::copy_n(res_n, 3 * count, out_n + 3 * v);
+  ForEachBlockOfFour<B, Normals>(
+      positions, normals, joints, weights, out_p, out_n, first, last,
+      [&](const float* p, const float* n, const uint16_t* j, const float* w, float* rp, float* rn) {
+        SkinFourDualQuaternion<B, Normals>(quaternions, p, n, j, w, rp, rn);
+      });
 }
 
 // The dual-quaternion kernel of CpuBackend (cpu_backend.h).
