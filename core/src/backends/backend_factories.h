@@ -13,7 +13,8 @@ std::unique_ptr<Backend> MakeSerialBackend();
 std::unique_ptr<Backend> MakeOpenMpBackend(int threads);
 std::unique_ptr<Backend> MakeSseBackend();
 std::unique_ptr<Backend> MakeSseOpenMpBackend(int threads);
-// `simd` (threads <= 0) or `simd-openmp` (on `threads` threads), capped by $SKINSERVE_SIMD_MAX_TARGET when set.
+// `simd` (threads <= 0) or `simd-openmp` (on `threads` threads), capped by
+// $SKINSERVE_SIMD_MAX_TARGET when set.
 std::unique_ptr<Backend> MakeSimdBackend(int threads);
 // {opencl, opencl-zerocopy}: one shared context, device, lanes and built program on the
 // device `device` chooses (see OpenClRuntimeOptions). When no OpenCL platform or device
