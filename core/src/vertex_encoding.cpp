@@ -98,13 +98,16 @@ inline Short4 RoundToSnorm16(Float4 t) {
   const Float4 magic = Splat(kRoundMagic);
   const Float4 limit = Splat(static_cast<float>(kSnorm16Max));
   Float4 r = (t + magic) - magic;
-  r = r > limit ? limit : r;
-  r = r < -limit ? -limit : r;
+  r = r <= limit ? r : limit;  // NaN too: converting NaN to an integer is undefined
+  r = r >= -limit ? r : -limit;
   return __builtin_convertvector(__builtin_convertvector(r, Int4), Short4);
 }
 inline int16_t RoundToSnorm16(float t) {
   const float rounded = (t + kRoundMagic) - kRoundMagic;
-  const float clamped = std::min(std::max(rounded, -32767.0f), 32767.0f);
+  // Written so that NaN (refused by the caller, which checks the values it encodes) clamps
+  // too: converting NaN to an integer is undefined.
+  const float clamped =
+      rounded >= -32767.0f ? (rounded <= 32767.0f ? rounded : 32767.0f) : -32767.0f;
   return static_cast<int16_t>(static_cast<int32_t>(clamped));
 }
 

@@ -205,12 +205,13 @@ TEST_F(SchedulerFairnessTest, ALargeFrameDoesNotHoldEveryThreadWhileSmallFramesW
   std::vector<Frame> small(20);
   std::atomic<bool> big_done{false};
   std::atomic<int> small_before_big{0}, small_done{0};
-  std::promise<void> all;
+  std::promise<void> all, big_finished;
   ASSERT_TRUE(engine_
                   ->Submit(big.Request(*big_, "sse-openmp", 0),
                            [&](Status s, FrameTiming) {
                              EXPECT_TRUE(s.ok()) << s.ToString();
                              big_done.store(true);
+                             big_finished.set_value();
                            })
                   .ok());
   for (int i = 0; i < 20; ++i) {
@@ -224,6 +225,7 @@ TEST_F(SchedulerFairnessTest, ALargeFrameDoesNotHoldEveryThreadWhileSmallFramesW
                     .ok());
   }
   all.get_future().wait();
+  big_finished.get_future().wait();  // its buffers and these counters outlive the frame
   // Split across both threads, the large frame would have kept every small one waiting.
   EXPECT_GE(small_before_big.load(), 1);
   EXPECT_LE(engine_->Stats().peak_busy_threads, 2);
