@@ -8,14 +8,22 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "skinserve/core/backend.h"
+#include "skinserve/core/mesh.h"
+
 namespace skinserve::sse {
 
 // skin_four(positions, normals, joints, weights, out_positions, out_normals) skins four
-// vertices; normals and out_normals are null when !Normals.
+// vertices of `mesh` into `frame`'s outputs; normals and out_normals are null when !Normals.
 template <int B, bool Normals, typename SkinFour>
-inline void ForEachBlockOfFour(const float* positions, const float* normals, const uint16_t* joints,
-                               const float* weights, float* out_p, float* out_n, std::size_t first,
+inline void ForEachBlockOfFour(const Mesh& mesh, const SkinFrame& frame, std::size_t first,
                                std::size_t last, const SkinFour& skin_four) {
+  const float* positions = mesh.positions().data();
+  const float* normals = Normals ? mesh.normals().data() : nullptr;
+  const uint16_t* joints = mesh.joints().data();
+  const float* weights = mesh.weights().data();
+  float* out_p = frame.positions.data();
+  float* out_n = Normals ? frame.normals.data() : nullptr;
   std::size_t v = first;
   for (; v + 4 <= last; v += 4) {
     skin_four(positions + 3 * v, Normals ? normals + 3 * v : nullptr, joints + B * v,

@@ -147,14 +147,8 @@ template <int B, bool Normals>
 void SkinSseDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& palette,
                                 const SkinFrame& frame, std::size_t first, std::size_t last) {
   const float* quaternions = palette.joint(0);
-  const float* positions = mesh.positions().data();
-  const float* normals = Normals ? mesh.normals().data() : nullptr;
-  const uint16_t* joints = mesh.joints().data();
-  const float* weights = mesh.weights().data();
-  float* out_p = frame.positions.data();
-  float* out_n = Normals ? frame.normals.data() : nullptr;
   ForEachBlockOfFour<B, Normals>(
-      positions, normals, joints, weights, out_p, out_n, first, last,
+      mesh, frame, first, last,
       [&](const float* p, const float* n, const uint16_t* j, const float* w, float* rp, float* rn) {
         SkinFourDualQuaternion<B, Normals>(quaternions, p, n, j, w, rp, rn);
       });
