@@ -13,6 +13,7 @@
 #include <cstdint>
 
 #include "dual_quaternion_palette.h"
+#include "force_inline.h"
 #include "influence_dispatch.h"
 #include "skinserve/core/backend.h"
 #include "sse_blocks.h"
@@ -28,7 +29,7 @@ struct Lanes8 {
 };
 
 // x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3 -> (x0..x3), (y0..y3), (z0..z3).
-inline Lanes3 Deinterleave(__m128 a, __m128 b, __m128 c) {
+SKINSERVE_FORCE_INLINE Lanes3 Deinterleave(__m128 a, __m128 b, __m128 c) {
   const __m128 b2_c1 = _mm_shuffle_ps(b, c, _MM_SHUFFLE(1, 1, 2, 2));  // b2 b2 c1 c1
   const __m128 a1_b0 = _mm_shuffle_ps(a, b, _MM_SHUFFLE(0, 0, 1, 1));  // a1 a1 b0 b0
   const __m128 b3_c2 = _mm_shuffle_ps(b, c, _MM_SHUFFLE(2, 2, 3, 3));  // b3 b3 c2 c2
@@ -39,7 +40,7 @@ inline Lanes3 Deinterleave(__m128 a, __m128 b, __m128 c) {
 }
 
 // The inverse of Deinterleave: stores 12 floats at `out`.
-inline void StoreInterleaved(const Lanes3& v, float* out) {
+SKINSERVE_FORCE_INLINE void StoreInterleaved(const Lanes3& v, float* out) {
   const __m128 x0_y0 = _mm_shuffle_ps(v.x, v.y, _MM_SHUFFLE(0, 0, 0, 0));  // x0 x0 y0 y0
   const __m128 z0_x1 = _mm_shuffle_ps(v.z, v.x, _MM_SHUFFLE(1, 1, 0, 0));  // z0 z0 x1 x1
   const __m128 y1_z1 = _mm_shuffle_ps(v.y, v.z, _MM_SHUFFLE(1, 1, 1, 1));  // y1 y1 z1 z1
@@ -53,7 +54,8 @@ inline void StoreInterleaved(const Lanes3& v, float* out) {
 
 // Influence i of the four vertices: their joints' dual quaternions, transposed.
 template <int B>
-inline Lanes8 LoadInfluence(const float* quaternions, const uint16_t* joints, int i) {
+SKINSERVE_FORCE_INLINE Lanes8 LoadInfluence(const float* quaternions, const uint16_t* joints,
+                                            int i) {
   constexpr std::size_t kStride = DualQuaternionPalette::kFloatsPerJoint;
   const float* q0 = quaternions + kStride * joints[i];
   const float* q1 = quaternions + kStride * joints[B + i];
@@ -68,7 +70,7 @@ inline Lanes8 LoadInfluence(const float* quaternions, const uint16_t* joints, in
 }
 
 // p + 2 r x (r x p + rw p), lane-wise.
-inline Lanes3 Rotate(const Lanes8& q, const Lanes3& p) {
+SKINSERVE_FORCE_INLINE Lanes3 Rotate(const Lanes8& q, const Lanes3& p) {
   const __m128 cx =
       _mm_add_ps(_mm_sub_ps(_mm_mul_ps(q.ry, p.z), _mm_mul_ps(q.rz, p.y)), _mm_mul_ps(q.rw, p.x));
   const __m128 cy =
@@ -83,9 +85,10 @@ inline Lanes3 Rotate(const Lanes8& q, const Lanes3& p) {
 
 // Skins one block of four vertices: 12 floats of positions (and normals) in and out.
 template <int B, bool Normals>
-inline void SkinFourDualQuaternion(const float* quaternions, const float* positions,
-                                   const float* normals, const uint16_t* joints,
-                                   const float* weights, float* out_positions, float* out_normals) {
+SKINSERVE_FORCE_INLINE void SkinFourDualQuaternion(const float* quaternions, const float* positions,
+                                                   const float* normals, const uint16_t* joints,
+                                                   const float* weights, float* out_positions,
+                                                   float* out_normals) {
   // Blend: b = sum_i +-w_i q_i, the sign of each against the first influence.
   const Lanes8 first = LoadInfluence<B>(quaternions, joints, 0);
   Lanes8 b;
@@ -149,9 +152,10 @@ void SkinSseDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& p
   const float* quaternions = palette.joint(0);
   ForEachBlockOfFour<B, Normals>(
       mesh, frame, first, last,
-      [&](const float* p, const float* n, const uint16_t* j, const float* w, float* rp, float* rn) {
-        SkinFourDualQuaternion<B, Normals>(quaternions, p, n, j, w, rp, rn);
-      });
+      [&](const float* p, const float* n, const uint16_t* j, const float* w, float* rp, float* rn)
+          __attribute__((always_inline)) {
+            SkinFourDualQuaternion<B, Normals>(quaternions, p, n, j, w, rp, rn);
+          });
 }
 
 // The dual-quaternion kernel of CpuBackend (cpu_backend.h).

@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "force_inline.h"
 #include "influence_dispatch.h"
 #include "skinserve/core/backend.h"
 #include "sse_blocks.h"
@@ -21,7 +22,7 @@
 namespace skinserve::sse {
 
 template <int Lane>
-inline __m128 Broadcast(__m128 v) {
+SKINSERVE_FORCE_INLINE __m128 Broadcast(__m128 v) {
   return _mm_shuffle_ps(v, v, _MM_SHUFFLE(Lane, Lane, Lane, Lane));
 }
 
@@ -33,7 +34,8 @@ struct Columns {
 // `columns`: ColumnPalette::joint(0), held in a local so that the output stores, which
 // might alias the ColumnPalette, do not force a reload per vertex.
 template <int B>
-inline Columns Blend(const float* columns, const uint16_t* joints, const float* weights) {
+SKINSERVE_FORCE_INLINE Columns Blend(const float* columns, const uint16_t* joints,
+                                     const float* weights) {
   constexpr std::size_t kStride = ColumnPalette::kFloatsPerJoint;
   __m128 w = _mm_set1_ps(weights[0]);
   const float* m = columns + kStride * joints[0];
@@ -51,20 +53,20 @@ inline Columns Blend(const float* columns, const uint16_t* joints, const float* 
 }
 
 // Equation 4 on (x, y, z, 1): (x', y', z', 0).
-inline __m128 TransformPoint(const Columns& m, __m128 x, __m128 y, __m128 z) {
+SKINSERVE_FORCE_INLINE __m128 TransformPoint(const Columns& m, __m128 x, __m128 y, __m128 z) {
   return _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, m.c0), _mm_mul_ps(y, m.c1)),
                     _mm_add_ps(_mm_mul_ps(z, m.c2), m.c3));
 }
 
 // The upper 3x3 on (x, y, z, 0): (x', y', z', 0).
-inline __m128 TransformDirection(const Columns& m, __m128 x, __m128 y, __m128 z) {
+SKINSERVE_FORCE_INLINE __m128 TransformDirection(const Columns& m, __m128 x, __m128 y, __m128 z) {
   return _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, m.c0), _mm_mul_ps(y, m.c1)), _mm_mul_ps(z, m.c2));
 }
 
 // Vertex K of a block of four: its x, y and z, each broadcast to a register, from the
 // block's 12 floats held in three registers.
 template <int K>
-inline void Splat(const __m128 (&in)[3], __m128& x, __m128& y, __m128& z) {
+SKINSERVE_FORCE_INLINE void Splat(const __m128 (&in)[3], __m128& x, __m128& y, __m128& z) {
   constexpr int kX = 3 * K, kY = kX + 1, kZ = kX + 2;
   x = Broadcast<kX % 4>(in[kX / 4]);
   y = Broadcast<kY % 4>(in[kY / 4]);
@@ -72,14 +74,14 @@ inline void Splat(const __m128 (&in)[3], __m128& x, __m128& y, __m128& z) {
 }
 
 // Four (x, y, z, 0) results a..d packed into three registers: x y z x | y z x y | z x y z.
-inline __m128 PackFirst(__m128 a, __m128 b) {
+SKINSERVE_FORCE_INLINE __m128 PackFirst(__m128 a, __m128 b) {
   const __m128 bx_az = _mm_shuffle_ps(b, a, _MM_SHUFFLE(2, 2, 0, 0));  // bx bx az az
   return _mm_shuffle_ps(a, bx_az, _MM_SHUFFLE(0, 2, 1, 0));            // ax ay az bx
 }
-inline __m128 PackSecond(__m128 b, __m128 c) {
+SKINSERVE_FORCE_INLINE __m128 PackSecond(__m128 b, __m128 c) {
   return _mm_shuffle_ps(b, c, _MM_SHUFFLE(1, 0, 2, 1));  // by bz cx cy
 }
-inline __m128 PackThird(__m128 c, __m128 d) {
+SKINSERVE_FORCE_INLINE __m128 PackThird(__m128 c, __m128 d) {
   const __m128 cz_dx = _mm_shuffle_ps(c, d, _MM_SHUFFLE(0, 0, 2, 2));  // cz cz dx dx
   return _mm_shuffle_ps(cz_dx, d, _MM_SHUFFLE(2, 1, 2, 0));            // cz dx dy dz
 }
@@ -88,9 +90,10 @@ inline __m128 PackThird(__m128 c, __m128 d) {
 // vertex is finished before the next is blended, so four matrices never need registers
 // at once.
 template <int B, bool Normals, int K>
-inline void SkinVertex(const float* columns, const uint16_t* joints, const float* weights,
-                       const __m128 (&p)[3], const __m128 (&n)[3], __m128 (&p_out)[4],
-                       __m128 (&n_out)[4]) {
+SKINSERVE_FORCE_INLINE void SkinVertex(const float* columns, const uint16_t* joints,
+                                       const float* weights, const __m128 (&p)[3],
+                                       const __m128 (&n)[3], __m128 (&p_out)[4],
+                                       __m128 (&n_out)[4]) {
   const Columns m = Blend<B>(columns, joints + K * B, weights + K * B);
   __m128 x, y, z;
   Splat<K>(p, x, y, z);
@@ -103,7 +106,7 @@ inline void SkinVertex(const float* columns, const uint16_t* joints, const float
 
 // Renormalises four transformed normals and stores them: one true square root and one
 // division for the four (rsqrt's 12 bits would miss the 1e-5 tolerance).
-inline void StoreNormalised(__m128 (&t)[4], float* out) {
+SKINSERVE_FORCE_INLINE void StoreNormalised(__m128 (&t)[4], float* out) {
   __m128 s0 = _mm_mul_ps(t[0], t[0]), s1 = _mm_mul_ps(t[1], t[1]);
   __m128 s2 = _mm_mul_ps(t[2], t[2]), s3 = _mm_mul_ps(t[3], t[3]);
   _MM_TRANSPOSE4_PS(s0, s1, s2, s3);  // s0: the four x², s1: the y², s2: the z², s3: 0
@@ -120,9 +123,10 @@ inline void StoreNormalised(__m128 (&t)[4], float* out) {
 
 // Skins one block of four vertices: 12 floats of positions (and normals) in and out.
 template <int B, bool Normals>
-inline void SkinFour(const float* columns, const float* positions, const float* normals,
-                     const uint16_t* joints, const float* weights, float* out_positions,
-                     float* out_normals) {
+SKINSERVE_FORCE_INLINE void SkinFour(const float* columns, const float* positions,
+                                     const float* normals, const uint16_t* joints,
+                                     const float* weights, float* out_positions,
+                                     float* out_normals) {
   const __m128 p[3] = {_mm_loadu_ps(positions), _mm_loadu_ps(positions + 4),
                        _mm_loadu_ps(positions + 8)};
   __m128 n[3] = {}, p_out[4], n_out[4] = {};
@@ -146,9 +150,8 @@ void SkinSseRange(const Mesh& mesh, const ColumnPalette& palette, const SkinFram
   const float* columns = palette.joint(0);
   ForEachBlockOfFour<B, Normals>(
       mesh, frame, first, last,
-      [&](const float* p, const float* n, const uint16_t* j, const float* w, float* rp, float* rn) {
-        SkinFour<B, Normals>(columns, p, n, j, w, rp, rn);
-      });
+      [&](const float* p, const float* n, const uint16_t* j, const float* w, float* rp, float* rn)
+          __attribute__((always_inline)) { SkinFour<B, Normals>(columns, p, n, j, w, rp, rn); });
 }
 
 // The kernel of CpuBackend (cpu_backend.h): the frame's ColumnPalette, SkinSseRange<B, normals>
