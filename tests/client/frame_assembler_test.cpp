@@ -10,7 +10,9 @@
 #include <string>
 #include <vector>
 
+#if SKINSERVE_COUNT_ALLOCATIONS
 #include "alloc_counter.h"
+#endif
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/client/skin_client.h"
 
@@ -219,6 +221,7 @@ TEST(FrameAssemblerTest, AnErrorPartFailsTheFrameWithItsCode) {
   EXPECT_TRUE(r.positions.empty());
 }
 
+#if SKINSERVE_COUNT_ALLOCATIONS  // see CMakeLists.txt: not in sanitizer builds
 TEST(FrameAssemblerTest, AWarmResultIsRefilledWithoutAllocating) {
   const auto positions = Instances(4, 5000, false);
   const auto normals = Instances(4, 5000, true);
@@ -253,6 +256,8 @@ TEST(FrameAssemblerTest, PaletteIntoAReusedRequestAllocatesOnce) {
   for (int i = 0; i < 10; ++i) EncodePaletteInto(palette, request.mutable_palette());
   EXPECT_EQ(skinserve_alloc_counters()->allocations - before, 0u);
 }
+
+#endif  // SKINSERVE_COUNT_ALLOCATIONS
 
 TEST(PaletteSourceTest, ViewsStayValidUntilTheNextCall) {
   const std::vector<std::vector<float>> palettes = {{1, 2, 3}, {4, 5}};
