@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <deque>
+#include <vector>
 
 #include "skinserve/client/channel.h"
 
@@ -84,6 +85,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     // answers it sent before are still to be read, and gRPC's Finish only returns once
     // they are, so stop writing but keep reading.
     bool writes_closed = false;
+    uint64_t heard = 0;  // answers this stream brought, good or not
     auto fill = [&] {
       while (!broken && !writes_closed && in_flight.size() < window &&
              (!resend.empty() || more_new())) {
@@ -112,6 +114,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
       }
       const InFlight head = in_flight.front();  // a copy: the slot is reused
       in_flight.pop_front();
+      ++heard;
       if (result.frame != head.frame) {
         result.status = Internal(
             fmt::format("frame {} answered where frame {} was due", result.frame, head.frame));
@@ -138,17 +141,26 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     // Everything so far answered on a stream that ended cleanly: more to send?
     if (!broken && !writes_closed && status.ok()) continue;
     if (status.ok()) status = Internal("the stream ended with frames unanswered");
-    // The stream broke: its unanswered frames are failed, never silently dropped.
-    in_flight.ForEach([&](const InFlight& f) { report_failed(f.frame, status, f.sent); });
-    in_flight.clear();
     // A stream that got answers before it broke (e.g. one a server ended at its maximum
     // connection age, or a replica that went away) starts the count anew: max_reconnects
     // bounds reconnects in a row that bring no answer.
     if (summary.answered > answered_at_reconnect) reconnects_in_a_row = 0;
-    if (status.code() != StatusCode::kUnavailable ||
-        reconnects_in_a_row >= options.max_reconnects) {
-      break;
+    const bool reconnect =
+        status.code() == StatusCode::kUnavailable && reconnects_in_a_row < options.max_reconnects;
+    if (reconnect && heard == 0) {
+      // UNAVAILABLE before the stream's first answer: it never got going (typically gRPC's
+      // "GOAWAY received", a stream opened on a connection the server was just ageing out).
+      // A frame is a pure function of mesh and palette, so its frames go on the next stream.
+      std::vector<uint64_t> again;
+      in_flight.ForEach([&](const InFlight& f) { again.push_back(f.frame); });
+      resend.insert(resend.begin(), again.begin(), again.end());
+    } else {
+      // The stream broke after answering: its unanswered frames are failed, never silently
+      // dropped (the server may be gone mid-frame; the caller decides what to do).
+      in_flight.ForEach([&](const InFlight& f) { report_failed(f.frame, status, f.sent); });
     }
+    in_flight.clear();
+    if (!reconnect) break;
     ++reconnects_in_a_row;
     ++summary.reconnects;
     answered_at_reconnect = summary.answered;

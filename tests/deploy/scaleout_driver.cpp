@@ -151,6 +151,10 @@ int main(int argc, char** argv) {
               if (!ok) {
                 ++tally.sink_failed;
                 ++tally.failed_by_code[StatusCodeName(r.status.code())];
+                // The first few reasons, for whoever reads a failed run's log.
+                if (tally.sink_failed <= 5) {
+                  fmt::print(stderr, "frame {} failed: {}\n", r.frame, r.status.ToString());
+                }
               } else {
                 ++tally.sink_ok;
                 tally.wrong += !right;

@@ -30,7 +30,9 @@ struct StreamOptions {
   uint64_t frames = 100;
   int window = 4;  // frames in flight
   // New streams after UNAVAILABLE, in a row without an answer between them: a long stream
-  // that servers end now and then (maximum connection age) goes on for ever.
+  // that servers end now and then (maximum connection age) goes on for ever. The frames in
+  // flight on a stream that broke after answering are reported failed; on one that broke
+  // before its first answer (it never got going) they are sent again on the next stream.
   int max_reconnects = 3;
   // Uploads after NOT_FOUND. Behind round_robin an upload may land on another replica
   // than the stream's, so allow a few.
