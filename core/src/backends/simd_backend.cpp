@@ -87,10 +87,13 @@ class SimdBackend final : public Backend {
     float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
     try {
       const float* columns = ColumnPalette(frame.palette);
-      if (info_.threads <= 1) {
+      // The scheduler may narrow a frame to fewer threads (SkinFrame::threads).
+      const int threads =
+          frame.threads > 0 ? std::min(frame.threads, info_.threads) : info_.threads;
+      if (threads <= 1) {
         kernel_.skin_range(stream, columns, frame.positions.data(), out_n, 0, count);
       } else {
-        ParallelOverVertices(count, info_.threads, [&](std::size_t first, std::size_t last) {
+        ParallelOverVertices(count, threads, [&](std::size_t first, std::size_t last) {
           kernel_.skin_range(stream, columns, frame.positions.data(), out_n, first, last);
         });
       }
@@ -115,7 +118,8 @@ std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_t
                                       ? "Highway at the CPU's best SIMD target on one thread"
                                       : "the Highway loop across threads with OpenMP",
                    .device = CpuModelName(),
-                   .threads = std::max(threads, 1)};
+                   .threads = std::max(threads, 1),
+                   .min_threads = 1};  // a parallel loop runs on as few threads as given
   simd::Kernel kernel;
   std::string error;
   if (!simd::SelectKernel(max_target, &kernel, &error)) {
