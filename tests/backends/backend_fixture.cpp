@@ -22,7 +22,8 @@ Backend& BackendById(const std::string& id) {
 std::vector<std::string> ComputingBackendIds() {
   std::vector<std::string> ids;
   for (const auto& backend : AllBackends()) {
-    if (backend->info().id != "passthrough") ids.push_back(backend->info().id);
+    const std::string& id = backend->info().id;
+    if (id != "passthrough" && (kSseBackendsRunHere || !IsSseBackend(id))) ids.push_back(id);
   }
   return ids;
 }

@@ -184,7 +184,8 @@ INSTANTIATE_TEST_SUITE_P(DualQuaternionBackends, TwistTest,
                          });
 
 TEST(DualQuaternionMethodsTest, TheCpuBackendsListItOthersDoNot) {
-  const std::vector<std::string> expected = {"serial", "openmp", "sse", "sse-openmp"};
+  std::vector<std::string> expected = {"serial", "openmp", "sse", "sse-openmp"};
+  if (!kSseBackendsRunHere) expected.resize(2);  // the SSE ones are x86 only
   EXPECT_EQ(BackendIdsWithMethod(SkinningMethod::kDualQuaternion), expected);
   for (const auto& backend : AllBackends()) {
     EXPECT_TRUE(backend->info().Supports(SkinningMethod::kLinear)) << backend->info().id;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "cpu_backend_ids.h"
 #include "skinserve/core/engine.h"
 #include "skinserve/core/palette.h"
 #include "skinserve/core/reference.h"
@@ -18,7 +19,8 @@ namespace {
 class DualQuaternionContractTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    auto engine = Engine::Create({.enabled_backends = {"serial", "sse-openmp", "passthrough"}});
+    auto engine = Engine::Create(
+        {.enabled_backends = {"serial", kDualQuaternionOpenMpTestBackend, "passthrough"}});
     ASSERT_TRUE(engine.ok()) << engine.status().ToString();
     engine_ = std::move(engine).value();
     arrays_ = MakeSyntheticMesh(
@@ -58,7 +60,7 @@ void ExpectRefused(const Status& s, const std::string& part) {
 }
 
 TEST_F(DualQuaternionContractTest, RigidFramesMatchTheReference) {
-  for (const std::string backend : {"serial", "sse-openmp"}) {
+  for (const std::string backend : {"serial", kDualQuaternionOpenMpTestBackend}) {
     const std::vector<float> palette = MakeRigidPalette(5, 9, 1);
     ASSERT_TRUE(Skin(backend, palette).ok()) << backend;
     const auto mesh = Mesh::Create(arrays_).value();
@@ -132,7 +134,8 @@ TEST_F(DualQuaternionContractTest, ABackendWithoutTheMethodIsRefusedNamingThoseW
   const Status s = Skin("passthrough", MakeRigidPalette(5, 9, 0));
   ExpectRefused(s, "backend 'passthrough' does not implement method dual-quaternion");
   ExpectRefused(s, "(it implements linear)");
-  ExpectRefused(s, "backends here that do: serial, sse-openmp");
+  ExpectRefused(s,
+                std::string("backends here that do: serial, ") + kDualQuaternionOpenMpTestBackend);
 }
 
 TEST_F(DualQuaternionContractTest, EngineListsEachBackendsMethods) {

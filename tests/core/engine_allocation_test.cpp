@@ -8,6 +8,7 @@
 #include <future>
 #include <new>
 
+#include "cpu_backend_ids.h"
 #include "skinserve/core/engine.h"
 #include "skinserve/core/synthetic.h"
 
@@ -36,7 +37,8 @@ class CountingJob final : public SkinJob {
 
 TEST(EngineAllocationTest, AReusedJobAllocatesNothingPerFrame) {
   auto engine =
-      Engine::Create({.compute_threads = 2, .enabled_backends = {"serial", "sse", "sse-openmp"}})
+      Engine::Create({.compute_threads = 2,
+                      .enabled_backends = {"serial", kSimdTestBackend, kSimdOpenMpTestBackend}})
           .value();
   const auto info = engine->AddMesh(MakeSyntheticMesh({.vertex_count = 120'000})).value();
   const std::vector<float> palettes = [&] {
@@ -59,7 +61,7 @@ TEST(EngineAllocationTest, AReusedJobAllocatesNothingPerFrame) {
     ASSERT_TRUE(engine->SkinBlocking(request).ok());
     EXPECT_GT(allocations.load(), before);
   }
-  for (const char* backend : {"serial", "sse", "sse-openmp"}) {
+  for (const char* backend : {"serial", kSimdTestBackend, kSimdOpenMpTestBackend}) {
     for (uint32_t instances : {1u, 3u}) {
       SCOPED_TRACE(::testing::Message() << backend << " K=" << instances);
       CountingJob job;

@@ -9,6 +9,7 @@
 #include <mutex>
 #include <thread>
 
+#include "cpu_backend_ids.h"
 #include "skinserve/core/reference.h"
 #include "skinserve/core/synthetic.h"
 
@@ -180,7 +181,7 @@ class SchedulerFairnessTest : public ::testing::Test {
   static void SetUpTestSuite() {
     engine_ = MakeEngine({.compute_threads = 2,
                           .queue_capacity = 64,
-                          .enabled_backends = {"sse-openmp", "openmp"}})
+                          .enabled_backends = {kSimdOpenMpTestBackend, "openmp"}})
                   .release();
     big_ = new MeshInfo(
         engine_->AddMesh(MakeSyntheticMesh({.vertex_count = 1'600'000, .influences = 2})).value());
@@ -207,7 +208,7 @@ TEST_F(SchedulerFairnessTest, ALargeFrameDoesNotHoldEveryThreadWhileSmallFramesW
   std::atomic<int> small_before_big{0}, small_done{0};
   std::promise<void> all, big_finished;
   ASSERT_TRUE(engine_
-                  ->Submit(big.Request(*big_, "sse-openmp", 0),
+                  ->Submit(big.Request(*big_, kSimdOpenMpTestBackend, 0),
                            [&](Status s, FrameTiming) {
                              EXPECT_TRUE(s.ok()) << s.ToString();
                              big_done.store(true);
@@ -216,7 +217,7 @@ TEST_F(SchedulerFairnessTest, ALargeFrameDoesNotHoldEveryThreadWhileSmallFramesW
                   .ok());
   for (int i = 0; i < 20; ++i) {
     ASSERT_TRUE(engine_
-                    ->Submit(small[i].Request(*small_, "sse-openmp", i),
+                    ->Submit(small[i].Request(*small_, kSimdOpenMpTestBackend, i),
                              [&](Status s, FrameTiming) {
                                EXPECT_TRUE(s.ok()) << s.ToString();
                                if (!big_done.load()) small_before_big.fetch_add(1);

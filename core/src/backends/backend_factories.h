@@ -11,6 +11,10 @@ namespace skinserve {
 
 std::unique_ptr<Backend> MakeSerialBackend();
 std::unique_ptr<Backend> MakeOpenMpBackend(int threads);
+// `sse` and `sse-openmp` are SSE2, which only x86 has; elsewhere they are unavailable with
+// this reason.
+inline constexpr char kSseNeedsX86[] =
+    "SSE2 is an x86 instruction set and this CPU is not x86 (the `simd` backends run here)";
 std::unique_ptr<Backend> MakeSseBackend();
 std::unique_ptr<Backend> MakeSseOpenMpBackend(int threads);
 // `simd` (threads <= 0) or `simd-openmp` (on `threads` threads), capped by

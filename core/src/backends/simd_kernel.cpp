@@ -1,6 +1,7 @@
 // The `simd` skinning kernel, written once with Google Highway and compiled for every
-// target the build allows (x86: SCALAR, SSE4, AVX2, AVX3; Arm: NEON); the
-// baseline stays plain x86-64 and SelectKernel() picks the best target the CPU runs.
+// target the build allows (x86: SCALAR, SSE4, AVX2, AVX3; Arm: NEON, SVE, SVE2 and their
+// 128/256-bit specialisations); the baseline stays plain x86-64 (or arm64) and
+// SelectKernel() picks the best target the CPU runs.
 //
 // Per vertex: the blended matrix is B multiply-adds of whole palette records (a joint's
 // 16 floats are one 512-bit, two 256-bit or four 128-bit vectors, so every lane works),
@@ -11,11 +12,9 @@
 // time, four vertices per step, while the chunk is still in L1.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_kernel.cpp"
-// SSSE3 would add compile time and nothing over SSE4 on any CPU we run on. SVE is left
-// out: its vectors are sizeless and cannot live in the kernel's arrays and structs, so Arm
-// runs the NEON target (every arm64 CPU has it).
+// SSSE3 would add compile time and nothing over SSE4 on any CPU we run on.
 #ifndef HWY_DISABLED_TARGETS
-#define HWY_DISABLED_TARGETS (HWY_SSSE3 | HWY_SVE | HWY_SVE2 | HWY_SVE_256 | HWY_SVE2_128)
+#define HWY_DISABLED_TARGETS HWY_SSSE3
 #endif
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 // Order matters: foreach_target.h first, then highway.h.
@@ -34,7 +33,16 @@ namespace skinserve::simd {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
+// SVE's vectors are sizeless: they cannot live in arrays or structs, so those targets
+// take the 128-bit path below with the four columns in locals (the first 128 bits of
+// each vector, whatever its length).
+#define SKINSERVE_SIMD_SIZELESS \
+  ((HWY_TARGET & (HWY_SVE | HWY_SVE2 | HWY_SVE_256 | HWY_SVE2_128)) != 0)
+#if SKINSERVE_SIMD_SIZELESS
+using D = hn::FixedTag<float, 4>;
+#else
 using D = hn::CappedTag<float, kFloatsPerJoint>;  // at most one palette record
+#endif
 using V = hn::Vec<D>;
 constexpr std::size_t kLanes = hn::MaxLanes(D());
 constexpr std::size_t kVectorsPerJoint = kFloatsPerJoint / kLanes;
@@ -47,6 +55,42 @@ using D4 = hn::FixedTag<float, 4>;
 using V4 = hn::Vec<D4>;
 #endif
 
+#if SKINSERVE_SIMD_SIZELESS
+struct Spread {};
+
+// Column k of the blended matrix (equation 3, as Blend() below): 4 lanes.
+template <int B, typename Joint>
+HWY_INLINE V BlendColumn(const float* HWY_RESTRICT columns, const Joint* HWY_RESTRICT joints,
+                         const float* HWY_RESTRICT weights, std::size_t k) {
+  const D d;
+  const V base = hn::Load(d, columns + kFloatsPerJoint * joints[B - 1] + 4 * k);
+  V sum = base;
+  for (int i = 0; i < B - 1; ++i) {
+    const float* record = columns + kFloatsPerJoint * joints[i];
+    sum = hn::MulAdd(hn::Set(d, weights[i]), hn::Sub(hn::Load(d, record + 4 * k), base), sum);
+  }
+  return sum;
+}
+
+// One vertex: 4 floats stored at each output (the fourth is scratch, see the top).
+template <int B, bool Normals, typename Joint>
+HWY_INLINE void SkinVertex(const float* HWY_RESTRICT columns, const Spread&,
+                           const float* HWY_RESTRICT p, const float* HWY_RESTRICT n,
+                           const Joint* HWY_RESTRICT joints, const float* HWY_RESTRICT weights,
+                           float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n) {
+  const D d;
+  const V c0 = BlendColumn<B>(columns, joints, weights, 0);
+  const V c1 = BlendColumn<B>(columns, joints, weights, 1);
+  const V c2 = BlendColumn<B>(columns, joints, weights, 2);
+  const V c3 = BlendColumn<B>(columns, joints, weights, 3);
+  const V xc = hn::MulAdd(c0, hn::Set(d, p[0]), c3);
+  hn::StoreU(hn::MulAdd(c2, hn::Set(d, p[2]), hn::MulAdd(c1, hn::Set(d, p[1]), xc)), d, out_p);
+  if constexpr (Normals) {
+    const V nx = hn::Mul(c0, hn::Set(d, n[0]));
+    hn::StoreU(hn::MulAdd(c2, hn::Set(d, n[2]), hn::MulAdd(c1, hn::Set(d, n[1]), nx)), d, out_n);
+  }
+}
+#else
 struct Blended {
   // Declared here so it is compiled for this target (NEON's vectors refuse an implicit one).
   Blended() {}
@@ -159,6 +203,7 @@ HWY_INLINE void SkinVertex(const float* HWY_RESTRICT columns, const Spread& s,
   Transform<true>(m, s, p, out_p);
   if constexpr (Normals) Transform<false>(m, s, n, out_n);
 }
+#endif  // SKINSERVE_SIMD_SIZELESS
 
 // Scales normals [first, last) to unit length: one square root and one division per
 // four vertices (rsqrt's 12 bits would miss the 1e-5 tolerance).
