@@ -50,8 +50,17 @@ STRESS_PACKAGES=(
 SIMD_BUILD_PACKAGES=(libhwy-dev)
 SIMD_RUNTIME_PACKAGES=(libhwy1)
 
+# The engine on arm64 (scripts/arm64-test.sh): Debian's cross toolchain, qemu-user, and the
+# engine's libraries for arm64 installed beside the amd64 ones (multiarch; the arm64
+# architecture is added below when they are wanted).
+ARM64_PACKAGES=(
+  crossbuild-essential-arm64 qemu-user libhwy-dev:arm64 libfmt-dev:arm64 libssl-dev:arm64
+  ocl-icd-opencl-dev:arm64 libtinygltf-dev:arm64 libgtest-dev:arm64 libgomp1:arm64
+)
+
 want=("${BUILD_PACKAGES[@]}" "${RUNTIME_PACKAGES[@]}" "${TEST_PACKAGES[@]}" "${GPU_PACKAGES[@]}" "${DEPLOY_PACKAGES[@]}"
-  "${STRESS_PACKAGES[@]}" "${SIMD_BUILD_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}")
+  "${STRESS_PACKAGES[@]}" "${SIMD_BUILD_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}"
+  "${ARM64_PACKAGES[@]}")
 case "${1:-all}" in
   runtime) want=("${RUNTIME_PACKAGES[@]}" "${SIMD_RUNTIME_PACKAGES[@]}") ;;  # runtime stage
   build)  # compile, no test tools
@@ -74,5 +83,8 @@ SUDO=""
 [ "$(id -u)" -eq 0 ] || SUDO="sudo"
 echo "install-deps: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
+if [[ " ${missing[*]}" == *":arm64"* ]] && ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  $SUDO dpkg --add-architecture arm64
+fi
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
