@@ -53,8 +53,7 @@ class CpuBackend final : public Backend {
   Status Run(const Mesh& mesh, const SkinFrame& frame) {
     try {
       const typename K::FramePalette palette(frame.palette);
-      const int threads =
-          frame.threads > 0 ? std::min(frame.threads, info_.threads) : info_.threads;
+      const int threads = FrameThreads(frame.threads, info_.threads);
       if (threads <= 1) {
         K::SkinRange(mesh, palette, frame, 0, mesh.vertex_count());
       } else {

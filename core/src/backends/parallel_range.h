@@ -7,6 +7,12 @@
 
 namespace skinserve {
 
+// The threads one frame runs on: the scheduler's SkinFrame::threads, at most the
+// backend's own `threads`; all of them when the frame asks for none (0).
+inline int FrameThreads(int requested, int backend_threads) {
+  return requested > 0 ? std::min(requested, backend_threads) : backend_threads;
+}
+
 // Calls skin_range(first, last) on `threads` OpenMP threads covering [0, count).
 template <typename SkinRange>
 void ParallelOverVertices(std::size_t count, int threads, const SkinRange& skin_range) {

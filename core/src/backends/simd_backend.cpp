@@ -87,9 +87,7 @@ class SimdBackend final : public Backend {
     float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
     try {
       const float* columns = ColumnPalette(frame.palette);
-      // The scheduler may narrow a frame to fewer threads (SkinFrame::threads).
-      const int threads =
-          frame.threads > 0 ? std::min(frame.threads, info_.threads) : info_.threads;
+      const int threads = FrameThreads(frame.threads, info_.threads);
       if (threads <= 1) {
         kernel_.skin_range(stream, columns, frame.positions.data(), out_n, 0, count);
       } else {

@@ -1,4 +1,6 @@
 // `sse`: the SSE loop on one thread.
+#include <utility>
+
 #include "backend_factories.h"
 #include "cpu_backend.h"
 #include "cpu_model.h"
@@ -12,19 +14,18 @@
 namespace skinserve {
 
 std::unique_ptr<Backend> MakeSseBackend() {
-#if defined(__SSE2__)
-  return std::make_unique<CpuBackend<sse::SseKernel, sse::SseDualQuaternionKernel>>(BackendInfo{
+  BackendInfo info{
       .id = "sse",
       .description = "SSE2 on one thread: a matrix column per register, 4 vertices a step",
       .device = CpuModelName(),
-      .simd_width = 4});
+      .simd_width = 4};
+#if defined(__SSE2__)
+  return std::make_unique<CpuBackend<sse::SseKernel, sse::SseDualQuaternionKernel>>(
+      std::move(info));
 #else
   // The paper's SSE2 loop is x86 only: listed, with the reason, elsewhere (Arm runs `simd`).
-  return std::make_unique<UnavailableBackend>(BackendInfo{
-      .id = "sse",
-      .description = "SSE2 on one thread: a matrix column per register, 4 vertices a step",
-      .unavailable_reason = kSseNeedsX86,
-      .device = CpuModelName()});
+  info.unavailable_reason = kSseNeedsX86;
+  return std::make_unique<UnavailableBackend>(std::move(info));
 #endif
 }
 

@@ -1,4 +1,6 @@
 // `sse-openmp`: the SSE loop, its vertices split across the compute threads.
+#include <utility>
+
 #include "backend_factories.h"
 #include "cpu_backend.h"
 #include "cpu_model.h"
@@ -12,21 +14,18 @@
 namespace skinserve {
 
 std::unique_ptr<Backend> MakeSseOpenMpBackend(int threads) {
+  BackendInfo info{.id = "sse-openmp",
+                   .description = "the SSE loop across threads with OpenMP",
+                   .device = CpuModelName(),
+                   .simd_width = 4,
+                   .threads = threads};
 #if defined(__SSE2__)
   return std::make_unique<CpuBackend<sse::SseKernel, sse::SseDualQuaternionKernel>>(
-      BackendInfo{.id = "sse-openmp",
-                  .description = "the SSE loop across threads with OpenMP",
-                  .device = CpuModelName(),
-                  .simd_width = 4,
-                  .threads = threads});
+      std::move(info));
 #else
   // The paper's SSE2 loop is x86 only: listed, with the reason, elsewhere (Arm runs `simd`).
-  return std::make_unique<UnavailableBackend>(
-      BackendInfo{.id = "sse-openmp",
-                  .description = "the SSE loop across threads with OpenMP",
-                  .unavailable_reason = kSseNeedsX86,
-                  .device = CpuModelName(),
-                  .threads = threads});
+  info.unavailable_reason = kSseNeedsX86;
+  return std::make_unique<UnavailableBackend>(std::move(info));
 #endif
 }
 
