@@ -83,9 +83,9 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   request.method = *method;
   const std::size_t vertex_bytes = arrays * 3 * EncodedBytesPerValue(encoding_);
   const std::size_t per_part = std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes);
-  const std::size_t parts_per_instance =
-      std::max<std::size_t>(1, (mesh_.vertex_count + per_part - 1) / per_part);
-  part_count_ = parts_per_instance * instances_;
+  parts_per_instance_ = std::max<std::size_t>(1, (mesh_.vertex_count + per_part - 1) / per_part);
+  part_count_ = parts_per_instance_ * instances_;
+  encode_ns_.store(0);
   if (parts_.size() < part_count_) parts_.resize(part_count_);
 
   in_place_ = encoding_ == VertexEncoding::kFloat32 && part_count_ == 1;
@@ -116,8 +116,9 @@ void FrameJob::Fail(Status status) {
 
 void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
   timing_ = timing;
-  result_ = status.ok() ? EncodeParts() : std::move(status);
+  result_ = std::move(status);
   if (result_.ok()) {
+    FinishParts();
     record_.EndAnswered(timing_, parts_[0].timing().encode_ns());
   } else {
     record_.EndFailed(result_.code());
@@ -126,75 +127,88 @@ void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
   listener_->OnFrameDone(this);  // may reuse this job at once: nothing after
 }
 
-Status FrameJob::EncodeParts() {
+Status FrameJob::OnInstanceSkinned(uint32_t instance) {
+  if (in_place_) return Status::Ok();  // skinned straight into its part
   const auto started = std::chrono::steady_clock::now();
+  Status s = EncodeInstance(instance);
+  encode_ns_.fetch_add(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                           std::chrono::steady_clock::now() - started)
+                           .count());
+  return s;
+}
+
+Status FrameJob::EncodeInstance(uint32_t i) {
   const uint32_t vertex_count = mesh_.vertex_count;
   const std::size_t vertex_bytes = (want_normals_ ? 2 : 1) * 3 * EncodedBytesPerValue(encoding_);
   const uint32_t per_part =
       static_cast<uint32_t>(std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes));
   const std::size_t instance_values = 3ull * vertex_count;
-  std::size_t n = 0;
-  for (uint32_t i = 0; i < instances_; ++i) {
-    const std::span<const float> positions =
-        request.positions.subspan(i * instance_values, instance_values);
-    const std::span<const float> normals =
-        want_normals_ ? request.normals.subspan(i * instance_values, instance_values)
-                      : std::span<const float>();
-    Bounds bounds;
-    if (encoding_ == VertexEncoding::kSnorm16) {
-      Result<Bounds> box = ComputeBounds(positions);
-      if (!box.ok()) return InstanceError(box.status(), i, instances_);
-      bounds = *box;
-    }
-    uint32_t first = 0;
-    do {
-      const uint32_t count = std::min(per_part, vertex_count - first);
-      v1::SkinResponse& part = parts_[n++];
-      if (in_place_) {  // the vertices are in place already: set the rest only
-        part.clear_error();
-        part.clear_bounds();
-        part.set_frame(frame_);
-        part.set_first_vertex(0);
-        part.set_vertex_count(vertex_count);
-        part.set_total_vertices(vertex_count);
-        part.set_instance(0);
-        part.set_instances(1);
-        part.set_encoding(v1::ENCODING_FLOAT32);
-        break;
-      }
-      part.Clear();
-      part.set_frame(frame_);
-      part.set_first_vertex(first);
-      part.set_vertex_count(count);
-      part.set_total_vertices(vertex_count);
-      part.set_instance(i);
-      part.set_instances(instances_);
-      part.set_encoding(static_cast<v1::Encoding>(encoding_));
-      if (encoding_ == VertexEncoding::kSnorm16) {
-        v1::Bounds* wire = part.mutable_bounds();
-        wire->set_min_x(bounds.min[0]);
-        wire->set_min_y(bounds.min[1]);
-        wire->set_min_z(bounds.min[2]);
-        wire->set_max_x(bounds.max[0]);
-        wire->set_max_y(bounds.max[1]);
-        wire->set_max_z(bounds.max[2]);
-      }
-      const std::size_t bytes = EncodedBytes(encoding_, count);
-      Status s = EncodePositions(encoding_, positions.subspan(3ull * first, 3ull * count), bounds,
-                                 WritableBytes(part.mutable_positions(), bytes), first);
-      if (s.ok() && want_normals_) {
-        s = EncodeNormals(encoding_, normals.subspan(3ull * first, 3ull * count),
-                          WritableBytes(part.mutable_normals(), bytes), first);
-      }
-      if (!s.ok()) return InstanceError(s, i, instances_);
-      first += count;
-    } while (first < vertex_count);
+  const std::span<const float> positions =
+      request.positions.subspan(i * instance_values, instance_values);
+  const std::span<const float> normals =
+      want_normals_ ? request.normals.subspan(i * instance_values, instance_values)
+                    : std::span<const float>();
+  Bounds bounds;
+  if (encoding_ == VertexEncoding::kSnorm16) {
+    Result<Bounds> box = ComputeBounds(positions);
+    if (!box.ok()) return InstanceError(box.status(), i, instances_);
+    bounds = *box;
   }
-  parts_[n - 1].set_last(true);
-  const int64_t encode_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                std::chrono::steady_clock::now() - started)
-                                .count();
-  for (std::size_t p = 0; p < n; ++p) {
+  std::size_t n = i * parts_per_instance_;  // this instance's parts only: no other thread's
+  uint32_t first = 0;
+  do {
+    const uint32_t count = std::min(per_part, vertex_count - first);
+    v1::SkinResponse& part = parts_[n++];
+    part.Clear();
+    part.set_frame(frame_);
+    part.set_first_vertex(first);
+    part.set_vertex_count(count);
+    part.set_total_vertices(vertex_count);
+    part.set_instance(i);
+    part.set_instances(instances_);
+    part.set_encoding(static_cast<v1::Encoding>(encoding_));
+    if (encoding_ == VertexEncoding::kSnorm16) {
+      v1::Bounds* wire = part.mutable_bounds();
+      wire->set_min_x(bounds.min[0]);
+      wire->set_min_y(bounds.min[1]);
+      wire->set_min_z(bounds.min[2]);
+      wire->set_max_x(bounds.max[0]);
+      wire->set_max_y(bounds.max[1]);
+      wire->set_max_z(bounds.max[2]);
+    }
+    const std::size_t bytes = EncodedBytes(encoding_, count);
+    Status s = EncodePositions(encoding_, positions.subspan(3ull * first, 3ull * count), bounds,
+                               WritableBytes(part.mutable_positions(), bytes), first);
+    if (s.ok() && want_normals_) {
+      s = EncodeNormals(encoding_, normals.subspan(3ull * first, 3ull * count),
+                        WritableBytes(part.mutable_normals(), bytes), first);
+    }
+    if (!s.ok()) return InstanceError(s, i, instances_);
+    first += count;
+  } while (first < vertex_count);
+  return Status::Ok();
+}
+
+void FrameJob::FinishParts() {
+  const auto started = std::chrono::steady_clock::now();
+  if (in_place_) {  // the vertices are in place already: set the rest only
+    v1::SkinResponse& part = parts_[0];
+    part.clear_error();
+    part.clear_bounds();
+    part.set_frame(frame_);
+    part.set_first_vertex(0);
+    part.set_vertex_count(mesh_.vertex_count);
+    part.set_total_vertices(mesh_.vertex_count);
+    part.set_instance(0);
+    part.set_instances(1);
+    part.set_encoding(v1::ENCODING_FLOAT32);
+  }
+  parts_[part_count_ - 1].set_last(true);
+  const int64_t encode_ns =
+      encode_ns_.load() + std::chrono::duration_cast<std::chrono::nanoseconds>(
+                              std::chrono::steady_clock::now() - started)
+                              .count();
+  for (std::size_t p = 0; p < part_count_; ++p) {
     v1::ServerTiming* timing = parts_[p].mutable_timing();
     timing->set_queued_ns(timing_.queued_ns);
     timing->set_compute_ns(timing_.compute_ns);
@@ -202,7 +216,6 @@ Status FrameJob::EncodeParts() {
     timing->set_device_kernel_ns(timing_.device_kernel_ns);
     timing->set_encode_ns(encode_ns);
   }
-  return Status::Ok();
 }
 
 void FrameJob::SetErrorPart() {

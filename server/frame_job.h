@@ -3,9 +3,11 @@
 // the buffers the engine skins into and the response parts the answer is encoded into
 // (each at most 1 MiB of vertex data, so no message needs more than gRPC's default
 // 4 MiB); all grow to the largest frame seen and are charged to the in-flight budget
-// until the job is destroyed (its stream ends).
+// until the job is destroyed (its stream ends). Each instance of a crowd is encoded on the
+// compute thread that skinned it, right after it (OnInstanceSkinned).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -50,9 +52,14 @@ class FrameJob final : public SkinJob {
   const v1::SkinResponse* NextPart(bool* last);
 
  private:
+  // Encodes instance `instance` into its parts, on the thread that skinned it.
+  Status OnInstanceSkinned(uint32_t instance) override;
   void OnSkinned(Status status, const FrameTiming& timing) override;
-  // Encodes the skinned instances into parts_ (after ComputeBounds for snorm16).
-  Status EncodeParts();
+  // Instance i's parts, after ComputeBounds for snorm16 (all but a part skinned in place).
+  Status EncodeInstance(uint32_t i);
+  // What is left once every instance is encoded: the in-place part's fields, `last`, the
+  // timings.
+  void FinishParts();
   void SetErrorPart();
 
   Listener* const listener_;
@@ -72,6 +79,8 @@ class FrameJob final : public SkinJob {
   // bytes: no copy besides gRPC's serialisation.
   bool in_place_ = false;
   std::size_t part_count_ = 0;
+  std::size_t parts_per_instance_ = 1;
+  std::atomic<int64_t> encode_ns_{0};  // summed over instances (they may run in parallel)
   std::size_t next_part_ = 0;
   Status result_;
   FrameTiming timing_;

@@ -344,6 +344,13 @@ void Engine::RunPart(void* context, uint32_t instance, int threads) {
   int64_t unset = 0;
   job.started_ns_.compare_exchange_strong(unset, NowNs());
   Status status = impl.RunInstance(job, instance, threads);
+  if (status.ok()) {
+    try {
+      status = job.OnInstanceSkinned(instance);
+    } catch (const std::exception& e) {
+      status = Internal(fmt::format("after skinning instance {}: {}", instance, e.what()));
+    }
+  }
   if (!status.ok()) {
     std::lock_guard lock(job.status_mutex_);
     if (job.status_.ok()) job.status_ = std::move(status);

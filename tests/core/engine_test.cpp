@@ -4,9 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <condition_variable>
 #include <future>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "cpu_backend_ids.h"
@@ -55,6 +57,82 @@ TEST(EngineTest, SkinsAgainstTheReference) {
   EXPECT_EQ(stats.backends[0].id, "serial");
   EXPECT_EQ(stats.backends[0].frames, 1u);
   EXPECT_EQ(stats.backends[0].vertices, 777u);
+}
+
+// A job that checks, in OnInstanceSkinned, that the instance it is told of is already
+// skinned (against the float64 reference), and can fail one instance on purpose.
+class InstanceHookJob final : public SkinJob {
+ public:
+  InstanceHookJob(const Mesh& mesh, std::vector<float> palettes, uint32_t instances)
+      : seen(instances), mesh_(mesh), palettes_(std::move(palettes)) {
+    request.palette = palettes_;
+    request.instances = instances;
+    positions_.assign(3ull * mesh.vertex_count() * instances, 0.0f);
+    request.positions = positions_;
+  }
+  std::optional<uint32_t> fail_instance;
+  std::promise<Status> done;
+  std::vector<std::atomic<int>> seen;  // hook calls per instance
+  std::atomic<int> skinned_before_hook{0};
+  std::atomic<bool> hook_on_caller_thread{false};
+  std::thread::id caller = std::this_thread::get_id();
+  int hooks_at_done = -1;
+
+ private:
+  Status OnInstanceSkinned(uint32_t instance) override {
+    seen[instance].fetch_add(1);
+    if (std::this_thread::get_id() == caller) hook_on_caller_thread = true;
+    const std::size_t values = 3ull * mesh_.vertex_count();
+    const std::size_t floats = 12ull * mesh_.joint_count();
+    const Deviation d = CompareWithReference(
+        mesh_, std::span<const float>(palettes_).subspan(instance * floats, floats),
+        std::span<const float>(positions_).subspan(instance * values, values), {});
+    if (d.within_tolerance()) skinned_before_hook.fetch_add(1);
+    if (fail_instance == instance) return Internal("instance 3's encoding failed");
+    return Status::Ok();
+  }
+  void OnSkinned(Status status, const FrameTiming&) override {
+    hooks_at_done = 0;
+    for (auto& n : seen) hooks_at_done += n.load();
+    done.set_value(std::move(status));
+  }
+  const Mesh& mesh_;
+  std::vector<float> palettes_;
+  std::vector<float> positions_;
+};
+
+TEST(EngineTest, OnInstanceSkinnedRunsOncePerSkinnedInstanceBeforeOnSkinned) {
+  auto engine = MakeEngine({.compute_threads = 2});
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 3000, .influences = 2});
+  auto info = engine->AddMesh(arrays);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  auto mesh = Mesh::Create(arrays).value();
+  constexpr uint32_t kInstances = 6;
+  std::vector<float> palettes;
+  for (uint32_t k = 0; k < kInstances; ++k) {
+    const auto one = MakeSyntheticPalette(info->joint_count, 13, k);
+    palettes.insert(palettes.end(), one.begin(), one.end());
+  }
+  for (const bool fail : {false, true}) {
+    SCOPED_TRACE(fail ? "instance 3's hook fails" : "every hook succeeds");
+    InstanceHookJob job(*mesh, palettes, kInstances);
+    job.request.mesh_id = info->id;
+    job.request.backend = "serial";
+    if (fail) job.fail_instance = 3;
+    std::future<Status> result = job.done.get_future();
+    ASSERT_TRUE(engine->Submit(&job).ok());
+    const Status status = result.get();
+    if (fail) {
+      EXPECT_EQ(status.code(), StatusCode::kInternal);
+      EXPECT_NE(status.message().find("instance 3"), std::string::npos) << status.ToString();
+    } else {
+      EXPECT_TRUE(status.ok()) << status.ToString();
+    }
+    for (uint32_t k = 0; k < kInstances; ++k) EXPECT_EQ(job.seen[k].load(), 1) << "instance " << k;
+    EXPECT_EQ(job.hooks_at_done, static_cast<int>(kInstances));
+    EXPECT_EQ(job.skinned_before_hook.load(), static_cast<int>(kInstances));
+    EXPECT_FALSE(job.hook_on_caller_thread.load());
+  }
 }
 
 TEST(EngineTest, DedupesMeshesByContent) {

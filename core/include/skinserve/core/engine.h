@@ -48,8 +48,10 @@ struct MeshInfo {
 
 // Server-side time of one frame, for the wire's timing breakdown.
 struct FrameTiming {
-  int64_t queued_ns = 0;   // from Submit until a compute thread took it
-  int64_t compute_ns = 0;  // the backend's Skin call
+  int64_t queued_ns = 0;  // from Submit until a compute thread took it
+  // From the first instance's start to the last instance's end: the backend's Skin calls
+  // and, in between, each instance's SkinJob::OnInstanceSkinned.
+  int64_t compute_ns = 0;
   // Of compute_ns, device time from profiling events (OpenCL backends; else 0):
   int64_t device_transfer_ns = 0;  // host<->device transfers, summed
   int64_t device_kernel_ns = 0;    // kernels, summed
@@ -70,8 +72,9 @@ struct SkinRequest {
 using SkinDone = std::function<void(Status, FrameTiming)>;
 
 // A frame the caller owns and reuses frame after frame, so that the steady-state path
-// allocates nothing: fill `request`, Engine::Submit(job); OnSkinned runs once, on a compute
-// thread, after every instance is skinned. Resubmit only after OnSkinned has run.
+// allocates nothing: fill `request`, Engine::Submit(job); OnInstanceSkinned runs once per
+// instance skinned without error, and OnSkinned once, after every instance. Resubmit only
+// after OnSkinned has run.
 class SkinJob {
  public:
   SkinJob() = default;
@@ -82,6 +85,11 @@ class SkinJob {
   SkinRequest request;
 
  protected:
+  // Runs on the compute thread that skinned `instance`, right after it, while its output is
+  // still in that core's cache (e.g. to encode it); other instances' calls may run at the
+  // same time on other threads. Non-OK fails the frame as a failed instance would.
+  virtual Status OnInstanceSkinned(uint32_t /*instance*/) { return Status::Ok(); }
+  // Runs once, on a compute thread, after every instance (and its OnInstanceSkinned).
   virtual void OnSkinned(Status status, const FrameTiming& timing) = 0;
 
  private:
