@@ -52,6 +52,10 @@ def test_palette_checks(offline, rng):
         list(offline.stream("m", [good, good, good.astype(np.float64)]))
     with pytest.raises(ValueError, match="encoding: 'int8'"):
         offline.skin("m", good, encoding="int8")
+    with pytest.raises(ValueError, match=r"palette: shape \(0, 4, 3, 4\), a crowd of 0"):
+        offline.skin("m", np.zeros((0, 4, 3, 4), np.float32))
+    with pytest.raises(ValueError, match=r"palette: shape \(2, 4, 3, 5\)"):
+        offline.skin("m", np.zeros((2, 4, 3, 5), np.float32))
 
 
 def test_palette_joint_count_of_a_known_mesh(server, rng):

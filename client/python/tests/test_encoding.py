@@ -1,6 +1,6 @@
 """Decoding of float16 and snorm16 response arrays, against arrays encoded here by the
-proto's formulas. (The server on this branch answers float32 only; these check the
-decoder on hand-made data.)"""
+proto's formulas (the decoder alone; test_crowds_and_encodings.py takes every encoding
+through a real server)."""
 import numpy as np
 import pytest
 

@@ -38,19 +38,29 @@ def check_mesh(positions, joints, weights, normals):
 
 
 def check_palette(name, palette, joint_count=None):
-    """A (J, 3, 4) or (J, 12) float32 palette: J row-major 3x4 affine matrices."""
+    """A (J, 3, 4) or (J, 12) float32 palette: J row-major 3x4 affine matrices; or a crowd
+    of K >= 1 instances of the mesh, (K, J, 3, 4) or (K, J, 12): one palette per instance.
+    Returns K for a crowd, None for a single palette."""
     if not isinstance(palette, np.ndarray):
         raise ValueError(f"{name}: expected a numpy.ndarray of float32, "
                          f"got {type(palette).__name__}")
     if palette.dtype != np.float32:
         raise ValueError(f"{name}: dtype {palette.dtype.name}, expected float32 "
                          f"(convert with {name}.astype(numpy.float32))")
-    if not ((palette.ndim == 3 and palette.shape[1:] == (3, 4)) or
-            (palette.ndim == 2 and palette.shape[1] == 12)) or palette.shape[0] == 0:
-        raise ValueError(f"{name}: shape {palette.shape}, expected (J, 3, 4) or (J, 12)")
-    if joint_count is not None and palette.shape[0] != joint_count:
-        raise ValueError(f"{name}: {palette.shape[0]} matrices, the mesh has {joint_count} "
-                         "joints")
+    shape = palette.shape
+    single = (len(shape) == 3 and shape[1:] == (3, 4)) or (len(shape) == 2 and shape[1] == 12)
+    crowd = (len(shape) == 4 and shape[2:] == (3, 4)) or (len(shape) == 3 and shape[2] == 12)
+    if not (single or crowd):
+        raise ValueError(f"{name}: shape {shape}, expected (J, 3, 4) or (J, 12), or a crowd "
+                         "(K, J, 3, 4) or (K, J, 12)")
+    if crowd and shape[0] == 0:
+        raise ValueError(f"{name}: shape {shape}, a crowd of 0 instances (K >= 1)")
+    joints = shape[1] if crowd else shape[0]
+    if joints == 0:
+        raise ValueError(f"{name}: shape {shape}, 0 matrices")
+    if joint_count is not None and joints != joint_count:
+        raise ValueError(f"{name}: {joints} matrices, the mesh has {joint_count} joints")
+    return shape[0] if crowd else None
 
 
 def little_endian_bytes(array, dtype):

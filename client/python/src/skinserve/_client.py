@@ -11,6 +11,7 @@ from .v1 import skinning_pb2 as pb
 from .v1 import skinning_pb2_grpc as pb_grpc
 
 _CHUNK_BYTES = 1 << 20
+_STREAM_WINDOW_BYTES = 4 << 20
 _ENCODINGS = {"float32": pb.ENCODING_FLOAT32, "float16": pb.ENCODING_FLOAT16,
               "snorm16": pb.ENCODING_SNORM16}
 
@@ -37,34 +38,58 @@ def _rpc_error(error, frame=None):
 
 
 class _Frame:
-    """One frame's parts, assembled into (V, 3) float32 arrays."""
+    """One frame's parts, assembled into float32 arrays: (V, 3) for a single palette, or
+    (K, V, 3) for a crowd of K instances (`crowd` = K). Parts come instance by instance,
+    each in vertex order; one that does not fit the frame fails it (INTERNAL)."""
 
-    def __init__(self):
+    def __init__(self, crowd=None):
+        self.crowd = crowd
         self.positions = self.normals = None
         self.error = None
+        self._next = (0, 0)  # the (instance, first vertex) the next part must start at
+
+    def _fail(self, part, what):
+        raise SkinserveError(grpc.StatusCode.INTERNAL, f"malformed answer: {what}", part.frame)
 
     def add(self, part, want_normals):
         if part.HasField("error"):
             self.error = (_status_code(part.error.code), part.error.message)
             return
-        if part.instances > 1:
-            raise SkinserveError(grpc.StatusCode.INTERNAL,
-                                 "a crowd answer to a single-instance request", part.frame)
+        instances = max(part.instances, 1)  # a server without crowds leaves it 0
+        if instances != (self.crowd or 1):
+            self._fail(part, f"{instances} instances, {self.crowd or 1} asked for")
         if self.positions is None:
-            self.positions = np.empty((part.total_vertices, 3), dtype=np.float32)
+            shape = (instances, part.total_vertices, 3)
+            self.positions = np.empty(shape, dtype=np.float32)
             if want_normals:
-                self.normals = np.empty((part.total_vertices, 3), dtype=np.float32)
+                self.normals = np.empty(shape, dtype=np.float32)
+        total = self.positions.shape[1]
+        if (part.instance, part.first_vertex) != self._next or part.total_vertices != total \
+                or part.first_vertex + part.vertex_count > total:
+            self._fail(part, f"part of instance {part.instance}, vertices "
+                       f"[{part.first_vertex}, {part.first_vertex + part.vertex_count}) of "
+                       f"{part.total_vertices}, expected instance {self._next[0]} from vertex "
+                       f"{self._next[1]} of {total}")
+        end = part.first_vertex + part.vertex_count
+        self._next = (part.instance + 1, 0) if end == total else (part.instance, end)
+        if part.last and self._next != (instances, 0):
+            self._fail(part, f"the frame ended at instance {self._next[0]}, vertex "
+                       f"{self._next[1]}")
         b = part.bounds
         bounds = (b.min_x, b.min_y, b.min_z, b.max_x, b.max_y, b.max_z)
-        rows = slice(part.first_vertex, part.first_vertex + part.vertex_count)
-        self.positions[rows] = _encoding.decode_values(part.positions, part.encoding,
-                                                       part.vertex_count, bounds)
+        rows = slice(part.first_vertex, end)
+        self.positions[part.instance, rows] = _encoding.decode_values(
+            part.positions, part.encoding, part.vertex_count, bounds)
         if want_normals:
-            self.normals[rows] = _encoding.decode_values(part.normals, part.encoding,
-                                                         part.vertex_count, normals=True)
+            self.normals[part.instance, rows] = _encoding.decode_values(
+                part.normals, part.encoding, part.vertex_count, normals=True)
 
     def result(self, want_normals):
-        return (self.positions, self.normals) if want_normals else self.positions
+        positions, normals = self.positions, self.normals
+        if self.crowd is None:
+            positions = positions[0]
+            normals = None if normals is None else normals[0]
+        return (positions, normals) if want_normals else positions
 
 
 class Client:
@@ -79,8 +104,13 @@ class Client:
     def __init__(self, target, max_reuploads=8, max_reconnects=3):
         self.target = target
         self.max_reuploads, self.max_reconnects = max_reuploads, max_reconnects
+        # Flow control as the C++ library's MakeChannel: a fixed 4 MiB receive window per
+        # stream, BDP probing off (with probing, crowd frames of several 1 MiB parts
+        # stalled now and then; README, "Flow control").
         options = [("grpc.service_config",
-                    '{"loadBalancingConfig": [{"round_robin": {}}]}')]
+                    '{"loadBalancingConfig": [{"round_robin": {}}]}'),
+                   ("grpc.http2.bdp_probe", 0),
+                   ("grpc.http2.lookahead_bytes", _STREAM_WINDOW_BYTES)]
         self._channel = grpc.insecure_channel(target, options=options)
         self._stub = pb_grpc.SkinningStub(self._channel)
         self._meshes = {}  # mesh id -> (requests to upload it again, joint count)
@@ -149,21 +179,26 @@ class Client:
         return known[1] if known else None
 
     # ---- frames -------------------------------------------------------------------------
-    def _request(self, mesh_id, palette, frame, backend, want_normals, encoding):
+    def _request(self, mesh_id, palette, crowd, frame, backend, want_normals, encoding):
         if encoding not in _ENCODINGS:
             raise ValueError(f"encoding: '{encoding}', expected one of {sorted(_ENCODINGS)}")
         return pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
                               palette=_arrays.little_endian_bytes(palette, "f4"),
-                              want_normals=want_normals, encoding=_ENCODINGS[encoding])
+                              want_normals=want_normals, encoding=_ENCODINGS[encoding],
+                              instances=crowd or 0)
 
     def skin(self, mesh_id, palette, backend=None, want_normals=False, encoding="float32",
              frame=0):
         """One frame: palette float32 (J, 3, 4) -> positions (V, 3) float32, or
-        (positions, normals) with want_normals."""
-        _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
-        request = self._request(mesh_id, palette, frame, backend, want_normals, encoding)
+        (positions, normals) with want_normals. A crowd, palettes (K, J, 3, 4) of K
+        instances of the mesh, is one request and answers (K, V, 3) arrays.
+
+        encoding: how the server sends the vertices ("float32", "float16" or "snorm16",
+        see README "Encodings"); the answer is always decoded to float32."""
+        crowd = _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
+        request = self._request(mesh_id, palette, crowd, frame, backend, want_normals, encoding)
         for attempt in range(self.max_reuploads + 1):
-            result = _Frame()
+            result = _Frame(crowd)
             try:
                 for part in self._stub.Skin(request):
                     result.add(part, want_normals)
@@ -179,7 +214,9 @@ class Client:
                window=8):
         """Frame after frame over one StreamSkin call: yields each frame's positions (or
         (positions, normals)) in order. `palettes`: a sequence of float32 (J, 3, 4)
-        palettes (or an array (F, J, 3, 4)), all checked before the first is sent.
+        palettes (or an array (F, J, 3, 4)), all checked before the first is sent. A crowd
+        frame is a (K, J, 3, 4) palette (an array (F, K, J, 3, 4) for F of them) and yields
+        (K, V, 3) arrays.
 
         A frame answered NOT_FOUND re-uploads the mesh and the stream resumes from that
         frame; a stream that ends UNAVAILABLE (a replica draining or gone) resumes on a new
@@ -187,12 +224,12 @@ class Client:
         """
         palettes = list(palettes)
         joints = self._joint_count(mesh_id)
-        for i, palette in enumerate(palettes):
-            _arrays.check_palette(f"palettes[{i}]", palette, joints)
+        crowds = [_arrays.check_palette(f"palettes[{i}]", palette, joints)
+                  for i, palette in enumerate(palettes)]
         if window < 1:
             raise ValueError(f"window: {window}, expected >= 1")
-        requests = [self._request(mesh_id, p, i, backend, want_normals, encoding)
-                    for i, p in enumerate(palettes)]
+        requests = [self._request(mesh_id, p, k, i, backend, want_normals, encoding)
+                    for i, (p, k) in enumerate(zip(palettes, crowds))]
         next_frame, reuploads, reconnects = 0, 0, 0
         while next_frame < len(requests):
             restart = None
@@ -245,14 +282,16 @@ class Client:
         sender = threading.Thread(target=send, daemon=True)
         sender.start()
         call = self._stub.StreamSkin(request_iterator())
-        frame, index = _Frame(), first
+        crowd = [request.instances or None for request in requests]
+        frame, index = _Frame(crowd[first]), first
         try:
             for part in call:
                 frame.add(part, want_normals)
                 if part.last:
                     credits.release()
                     yield index, frame
-                    frame, index = _Frame(), index + 1
+                    index += 1
+                    frame = _Frame(crowd[index] if index < len(crowd) else None)
         except grpc.RpcError as e:
             if e.code() != grpc.StatusCode.UNAVAILABLE:
                 raise _rpc_error(e, index) from None
