@@ -13,7 +13,9 @@ StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend
       window_(static_cast<std::size_t>(std::max(window, 1))),
       open_streams_(open_streams),
       budget_(budget) {
-  slots_.reserve(window_);
+  jobs_.reserve(window_);
+  in_flight_jobs_.resize(window_, nullptr);
+  idle_jobs_.reserve(window_);
   const Status accepted = open_streams_->Add(this);
   std::lock_guard lock(mutex_);
   if (engine_ == nullptr) {
@@ -35,11 +37,8 @@ void StreamSkinReactor::OnReadDone(bool ok) {
     return;
   }
   last_frame_read_ = request_.frame();
-  const std::size_t slot = oldest_ + in_flight_;
-  if (slots_.size() < window_ && slot % window_ == slots_.size()) {
-    slots_.push_back(std::make_unique<FrameJob>(static_cast<FrameJob::Listener*>(this), budget_));
-  }
-  FrameJob& job = Slot(slot);
+  FrameJob& job = *TakeIdleJobLocked();
+  in_flight_jobs_[(oldest_ + in_flight_) % window_] = &job;
   ++in_flight_;
   Status status = job.Prepare(request_, *engine_, default_backend_);
   if (status.ok()) {
@@ -66,8 +65,9 @@ void StreamSkinReactor::OnFrameDone(FrameJob* job) {
 void StreamSkinReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mutex_);
   writing_ = false;
-  if (writing_last_part_) {  // the oldest frame is answered: its slot is free again
+  if (writing_last_part_) {  // the oldest frame is answered: its job is free again
     writing_last_part_ = false;
+    idle_jobs_.push_back(&Slot(oldest_));
     oldest_ = (oldest_ + 1) % window_;
     --in_flight_;
   }
@@ -92,6 +92,17 @@ void StreamSkinReactor::Drain() {
   std::lock_guard lock(mutex_);
   draining_ = true;
   PumpLocked();
+}
+
+FrameJob* StreamSkinReactor::TakeIdleJobLocked() {
+  // Reading stops while `window` frames are in flight, so a job is idle or can be made.
+  if (idle_jobs_.empty()) {
+    jobs_.push_back(std::make_unique<FrameJob>(static_cast<FrameJob::Listener*>(this), budget_));
+    return jobs_.back().get();
+  }
+  FrameJob* job = idle_jobs_.back();
+  idle_jobs_.pop_back();
+  return job;
 }
 
 void StreamSkinReactor::PumpLocked() {

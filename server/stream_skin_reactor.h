@@ -4,9 +4,11 @@
 // frames are written in order, one part at a time. A frame that fails is answered with
 // its error and the stream carries on. Drained (server shutdown), the stream reads no
 // more, answers the frames it has read and ends with UNAVAILABLE.
-// Each stream keeps up to `window` FrameJobs and reuses them in turn, so after the first
-// frames nothing is allocated per frame; their buffers count against the in-flight
-// budget until the stream ends.
+// Each stream keeps up to `window` FrameJobs and reuses them, so after the first frames
+// nothing is allocated per frame; their buffers count against the in-flight budget until
+// the stream ends. A new frame takes the job freed last: a stream with one frame in flight
+// (60 fps) reuses one job, whose buffers stay warm in cache, and grows (and page-faults in)
+// only as many as it ever has in flight, not `window` of them.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -43,7 +45,8 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, 
 
  private:
   void OnFrameDone(FrameJob* job) override;
-  FrameJob& Slot(std::size_t i) { return *slots_[i % window_]; }
+  FrameJob& Slot(std::size_t i) { return *in_flight_jobs_[i % window_]; }
+  FrameJob* TakeIdleJobLocked();
   void PumpLocked();  // starts the next write, the next read or the finish, as due
   void FinishLocked(const grpc::Status& status);
   void Unref();
@@ -56,9 +59,10 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, 
 
   std::mutex mutex_;
   v1::SkinRequest request_;
-  // The frames in flight, oldest first: slots [oldest_, oldest_ + in_flight_) mod window,
-  // created as the window first fills, then reused.
-  std::vector<std::unique_ptr<FrameJob>> slots_;
+  std::vector<std::unique_ptr<FrameJob>> jobs_;  // created as needed, at most window
+  // The frames in flight, oldest first: slots [oldest_, oldest_ + in_flight_) mod window.
+  std::vector<FrameJob*> in_flight_jobs_;
+  std::vector<FrameJob*> idle_jobs_;  // a stack: the job freed last is reused first
   std::size_t oldest_ = 0;
   std::size_t in_flight_ = 0;
   bool writing_last_part_ = false;  // the write in progress ends the oldest frame

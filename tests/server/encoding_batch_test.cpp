@@ -1,7 +1,8 @@
 // Encodings and crowd batches through a real server: every encoding and batch size on
 // every backend, decoded with the shared codec and compared with the float64 reference
 // within the bound of the encoding used (the proto's formula); batches mixing good and
-// bad instances; one stream switching encodings between frames; the in-flight budget.
+// bad instances; one stream switching encodings between frames; the in-flight budget and
+// the reuse of a stream's frame jobs.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -306,6 +307,60 @@ TEST(EncodingBatchTest, BadInstancesAreNamedAndTheStreamGoesOn) {
   EXPECT_EQ(unknown.error, grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(unknown.message.find("encoding = 9 is unknown"), std::string::npos) << unknown.message;
   expect_good(8, 3, v1::ENCODING_FLOAT32);  // nothing else on the stream was harmed
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+}
+
+// A stream takes the frame job freed last for its next frame: answered one frame at a time
+// it holds one job's buffers, not one per slot of its window (16 by default), and with
+// several frames in flight, jobs reused in another order than the frames', every answer
+// is still its own frame's.
+TEST(EncodingBatchTest, AStreamReusesTheJobFreedLastAndAnswersEachFrameWithItsOwn) {
+  TestServer t;
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 3000, .influences = 2, .seed = 9});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  auto mesh = Mesh::Create(arrays).value();
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  grpc::ClientContext context;
+  auto stream = stub->StreamSkin(&context);
+  const auto send = [&](uint64_t frame) {
+    return stream->Write(MakeRequest(info->mesh_id(), "sse", frame, 3, v1::ENCODING_SNORM16, false,
+                                     CrowdPalettes(77, 3, frame)));
+  };
+  const auto check = [&](uint64_t frame) {
+    SCOPED_TRACE(::testing::Message() << "frame " << frame);
+    const Answer answer = ReadFrame(*stream, frame, 3000, 3, v1::ENCODING_SNORM16, false);
+    ASSERT_EQ(answer.error, grpc::StatusCode::OK) << answer.message;
+    const auto palettes = CrowdPalettes(77, 3, frame);
+    for (uint32_t i = 0; i < 3; ++i) {
+      ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77),
+                        answer.positions[i], {}, v1::ENCODING_SNORM16, answer.bounds[i]);
+    }
+  };
+  const auto held = [&] {
+    auto stats = t.client->GetServerStats();
+    EXPECT_TRUE(stats.ok()) << stats.status().ToString();
+    return stats.ok() ? stats->inflight_bytes() : 0;
+  };
+  uint64_t frame = 0;
+  ASSERT_TRUE(send(frame));
+  check(frame++);
+  const uint64_t one_job = held();
+  ASSERT_GT(one_job, 0u);
+  for (; frame < 20; ++frame) {
+    ASSERT_TRUE(send(frame));
+    check(frame);
+    // Lets the server see its last write done before the next frame arrives.
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  // One job; two if a frame ever arrived before the previous one's write was done.
+  EXPECT_LE(held(), 2 * one_job) << "one frame in flight at a time grew more than one job";
+  for (uint64_t burst : {4, 1, 3, 2, 4, 1}) {
+    for (uint64_t b = 0; b < burst; ++b) ASSERT_TRUE(send(frame + b));
+    for (uint64_t b = 0; b < burst; ++b) check(frame + b);
+    frame += burst;
+  }
   stream->WritesDone();
   EXPECT_TRUE(stream->Finish().ok());
 }
