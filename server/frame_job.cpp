@@ -82,8 +82,10 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   if (!method.ok()) return method.status();
   request.method = *method;
   const std::size_t vertex_bytes = arrays * 3 * EncodedBytesPerValue(encoding_);
-  const std::size_t per_part = std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes);
-  parts_per_instance_ = std::max<std::size_t>(1, (mesh_.vertex_count + per_part - 1) / per_part);
+  vertices_per_part_ =
+      static_cast<uint32_t>(std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes));
+  parts_per_instance_ =
+      std::max<std::size_t>(1, (mesh_.vertex_count + vertices_per_part_ - 1) / vertices_per_part_);
   part_count_ = parts_per_instance_ * instances_;
   encode_ns_.store(0);
   if (parts_.size() < part_count_) parts_.resize(part_count_);
@@ -139,9 +141,6 @@ Status FrameJob::OnInstanceSkinned(uint32_t instance) {
 
 Status FrameJob::EncodeInstance(uint32_t i) {
   const uint32_t vertex_count = mesh_.vertex_count;
-  const std::size_t vertex_bytes = (want_normals_ ? 2 : 1) * 3 * EncodedBytesPerValue(encoding_);
-  const uint32_t per_part =
-      static_cast<uint32_t>(std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes));
   const std::size_t instance_values = 3ull * vertex_count;
   const std::span<const float> positions =
       request.positions.subspan(i * instance_values, instance_values);
@@ -157,7 +156,7 @@ Status FrameJob::EncodeInstance(uint32_t i) {
   std::size_t n = i * parts_per_instance_;  // this instance's parts only: no other thread's
   uint32_t first = 0;
   do {
-    const uint32_t count = std::min(per_part, vertex_count - first);
+    const uint32_t count = std::min(vertices_per_part_, vertex_count - first);
     v1::SkinResponse& part = parts_[n++];
     part.Clear();
     part.set_frame(frame_);

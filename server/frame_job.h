@@ -79,6 +79,7 @@ class FrameJob final : public SkinJob {
   // bytes: no copy besides gRPC's serialisation.
   bool in_place_ = false;
   std::size_t part_count_ = 0;
+  uint32_t vertices_per_part_ = 1;  // at most 1 MiB of encoded vertex data per part
   std::size_t parts_per_instance_ = 1;
   std::atomic<int64_t> encode_ns_{0};  // summed over instances (they may run in parallel)
   std::size_t next_part_ = 0;

@@ -282,8 +282,10 @@ class Client:
         sender = threading.Thread(target=send, daemon=True)
         sender.start()
         call = self._stub.StreamSkin(request_iterator())
-        crowd = [request.instances or None for request in requests]
-        frame, index = _Frame(crowd[first]), first
+        def new_frame(i):  # the frame answering requests[i]; past the end, one never filled
+            return _Frame((requests[i].instances or None) if i < len(requests) else None)
+
+        frame, index = new_frame(first), first
         try:
             for part in call:
                 frame.add(part, want_normals)
@@ -291,7 +293,7 @@ class Client:
                     credits.release()
                     yield index, frame
                     index += 1
-                    frame = _Frame(crowd[index] if index < len(crowd) else None)
+                    frame = new_frame(index)
         except grpc.RpcError as e:
             if e.code() != grpc.StatusCode.UNAVAILABLE:
                 raise _rpc_error(e, index) from None
