@@ -24,6 +24,7 @@ Status OpenStreams::Add(StreamSkinReactor* stream) {
 void OpenStreams::Remove(StreamSkinReactor* stream) {
   std::lock_guard lock(mutex_);
   streams_.erase(stream);
+  if (streams_.empty()) ended_.notify_all();
 }
 
 void OpenStreams::DrainAll() {
@@ -42,6 +43,11 @@ void OpenStreams::DrainAll() {
     stream->Drain();
     stream->Release();
   }
+}
+
+bool OpenStreams::WaitUntilAllEnded(std::chrono::steady_clock::time_point deadline) {
+  std::unique_lock lock(mutex_);
+  return ended_.wait_until(lock, deadline, [&] { return streams_.empty(); });
 }
 
 std::size_t OpenStreams::count() const {

@@ -4,6 +4,8 @@
 // instead of streaming on through the grace period and then being cancelled.
 #pragma once
 
+#include <chrono>
+#include <condition_variable>
 #include <cstddef>
 #include <mutex>
 #include <unordered_set>
@@ -23,11 +25,15 @@ class OpenStreams {
   void Remove(StreamSkinReactor* stream);
   // Drains every open stream and refuses new ones. Idempotent.
   void DrainAll();
+  // Waits until every stream has ended (its final status sent), or until `deadline`;
+  // true if they all ended.
+  bool WaitUntilAllEnded(std::chrono::steady_clock::time_point deadline);
   std::size_t count() const;
 
  private:
   const std::size_t limit_;
   mutable std::mutex mutex_;
+  std::condition_variable ended_;  // notified when the last open stream is removed
   std::unordered_set<StreamSkinReactor*> streams_;
   bool draining_ = false;
 };

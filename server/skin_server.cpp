@@ -6,12 +6,20 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <thread>
 
 #include "log_format.h"
 #include "metrics_frames.h"
 #include "metrics_text.h"
 
 namespace skinserve::server {
+namespace {
+
+// How long drained streams' final statuses get to reach their clients before gRPC's
+// shutdown may close the connections (see Shutdown). Loopback needs well under 1 ms.
+constexpr std::chrono::milliseconds kStatusLinger{100};
+
+}  // namespace
 
 Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& options) {
   spdlog::set_level(spdlog::level::from_str(options.log_level));
@@ -90,9 +98,22 @@ void SkinServer::Shutdown(std::chrono::milliseconds grace) {
     serving_.store(false);
     if (server_) {
       server_->GetHealthCheckService()->SetServingStatus(false);
-      service_->Drain();  // streams end UNAVAILABLE once their frames are answered
       spdlog::info("draining: up to {} ms for in-flight calls", grace.count());
-      server_->Shutdown(std::chrono::system_clock::now() + grace);
+      const auto deadline = std::chrono::steady_clock::now() + grace;
+      const bool had_streams = service_->OpenStreamCount() > 0;
+      service_->Drain();  // streams end UNAVAILABLE once their frames are answered
+      // The streams end before gRPC's shutdown begins. Once gRPC has sent GOAWAY it closes
+      // a connection the moment its last stream ends; bytes the client sent meanwhile (its
+      // window updates) are then unread, the close becomes a reset, and the reset discards
+      // the stream's final status in the client's socket ("Broken pipe" instead of the
+      // drain's message). The linger lets the clients read that status first.
+      if (service_->WaitUntilStreamsEnded(deadline) && had_streams) {
+        std::this_thread::sleep_until(
+            std::min(deadline, std::chrono::steady_clock::now() + kStatusLinger));
+      }
+      const auto left = std::max(deadline - std::chrono::steady_clock::now(),
+                                 std::chrono::steady_clock::duration::zero());
+      server_->Shutdown(std::chrono::system_clock::now() + left);
     }
     if (engine_) engine_->Shutdown();  // the frames still queued finish; nobody waits
     if (server_) server_->Wait();

@@ -24,6 +24,9 @@ class SkinningService final : public v1::Skinning::CallbackService {
   // Shutdown: open streams answer the frames they have read and end UNAVAILABLE; new
   // streams are refused. Unary calls and Skin finish as usual.
   void Drain() { open_streams_.DrainAll(); }
+  bool WaitUntilStreamsEnded(std::chrono::steady_clock::time_point deadline) {
+    return open_streams_.WaitUntilAllEnded(deadline);
+  }
   std::size_t OpenStreamCount() const { return open_streams_.count(); }
 
   grpc::ServerReadReactor<v1::UploadMeshRequest>* UploadMesh(grpc::CallbackServerContext*,

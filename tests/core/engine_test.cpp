@@ -279,34 +279,72 @@ Engine* SchedulerFairnessTest::engine_ = nullptr;
 MeshInfo* SchedulerFairnessTest::big_ = nullptr;
 MeshInfo* SchedulerFairnessTest::small_ = nullptr;
 
-TEST_F(SchedulerFairnessTest, ALargeFrameDoesNotHoldEveryThreadWhileSmallFramesWait) {
-  Frame big;
-  std::vector<Frame> small(20);
-  std::atomic<bool> big_done{false};
-  std::atomic<int> small_before_big{0}, small_done{0};
-  std::promise<void> all, big_finished;
-  ASSERT_TRUE(engine_
-                  ->Submit(big.Request(*big_, kSimdOpenMpTestBackend, 0),
-                           [&](Status s, FrameTiming) {
-                             EXPECT_TRUE(s.ok()) << s.ToString();
-                             big_done.store(true);
-                             big_finished.set_value();
-                           })
-                  .ok());
-  for (int i = 0; i < 20; ++i) {
-    ASSERT_TRUE(engine_
-                    ->Submit(small[i].Request(*small_, kSimdOpenMpTestBackend, i),
-                             [&](Status s, FrameTiming) {
-                               EXPECT_TRUE(s.ok()) << s.ToString();
-                               if (!big_done.load()) small_before_big.fetch_add(1);
-                               if (small_done.fetch_add(1) + 1 == 20) all.set_value();
-                             })
-                    .ok());
+// A large frame that, once skinned, stays on its compute thread (in OnInstanceSkinned)
+// until released: while it is held, only the threads it did not take can run other frames,
+// so the test sees how many it took without depending on timing.
+class HeldFrameJob final : public SkinJob {
+ public:
+  HeldFrameJob(const MeshInfo& mesh, const std::string& backend) {
+    palette_ = MakeSyntheticPalette(mesh.joint_count, 11, 0);
+    positions_.assign(3ull * mesh.vertex_count, 0.0f);
+    request = {mesh.id, backend, palette_, 1, positions_, {}};
   }
-  all.get_future().wait();
-  big_finished.get_future().wait();  // its buffers and these counters outlive the frame
-  // Split across both threads, the large frame would have kept every small one waiting.
-  EXPECT_GE(small_before_big.load(), 1);
+  std::promise<void> skinned;  // set on entering the hook
+  std::promise<Status> done;
+  void Release() { release_.set_value(); }
+
+ private:
+  Status OnInstanceSkinned(uint32_t) override {
+    skinned.set_value();
+    // The test always releases; the bound only keeps a broken test from hanging.
+    if (released_.wait_for(std::chrono::minutes(2)) != std::future_status::ready) {
+      return Internal("the test never released the held frame");
+    }
+    return Status::Ok();
+  }
+  void OnSkinned(Status status, const FrameTiming&) override { done.set_value(std::move(status)); }
+  std::vector<float> palette_, positions_;
+  std::promise<void> release_;
+  std::future<void> released_ = release_.get_future();
+};
+
+TEST_F(SchedulerFairnessTest, ALargeFrameDoesNotHoldEveryThreadWhileSmallFramesWait) {
+  // The large frame starts on an idle pool, where splitting it across every thread would
+  // pay off if nothing else came; then small frames arrive while it is held on its thread.
+  HeldFrameJob big(*big_, kSimdOpenMpTestBackend);
+  std::future<Status> big_done = big.done.get_future();
+  ASSERT_TRUE(engine_->Submit(&big).ok());
+  big.skinned.get_future().wait();
+
+  std::vector<Frame> small(20);
+  std::mutex mutex;
+  std::condition_variable changed;
+  int small_done = 0, small_ok = 0, submitted = 0;
+  Status refused;
+  for (int i = 0; i < 20 && refused.ok(); ++i) {
+    refused = engine_->Submit(small[i].Request(*small_, kSimdOpenMpTestBackend, i),
+                              [&](Status s, FrameTiming) {
+                                std::lock_guard lock(mutex);
+                                ++small_done;
+                                small_ok += s.ok();
+                                changed.notify_all();
+                              });
+    submitted += refused.ok();
+  }
+  std::unique_lock lock(mutex);
+  // Had the large frame taken both threads, no small frame could run until it is released.
+  const bool ran_beside_it =
+      changed.wait_for(lock, std::chrono::seconds(30), [&] { return small_done == submitted; });
+  const int done_while_held = small_done;
+  lock.unlock();
+  big.Release();
+  EXPECT_TRUE(refused.ok()) << refused.ToString();  // 20 fit the queue (64)
+  EXPECT_TRUE(ran_beside_it) << done_while_held
+                             << " of 20 small frames ran while the large frame held its thread";
+  EXPECT_TRUE(big_done.get().ok());
+  lock.lock();
+  changed.wait(lock, [&] { return small_done == submitted; });  // their buffers outlive them
+  EXPECT_EQ(small_ok, 20);
   EXPECT_LE(engine_->Stats().peak_busy_threads, 2);
 }
 
