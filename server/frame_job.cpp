@@ -6,14 +6,32 @@
 #include <chrono>
 #include <cstring>
 
+#include <grpcpp/impl/codegen/proto_utils.h>
+
 #include "wire_codec.h"
 
 namespace skinserve::server {
 namespace {
 
-std::span<std::byte> WritableBytes(std::string* bytes, std::size_t size) {
-  bytes->resize(size);  // grows once; later frames of the same size reuse the capacity
-  return {reinterpret_cast<std::byte*>(bytes->data()), size};
+// Room for one part's header: the fields besides the vertex data take at most ~150
+// bytes (varints, the timings, a snorm16 box), and the two tags with their lengths 12.
+constexpr std::size_t kHeaderRoom = 256;
+
+constexpr std::size_t RoundUp(std::size_t n) {
+  return (n + kBufferAlignment - 1) / kBufferAlignment * kBufferAlignment;
+}
+
+// Appends a length-delimited field's tag and length (protobuf wire type 2) at `out`;
+// returns the bytes written (at most 6).
+std::size_t PutLengthDelimitedTag(int field, std::size_t length, std::byte* out) {
+  std::size_t n = 0;
+  out[n++] = static_cast<std::byte>(field << 3 | 2);
+  do {
+    const auto low = static_cast<uint8_t>(length & 0x7f);
+    length >>= 7;
+    out[n++] = static_cast<std::byte>(length ? (low | 0x80) : low);
+  } while (length);
+  return n;
 }
 
 // Grows `buffer` to hold `count` values (never shrinks, so alternating sizes do not
@@ -30,13 +48,27 @@ Status InstanceError(const Status& status, uint32_t instance, uint32_t instances
 
 }  // namespace
 
-FrameJob::~FrameJob() { budget_->Release(charged_); }
+FrameJob::~FrameJob() {
+  DropWire();
+  budget_->Release(charged_);
+}
+
+FrameJob::PartRange FrameJob::RangeOf(std::size_t part) const {
+  PartRange r;
+  r.instance = static_cast<uint32_t>(part / parts_per_instance_);
+  r.first = static_cast<uint32_t>(part % parts_per_instance_) * vertices_per_part_;
+  r.count = std::min(vertices_per_part_, mesh_.vertex_count - r.first);
+  return r;
+}
 
 Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
                          const std::string& default_backend) {
   record_.Begin(wire.backend().empty() ? default_backend : wire.backend());
   frame_ = wire.frame();
   done_ = false;
+  error_part_ = false;
+  part_count_ = next_part_ = 0;
+  if (wire_in_use()) return Internal("a frame job was reused while gRPC still sent its answer");
   result_ = Status::Ok();
   timing_ = {};
   part_count_ = next_part_ = 0;
@@ -62,12 +94,25 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   if (Status s = engine.CheckBatch(mesh_.vertex_count, wire.instances()); !s.ok()) return s;
   instances_ = std::max<uint32_t>(wire.instances(), 1);
 
-  // What this frame holds while in flight; the job keeps its buffers, so only growth is
-  // charged.
   const uint64_t values = 3ull * mesh_.vertex_count * instances_;
   const uint64_t arrays = want_normals_ ? 2 : 1;
-  const uint64_t need = wire.palette().size() + arrays * values * sizeof(float) +
-                        arrays * values * EncodedBytesPerValue(encoding_);
+  const bool float32 = encoding_ == VertexEncoding::kFloat32;
+  const std::size_t vertex_bytes = arrays * 3 * EncodedBytesPerValue(encoding_);
+  vertices_per_part_ =
+      static_cast<uint32_t>(std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes));
+  parts_per_instance_ =
+      std::max<std::size_t>(1, (mesh_.vertex_count + vertices_per_part_ - 1) / vertices_per_part_);
+  part_count_ = parts_per_instance_ * instances_;
+  const std::size_t payload = values * EncodedBytesPerValue(encoding_);
+  positions_offset_ = 0;
+  normals_offset_ = RoundUp(payload);
+  headers_offset_ = normals_offset_ + (want_normals_ ? RoundUp(payload) : 0);
+  wire_used_ = headers_offset_ + part_count_ * kHeaderRoom;
+
+  // What this frame holds while in flight; the job keeps its buffers, so only growth is
+  // charged.
+  const uint64_t floats_kept = float32 ? 0 : arrays * values * sizeof(float);
+  const uint64_t need = wire.palette().size() + floats_kept + std::max(wire_used_, wire_.size());
   if (need > charged_) {
     if (Status s = budget_->TryCharge(need - charged_); !s.ok()) return s;
     charged_ = need;
@@ -81,28 +126,17 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   Result<SkinningMethod> method = FromWire(wire.method());
   if (!method.ok()) return method.status();
   request.method = *method;
-  const std::size_t vertex_bytes = arrays * 3 * EncodedBytesPerValue(encoding_);
-  vertices_per_part_ =
-      static_cast<uint32_t>(std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes));
-  parts_per_instance_ =
-      std::max<std::size_t>(1, (mesh_.vertex_count + vertices_per_part_ - 1) / vertices_per_part_);
-  part_count_ = parts_per_instance_ * instances_;
   encode_ns_.store(0);
-  if (parts_.size() < part_count_) parts_.resize(part_count_);
+  if (headers_.size() < part_count_) headers_.resize(part_count_);
+  if (bounds_.size() < instances_) bounds_.resize(instances_);
 
-  in_place_ = encoding_ == VertexEncoding::kFloat32 && part_count_ == 1;
-  if (in_place_) {  // malloc'd string bytes are aligned for floats (and SSE)
-    const auto floats = [&](std::string* bytes) {
-      return std::span<float>(reinterpret_cast<float*>(WritableBytes(bytes, values * 4).data()),
-                              values);
+  if (wire_.size() < wire_used_) wire_ = AlignedBuffer<std::byte>(wire_used_);
+  if (float32) {  // skinned straight into the wire buffer, which is aligned for SIMD
+    const auto floats = [&](std::size_t offset) {
+      return std::span<float>(reinterpret_cast<float*>(wire_.data() + offset), values);
     };
-    request.positions = floats(parts_[0].mutable_positions());
-    if (want_normals_) {
-      request.normals = floats(parts_[0].mutable_normals());
-    } else {
-      parts_[0].clear_normals();
-      request.normals = {};
-    }
+    request.positions = floats(positions_offset_);
+    request.normals = want_normals_ ? floats(normals_offset_) : std::span<float>();
   } else {
     request.positions = Reuse(positions_, values);
     request.normals = want_normals_ ? Reuse(normals_, values) : std::span<float>();
@@ -119,9 +153,9 @@ void FrameJob::Fail(Status status) {
 void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
   timing_ = timing;
   result_ = std::move(status);
+  if (result_.ok()) result_ = WriteHeaders();
   if (result_.ok()) {
-    FinishParts();
-    record_.EndAnswered(timing_, parts_[0].timing().encode_ns());
+    record_.EndAnswered(timing_, encode_ns_.load());
   } else {
     record_.EndFailed(result_.code());
     SetErrorPart();
@@ -130,7 +164,7 @@ void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
 }
 
 Status FrameJob::OnInstanceSkinned(uint32_t instance) {
-  if (in_place_) return Status::Ok();  // skinned straight into its part
+  if (encoding_ == VertexEncoding::kFloat32) return Status::Ok();  // skinned in place
   const auto started = std::chrono::steady_clock::now();
   Status s = EncodeInstance(instance);
   encode_ns_.fetch_add(std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -140,102 +174,135 @@ Status FrameJob::OnInstanceSkinned(uint32_t instance) {
 }
 
 Status FrameJob::EncodeInstance(uint32_t i) {
-  const uint32_t vertex_count = mesh_.vertex_count;
-  const std::size_t instance_values = 3ull * vertex_count;
+  const std::size_t instance_values = 3ull * mesh_.vertex_count;
+  const std::size_t instance_bytes = instance_values * EncodedBytesPerValue(encoding_);
   const std::span<const float> positions =
       request.positions.subspan(i * instance_values, instance_values);
-  const std::span<const float> normals =
-      want_normals_ ? request.normals.subspan(i * instance_values, instance_values)
-                    : std::span<const float>();
-  Bounds bounds;
+  Bounds& bounds = bounds_[i];
+  bounds = {};
   if (encoding_ == VertexEncoding::kSnorm16) {
     Result<Bounds> box = ComputeBounds(positions);
     if (!box.ok()) return InstanceError(box.status(), i, instances_);
     bounds = *box;
   }
-  std::size_t n = i * parts_per_instance_;  // this instance's parts only: no other thread's
-  uint32_t first = 0;
-  do {
-    const uint32_t count = std::min(vertices_per_part_, vertex_count - first);
-    v1::SkinResponse& part = parts_[n++];
-    part.Clear();
-    part.set_frame(frame_);
-    part.set_first_vertex(first);
-    part.set_vertex_count(count);
-    part.set_total_vertices(vertex_count);
-    part.set_instance(i);
-    part.set_instances(instances_);
-    part.set_encoding(static_cast<v1::Encoding>(encoding_));
+  Status s =
+      EncodePositions(encoding_, positions, bounds,
+                      {wire_.data() + positions_offset_ + i * instance_bytes, instance_bytes});
+  if (s.ok() && want_normals_) {
+    s = EncodeNormals(encoding_, request.normals.subspan(i * instance_values, instance_values),
+                      {wire_.data() + normals_offset_ + i * instance_bytes, instance_bytes});
+  }
+  return s.ok() ? s : InstanceError(s, i, instances_);
+}
+
+Status FrameJob::WriteHeaders() {
+  header_.Clear();
+  header_.set_frame(frame_);
+  header_.set_total_vertices(mesh_.vertex_count);
+  header_.set_instances(instances_);
+  header_.set_encoding(static_cast<v1::Encoding>(encoding_));
+  v1::ServerTiming* timing = header_.mutable_timing();
+  timing->set_queued_ns(timing_.queued_ns);
+  timing->set_compute_ns(timing_.compute_ns);
+  timing->set_device_transfer_ns(timing_.device_transfer_ns);
+  timing->set_device_kernel_ns(timing_.device_kernel_ns);
+  timing->set_encode_ns(encode_ns_.load());
+  for (std::size_t p = 0; p < part_count_; ++p) {
+    const PartRange r = RangeOf(p);
+    header_.set_first_vertex(r.first);
+    header_.set_vertex_count(r.count);
+    header_.set_instance(r.instance);
+    header_.set_last(p + 1 == part_count_);
     if (encoding_ == VertexEncoding::kSnorm16) {
-      v1::Bounds* wire = part.mutable_bounds();
-      wire->set_min_x(bounds.min[0]);
-      wire->set_min_y(bounds.min[1]);
-      wire->set_min_z(bounds.min[2]);
-      wire->set_max_x(bounds.max[0]);
-      wire->set_max_y(bounds.max[1]);
-      wire->set_max_z(bounds.max[2]);
+      const Bounds& b = bounds_[r.instance];
+      v1::Bounds* wire = header_.mutable_bounds();
+      wire->set_min_x(b.min[0]);
+      wire->set_min_y(b.min[1]);
+      wire->set_min_z(b.min[2]);
+      wire->set_max_x(b.max[0]);
+      wire->set_max_y(b.max[1]);
+      wire->set_max_z(b.max[2]);
     }
-    const std::size_t bytes = EncodedBytes(encoding_, count);
-    Status s = EncodePositions(encoding_, positions.subspan(3ull * first, 3ull * count), bounds,
-                               WritableBytes(part.mutable_positions(), bytes), first);
-    if (s.ok() && want_normals_) {
-      s = EncodeNormals(encoding_, normals.subspan(3ull * first, 3ull * count),
-                        WritableBytes(part.mutable_normals(), bytes), first);
+    const std::size_t size = header_.ByteSizeLong();
+    if (size + 12 > kHeaderRoom) {
+      return Internal(fmt::format("a response header of {} bytes exceeds the {} reserved", size,
+                                  kHeaderRoom - 12));
     }
-    if (!s.ok()) return InstanceError(s, i, instances_);
-    first += count;
-  } while (first < vertex_count);
+    std::byte* room = wire_.data() + headers_offset_ + p * kHeaderRoom;
+    header_.SerializeWithCachedSizesToArray(reinterpret_cast<uint8_t*>(room));
+    const std::size_t payload = EncodedBytes(encoding_, r.count);
+    PartHeader& h = headers_[p];
+    h.size =
+        size + PutLengthDelimitedTag(v1::SkinResponse::kPositionsFieldNumber, payload, room + size);
+    h.normals_tag_size =
+        want_normals_
+            ? PutLengthDelimitedTag(v1::SkinResponse::kNormalsFieldNumber, payload, room + h.size)
+            : 0;
+  }
   return Status::Ok();
 }
 
-void FrameJob::FinishParts() {
-  const auto started = std::chrono::steady_clock::now();
-  if (in_place_) {  // the vertices are in place already: set the rest only
-    v1::SkinResponse& part = parts_[0];
-    part.clear_error();
-    part.clear_bounds();
-    part.set_frame(frame_);
-    part.set_first_vertex(0);
-    part.set_vertex_count(mesh_.vertex_count);
-    part.set_total_vertices(mesh_.vertex_count);
-    part.set_instance(0);
-    part.set_instances(1);
-    part.set_encoding(v1::ENCODING_FLOAT32);
-  }
-  parts_[part_count_ - 1].set_last(true);
-  const int64_t encode_ns =
-      encode_ns_.load() + std::chrono::duration_cast<std::chrono::nanoseconds>(
-                              std::chrono::steady_clock::now() - started)
-                              .count();
-  for (std::size_t p = 0; p < part_count_; ++p) {
-    v1::ServerTiming* timing = parts_[p].mutable_timing();
-    timing->set_queued_ns(timing_.queued_ns);
-    timing->set_compute_ns(timing_.compute_ns);
-    timing->set_device_transfer_ns(timing_.device_transfer_ns);
-    timing->set_device_kernel_ns(timing_.device_kernel_ns);
-    timing->set_encode_ns(encode_ns);
-  }
-}
-
 void FrameJob::SetErrorPart() {
-  if (parts_.empty()) parts_.resize(1);
-  v1::SkinResponse& part = parts_[0];
-  part.Clear();
-  part.set_frame(frame_);
-  part.set_total_vertices(mesh_.vertex_count);
-  part.set_instances(instances_);
-  part.mutable_error()->set_code(ToGrpc(result_).error_code());
-  part.mutable_error()->set_message(result_.message());
-  part.set_last(true);
+  header_.Clear();
+  header_.set_frame(frame_);
+  header_.set_total_vertices(mesh_.vertex_count);
+  header_.set_instances(instances_);
+  header_.mutable_error()->set_code(ToGrpc(result_).error_code());
+  header_.mutable_error()->set_message(result_.message());
+  header_.set_last(true);
+  grpc::ByteBuffer bytes;
+  bool own = false;
+  if (!grpc::SerializationTraits<v1::SkinResponse>::Serialize(header_, &bytes, &own).ok()) {
+    header_.mutable_error()->set_message("the error message could not be serialized");
+    (void)grpc::SerializationTraits<v1::SkinResponse>::Serialize(header_, &bytes, &own);
+  }
+  out_.reset();
+  error_part_ = true;
+  error_bytes_ = std::move(bytes);
   part_count_ = 1;
   next_part_ = 0;
 }
 
-const v1::SkinResponse* FrameJob::NextPart(bool* last) {
+const grpc::ByteBuffer* FrameJob::NextPart(bool* last) {
   if (next_part_ >= part_count_) return nullptr;
-  const v1::SkinResponse* part = &parts_[next_part_++];
+  const std::size_t p = next_part_++;
   *last = next_part_ == part_count_;
-  return part;
+  if (error_part_) return &error_bytes_;
+  if (p == 0) {  // gRPC gets slices of wire_: hold the listener until it lets go of them
+    wire_refs_.store(1, std::memory_order_release);
+    listener_->HoldForWire();
+    wire_slice_ = grpc::Slice(wire_.data(), wire_used_, &FrameJob::WireReleased, this);
+  }
+  const PartRange r = RangeOf(p);
+  const std::size_t bytes_per_vertex = EncodedBytes(encoding_, 1);
+  const std::size_t payload = r.count * bytes_per_vertex;
+  const std::size_t offset =
+      (static_cast<std::size_t>(r.instance) * mesh_.vertex_count + r.first) * bytes_per_vertex;
+  const std::size_t header = headers_offset_ + p * kHeaderRoom;
+  const PartHeader& h = headers_[p];
+  grpc::Slice slices[4] = {
+      wire_slice_.sub(header, header + h.size),
+      wire_slice_.sub(positions_offset_ + offset, positions_offset_ + offset + payload)};
+  std::size_t n = 2;
+  if (want_normals_) {
+    slices[n++] = wire_slice_.sub(header + h.size, header + h.size + h.normals_tag_size);
+    slices[n++] = wire_slice_.sub(normals_offset_ + offset, normals_offset_ + offset + payload);
+  }
+  out_.emplace(slices, n);
+  if (*last) wire_slice_ = grpc::Slice();  // the parts' slices hold the buffer from here on
+  return &*out_;
+}
+
+void FrameJob::DropWire() {
+  out_.reset();
+  wire_slice_ = grpc::Slice();
+}
+
+void FrameJob::WireReleased(void* job) {
+  auto* self = static_cast<FrameJob*>(job);
+  Listener* listener = self->listener_;
+  self->wire_refs_.store(0, std::memory_order_release);  // the job may be reused from here
+  listener->ReleaseForWire();
 }
 
 }  // namespace skinserve::server

@@ -1,18 +1,27 @@
 // FrameJob: one frame on its way through the server, reused frame after frame by its
-// stream so that the steady state allocates nothing. It owns the palette the engine reads,
-// the buffers the engine skins into and the response parts the answer is encoded into
-// (each at most 1 MiB of vertex data, so no message needs more than gRPC's default
-// 4 MiB); all grow to the largest frame seen and are charged to the in-flight budget
-// until the job is destroyed (its stream ends). Each instance of a crowd is encoded on the
-// compute thread that skinned it, right after it (OnInstanceSkinned).
+// stream so that the steady state allocates nothing of its own. It owns the palette the
+// engine reads and one wire buffer that holds the answer as it goes on the wire: the
+// vertex data of every part (each at most 1 MiB, so no message needs more than gRPC's
+// default 4 MiB) and each part's serialized header. float32 frames are skinned straight
+// into it; the other encodings are skinned into a float buffer and each instance is
+// encoded into it on the compute thread that skinned it (OnInstanceSkinned). The parts go
+// to gRPC as slices over that buffer: gRPC copies nothing, the kernel's socket copy is the
+// only one. While gRPC holds those slices the buffer must not change: wire_in_use() tells,
+// and the listener is held until gRPC lets go. All buffers grow to the largest frame seen
+// and are charged to the in-flight budget until the job is destroyed (its stream ends).
 #pragma once
+
+#include <grpcpp/support/byte_buffer.h>
+#include <grpcpp/support/slice.h>
 
 #include <atomic>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "inflight_budget.h"
 #include "metrics_frames.h"
+#include "skinserve/core/aligned_buffer.h"
 #include "skinserve/core/engine.h"
 #include "skinserve/core/vertex_encoding.h"
 #include "skinserve/v1/skinning.pb.h"
@@ -27,6 +36,12 @@ class FrameJob final : public SkinJob {
   class Listener {
    public:
     virtual void OnFrameDone(FrameJob* job) = 0;
+    // The listener stays alive from HoldForWire (the first part handed out) until
+    // ReleaseForWire (gRPC dropped the last slice of the job's wire buffer). Release may
+    // come on any thread, also from inside the listener's own calls into gRPC while it
+    // holds its lock: it must not lock.
+    virtual void HoldForWire() = 0;
+    virtual void ReleaseForWire() = 0;
 
    protected:
     ~Listener() = default;
@@ -47,20 +62,25 @@ class FrameJob final : public SkinJob {
   void set_done() { done_ = true; }
   const Status& status() const { return result_; }
   uint64_t frame() const { return frame_; }
-  // The next response part; nullptr once every part was handed out. `*last` tells
-  // whether it is the frame's final part.
-  const v1::SkinResponse* NextPart(bool* last);
+  // The next response part, serialized; nullptr once every part was handed out. `*last`
+  // tells whether it is the frame's final part. Valid until PartWritten or the next call.
+  const grpc::ByteBuffer* NextPart(bool* last);
+  // The part handed out last was written (or failed): the job lets go of it.
+  void PartWritten() { out_.reset(); }
+  // Lets go of every slice the job itself still holds (a frame abandoned mid-way).
+  void DropWire();
+  // Whether gRPC still holds slices of the wire buffer: until then the job is not reused.
+  bool wire_in_use() const { return wire_refs_.load(std::memory_order_acquire) > 0; }
 
  private:
-  // Encodes instance `instance` into its parts, on the thread that skinned it.
+  // Encodes instance `instance` into the wire buffer, on the thread that skinned it.
   Status OnInstanceSkinned(uint32_t instance) override;
   void OnSkinned(Status status, const FrameTiming& timing) override;
-  // Instance i's parts, after ComputeBounds for snorm16 (all but a part skinned in place).
   Status EncodeInstance(uint32_t i);
-  // What is left once every instance is encoded: the in-place part's fields, `last`, the
-  // timings.
-  void FinishParts();
+  // Once every instance is in the wire buffer: each part's header, with the timings.
+  Status WriteHeaders();
   void SetErrorPart();
+  static void WireReleased(void* job);  // gRPC dropped the last slice
 
   Listener* const listener_;
   InflightBudget* const budget_;
@@ -72,12 +92,30 @@ class FrameJob final : public SkinJob {
   bool want_normals_ = false;
   VertexEncoding encoding_ = VertexEncoding::kFloat32;
   std::vector<float> palette_;
-  std::vector<float> positions_;  // sized to the largest frame; spans cover the current
+  std::vector<float> positions_;  // skinned floats, for encodings other than float32
   std::vector<float> normals_;
-  std::vector<v1::SkinResponse> parts_;
-  // A float32 frame of one instance in one part is skinned straight into that part's
-  // bytes: no copy besides gRPC's serialisation.
-  bool in_place_ = false;
+  std::vector<Bounds> bounds_;  // snorm16: each instance's box
+
+  // Part p's header sits at headers_offset_ + p * kHeaderRoom in wire_: the serialized
+  // header with the positions field's tag and length, then the normals field's.
+  struct PartHeader {
+    std::size_t size = 0;              // up to and with the positions field's tag and length
+    std::size_t normals_tag_size = 0;  // 0 without normals
+  };
+  struct PartRange {
+    uint32_t instance = 0, first = 0, count = 0;
+  };
+  PartRange RangeOf(std::size_t part) const;
+  std::vector<PartHeader> headers_;
+  AlignedBuffer<std::byte> wire_;
+  std::size_t positions_offset_ = 0, normals_offset_ = 0, headers_offset_ = 0, wire_used_ = 0;
+  v1::SkinResponse header_;              // reused to serialize each part's header
+  std::atomic<int> wire_refs_{0};        // 1 while gRPC or the job holds slices of wire_
+  grpc::Slice wire_slice_;               // over wire_[0, wire_used_), while parts are handed out
+  std::optional<grpc::ByteBuffer> out_;  // the part handed out last
+  bool error_part_ = false;              // the answer is one error part: error_bytes_
+  grpc::ByteBuffer error_bytes_;
+
   std::size_t part_count_ = 0;
   uint32_t vertices_per_part_ = 1;  // at most 1 MiB of encoded vertex data per part
   std::size_t parts_per_instance_ = 1;

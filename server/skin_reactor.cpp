@@ -5,10 +5,14 @@
 namespace skinserve::server {
 
 SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
-                         const v1::SkinRequest& request, InflightBudget* budget)
+                         const grpc::ByteBuffer& request_bytes, InflightBudget* budget)
     : job_(static_cast<FrameJob::Listener*>(this), budget) {
+  v1::SkinRequest request;
+  grpc::ByteBuffer bytes(request_bytes);  // parsing consumes it
   Status status = engine == nullptr
                       ? Unavailable("the server is starting: backends are being built")
+                  : !grpc::SerializationTraits<v1::SkinRequest>::Deserialize(&bytes, &request).ok()
+                      ? InvalidArgument("the request is not a valid skinserve.v1.SkinRequest")
                       : job_.Prepare(request, *engine, default_backend);
   if (status.ok()) {
     refs_.fetch_add(1);
@@ -37,11 +41,20 @@ void SkinReactor::OnFrameDone(FrameJob*) {
 
 void SkinReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mutex_);
+  job_.PartWritten();
   if (!ok) {
     FinishLocked(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away"));
     return;
   }
   WriteNextLocked();
+}
+
+void SkinReactor::OnDone() {
+  {
+    std::lock_guard lock(mutex_);
+    job_.DropWire();  // a frame cut off mid-way holds its buffer
+  }
+  Unref();
 }
 
 void SkinReactor::OnCancel() {
@@ -52,7 +65,7 @@ void SkinReactor::OnCancel() {
 void SkinReactor::WriteNextLocked() {
   if (finished_) return;
   bool last = false;
-  if (const v1::SkinResponse* part = job_.NextPart(&last)) {
+  if (const grpc::ByteBuffer* part = job_.NextPart(&last)) {
     StartWrite(part);
   } else {
     FinishLocked(grpc::Status::OK);

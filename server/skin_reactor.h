@@ -13,18 +13,21 @@
 
 namespace skinserve::server {
 
-class SkinReactor final : public grpc::ServerWriteReactor<v1::SkinResponse>,
+// Raw messages: the request is parsed here, the answer goes out as the job's parts.
+class SkinReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
                           private FrameJob::Listener {
  public:
   SkinReactor(Engine* engine,  // null: warming up
-              const std::string& default_backend, const v1::SkinRequest& request,
+              const std::string& default_backend, const grpc::ByteBuffer& request,
               InflightBudget* budget);
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
-  void OnDone() override { Unref(); }
+  void OnDone() override;
 
  private:
   void OnFrameDone(FrameJob* job) override;
+  void HoldForWire() override { refs_.fetch_add(1); }
+  void ReleaseForWire() override { Unref(); }
   void WriteNextLocked();
   void FinishLocked(const grpc::Status& status);
   void Unref();
@@ -32,8 +35,9 @@ class SkinReactor final : public grpc::ServerWriteReactor<v1::SkinResponse>,
   std::mutex mutex_;
   FrameJob job_;
   bool finished_ = false;
-  // gRPC's reference (dropped in OnDone) and the engine's (dropped after its callback):
-  // the reactor lives until both are gone.
+  // gRPC's reference (dropped in OnDone), the engine's (dropped after its callback) and
+  // the answer's (while gRPC holds the job's wire buffer): the reactor lives until all
+  // are gone.
   std::atomic<int> refs_{1};
 };
 

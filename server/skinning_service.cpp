@@ -42,12 +42,12 @@ grpc::ServerUnaryReactor* SkinningService::DeleteMesh(grpc::CallbackServerContex
   return Done(context, Status::Ok());
 }
 
-grpc::ServerWriteReactor<v1::SkinResponse>* SkinningService::Skin(grpc::CallbackServerContext*,
-                                                                  const v1::SkinRequest* request) {
+grpc::ServerWriteReactor<grpc::ByteBuffer>* SkinningService::Skin(grpc::CallbackServerContext*,
+                                                                  const grpc::ByteBuffer* request) {
   return new SkinReactor(engine_.load(), default_backend_, *request, &budget_);
 }
 
-grpc::ServerBidiReactor<v1::SkinRequest, v1::SkinResponse>* SkinningService::StreamSkin(
+grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* SkinningService::StreamSkin(
     grpc::CallbackServerContext*) {
   return new StreamSkinReactor(engine_.load(), default_backend_, stream_window_, &open_streams_,
                                &budget_);

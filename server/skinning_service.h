@@ -11,7 +11,15 @@
 
 namespace skinserve::server {
 
-class SkinningService final : public v1::Skinning::CallbackService {
+// Skin and StreamSkin are raw (grpc::ByteBuffer) methods: their answers are sent as
+// slices of the frame jobs' buffers, which gRPC's protobuf serialization would copy.
+using SkinningCallbackService = v1::Skinning::WithCallbackMethod_UploadMesh<
+    v1::Skinning::WithCallbackMethod_GetMesh<v1::Skinning::WithCallbackMethod_DeleteMesh<
+        v1::Skinning::WithRawCallbackMethod_Skin<v1::Skinning::WithRawCallbackMethod_StreamSkin<
+            v1::Skinning::WithCallbackMethod_ListBackends<
+                v1::Skinning::WithCallbackMethod_GetServerStats<v1::Skinning::Service>>>>>>>;
+
+class SkinningService final : public SkinningCallbackService {
  public:
   SkinningService(std::string default_backend, int stream_window, std::size_t max_streams,
                   uint64_t inflight_budget_bytes)
@@ -37,9 +45,9 @@ class SkinningService final : public v1::Skinning::CallbackService {
   grpc::ServerUnaryReactor* DeleteMesh(grpc::CallbackServerContext* context,
                                        const v1::DeleteMeshRequest* request,
                                        v1::DeleteMeshResponse* response) override;
-  grpc::ServerWriteReactor<v1::SkinResponse>* Skin(grpc::CallbackServerContext*,
-                                                   const v1::SkinRequest* request) override;
-  grpc::ServerBidiReactor<v1::SkinRequest, v1::SkinResponse>* StreamSkin(
+  grpc::ServerWriteReactor<grpc::ByteBuffer>* Skin(grpc::CallbackServerContext*,
+                                                   const grpc::ByteBuffer* request) override;
+  grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* StreamSkin(
       grpc::CallbackServerContext*) override;
   grpc::ServerUnaryReactor* ListBackends(grpc::CallbackServerContext* context,
                                          const v1::ListBackendsRequest* request,

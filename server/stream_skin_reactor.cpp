@@ -1,6 +1,7 @@
 #include "stream_skin_reactor.h"
 
 #include <fmt/format.h>
+#include <grpcpp/impl/codegen/proto_utils.h>
 
 #include "wire_codec.h"
 
@@ -36,6 +37,13 @@ void StreamSkinReactor::OnReadDone(bool ok) {
     PumpLocked();
     return;
   }
+  ++requests_read_;
+  if (!grpc::SerializationTraits<v1::SkinRequest>::Deserialize(&request_bytes_, &request_).ok()) {
+    // Not a SkinRequest at all: nothing names the frame, so the stream cannot go on.
+    FinishLocked(ToGrpc(InvalidArgument(fmt::format(
+        "message {} on this stream is not a valid skinserve.v1.SkinRequest", requests_read_))));
+    return;
+  }
   last_frame_read_ = request_.frame();
   FrameJob& job = *TakeIdleJobLocked();
   in_flight_jobs_[(oldest_ + in_flight_) % window_] = &job;
@@ -65,6 +73,7 @@ void StreamSkinReactor::OnFrameDone(FrameJob* job) {
 void StreamSkinReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mutex_);
   writing_ = false;
+  Slot(oldest_).PartWritten();
   if (writing_last_part_) {  // the oldest frame is answered: its job is free again
     writing_last_part_ = false;
     idle_jobs_.push_back(&Slot(oldest_));
@@ -85,6 +94,10 @@ void StreamSkinReactor::OnCancel() {
 
 void StreamSkinReactor::OnDone() {
   open_streams_->Remove(this);
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& job : jobs_) job->DropWire();  // a frame cut off mid-way holds its buffer
+  }
   Unref();
 }
 
@@ -95,14 +108,16 @@ void StreamSkinReactor::Drain() {
 }
 
 FrameJob* StreamSkinReactor::TakeIdleJobLocked() {
-  // Reading stops while `window` frames are in flight, so a job is idle or can be made.
-  if (idle_jobs_.empty()) {
-    jobs_.push_back(std::make_unique<FrameJob>(static_cast<FrameJob::Listener*>(this), budget_));
-    return jobs_.back().get();
+  // The job answered last whose buffer gRPC has let go of; else a new one.
+  for (auto it = idle_jobs_.rbegin(); it != idle_jobs_.rend(); ++it) {
+    if (!(*it)->wire_in_use()) {
+      FrameJob* job = *it;
+      idle_jobs_.erase(std::next(it).base());
+      return job;
+    }
   }
-  FrameJob* job = idle_jobs_.back();
-  idle_jobs_.pop_back();
-  return job;
+  jobs_.push_back(std::make_unique<FrameJob>(static_cast<FrameJob::Listener*>(this), budget_));
+  return jobs_.back().get();
 }
 
 void StreamSkinReactor::PumpLocked() {
@@ -110,7 +125,7 @@ void StreamSkinReactor::PumpLocked() {
   // Write the oldest frame's next part once it is done: responses keep request order.
   if (!writing_ && in_flight_ > 0 && Slot(oldest_).done()) {
     bool last = false;
-    if (const v1::SkinResponse* part = Slot(oldest_).NextPart(&last)) {
+    if (const grpc::ByteBuffer* part = Slot(oldest_).NextPart(&last)) {
       writing_ = true;
       writing_last_part_ = last;
       StartWrite(part);
@@ -118,7 +133,7 @@ void StreamSkinReactor::PumpLocked() {
   }
   if (!reading_ && !reads_done_ && !draining_ && in_flight_ < window_) {
     reading_ = true;
-    StartRead(&request_);
+    StartRead(&request_bytes_);
   }
   if (in_flight_ > 0 || writing_) return;
   if (reads_done_) {

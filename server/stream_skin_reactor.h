@@ -26,7 +26,8 @@
 
 namespace skinserve::server {
 
-class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, v1::SkinResponse>,
+// Raw messages: requests are parsed here, answers go out as the jobs' serialized parts.
+class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>,
                                 private FrameJob::Listener {
  public:
   StreamSkinReactor(Engine* engine,  // null: warming up
@@ -45,6 +46,8 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, 
 
  private:
   void OnFrameDone(FrameJob* job) override;
+  void HoldForWire() override { refs_.fetch_add(1); }
+  void ReleaseForWire() override { Unref(); }
   FrameJob& Slot(std::size_t i) { return *in_flight_jobs_[i % window_]; }
   FrameJob* TakeIdleJobLocked();
   void PumpLocked();  // starts the next write, the next read or the finish, as due
@@ -58,8 +61,12 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, 
   InflightBudget* budget_;
 
   std::mutex mutex_;
+  grpc::ByteBuffer request_bytes_;
   v1::SkinRequest request_;
-  std::vector<std::unique_ptr<FrameJob>> jobs_;  // created as needed, at most window
+  uint64_t requests_read_ = 0;
+  // Created as needed: at most window in flight, and rarely a few more whose answer
+  // gRPC still holds (wire_in_use) when the next frame comes.
+  std::vector<std::unique_ptr<FrameJob>> jobs_;
   // The frames in flight, oldest first: slots [oldest_, oldest_ + in_flight_) mod window.
   std::vector<FrameJob*> in_flight_jobs_;
   std::vector<FrameJob*> idle_jobs_;  // a stack: the job freed last is reused first
@@ -72,7 +79,9 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<v1::SkinRequest, 
   bool draining_ = false;
   bool writing_ = false;
   bool finished_ = false;
-  std::atomic<int> refs_{1};  // gRPC's, plus one per frame the engine holds, plus holds
+  // gRPC's, plus one per frame the engine holds, per job whose wire buffer gRPC holds,
+  // and per Hold.
+  std::atomic<int> refs_{1};
 };
 
 }  // namespace skinserve::server

@@ -1,5 +1,6 @@
 // Bad input gets the right status code and a message naming the field and the limit, and
 // loses nothing: no half mesh is stored, a bad frame does not end its stream.
+#include <grpcpp/generic/generic_stub.h>
 #include <gtest/gtest.h>
 
 #include "skinserve/client/frame_stream.h"
@@ -25,6 +26,42 @@ Status RawUpload(client::SkinClient& c, const std::vector<v1::UploadMeshRequest>
   }
   writer->WritesDone();
   return client::FromGrpc(writer->Finish());
+}
+
+// Sends `messages` as they are (valid protobuf or not) on `method`, half-closes, reads
+// every answer and returns the call's status.
+grpc::Status RawCall(const std::string& target, const std::string& method,
+                     const std::vector<std::string>& messages) {
+  grpc::GenericStub stub(client::MakeChannel(target));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  grpc::CompletionQueue cq;
+  void* tag = nullptr;
+  bool ok = false;
+  // One operation at a time, so each completion is the one just started.
+  auto wait = [&] { return cq.Next(&tag, &ok) && ok; };
+  auto call = stub.PrepareCall(&context, method, &cq);
+  call->StartCall(nullptr);
+  if (wait()) {
+    for (const std::string& m : messages) {
+      grpc::Slice slice(m);
+      call->Write(grpc::ByteBuffer(&slice, 1), nullptr);
+      if (!wait()) break;
+    }
+    call->WritesDone(nullptr);
+    wait();
+    grpc::ByteBuffer answer;
+    do {
+      call->Read(&answer, nullptr);
+    } while (wait());
+  }
+  grpc::Status status;
+  call->Finish(&status, nullptr);
+  wait();
+  cq.Shutdown();
+  while (cq.Next(&tag, &ok)) {
+  }
+  return status;
 }
 
 v1::UploadMeshRequest Header(uint32_t v, uint32_t b, uint32_t j, bool normals = false) {
@@ -101,6 +138,37 @@ TEST(BadInputTest, SizesOverTheLimitsAreRefusedFromTheHeader) {
   // 4e9 vertices would be 100+ GB: refused before any allocation.
   ExpectStatus(RawUpload(*t.client, {Header(4'000'000'000u, 8, 10)}),
                StatusCode::kResourceExhausted, "exceeds the limit");
+}
+
+TEST(BadInputTest, BytesThatAreNoSkinRequestAreRefusedNamingTheMessage) {
+  TestServer t;
+  auto info = t.client->Upload(MakeSyntheticMesh({.vertex_count = 200, .influences = 2}));
+  ASSERT_TRUE(info.ok());
+  v1::SkinRequest good;
+  good.set_mesh_id(info->mesh_id());
+  good.set_backend("serial");
+  good.set_palette(client::EncodePalette(MakeSyntheticPalette(77, 1, 0)));
+  const std::string truncated("\x08", 1);  // field 1's varint, cut off
+  // The raw methods parse requests themselves: a message that is no SkinRequest ends the
+  // call with INVALID_ARGUMENT naming it (nothing else names its frame), after the valid
+  // messages before it were answered.
+  const grpc::Status stream =
+      RawCall(t.target, "/skinserve.v1.Skinning/StreamSkin", {good.SerializeAsString(), truncated});
+  EXPECT_EQ(stream.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << stream.error_message();
+  EXPECT_NE(stream.error_message().find("message 2 on this stream is not a valid "
+                                        "skinserve.v1.SkinRequest"),
+            std::string::npos)
+      << stream.error_message();
+  const grpc::Status skin = RawCall(t.target, "/skinserve.v1.Skinning/Skin", {truncated});
+  EXPECT_EQ(skin.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << skin.error_message();
+  EXPECT_NE(skin.error_message().find("not a valid skinserve.v1.SkinRequest"), std::string::npos)
+      << skin.error_message();
+  // Valid bytes through the same path are answered, and the server serves on.
+  EXPECT_TRUE(RawCall(t.target, "/skinserve.v1.Skinning/Skin", {good.SerializeAsString()}).ok());
+  client::FrameResult result;
+  EXPECT_TRUE(
+      t.client->Skin(info->mesh_id(), "serial", MakeSyntheticPalette(77, 1, 0), 0, false, &result)
+          .ok());
 }
 
 TEST(BadInputTest, BadFramesGetTheirErrorAndTheStreamGoesOn) {

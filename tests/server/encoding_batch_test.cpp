@@ -404,5 +404,38 @@ TEST(EncodingBatchTest, FramesBeyondTheInflightBudgetAreRefusedAndTheMemoryRetur
   EXPECT_EQ(held, 0u);
 }
 
+// Answers go to gRPC as slices of the frame job's buffer, which keeps the stream's
+// reactor (and so its jobs and budget) alive until gRPC lets go. A stream cut off in the
+// middle of a many-part frame must still let go: its buffers return to the budget.
+TEST(EncodingBatchTest, AStreamCutOffInTheMiddleOfAFrameGivesItsMemoryBack) {
+  TestServer t;
+  auto info = t.client->Upload(MakeSyntheticMesh({.vertex_count = 100'000, .influences = 2}));
+  ASSERT_TRUE(info.ok());
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  {
+    grpc::ClientContext context;
+    auto stream = stub->StreamSkin(&context);
+    // 8 instances x 1.2 MB of float32: 10 parts of at most 1 MiB.
+    ASSERT_TRUE(stream->Write(MakeRequest(info->mesh_id(), "sse", 0, 8, v1::ENCODING_FLOAT32, false,
+                                          CrowdPalettes(77, 8, 0))));
+    v1::SkinResponse part;
+    ASSERT_TRUE(stream->Read(&part));
+    EXPECT_FALSE(part.last());
+    EXPECT_GT(t.client->GetServerStats()->inflight_bytes(), 0u);
+    context.TryCancel();
+    EXPECT_EQ(stream->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  }
+  uint64_t held = 1, open = 1;
+  for (int i = 0; i < 200 && (held != 0 || open != 0); ++i) {
+    auto stats = t.client->GetServerStats();
+    ASSERT_TRUE(stats.ok());
+    held = stats->inflight_bytes();
+    open = stats->open_streams();
+    if (held != 0 || open != 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(open, 0u);
+  EXPECT_EQ(held, 0u) << "the cut-off stream's frame buffers were never given back";
+}
+
 }  // namespace
 }  // namespace skinserve::testing
