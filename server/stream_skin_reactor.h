@@ -4,11 +4,12 @@
 // frames are written in order, one part at a time. A frame that fails is answered with
 // its error and the stream carries on. Drained (server shutdown), the stream reads no
 // more, answers the frames it has read and ends with UNAVAILABLE.
-// Each stream keeps up to `window` FrameJobs and reuses them, so after the first frames
+// Each stream keeps the FrameJobs it needed and reuses them, so after the first frames
 // nothing is allocated per frame; their buffers count against the in-flight budget until
-// the stream ends. A new frame takes the job freed last: a stream with one frame in flight
-// (60 fps) reuses one job, whose buffers stay warm in cache, and grows (and page-faults in)
-// only as many as it ever has in flight, not `window` of them.
+// the stream ends. A new frame takes the job freed last whose answer gRPC has let go of:
+// a stream with one frame in flight (60 fps) reuses one job, whose buffers stay warm in
+// cache, and grows (and page-faults in) only as many as it ever has in flight (at most
+// `window`, and rarely one more whose answer is still on its way to the socket).
 #pragma once
 
 #include <grpcpp/grpcpp.h>
