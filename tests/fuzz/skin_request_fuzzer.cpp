@@ -1,8 +1,13 @@
 // A StreamSkin/Skin frame from raw wire bytes: the input is one SkinRequest message. It
 // goes the server's way: FrameJob::Prepare (mesh lookup, backend, palette bytes decoded),
 // the engine (palette validated against the mesh's joints, skinned on `serial`), then the
-// answer cut into response parts, which must cover the mesh's vertices exactly once.
+// answer cut into serialized response parts (slices of the job's wire buffer), which must
+// parse as SkinResponse messages and cover the mesh's vertices exactly once; once the job
+// lets go of its parts, gRPC's hold on the wire buffer must be released.
 // mesh_id "m" stands for the mesh stored at start-up, so inputs can reach the skinning.
+#include <grpcpp/impl/codegen/proto_utils.h>
+
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <cstdlib>
@@ -40,10 +45,13 @@ class DoneListener final : public server::FrameJob::Listener {
     done_ = true;
     changed_.notify_all();
   }
+  void HoldForWire() override { holds.fetch_add(1); }
+  void ReleaseForWire() override { holds.fetch_sub(1); }
   void Wait() {
     std::unique_lock lock(mutex_);
     changed_.wait(lock, [&] { return done_; });
   }
+  std::atomic<int> holds{0};
 
  private:
   std::mutex mutex_;
@@ -74,7 +82,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::map<uint32_t, uint64_t> next_vertex;  // by instance
   uint32_t total_vertices = 0;
   bool last = false;
-  while (const v1::SkinResponse* part = job.NextPart(&last)) {
+  while (const grpc::ByteBuffer* bytes = job.NextPart(&last)) {
+    grpc::ByteBuffer copy(*bytes);  // parsing consumes it
+    v1::SkinResponse parsed;
+    if (!grpc::SerializationTraits<v1::SkinResponse>::Deserialize(&copy, &parsed).ok()) {
+      std::abort();
+    }
+    const v1::SkinResponse* part = &parsed;
     if (last != part->last()) std::abort();
     if (part->has_error()) {
       if (status.ok() || !last) std::abort();
@@ -89,5 +103,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (const auto& [instance, count] : next_vertex) {
     if (count != total_vertices) std::abort();
   }
+  job.PartWritten();
+  if (job.wire_in_use() || listener.holds.load() != 0) std::abort();
   return 0;
 }
