@@ -5,8 +5,9 @@
 #      frame), a frame for an unknown mesh counts as a NOT_FOUND error, build_info carries
 #      `skinserve --version`'s version;
 #   2. a metrics port that is taken: the server refuses to start, naming the port;
-#   3. scrapes during a SIGTERM drain: every answer is a whole, valid exposition (or the
-#      connection is refused once the server is gone), and the server exits 0;
+#   3. scrapes during a SIGTERM drain: every answer is a whole exposition, a spread sample
+#      of them passes promtool (or the connection is refused once the server is gone), and
+#      the server exits 0;
 #   4. --log-format json: every line the server logged is one JSON object.
 # usage: metrics-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD
 set -euo pipefail
