@@ -71,7 +71,6 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   if (wire_in_use()) return Internal("a frame job was reused while gRPC still sent its answer");
   result_ = Status::Ok();
   timing_ = {};
-  part_count_ = next_part_ = 0;
   mesh_.vertex_count = 0;
   instances_ = 1;
   if (Status s = engine.GetMesh(wire.mesh_id(), &mesh_); !s.ok()) return s;
@@ -104,8 +103,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
       std::max<std::size_t>(1, (mesh_.vertex_count + vertices_per_part_ - 1) / vertices_per_part_);
   part_count_ = parts_per_instance_ * instances_;
   const std::size_t payload = values * EncodedBytesPerValue(encoding_);
-  positions_offset_ = 0;
-  normals_offset_ = RoundUp(payload);
+  normals_offset_ = RoundUp(payload);  // the positions start the buffer
   headers_offset_ = normals_offset_ + (want_normals_ ? RoundUp(payload) : 0);
   wire_used_ = headers_offset_ + part_count_ * kHeaderRoom;
 
@@ -135,7 +133,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
     const auto floats = [&](std::size_t offset) {
       return std::span<float>(reinterpret_cast<float*>(wire_.data() + offset), values);
     };
-    request.positions = floats(positions_offset_);
+    request.positions = floats(0);
     request.normals = want_normals_ ? floats(normals_offset_) : std::span<float>();
   } else {
     request.positions = Reuse(positions_, values);
@@ -185,9 +183,8 @@ Status FrameJob::EncodeInstance(uint32_t i) {
     if (!box.ok()) return InstanceError(box.status(), i, instances_);
     bounds = *box;
   }
-  Status s =
-      EncodePositions(encoding_, positions, bounds,
-                      {wire_.data() + positions_offset_ + i * instance_bytes, instance_bytes});
+  Status s = EncodePositions(encoding_, positions, bounds,
+                             {wire_.data() + i * instance_bytes, instance_bytes});
   if (s.ok() && want_normals_) {
     s = EncodeNormals(encoding_, request.normals.subspan(i * instance_values, instance_values),
                       {wire_.data() + normals_offset_ + i * instance_bytes, instance_bytes});
@@ -280,9 +277,8 @@ const grpc::ByteBuffer* FrameJob::NextPart(bool* last) {
       (static_cast<std::size_t>(r.instance) * mesh_.vertex_count + r.first) * bytes_per_vertex;
   const std::size_t header = headers_offset_ + p * kHeaderRoom;
   const PartHeader& h = headers_[p];
-  grpc::Slice slices[4] = {
-      wire_slice_.sub(header, header + h.size),
-      wire_slice_.sub(positions_offset_ + offset, positions_offset_ + offset + payload)};
+  grpc::Slice slices[4] = {wire_slice_.sub(header, header + h.size),
+                           wire_slice_.sub(offset, offset + payload)};
   std::size_t n = 2;
   if (want_normals_) {
     slices[n++] = wire_slice_.sub(header + h.size, header + h.size + h.normals_tag_size);

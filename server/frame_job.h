@@ -108,7 +108,8 @@ class FrameJob final : public SkinJob {
   PartRange RangeOf(std::size_t part) const;
   std::vector<PartHeader> headers_;
   AlignedBuffer<std::byte> wire_;
-  std::size_t positions_offset_ = 0, normals_offset_ = 0, headers_offset_ = 0, wire_used_ = 0;
+  // wire_: positions from 0, normals, then the headers.
+  std::size_t normals_offset_ = 0, headers_offset_ = 0, wire_used_ = 0;
   v1::SkinResponse header_;              // reused to serialize each part's header
   std::atomic<int> wire_refs_{0};        // 1 while gRPC or the job holds slices of wire_
   grpc::Slice wire_slice_;               // over wire_[0, wire_used_), while parts are handed out
