@@ -1,8 +1,7 @@
-// Encoding and decoding loops. Each hot loop is branch-free so that it runs on SSE2 (the
-// x86-64 baseline): value-wise loops are left to the auto-vectoriser; loops over x y z
-// triples take 12 values (4 vertices) at a time as three 4-float vectors (GCC/Clang vector
-// extensions), so that each vector meets its own per-axis constants. A failed check only
-// sets a flag in the fast path; a slow scan then finds the value and names its vertex.
+// Encoding and decoding. The snorm16 hot loops live in vertex_encoding_kernels.cpp
+// (Highway, dispatched to the CPU's best SIMD target); float16's loops are branch-free so
+// that the auto-vectoriser takes them. A failed check only sets a flag in the fast path; a
+// slow scan then finds the value and names its vertex.
 #include "skinserve/core/vertex_encoding.h"
 
 #include <fmt/format.h>
@@ -13,6 +12,8 @@
 #include <cstring>
 #include <limits>
 
+#include "vertex_encoding_kernels.h"
+
 namespace skinserve {
 
 static_assert(std::endian::native == std::endian::little, "the wire is little-endian");
@@ -22,38 +23,10 @@ namespace {
 constexpr const char* kAxisNames[3] = {"x", "y", "z"};
 constexpr const char* kMinFieldNames[3] = {"bounds.min_x", "bounds.min_y", "bounds.min_z"};
 constexpr const char* kMaxFieldNames[3] = {"bounds.max_x", "bounds.max_y", "bounds.max_z"};
-constexpr float kInvSnorm16Max = 1.0f / static_cast<float>(kSnorm16Max);
-constexpr float kRoundMagic = 12582912.0f;  // 1.5 * 2^23, see RoundToSnorm16
-// Values per block of the x y z loops: 4 vertices, three 4-float vectors.
-constexpr std::size_t kBlock = 12;
-
-// float -> binary16 bits for |value| < 65520 (finite), round to nearest even.
-// F. Giesen's float_to_half_fast3_rtne, written branch-free: both paths are computed.
-// Four floats / int32 / int16 lanes, and 16-bit values at any alignment: the wire's bytes
-// (a protobuf string) carry no alignment guarantee.
-using Float4 = float __attribute__((vector_size(16)));
-using Int4 = int32_t __attribute__((vector_size(16)));
-using Short4 = int16_t __attribute__((vector_size(8)));
+// 16-bit values at any alignment: the wire's bytes (a protobuf string) carry no alignment
+// guarantee.
 using UnalignedU16 = uint16_t __attribute__((aligned(1), may_alias));
 using UnalignedS16 = int16_t __attribute__((aligned(1), may_alias));
-
-inline Float4 Splat(float v) { return Float4{v, v, v, v}; }
-inline Float4 LoadFloat4(const float* p) {
-  Float4 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-inline void StoreFloat4(float* p, Float4 v) { std::memcpy(p, &v, sizeof v); }
-
-// Per-axis constants laid out for a 12-value block: lane l of vector k is axis (4k + l) % 3.
-struct AxisVectors {
-  Float4 v[3];
-  explicit AxisVectors(const float* per_axis) {
-    for (int k = 0; k < 3; ++k) {
-      for (int l = 0; l < 4; ++l) v[k][l] = per_axis[(4 * k + l) % 3];
-    }
-  }
-};
 
 // float -> binary16 bits for |value| < 65520 (finite), round to nearest even.
 // F. Giesen's float_to_half_fast3_rtne, written branch-free: both paths are computed.
@@ -89,26 +62,6 @@ inline float FloatOfHalfBits(uint16_t half) {
   const uint32_t magnitude =
       (special & is_special) | (tiny & is_tiny) | (rebiased & ~(is_special | is_tiny));
   return std::bit_cast<float>(magnitude | (static_cast<uint32_t>(half) & 0x8000u) << 16);
-}
-
-// Rounds to nearest even and clamps to [-32767, 32767]. Adding and subtracting 1.5 * 2^23
-// rounds a float of magnitude < 2^22 to an integer in the FPU's default mode, without
-// SSE4.1's roundps; larger values are clamped anyway.
-inline Short4 RoundToSnorm16(Float4 t) {
-  const Float4 magic = Splat(kRoundMagic);
-  const Float4 limit = Splat(static_cast<float>(kSnorm16Max));
-  Float4 r = (t + magic) - magic;
-  r = r <= limit ? r : limit;  // NaN too: converting NaN to an integer is undefined
-  r = r >= -limit ? r : -limit;
-  return __builtin_convertvector(__builtin_convertvector(r, Int4), Short4);
-}
-inline int16_t RoundToSnorm16(float t) {
-  const float rounded = (t + kRoundMagic) - kRoundMagic;
-  // Written so that NaN (refused by the caller, which checks the values it encodes) clamps
-  // too: converting NaN to an integer is undefined.
-  const float clamped =
-      rounded >= -32767.0f ? (rounded <= 32767.0f ? rounded : 32767.0f) : -32767.0f;
-  return static_cast<int16_t>(static_cast<int32_t>(clamped));
 }
 
 Status WrongOutputSize(const char* field, VertexEncoding encoding, std::size_t values,
@@ -190,79 +143,49 @@ void EncodeSnorm16PositionsInDouble(std::span<const float> positions, const Snor
   }
 }
 
-// Whether every value lies in its axis' [min, max] (NaN does not).
-bool InsideBox(std::span<const float> positions, const Bounds& bounds) {
-  const std::size_t n = positions.size();
-  const float* in = positions.data();
-  const AxisVectors lo(bounds.min.data()), hi(bounds.max.data());
-  Int4 outside = {0, 0, 0, 0};
-  std::size_t i = 0;
-  for (; i + kBlock <= n; i += kBlock) {
-    for (int k = 0; k < 3; ++k) {
-      const Float4 x = LoadFloat4(in + i + 4 * k);
-      outside |= ~((x >= lo.v[k]) & (x <= hi.v[k]));
-    }
-  }
-  bool inside = (outside[0] | outside[1] | outside[2] | outside[3]) == 0;
-  for (; i < n; ++i) inside &= in[i] >= bounds.min[i % 3] && in[i] <= bounds.max[i % 3];
-  return inside;
-}
-
 Status EncodeSnorm16Positions(std::span<const float> positions, const Bounds& bounds,
                               std::span<std::byte> out, std::size_t first_vertex) {
   const std::size_t n = positions.size();
   const float* in = positions.data();
-  if (!InsideBox(positions, bounds)) {
-    for (std::size_t i = 0; i < n; ++i) {
-      const int a = static_cast<int>(i % 3);
-      if (in[i] >= bounds.min[a] && in[i] <= bounds.max[a]) continue;
-      if (!std::isfinite(in[i])) {
-        return PositionError("is not finite", first_vertex + i / 3, a, in[i]);
-      }
-      return PositionError(
-          fmt::format("is outside the box [{}, {}]", bounds.min[a], bounds.max[a]).c_str(),
-          first_vertex + i / 3, a, in[i]);
-    }
-  }
   const Snorm16Axes axes = AxesOf(bounds);
-  if (!axes.finite_scale) {
-    EncodeSnorm16PositionsInDouble(positions, axes, out);
-    return Status::Ok();
-  }
-  const AxisVectors centre(axes.centre), scale(axes.scale);
-  std::byte* o = out.data();
-  std::size_t i = 0;
-  for (; i + kBlock <= n; i += kBlock) {
-    for (int k = 0; k < 3; ++k) {
-      const Short4 q = RoundToSnorm16((LoadFloat4(in + i + 4 * k) - centre.v[k]) * scale.v[k]);
-      std::memcpy(o + 2 * (i + 4 * k), &q, sizeof q);
+  bool inside;
+  if (axes.finite_scale) {
+    inside = encoding_kernels::EncodeSnorm16Positions(
+        in, n, axes.centre, axes.scale, bounds.min.data(), bounds.max.data(), out.data());
+  } else {
+    inside = true;
+    for (std::size_t i = 0; i < n; ++i) {
+      inside = inside && in[i] >= bounds.min[i % 3] && in[i] <= bounds.max[i % 3];
     }
+    if (inside) EncodeSnorm16PositionsInDouble(positions, axes, out);
   }
-  auto* tail = reinterpret_cast<UnalignedS16*>(o);
-  for (; i < n; ++i) tail[i] = RoundToSnorm16((in[i] - axes.centre[i % 3]) * axes.scale[i % 3]);
-  return Status::Ok();
+  if (inside) return Status::Ok();
+  for (std::size_t i = 0; i < n; ++i) {
+    const int a = static_cast<int>(i % 3);
+    if (in[i] >= bounds.min[a] && in[i] <= bounds.max[a]) continue;
+    if (!std::isfinite(in[i]))
+      return PositionError("is not finite", first_vertex + i / 3, a, in[i]);
+    return PositionError(
+        fmt::format("is outside the box [{}, {}]", bounds.min[a], bounds.max[a]).c_str(),
+        first_vertex + i / 3, a, in[i]);
+  }
+  return Internal("EncodeSnorm16Positions: a value failed the box check but none is outside");
 }
 
 Status EncodeSnorm16Normals(std::span<const float> normals, std::span<std::byte> out,
                             std::size_t first_vertex) {
-  const std::size_t n = normals.size();
-  const float* in = normals.data();
-  auto* o = reinterpret_cast<UnalignedS16*>(out.data());
+  if (encoding_kernels::EncodeSnorm16Normals(normals.data(), normals.size(), out.data())) {
+    return Status::Ok();
+  }
   constexpr float kLimit = 32767.5f;  // |n * 32767| below this rounds into [-32767, 32767]
-  uint32_t bad = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const float t = in[i] * static_cast<float>(kSnorm16Max);
-    bad |= !(std::fabs(t) < kLimit);
-    o[i] = RoundToSnorm16(t);
-  }
-  if (bad == 0) return Status::Ok();
-  for (std::size_t i = 0; i < n; ++i) {
-    if (std::fabs(in[i] * static_cast<float>(kSnorm16Max)) < kLimit) continue;
+  for (std::size_t i = 0; i < normals.size(); ++i) {
+    const float n = normals[i];
+    if (std::fabs(n * static_cast<float>(kSnorm16Max)) < kLimit) continue;
     return InvalidArgument(fmt::format("normals[vertex {}][{}] = {} is {}", first_vertex + i / 3,
-                                       kAxisNames[i % 3], in[i],
-                                       std::isfinite(in[i]) ? "outside [-1, 1]" : "not finite"));
+                                       kAxisNames[i % 3], n,
+                                       std::isfinite(n) ? "outside [-1, 1]" : "not finite"));
   }
-  return Status::Ok();
+  return Internal("EncodeSnorm16Normals: a value failed the range check but none is outside");
 }
 
 Status CheckDecodeLength(const char* field, VertexEncoding encoding,
@@ -330,45 +253,16 @@ Result<Bounds> ComputeBounds(std::span<const float> positions, std::size_t first
   if (n % 3 != 0) return NotATriple("positions", n);
   Bounds bounds;
   if (n == 0) return bounds;
-  const float* in = positions.data();
-  // x - x is 0 for every finite x and NaN otherwise: one sum finds any non-finite value.
-  Float4 lo[3], hi[3], poison[3];
-  for (int k = 0; k < 3; ++k) {
-    for (int l = 0; l < 4; ++l) lo[k][l] = hi[k][l] = in[(4 * k + l) % 3];
-    poison[k] = Splat(0.0f);
+  if (encoding_kernels::Bounds(positions.data(), n, bounds.min.data(), bounds.max.data())) {
+    return bounds;
   }
-  std::size_t i = 0;
-  for (; i + kBlock <= n; i += kBlock) {
-    for (int k = 0; k < 3; ++k) {
-      const Float4 x = LoadFloat4(in + i + 4 * k);
-      lo[k] = x < lo[k] ? x : lo[k];
-      hi[k] = x > hi[k] ? x : hi[k];
-      poison[k] += x - x;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(positions[i])) {
+      return PositionError("is not finite", first_vertex + i / 3, static_cast<int>(i % 3),
+                           positions[i]);
     }
   }
-  bool finite = true;
-  for (int a = 0; a < 3; ++a) bounds.min[a] = bounds.max[a] = in[a];
-  for (int k = 0; k < 3; ++k) {
-    for (int l = 0; l < 4; ++l) {
-      const int a = (4 * k + l) % 3;
-      bounds.min[a] = std::min(bounds.min[a], lo[k][l]);
-      bounds.max[a] = std::max(bounds.max[a], hi[k][l]);
-      finite = finite && poison[k][l] == 0.0f;
-    }
-  }
-  for (; i < n; ++i) {
-    bounds.min[i % 3] = std::min(bounds.min[i % 3], in[i]);
-    bounds.max[i % 3] = std::max(bounds.max[i % 3], in[i]);
-    finite = finite && std::isfinite(in[i]);
-  }
-  if (!finite) {
-    for (i = 0; i < n; ++i) {
-      if (!std::isfinite(in[i])) {
-        return PositionError("is not finite", first_vertex + i / 3, static_cast<int>(i % 3), in[i]);
-      }
-    }
-  }
-  return bounds;
+  return Internal("ComputeBounds: a value failed the finiteness check but all are finite");
 }
 
 Status ValidateBounds(const Bounds& bounds) {
@@ -433,26 +327,8 @@ Status DecodePositions(VertexEncoding encoding, std::span<const std::byte> bytes
   if (out.size() % 3 != 0) return NotATriple("positions", out.size());
   if (Status s = ValidateBounds(bounds); !s.ok()) return s;
   const Snorm16Axes axes = AxesOf(bounds);
-  const AxisVectors centre(axes.centre), half_extent(axes.half_extent);
-  const Float4 inverse = Splat(kInvSnorm16Max);
-  const std::size_t n = out.size();
-  const std::byte* in = bytes.data();
-  float* o = out.data();
-  std::size_t i = 0;
-  for (; i + kBlock <= n; i += kBlock) {
-    for (int k = 0; k < 3; ++k) {
-      Short4 q;
-      std::memcpy(&q, in + 2 * (i + 4 * k), sizeof q);
-      const Float4 x =
-          centre.v[k] + (__builtin_convertvector(q, Float4) * inverse) * half_extent.v[k];
-      StoreFloat4(o + i + 4 * k, x);
-    }
-  }
-  const auto* tail = reinterpret_cast<const UnalignedS16*>(in);
-  for (; i < n; ++i) {
-    o[i] = axes.centre[i % 3] +
-           (static_cast<float>(tail[i]) * kInvSnorm16Max) * axes.half_extent[i % 3];
-  }
+  encoding_kernels::DecodeSnorm16Positions(bytes.data(), out.size(), axes.centre, axes.half_extent,
+                                           out.data());
   return Status::Ok();
 }
 
@@ -460,9 +336,7 @@ Status DecodeNormals(VertexEncoding encoding, std::span<const std::byte> bytes,
                      std::span<float> out) {
   if (encoding != VertexEncoding::kSnorm16) return DecodeValues("normals", encoding, bytes, out);
   if (Status s = CheckDecodeLength("normals", encoding, bytes, out.size()); !s.ok()) return s;
-  const auto* in = reinterpret_cast<const UnalignedS16*>(bytes.data());
-  float* o = out.data();
-  for (std::size_t i = 0; i < out.size(); ++i) o[i] = static_cast<float>(in[i]) * kInvSnorm16Max;
+  encoding_kernels::DecodeSnorm16Normals(bytes.data(), out.size(), out.data());
   return Status::Ok();
 }
 

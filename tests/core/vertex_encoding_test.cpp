@@ -12,6 +12,8 @@
 #include <random>
 #include <vector>
 
+#include "skinserve/core/simd_targets.h"
+
 namespace skinserve {
 namespace {
 
@@ -77,7 +79,24 @@ float LogUniform(std::mt19937& rng, int lo, int hi) {
   return static_cast<float>(rng() & 1 ? m : -m);
 }
 
-TEST(VertexEncodingTest, NamesSizesAndParsing) {
+// Every test runs at each SIMD target this machine runs (the snorm16 loops are dispatched
+// at run time to the best one: AVX-512, AVX2, SSE4, the scalar fallback...).
+class VertexEncodingTest : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override {
+    const Status s = CapSimdDispatch(GetParam());
+    ASSERT_TRUE(s.ok()) << s.ToString();
+  }
+  void TearDown() override { EXPECT_TRUE(CapSimdDispatch("").ok()); }
+};
+
+INSTANTIATE_TEST_SUITE_P(EachSimdTarget, VertexEncodingTest,
+                         ::testing::ValuesIn(RunnableSimdTargets()),
+                         [](const ::testing::TestParamInfo<std::string>& param_info) {
+                           return param_info.param;
+                         });
+
+TEST_P(VertexEncodingTest, NamesSizesAndParsing) {
   EXPECT_STREQ(VertexEncodingName(VertexEncoding::kSnorm16), "snorm16");
   EXPECT_EQ(ParseVertexEncoding("float16"), VertexEncoding::kFloat16);
   EXPECT_EQ(ParseVertexEncoding("float32"), VertexEncoding::kFloat32);
@@ -87,7 +106,7 @@ TEST(VertexEncodingTest, NamesSizesAndParsing) {
   EXPECT_EQ(EncodedBytes(VertexEncoding::kSnorm16, 10), 60u);
 }
 
-TEST(VertexEncodingTest, HalfToFloatIsExactForEveryHalf) {
+TEST_P(VertexEncodingTest, HalfToFloatIsExactForEveryHalf) {
   for (uint32_t bits = 0; bits <= 0xffff; ++bits) {
     const double expected = HalfValue(static_cast<uint16_t>(bits));
     const float got = HalfToFloat(static_cast<uint16_t>(bits));
@@ -100,7 +119,7 @@ TEST(VertexEncodingTest, HalfToFloatIsExactForEveryHalf) {
   }
 }
 
-TEST(VertexEncodingTest, FloatToHalfRoundsToNearestEvenLikeTheReference) {
+TEST_P(VertexEncodingTest, FloatToHalfRoundsToNearestEvenLikeTheReference) {
   std::vector<float> values = {
       0.0f,           -0.0f,          65504.0f,       -65504.0f, 65519.99f, 6.1035156e-05f,
       5.9604645e-08f, 2.9802322e-08f, 2.9802326e-08f, 1e-30f,    1.0f};
@@ -132,7 +151,7 @@ TEST(VertexEncodingTest, FloatToHalfRoundsToNearestEvenLikeTheReference) {
   }
 }
 
-TEST(VertexEncodingTest, FloatToHalfKeepsInfinityAndNan) {
+TEST_P(VertexEncodingTest, FloatToHalfKeepsInfinityAndNan) {
   EXPECT_EQ(FloatToHalf(std::numeric_limits<float>::infinity()), 0x7c00);
   EXPECT_EQ(FloatToHalf(-std::numeric_limits<float>::infinity()), 0xfc00);
   EXPECT_EQ(FloatToHalf(65520.0f), 0x7c00);  // the tie above 65504 rounds to even: infinity
@@ -140,7 +159,7 @@ TEST(VertexEncodingTest, FloatToHalfKeepsInfinityAndNan) {
   EXPECT_TRUE(std::isnan(HalfToFloat(FloatToHalf(std::numeric_limits<float>::quiet_NaN()))));
 }
 
-TEST(VertexEncodingTest, Float16WithinItsStatedBound) {
+TEST_P(VertexEncodingTest, Float16WithinItsStatedBound) {
   std::mt19937 rng(7);
   std::vector<float> values;
   for (int i = 0; i < 60000; ++i) values.push_back(LogUniform(rng, -28, 16));
@@ -160,7 +179,7 @@ TEST(VertexEncodingTest, Float16WithinItsStatedBound) {
   EXPECT_GT(worst_ratio, 0.9);  // the bound is tight: random values come close to it
 }
 
-TEST(VertexEncodingTest, Float16RefusesOverflowAndNanNamingTheVertex) {
+TEST_P(VertexEncodingTest, Float16RefusesOverflowAndNanNamingTheVertex) {
   std::vector<float> values(12, 1.0f);
   std::vector<std::byte> out(values.size() * 2);
   values[7] = std::nextafter(65504.0f, kFloatMax);  // vertex 2, y
@@ -179,7 +198,7 @@ TEST(VertexEncodingTest, Float16RefusesOverflowAndNanNamingTheVertex) {
   EXPECT_NE(s.message().find("not finite"), std::string::npos) << s.message();
 }
 
-TEST(VertexEncodingTest, Float32IsTheBytesAsTheyAre) {
+TEST_P(VertexEncodingTest, Float32IsTheBytesAsTheyAre) {
   const std::vector<float> values = {1.5f, -0.0f, 3e38f, 1e-45f, -7.25f, 2.0f};
   const std::vector<std::byte> bytes = Encoded(VertexEncoding::kFloat32, values, {});
   EXPECT_EQ(std::memcmp(bytes.data(), values.data(), bytes.size()), 0);
@@ -231,7 +250,7 @@ double CheckSnorm16(const std::vector<float>& positions) {
   return worst;
 }
 
-TEST(VertexEncodingTest, Snorm16PositionsWithinHalfAStepInRandomBoxes) {
+TEST_P(VertexEncodingTest, Snorm16PositionsWithinHalfAStepInRandomBoxes) {
   std::mt19937 rng(3);
   for (int box = 0; box < 40; ++box) {
     std::uniform_real_distribution<float> centre(-1000.0f, 1000.0f);
@@ -251,7 +270,7 @@ TEST(VertexEncodingTest, Snorm16PositionsWithinHalfAStepInRandomBoxes) {
   }
 }
 
-TEST(VertexEncodingTest, Snorm16EdgeBoxes) {
+TEST_P(VertexEncodingTest, Snorm16EdgeBoxes) {
   // Zero extent on every axis: q = 0 and x' = c exactly.
   std::vector<float> flat = {1.5f, -2.0f, 3.0f, 1.5f, -2.0f, 3.0f};
   CheckSnorm16(flat);
@@ -273,8 +292,9 @@ TEST(VertexEncodingTest, Snorm16EdgeBoxes) {
   EXPECT_EQ(*empty, Bounds{});
 }
 
-TEST(VertexEncodingTest, BoundsRefuseNonFiniteNamingTheVertex) {
-  std::vector<float> positions(30, 1.0f);
+TEST_P(VertexEncodingTest, BoundsRefuseNonFiniteNamingTheVertex) {
+  // 101 vertices: whole vector blocks at every target (16 vertices at AVX-512), then a tail.
+  std::vector<float> positions(303, 1.0f);
   positions[25] = std::numeric_limits<float>::quiet_NaN();  // vertex 8, y
   Result<Bounds> b = ComputeBounds(positions);
   ASSERT_FALSE(b.ok());
@@ -285,16 +305,24 @@ TEST(VertexEncodingTest, BoundsRefuseNonFiniteNamingTheVertex) {
   EXPECT_NE(b.status().message().find("positions[vertex 48][y]"), std::string::npos)
       << b.status().message();
   positions[25] = 1.0f;
-  positions[4] = std::numeric_limits<float>::infinity();  // in the 4-vertex blocks
+  positions[4] = std::numeric_limits<float>::infinity();  // vertex 1, y
   b = ComputeBounds(positions);
   EXPECT_NE(b.status().message().find("positions[vertex 1][y]"), std::string::npos)
       << b.status().message();
+  positions[4] = 1.0f;
+  positions[302] = std::numeric_limits<float>::quiet_NaN();  // vertex 100, z: the tail
+  b = ComputeBounds(positions);
+  EXPECT_NE(b.status().message().find("positions[vertex 100][z]"), std::string::npos)
+      << b.status().message();
+  positions.assign(3, 1.0f);
+  positions[0] = std::numeric_limits<float>::infinity();  // the first vertex seeds the box
+  EXPECT_FALSE(ComputeBounds(positions).ok());
   EXPECT_FALSE(ComputeBounds(std::vector<float>(4, 0.0f)).ok());  // not x y z triples
 }
 
-TEST(VertexEncodingTest, Snorm16RefusesValuesOutsideTheBox) {
+TEST_P(VertexEncodingTest, Snorm16RefusesValuesOutsideTheBox) {
   std::vector<float> positions = {0, 0, 0, 1, 1, 1, 0.5f, 0.5f, 0.5f};
-  positions.resize(39, 0.25f);  // 13 vertices: the 4-vertex blocks and the tail
+  positions.resize(303, 0.25f);  // 101 vertices: the vector blocks and the tail
   Bounds box = *ComputeBounds(positions);
   std::vector<std::byte> out(positions.size() * 2);
   positions[5] = 1.01f;  // vertex 1, z
@@ -305,15 +333,44 @@ TEST(VertexEncodingTest, Snorm16RefusesValuesOutsideTheBox) {
   s = EncodePositions(VertexEncoding::kSnorm16, positions, box, out);
   EXPECT_NE(s.message().find("not finite"), std::string::npos) << s.message();
   positions[5] = 0.5f;
-  positions[37] = -0.01f;  // vertex 12, y: in the tail
+  positions[301] = -0.01f;  // vertex 100, y: in the tail
   s = EncodePositions(VertexEncoding::kSnorm16, positions, box, out);
-  EXPECT_NE(s.message().find("positions[vertex 12][y]"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("positions[vertex 100][y]"), std::string::npos) << s.message();
+  positions[301] = 0.5f;
+  EXPECT_TRUE(EncodePositions(VertexEncoding::kSnorm16, positions, box, out).ok());
   box.max[1] = std::numeric_limits<float>::infinity();
   s = EncodePositions(VertexEncoding::kSnorm16, positions, box, out);
   EXPECT_NE(s.message().find("bounds.max_y"), std::string::npos) << s.message();
 }
 
-TEST(VertexEncodingTest, Snorm16NormalsWithinTheirBound) {
+// The wire's bytes may start anywhere: decoding from an odd address gives the same floats.
+TEST_P(VertexEncodingTest, Snorm16DecodesFromBytesAtAnyAlignment) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+  std::vector<float> positions(3 * 77), normals(3 * 77);
+  for (float& v : positions) v = u(rng);
+  for (float& v : normals) v = u(rng) / 3.0f;
+  const Bounds box = *ComputeBounds(positions);
+  const std::vector<std::byte> p = Encoded(VertexEncoding::kSnorm16, positions, box);
+  const std::vector<std::byte> n = Encoded(VertexEncoding::kSnorm16, normals, {}, true);
+  for (std::size_t offset : {1, 3}) {
+    std::vector<std::byte> shifted(offset + p.size());
+    std::copy(p.begin(), p.end(), shifted.begin() + offset);
+    std::vector<float> aligned(positions.size()), odd(positions.size());
+    ASSERT_TRUE(DecodePositions(VertexEncoding::kSnorm16, p, box, aligned).ok());
+    ASSERT_TRUE(
+        DecodePositions(VertexEncoding::kSnorm16, std::span(shifted).subspan(offset), box, odd)
+            .ok());
+    EXPECT_EQ(aligned, odd) << "offset " << offset;
+    std::copy(n.begin(), n.end(), shifted.begin() + offset);
+    ASSERT_TRUE(DecodeNormals(VertexEncoding::kSnorm16, n, aligned).ok());
+    ASSERT_TRUE(
+        DecodeNormals(VertexEncoding::kSnorm16, std::span(shifted).subspan(offset), odd).ok());
+    EXPECT_EQ(aligned, odd) << "offset " << offset;
+  }
+}
+
+TEST_P(VertexEncodingTest, Snorm16NormalsWithinTheirBound) {
   std::mt19937 rng(5);
   std::normal_distribution<float> g;
   std::vector<float> normals;
@@ -343,7 +400,7 @@ TEST(VertexEncodingTest, Snorm16NormalsWithinTheirBound) {
   EXPECT_EQ(static_cast<int16_t>(U16At(bytes, normals.size() - 5)), -32767);  // -1
 }
 
-TEST(VertexEncodingTest, Snorm16NormalsRefuseOutOfRangeNamingTheVertex) {
+TEST_P(VertexEncodingTest, Snorm16NormalsRefuseOutOfRangeNamingTheVertex) {
   std::vector<float> normals = {0, 0, 1, 0, 1, 0, 1.001f, 0, 0};
   std::vector<std::byte> out(normals.size() * 2);
   Status s = EncodeNormals(VertexEncoding::kSnorm16, normals, out);
@@ -352,9 +409,18 @@ TEST(VertexEncodingTest, Snorm16NormalsRefuseOutOfRangeNamingTheVertex) {
   normals[6] = std::numeric_limits<float>::quiet_NaN();
   s = EncodeNormals(VertexEncoding::kSnorm16, normals, out);
   EXPECT_NE(s.message().find("not finite"), std::string::npos) << s.message();
+  // In the vector loop at every target: 101 vertices, vertex 70's y out of range.
+  normals.assign(303, 0.5f);
+  normals[211] = -1.01f;
+  out.resize(normals.size() * 2);
+  s = EncodeNormals(VertexEncoding::kSnorm16, normals, out);
+  EXPECT_NE(s.message().find("normals[vertex 70][y]"), std::string::npos) << s.message();
+  normals[211] = std::numeric_limits<float>::infinity();
+  s = EncodeNormals(VertexEncoding::kSnorm16, normals, out);
+  EXPECT_NE(s.message().find("not finite"), std::string::npos) << s.message();
 }
 
-TEST(VertexEncodingTest, BadLengthsAreErrorsNamingTheField) {
+TEST_P(VertexEncodingTest, BadLengthsAreErrorsNamingTheField) {
   std::vector<float> out(6);
   std::vector<std::byte> bytes(11);
   Status s = DecodePositions(VertexEncoding::kFloat16, bytes, {}, out);

@@ -110,6 +110,12 @@ class SimdBackend final : public Backend {
 
 std::vector<std::string> RunnableSimdTargets() { return simd::RunnableTargets(); }
 
+Status CapSimdDispatch(const std::string& max_target) {
+  std::string error;
+  if (!simd::CapDispatch(max_target, &error)) return InvalidArgument(error);
+  return Status::Ok();
+}
+
 std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_target) {
   BackendInfo info{.id = threads <= 0 ? "simd" : "simd-openmp",
                    .description = threads <= 0

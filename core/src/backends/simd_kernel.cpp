@@ -319,39 +319,59 @@ std::vector<std::string> Names(int64_t mask) {
   return names;
 }
 
+// What Highway's dispatch may choose from outside SelectKernel's look-ups: 0 for the CPU's
+// own answer, else the mask CapDispatch set.
+int64_t dispatch_cap = 0;
+
+// The runnable targets no better than `max_target` (empty: all), or 0 with `error` set.
+int64_t AllowedUpTo(const std::string& max_target, std::string* error) {
+  const int64_t runnable = RunnableMask();
+  if (max_target.empty()) return runnable;
+  for (int bit = 0; bit < 63; ++bit) {
+    const int64_t target = int64_t{1} << bit;
+    if ((runnable & target) && max_target == hwy::TargetName(target)) {
+      return runnable & ~(target - 1);  // drop every better target
+    }
+  }
+  std::string list;
+  for (const std::string& name : Names(runnable)) list += (list.empty() ? "" : ", ") + name;
+  *error = "SIMD target '" + max_target + "' is not one this build runs here (" + list + ")";
+  return 0;
+}
+
+void Dispatch(int64_t allowed) {
+  hwy::SetSupportedTargetsForTest(allowed);
+  hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+}
+
 }  // namespace
 
 std::vector<std::string> RunnableTargets() {
   std::lock_guard<std::mutex> lock(TargetMutex());
-  return Names(RunnableMask());
+  const std::vector<std::string> names = Names(RunnableMask());
+  Dispatch(dispatch_cap);
+  return names;
 }
 
 bool SelectKernel(const std::string& max_target, Kernel* kernel, std::string* error) {
   std::lock_guard<std::mutex> lock(TargetMutex());
-  const int64_t runnable = RunnableMask();
-  int64_t allowed = runnable;
-  if (!max_target.empty()) {
-    int64_t cap = 0;
-    for (int bit = 0; bit < 63 && cap == 0; ++bit) {
-      const int64_t target = int64_t{1} << bit;
-      if ((runnable & target) && max_target == hwy::TargetName(target)) cap = target;
-    }
-    if (cap == 0) {
-      std::string list;
-      for (const std::string& name : Names(runnable)) list += (list.empty() ? "" : ", ") + name;
-      *error = "SIMD target '" + max_target + "' is not one this build runs here (" + list + ")";
-      return false;
-    }
-    allowed = runnable & ~(cap - 1);  // drop every better target
+  const int64_t allowed = AllowedUpTo(max_target, error);
+  if (allowed != 0) {
+    // Highway dispatches to the best target in SupportedTargets(): narrow it for this one
+    // look-up, then give the process back what it had.
+    Dispatch(allowed);
+    *kernel = HWY_DYNAMIC_DISPATCH(GetKernel)();
   }
-  // Highway dispatches to the best target in SupportedTargets(): narrow it for this one
-  // look-up, then give the process back the CPU's own answer.
-  hwy::SetSupportedTargetsForTest(allowed);
-  hwy::GetChosenTarget().Update(hwy::SupportedTargets());
-  *kernel = HWY_DYNAMIC_DISPATCH(GetKernel)();
-  hwy::SetSupportedTargetsForTest(0);
-  hwy::GetChosenTarget().Update(hwy::SupportedTargets());
-  return true;
+  Dispatch(dispatch_cap);
+  return allowed != 0;
+}
+
+bool CapDispatch(const std::string& max_target, std::string* error) {
+  std::lock_guard<std::mutex> lock(TargetMutex());
+  const int64_t allowed = AllowedUpTo(max_target, error);
+  if (allowed != 0) dispatch_cap = max_target.empty() ? 0 : allowed;
+  Dispatch(dispatch_cap);
+  return allowed != 0;
 }
 
 }  // namespace skinserve::simd

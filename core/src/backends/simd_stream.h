@@ -43,4 +43,8 @@ std::vector<std::string> RunnableTargets();
 // False, with `error` naming the runnable targets, when `max_target` is not one of them.
 bool SelectKernel(const std::string& max_target, Kernel* kernel, std::string* error);
 
+// Caps Highway's dispatch for every other dispatched loop of the process (the vertex
+// encodings) at `max_target` (empty: the CPU's best); false as SelectKernel.
+bool CapDispatch(const std::string& max_target, std::string* error);
+
 }  // namespace skinserve::simd

@@ -19,6 +19,12 @@ inline constexpr const char* kSimdMaxTargetVariable = "SKINSERVE_SIMD_MAX_TARGET
 // (x86: AVX3, AVX2, SSE4, EMU128; Arm: SVE2, SVE, NEON, EMU128...).
 std::vector<std::string> RunnableSimdTargets();
 
+// Caps, for the whole process, the run-time dispatch of the other Highway loops (the
+// vertex encodings' snorm16 kernels) at `max_target` (empty: the CPU's best again), so
+// tests cover each target; INVALID_ARGUMENT naming the runnable ones for an unknown target.
+// Not meant for a serving process: call it while nothing else encodes.
+Status CapSimdDispatch(const std::string& max_target);
+
 // `simd` (threads <= 0: one thread, the caller's) or `simd-openmp` on `threads` threads (like
 // `sse-openmp`, even when that is one) at the best runnable target no better than
 // `max_target` (empty: the best). An unknown or unrunnable target gives an unavailable
