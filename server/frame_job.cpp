@@ -107,9 +107,13 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   headers_offset_ = normals_offset_ + (want_normals_ ? RoundUp(payload) : 0);
   wire_used_ = headers_offset_ + part_count_ * kHeaderRoom;
 
+  // Encoded instance by instance: skinned into the compute thread's scratch, kept in its
+  // core's cache, unless an instance is too large for it.
+  const bool scratch = !float32 && ScratchFloatsPerInstance(mesh_.vertex_count, want_normals_) <=
+                                       kMaxScratchFloatsPerInstance;
   // What this frame holds while in flight; the job keeps its buffers, so only growth is
   // charged.
-  const uint64_t floats_kept = float32 ? 0 : arrays * values * sizeof(float);
+  const uint64_t floats_kept = float32 || scratch ? 0 : arrays * values * sizeof(float);
   const uint64_t need = wire.palette().size() + floats_kept + std::max(wire_used_, wire_.size());
   if (need > charged_) {
     if (Status s = budget_->TryCharge(need - charged_); !s.ok()) return s;
@@ -135,10 +139,15 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
     };
     request.positions = floats(0);
     request.normals = want_normals_ ? floats(normals_offset_) : std::span<float>();
+  } else if (scratch) {
+    request.positions = {};
+    request.normals = {};
   } else {
     request.positions = Reuse(positions_, values);
     request.normals = want_normals_ ? Reuse(normals_, values) : std::span<float>();
   }
+  request.skin_into_scratch = scratch;
+  request.scratch_normals = scratch && want_normals_;
   return Status::Ok();
 }
 
@@ -161,21 +170,20 @@ void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
   listener_->OnFrameDone(this);  // may reuse this job at once: nothing after
 }
 
-Status FrameJob::OnInstanceSkinned(uint32_t instance) {
+Status FrameJob::OnInstanceSkinned(uint32_t instance, std::span<const float> positions,
+                                   std::span<const float> normals) {
   if (encoding_ == VertexEncoding::kFloat32) return Status::Ok();  // skinned in place
   const auto started = std::chrono::steady_clock::now();
-  Status s = EncodeInstance(instance);
+  Status s = EncodeInstance(instance, positions, normals);
   encode_ns_.fetch_add(std::chrono::duration_cast<std::chrono::nanoseconds>(
                            std::chrono::steady_clock::now() - started)
                            .count());
   return s;
 }
 
-Status FrameJob::EncodeInstance(uint32_t i) {
-  const std::size_t instance_values = 3ull * mesh_.vertex_count;
-  const std::size_t instance_bytes = instance_values * EncodedBytesPerValue(encoding_);
-  const std::span<const float> positions =
-      request.positions.subspan(i * instance_values, instance_values);
+Status FrameJob::EncodeInstance(uint32_t i, std::span<const float> positions,
+                                std::span<const float> normals) {
+  const std::size_t instance_bytes = positions.size() * EncodedBytesPerValue(encoding_);
   Bounds& bounds = bounds_[i];
   bounds = {};
   if (encoding_ == VertexEncoding::kSnorm16) {
@@ -186,7 +194,7 @@ Status FrameJob::EncodeInstance(uint32_t i) {
   Status s = EncodePositions(encoding_, positions, bounds,
                              {wire_.data() + i * instance_bytes, instance_bytes});
   if (s.ok() && want_normals_) {
-    s = EncodeNormals(encoding_, request.normals.subspan(i * instance_values, instance_values),
+    s = EncodeNormals(encoding_, normals,
                       {wire_.data() + normals_offset_ + i * instance_bytes, instance_bytes});
   }
   return s.ok() ? s : InstanceError(s, i, instances_);

@@ -74,9 +74,11 @@ class FrameJob final : public SkinJob {
 
  private:
   // Encodes instance `instance` into the wire buffer, on the thread that skinned it.
-  Status OnInstanceSkinned(uint32_t instance) override;
+  Status OnInstanceSkinned(uint32_t instance, std::span<const float> positions,
+                           std::span<const float> normals) override;
   void OnSkinned(Status status, const FrameTiming& timing) override;
-  Status EncodeInstance(uint32_t i);
+  Status EncodeInstance(uint32_t i, std::span<const float> positions,
+                        std::span<const float> normals);
   // Once every instance is in the wire buffer: each part's header, with the timings.
   Status WriteHeaders();
   void SetErrorPart();
@@ -92,7 +94,9 @@ class FrameJob final : public SkinJob {
   bool want_normals_ = false;
   VertexEncoding encoding_ = VertexEncoding::kFloat32;
   std::vector<float> palette_;
-  std::vector<float> positions_;  // skinned floats, for encodings other than float32
+  // Skinned floats for encodings other than float32, for instances too large for the
+  // compute thread's scratch (SkinRequest::skin_into_scratch).
+  std::vector<float> positions_;
   std::vector<float> normals_;
   std::vector<Bounds> bounds_;  // snorm16: each instance's box
 

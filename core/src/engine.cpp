@@ -11,7 +11,9 @@
 
 #include "compute_pool.h"
 #include "mesh_store.h"
+#include "skinserve/core/aligned_buffer.h"
 #include "skinserve/core/backend_registry.h"
+#include "skinserve/core/palette.h"
 
 namespace skinserve {
 namespace {
@@ -32,6 +34,15 @@ MeshInfo DescribeMesh(const Mesh& mesh) {
   info.bytes = mesh.byte_size();
   info.normalized_vertices = mesh.normalized_vertices();
   return info;
+}
+
+// Per compute thread: where instances of skin_into_scratch jobs are skinned. It grows to
+// the largest instance the thread has met (at most kMaxScratchFloatsPerInstance floats)
+// and is reused for every later one, so it stays in that core's cache.
+AlignedBuffer<float>& ThreadScratch(std::size_t floats) {
+  thread_local AlignedBuffer<float> scratch;
+  if (scratch.size() < floats) scratch = AlignedBuffer<float>(floats);
+  return scratch;
 }
 
 }  // namespace
@@ -120,6 +131,7 @@ class Engine::Impl {
                             per_instance * instances, instances));
     }
     const std::size_t outputs = 3ull * mesh.vertex_count();
+    if (request.skin_into_scratch) return CheckScratch(request, mesh, instances);
     if (request.positions.size() != outputs * instances) {
       return InvalidArgument(fmt::format(
           "positions output holds {} floats; expected 3 * vertex_count * instances = {}",
@@ -139,15 +151,50 @@ class Engine::Impl {
     return Status::Ok();
   }
 
+  // Check() for skin_into_scratch: no output arrays; the instance fits the scratch.
+  static Status CheckScratch(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
+    if (!request.positions.empty() || !request.normals.empty()) {
+      return InvalidArgument(
+          "skin_into_scratch: positions and normals must be empty (each instance is skinned "
+          "into its compute thread's scratch)");
+    }
+    if (request.scratch_normals && !mesh.has_normals()) {
+      return InvalidArgument("normals were requested but the mesh has none");
+    }
+    const std::size_t floats = ScratchFloats(request, mesh);
+    if (floats > kMaxScratchFloatsPerInstance) {
+      return InvalidArgument(fmt::format(
+          "skin_into_scratch: an instance of {} vertices needs {} floats, over the limit of {}",
+          mesh.vertex_count(), floats, kMaxScratchFloatsPerInstance));
+    }
+    for (uint32_t i = 0; i < instances; ++i) {
+      SkinFrame frame = InstanceFrame(request, mesh, i);
+      Status s = ValidatePalette(frame.palette, mesh.joint_count());
+      if (s.ok() && frame.method == SkinningMethod::kDualQuaternion) {
+        s = ValidateRigidPalette(frame.palette);
+      }
+      if (!s.ok()) {
+        if (instances == 1) return s;
+        return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
+      }
+    }
+    return Status::Ok();
+  }
+
+  static std::size_t ScratchFloats(const SkinRequest& request, const Mesh& mesh) {
+    return ScratchFloatsPerInstance(mesh.vertex_count(), request.scratch_normals);
+  }
+
   static SkinFrame InstanceFrame(const SkinRequest& request, const Mesh& mesh, uint32_t i,
                                  int threads = 0) {
     const std::size_t palette = 12ull * mesh.joint_count();
     const std::size_t outputs = 3ull * mesh.vertex_count();
     SkinFrame frame{request.palette.subspan(std::min(request.palette.size(), i * palette)),
-                    request.positions.subspan(i * outputs, outputs),
-                    request.normals.empty() ? std::span<float>()
-                                            : request.normals.subspan(i * outputs, outputs),
-                    threads};
+                    std::span<float>(), std::span<float>(), threads};
+    if (!request.skin_into_scratch) {
+      frame.positions = request.positions.subspan(i * outputs, outputs);
+      if (!request.normals.empty()) frame.normals = request.normals.subspan(i * outputs, outputs);
+    }
     frame.method = request.method;
     if (request.instances > 1) frame.palette = frame.palette.first(palette);  // sizes checked
     return frame;
@@ -196,8 +243,9 @@ class Engine::Impl {
     return Status::Ok();
   }
 
-  // Skins instance `i` of `job` on `threads` threads.
-  Status RunInstance(SkinJob& job, uint32_t i, int threads) {
+  // Skins instance `i` of `job` on `threads` threads into `*frame` (its outputs are what
+  // OnInstanceSkinned gets).
+  Status RunInstance(SkinJob& job, uint32_t i, int threads, SkinFrame* frame) {
     Backend& backend = *backends_[job.backend_index_];
     auto& entry = *static_cast<MeshStore::Entry*>(job.lease_.get());
     Counters& counters = counters_[job.backend_index_];
@@ -206,9 +254,17 @@ class Engine::Impl {
     try {
       Result<const PreparedMesh*> prepared = entry.Prepared(job.backend_index_, backend);
       DeviceTiming device;
-      SkinFrame frame = InstanceFrame(job.request, *entry.mesh(), i, threads);
-      frame.device_timing = &device;
-      status = prepared.ok() ? backend.Skin(**prepared, frame) : prepared.status();
+      const Mesh& mesh = *entry.mesh();
+      *frame = InstanceFrame(job.request, mesh, i, threads);
+      if (job.request.skin_into_scratch) {
+        const std::size_t outputs = 3ull * mesh.vertex_count();
+        const std::size_t floats = ScratchFloats(job.request, mesh);
+        float* scratch = ThreadScratch(floats).data();
+        frame->positions = {scratch, outputs};
+        if (job.request.scratch_normals) frame->normals = {scratch + floats - outputs, outputs};
+      }
+      frame->device_timing = &device;
+      status = prepared.ok() ? backend.Skin(**prepared, *frame) : prepared.status();
       job.device_transfer_ns_.fetch_add(device.transfer_ns);
       job.device_kernel_ns_.fetch_add(device.kernel_ns);
     } catch (const std::exception& e) {
@@ -343,10 +399,11 @@ void Engine::RunPart(void* context, uint32_t instance, int threads) {
   auto& impl = *static_cast<Impl*>(job.engine_);
   int64_t unset = 0;
   job.started_ns_.compare_exchange_strong(unset, NowNs());
-  Status status = impl.RunInstance(job, instance, threads);
+  SkinFrame frame;
+  Status status = impl.RunInstance(job, instance, threads, &frame);
   if (status.ok()) {
     try {
-      status = job.OnInstanceSkinned(instance);
+      status = job.OnInstanceSkinned(instance, frame.positions, frame.normals);
     } catch (const std::exception& e) {
       status = Internal(fmt::format("after skinning instance {}: {}", instance, e.what()));
     }
@@ -390,6 +447,9 @@ class CallbackJob final : public SkinJob {
 }  // namespace
 
 Status Engine::Submit(SkinRequest request, SkinDone done) {
+  if (request.skin_into_scratch) {
+    return InvalidArgument("skin_into_scratch needs a SkinJob to take each instance's output");
+  }
   auto* job = new CallbackJob(std::move(done));
   job->request = std::move(request);
   Status status = Submit(job);

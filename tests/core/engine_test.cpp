@@ -2,6 +2,7 @@
 // bounded queues, dedupe, shutdown.
 #include "skinserve/core/engine.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -59,16 +60,24 @@ TEST(EngineTest, SkinsAgainstTheReference) {
   EXPECT_EQ(stats.backends[0].vertices, 777u);
 }
 
-// A job that checks, in OnInstanceSkinned, that the instance it is told of is already
-// skinned (against the float64 reference), and can fail one instance on purpose.
+// A job that checks, in OnInstanceSkinned, that the output it is handed holds the instance
+// it is told of, skinned (against the float64 reference), and can fail one instance on
+// purpose. `scratch`: skinned into the compute thread's scratch instead of the request's
+// arrays (SkinRequest::skin_into_scratch).
 class InstanceHookJob final : public SkinJob {
  public:
-  InstanceHookJob(const Mesh& mesh, std::vector<float> palettes, uint32_t instances)
+  InstanceHookJob(const Mesh& mesh, std::vector<float> palettes, uint32_t instances, bool scratch)
       : seen(instances), mesh_(mesh), palettes_(std::move(palettes)) {
     request.palette = palettes_;
     request.instances = instances;
-    positions_.assign(3ull * mesh.vertex_count() * instances, 0.0f);
-    request.positions = positions_;
+    request.skin_into_scratch = scratch;
+    request.scratch_normals = scratch;
+    if (!scratch) {
+      positions_.assign(3ull * mesh.vertex_count() * instances, 0.0f);
+      normals_.assign(positions_.size(), 0.0f);
+      request.positions = positions_;
+      request.normals = normals_;
+    }
   }
   std::optional<uint32_t> fail_instance;
   std::promise<Status> done;
@@ -79,15 +88,22 @@ class InstanceHookJob final : public SkinJob {
   int hooks_at_done = -1;
 
  private:
-  Status OnInstanceSkinned(uint32_t instance) override {
+  Status OnInstanceSkinned(uint32_t instance, std::span<const float> positions,
+                           std::span<const float> normals) override {
     seen[instance].fetch_add(1);
     if (std::this_thread::get_id() == caller) hook_on_caller_thread = true;
     const std::size_t values = 3ull * mesh_.vertex_count();
     const std::size_t floats = 12ull * mesh_.joint_count();
+    const bool where = request.skin_into_scratch
+                           ? positions.data() != nullptr
+                           : positions.data() == positions_.data() + instance * values &&
+                                 normals.data() == normals_.data() + instance * values;
     const Deviation d = CompareWithReference(
-        mesh_, std::span<const float>(palettes_).subspan(instance * floats, floats),
-        std::span<const float>(positions_).subspan(instance * values, values), {});
-    if (d.within_tolerance()) skinned_before_hook.fetch_add(1);
+        mesh_, std::span<const float>(palettes_).subspan(instance * floats, floats), positions,
+        normals);
+    if (where && positions.size() == values && normals.size() == values && d.within_tolerance()) {
+      skinned_before_hook.fetch_add(1);
+    }
     if (fail_instance == instance) return Internal("instance 3's encoding failed");
     return Status::Ok();
   }
@@ -98,12 +114,14 @@ class InstanceHookJob final : public SkinJob {
   }
   const Mesh& mesh_;
   std::vector<float> palettes_;
-  std::vector<float> positions_;
+  std::vector<float> positions_, normals_;
 };
 
 TEST(EngineTest, OnInstanceSkinnedRunsOncePerSkinnedInstanceBeforeOnSkinned) {
-  auto engine = MakeEngine({.compute_threads = 2});
-  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 3000, .influences = 2});
+  auto engine =
+      MakeEngine({.compute_threads = 2, .enabled_backends = {"serial", "sse-openmp", "opencl"}});
+  const MeshArrays arrays =
+      MakeSyntheticMesh({.vertex_count = 3000, .influences = 2, .normals = true});
   auto info = engine->AddMesh(arrays);
   ASSERT_TRUE(info.ok()) << info.status().ToString();
   auto mesh = Mesh::Create(arrays).value();
@@ -113,26 +131,66 @@ TEST(EngineTest, OnInstanceSkinnedRunsOncePerSkinnedInstanceBeforeOnSkinned) {
     const auto one = MakeSyntheticPalette(info->joint_count, 13, k);
     palettes.insert(palettes.end(), one.begin(), one.end());
   }
-  for (const bool fail : {false, true}) {
-    SCOPED_TRACE(fail ? "instance 3's hook fails" : "every hook succeeds");
-    InstanceHookJob job(*mesh, palettes, kInstances);
-    job.request.mesh_id = info->id;
-    job.request.backend = "serial";
-    if (fail) job.fail_instance = 3;
-    std::future<Status> result = job.done.get_future();
-    ASSERT_TRUE(engine->Submit(&job).ok());
-    const Status status = result.get();
-    if (fail) {
-      EXPECT_EQ(status.code(), StatusCode::kInternal);
-      EXPECT_NE(status.message().find("instance 3"), std::string::npos) << status.ToString();
-    } else {
-      EXPECT_TRUE(status.ok()) << status.ToString();
+  for (const bool scratch : {false, true}) {
+    for (const char* backend : {"serial", "sse-openmp", "opencl"}) {
+      for (const bool fail : {false, true}) {
+        SCOPED_TRACE(fmt::format("{}, {}, {}", scratch ? "thread scratch" : "request arrays",
+                                 backend,
+                                 fail ? "instance 3's hook fails" : "every hook succeeds"));
+        InstanceHookJob job(*mesh, palettes, kInstances, scratch);
+        job.request.mesh_id = info->id;
+        job.request.backend = backend;
+        if (fail) job.fail_instance = 3;
+        std::future<Status> result = job.done.get_future();
+        ASSERT_TRUE(engine->Submit(&job).ok());
+        const Status status = result.get();
+        if (fail) {
+          EXPECT_EQ(status.code(), StatusCode::kInternal);
+          EXPECT_NE(status.message().find("instance 3"), std::string::npos) << status.ToString();
+        } else {
+          EXPECT_TRUE(status.ok()) << status.ToString();
+        }
+        for (uint32_t k = 0; k < kInstances; ++k) {
+          EXPECT_EQ(job.seen[k].load(), 1) << "instance " << k;
+        }
+        EXPECT_EQ(job.hooks_at_done, static_cast<int>(kInstances));
+        EXPECT_EQ(job.skinned_before_hook.load(), static_cast<int>(kInstances));
+        EXPECT_FALSE(job.hook_on_caller_thread.load());
+      }
     }
-    for (uint32_t k = 0; k < kInstances; ++k) EXPECT_EQ(job.seen[k].load(), 1) << "instance " << k;
-    EXPECT_EQ(job.hooks_at_done, static_cast<int>(kInstances));
-    EXPECT_EQ(job.skinned_before_hook.load(), static_cast<int>(kInstances));
-    EXPECT_FALSE(job.hook_on_caller_thread.load());
   }
+}
+
+// Scratch output is for jobs that take each instance as it is skinned, and bounded.
+TEST(EngineTest, ScratchOutputIsRefusedWhereItCannotWork) {
+  auto engine = MakeEngine();
+  auto small = engine->AddMesh(MakeSyntheticMesh({.vertex_count = 10})).value();
+  Frame frame;
+  SkinRequest request = frame.Request(small, "serial", 0);
+  request.skin_into_scratch = true;
+  Status s = engine->Submit(request, [](Status, FrameTiming) { FAIL(); });
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("needs a SkinJob"), std::string::npos) << s.message();
+
+  const MeshArrays big_arrays = MakeSyntheticMesh({.vertex_count = 200000, .normals = true});
+  auto big = engine->AddMesh(big_arrays).value();
+  auto big_mesh = Mesh::Create(big_arrays).value();
+  const auto palette = MakeSyntheticPalette(big.joint_count, 3, 0);
+  InstanceHookJob with_arrays(*big_mesh, palette, 1, false);
+  with_arrays.request.mesh_id = big.id;
+  with_arrays.request.backend = "serial";
+  with_arrays.request.skin_into_scratch = true;  // and arrays too
+  s = engine->Submit(&with_arrays);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("positions and normals must be empty"), std::string::npos)
+      << s.message();
+  // 200k vertices with normals: 1.2M floats, over the 1M floats a thread keeps.
+  InstanceHookJob too_big(*big_mesh, palette, 1, true);
+  too_big.request.mesh_id = big.id;
+  too_big.request.backend = "serial";
+  s = engine->Submit(&too_big);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("over the limit of 1048576"), std::string::npos) << s.message();
 }
 
 TEST(EngineTest, DedupesMeshesByContent) {
@@ -294,7 +352,7 @@ class HeldFrameJob final : public SkinJob {
   void Release() { release_.set_value(); }
 
  private:
-  Status OnInstanceSkinned(uint32_t) override {
+  Status OnInstanceSkinned(uint32_t, std::span<const float>, std::span<const float>) override {
     skinned.set_value();
     // The test always releases; the bound only keeps a broken test from hanging.
     if (released_.wait_for(std::chrono::minutes(2)) != std::future_status::ready) {

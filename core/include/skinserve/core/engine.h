@@ -68,7 +68,24 @@ struct SkinRequest {
   std::span<float> positions;      // 3 * vertex_count * K
   std::span<float> normals;        // empty: no normals; else 3 * vertex_count * K
   SkinningMethod method = SkinningMethod::kLinear;  // the backend must list it
+  // Jobs only (Engine::Submit(SkinJob*)): skin each instance into scratch memory of the
+  // compute thread that runs it and hand it to SkinJob::OnInstanceSkinned, which must use
+  // it up (e.g. encode it) before returning; positions and normals then stay empty. Keeps a
+  // crowd's float results in that core's cache instead of streaming a frame-sized buffer
+  // through memory. At most kMaxScratchFloatsPerInstance floats per instance (positions
+  // and normals together), so each compute thread keeps at most that much.
+  bool skin_into_scratch = false;
+  bool scratch_normals = false;  // with skin_into_scratch: skin normals too
 };
+
+inline constexpr std::size_t kMaxScratchFloatsPerInstance = std::size_t{1} << 20;  // 4 MiB
+// The scratch floats one instance takes: positions, then normals from the next cache line.
+constexpr std::size_t ScratchFloatsPerInstance(uint32_t vertex_count, bool normals) {
+  const std::size_t outputs = 3ull * vertex_count;
+  constexpr std::size_t kFloatsPerLine = 16;
+  return normals ? (outputs + kFloatsPerLine - 1) / kFloatsPerLine * kFloatsPerLine + outputs
+                 : outputs;
+}
 using SkinDone = std::function<void(Status, FrameTiming)>;
 
 // A frame the caller owns and reuses frame after frame, so that the steady-state path
@@ -87,8 +104,14 @@ class SkinJob {
  protected:
   // Runs on the compute thread that skinned `instance`, right after it, while its output is
   // still in that core's cache (e.g. to encode it); other instances' calls may run at the
-  // same time on other threads. Non-OK fails the frame as a failed instance would.
-  virtual Status OnInstanceSkinned(uint32_t /*instance*/) { return Status::Ok(); }
+  // same time on other threads. `positions` and `normals` (empty without normals) are the
+  // instance's output: its part of the request's arrays, or with skin_into_scratch the
+  // thread's scratch, valid until this returns. Non-OK fails the frame as a failed instance
+  // would.
+  virtual Status OnInstanceSkinned(uint32_t /*instance*/, std::span<const float> /*positions*/,
+                                   std::span<const float> /*normals*/) {
+    return Status::Ok();
+  }
   // Runs once, on a compute thread, after every instance (and its OnInstanceSkinned).
   virtual void OnSkinned(Status status, const FrameTiming& timing) = 0;
 
