@@ -13,9 +13,11 @@
 namespace skinserve::server {
 namespace {
 
-// Room for one part's header: the fields besides the vertex data take at most ~150
-// bytes (varints, the timings, a snorm16 box), and the two tags with their lengths 12.
+// Room for one part's header: the fields besides the vertex data take at most ~160
+// bytes (varints, the timings, a snorm16 box), and the two tags with their lengths 12;
+// a packed part adds each instance's box (32 bytes with its tag and length).
 constexpr std::size_t kHeaderRoom = 256;
+constexpr std::size_t kBoundsRoom = 40;
 
 constexpr std::size_t RoundUp(std::size_t n) {
   return (n + kBufferAlignment - 1) / kBufferAlignment * kBufferAlignment;
@@ -41,6 +43,15 @@ std::span<float> Reuse(std::vector<float>& buffer, std::size_t count) {
   return {buffer.data(), count};
 }
 
+void ToWire(const Bounds& b, v1::Bounds* wire) {
+  wire->set_min_x(b.min[0]);
+  wire->set_min_y(b.min[1]);
+  wire->set_min_z(b.min[2]);
+  wire->set_max_x(b.max[0]);
+  wire->set_max_y(b.max[1]);
+  wire->set_max_z(b.max[2]);
+}
+
 Status InstanceError(const Status& status, uint32_t instance, uint32_t instances) {
   if (instances <= 1) return status;
   return Status(status.code(), fmt::format("instance {}: {}", instance, status.message()));
@@ -55,6 +66,12 @@ FrameJob::~FrameJob() {
 
 FrameJob::PartRange FrameJob::RangeOf(std::size_t part) const {
   PartRange r;
+  if (instances_per_part_ > 1) {
+    r.instance = static_cast<uint32_t>(part * instances_per_part_);
+    r.count = mesh_.vertex_count;
+    r.instances = std::min(instances_per_part_, instances_ - r.instance);
+    return r;
+  }
   r.instance = static_cast<uint32_t>(part / parts_per_instance_);
   r.first = static_cast<uint32_t>(part % parts_per_instance_) * vertices_per_part_;
   r.count = std::min(vertices_per_part_, mesh_.vertex_count - r.first);
@@ -102,10 +119,21 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   parts_per_instance_ =
       std::max<std::size_t>(1, (mesh_.vertex_count + vertices_per_part_ - 1) / vertices_per_part_);
   part_count_ = parts_per_instance_ * instances_;
+  // Packed: as many whole instances per part as fit in 1 MiB.
+  instances_per_part_ = 1;
+  if (wire.pack_instances() && parts_per_instance_ == 1 && mesh_.vertex_count > 0) {
+    instances_per_part_ = static_cast<uint32_t>(std::min<std::size_t>(
+        instances_, kMaxPartPayloadBytes / (vertex_bytes * mesh_.vertex_count)));
+    instances_per_part_ = std::max<uint32_t>(instances_per_part_, 1);
+    part_count_ = (instances_ + instances_per_part_ - 1) / instances_per_part_;
+  }
+  header_room_ = kHeaderRoom + (encoding_ == VertexEncoding::kSnorm16 && instances_per_part_ > 1
+                                    ? kBoundsRoom * instances_per_part_
+                                    : 0);
   const std::size_t payload = values * EncodedBytesPerValue(encoding_);
   normals_offset_ = RoundUp(payload);  // the positions start the buffer
   headers_offset_ = normals_offset_ + (want_normals_ ? RoundUp(payload) : 0);
-  wire_used_ = headers_offset_ + part_count_ * kHeaderRoom;
+  wire_used_ = headers_offset_ + part_count_ * header_room_;
 
   // Encoded instance by instance: skinned into the compute thread's scratch, kept in its
   // core's cache, unless an instance is too large for it.
@@ -218,24 +246,22 @@ Status FrameJob::WriteHeaders() {
     header_.set_vertex_count(r.count);
     header_.set_instance(r.instance);
     header_.set_last(p + 1 == part_count_);
+    if (instances_per_part_ > 1) header_.set_instance_count(r.instances);
     if (encoding_ == VertexEncoding::kSnorm16) {
-      const Bounds& b = bounds_[r.instance];
-      v1::Bounds* wire = header_.mutable_bounds();
-      wire->set_min_x(b.min[0]);
-      wire->set_min_y(b.min[1]);
-      wire->set_min_z(b.min[2]);
-      wire->set_max_x(b.max[0]);
-      wire->set_max_y(b.max[1]);
-      wire->set_max_z(b.max[2]);
+      ToWire(bounds_[r.instance], header_.mutable_bounds());
+      header_.clear_instance_bounds();  // keeps the elements: no allocation next time
+      for (uint32_t k = 0; instances_per_part_ > 1 && k < r.instances; ++k) {
+        ToWire(bounds_[r.instance + k], header_.add_instance_bounds());
+      }
     }
     const std::size_t size = header_.ByteSizeLong();
-    if (size + 12 > kHeaderRoom) {
+    if (size + 12 > header_room_) {
       return Internal(fmt::format("a response header of {} bytes exceeds the {} reserved", size,
-                                  kHeaderRoom - 12));
+                                  header_room_ - 12));
     }
-    std::byte* room = wire_.data() + headers_offset_ + p * kHeaderRoom;
+    std::byte* room = wire_.data() + headers_offset_ + p * header_room_;
     header_.SerializeWithCachedSizesToArray(reinterpret_cast<uint8_t*>(room));
-    const std::size_t payload = EncodedBytes(encoding_, r.count);
+    const std::size_t payload = EncodedBytes(encoding_, r.count) * r.instances;
     PartHeader& h = headers_[p];
     h.size =
         size + PutLengthDelimitedTag(v1::SkinResponse::kPositionsFieldNumber, payload, room + size);
@@ -280,10 +306,10 @@ const grpc::ByteBuffer* FrameJob::NextPart(bool* last) {
   }
   const PartRange r = RangeOf(p);
   const std::size_t bytes_per_vertex = EncodedBytes(encoding_, 1);
-  const std::size_t payload = r.count * bytes_per_vertex;
+  const std::size_t payload = std::size_t{r.count} * r.instances * bytes_per_vertex;
   const std::size_t offset =
       (static_cast<std::size_t>(r.instance) * mesh_.vertex_count + r.first) * bytes_per_vertex;
-  const std::size_t header = headers_offset_ + p * kHeaderRoom;
+  const std::size_t header = headers_offset_ + p * header_room_;
   const PartHeader& h = headers_[p];
   grpc::Slice slices[4] = {wire_slice_.sub(header, header + h.size),
                            wire_slice_.sub(offset, offset + payload)};

@@ -100,20 +100,22 @@ class FrameJob final : public SkinJob {
   std::vector<float> normals_;
   std::vector<Bounds> bounds_;  // snorm16: each instance's box
 
-  // Part p's header sits at headers_offset_ + p * kHeaderRoom in wire_: the serialized
+  // Part p's header sits at headers_offset_ + p * header_room_ in wire_: the serialized
   // header with the positions field's tag and length, then the normals field's.
   struct PartHeader {
     std::size_t size = 0;              // up to and with the positions field's tag and length
     std::size_t normals_tag_size = 0;  // 0 without normals
   };
+  // Vertices [first, first + count) of instances [instance, instance + instances): one
+  // instance's range, or several whole ones (packed).
   struct PartRange {
-    uint32_t instance = 0, first = 0, count = 0;
+    uint32_t instance = 0, first = 0, count = 0, instances = 1;
   };
   PartRange RangeOf(std::size_t part) const;
   std::vector<PartHeader> headers_;
   AlignedBuffer<std::byte> wire_;
   // wire_: positions from 0, normals, then the headers.
-  std::size_t normals_offset_ = 0, headers_offset_ = 0, wire_used_ = 0;
+  std::size_t normals_offset_ = 0, headers_offset_ = 0, header_room_ = 0, wire_used_ = 0;
   v1::SkinResponse header_;              // reused to serialize each part's header
   std::atomic<int> wire_refs_{0};        // 1 while gRPC or the job holds slices of wire_
   grpc::Slice wire_slice_;               // over wire_[0, wire_used_), while parts are handed out
@@ -124,6 +126,7 @@ class FrameJob final : public SkinJob {
   std::size_t part_count_ = 0;
   uint32_t vertices_per_part_ = 1;  // at most 1 MiB of encoded vertex data per part
   std::size_t parts_per_instance_ = 1;
+  uint32_t instances_per_part_ = 1;    // > 1: packed parts (SkinRequest.pack_instances)
   std::atomic<int64_t> encode_ns_{0};  // summed over instances (they may run in parallel)
   std::size_t next_part_ = 0;
   Status result_;

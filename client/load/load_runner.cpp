@@ -303,6 +303,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   request.set_want_normals(workload.normals);
   request.set_encoding(static_cast<v1::Encoding>(config.encoding));
   request.set_instances(config.instances);
+  request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_method(client::WireMethod(workload.method));
   for (uint64_t k = 0; k < last_frame && !stop.load(); ++k) {
     const Clock::time_point due = start + k * period;

@@ -62,6 +62,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   request.set_want_normals(options.want_normals);
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
+  request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_method(WireMethod(options.method));
   v1::SkinResponse part;
   FrameResult result;

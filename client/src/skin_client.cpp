@@ -88,43 +88,76 @@ bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
                                      where(), result->frame, result->instances, result->vertices,
                                      VertexEncodingName(result->encoding), normals_)));
   }
+  // A packed part holds `packed` whole instances; else one instance's vertex range.
+  const uint32_t packed = std::max(part.instance_count(), 1u);
   if (part.instance() != next_instance_ || part.first_vertex() != next_vertex_ ||
       part.vertex_count() == 0 ||
-      uint64_t{part.first_vertex()} + part.vertex_count() > result->vertices) {
+      uint64_t{part.first_vertex()} + part.vertex_count() > result->vertices ||
+      (packed > 1 && (part.first_vertex() != 0 || part.vertex_count() != result->vertices ||
+                      uint64_t{part.instance()} + packed > result->instances))) {
     return Fail(part, result,
                 Internal(fmt::format("{}: out of order or out of range: instance {} vertex {} "
-                                     "was due, {} vertices per instance",
-                                     where(), next_instance_, next_vertex_, result->vertices)));
+                                     "was due, {} vertices per instance, {} instance(s) in the "
+                                     "part of {}",
+                                     where(), next_instance_, next_vertex_, result->vertices,
+                                     packed, result->instances)));
   }
-  const Bounds bounds = FromWire(part.bounds());
-  Bounds& instance_bounds = result->bounds[part.instance()];
-  if (part.first_vertex() == 0) {
-    instance_bounds = bounds;
-  } else if (bounds != instance_bounds) {
+  if (packed > 1 && encoding == VertexEncoding::kSnorm16 &&
+      part.instance_bounds_size() != static_cast<int>(packed)) {
     return Fail(part, result,
-                Internal(fmt::format("{}: bounds differ from the instance's "
-                                     "first part",
-                                     where())));
+                Internal(fmt::format("{}: {} instances in the part but {} instance_bounds", where(),
+                                     packed, part.instance_bounds_size())));
   }
-  const std::size_t offset =
-      3 * (uint64_t{part.instance()} * result->vertices + part.first_vertex());
-  const std::size_t count = 3ull * part.vertex_count();
   const auto bytes = [](const std::string& s) {
     return std::span<const std::byte>(reinterpret_cast<const std::byte*>(s.data()), s.size());
   };
-  Status decoded = DecodePositions(encoding, bytes(part.positions()), bounds,
-                                   std::span<float>(result->positions).subspan(offset, count));
-  if (decoded.ok() && normals_) {
-    decoded = DecodeNormals(encoding, bytes(part.normals()),
-                            std::span<float>(result->normals).subspan(offset, count));
+  const std::size_t count = 3ull * part.vertex_count();
+  const std::size_t instance_bytes = count * EncodedBytesPerValue(encoding);
+  if (packed > 1 && (part.positions().size() != packed * instance_bytes ||
+                     (normals_ && part.normals().size() != packed * instance_bytes))) {
+    return Fail(part, result,
+                Internal(fmt::format("{}: {} and {} bytes of positions and normals for {} "
+                                     "instances of {} bytes",
+                                     where(), part.positions().size(), part.normals().size(),
+                                     packed, instance_bytes)));
   }
-  if (!decoded.ok()) {
-    return Fail(part, result, Internal(fmt::format("{}: {}", where(), decoded.message())));
+  for (uint32_t k = 0; k < packed; ++k) {
+    const uint32_t instance = part.instance() + k;
+    const Bounds bounds = FromWire(packed > 1 && encoding == VertexEncoding::kSnorm16
+                                       ? part.instance_bounds(static_cast<int>(k))
+                                       : part.bounds());
+    Bounds& instance_bounds = result->bounds[instance];
+    if (part.first_vertex() == 0) {
+      instance_bounds = bounds;
+    } else if (bounds != instance_bounds) {
+      return Fail(part, result,
+                  Internal(fmt::format("{}: bounds differ from the instance's "
+                                       "first part",
+                                       where())));
+    }
+    const std::size_t offset = 3 * (uint64_t{instance} * result->vertices + part.first_vertex());
+    const auto slice = [&](const std::string& s) {
+      return packed > 1 ? bytes(s).subspan(k * instance_bytes, instance_bytes) : bytes(s);
+    };
+    Status decoded = DecodePositions(encoding, slice(part.positions()), bounds,
+                                     std::span<float>(result->positions).subspan(offset, count));
+    if (decoded.ok() && normals_) {
+      decoded = DecodeNormals(encoding, slice(part.normals()),
+                              std::span<float>(result->normals).subspan(offset, count));
+    }
+    if (!decoded.ok()) {
+      return Fail(part, result, Internal(fmt::format("{}: {}", where(), decoded.message())));
+    }
   }
-  next_vertex_ += part.vertex_count();
-  if (next_vertex_ == result->vertices) {
-    ++next_instance_;
+  if (packed > 1) {
+    next_instance_ += packed;
     next_vertex_ = 0;
+  } else {
+    next_vertex_ += part.vertex_count();
+    if (next_vertex_ == result->vertices) {
+      ++next_instance_;
+      next_vertex_ = 0;
+    }
   }
   if (part.last() && next_instance_ != result->instances) {
     return Fail(part, result,
@@ -277,6 +310,7 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   request.set_method(WireMethod(options.method));
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
+  request.set_pack_instances(true);  // FrameAssembler takes packed parts
   Status status = SkinOnce(request, part, result);
   if (status.code() == StatusCode::kNotFound) {
     if (Status s = Reupload(mesh_id); !s.ok()) return status;  // the original NOT_FOUND

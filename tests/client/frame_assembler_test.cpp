@@ -1,7 +1,8 @@
 // FrameAssembler and the client library's reuse, against responses built here by hand:
 // every encoding decoded within its stated bound, crowd batches reassembled by instance
-// and vertex range, every malformed sequence of parts refused naming the frame, instance
-// and range, and a warm FrameResult filled again without one heap allocation.
+// and vertex range or packed several whole instances a part, every malformed sequence of
+// parts refused naming the frame, instance and range, and a warm FrameResult filled again
+// without one heap allocation.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -85,6 +86,45 @@ std::vector<v1::SkinResponse> Parts(uint64_t frame, VertexEncoding e,
       }
       parts.push_back(std::move(part));
     }
+  }
+  parts.back().set_last(true);
+  return parts;
+}
+
+// The parts a server sends for SkinRequest.pack_instances: `per_part` whole instances per
+// part (the last part may hold fewer), each instance's box in instance_bounds.
+std::vector<v1::SkinResponse> PackedParts(uint64_t frame, VertexEncoding e,
+                                          const std::vector<std::vector<float>>& positions,
+                                          const std::vector<std::vector<float>>* normals,
+                                          uint32_t per_part) {
+  std::vector<v1::SkinResponse> parts;
+  const auto instances = static_cast<uint32_t>(positions.size());
+  const auto vertices = static_cast<uint32_t>(positions[0].size() / 3);
+  for (uint32_t first = 0; first < instances; first += per_part) {
+    const uint32_t count = std::min(per_part, instances - first);
+    v1::SkinResponse part;
+    part.set_frame(frame);
+    part.set_instance(first);
+    part.set_instance_count(count);
+    part.set_instances(instances);
+    part.set_vertex_count(vertices);
+    part.set_total_vertices(vertices);
+    part.set_encoding(static_cast<v1::Encoding>(e));
+    std::string p, n;
+    for (uint32_t k = first; k < first + count; ++k) {
+      const Bounds box = ComputeBounds(positions[k]).value();
+      if (e == VertexEncoding::kSnorm16) {
+        if (k == first) SetBounds(box, &part);
+        v1::SkinResponse holder;
+        SetBounds(box, &holder);
+        *part.add_instance_bounds() = holder.bounds();
+      }
+      p += Bytes(e, positions[k], box, false);
+      if (normals != nullptr) n += Bytes(e, (*normals)[k], box, true);
+    }
+    part.set_positions(p);
+    part.set_normals(n);
+    parts.push_back(std::move(part));
   }
   parts.back().set_last(true);
   return parts;
@@ -204,6 +244,54 @@ TEST(FrameAssemblerTest, MalformedPartsAreRefusedNamingFrameInstanceAndRange) {
   parts = good;
   parts[3].set_frame(10);
   ExpectRefused(parts, "does not match");
+}
+
+// Packed parts carry the same bytes as one part per instance: the frames decode alike.
+TEST(FrameAssemblerTest, PackedCrowdsDecodeAsInstanceByInstance) {
+  for (VertexEncoding e :
+       {VertexEncoding::kFloat32, VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
+    SCOPED_TRACE(VertexEncodingName(e));
+    const auto positions = Instances(5, 333, false);
+    const auto normals = Instances(5, 333, true);
+    FrameResult by_instance, packed;
+    ASSERT_TRUE(Assemble(Parts(7, e, positions, &normals, 333), &by_instance));
+    ASSERT_TRUE(by_instance.status.ok()) << by_instance.status.ToString();
+    for (uint32_t per_part : {2u, 5u}) {  // parts of 2, 2, 1 instances; one part of 5
+      const auto parts = PackedParts(7, e, positions, &normals, per_part);
+      ASSERT_EQ(parts.size(), per_part == 2 ? 3u : 1u);
+      ASSERT_TRUE(Assemble(parts, &packed));
+      ASSERT_TRUE(packed.status.ok()) << packed.status.ToString();
+      EXPECT_EQ(packed.instances, 5u);
+      EXPECT_EQ(packed.positions, by_instance.positions);
+      EXPECT_EQ(packed.normals, by_instance.normals);
+      EXPECT_EQ(packed.bounds, by_instance.bounds);
+    }
+  }
+}
+
+TEST(FrameAssemblerTest, MalformedPackedPartsAreRefused) {
+  const auto good = PackedParts(9, VertexEncoding::kSnorm16, Instances(5, 10, false), nullptr, 2);
+  auto parts = good;
+  parts[1].set_instance_count(4);  // instances 2..5 of 5
+  ExpectRefused(parts, "frame 9, instance 2, vertices [0, +10): out of order or out of range");
+  parts = good;
+  parts[0].set_first_vertex(1);
+  ExpectRefused(parts, "out of order or out of range");
+  parts = good;
+  parts[0].set_vertex_count(5);  // whole instances only
+  ExpectRefused(parts, "out of order or out of range");
+  parts = good;
+  parts[1].mutable_instance_bounds()->RemoveLast();
+  ExpectRefused(parts, "2 instances in the part but 1 instance_bounds");
+  parts = good;
+  parts[1].set_positions(parts[1].positions().substr(2));
+  ExpectRefused(parts, "118 and 0 bytes of positions and normals for 2 instances of 60 bytes");
+  parts = good;
+  parts[1].mutable_instance_bounds(1)->set_max_x(-INFINITY);
+  ExpectRefused(parts, "bounds.max_x");
+  parts = good;
+  parts.erase(parts.begin() + 1);  // instances 2 and 3 missing
+  ExpectRefused(parts, "instance 2 vertex 0 was due");
 }
 
 TEST(FrameAssemblerTest, AnErrorPartFailsTheFrameWithItsCode) {

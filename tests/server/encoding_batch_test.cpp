@@ -26,13 +26,15 @@ struct Answer {
   std::string message;
   std::vector<std::vector<float>> positions, normals;
   std::vector<Bounds> bounds;
-  std::vector<uint32_t> parts;  // per instance
+  std::vector<uint32_t> parts;  // per instance (a packed part counts for each of its own)
+  uint32_t messages = 0;        // parts of the frame
 };
 
 v1::SkinRequest MakeRequest(const std::string& mesh_id, const std::string& backend, uint64_t frame,
                             uint32_t instances, v1::Encoding encoding, bool normals,
-                            const std::vector<float>& palettes) {
+                            const std::vector<float>& palettes, bool pack = false) {
   v1::SkinRequest request;
+  request.set_pack_instances(pack);
   request.set_mesh_id(mesh_id);
   request.set_backend(backend);
   request.set_frame(frame);
@@ -86,22 +88,47 @@ Answer ReadFrame(Reader& stream, uint64_t frame, uint32_t vertex_count, uint32_t
     EXPECT_EQ(part.instance(), expected_instance);
     EXPECT_EQ(part.first_vertex(), expected_first);
     EXPECT_LE(part.positions().size() + part.normals().size(), 1u << 20);
-    const uint32_t i = std::min(part.instance(), k - 1);
-    const Bounds box{{part.bounds().min_x(), part.bounds().min_y(), part.bounds().min_z()},
-                     {part.bounds().max_x(), part.bounds().max_y(), part.bounds().max_z()}};
-    answer.bounds[i] = box;
-    ++answer.parts[i];
+    ++answer.messages;
+    // Packed: several whole instances back to back, each with its own box.
+    const uint32_t packed = std::max(part.instance_count(), 1u);
+    if (packed > 1) {
+      EXPECT_EQ(part.first_vertex(), 0u);
+      EXPECT_EQ(part.vertex_count(), vertex_count);
+      if (encoding == v1::ENCODING_SNORM16) {
+        EXPECT_EQ(part.instance_bounds_size(), static_cast<int>(packed));
+      }
+    }
     const std::size_t first = 3ull * part.first_vertex(), count = 3ull * part.vertex_count();
-    const auto bytes = [](const std::string& s) {
-      return std::span<const std::byte>(reinterpret_cast<const std::byte*>(s.data()), s.size());
-    };
-    Status s = DecodePositions(enc, bytes(part.positions()), box,
-                               std::span<float>(answer.positions[i]).subspan(first, count));
-    EXPECT_TRUE(s.ok()) << s.ToString();
-    if (normals) {
-      s = DecodeNormals(enc, bytes(part.normals()),
-                        std::span<float>(answer.normals[i]).subspan(first, count));
+    const std::size_t instance_bytes = count * EncodedBytesPerValue(enc);
+    EXPECT_EQ(part.positions().size(), packed * instance_bytes);
+    for (uint32_t j = 0; j < packed && part.positions().size() == packed * instance_bytes; ++j) {
+      const uint32_t i = std::min(part.instance() + j, k - 1);
+      const v1::Bounds& b = packed > 1 && encoding == v1::ENCODING_SNORM16
+                                ? part.instance_bounds(static_cast<int>(j))
+                                : part.bounds();
+      const Bounds box{{b.min_x(), b.min_y(), b.min_z()}, {b.max_x(), b.max_y(), b.max_z()}};
+      answer.bounds[i] = box;
+      ++answer.parts[i];
+      const auto bytes = [&](const std::string& s) {
+        return std::span<const std::byte>(reinterpret_cast<const std::byte*>(s.data()), s.size())
+            .subspan(j * instance_bytes, instance_bytes);
+      };
+      Status s = DecodePositions(enc, bytes(part.positions()), box,
+                                 std::span<float>(answer.positions[i]).subspan(first, count));
       EXPECT_TRUE(s.ok()) << s.ToString();
+      if (normals) {
+        s = DecodeNormals(enc, bytes(part.normals()),
+                          std::span<float>(answer.normals[i]).subspan(first, count));
+        EXPECT_TRUE(s.ok()) << s.ToString();
+      }
+    }
+    if (packed > 1) {
+      expected_instance += packed;
+      if (part.last()) {
+        EXPECT_EQ(expected_instance, k) << "the last part ends the last instance";
+        return answer;
+      }
+      continue;
     }
     expected_first += part.vertex_count();
     if (expected_first >= vertex_count) {
@@ -172,17 +199,21 @@ TEST(EncodingBatchTest, EveryEncodingAndBatchSizeOnEveryBackendOnOneStream) {
     grpc::ClientContext context;
     auto stream = stub->StreamSkin(&context);
     uint64_t frame = 0;
-    // The encoding and the batch size change from frame to frame on the same stream.
+    // The encoding, the batch size and the packing change from frame to frame on the same
+    // stream.
     for (uint32_t instances : {0u, 1u, 3u}) {
       for (v1::Encoding encoding : kEncodings) {
         for (bool normals : {false, true}) {
-          SCOPED_TRACE(::testing::Message()
-                       << "K=" << instances << " encoding=" << encoding << " normals=" << normals);
+          const bool pack = frame % 2 == 1;
+          SCOPED_TRACE(::testing::Message() << "K=" << instances << " encoding=" << encoding
+                                            << " normals=" << normals << " pack=" << pack);
           const auto palettes = CrowdPalettes(77, instances, frame);
           ASSERT_TRUE(stream->Write(MakeRequest(info->mesh_id(), backend.id(), frame, instances,
-                                                encoding, normals, palettes)));
+                                                encoding, normals, palettes, pack)));
           const Answer answer = ReadFrame(*stream, frame, 2000, instances, encoding, normals);
           ASSERT_EQ(answer.error, grpc::StatusCode::OK) << answer.message;
+          // 2000 vertices: one part per instance, or every instance in one packed part.
+          EXPECT_EQ(answer.messages, pack ? 1u : std::max(instances, 1u));
           for (uint32_t i = 0; i < std::max(instances, 1u); ++i) {
             SCOPED_TRACE(::testing::Message() << "instance " << i);
             ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77),
@@ -232,6 +263,48 @@ TEST(EncodingBatchTest, LargeInstancesComeInPartsOfAtMostOneMebibyte) {
     stream->WritesDone();
     EXPECT_TRUE(stream->Finish().ok());
   }
+}
+
+// A packed crowd fills parts of up to 1 MiB with whole instances: 40 instances of 5000
+// vertices with normals (60 KB an instance in snorm16, 120 KB in float32) come in 3 and 5
+// parts, with the same floats as one part per instance.
+TEST(EncodingBatchTest, PackedCrowdsComeInFewPartsWithTheSameVertices) {
+  TestServer t;
+  const MeshArrays arrays =
+      MakeSyntheticMesh({.vertex_count = 5000, .influences = 2, .normals = true, .seed = 8});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok());
+  auto mesh = Mesh::Create(arrays).value();
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  grpc::ClientContext context;
+  auto stream = stub->StreamSkin(&context);
+  constexpr uint32_t kCrowd = 40;
+  uint64_t frame = 0;
+  for (v1::Encoding encoding : kEncodings) {
+    SCOPED_TRACE(encoding);
+    const auto palettes = CrowdPalettes(77, kCrowd, 0);
+    Answer answers[2];
+    for (bool pack : {false, true}) {
+      ASSERT_TRUE(stream->Write(
+          MakeRequest(info->mesh_id(), "sse", frame, kCrowd, encoding, true, palettes, pack)));
+      answers[pack] = ReadFrame(*stream, frame, 5000, kCrowd, encoding, true);
+      ASSERT_EQ(answers[pack].error, grpc::StatusCode::OK) << answers[pack].message;
+      ++frame;
+    }
+    const uint32_t per_part = (1u << 20) / (5000 * (encoding == v1::ENCODING_FLOAT32 ? 24 : 12));
+    EXPECT_EQ(answers[1].messages, (kCrowd + per_part - 1) / per_part);
+    EXPECT_EQ(answers[0].messages, kCrowd);
+    for (uint32_t i = 0; i < kCrowd; ++i) {
+      EXPECT_EQ(answers[1].positions[i], answers[0].positions[i]) << "instance " << i;
+      EXPECT_EQ(answers[1].normals[i], answers[0].normals[i]) << "instance " << i;
+      EXPECT_EQ(answers[1].bounds[i], answers[0].bounds[i]) << "instance " << i;
+      ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77),
+                        answers[1].positions[i], answers[1].normals[i], encoding,
+                        answers[1].bounds[i]);
+    }
+  }
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
 }
 
 TEST(EncodingBatchTest, SkinTakesEncodingsAndBatchesToo) {

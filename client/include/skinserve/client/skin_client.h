@@ -50,7 +50,8 @@ struct FrameResult {
 
 // Gathers a frame's parts into a FrameResult, decoding each part's encoding; true once
 // the part with `last` has arrived. Parts must come as the contract says: instance by
-// instance, each in vertex order, ranges inside the frame, every part of one frame with
+// instance, each in vertex order, ranges inside the frame (or, packed, several whole
+// instances per part: SkinRequest.pack_instances), every part of one frame with
 // the same shape and encoding (and the same box within an instance). Anything else sets
 // result->status (INTERNAL, naming the frame, the instance and the range). Use a fresh
 // assembler per frame (it allocates nothing); the result may be reused.
