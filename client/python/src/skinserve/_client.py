@@ -40,7 +40,8 @@ def _rpc_error(error, frame=None):
 class _Frame:
     """One frame's parts, assembled into float32 arrays: (V, 3) for a single palette, or
     (K, V, 3) for a crowd of K instances (`crowd` = K). Parts come instance by instance,
-    each in vertex order; one that does not fit the frame fails it (INTERNAL)."""
+    each in vertex order, or several whole instances in one part (packed:
+    SkinResponse.instance_count); one that does not fit the frame fails it (INTERNAL)."""
 
     def __init__(self, crowd=None):
         self.crowd = crowd
@@ -64,25 +65,39 @@ class _Frame:
             if want_normals:
                 self.normals = np.empty(shape, dtype=np.float32)
         total = self.positions.shape[1]
-        if (part.instance, part.first_vertex) != self._next or part.total_vertices != total \
-                or part.first_vertex + part.vertex_count > total:
-            self._fail(part, f"part of instance {part.instance}, vertices "
-                       f"[{part.first_vertex}, {part.first_vertex + part.vertex_count}) of "
-                       f"{part.total_vertices}, expected instance {self._next[0]} from vertex "
-                       f"{self._next[1]} of {total}")
+        packed = max(part.instance_count, 1)  # whole instances in this part
         end = part.first_vertex + part.vertex_count
-        self._next = (part.instance + 1, 0) if end == total else (part.instance, end)
+        if (part.instance, part.first_vertex) != self._next or part.total_vertices != total \
+                or end > total or part.instance + packed > instances \
+                or (packed > 1 and (part.first_vertex != 0 or end != total)):
+            self._fail(part, f"part of instance {part.instance} ({packed} packed), vertices "
+                       f"[{part.first_vertex}, {end}) of {part.total_vertices}, expected "
+                       f"instance {self._next[0]} from vertex {self._next[1]} of {total}")
+        if packed > 1 and part.encoding == _encoding.SNORM16 \
+                and len(part.instance_bounds) != packed:
+            self._fail(part, f"{packed} instances in the part but "
+                       f"{len(part.instance_bounds)} instance_bounds")
+        self._next = (part.instance + packed, 0) if end == total else (part.instance, end)
         if part.last and self._next != (instances, 0):
             self._fail(part, f"the frame ended at instance {self._next[0]}, vertex "
                        f"{self._next[1]}")
-        b = part.bounds
-        bounds = (b.min_x, b.min_y, b.min_z, b.max_x, b.max_y, b.max_z)
+        positions, normals = memoryview(part.positions), memoryview(part.normals)
+        if len(positions) % packed or len(normals) % packed:
+            self._fail(part, f"{len(positions)} and {len(normals)} bytes of positions and "
+                       f"normals for {packed} instances")
         rows = slice(part.first_vertex, end)
-        self.positions[part.instance, rows] = _encoding.decode_values(
-            part.positions, part.encoding, part.vertex_count, bounds)
-        if want_normals:
-            self.normals[part.instance, rows] = _encoding.decode_values(
-                part.normals, part.encoding, part.vertex_count, normals=True)
+        for j in range(packed):
+            k = part.instance + j
+            b = part.instance_bounds[j] if packed > 1 and part.encoding == _encoding.SNORM16 \
+                else part.bounds
+            bounds = (b.min_x, b.min_y, b.min_z, b.max_x, b.max_y, b.max_z)
+            p_size, n_size = len(positions) // packed, len(normals) // packed
+            self.positions[k, rows] = _encoding.decode_values(
+                positions[j * p_size:(j + 1) * p_size], part.encoding, part.vertex_count, bounds)
+            if want_normals:
+                self.normals[k, rows] = _encoding.decode_values(
+                    normals[j * n_size:(j + 1) * n_size], part.encoding, part.vertex_count,
+                    normals=True)
 
     def result(self, want_normals):
         positions, normals = self.positions, self.normals
@@ -185,7 +200,7 @@ class Client:
         return pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
                               palette=_arrays.little_endian_bytes(palette, "f4"),
                               want_normals=want_normals, encoding=_ENCODINGS[encoding],
-                              instances=crowd or 0)
+                              instances=crowd or 0, pack_instances=True)
 
     def skin(self, mesh_id, palette, backend=None, want_normals=False, encoding="float32",
              frame=0):
