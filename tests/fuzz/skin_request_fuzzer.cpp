@@ -7,6 +7,7 @@
 // mesh_id "m" stands for the mesh stored at start-up, so inputs can reach the skinning.
 #include <grpcpp/impl/codegen/proto_utils.h>
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -78,7 +79,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     job.Fail(status);
   }
   // Parts: the last one is last; a failed frame is one error part; otherwise each
-  // instance's vertex ranges follow each other and end at the mesh's vertex count.
+  // instance's vertex ranges follow each other and end at the mesh's vertex count (a
+  // packed part holds whole instances: its range once for each).
   std::map<uint32_t, uint64_t> next_vertex;  // by instance
   uint32_t total_vertices = 0;
   bool last = false;
@@ -94,12 +96,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       if (status.ok() || !last) std::abort();
       continue;
     }
-    uint64_t& next = next_vertex[part->instance()];
-    if (part->first_vertex() != next || part->positions().empty()) std::abort();
-    next += part->vertex_count();
+    const uint32_t packed = std::max(part->instance_count(), 1u);
+    if (packed > 1 && (!wire.pack_instances() || part->first_vertex() != 0 ||
+                       part->vertex_count() != part->total_vertices())) {
+      std::abort();
+    }
+    for (uint32_t k = 0; k < packed; ++k) {
+      uint64_t& next = next_vertex[part->instance() + k];
+      if (part->first_vertex() != next || part->positions().empty()) std::abort();
+      next += part->vertex_count();
+    }
     total_vertices = part->total_vertices();
   }
   if (!last) std::abort();
+  if (status.ok() && next_vertex.size() != std::max(wire.instances(), 1u)) std::abort();
   for (const auto& [instance, count] : next_vertex) {
     if (count != total_vertices) std::abort();
   }
