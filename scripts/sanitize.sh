@@ -45,7 +45,7 @@ case "$mode" in
     if [ "$mode" = asan-ci ]; then
       cmake --build "$build" -j "$(nproc)" --target skinserve skinserve_core_tests \
         skinserve_backend_tests skinserve_service_tests skinserve_character_tests \
-        mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer
+        mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer raw_part_fuzzer
       set -- -R '^(skinserve_(core|backend|service|character)_tests|.*_fuzzer\.corpus)$'
     else
       cmake --build "$build" -j "$(nproc)"
@@ -78,7 +78,7 @@ case "$mode" in
     }
     work=$(mktemp -d)
     trap 'rm -rf "$work"' EXIT
-    for target in mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer; do
+    for target in mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer raw_part_fuzzer; do
       mkdir -p "$work/$target"
       echo "== $target: ${seconds}s"
       # New inputs go to the scratch folder (first); the repository's corpus is only read.

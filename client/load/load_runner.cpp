@@ -239,7 +239,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   client::SkinClient client(client::MakeChannel(config.target));
   client.Remember(mesh_id, workload.arrays);
   grpc::ClientContext context;
-  auto stream = client.stub().StreamSkin(&context);
+  auto stream = client.StreamSkinRaw(&context);
   // Before the schedule starts, make sure this stream's replica holds the mesh: one frame
   // outside the schedule, re-uploading on NOT_FOUND (round_robin may place the upload on
   // another replica, hence the retries). It asks for `passthrough`, so that it never counts
@@ -253,9 +253,10 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     if (!stream->Write(probe)) break;
     client::FrameResult result;
     client::FrameAssembler assembler;
-    v1::SkinResponse part;
+    client::RawPart part;
+    grpc::ByteBuffer bytes;
     bool complete = false;
-    while (!complete && stream->Read(&part)) complete = assembler.Add(part, &result);
+    while (!complete && stream->Read(&bytes)) complete = assembler.Add(bytes, &part, &result);
     if (!complete || result.status.code() != StatusCode::kNotFound) break;
     if (!client.Reupload(mesh_id).ok()) break;
   }
@@ -277,12 +278,13 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   uint64_t sent = 0, dropped = 0;  // measured frames only
 
   std::thread reader([&] {
-    // One part and one result for the whole run (their buffers are reused).
-    v1::SkinResponse part;
+    // One part reader and one result for the whole run (their buffers are reused).
+    client::RawPart part;
+    grpc::ByteBuffer bytes;
     client::FrameResult result;
     client::FrameAssembler assembler;
-    while (stream->Read(&part)) {
-      if (!assembler.Add(part, &result)) continue;
+    while (stream->Read(&bytes)) {
+      if (!assembler.Add(bytes, &part, &result)) continue;
       Scheduled frame;
       {
         std::lock_guard lock(mutex);

@@ -64,7 +64,8 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   request.set_instances(options.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_method(WireMethod(options.method));
-  v1::SkinResponse part;
+  RawPart part;  // reads each answer part from gRPC's bytes (no copy into a message)
+  grpc::ByteBuffer bytes;
   FrameResult result;
 
   auto report_failed = [&](uint64_t frame, const Status& why, Clock::time_point sent) {
@@ -80,7 +81,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   auto more_new = [&] { return next < end && !(options.stop != nullptr && options.stop->load()); };
   while (more_new() || !resend.empty()) {
     grpc::ClientContext context;
-    auto stream = client.stub().StreamSkin(&context);
+    auto stream = client.StreamSkinRaw(&context);
     bool broken = false;
     // A failed Write means the server has ended the stream (e.g. it is shutting down); the
     // answers it sent before are still to be read, and gRPC's Finish only returns once
@@ -108,7 +109,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     while (!broken && !in_flight.empty()) {
       FrameAssembler assembler;
       bool complete = false;
-      while (!complete && stream->Read(&part)) complete = assembler.Add(part, &result);
+      while (!complete && stream->Read(&bytes)) complete = assembler.Add(bytes, &part, &result);
       if (!complete) {
         broken = true;
         break;

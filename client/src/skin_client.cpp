@@ -40,7 +40,11 @@ bool FrameAssembler::Fail(const v1::SkinResponse& part, FrameResult* result, Sta
   return part.last();
 }
 
-bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
+// `part` is the header; `positions_size` and `normals_size` the bytes of its vertex fields;
+// decode(normals, offset, encoding, bounds, out) decodes bytes of one of them into `out`.
+template <typename Decode>
+bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions_size,
+                             std::size_t normals_size, const Decode& decode, FrameResult* result) {
   const uint32_t instances = std::max(part.instances(), 1u);  // 0: a server before crowds
   const auto encoding = static_cast<VertexEncoding>(part.encoding());
   if (!started_) {
@@ -69,7 +73,7 @@ bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
     result->vertices = part.total_vertices();
     result->instances = instances;
     result->encoding = encoding;
-    normals_ = !part.normals().empty();
+    normals_ = normals_size > 0;
     result->positions.resize(3 * vertices);  // same size as last frame: no work
     result->normals.resize(normals_ ? 3 * vertices : 0);
     result->bounds.assign(instances, Bounds{});
@@ -81,7 +85,7 @@ bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
   };
   if (part.frame() != result->frame || part.has_error() ||
       part.total_vertices() != result->vertices || instances != result->instances ||
-      encoding != result->encoding || normals_ == part.normals().empty()) {
+      encoding != result->encoding || normals_ != (normals_size > 0)) {
     return Fail(part, result,
                 Internal(fmt::format("{}: the part does not match its frame's first part "
                                      "(frame {}, {} x {} vertices, {}, normals {})",
@@ -108,18 +112,18 @@ bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
                 Internal(fmt::format("{}: {} instances in the part but {} instance_bounds", where(),
                                      packed, part.instance_bounds_size())));
   }
-  const auto bytes = [](const std::string& s) {
-    return std::span<const std::byte>(reinterpret_cast<const std::byte*>(s.data()), s.size());
-  };
   const std::size_t count = 3ull * part.vertex_count();
   const std::size_t instance_bytes = count * EncodedBytesPerValue(encoding);
-  if (packed > 1 && (part.positions().size() != packed * instance_bytes ||
-                     (normals_ && part.normals().size() != packed * instance_bytes))) {
-    return Fail(part, result,
-                Internal(fmt::format("{}: {} and {} bytes of positions and normals for {} "
-                                     "instances of {} bytes",
-                                     where(), part.positions().size(), part.normals().size(),
-                                     packed, instance_bytes)));
+  // Each vertex field holds exactly the part's vertices.
+  const std::size_t expected = packed * instance_bytes;
+  if (positions_size != expected || (normals_ && normals_size != expected)) {
+    const bool positions = positions_size != expected;
+    return Fail(
+        part, result,
+        Internal(fmt::format(
+            "{}: {}: {} bytes, expected {} ({} values of {})", where(),
+            positions ? "positions" : "normals", positions ? positions_size : normals_size,
+            expected, expected / EncodedBytesPerValue(encoding), VertexEncodingName(encoding))));
   }
   for (uint32_t k = 0; k < packed; ++k) {
     const uint32_t instance = part.instance() + k;
@@ -136,14 +140,11 @@ bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
                                        where())));
     }
     const std::size_t offset = 3 * (uint64_t{instance} * result->vertices + part.first_vertex());
-    const auto slice = [&](const std::string& s) {
-      return packed > 1 ? bytes(s).subspan(k * instance_bytes, instance_bytes) : bytes(s);
-    };
-    Status decoded = DecodePositions(encoding, slice(part.positions()), bounds,
-                                     std::span<float>(result->positions).subspan(offset, count));
+    Status decoded = decode(false, k * instance_bytes, encoding, bounds,
+                            std::span<float>(result->positions).subspan(offset, count));
     if (decoded.ok() && normals_) {
-      decoded = DecodeNormals(encoding, slice(part.normals()),
-                              std::span<float>(result->normals).subspan(offset, count));
+      decoded = decode(true, k * instance_bytes, encoding, bounds,
+                       std::span<float>(result->normals).subspan(offset, count));
     }
     if (!decoded.ok()) {
       return Fail(part, result, Internal(fmt::format("{}: {}", where(), decoded.message())));
@@ -174,8 +175,61 @@ bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
   return part.last();
 }
 
+bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
+  const auto decode = [&](bool normals, std::size_t offset, VertexEncoding encoding,
+                          const Bounds& bounds, std::span<float> out) {
+    const std::string& field = normals ? part.normals() : part.positions();
+    const std::span<const std::byte> bytes(
+        reinterpret_cast<const std::byte*>(field.data()) + offset,
+        out.size() * EncodedBytesPerValue(encoding));
+    return normals ? DecodeNormals(encoding, bytes, out)
+                   : DecodePositions(encoding, bytes, bounds, out);
+  };
+  return AddPart(part, part.positions().size(), part.normals().size(), decode, result);
+}
+
+bool FrameAssembler::Add(const grpc::ByteBuffer& bytes, RawPart* reader, FrameResult* result) {
+  if (!reader->Parse(bytes)) {
+    v1::SkinResponse unreadable;
+    unreadable.set_last(true);  // nothing more of this frame can be trusted
+    if (!started_) result->frame = 0;
+    started_ = true;
+    return Fail(unreadable, result,
+                Internal(fmt::format("a part of {} bytes is not a skinserve.v1.SkinResponse",
+                                     bytes.Length())));
+  }
+  const RawPart& part = *reader;
+  const auto decode = [&](bool normals, std::size_t offset, VertexEncoding encoding,
+                          const Bounds& bounds, std::span<float> out) {
+    return part.Decode(normals, offset, encoding, bounds, out);
+  };
+  return AddPart(part.header(), part.positions_size(), part.normals_size(), decode, result);
+}
+
 SkinClient::SkinClient(std::shared_ptr<grpc::Channel> channel)
-    : channel_(std::move(channel)), stub_(v1::Skinning::NewStub(channel_)) {}
+    : channel_(std::move(channel)),
+      stub_(v1::Skinning::NewStub(channel_)),
+      stream_skin_name_(fmt::format("/{}/StreamSkin", v1::Skinning::service_full_name())),
+      skin_name_(fmt::format("/{}/Skin", v1::Skinning::service_full_name())),
+      stream_skin_raw_(stream_skin_name_.c_str(), grpc::internal::RpcMethod::BIDI_STREAMING,
+                       channel_),
+      skin_raw_(skin_name_.c_str(), grpc::internal::RpcMethod::SERVER_STREAMING, channel_) {}
+
+// gRPC's public API reads typed messages only through generated stubs (or the async and
+// callback generic stubs); these use the factories the generated code itself calls, with
+// ByteBuffer (gRPC's own serialization of it: no copy) as the answer's type.
+std::unique_ptr<SkinClient::RawStream> SkinClient::StreamSkinRaw(grpc::ClientContext* context) {
+  return std::unique_ptr<RawStream>(
+      grpc::internal::ClientReaderWriterFactory<v1::SkinRequest, grpc::ByteBuffer>::Create(
+          channel_.get(), stream_skin_raw_, context));
+}
+
+std::unique_ptr<grpc::ClientReader<grpc::ByteBuffer>> SkinClient::SkinRaw(
+    grpc::ClientContext* context, const v1::SkinRequest& request) {
+  return std::unique_ptr<grpc::ClientReader<grpc::ByteBuffer>>(
+      grpc::internal::ClientReaderFactory<grpc::ByteBuffer>::Create(channel_.get(), skin_raw_,
+                                                                    context, request));
+}
 
 Result<v1::MeshInfo> SkinClient::Upload(const MeshArrays& arrays, WeightPolicy weight_policy) {
   // Validate and hash locally: the id tells whether the server already has this content.
@@ -299,9 +353,9 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
                         const SkinOptions& options, FrameResult* result) {
   std::unique_lock lock(skin_messages_mutex_, std::try_to_lock);
   v1::SkinRequest own_request;
-  v1::SkinResponse own_part;
+  RawPart own_part;
   v1::SkinRequest& request = lock.owns_lock() ? skin_request_ : own_request;
-  v1::SkinResponse* part = lock.owns_lock() ? &skin_part_ : &own_part;
+  RawPart* part = lock.owns_lock() ? &skin_part_ : &own_part;
   request.set_mesh_id(mesh_id);
   request.set_backend(options.backend);
   request.set_frame(frame);
@@ -319,14 +373,14 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   return status;
 }
 
-Status SkinClient::SkinOnce(const v1::SkinRequest& request, v1::SkinResponse* part,
-                            FrameResult* result) {
+Status SkinClient::SkinOnce(const v1::SkinRequest& request, RawPart* part, FrameResult* result) {
   grpc::ClientContext context;
-  auto reader = stub_->Skin(&context, request);
+  auto reader = SkinRaw(&context, request);
   FrameAssembler assembler;
   bool complete = false;
-  while (reader->Read(part)) {
-    if (!complete) complete = assembler.Add(*part, result);
+  grpc::ByteBuffer bytes;
+  while (reader->Read(&bytes)) {
+    if (!complete) complete = assembler.Add(bytes, part, result);
   }
   grpc::Status status = reader->Finish();
   if (!status.ok()) {

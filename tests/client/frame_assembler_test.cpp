@@ -1,8 +1,11 @@
 // FrameAssembler and the client library's reuse, against responses built here by hand:
 // every encoding decoded within its stated bound, crowd batches reassembled by instance
 // and vertex range or packed several whole instances a part, every malformed sequence of
-// parts refused naming the frame, instance and range, and a warm FrameResult filled again
-// without one heap allocation.
+// parts refused naming the frame, instance and range, parts read from gRPC's bytes (any
+// slicing, any field order) decoded exactly as parsed ones, and a warm FrameResult filled
+// again without one heap allocation.
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -130,6 +133,34 @@ std::vector<v1::SkinResponse> PackedParts(uint64_t frame, VertexEncoding e,
   return parts;
 }
 
+// `part` as gRPC would hold it: serialized, cut into slices of `slice` bytes (so that the
+// vertex data's values and triples straddle slice boundaries).
+grpc::ByteBuffer Wire(const v1::SkinResponse& part, std::size_t slice) {
+  const std::string bytes = part.SerializeAsString();
+  std::vector<grpc::Slice> slices;
+  for (std::size_t at = 0; at < bytes.size(); at += slice) {
+    slices.emplace_back(bytes.data() + at, std::min(slice, bytes.size() - at));
+  }
+  return grpc::ByteBuffer(slices.data(), slices.size());
+}
+
+std::vector<grpc::ByteBuffer> Wire(const std::vector<v1::SkinResponse>& parts, std::size_t slice) {
+  std::vector<grpc::ByteBuffer> wire;
+  for (const auto& part : parts) wire.push_back(Wire(part, slice));
+  return wire;
+}
+
+// Feeds every part's bytes through `reader`; true when the frame completed exactly at the
+// last one.
+bool AssembleRaw(const std::vector<grpc::ByteBuffer>& parts, RawPart* reader, FrameResult* result) {
+  FrameAssembler assembler;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const bool done = assembler.Add(parts[i], reader, result);
+    if (done != (i + 1 == parts.size())) return false;
+  }
+  return true;
+}
+
 // Feeds every part; returns whether the frame completed exactly at the last one.
 bool Assemble(const std::vector<v1::SkinResponse>& parts, FrameResult* result) {
   FrameAssembler assembler;
@@ -189,6 +220,7 @@ TEST(FrameAssemblerTest, AServerBeforeCrowdsAndEncodingsStillAssembles) {
 }
 
 // Assembles `parts`, expects the frame to fail naming `message`, with empty arrays.
+// Refused alike parsed and read from gRPC's bytes (in 5-byte slices).
 void ExpectRefused(const std::vector<v1::SkinResponse>& parts, const std::string& message) {
   FrameResult r;
   FrameAssembler assembler;
@@ -196,6 +228,13 @@ void ExpectRefused(const std::vector<v1::SkinResponse>& parts, const std::string
   EXPECT_EQ(r.status.code(), StatusCode::kInternal) << message;
   EXPECT_NE(r.status.message().find(message), std::string::npos) << r.status.message();
   EXPECT_TRUE(r.positions.empty());
+  FrameResult raw;
+  FrameAssembler raw_assembler;
+  RawPart reader;
+  for (const auto& bytes : Wire(parts, 5)) raw_assembler.Add(bytes, &reader, &raw);
+  EXPECT_EQ(raw.status.code(), StatusCode::kInternal) << message;
+  EXPECT_EQ(raw.status.message(), r.status.message());
+  EXPECT_TRUE(raw.positions.empty());
 }
 
 TEST(FrameAssemblerTest, MalformedPartsAreRefusedNamingFrameInstanceAndRange) {
@@ -285,13 +324,83 @@ TEST(FrameAssemblerTest, MalformedPackedPartsAreRefused) {
   ExpectRefused(parts, "2 instances in the part but 1 instance_bounds");
   parts = good;
   parts[1].set_positions(parts[1].positions().substr(2));
-  ExpectRefused(parts, "118 and 0 bytes of positions and normals for 2 instances of 60 bytes");
+  ExpectRefused(parts,
+                "frame 9, instance 2, vertices [0, +10): positions: 118 bytes, expected "
+                "120 (60 values of snorm16)");
   parts = good;
   parts[1].mutable_instance_bounds(1)->set_max_x(-INFINITY);
   ExpectRefused(parts, "bounds.max_x");
   parts = good;
   parts.erase(parts.begin() + 1);  // instances 2 and 3 missing
   ExpectRefused(parts, "instance 2 vertex 0 was due");
+}
+
+// Read from gRPC's bytes, however they are sliced and whatever the field order, a frame
+// decodes to exactly what parsing each part gives.
+TEST(FrameAssemblerTest, RawPartsDecodeExactlyAsParsedParts) {
+  const auto positions = Instances(3, 1001, false);
+  const auto normals = Instances(3, 1001, true);
+  for (VertexEncoding e :
+       {VertexEncoding::kFloat32, VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
+    for (bool packed : {false, true}) {
+      SCOPED_TRACE(::testing::Message() << VertexEncodingName(e) << (packed ? " packed" : ""));
+      const auto parts = packed ? PackedParts(4, e, positions, &normals, 2)
+                                : Parts(4, e, positions, &normals, 300);
+      FrameResult parsed;
+      ASSERT_TRUE(Assemble(parts, &parsed));
+      ASSERT_TRUE(parsed.status.ok()) << parsed.status.ToString();
+      RawPart reader;
+      for (std::size_t slice : {5, 7, 16, 4096, 1 << 20}) {
+        FrameResult raw;
+        ASSERT_TRUE(AssembleRaw(Wire(parts, slice), &reader, &raw)) << slice;
+        ASSERT_TRUE(raw.status.ok()) << raw.status.ToString();
+        EXPECT_EQ(raw.positions, parsed.positions) << slice;
+        EXPECT_EQ(raw.normals, parsed.normals) << slice;
+        EXPECT_EQ(raw.bounds, parsed.bounds) << slice;
+        EXPECT_EQ(raw.frame, 4u);
+        EXPECT_EQ(raw.timing.compute_ns(), parsed.timing.compute_ns());
+      }
+      // The vertex fields first and the header after (any order is valid protobuf).
+      std::vector<grpc::ByteBuffer> reordered;
+      for (const auto& part : parts) {
+        std::string bytes;
+        {
+          google::protobuf::io::StringOutputStream stream(&bytes);
+          google::protobuf::io::CodedOutputStream out(&stream);
+          for (const auto& [field, value] :
+               {std::pair{7, &part.normals()}, std::pair{6, &part.positions()}}) {
+            out.WriteTag(field << 3 | 2);
+            out.WriteVarint32(static_cast<uint32_t>(value->size()));
+            out.WriteString(*value);
+          }
+        }
+        v1::SkinResponse header = part;
+        header.clear_positions();
+        header.clear_normals();
+        bytes += header.SerializeAsString();
+        const grpc::Slice slice(bytes.data(), bytes.size());
+        reordered.emplace_back(&slice, 1);
+      }
+      FrameResult raw;
+      ASSERT_TRUE(AssembleRaw(reordered, &reader, &raw));
+      ASSERT_TRUE(raw.status.ok()) << raw.status.ToString();
+      EXPECT_EQ(raw.positions, parsed.positions);
+      EXPECT_EQ(raw.normals, parsed.normals);
+    }
+  }
+}
+
+TEST(FrameAssemblerTest, BytesThatAreNoSkinResponseFailTheFrame) {
+  const std::string junk = "\x0a\xff\xff\xff\xff\x0f not a message";
+  const grpc::Slice slice(junk.data(), junk.size());
+  const grpc::ByteBuffer bytes(&slice, 1);
+  RawPart reader;
+  FrameResult r;
+  FrameAssembler assembler;
+  EXPECT_TRUE(assembler.Add(bytes, &reader, &r));  // the frame ends: nothing more to trust
+  EXPECT_EQ(r.status.code(), StatusCode::kInternal);
+  EXPECT_NE(r.status.message().find("is not a skinserve.v1.SkinResponse"), std::string::npos)
+      << r.status.message();
 }
 
 TEST(FrameAssemblerTest, AnErrorPartFailsTheFrameWithItsCode) {
@@ -326,6 +435,22 @@ TEST(FrameAssemblerTest, AWarmResultIsRefilledWithoutAllocating) {
     EXPECT_TRUE(ok) << r.status.ToString();
     EXPECT_EQ(allocations, 0u) << VertexEncodingName(e);
     EXPECT_EQ(r.positions.data(), data);
+  }
+  // From gRPC's bytes through a warm reader: nothing either.
+  for (VertexEncoding e :
+       {VertexEncoding::kFloat32, VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
+    const auto wire = Wire(Parts(1, e, positions, &normals, 2000), 16384);
+    FrameResult r;
+    RawPart reader;
+    ASSERT_TRUE(AssembleRaw(wire, &reader, &r));
+    const uint64_t before = skinserve_alloc_counters()->allocations;
+    bool ok = true;
+    for (int frame = 0; frame < 10; ++frame) {
+      ok = ok && AssembleRaw(wire, &reader, &r) && r.status.ok();
+    }
+    const uint64_t allocations = skinserve_alloc_counters()->allocations - before;
+    EXPECT_TRUE(ok) << r.status.ToString();
+    EXPECT_EQ(allocations, 0u) << "raw " << VertexEncodingName(e);
   }
   // The counter does count: a fresh result allocates.
   const uint64_t before = skinserve_alloc_counters()->allocations;

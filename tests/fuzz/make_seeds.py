@@ -156,7 +156,35 @@ def gltf_seed():
     write("gltf_fuzzer", "skinned_triangle.gltf", json.dumps(doc).encode())
 
 
+def response_seeds():
+    # RawPart's inputs: a first byte choosing the slice length, then a SkinResponse.
+    def part(slice_byte, text):
+        return bytes([slice_byte]) + encode("SkinResponse", text)
+
+    timing = "timing { queued_ns: 1000 compute_ns: 52000 encode_ns: 7000 }"
+    write("raw_part_fuzzer", "float32_normals",
+          part(6, f'frame: 3 vertex_count: 2 total_vertices: 2 last: true instances: 1 '
+                  f'positions: "{octal(floats([1, 2, 3, -4, 5, 6.5]))}" '
+                  f'normals: "{octal(floats([0, 0, 1, 0, 1, 0]))}" {timing}'))
+    q = struct.pack("<12h", -32767, 0, 32767, 100, -100, 5, 1, 2, 3, 4, 5, 6)
+    write("raw_part_fuzzer", "snorm16_packed",
+          part(16, f'frame: 9 vertex_count: 2 total_vertices: 2 last: true instances: 2 '
+                   f'instance_count: 2 encoding: ENCODING_SNORM16 positions: "{octal(q)}" '
+                   f'bounds {{ min_x: -1 min_y: -1 min_z: -1 max_x: 1 max_y: 2 max_z: 3 }} '
+                   f'instance_bounds {{ min_x: -1 min_y: -1 min_z: -1 max_x: 1 max_y: 2 max_z: 3 }} '
+                   f'instance_bounds {{ min_x: 0 min_y: 0 min_z: 0 max_x: 4 max_y: 4 max_z: 4 }} '
+                   f'{timing}'))
+    write("raw_part_fuzzer", "error",
+          part(3, 'frame: 4 last: true error { code: 3 message: "instance 2: palette" }'))
+    # The vertex fields before the header, and a field given twice (the last one counts).
+    header = encode("SkinResponse", f"frame: 5 vertex_count: 1 total_vertices: 1 {timing}")
+    first = encode("SkinResponse", f'positions: "{octal(floats([9, 9, 9]))}"')
+    second = encode("SkinResponse", f'positions: "{octal(floats([1, 2, 3]))}"')
+    write("raw_part_fuzzer", "reordered", bytes([1]) + first + second + header)
+
+
 if __name__ == "__main__":
     upload_seeds()
     request_seeds()
     gltf_seed()
+    response_seeds()

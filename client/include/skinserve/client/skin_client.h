@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "skinserve/client/raw_part.h"
 #include "skinserve/core/mesh.h"
 #include "skinserve/core/skinning_method.h"
 #include "skinserve/core/status.h"
@@ -58,8 +59,14 @@ struct FrameResult {
 class FrameAssembler {
  public:
   bool Add(const v1::SkinResponse& part, FrameResult* result);
+  // The same from the bytes gRPC received, read with `reader` (one per stream, reused) and
+  // decoded without copying them first. Bytes that are no SkinResponse fail the frame.
+  bool Add(const grpc::ByteBuffer& part, RawPart* reader, FrameResult* result);
 
  private:
+  template <typename Decode>
+  bool AddPart(const v1::SkinResponse& part, std::size_t positions_size, std::size_t normals_size,
+               const Decode& decode, FrameResult* result);
   bool Fail(const v1::SkinResponse& part, FrameResult* result, Status status);
 
   bool started_ = false;
@@ -85,6 +92,13 @@ class SkinClient {
 
   grpc::Channel& channel() { return *channel_; }
   v1::Skinning::Stub& stub() { return *stub_; }
+
+  // StreamSkin and Skin with the answers as gRPC received them, to be read with RawPart
+  // (which decodes the vertices without first copying them into a SkinResponse).
+  using RawStream = grpc::ClientReaderWriter<v1::SkinRequest, grpc::ByteBuffer>;
+  std::unique_ptr<RawStream> StreamSkinRaw(grpc::ClientContext* context);
+  std::unique_ptr<grpc::ClientReader<grpc::ByteBuffer>> SkinRaw(grpc::ClientContext* context,
+                                                                const v1::SkinRequest& request);
 
   // Uploads `arrays` unless the server already stores their content id (computed here:
   // the arrays are validated locally first, with the same errors the server would give).
@@ -112,11 +126,14 @@ class SkinClient {
               const SkinOptions& options, FrameResult* result);
 
  private:
-  Status SkinOnce(const v1::SkinRequest& request, v1::SkinResponse* part, FrameResult* result);
+  Status SkinOnce(const v1::SkinRequest& request, RawPart* part, FrameResult* result);
   Result<v1::MeshInfo> SendUpload(const MeshArrays& arrays, WeightPolicy weight_policy);
 
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::Skinning::Stub> stub_;
+  // The two methods by name, registered with the channel as the generated stub does.
+  const std::string stream_skin_name_, skin_name_;
+  const grpc::internal::RpcMethod stream_skin_raw_, skin_raw_;
   std::mutex mutex_;
   struct Uploaded {
     std::shared_ptr<const MeshArrays> arrays;
@@ -126,7 +143,7 @@ class SkinClient {
   // Skin's messages, reused by whichever call holds the lock (a concurrent call uses its own).
   std::mutex skin_messages_mutex_;
   v1::SkinRequest skin_request_;
-  v1::SkinResponse skin_part_;
+  RawPart skin_part_;
 };
 
 // Encodes a palette for the wire.
