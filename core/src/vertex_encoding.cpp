@@ -23,10 +23,18 @@ namespace {
 constexpr const char* kAxisNames[3] = {"x", "y", "z"};
 constexpr const char* kMinFieldNames[3] = {"bounds.min_x", "bounds.min_y", "bounds.min_z"};
 constexpr const char* kMaxFieldNames[3] = {"bounds.max_x", "bounds.max_y", "bounds.max_z"};
-// 16-bit values at any alignment: the wire's bytes (a protobuf string) carry no alignment
-// guarantee.
-using UnalignedU16 = uint16_t __attribute__((aligned(1), may_alias));
-using UnalignedS16 = int16_t __attribute__((aligned(1), may_alias));
+// 16-bit values at any alignment (the wire's bytes, e.g. a gRPC slice, carry no alignment
+// guarantee), through memcpy: an under-aligned typedef is not honoured by every compiler.
+template <typename T>
+inline T Load16(const std::byte* p, std::size_t i) {
+  T v;
+  std::memcpy(&v, p + 2 * i, 2);
+  return v;
+}
+template <typename T>
+inline void Store16(std::byte* p, std::size_t i, T v) {
+  std::memcpy(p + 2 * i, &v, 2);
+}
 
 // float -> binary16 bits for |value| < 65520 (finite), round to nearest even.
 // F. Giesen's float_to_half_fast3_rtne, written branch-free: both paths are computed.
@@ -107,12 +115,12 @@ Status EncodeFloat16(const char* field, std::span<const float> values, std::span
                      std::size_t first_vertex) {
   const std::size_t n = values.size();
   const float* in = values.data();
-  auto* o = reinterpret_cast<UnalignedU16*>(out.data());
+  std::byte* o = out.data();
   uint32_t bad = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const float v = in[i];
     bad |= !(std::fabs(v) <= kFloat16Max);  // NaN fails too
-    o[i] = HalfBitsOfFinite(v);
+    Store16(o, i, HalfBitsOfFinite(v));
   }
   if (bad == 0) return Status::Ok();
   for (std::size_t i = 0; i < n; ++i) {
@@ -133,13 +141,13 @@ Status EncodeFloat16(const char* field, std::span<const float> values, std::span
 // double, value by value.
 void EncodeSnorm16PositionsInDouble(std::span<const float> positions, const Snorm16Axes& axes,
                                     std::span<std::byte> out) {
-  auto* o = reinterpret_cast<UnalignedS16*>(out.data());
+  std::byte* o = out.data();
   for (std::size_t i = 0; i < positions.size(); ++i) {
     const int a = static_cast<int>(i % 3);
     const double h = axes.half_extent[a];
     const double t =
         h > 0 ? (positions[i] - static_cast<double>(axes.centre[a])) / h * kSnorm16Max : 0.0;
-    o[i] = static_cast<int16_t>(std::clamp(std::nearbyint(t), -32767.0, 32767.0));
+    Store16(o, i, static_cast<int16_t>(std::clamp(std::nearbyint(t), -32767.0, 32767.0)));
   }
 }
 
@@ -197,9 +205,9 @@ Status CheckDecodeLength(const char* field, VertexEncoding encoding,
 }
 
 void DecodeFloat16(std::span<const std::byte> bytes, std::span<float> out) {
-  const auto* in = reinterpret_cast<const UnalignedU16*>(bytes.data());
+  const std::byte* in = bytes.data();
   float* o = out.data();
-  for (std::size_t i = 0; i < out.size(); ++i) o[i] = FloatOfHalfBits(in[i]);
+  for (std::size_t i = 0; i < out.size(); ++i) o[i] = FloatOfHalfBits(Load16<uint16_t>(in, i));
 }
 
 Status DecodeValues(const char* field, VertexEncoding encoding, std::span<const std::byte> bytes,

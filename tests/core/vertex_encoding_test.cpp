@@ -344,29 +344,35 @@ TEST_P(VertexEncodingTest, Snorm16RefusesValuesOutsideTheBox) {
 }
 
 // The wire's bytes may start anywhere: decoding from an odd address gives the same floats.
-TEST_P(VertexEncodingTest, Snorm16DecodesFromBytesAtAnyAlignment) {
+TEST_P(VertexEncodingTest, DecodesFromBytesAtAnyAlignment) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(-3.0f, 3.0f);
   std::vector<float> positions(3 * 77), normals(3 * 77);
   for (float& v : positions) v = u(rng);
   for (float& v : normals) v = u(rng) / 3.0f;
   const Bounds box = *ComputeBounds(positions);
-  const std::vector<std::byte> p = Encoded(VertexEncoding::kSnorm16, positions, box);
-  const std::vector<std::byte> n = Encoded(VertexEncoding::kSnorm16, normals, {}, true);
-  for (std::size_t offset : {1, 3}) {
-    std::vector<std::byte> shifted(offset + p.size());
-    std::copy(p.begin(), p.end(), shifted.begin() + offset);
-    std::vector<float> aligned(positions.size()), odd(positions.size());
-    ASSERT_TRUE(DecodePositions(VertexEncoding::kSnorm16, p, box, aligned).ok());
-    ASSERT_TRUE(
-        DecodePositions(VertexEncoding::kSnorm16, std::span(shifted).subspan(offset), box, odd)
-            .ok());
-    EXPECT_EQ(aligned, odd) << "offset " << offset;
-    std::copy(n.begin(), n.end(), shifted.begin() + offset);
-    ASSERT_TRUE(DecodeNormals(VertexEncoding::kSnorm16, n, aligned).ok());
-    ASSERT_TRUE(
-        DecodeNormals(VertexEncoding::kSnorm16, std::span(shifted).subspan(offset), odd).ok());
-    EXPECT_EQ(aligned, odd) << "offset " << offset;
+  for (VertexEncoding e :
+       {VertexEncoding::kFloat32, VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
+    SCOPED_TRACE(VertexEncodingName(e));
+    const std::vector<std::byte> p = Encoded(e, positions, box);
+    const std::vector<std::byte> n = Encoded(e, normals, {}, true);
+    for (std::size_t offset : {1, 3}) {
+      std::vector<std::byte> shifted(offset + p.size());
+      std::copy(p.begin(), p.end(), shifted.begin() + offset);
+      std::vector<float> aligned(positions.size()), odd(positions.size());
+      ASSERT_TRUE(DecodePositions(e, p, box, aligned).ok());
+      ASSERT_TRUE(DecodePositions(e, std::span(shifted).subspan(offset), box, odd).ok());
+      EXPECT_EQ(aligned, odd) << "offset " << offset;
+      std::copy(n.begin(), n.end(), shifted.begin() + offset);
+      ASSERT_TRUE(DecodeNormals(e, n, aligned).ok());
+      ASSERT_TRUE(DecodeNormals(e, std::span(shifted).subspan(offset), odd).ok());
+      EXPECT_EQ(aligned, odd) << "offset " << offset;
+      // And encoding into an odd address writes the same bytes.
+      std::vector<std::byte> out(offset + p.size());
+      ASSERT_TRUE(
+          EncodePositions(e, positions, box, std::span(out).subspan(offset, p.size())).ok());
+      EXPECT_TRUE(std::equal(p.begin(), p.end(), out.begin() + offset)) << "offset " << offset;
+    }
   }
 }
 
