@@ -39,7 +39,14 @@ bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
     };
     google::protobuf::io::StringOutputStream header_stream(&header_bytes_);
     google::protobuf::io::CodedOutputStream header_out(&header_stream);
-    while (const uint32_t tag = input.ReadTag()) {
+    // protobuf's parser takes a tag or a length of at most 5 bytes (CodedInputStream reads
+    // up to 10 and drops the excess): refuse what it refuses.
+    const auto varint_fits = [&](int before) { return input.CurrentPosition() - before <= 5; };
+    while (true) {
+      const int tag_at = input.CurrentPosition();
+      const uint32_t tag = input.ReadTag();
+      if (tag == 0) break;
+      if (!varint_fits(tag_at)) return false;
       const int field = WireFormatLite::GetTagFieldNumber(tag);
       const bool vertex_data =
           (field == v1::SkinResponse::kPositionsFieldNumber ||
@@ -50,7 +57,10 @@ bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
         // Kept, to be parsed below; copied through field_bytes_ (SkipField would use a
         // fresh string for each).
         uint32_t length = 0;
-        if (!input.ReadVarint32(&length) || length > remaining()) return false;
+        const int length_at = input.CurrentPosition();
+        if (!input.ReadVarint32(&length) || !varint_fits(length_at) || length > remaining()) {
+          return false;
+        }
         field_bytes_.resize(length);
         if (!input.ReadRaw(field_bytes_.data(), static_cast<int>(length))) return false;
         header_out.WriteTag(tag);
@@ -63,7 +73,10 @@ bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
         continue;
       }
       uint32_t length = 0;
-      if (!input.ReadVarint32(&length) || length > remaining()) return false;
+      const int length_at = input.CurrentPosition();
+      if (!input.ReadVarint32(&length) || !varint_fits(length_at) || length > remaining()) {
+        return false;
+      }
       // A repeated field: the last one counts, as when parsing.
       Field& f = field == v1::SkinResponse::kPositionsFieldNumber ? positions_ : normals_;
       f = {static_cast<std::size_t>(input.CurrentPosition()), length};
