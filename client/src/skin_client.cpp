@@ -150,15 +150,11 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
       return Fail(part, result, Internal(fmt::format("{}: {}", where(), decoded.message())));
     }
   }
-  if (packed > 1) {
+  // A packed part covers its instances whole: the range ends at the last vertex too.
+  next_vertex_ += part.vertex_count();
+  if (next_vertex_ == result->vertices) {
     next_instance_ += packed;
     next_vertex_ = 0;
-  } else {
-    next_vertex_ += part.vertex_count();
-    if (next_vertex_ == result->vertices) {
-      ++next_instance_;
-      next_vertex_ = 0;
-    }
   }
   if (part.last() && next_instance_ != result->instances) {
     return Fail(part, result,
