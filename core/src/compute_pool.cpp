@@ -27,7 +27,9 @@ bool ComputePool::TrySubmit(const Task& task) {
     slot.max_width = std::clamp(slot.max_width, slot.min_width, size());
     ++count_;
   }
-  changed_.notify_all();
+  // Every idle thread could take it, and one is enough: a part it leaves for others (a
+  // crowd's next instance) wakes the next thread then.
+  changed_.notify_one();
   return true;
 }
 
@@ -99,12 +101,16 @@ void ComputePool::WorkerLoop() {
     }
     free_threads_ -= width;
     peak_busy_ = std::max(peak_busy_, size() - free_threads_);
-    changed_.notify_all();  // the next part may fit in the threads still free
+    // The next part may fit in the threads still free; with nothing left, waking the idle
+    // threads would only put them back to sleep (unless they are to stop).
+    if (count_ > 0 || stopping_) changed_.notify_all();
     lock.unlock();
     task.run(task.context, part, width);
     lock.lock();
     free_threads_ += width;
-    changed_.notify_all();
+    // A task waiting for more free threads may start now, or the others may stop (this
+    // thread looks itself).
+    if (count_ > 0 || stopping_) changed_.notify_all();
   }
 }
 
