@@ -73,10 +73,10 @@ class Recorder {
     }
   }
 
-  // Time-bounded runs: has the measured part begun?
-  bool Measuring() {
+  // Time-bounded runs: has the measured part begun (by `when`)?
+  bool Measuring(Clock::time_point when = Clock::now()) {
     std::lock_guard lock(mutex_);
-    return Clock::now() >= measure_from_;
+    return when >= measure_from_;
   }
   // Frame-count runs: the measured part begins with the first stream that starts it.
   void StartMeasuring(Clock::time_point when) {
@@ -178,9 +178,9 @@ class Recorder {
 // arrive after the warm-up. Frame-count: unmeasured frames until `warm`, then exactly
 // `config.frames` measured ones.
 void ClosedLoopStream(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
-                      const std::atomic<bool>& stop, const std::atomic<bool>& warm,
+                      int connection, const std::atomic<bool>& stop, const std::atomic<bool>& warm,
                       Recorder& recorder) {
-  client::SkinClient client(client::MakeChannel(config.target));
+  client::SkinClient client(client::MakeChannel(config.target, connection));
   client.Remember(mesh_id, workload.arrays);  // re-uploads where a replica lacks the mesh
   FramePalette palette(workload, config.instances);
   client::StreamOptions options{.mesh_id = mesh_id,
@@ -231,12 +231,15 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
 // Sends frame k at start + k / rate whatever happened to earlier frames, and measures
 // latency from that scheduled time, so a slow answer cannot hide the frames behind it
 // (no coordinated omission). A frame whose time comes while `window` frames are still
-// unanswered is dropped: not sent, and counted. Whether a frame is measured depends on its
+// unanswered is dropped: not sent, and counted; so is a frame whose time had passed by more
+// than a period before the stream could send at all (its call waited for a place on the
+// connection, say). Whether a frame is measured depends on its
 // scheduled time (time-bounded runs) or its number (frame-count runs: warm-up * rate
 // frames first, then `config.frames` measured ones, then the stream ends).
 void OpenLoopStream(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
-                    const std::atomic<bool>& stop, Clock::time_point start, Recorder& recorder) {
-  client::SkinClient client(client::MakeChannel(config.target));
+                    int connection, const std::atomic<bool>& stop, Clock::time_point start,
+                    Clock::time_point end, Recorder& recorder) {
+  client::SkinClient client(client::MakeChannel(config.target, connection));
   client.Remember(mesh_id, workload.arrays);
   grpc::ClientContext context;
   auto stream = client.StreamSkinRaw(&context);
@@ -260,13 +263,24 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     if (!complete || result.status.code() != StatusCode::kNotFound) break;
     if (!client.Reupload(mesh_id).ok()) break;
   }
-  start = std::max(start, Clock::now());
   const auto period =
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / config.rate));
   const uint64_t warmup_frames =
       config.frames > 0 ? static_cast<uint64_t>(std::ceil(config.warmup_seconds * config.rate)) : 0;
   const uint64_t last_frame = config.frames > 0 ? warmup_frames + config.frames : UINT64_MAX;
-  if (config.frames > 0) recorder.StartMeasuring(start + warmup_frames * period);
+  // The schedule began at `start` for every stream alike: frames whose time passed while
+  // this one opened were not delivered.
+  const Clock::time_point ready = Clock::now();
+  uint64_t first_frame = 0;
+  uint64_t missed = 0;  // measured ones
+  if (config.frames > 0) {
+    recorder.StartMeasuring(start + warmup_frames * period);
+  }
+  for (; first_frame < last_frame && start + (first_frame + 1) * period < ready; ++first_frame) {
+    const Clock::time_point due = start + first_frame * period;
+    if (due >= end) break;  // the run was over
+    missed += config.frames > 0 ? first_frame >= warmup_frames : recorder.Measuring(due);
+  }
   struct Scheduled {
     Clock::time_point due;
     bool measured;
@@ -275,7 +289,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   // Sent, unanswered, oldest first: a ring of `window` slots (never more are in flight).
   std::vector<Scheduled> ring(static_cast<std::size_t>(std::max(config.window, 1)));
   std::size_t ring_head = 0, in_flight = 0;
-  uint64_t sent = 0, dropped = 0;  // measured frames only
+  uint64_t sent = 0, dropped = missed;  // measured frames only
 
   std::thread reader([&] {
     // One part reader and one result for the whole run (their buffers are reused).
@@ -307,7 +321,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   request.set_instances(config.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_method(client::WireMethod(workload.method));
-  for (uint64_t k = 0; k < last_frame && !stop.load(); ++k) {
+  for (uint64_t k = first_frame; k < last_frame && !stop.load(); ++k) {
     const Clock::time_point due = start + k * period;
     std::this_thread::sleep_until(due);
     if (stop.load()) break;
@@ -354,11 +368,13 @@ RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::
   std::atomic<int> running{config.streams};
   std::vector<std::thread> streams;
   for (int s = 0; s < config.streams; ++s) {
-    streams.emplace_back([&] {
+    const int connection = s / std::max(config.streams_per_connection, 1);
+    streams.emplace_back([&, connection] {
       if (config.rate > 0) {
-        OpenLoopStream(config, workload, mesh_id, stop, start, recorder);
+        OpenLoopStream(config, workload, mesh_id, connection, stop, start,
+                       by_frames ? Clock::time_point::max() : start + total, recorder);
       } else {
-        ClosedLoopStream(config, workload, mesh_id, stop, warm, recorder);
+        ClosedLoopStream(config, workload, mesh_id, connection, stop, warm, recorder);
       }
       --running;
     });

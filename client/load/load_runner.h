@@ -24,6 +24,8 @@ struct RunConfig {
   uint64_t check_every = 0;     // compare every Nth answer with the float64 reference
   VertexEncoding encoding = VertexEncoding::kFloat32;  // of the answers
   uint32_t instances = 1;  // crowd batches: palettes per request, characters per stream
+  // Streams share a TCP connection this many at a time (each further group its own).
+  int streams_per_connection = 64;
 };
 
 // Called now and then with the fraction done (for a progress bar).

@@ -11,8 +11,10 @@ namespace {
 constexpr int kStreamWindowBytes = 4 << 20;
 }  // namespace
 
-std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target) {
+std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int connection) {
   grpc::ChannelArguments args;
+  // Subchannels (connections) are shared between channels whose arguments are equal.
+  if (connection != 0) args.SetInt("skinserve.connection", connection);
   args.SetServiceConfigJSON(R"({"loadBalancingConfig": [{"round_robin": {}}]})");
   // Large frames arrive in parts of at most 1 MiB: the default limits are enough.
   // Flow control: a fixed 4 MiB receive window per stream instead of gRPC's BDP-probed one.

@@ -24,11 +24,20 @@ int NextPort() {
 // A skinserve child process on a loopback port, stopped with SIGTERM.
 class ServerProcess {
  public:
-  ServerProcess() : target_("127.0.0.1:" + std::to_string(NextPort())) {
+  // `streams_per_connection`: the server's --max-streams-per-connection (0: its default).
+  explicit ServerProcess(int streams_per_connection = 0)
+      : target_("127.0.0.1:" + std::to_string(NextPort())) {
+    const std::string limit = std::to_string(streams_per_connection);
     pid_ = fork();
     if (pid_ == 0) {
-      execl(SKINSERVE_SERVER_BINARY, SKINSERVE_SERVER_BINARY, "--listen", target_.c_str(),
-            "--log-level", "warn", static_cast<char*>(nullptr));
+      if (streams_per_connection > 0) {
+        execl(SKINSERVE_SERVER_BINARY, SKINSERVE_SERVER_BINARY, "--listen", target_.c_str(),
+              "--log-level", "warn", "--max-streams-per-connection", limit.c_str(),
+              static_cast<char*>(nullptr));
+      } else {
+        execl(SKINSERVE_SERVER_BINARY, SKINSERVE_SERVER_BINARY, "--listen", target_.c_str(),
+              "--log-level", "warn", static_cast<char*>(nullptr));
+      }
       _exit(127);
     }
     auto channel = client::MakeChannel(target_);
@@ -126,6 +135,35 @@ TEST(LoadIntegrationTest, OpenLoopSendsOnScheduleAndCountsMatch) {
   EXPECT_LE(scheduled, 110u);
   EXPECT_EQ(r["frames"], r["sent"]) << "every frame sent was answered";
   EXPECT_EQ(FramesReported(doc).at("sse"), server.FramesServed().at("sse"));
+}
+
+// A stream whose call waits for a place on a full connection sends nothing in time: its
+// frames are dropped, not left out (a capacity search would otherwise count characters
+// that were never served). Spread over enough connections, every stream is served.
+TEST(LoadIntegrationTest, OpenLoopCountsStreamsThatCouldNotOpenAsDropped) {
+  ServerProcess server(/*streams_per_connection=*/2);
+  ASSERT_TRUE(server.ready());
+  const std::string args =
+      " --backends sse --vertices 5000 --bones 2 --rate 50 --streams 4"
+      " --duration 1 --warmup 0 --check-every 3 --target " +
+      server.target();
+  int code = 0;
+  const nlohmann::json one = RunLoad(args + " --streams-per-connection 4", &code);
+  ASSERT_EQ(one["results"].size(), 1u);
+  const auto& crowded = one["results"][0];
+  // 4 streams at 50 fps for ~1 s, 2 of them waiting the whole second: ~100 frames dropped.
+  EXPECT_GE(crowded["dropped"].get<uint64_t>(), 80u) << crowded.dump();
+  EXPECT_LE(crowded["sent"].get<uint64_t>(), 120u) << crowded.dump();
+  EXPECT_EQ(crowded["frames"], crowded["sent"]) << "every frame sent was answered";
+
+  const nlohmann::json two = RunLoad(args + " --streams-per-connection 2", &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(two["results"].size(), 1u);
+  const auto& spread = two["results"][0];
+  EXPECT_GE(spread["sent"].get<uint64_t>(), 160u) << "all 4 streams sent: " << spread.dump();
+  EXPECT_LT(spread["dropped"].get<uint64_t>(), 40u) << spread.dump();
+  EXPECT_EQ(FramesReported(one).at("sse") + FramesReported(two).at("sse"),
+            server.FramesServed().at("sse"));
 }
 
 TEST(LoadIntegrationTest, FrameCountClosedLoopMeasuresExactlyThatManyFramesPerStream) {
