@@ -24,8 +24,10 @@ struct RunConfig {
   uint64_t check_every = 0;     // compare every Nth answer with the float64 reference
   VertexEncoding encoding = VertexEncoding::kFloat32;  // of the answers
   uint32_t instances = 1;  // crowd batches: palettes per request, characters per stream
-  // Streams share a TCP connection this many at a time (each further group its own).
-  int streams_per_connection = 64;
+  // Streams share a TCP connection this many at a time (each further group its own): a
+  // server works one connection's HTTP/2 on one thread at a time, so a pool of connections
+  // spreads heavy streams over its cores (gRPC's performance guide says the same).
+  int streams_per_connection = 8;
 };
 
 // Called now and then with the fraction done (for a progress bar).
