@@ -268,18 +268,18 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   const uint64_t warmup_frames =
       config.frames > 0 ? static_cast<uint64_t>(std::ceil(config.warmup_seconds * config.rate)) : 0;
   const uint64_t last_frame = config.frames > 0 ? warmup_frames + config.frames : UINT64_MAX;
+  if (config.frames > 0) recorder.StartMeasuring(start + warmup_frames * period);
+  const auto measured = [&](uint64_t k) {
+    return config.frames > 0 ? k >= warmup_frames : recorder.Measuring(start + k * period);
+  };
   // The schedule began at `start` for every stream alike: frames whose time passed while
   // this one opened were not delivered.
   const Clock::time_point ready = Clock::now();
+  uint64_t sent = 0, dropped = 0;  // measured frames only
   uint64_t first_frame = 0;
-  uint64_t missed = 0;  // measured ones
-  if (config.frames > 0) {
-    recorder.StartMeasuring(start + warmup_frames * period);
-  }
   for (; first_frame < last_frame && start + (first_frame + 1) * period < ready; ++first_frame) {
-    const Clock::time_point due = start + first_frame * period;
-    if (due >= end) break;  // the run was over
-    missed += config.frames > 0 ? first_frame >= warmup_frames : recorder.Measuring(due);
+    if (start + first_frame * period >= end) break;  // the run was over
+    dropped += measured(first_frame);
   }
   struct Scheduled {
     Clock::time_point due;
@@ -289,7 +289,6 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   // Sent, unanswered, oldest first: a ring of `window` slots (never more are in flight).
   std::vector<Scheduled> ring(static_cast<std::size_t>(std::max(config.window, 1)));
   std::size_t ring_head = 0, in_flight = 0;
-  uint64_t sent = 0, dropped = missed;  // measured frames only
 
   std::thread reader([&] {
     // One part reader and one result for the whole run (their buffers are reused).
@@ -325,18 +324,18 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     const Clock::time_point due = start + k * period;
     std::this_thread::sleep_until(due);
     if (stop.load()) break;
-    const bool measured = config.frames > 0 ? k >= warmup_frames : recorder.Measuring();
+    const bool counted = measured(k);
     {
       std::lock_guard lock(mutex);
       if (in_flight >= ring.size()) {
-        dropped += measured;
+        dropped += counted;
         continue;
       }
-      ring[(ring_head + in_flight++) % ring.size()] = {due, measured};
+      ring[(ring_head + in_flight++) % ring.size()] = {due, counted};
     }
     request.set_frame(k);
     client::EncodePaletteInto(palette(k), request.mutable_palette());
-    sent += measured;
+    sent += counted;
     if (!stream->Write(request)) break;
   }
   stream->WritesDone();

@@ -47,29 +47,8 @@ bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
       const uint32_t tag = input.ReadTag();
       if (tag == 0) break;
       if (!varint_fits(tag_at)) return false;
-      const int field = WireFormatLite::GetTagFieldNumber(tag);
-      const bool vertex_data =
-          (field == v1::SkinResponse::kPositionsFieldNumber ||
-           field == v1::SkinResponse::kNormalsFieldNumber) &&
-          WireFormatLite::GetTagWireType(tag) == WireFormatLite::WIRETYPE_LENGTH_DELIMITED;
-      if (!vertex_data &&
-          WireFormatLite::GetTagWireType(tag) == WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
-        // Kept, to be parsed below; copied through field_bytes_ (SkipField would use a
-        // fresh string for each).
-        uint32_t length = 0;
-        const int length_at = input.CurrentPosition();
-        if (!input.ReadVarint32(&length) || !varint_fits(length_at) || length > remaining()) {
-          return false;
-        }
-        field_bytes_.resize(length);
-        if (!input.ReadRaw(field_bytes_.data(), static_cast<int>(length))) return false;
-        header_out.WriteTag(tag);
-        header_out.WriteVarint32(length);
-        header_out.WriteRaw(field_bytes_.data(), static_cast<int>(length));
-        continue;
-      }
-      if (!vertex_data) {  // kept, to be parsed below
-        if (!WireFormatLite::SkipField(&input, tag, &header_out)) return false;
+      if (WireFormatLite::GetTagWireType(tag) != WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
+        if (!WireFormatLite::SkipField(&input, tag, &header_out)) return false;  // kept
         continue;
       }
       uint32_t length = 0;
@@ -77,10 +56,22 @@ bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
       if (!input.ReadVarint32(&length) || !varint_fits(length_at) || length > remaining()) {
         return false;
       }
-      // A repeated field: the last one counts, as when parsing.
-      Field& f = field == v1::SkinResponse::kPositionsFieldNumber ? positions_ : normals_;
-      f = {static_cast<std::size_t>(input.CurrentPosition()), length};
-      if (!input.Skip(static_cast<int>(length))) return false;
+      const int field = WireFormatLite::GetTagFieldNumber(tag);
+      if (field == v1::SkinResponse::kPositionsFieldNumber ||
+          field == v1::SkinResponse::kNormalsFieldNumber) {
+        // A repeated field: the last one counts, as when parsing.
+        Field& f = field == v1::SkinResponse::kPositionsFieldNumber ? positions_ : normals_;
+        f = {static_cast<std::size_t>(input.CurrentPosition()), length};
+        if (!input.Skip(static_cast<int>(length))) return false;
+        continue;
+      }
+      // Kept, to be parsed below; copied through field_bytes_ (SkipField would use a fresh
+      // string for each).
+      field_bytes_.resize(length);
+      if (!input.ReadRaw(field_bytes_.data(), static_cast<int>(length))) return false;
+      header_out.WriteTag(tag);
+      header_out.WriteVarint32(length);
+      header_out.WriteRaw(field_bytes_.data(), static_cast<int>(length));
     }
     if (!input.ConsumedEntireMessage()) return false;
   }

@@ -368,8 +368,9 @@ TEST(FrameAssemblerTest, RawPartsDecodeExactlyAsParsedParts) {
           google::protobuf::io::StringOutputStream stream(&bytes);
           google::protobuf::io::CodedOutputStream out(&stream);
           for (const auto& [field, value] :
-               {std::pair{7, &part.normals()}, std::pair{6, &part.positions()}}) {
-            out.WriteTag(field << 3 | 2);
+               {std::pair{v1::SkinResponse::kNormalsFieldNumber, &part.normals()},
+                std::pair{v1::SkinResponse::kPositionsFieldNumber, &part.positions()}}) {
+            out.WriteTag(field << 3 | 2);  // wire type 2: length-delimited
             out.WriteVarint32(static_cast<uint32_t>(value->size()));
             out.WriteString(*value);
           }

@@ -16,9 +16,10 @@ inline constexpr char kDefaultTarget[] = "127.0.0.1:50051";
 
 // Balances per call (and per stream) across every address the target resolves to.
 // Channels to the same target share their TCP connections (gRPC's subchannel pool) unless
-// their `connection` differs: a load generator spreads its streams over several
-// connections so, as separate clients would, since a server takes only so many streams on
-// one connection at once (HTTP/2 MAX_CONCURRENT_STREAMS; later calls wait at the client).
+// their `connection` differs. Heavy streams want a pool of connections, as separate
+// clients would have: a server takes only so many streams on one connection at once
+// (HTTP/2 MAX_CONCURRENT_STREAMS; later calls wait at the client) and gRPC works one
+// connection on one thread at a time.
 std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int connection = 0);
 
 // Asks the standard health service; OK when it answers SERVING, else why not.
