@@ -12,33 +12,31 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 server_bin=${SKINSERVE_BIN:+$SKINSERVE_BIN/skinserve}
 load_bin=${SKINSERVE_BIN:+$SKINSERVE_BIN/skinserve-load}
-cli_bin=${SKINSERVE_BIN:+$SKINSERVE_BIN/skinserve-cli}
 server_bin=${server_bin:-$root/build/server/skinserve}
 load_bin=${load_bin:-$root/build/client/load/skinserve-load}
-cli_bin=${cli_bin:-$root/build/client/skinserve-cli}
 seconds=${CAPACITY_SECONDS:-3}
 cores=$(nproc)
 
-free_port() {
-  python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
-}
+# shellcheck source-path=SCRIPTDIR source=lib/port-file.sh
+source "$root/scripts/lib/port-file.sh"
 
 # run_setup NAME SERVER_CPUS LOAD_CPUS SERVER_ARGS -- LOAD_ARGS...
 run_setup() {
   local name=$1 server_cpus=$2 load_cpus=$3 server_args=$4
   shift 5
-  local port log pid
-  port=$(free_port)
+  local port log pid port_file
   log=$(mktemp)
+  port_file=$(mktemp -u)
   # shellcheck disable=SC2086 # server_args is a list of flags
-  taskset -c "$server_cpus" "$server_bin" --listen "127.0.0.1:$port" --log-level warn \
-    $server_args >"$log" 2>&1 &
+  taskset -c "$server_cpus" "$server_bin" --listen 127.0.0.1:0 --port-file "$port_file" \
+    --log-level warn $server_args >"$log" 2>&1 &
   pid=$!
-  if ! "$cli_bin" --target "127.0.0.1:$port" health --wait 120 >/dev/null; then
-    echo "$name: the server did not become SERVING:" >&2
+  if ! port=$(wait_for_port "$port_file" "$pid" 120); then
+    echo "$name: the server did not start serving:" >&2
     cat "$log" >&2
     exit 1
   fi
+  rm -f "$port_file"
   echo "== $name: server on cpus $server_cpus ($server_args), load client on cpus $load_cpus"
   echo "   $ taskset -c $load_cpus skinserve-load --target 127.0.0.1:$port $*"
   local status=0

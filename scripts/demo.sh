@@ -7,22 +7,25 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build="${SKINSERVE_BUILD_DIR:-$root/build}"
 bash "$root/scripts/build.sh"
 
-port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-target="127.0.0.1:$port"
+# shellcheck source-path=SCRIPTDIR source=lib/port-file.sh
+source "$root/scripts/lib/port-file.sh"
 log=$(mktemp)
-"$build/server/skinserve" --listen "$target" --log-level warn >"$log" 2>&1 &
+port_file=$(mktemp -u)
+"$build/server/skinserve" --listen 127.0.0.1:0 --port-file "$port_file" --log-level warn \
+  >"$log" 2>&1 &
 server=$!
 stop() {
   kill -TERM "$server" 2>/dev/null || true
   wait "$server" 2>/dev/null || true
-  rm -f "$log"
+  rm -f "$log" "$port_file"
 }
 trap stop EXIT
-if ! "$build/client/skinserve-cli" --target "$target" health --wait 60 >/dev/null; then
-  echo "demo: the server did not become SERVING; its log:" >&2
+if ! port=$(wait_for_port "$port_file" "$server" 120); then
+  echo "demo: the server did not start serving; its log:" >&2
   cat "$log" >&2
   exit 1
 fi
+target="127.0.0.1:$port"
 echo "skinserve on $target; backends:"
 "$build/client/skinserve-cli" --target "$target" backends
 echo

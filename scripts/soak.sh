@@ -28,12 +28,11 @@ cli_bin="$build/client/skinserve-cli"
 mkdir -p "$out"
 rm -f "$out"/*.json "$out"/*.log "$out/samples.csv"
 
-port=$((43000 + RANDOM % 2000))
-target="127.0.0.1:$port"
 # Four meshes of ~2.1 MiB (60k vertices, 2 influences, normals) churn through 8 MiB.
 mesh_args=(--vertices 60000 --bones 2 --joints 77 --normals)
-"$server_bin" --listen "$target" --threads 1 --mesh-budget-mb 8 --log-level warn \
-  >"$out/server.log" 2>&1 &
+rm -f "$out/port"
+"$server_bin" --listen 127.0.0.1:0 --port-file "$out/port" --threads 1 --mesh-budget-mb 8 \
+  --log-level warn >"$out/server.log" 2>&1 &
 server=$!
 children=()
 cleanup() {
@@ -41,6 +40,13 @@ cleanup() {
   kill -9 "$server" 2>/dev/null || true
 }
 trap cleanup EXIT
+# shellcheck source-path=SCRIPTDIR source=lib/port-file.sh
+source "$root/scripts/lib/port-file.sh"
+if ! port=$(wait_for_port "$out/port" "$server" 120); then
+  tail -20 "$out/server.log" >&2
+  exit 1
+fi
+target="127.0.0.1:$port"
 for _ in $(seq 100); do
   "$load_bin" --target "$target" --backends serial "${mesh_args[@]}" --frames 1 --warmup 0 \
     >/dev/null 2>&1 && break

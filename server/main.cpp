@@ -6,7 +6,9 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <thread>
 
 #include "server_options.h"
@@ -35,6 +37,16 @@ void TuneMalloc() {
   mallopt(M_TRIM_THRESHOLD, 64 << 20);
 }
 
+// Written to a temporary name and renamed, so a reader never sees a half-written number.
+bool WritePortFile(const std::string& path, int port) {
+  const std::string temporary = path + ".tmp";
+  FILE* file = std::fopen(temporary.c_str(), "w");
+  if (file == nullptr) return false;
+  const bool written = std::fprintf(file, "%d\n", port) > 0;
+  if (std::fclose(file) != 0 || !written) return false;
+  return std::rename(temporary.c_str(), path.c_str()) == 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -58,6 +70,11 @@ int main(int argc, char** argv) {
   auto server = SkinServer::Start(options);
   if (!server.ok()) {
     spdlog::error("{}", server.status().ToString());
+    return 1;
+  }
+  if (!options.port_file.empty() && !WritePortFile(options.port_file, (*server)->port())) {
+    spdlog::error("--port-file: cannot write {}", options.port_file);
+    (*server)->Shutdown(std::chrono::milliseconds(0));
     return 1;
   }
   std::thread([&] {

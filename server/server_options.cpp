@@ -122,6 +122,10 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_LOG_FORMAT")
       ->check(CLI::IsMember({"text", "json"}))
       ->capture_default_str();
+  app.add_option("--port-file", o.port_file,
+                 "once serving, write the gRPC port (a number and a newline) to this file: "
+                 "start with --listen HOST:0 and read it, instead of racing for a free port")
+      ->envname("SKINSERVE_PORT_FILE");
   app.add_option("--metrics-listen", o.metrics_listen,
                  "address:port to serve Prometheus metrics on (GET /metrics); empty: off")
       ->envname("SKINSERVE_METRICS_LISTEN");

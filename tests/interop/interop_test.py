@@ -6,7 +6,6 @@ usage: interop_test.py SKINSERVE_BINARY PROTO_DIR
 """
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -25,10 +24,18 @@ def generate_stubs(proto_dir, out_dir):
     sys.path.insert(0, out_dir)
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def wait_for_port(port_file, server, seconds=120):
+    """The port a server started on 127.0.0.1:0 wrote to --port-file once serving."""
+    deadline = time.time() + seconds
+    while not (os.path.exists(port_file) and os.path.getsize(port_file) > 0):
+        if server.poll() is not None:
+            sys.exit(f"interop: skinserve exited with {server.returncode} before serving")
+        if time.time() > deadline:
+            server.kill()
+            sys.exit(f"interop: skinserve wrote no port within {seconds} s")
+        time.sleep(0.05)
+    with open(port_file) as f:
+        return int(f.read())
 
 
 def random_mesh(rng, vertices, influences, joints):
@@ -83,8 +90,10 @@ def main():
     from skinserve.v1 import skinning_pb2 as pb
     from skinserve.v1 import skinning_pb2_grpc as pb_grpc
 
-    port = free_port()
-    server = subprocess.Popen([binary, "--listen", f"127.0.0.1:{port}", "--log-level", "warn"])
+    port_file = os.path.join(out_dir, "port")
+    server = subprocess.Popen([binary, "--listen", "127.0.0.1:0", "--port-file", port_file,
+                               "--log-level", "warn"])
+    port = wait_for_port(port_file, server)
     failures = 0
     try:
         channel = grpc.insecure_channel(f"127.0.0.1:{port}")

@@ -10,49 +10,33 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "server_child.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
 
 namespace skinserve::testing {
 namespace {
 
-int NextPort() {
-  static int next = 45000 + static_cast<int>(getpid() % 2000) * 5;
-  return next++;
+// A report file no other run of this test binary writes.
+std::string UniqueJsonPath() {
+  static int next = 0;
+  return ::testing::TempDir() + "load-" + std::to_string(getpid()) + "-" + std::to_string(next++) +
+         ".json";
 }
 
-// A skinserve child process on a loopback port, stopped with SIGTERM.
+// A skinserve child process on a loopback port, with the load client's view of it.
 class ServerProcess {
  public:
   // `streams_per_connection`: the server's --max-streams-per-connection (0: its default).
   explicit ServerProcess(int streams_per_connection = 0)
-      : target_("127.0.0.1:" + std::to_string(NextPort())) {
-    const std::string limit = std::to_string(streams_per_connection);
-    pid_ = fork();
-    if (pid_ == 0) {
-      if (streams_per_connection > 0) {
-        execl(SKINSERVE_SERVER_BINARY, SKINSERVE_SERVER_BINARY, "--listen", target_.c_str(),
-              "--log-level", "warn", "--max-streams-per-connection", limit.c_str(),
-              static_cast<char*>(nullptr));
-      } else {
-        execl(SKINSERVE_SERVER_BINARY, SKINSERVE_SERVER_BINARY, "--listen", target_.c_str(),
-              "--log-level", "warn", static_cast<char*>(nullptr));
-      }
-      _exit(127);
-    }
-    auto channel = client::MakeChannel(target_);
-    ready_ = client::WaitUntilServing(*channel, std::chrono::seconds(30)).ok();
+      : child_(Arguments(streams_per_connection)) {
+    EXPECT_TRUE(child_.ready()) << child_.error();
   }
-  ~ServerProcess() {
-    kill(pid_, SIGTERM);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-  }
-  const std::string& target() const { return target_; }
-  bool ready() const { return ready_; }
+  const std::string& target() const { return child_.target(); }
+  bool ready() const { return child_.ready(); }
   // Frames served per backend, from the server's own stats.
   std::map<std::string, uint64_t> FramesServed() const {
-    client::SkinClient c(client::MakeChannel(target_));
+    client::SkinClient c(client::MakeChannel(target()));
     std::map<std::string, uint64_t> frames;
     auto stats = c.GetServerStats();
     EXPECT_TRUE(stats.ok()) << stats.status().ToString();
@@ -63,13 +47,19 @@ class ServerProcess {
   }
 
  private:
-  std::string target_;
-  pid_t pid_ = -1;
-  bool ready_ = false;
+  static std::vector<std::string> Arguments(int streams_per_connection) {
+    std::vector<std::string> args = {"--log-level", "warn"};
+    if (streams_per_connection > 0) {
+      args.insert(args.end(),
+                  {"--max-streams-per-connection", std::to_string(streams_per_connection)});
+    }
+    return args;
+  }
+  ServerChild child_;
 };
 
 nlohmann::json RunLoad(const std::string& args, int* exit_code) {
-  const std::string json = ::testing::TempDir() + "load-" + std::to_string(NextPort()) + ".json";
+  const std::string json = UniqueJsonPath();
   const std::string command =
       std::string(SKINSERVE_LOAD_BINARY) + " " + args + " --json " + json + " > /dev/null";
   const int status = std::system(command.c_str());

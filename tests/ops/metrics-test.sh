@@ -11,6 +11,8 @@
 #   4. --log-format json: every line the server logged is one JSON object.
 # usage: metrics-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD
 set -euo pipefail
+# shellcheck source-path=SCRIPTDIR source=../../scripts/lib/port-file.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../../scripts/lib/port-file.sh"
 if [ $# -ne 3 ]; then
   echo "usage: $0 skinserve skinserve-cli skinserve-load" >&2
   exit 2
@@ -37,14 +39,14 @@ free_port() {
   python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
 }
 
-grpc_port=$(free_port)
 metrics_port=$(free_port)
 metrics="http://127.0.0.1:$metrics_port/metrics"
-"$server" --listen "127.0.0.1:$grpc_port" --metrics-listen "127.0.0.1:$metrics_port" \
-  --threads 1 --log-format json >"$work/server.log" 2>&1 &
+"$server" --listen 127.0.0.1:0 --port-file "$work/port" \
+  --metrics-listen "127.0.0.1:$metrics_port" --threads 1 --log-format json \
+  >"$work/server.log" 2>&1 &
 server_pid=$!
 pids+=("$server_pid")
-"$cli" --target "127.0.0.1:$grpc_port" health --wait 60 >/dev/null || fail "server not SERVING"
+grpc_port=$(wait_for_port "$work/port" "$server_pid" 60) || fail "server not serving"
 
 # ---- 1. counters against what the load client sent --------------------------------------
 streams=2 frames=40 vertices=5000

@@ -12,6 +12,8 @@
 # The characters are the repository's (tests/assets/gltf); a missing one fails the test.
 # usage: animate-e2e-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD ASSETS-DIR TEST-SCENE
 set -euo pipefail
+# shellcheck source-path=SCRIPTDIR source=../../scripts/lib/port-file.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../../scripts/lib/port-file.sh"
 
 if [ $# -ne 5 ]; then
   echo "usage: $0 skinserve skinserve-cli skinserve-load assets-dir skinserve-test-scene" >&2
@@ -47,11 +49,11 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
-port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-target=127.0.0.1:$port
-"$server" --listen "$target" --log-level warn >"$work/server.log" 2>&1 &
+"$server" --listen 127.0.0.1:0 --port-file "$work/port" --log-level warn \
+  >"$work/server.log" 2>&1 &
 pid=$!
-"$cli" --target "$target" health --wait 60 >/dev/null || fail "server on $target not SERVING after 60 s"
+port=$(wait_for_port "$work/port" "$pid" 60) || fail "server not serving after 60 s"
+target=127.0.0.1:$port
 
 # ---- animate: 0.5 s at 10 fps is frames 0..4 --------------------------------------------
 out=$work/out

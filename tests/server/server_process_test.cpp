@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "server_child.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/core/synthetic.h"
@@ -26,33 +27,31 @@ std::string RunAndCapture(const std::string& command) {
   return out;
 }
 
-int FreePort() {
-  // Port 0 is not an option for a child we then connect to: ask for a free one.
-  static int next = 42000 + static_cast<int>(getpid() % 2000) * 5;
-  return next++;
-}
-
 TEST(ServerProcessTest, HelpDocumentsEveryOption) {
   const std::string help = RunAndCapture(std::string(SKINSERVE_SERVER_BINARY) + " --help");
   for (const char* option :
        {"--listen", "--threads", "--backends", "--default-backend", "--mesh-budget-mb",
         "--max-vertices", "--max-joints", "--queue", "--stream-window", "--log-level",
-        "--drain-seconds", "SKINSERVE_LISTEN", "SKINSERVE_THREADS"}) {
+        "--drain-seconds", "--port-file", "SKINSERVE_LISTEN", "SKINSERVE_THREADS"}) {
     EXPECT_NE(help.find(option), std::string::npos) << option << " missing from --help";
   }
 }
 
+TEST(ServerProcessTest, UnwritablePortFileIsAStartUpErrorNamingTheOption) {
+  const std::string out = RunAndCapture(std::string(SKINSERVE_SERVER_BINARY) +
+                                        " --listen 127.0.0.1:0 --log-level warn --port-file "
+                                        "/nonexistent-skinserve-dir/port 2>&1; echo exit=$?");
+  EXPECT_NE(out.find("--port-file: cannot write /nonexistent-skinserve-dir/port"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("exit=1"), std::string::npos) << out;
+}
+
 TEST(ServerProcessTest, SigtermDrainsStreamsInFlightAndExitsZero) {
-  const std::string listen = "127.0.0.1:" + std::to_string(FreePort());
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    execl(SKINSERVE_SERVER_BINARY, SKINSERVE_SERVER_BINARY, "--listen", listen.c_str(),
-          "--log-level", "warn", "--drain-seconds", "5", static_cast<char*>(nullptr));
-    _exit(127);
-  }
+  ServerChild server({"--log-level", "warn", "--drain-seconds", "5"});
+  ASSERT_TRUE(server.ready()) << server.error();
+  const std::string listen = server.target();
   auto channel = client::MakeChannel(listen);
-  ASSERT_TRUE(client::WaitUntilServing(*channel, std::chrono::seconds(30)).ok());
   client::SkinClient setup(channel);
   auto info = setup.Upload(MakeSyntheticMesh({.vertex_count = 100'000, .influences = 2}));
   ASSERT_TRUE(info.ok());
@@ -80,9 +79,8 @@ TEST(ServerProcessTest, SigtermDrainsStreamsInFlightAndExitsZero) {
     });
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(800));
-  ASSERT_EQ(kill(child, SIGTERM), 0);
-  int status = 0;
-  ASSERT_EQ(waitpid(child, &status, 0), child);
+  const int status = server.Stop(SIGTERM);
+  ASSERT_NE(status, -1);
   for (auto& thread : streams) thread.join();
   EXPECT_TRUE(WIFEXITED(status)) << "killed by a signal instead of exiting";
   EXPECT_EQ(WEXITSTATUS(status), 0);

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <thread>
 
+#include "server_child.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/core/reference.h"
@@ -119,26 +120,14 @@ class HostileClientsTest : public ::testing::Test {
       GTEST_SKIP() << "this skinserve has no --inflight-budget-mb (issue 16, item 1); set "
                       "SKINSERVE_HOSTILE_WITHOUT_BUDGET=1 to measure the attack anyway";
     }
-    static int next_port = 45000 + static_cast<int>(getpid() % 1000) * 3;
-    target_ = "127.0.0.1:" + std::to_string(next_port++);
-    server_ = fork();
-    ASSERT_GE(server_, 0);
-    if (server_ == 0) {
-      const std::string budget = std::to_string(kBudgetMb);
-      setenv("SKINSERVE_INFLIGHT_BUDGET_MB", budget.c_str(), 1);
-      execl(SKINSERVE_SERVER_BINARY, SKINSERVE_SERVER_BINARY, "--listen", target_.c_str(),
-            "--log-level", "warn", "--threads", "2", "--default-backend", "sse",
-            static_cast<char*>(nullptr));
-      _exit(127);
-    }
+    const std::string budget = "SKINSERVE_INFLIGHT_BUDGET_MB=" + std::to_string(kBudgetMb);
+    server_ =
+        std::make_unique<ServerChild>(std::vector<std::string>{"--log-level", "warn", "--threads",
+                                                               "2", "--default-backend", "sse"},
+                                      std::vector<std::string>{budget});
+    ASSERT_TRUE(server_->ready()) << server_->error();
+    target_ = server_->target();
     channel_ = client::MakeChannel(target_);
-    ASSERT_TRUE(client::WaitUntilServing(*channel_, 60s).ok());
-  }
-  void TearDown() override {
-    if (server_ > 0) {
-      kill(server_, SIGKILL);
-      waitpid(server_, nullptr, 0);
-    }
   }
 
   // The largest RSS seen over `duration`, sampled every 50 ms.
@@ -146,13 +135,13 @@ class HostileClientsTest : public ::testing::Test {
     uint64_t peak = 0;
     for (auto end = std::chrono::steady_clock::now() + duration;
          std::chrono::steady_clock::now() < end; std::this_thread::sleep_for(50ms)) {
-      peak = std::max(peak, RssMb(server_));
+      peak = std::max(peak, RssMb(server_->pid()));
     }
     return peak;
   }
 
+  std::unique_ptr<ServerChild> server_;  // killed with the fixture
   std::string target_;
-  pid_t server_ = -1;
   std::shared_ptr<grpc::Channel> channel_;
 };
 
@@ -168,7 +157,7 @@ TEST_F(HostileClientsTest, ReadersThatNeverReadCannotExhaustMemory) {
   ASSERT_TRUE(good_id.ok()) << good_id.status().ToString();
 
   std::this_thread::sleep_for(1s);
-  const uint64_t resting_mb = RssMb(server_);
+  const uint64_t resting_mb = RssMb(server_->pid());
   const uint64_t limit_mb = resting_mb + kBudgetMb + kMarginMb;
   std::vector<uint64_t> after_mb;
   for (int round = 0; round < kRounds; ++round) {
@@ -217,7 +206,7 @@ TEST_F(HostileClientsTest, ReadersThatNeverReadCannotExhaustMemory) {
     stop = true;
     good.join();
     std::this_thread::sleep_for(2s);
-    after_mb.push_back(RssMb(server_));
+    after_mb.push_back(RssMb(server_->pid()));
     std::printf(
         "round %d: server RSS resting %lu MB, peak %lu MB (limit %lu = resting + budget %lu + "
         "margin %lu), after cancel %lu MB; good stream: %lu sent, %lu answered, %lu refused, "
