@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <fstream>
@@ -50,10 +51,21 @@ ServerChild::ServerChild(const std::vector<std::string>& args,
   std::vector<char*> argv;
   for (std::string& s : argv_strings) argv.push_back(s.data());
   argv.push_back(nullptr);
-  // Built before fork: the child only calls async-signal-safe functions and exec.
-  std::vector<std::string> env_strings = environment;
-  std::vector<char*> env_pointers;
-  for (std::string& s : env_strings) env_pointers.push_back(s.data());
+  // The child's environment: this process's, with `environment` added or replacing a
+  // variable of the same name. Built before fork: between fork and exec the child of a
+  // threaded process may only call async-signal-safe functions (putenv may allocate).
+  std::vector<std::string> env_strings;
+  for (char** e = environ; *e != nullptr; ++e) {
+    const std::string entry = *e;
+    const std::string name = entry.substr(0, entry.find('=') + 1);
+    const bool replaced = std::any_of(environment.begin(), environment.end(),
+                                      [&](const std::string& a) { return a.starts_with(name); });
+    if (!replaced) env_strings.push_back(entry);
+  }
+  env_strings.insert(env_strings.end(), environment.begin(), environment.end());
+  std::vector<char*> envp;
+  for (std::string& s : env_strings) envp.push_back(s.data());
+  envp.push_back(nullptr);
 
   pid_ = fork();
   if (pid_ < 0) {
@@ -61,8 +73,7 @@ ServerChild::ServerChild(const std::vector<std::string>& args,
     return;
   }
   if (pid_ == 0) {
-    for (char* assignment : env_pointers) putenv(assignment);
-    execv(SKINSERVE_SERVER_BINARY, argv.data());
+    execve(SKINSERVE_SERVER_BINARY, argv.data(), envp.data());
     _exit(127);
   }
 
