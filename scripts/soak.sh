@@ -47,11 +47,13 @@ if ! port=$(wait_for_port "$out/port" "$server" 120); then
   exit 1
 fi
 target="127.0.0.1:$port"
-for _ in $(seq 100); do
-  "$load_bin" --target "$target" --backends serial "${mesh_args[@]}" --frames 1 --warmup 0 \
-    >/dev/null 2>&1 && break
-  sleep 0.3
-done
+# The server is SERVING once its port is written: one frame must go through.
+if ! "$load_bin" --target "$target" --backends serial "${mesh_args[@]}" --frames 1 --warmup 0 \
+  >"$out/first-frame.log" 2>&1; then
+  echo "soak: the first frame failed:" >&2
+  tail -20 "$out/first-frame.log" "$out/server.log" >&2
+  exit 1
+fi
 
 # Capacity: closed-loop frames/s of the server's one compute thread; the soak runs 4
 # streams at 80 % of it in total.

@@ -93,10 +93,11 @@ ServerChild::ServerChild(const std::vector<std::string>& args,
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   target_ = "127.0.0.1:" + std::to_string(port);
-  const auto left =
-      std::chrono::duration_cast<std::chrono::seconds>(deadline - std::chrono::steady_clock::now());
-  const auto status = client::WaitUntilServing(*client::MakeChannel(target_),
-                                               std::max(left, std::chrono::seconds(1)));
+  // The port file is written once the server is SERVING: one health check confirms it.
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+      deadline - std::chrono::steady_clock::now());
+  const auto status = client::CheckHealth(*client::MakeChannel(target_),
+                                          std::max(left, std::chrono::milliseconds(1000)));
   if (!status.ok()) error_ = "skinserve on " + target_ + " not SERVING: " + status.ToString();
 }
 

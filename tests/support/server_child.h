@@ -23,7 +23,7 @@ class ServerChild {
   ServerChild(const ServerChild&) = delete;
   ServerChild& operator=(const ServerChild&) = delete;
 
-  // True once the server wrote its port and answers health checks as SERVING.
+  // True once the server wrote its port and then answered a health check SERVING.
   bool ready() const { return error_.empty(); }
   // Why it is not ready: the child's exit, a timeout, or a failed fork.
   const std::string& error() const { return error_; }
