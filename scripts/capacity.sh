@@ -12,8 +12,8 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 server_bin=${SKINSERVE_BIN:+$SKINSERVE_BIN/skinserve}
 load_bin=${SKINSERVE_BIN:+$SKINSERVE_BIN/skinserve-load}
-server_bin=${server_bin:-$root/build/server/skinserve}
-load_bin=${load_bin:-$root/build/client/load/skinserve-load}
+server_bin=${server_bin:-$root/build/bin/skinserve}
+load_bin=${load_bin:-$root/build/bin/skinserve-load}
 seconds=${CAPACITY_SECONDS:-3}
 cores=$(nproc)
 

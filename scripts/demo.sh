@@ -11,7 +11,7 @@ bash "$root/scripts/build.sh"
 source "$root/scripts/lib/port-file.sh"
 log=$(mktemp)
 port_file=$(mktemp -u)
-"$build/server/skinserve" --listen 127.0.0.1:0 --port-file "$port_file" --log-level warn \
+"$build/bin/skinserve" --listen 127.0.0.1:0 --port-file "$port_file" --log-level warn \
   >"$log" 2>&1 &
 server=$!
 stop() {
@@ -27,9 +27,9 @@ if ! port=$(wait_for_port "$port_file" "$server" 120); then
 fi
 target="127.0.0.1:$port"
 echo "skinserve on $target; backends:"
-"$build/client/skinserve-cli" --target "$target" backends
+"$build/bin/skinserve-cli" --target "$target" backends
 echo
-"$build/client/load/skinserve-load" --target "$target" --backends all --vertices 100000 \
+"$build/bin/skinserve-load" --target "$target" --backends all --vertices 100000 \
   --bones 2 --streams 2 --window 4 --duration 3 --warmup 1 --check-every 25 "$@"
 echo
-"$build/client/skinserve-cli" --target "$target" verify
+"$build/bin/skinserve-cli" --target "$target" verify

@@ -20,9 +20,11 @@ RUNTIME_PACKAGES=(
   pocl-opencl-icd ocl-icd-libopencl1 clinfo
   libgrpc++1.51 libprotobuf32 libspdlog1.10 libfmt9 libgomp1 libtinygltf2d libcairo2 libssl3
 )
-# The interop test (a client nobody here wrote) and the plots.
+# The interop test (a client nobody here wrote), the plots, and the documentation site
+# (scripts/docs.sh: MkDocs with the Material theme).
 TEST_PACKAGES=(
   python3 python3-grpcio python3-grpc-tools python3-numpy python3-matplotlib gnuplot-nox
+  mkdocs mkdocs-material
 )
 # Figure 5's table and plot from skinserve-bench's JSON (scripts/figure5-plot.sh).
 GPU_PACKAGES=(

@@ -43,10 +43,10 @@ case "$mode" in
     build="$root/build-asan"
     configure "$build" -DSKINSERVE_SANITIZE=address,undefined -DSKINSERVE_FUZZ=ON
     if [ "$mode" = asan-ci ]; then
-      cmake --build "$build" -j "$(nproc)" --target skinserve skinserve_core_tests \
+      cmake --build "$build" -j "$(nproc)" --target skinserve skinserve_engine_tests \
         skinserve_backend_tests skinserve_service_tests skinserve_character_tests \
         mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer raw_part_fuzzer
-      set -- -R '^(skinserve_(core|backend|service|character)_tests|.*_fuzzer\.corpus)$'
+      set -- -R '^(skinserve_(engine|backend|service|character)_tests|.*_fuzzer\.corpus)$'
     else
       cmake --build "$build" -j "$(nproc)"
       # Not the container tests (deploy) nor the arm64 cross-build (arm64: another compiler,
@@ -59,14 +59,14 @@ case "$mode" in
   tsan)
     build="$root/build-tsan"
     configure "$build" -DSKINSERVE_SANITIZE=thread
-    cmake --build "$build" -j "$(nproc)" --target skinserve_core_tests skinserve_backend_tests
+    cmake --build "$build" -j "$(nproc)" --target skinserve_engine_tests skinserve_backend_tests
     # libarcher tells TSan about libomp's barriers and tasks: without it every OpenMP
     # parallel loop reports false races (libomp itself is not instrumented).
     export OMP_TOOL_LIBRARIES="$(llvm-config-14 --libdir)/libarcher.so" ARCHER_OPTIONS="verbose=1"
     export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:ignore_noninstrumented_modules=1:suppressions=$supp/tsan.supp"
     # The engine (compute pool, mesh store, scheduler) and every CPU backend; the OpenCL
     # backends' threads are PoCL's, which TSan cannot see into.
-    "$build/tests/core/skinserve_core_tests" --gtest_brief=1
+    "$build/tests/engine/skinserve_engine_tests" --gtest_brief=1
     "$build/tests/backends/skinserve_backend_tests" --gtest_brief=1 --gtest_filter='-*opencl*:*OpenCL*'
     ;;
   fuzz)

@@ -22,9 +22,9 @@ while [ $# -gt 0 ]; do
 done
 RANDOM=$seed
 [ -n "${SKINSERVE_SOAK_NO_BUILD:-}" ] || bash "$root/scripts/build.sh" >/dev/null
-server_bin="$build/server/skinserve"
-load_bin="$build/client/load/skinserve-load"
-cli_bin="$build/client/skinserve-cli"
+server_bin="$build/bin/skinserve"
+load_bin="$build/bin/skinserve-load"
+cli_bin="$build/bin/skinserve-cli"
 mkdir -p "$out"
 rm -f "$out"/*.json "$out"/*.log "$out/samples.csv"
 

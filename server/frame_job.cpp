@@ -8,7 +8,7 @@
 
 #include <grpcpp/impl/codegen/proto_utils.h>
 
-#include "wire_codec.h"
+#include "engine_messages.h"
 
 namespace skinserve::server {
 namespace {
@@ -41,15 +41,6 @@ std::size_t PutLengthDelimitedTag(int field, std::size_t length, std::byte* out)
 std::span<float> Reuse(std::vector<float>& buffer, std::size_t count) {
   if (buffer.size() < count) buffer.resize(count);
   return {buffer.data(), count};
-}
-
-void ToWire(const Bounds& b, v1::Bounds* wire) {
-  wire->set_min_x(b.min[0]);
-  wire->set_min_y(b.min[1]);
-  wire->set_min_z(b.min[2]);
-  wire->set_max_x(b.max[0]);
-  wire->set_max_y(b.max[1]);
-  wire->set_max_z(b.max[2]);
 }
 
 Status InstanceError(const Status& status, uint32_t instance, uint32_t instances) {
@@ -95,18 +86,9 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   if (want_normals_ && !mesh_.has_normals) {
     return InvalidArgument("want_normals is set but mesh " + mesh_.id + " has no normals");
   }
-  switch (wire.encoding()) {
-    case v1::ENCODING_FLOAT32:
-    case v1::ENCODING_FLOAT16:
-    case v1::ENCODING_SNORM16:
-      encoding_ = static_cast<VertexEncoding>(wire.encoding());
-      break;
-    default:
-      return InvalidArgument(
-          fmt::format("encoding = {} is unknown; use ENCODING_FLOAT32 (0), ENCODING_FLOAT16 (1) or "
-                      "ENCODING_SNORM16 (2)",
-                      static_cast<int>(wire.encoding())));
-  }
+  Result<VertexEncoding> encoding = FromWire(wire.encoding());
+  if (!encoding.ok()) return encoding.status();
+  encoding_ = *encoding;
   if (Status s = engine.CheckBatch(mesh_.vertex_count, wire.instances()); !s.ok()) return s;
   instances_ = std::max<uint32_t>(wire.instances(), 1);
 
@@ -233,7 +215,7 @@ Status FrameJob::WriteHeaders() {
   header_.set_frame(frame_);
   header_.set_total_vertices(mesh_.vertex_count);
   header_.set_instances(instances_);
-  header_.set_encoding(static_cast<v1::Encoding>(encoding_));
+  header_.set_encoding(ToWire(encoding_));
   v1::ServerTiming* timing = header_.mutable_timing();
   timing->set_queued_ns(timing_.queued_ns);
   timing->set_compute_ns(timing_.compute_ns);

@@ -21,9 +21,9 @@
 
 #include "inflight_budget.h"
 #include "metrics_frames.h"
-#include "skinserve/core/aligned_buffer.h"
-#include "skinserve/core/engine.h"
-#include "skinserve/core/vertex_encoding.h"
+#include "skinserve/model/aligned_buffer.h"
+#include "skinserve/engine/engine.h"
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/v1/skinning.pb.h"
 
 namespace skinserve::server {

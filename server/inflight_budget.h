@@ -8,7 +8,7 @@
 #include <atomic>
 #include <cstdint>
 
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::server {
 

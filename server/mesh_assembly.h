@@ -7,7 +7,7 @@
 
 #include <cstdint>
 
-#include "skinserve/core/engine.h"
+#include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.pb.h"
 
 namespace skinserve::server {

@@ -2,7 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "wire_codec.h"
+#include "engine_messages.h"
 
 namespace skinserve::server {
 

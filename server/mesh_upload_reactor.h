@@ -6,7 +6,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "mesh_assembly.h"
-#include "skinserve/core/engine.h"
+#include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
 namespace skinserve::server {

@@ -18,8 +18,8 @@
 #include <utility>
 #include <vector>
 
-#include "skinserve/core/engine.h"
-#include "skinserve/core/status.h"
+#include "skinserve/engine/engine.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::server {
 

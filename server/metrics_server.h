@@ -9,7 +9,7 @@
 #include <string>
 #include <thread>
 
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 
 namespace httplib {
 class Server;

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "metrics_frames.h"
-#include "skinserve/core/engine.h"
+#include "skinserve/engine/engine.h"
 
 namespace skinserve::server {
 

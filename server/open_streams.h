@@ -10,7 +10,7 @@
 #include <mutex>
 #include <unordered_set>
 
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::server {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "skinserve/core/engine.h"
+#include "skinserve/engine/engine.h"
 
 namespace skinserve::server {
 

@@ -1,6 +1,6 @@
 #include "skin_reactor.h"
 
-#include "wire_codec.h"
+#include "engine_messages.h"
 
 namespace skinserve::server {
 

@@ -8,7 +8,7 @@
 #include <mutex>
 
 #include "frame_job.h"
-#include "skinserve/core/engine.h"
+#include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
 namespace skinserve::server {

@@ -3,7 +3,7 @@
 #include "mesh_upload_reactor.h"
 #include "skin_reactor.h"
 #include "stream_skin_reactor.h"
-#include "wire_codec.h"
+#include "engine_messages.h"
 
 namespace skinserve::server {
 namespace {

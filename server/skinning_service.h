@@ -6,7 +6,7 @@
 
 #include "inflight_budget.h"
 #include "open_streams.h"
-#include "skinserve/core/engine.h"
+#include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
 namespace skinserve::server {

@@ -3,7 +3,7 @@
 #include <fmt/format.h>
 #include <grpcpp/impl/codegen/proto_utils.h>
 
-#include "wire_codec.h"
+#include "engine_messages.h"
 
 namespace skinserve::server {
 

@@ -22,7 +22,7 @@
 
 #include "frame_job.h"
 #include "open_streams.h"
-#include "skinserve/core/engine.h"
+#include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
 namespace skinserve::server {

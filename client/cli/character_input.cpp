@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cctype>
 
-#include "skinserve/core/character/gltf_import.h"
+#include "skinserve/character/gltf_import.h"
 
 namespace skinserve::cli {
 

@@ -5,8 +5,8 @@
 
 #include <string>
 
-#include "skinserve/core/character/character.h"
-#include "skinserve/core/status.h"
+#include "skinserve/character/character.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::cli {
 

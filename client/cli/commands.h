@@ -7,8 +7,8 @@
 #include <string>
 
 #include "skinserve/client/skin_client.h"
-#include "skinserve/core/skinning_method.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/model/skinning_method.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace skinserve::cli {
 

@@ -2,7 +2,7 @@
 
 #include "commands.h"
 #include "skinserve/client/channel.h"
-#include "skinserve/core/reference.h"
+#include "skinserve/reference/reference.h"
 
 namespace skinserve::cli {
 

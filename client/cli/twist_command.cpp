@@ -11,8 +11,8 @@
 
 #include "commands.h"
 #include "skinserve/client/channel.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/twist_cylinder.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/twist_cylinder.h"
 #include "skinserve/render/bounds.h"
 #include "skinserve/render/camera.h"
 #include "skinserve/render/contact_sheet.h"

@@ -3,7 +3,7 @@
 #include "character_input.h"
 #include "commands.h"
 #include "skinserve/client/channel.h"
-#include "skinserve/core/character/character_mesh.h"
+#include "skinserve/character/character_mesh.h"
 
 namespace skinserve::cli {
 namespace {

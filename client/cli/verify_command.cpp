@@ -3,7 +3,7 @@
 #include "commands.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/core/reference.h"
+#include "skinserve/reference/reference.h"
 
 namespace skinserve::cli {
 

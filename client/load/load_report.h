@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "load_stats.h"
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::load {
 

@@ -9,8 +9,8 @@
 
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/core/encoded_reference.h"
-#include "skinserve/core/palette.h"
+#include "skinserve/reference/encoded_reference.h"
+#include "skinserve/model/palette.h"
 
 namespace skinserve::load {
 namespace {
@@ -252,11 +252,11 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     probe.set_mesh_id(mesh_id);
     probe.set_backend("passthrough");
     probe.set_frame(UINT64_MAX);
-    probe.set_palette(client::EncodePalette(workload.Palette(0)));  // one instance, float32
+    probe.set_palette(wire::EncodeFloats(workload.Palette(0)));  // one instance, float32
     if (!stream->Write(probe)) break;
     client::FrameResult result;
     client::FrameAssembler assembler;
-    client::RawPart part;
+    wire::RawPart part;
     grpc::ByteBuffer bytes;
     bool complete = false;
     while (!complete && stream->Read(&bytes)) complete = assembler.Add(bytes, &part, &result);
@@ -292,7 +292,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
 
   std::thread reader([&] {
     // One part reader and one result for the whole run (their buffers are reused).
-    client::RawPart part;
+    wire::RawPart part;
     grpc::ByteBuffer bytes;
     client::FrameResult result;
     client::FrameAssembler assembler;
@@ -319,7 +319,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   request.set_encoding(static_cast<v1::Encoding>(config.encoding));
   request.set_instances(config.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
-  request.set_method(client::WireMethod(workload.method));
+  request.set_method(wire::ToWire(workload.method));
   for (uint64_t k = first_frame; k < last_frame && !stop.load(); ++k) {
     const Clock::time_point due = start + k * period;
     std::this_thread::sleep_until(due);
@@ -334,13 +334,13 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
       ring[(ring_head + in_flight++) % ring.size()] = {due, counted};
     }
     request.set_frame(k);
-    client::EncodePaletteInto(palette(k), request.mutable_palette());
+    wire::EncodeFloats(palette(k), request.mutable_palette());
     sent += counted;
     if (!stream->Write(request)) break;
   }
   stream->WritesDone();
   reader.join();
-  Status status = client::FromGrpc(stream->Finish());
+  Status status = wire::FromGrpc(stream->Finish());
   {
     std::lock_guard lock(mutex);
     // Sent but never answered: failed, not lost.

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "load_stats.h"
-#include "skinserve/core/vertex_encoding.h"
+#include "skinserve/encoding/vertex_encoding.h"
 #include "workload.h"
 
 namespace skinserve::load {

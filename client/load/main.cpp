@@ -16,7 +16,7 @@
 #include "skinserve/client/channel.h"
 #include "skinserve/client/malloc_tuning.h"
 #include "skinserve/client/skin_client.h"
-#include "skinserve/core/vertex_encoding.h"
+#include "skinserve/encoding/vertex_encoding.h"
 
 namespace skinserve::load {
 namespace {
@@ -99,7 +99,7 @@ Result<std::vector<std::string>> ResolveBackends(client::SkinClient& client,
   if (wanted == "all") {
     for (const auto& b : list->backends()) {
       const bool has_method = std::find(b.methods().begin(), b.methods().end(),
-                                        client::WireMethod(method)) != b.methods().end();
+                                        wire::ToWire(method)) != b.methods().end();
       if (b.available() && has_method) {
         ids.push_back(b.id());
       } else if (b.available()) {

@@ -6,10 +6,10 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "skinserve/core/character/animation.h"
-#include "skinserve/core/character/character_mesh.h"
-#include "skinserve/core/character/gltf_import.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/character/animation.h"
+#include "skinserve/character/character_mesh.h"
+#include "skinserve/character/gltf_import.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace skinserve::load {
 

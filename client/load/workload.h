@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "skinserve/core/mesh.h"
-#include "skinserve/core/skinning_method.h"
-#include "skinserve/core/status.h"
+#include "skinserve/model/mesh.h"
+#include "skinserve/model/skinning_method.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::load {
 

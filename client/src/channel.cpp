@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "grpc/health/v1/health.grpc.pb.h"
+#include "skinserve/wire/conversions.h"
 
 namespace skinserve::client {
 namespace {
@@ -27,26 +28,6 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int connec
   return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
 }
 
-Status FromGrpc(const grpc::Status& status) {
-  switch (status.error_code()) {
-    case grpc::StatusCode::OK:
-      return Status::Ok();
-    case grpc::StatusCode::INVALID_ARGUMENT:
-      return InvalidArgument(status.error_message());
-    case grpc::StatusCode::NOT_FOUND:
-      return NotFound(status.error_message());
-    case grpc::StatusCode::RESOURCE_EXHAUSTED:
-      return ResourceExhausted(status.error_message());
-    case grpc::StatusCode::FAILED_PRECONDITION:
-      return FailedPrecondition(status.error_message());
-    case grpc::StatusCode::UNAVAILABLE:
-      return Unavailable(status.error_message());
-    default:
-      return Internal(fmt::format("gRPC status {}: {}", static_cast<int>(status.error_code()),
-                                  status.error_message()));
-  }
-}
-
 Status CheckHealth(grpc::Channel& channel, std::chrono::milliseconds timeout) {
   auto stub = grpc::health::v1::Health::NewStub(
       std::shared_ptr<grpc::Channel>(&channel, [](grpc::Channel*) {}));
@@ -55,7 +36,7 @@ Status CheckHealth(grpc::Channel& channel, std::chrono::milliseconds timeout) {
   grpc::health::v1::HealthCheckRequest request;
   grpc::health::v1::HealthCheckResponse response;
   grpc::Status status = stub->Check(&context, request, &response);
-  if (!status.ok()) return FromGrpc(status);
+  if (!status.ok()) return wire::FromGrpc(status);
   if (response.status() != grpc::health::v1::HealthCheckResponse::SERVING) {
     return Unavailable(
         fmt::format("health: {}",

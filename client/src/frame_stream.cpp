@@ -63,7 +63,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
-  request.set_method(WireMethod(options.method));
+  request.set_method(wire::ToWire(options.method));
   RawPart part;  // reads each answer part from gRPC's bytes (no copy into a message)
   grpc::ByteBuffer bytes;
   FrameResult result;
@@ -94,7 +94,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         const bool again = !resend.empty();
         const uint64_t frame = again ? resend.front() : next;
         request.set_frame(frame);
-        EncodePaletteInto(palette(frame), request.mutable_palette());
+        wire::EncodeFloats(palette(frame), request.mutable_palette());
         in_flight.push_back({frame, Clock::now(), reuploads});
         if (again) {
           resend.pop_front();
@@ -139,7 +139,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
       fill();
     }
     if (!writes_closed) stream->WritesDone();
-    status = FromGrpc(stream->Finish());
+    status = wire::FromGrpc(stream->Finish());
     // Everything so far answered on a stream that ended cleanly: more to send?
     if (!broken && !writes_closed && status.ok()) continue;
     if (status.ok()) status = Internal("the stream ended with frames unanswered");

@@ -9,27 +9,7 @@
 
 namespace skinserve::client {
 
-std::string EncodePalette(std::span<const float> palette) {
-  return std::string(reinterpret_cast<const char*>(palette.data()), palette.size_bytes());
-}
-
-v1::SkinningMethod WireMethod(SkinningMethod method) {
-  return method == SkinningMethod::kDualQuaternion ? v1::SKINNING_METHOD_DUAL_QUATERNION
-                                                   : v1::SKINNING_METHOD_LINEAR;
-}
-
-void EncodePaletteInto(std::span<const float> palette, std::string* bytes) {
-  bytes->resize(palette.size_bytes());
-  if (!palette.empty()) std::memcpy(bytes->data(), palette.data(), palette.size_bytes());
-}
-
-namespace {
-
-Bounds FromWire(const v1::Bounds& b) {
-  return {{b.min_x(), b.min_y(), b.min_z()}, {b.max_x(), b.max_y(), b.max_z()}};
-}
-
-}  // namespace
+using wire::FromWire;
 
 bool FrameAssembler::Fail(const v1::SkinResponse& part, FrameResult* result, Status status) {
   failed_ = true;
@@ -54,7 +34,7 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
     result->timing = part.timing();
     if (part.has_error()) {
       return Fail(part, result,
-                  FromGrpc(grpc::Status(static_cast<grpc::StatusCode>(part.error().code()),
+                  wire::FromGrpc(grpc::Status(static_cast<grpc::StatusCode>(part.error().code()),
                                         part.error().message())));
     }
     if (!v1::Encoding_IsValid(part.encoding())) {
@@ -298,7 +278,7 @@ Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays, WeightPoli
   send_array(v1::MESH_ARRAY_WEIGHTS, arrays.weights.data(), arrays.weights.size(), 4);
   if (sending) writer->WritesDone();
   grpc::Status status = writer->Finish();
-  if (!status.ok()) return FromGrpc(status);
+  if (!status.ok()) return wire::FromGrpc(status);
   return info;
 }
 
@@ -308,7 +288,7 @@ Result<v1::MeshInfo> SkinClient::GetMesh(const std::string& mesh_id) {
   request.set_mesh_id(mesh_id);
   v1::MeshInfo info;
   grpc::Status status = stub_->GetMesh(&context, request, &info);
-  if (!status.ok()) return FromGrpc(status);
+  if (!status.ok()) return wire::FromGrpc(status);
   return info;
 }
 
@@ -318,7 +298,7 @@ Result<bool> SkinClient::DeleteMesh(const std::string& mesh_id) {
   request.set_mesh_id(mesh_id);
   v1::DeleteMeshResponse response;
   grpc::Status status = stub_->DeleteMesh(&context, request, &response);
-  if (!status.ok()) return FromGrpc(status);
+  if (!status.ok()) return wire::FromGrpc(status);
   return response.deleted();
 }
 
@@ -326,7 +306,7 @@ Result<v1::ListBackendsResponse> SkinClient::ListBackends() {
   grpc::ClientContext context;
   v1::ListBackendsResponse response;
   grpc::Status status = stub_->ListBackends(&context, v1::ListBackendsRequest(), &response);
-  if (!status.ok()) return FromGrpc(status);
+  if (!status.ok()) return wire::FromGrpc(status);
   return response;
 }
 
@@ -334,7 +314,7 @@ Result<v1::ServerStats> SkinClient::GetServerStats() {
   grpc::ClientContext context;
   v1::ServerStats response;
   grpc::Status status = stub_->GetServerStats(&context, v1::GetServerStatsRequest(), &response);
-  if (!status.ok()) return FromGrpc(status);
+  if (!status.ok()) return wire::FromGrpc(status);
   return response;
 }
 
@@ -355,9 +335,9 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   request.set_mesh_id(mesh_id);
   request.set_backend(options.backend);
   request.set_frame(frame);
-  EncodePaletteInto(palette, request.mutable_palette());
+  wire::EncodeFloats(palette, request.mutable_palette());
   request.set_want_normals(options.want_normals);
-  request.set_method(WireMethod(options.method));
+  request.set_method(wire::ToWire(options.method));
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
@@ -380,7 +360,7 @@ Status SkinClient::SkinOnce(const v1::SkinRequest& request, RawPart* part, Frame
   }
   grpc::Status status = reader->Finish();
   if (!status.ok()) {
-    result->status = FromGrpc(status);
+    result->status = wire::FromGrpc(status);
     result->positions.clear();
     result->normals.clear();
     return result->status;

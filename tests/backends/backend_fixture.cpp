@@ -2,7 +2,7 @@
 
 #include <limits>
 
-#include "skinserve/core/backend_registry.h"
+#include "skinserve/engine/backend_registry.h"
 
 namespace skinserve::testing {
 

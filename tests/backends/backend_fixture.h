@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "skinserve/core/backend.h"
+#include "skinserve/engine/backend.h"
 
 namespace skinserve::testing {
 

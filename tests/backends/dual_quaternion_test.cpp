@@ -11,9 +11,9 @@
 #include <tuple>
 
 #include "backend_fixture.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/synthetic.h"
-#include "skinserve/core/twist_cylinder.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
+#include "skinserve/reference/twist_cylinder.h"
 
 namespace skinserve::testing {
 namespace {

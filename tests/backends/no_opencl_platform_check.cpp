@@ -4,9 +4,9 @@
 #include <cstdio>
 #include <string>
 
-#include "skinserve/core/backend_registry.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/engine/backend_registry.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
 
 int main() {
   using namespace skinserve;

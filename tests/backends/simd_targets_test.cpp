@@ -11,9 +11,9 @@
 #include <limits>
 
 #include "backend_fixture.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/simd_targets.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/engine/simd_targets.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {
 namespace {

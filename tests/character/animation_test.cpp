@@ -9,9 +9,9 @@
 #include <sstream>
 
 #include "gltf_test_support.h"
-#include "skinserve/core/character/animation.h"
-#include "skinserve/core/character/gltf_import.h"
-#include "skinserve/core/reference.h"
+#include "skinserve/character/animation.h"
+#include "skinserve/character/gltf_import.h"
+#include "skinserve/reference/reference.h"
 
 namespace skinserve::testing {
 namespace {

@@ -1,6 +1,6 @@
 // CharacterMeshes on hand-built characters: what goes together, in which order, padded how,
 // and what a single --primitive gives.
-#include "skinserve/core/character/character_mesh.h"
+#include "skinserve/character/character_mesh.h"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <fstream>
 
-#include "skinserve/core/reference.h"
+#include "skinserve/reference/reference.h"
 #include "test_scenes.h"
 #include "workload.h"
 

@@ -8,7 +8,7 @@
 #include <fstream>
 
 #include "gltf_test_support.h"
-#include "skinserve/core/character/gltf_import.h"
+#include "skinserve/character/gltf_import.h"
 
 namespace skinserve::testing {
 namespace {

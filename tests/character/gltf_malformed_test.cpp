@@ -9,7 +9,7 @@
 #include <random>
 
 #include "gltf_test_support.h"
-#include "skinserve/core/character/gltf_import.h"
+#include "skinserve/character/gltf_import.h"
 
 namespace skinserve::testing {
 namespace {

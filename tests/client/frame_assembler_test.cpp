@@ -463,11 +463,11 @@ TEST(FrameAssemblerTest, AWarmResultIsRefilledWithoutAllocating) {
 TEST(FrameAssemblerTest, PaletteIntoAReusedRequestAllocatesOnce) {
   const std::vector<float> palette(12 * 77 * 16, 0.5f);
   v1::SkinRequest request;
-  EncodePaletteInto(palette, request.mutable_palette());
+  wire::EncodeFloats(palette, request.mutable_palette());
   ASSERT_EQ(request.palette().size(), palette.size() * 4);
   EXPECT_EQ(std::memcmp(request.palette().data(), palette.data(), request.palette().size()), 0);
   const uint64_t before = skinserve_alloc_counters()->allocations;
-  for (int i = 0; i < 10; ++i) EncodePaletteInto(palette, request.mutable_palette());
+  for (int i = 0; i < 10; ++i) wire::EncodeFloats(palette, request.mutable_palette());
   EXPECT_EQ(skinserve_alloc_counters()->allocations - before, 0u);
 }
 

@@ -31,9 +31,9 @@
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/client/skin_client.h"
-#include "skinserve/core/mesh.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/model/mesh.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace {
 

@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <memory>
 
-#include "skinserve/core/engine.h"
+#include "skinserve/engine/engine.h"
 
 namespace skinserve::fuzz {
 

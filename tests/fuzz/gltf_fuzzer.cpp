@@ -7,9 +7,9 @@
 #include <cstdlib>
 #include <span>
 
-#include "skinserve/core/character/animation.h"
-#include "skinserve/core/character/gltf_import.h"
-#include "skinserve/core/mesh.h"
+#include "skinserve/character/animation.h"
+#include "skinserve/character/gltf_import.h"
+#include "skinserve/model/mesh.h"
 
 using namespace skinserve;
 

@@ -11,8 +11,8 @@
 #include <cstring>
 #include <vector>
 
-#include "skinserve/client/raw_part.h"
-#include "skinserve/core/vertex_encoding.h"
+#include "skinserve/wire/raw_part.h"
+#include "skinserve/encoding/vertex_encoding.h"
 
 namespace {
 
@@ -38,7 +38,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const grpc::ByteBuffer bytes(slices.data(), slices.size());
   skinserve::v1::SkinResponse parsed;
   const bool protobuf_ok = parsed.ParseFromArray(data, static_cast<int>(size));
-  static skinserve::client::RawPart raw;  // reused, as a stream reuses it
+  static skinserve::wire::RawPart raw;  // reused, as a stream reuses it
   const bool raw_ok = raw.Parse(bytes);
   if (raw_ok != protobuf_ok) std::abort();
   if (!raw_ok) return 0;

@@ -18,7 +18,7 @@
 #include "frame_job.h"
 #include "fuzz_engine.h"
 #include "inflight_budget.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/synthetic.h"
 
 using namespace skinserve;
 

@@ -9,7 +9,7 @@
 #include <thread>
 
 #include "opencl_test_support.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {
 namespace {

@@ -12,8 +12,8 @@
 #include <tuple>
 
 #include "opencl_test_support.h"
-#include "skinserve/core/aligned_buffer.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/model/aligned_buffer.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {
 namespace {

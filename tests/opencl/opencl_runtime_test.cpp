@@ -13,9 +13,9 @@
 #include "backends/backend_factories.h"
 #include "backends/opencl_runtime.h"
 #include "opencl_test_support.h"
-#include "skinserve/core/aligned_buffer.h"
-#include "skinserve/core/engine.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/model/aligned_buffer.h"
+#include "skinserve/engine/engine.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {
 namespace {

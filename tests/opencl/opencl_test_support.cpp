@@ -4,8 +4,8 @@
 #include <sstream>
 
 #include "backends/backend_factories.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {
 

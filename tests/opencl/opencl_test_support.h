@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "skinserve/core/backend.h"
-#include "skinserve/core/mesh.h"
+#include "skinserve/engine/backend.h"
+#include "skinserve/model/mesh.h"
 
 namespace skinserve::testing {
 

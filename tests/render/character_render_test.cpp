@@ -8,10 +8,10 @@
 #include <filesystem>
 
 #include "png_pixels.h"
-#include "skinserve/core/character/animation.h"
-#include "skinserve/core/character/character_mesh.h"
-#include "skinserve/core/character/gltf_import.h"
-#include "skinserve/core/reference.h"
+#include "skinserve/character/animation.h"
+#include "skinserve/character/character_mesh.h"
+#include "skinserve/character/gltf_import.h"
+#include "skinserve/reference/reference.h"
 #include "skinserve/render/character_camera.h"
 #include "skinserve/render/mesh_renderer.h"
 

@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/synthetic.h"
 #include "test_server.h"
 
 namespace skinserve::testing {
@@ -25,7 +25,7 @@ Status RawUpload(client::SkinClient& c, const std::vector<v1::UploadMeshRequest>
     if (!writer->Write(m)) break;
   }
   writer->WritesDone();
-  return client::FromGrpc(writer->Finish());
+  return wire::FromGrpc(writer->Finish());
 }
 
 // Sends `messages` as they are (valid protobuf or not) on `method`, half-closes, reads
@@ -147,7 +147,7 @@ TEST(BadInputTest, BytesThatAreNoSkinRequestAreRefusedNamingTheMessage) {
   v1::SkinRequest good;
   good.set_mesh_id(info->mesh_id());
   good.set_backend("serial");
-  good.set_palette(client::EncodePalette(MakeSyntheticPalette(77, 1, 0)));
+  good.set_palette(wire::EncodeFloats(MakeSyntheticPalette(77, 1, 0)));
   const std::string truncated("\x08", 1);  // field 1's varint, cut off
   // The raw methods parse requests themselves: a message that is no SkinRequest ends the
   // call with INVALID_ARGUMENT naming it (nothing else names its frame), after the valid

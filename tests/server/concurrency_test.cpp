@@ -5,8 +5,8 @@
 #include <thread>
 
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
 #include "test_server.h"
 
 namespace skinserve::testing {
@@ -97,7 +97,7 @@ TEST(ConcurrencyTest, ACancelledStreamFreesItsResources) {
     v1::SkinRequest request;
     request.set_mesh_id(info->mesh_id());
     request.set_backend("serial");
-    request.set_palette(client::EncodePalette(MakeSyntheticPalette(77, 1, 0)));
+    request.set_palette(wire::EncodeFloats(MakeSyntheticPalette(77, 1, 0)));
     for (int i = 0; i < 8; ++i) {
       request.set_frame(i);
       ASSERT_TRUE(stream->Write(request));

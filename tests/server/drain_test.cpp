@@ -5,8 +5,8 @@
 
 #include <thread>
 
-#include "skinserve/core/reference.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
 #include "test_server.h"
 
 namespace skinserve::testing {
@@ -26,7 +26,7 @@ TEST(DrainTest, ShutdownAnswersEveryFrameReadThenEndsStreamsUnavailable) {
     request.set_mesh_id(info->mesh_id());
     request.set_backend("serial");
     request.set_frame(frame);
-    request.set_palette(client::EncodePalette(MakeSyntheticPalette(77, 3, frame)));
+    request.set_palette(wire::EncodeFloats(MakeSyntheticPalette(77, 3, frame)));
     return stream->Write(request);
   };
   // Reads one whole frame; false when the stream has ended instead.

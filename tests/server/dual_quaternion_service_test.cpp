@@ -8,9 +8,9 @@
 #include <algorithm>
 
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/core/palette.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/model/palette.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
 #include "test_server.h"
 
 namespace skinserve::testing {
@@ -107,7 +107,7 @@ TEST(DualQuaternionServiceTest, RefusalsNameTheBackendTheMethodAndTheJoint) {
     request.set_mesh_id(info->mesh_id());
     request.set_backend(backend);
     request.set_frame(frame);
-    request.set_palette(client::EncodePalette(MakeRigidPalette(6, 2, frame)));
+    request.set_palette(wire::EncodeFloats(MakeRigidPalette(6, 2, frame)));
     request.set_method(method);
     EXPECT_TRUE(stream->Write(request));
     client::FrameResult r;

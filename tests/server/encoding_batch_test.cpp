@@ -9,9 +9,9 @@
 #include <limits>
 #include <thread>
 
-#include "skinserve/core/reference.h"
-#include "skinserve/core/synthetic.h"
-#include "skinserve/core/vertex_encoding.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 #include "test_server.h"
 

@@ -12,7 +12,7 @@
 #include "server_child.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {
 namespace {

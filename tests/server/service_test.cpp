@@ -3,9 +3,9 @@
 #include <gtest/gtest.h>
 
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/simd_targets.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/engine/simd_targets.h"
+#include "skinserve/reference/synthetic.h"
 #include "test_server.h"
 
 namespace skinserve::testing {

@@ -6,7 +6,7 @@
 #include <chrono>
 #include <thread>
 
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/synthetic.h"
 #include "test_server.h"
 
 namespace skinserve::testing {

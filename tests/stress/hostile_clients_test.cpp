@@ -20,8 +20,8 @@
 #include "server_child.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/core/reference.h"
-#include "skinserve/core/synthetic.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {
 namespace {

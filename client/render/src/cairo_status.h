@@ -7,7 +7,7 @@
 #include <memory>
 #include <string>
 
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::render {
 

@@ -4,7 +4,7 @@
 
 #include <glm/common.hpp>
 
-#include "skinserve/core/palette.h"
+#include "skinserve/model/palette.h"
 #include "skinserve/render/contact_sheet.h"
 
 namespace skinserve::render {

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <span>
 
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::render {
 

@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::client {
 
@@ -26,8 +26,5 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int connec
 Status CheckHealth(grpc::Channel& channel, std::chrono::milliseconds timeout);
 // Polls CheckHealth until SERVING or `timeout`.
 Status WaitUntilServing(grpc::Channel& channel, std::chrono::milliseconds timeout);
-
-// gRPC status -> core status, keeping the code and the message.
-Status FromGrpc(const grpc::Status& status);
 
 }  // namespace skinserve::client

@@ -13,14 +13,17 @@
 #include <string>
 #include <vector>
 
-#include "skinserve/client/raw_part.h"
-#include "skinserve/core/mesh.h"
-#include "skinserve/core/skinning_method.h"
-#include "skinserve/core/status.h"
-#include "skinserve/core/vertex_encoding.h"
+#include "skinserve/wire/conversions.h"
+#include "skinserve/wire/raw_part.h"
+#include "skinserve/model/mesh.h"
+#include "skinserve/model/skinning_method.h"
+#include "skinserve/model/status.h"
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
 namespace skinserve::client {
+
+using wire::RawPart;
 
 inline constexpr std::size_t kUploadChunkBytes = 1 << 20;
 // The most vertices (instances x vertices per instance) the client accepts in one frame.
@@ -145,13 +148,5 @@ class SkinClient {
   v1::SkinRequest skin_request_;
   RawPart skin_part_;
 };
-
-// Encodes a palette for the wire.
-std::string EncodePalette(std::span<const float> palette);
-// The same into `bytes` (e.g. a reused request's mutable_palette()): its capacity is
-// reused, no temporary string.
-void EncodePaletteInto(std::span<const float> palette, std::string* bytes);
-// The wire's name of a skinning method.
-v1::SkinningMethod WireMethod(SkinningMethod method);
 
 }  // namespace skinserve::client

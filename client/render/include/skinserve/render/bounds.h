@@ -5,7 +5,7 @@
 
 #include <glm/vec3.hpp>
 
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::render {
 

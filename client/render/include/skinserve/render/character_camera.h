@@ -6,8 +6,8 @@
 #include <span>
 #include <vector>
 
-#include "skinserve/core/character/character_mesh.h"
-#include "skinserve/core/status.h"
+#include "skinserve/character/character_mesh.h"
+#include "skinserve/model/status.h"
 #include "skinserve/render/camera.h"
 
 namespace skinserve::render {

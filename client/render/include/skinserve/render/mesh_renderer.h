@@ -12,7 +12,7 @@
 
 #include <glm/vec3.hpp>
 
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 #include "skinserve/render/camera.h"
 
 namespace skinserve::render {

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "skinserve/core/status.h"
+#include "skinserve/model/status.h"
 
 namespace skinserve::render {
 

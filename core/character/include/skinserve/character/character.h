@@ -1,0 +1,79 @@
+// Character: a skinned character imported from glTF 2.0 — the paper's stage 1 (parse the
+// character) — and the data its stage 2 (joint matrices per frame) needs. Plain data; the
+// importer (gltf_import.h) fills it, animation.h samples it, Mesh::Create validates the
+// primitives' arrays before anything is skinned.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/gtc/quaternion.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+
+#include "skinserve/model/mesh.h"
+
+namespace skinserve {
+
+// A scene node's local transform, as the file states it (TRS, or a matrix decomposed to
+// TRS at import). Animation channels replace its translation, rotation or scale.
+struct CharacterNode {
+  std::string name;
+  int parent = -1;  // index into Character::nodes, -1 for a root
+  glm::vec3 translation{0.0f};
+  glm::quat rotation{1.0f, 0.0f, 0.0f, 0.0f};  // w, x, y, z
+  glm::vec3 scale{1.0f};
+};
+
+// A glTF skin: its joints are nodes; palette[j] = model(joints[j]) * inverse_bind[j].
+struct CharacterSkin {
+  std::string name;
+  std::vector<int> joints;              // node index per joint (the palette's order)
+  std::vector<glm::mat4> inverse_bind;  // one per joint (identity when the file omits them)
+};
+
+// One skinned primitive of one skinned mesh node, ready for Mesh::Create.
+//  - arrays: positions, normals (when present), joints/weights with `influences` = 4 per
+//    JOINTS_n/WEIGHTS_n set present (4 or 8), joint indices into the skin's joints.
+//  - indices: triangle list into the vertices (3 per triangle), for viewers and renders.
+struct SkinnedPrimitive {
+  std::string name;  // "<mesh name>/<primitive index>"
+  int node = -1;     // the mesh node that instantiates it
+  int skin = -1;     // index into Character::skins
+  MeshArrays arrays;
+  std::vector<uint32_t> indices;
+};
+
+enum class ChannelPath { kTranslation, kRotation, kScale };
+enum class Interpolation { kLinear, kStep, kCubicSpline };
+
+// One animation channel with its sampler's data, as in the file.
+//  - times: strictly increasing keyframe times in seconds.
+//  - values: per key 3 (translation, scale) or 4 (rotation x y z w) floats; CUBICSPLINE keys
+//    hold in-tangent, value, out-tangent (3 times as many floats).
+struct AnimationChannel {
+  int node = -1;
+  ChannelPath path = ChannelPath::kTranslation;
+  Interpolation interpolation = Interpolation::kLinear;
+  std::vector<float> times;
+  std::vector<float> values;
+};
+
+struct AnimationClip {
+  std::string name;
+  float duration = 0.0f;  // the last key time of any channel
+  std::vector<AnimationChannel> channels;
+};
+
+struct Character {
+  std::vector<CharacterNode> nodes;
+  std::vector<CharacterSkin> skins;
+  std::vector<SkinnedPrimitive> primitives;
+  std::vector<AnimationClip> clips;
+
+  // The clip named `name` (the first when `name` is empty); nullptr when there is none.
+  const AnimationClip* FindClip(const std::string& name) const;
+};
+
+}  // namespace skinserve

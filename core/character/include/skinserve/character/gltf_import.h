@@ -1,0 +1,25 @@
+// glTF 2.0 import (.glb, or .gltf with its .bin buffers) into a Character, with tinygltf.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "skinserve/character/character.h"
+#include "skinserve/model/status.h"
+
+namespace skinserve {
+
+// Reads every skinned primitive of every skinned mesh node, the node hierarchy, the skins
+// and the clips. Files that break the spec (truncated GLB, accessor out of its buffer view,
+// joint index past the skin, a component type the spec does not allow for an attribute,
+// a missing skin or inverse-bind count mismatch) give INVALID_ARGUMENT naming the object,
+// e.g. "meshes[0].primitives[0].attributes.JOINTS_0: accessor 5 reads past bufferView 2".
+// A file with no skinned primitive is INVALID_ARGUMENT too.
+Result<Character> LoadGltfFile(const std::string& path);
+
+// The same for bytes in memory: a GLB, or glTF JSON whose buffers are data: URIs or files
+// relative to `base_dir`.
+Result<Character> LoadGltfBytes(std::span<const uint8_t> bytes, const std::string& base_dir = "");
+
+}  // namespace skinserve

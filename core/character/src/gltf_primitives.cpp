@@ -1,0 +1,242 @@
+// Skinned primitives: vertex attributes, joint indices and weights, triangle indices.
+#include <fmt/format.h>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <limits>
+#include <optional>
+
+#include "gltf_accessor.h"
+#include "gltf_parts.h"
+#include "skinserve/model/mesh.h"
+
+namespace skinserve::gltf {
+namespace {
+
+constexpr int kInfluencesPerSet = 4;  // JOINTS_n and WEIGHTS_n are VEC4
+constexpr int kMaxSets = static_cast<int>(kMaxInfluences) / kInfluencesPerSet;
+
+// The accessor of attribute `name`, or nullopt when the primitive has none.
+std::optional<int> Attribute(const tinygltf::Primitive& p, const std::string& name) {
+  const auto it = p.attributes.find(name);
+  if (it == p.attributes.end()) return std::nullopt;
+  return it->second;
+}
+
+Result<AccessorReader> OpenAttribute(const tinygltf::Model& model, int accessor,
+                                     const std::string& what, int type,
+                                     std::initializer_list<int> component_types,
+                                     std::size_t vertex_count) {
+  auto reader = AccessorReader::Open(model, accessor, what, type, component_types);
+  if (reader.ok() && reader->count() != vertex_count) {
+    return InvalidArgument(fmt::format("{}: accessor {} has count {}; POSITION has {} vertices",
+                                       what, accessor, reader->count(), vertex_count));
+  }
+  return reader;
+}
+
+// How many JOINTS_n/WEIGHTS_n pairs the primitive has (0: not skinned); both of a pair, and
+// the pairs numbered from 0 without gaps, or an error.
+Result<int> CountInfluenceSets(const tinygltf::Primitive& p, const std::string& what) {
+  int sets = 0;
+  while (Attribute(p, fmt::format("JOINTS_{}", sets)) ||
+         Attribute(p, fmt::format("WEIGHTS_{}", sets))) {
+    if (!Attribute(p, fmt::format("JOINTS_{}", sets)) ||
+        !Attribute(p, fmt::format("WEIGHTS_{}", sets))) {
+      return InvalidArgument(fmt::format(
+          "{}: has only one of JOINTS_{} and WEIGHTS_{}; skinning needs both", what, sets, sets));
+    }
+    ++sets;
+  }
+  for (const auto& [name, accessor] : p.attributes) {
+    int n = 0;
+    if ((std::sscanf(name.c_str(), "JOINTS_%d", &n) == 1 ||
+         std::sscanf(name.c_str(), "WEIGHTS_%d", &n) == 1) &&
+        n >= sets) {
+      return InvalidArgument(fmt::format(
+          "{}.attributes.{}: without set {} before it, or past the {} influences supported "
+          "(JOINTS_0..{})",
+          what, name, sets, kMaxInfluences, kMaxSets - 1));
+    }
+  }
+  if (sets > kMaxSets) {
+    return InvalidArgument(fmt::format("{}: has {} JOINTS_n sets; at most {} ({} influences)", what,
+                                       sets, kMaxSets, kMaxInfluences));
+  }
+  return sets;
+}
+
+Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& p,
+                            const std::string& what, int sets, uint32_t joint_count,
+                            SkinnedPrimitive* out) {
+  if (p.mode != TINYGLTF_MODE_TRIANGLES) {
+    return InvalidArgument(fmt::format("{}.mode is {}; only triangles ({}) are supported", what,
+                                       p.mode, TINYGLTF_MODE_TRIANGLES));
+  }
+  const std::optional<int> position = Attribute(p, "POSITION");
+  if (!position) return InvalidArgument(what + ".attributes has no POSITION");
+  auto positions = AccessorReader::Open(model, *position, what + ".attributes.POSITION",
+                                        TINYGLTF_TYPE_VEC3, {TINYGLTF_COMPONENT_TYPE_FLOAT});
+  if (!positions.ok()) return positions.status();
+  const std::size_t v_count = positions->count();
+  if (v_count > std::numeric_limits<uint32_t>::max()) {
+    return InvalidArgument(fmt::format("{}.attributes.POSITION: {} vertices; at most {}", what,
+                                       v_count, std::numeric_limits<uint32_t>::max()));
+  }
+  MeshArrays& a = out->arrays;
+  a.vertex_count = static_cast<uint32_t>(v_count);
+  a.influences = static_cast<uint32_t>(sets * kInfluencesPerSet);
+  a.joint_count = joint_count;
+  a.positions.resize(3 * v_count);
+  for (std::size_t v = 0; v < v_count; ++v) {
+    for (int c = 0; c < 3; ++c) a.positions[3 * v + c] = positions->Normalized(v, c);
+  }
+  if (const std::optional<int> normal = Attribute(p, "NORMAL")) {
+    auto normals = OpenAttribute(model, *normal, what + ".attributes.NORMAL", TINYGLTF_TYPE_VEC3,
+                                 {TINYGLTF_COMPONENT_TYPE_FLOAT}, v_count);
+    if (!normals.ok()) return normals.status();
+    a.normals.resize(3 * v_count);
+    for (std::size_t v = 0; v < v_count; ++v) {
+      for (int c = 0; c < 3; ++c) a.normals[3 * v + c] = normals->Normalized(v, c);
+    }
+  }
+
+  const std::size_t b = a.influences;
+  a.joints.resize(b * v_count);
+  a.weights.resize(b * v_count);
+  for (int set = 0; set < sets; ++set) {
+    const std::string joints_name = fmt::format("{}.attributes.JOINTS_{}", what, set);
+    const std::string weights_name = fmt::format("{}.attributes.WEIGHTS_{}", what, set);
+    auto joints = OpenAttribute(
+        model, *Attribute(p, fmt::format("JOINTS_{}", set)), joints_name, TINYGLTF_TYPE_VEC4,
+        {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT}, v_count);
+    if (!joints.ok()) return joints.status();
+    // The spec requires integer weights to be normalized; they are read as such either way,
+    // and the sum is renormalised below, so the flag cannot change the result.
+    auto weights = OpenAttribute(
+        model, *Attribute(p, fmt::format("WEIGHTS_{}", set)), weights_name, TINYGLTF_TYPE_VEC4,
+        {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+         TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+        v_count);
+    if (!weights.ok()) return weights.status();
+    for (std::size_t v = 0; v < v_count; ++v) {
+      for (int c = 0; c < kInfluencesPerSet; ++c) {
+        const std::size_t k = v * b + static_cast<std::size_t>(set * kInfluencesPerSet + c);
+        const uint32_t joint = joints->Uint(v, c);
+        if (joint >= joint_count) {
+          return InvalidArgument(
+              fmt::format("{}: vertex {} influence {} is joint {}, past the skin's {} joints",
+                          joints_name, v, c, joint, joint_count));
+        }
+        const float w = weights->Normalized(v, c);
+        if (!std::isfinite(w) || w < 0.0f) {
+          return InvalidArgument(
+              fmt::format("{}: vertex {} influence {} is {}; weights must be finite and >= 0",
+                          weights_name, v, c, w));
+        }
+        a.joints[k] = static_cast<uint16_t>(joint);
+        a.weights[k] = w;
+      }
+    }
+  }
+  // Every vertex's weights are divided by their sum. The spec asks for a sum of 1, but
+  // quantised (UNSIGNED_BYTE) weights and exporters' rounding miss it by more than
+  // Mesh::Create's kWeightSumTolerance (1e-3), which it rejects by default; dividing here
+  // makes the importer's output pass that validator, and leaves a weight sum of exactly 1
+  // up to float rounding, so skinning never scales a vertex.
+  for (std::size_t v = 0; v < v_count; ++v) {
+    double sum = 0;
+    for (std::size_t i = 0; i < b; ++i) sum += a.weights[v * b + i];
+    if (!(sum > 0)) {
+      return InvalidArgument(fmt::format(
+          "{}.attributes.WEIGHTS_n: vertex {} has all weights zero; each vertex needs one > 0",
+          what, v));
+    }
+    for (std::size_t i = 0; i < b; ++i) {
+      a.weights[v * b + i] = static_cast<float>(a.weights[v * b + i] / sum);
+    }
+  }
+
+  if (p.indices >= 0) {
+    auto indices = AccessorReader::Open(
+        model, p.indices, what + ".indices", TINYGLTF_TYPE_SCALAR,
+        {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+         TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT});
+    if (!indices.ok()) return indices.status();
+    out->indices.resize(indices->count());
+    for (std::size_t i = 0; i < indices->count(); ++i) {
+      const uint32_t index = indices->Uint(i, 0);
+      if (index >= v_count) {
+        return InvalidArgument(fmt::format("{}.indices[{}] = {} is not below the {} vertices", what,
+                                           i, index, v_count));
+      }
+      out->indices[i] = index;
+    }
+  } else {
+    out->indices.resize(v_count);
+    for (std::size_t i = 0; i < v_count; ++i) out->indices[i] = static_cast<uint32_t>(i);
+  }
+  if (out->indices.size() % 3 != 0) {
+    return InvalidArgument(
+        fmt::format("{}: {} triangle indices is not a multiple of 3", what, out->indices.size()));
+  }
+
+  // The engine's own validator, with no operator limits: what it rejects here (e.g. a zero
+  // normal) would be rejected at upload, so say so now, naming the primitive.
+  MeshOptions unlimited;
+  unlimited.limits.max_vertices = std::numeric_limits<uint32_t>::max();
+  unlimited.limits.max_joints = kMaxJointsLimit;
+  if (auto mesh = Mesh::Create(a, unlimited); !mesh.ok()) {
+    return InvalidArgument(fmt::format("{}: {}", what, mesh.status().message()));
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<std::vector<SkinnedPrimitive>> ImportSkinnedPrimitives(
+    const tinygltf::Model& model, const std::vector<CharacterSkin>& skins) {
+  std::vector<SkinnedPrimitive> primitives;
+  for (std::size_t n = 0; n < model.nodes.size(); ++n) {
+    const tinygltf::Node& node = model.nodes[n];
+    if (node.mesh < 0 || node.skin < 0) continue;  // not a skinned mesh node
+    if (static_cast<std::size_t>(node.mesh) >= model.meshes.size()) {
+      return InvalidArgument(fmt::format("nodes[{}].mesh = {} is not a mesh (the file has {})", n,
+                                         node.mesh, model.meshes.size()));
+    }
+    if (static_cast<std::size_t>(node.skin) >= skins.size()) {
+      return InvalidArgument(fmt::format("nodes[{}].skin = {} is not a skin (the file has {})", n,
+                                         node.skin, skins.size()));
+    }
+    const tinygltf::Mesh& mesh = model.meshes[static_cast<std::size_t>(node.mesh)];
+    const uint32_t joint_count =
+        static_cast<uint32_t>(skins[static_cast<std::size_t>(node.skin)].joints.size());
+    for (std::size_t p = 0; p < mesh.primitives.size(); ++p) {
+      const std::string what = fmt::format("meshes[{}].primitives[{}]", node.mesh, p);
+      auto sets = CountInfluenceSets(mesh.primitives[p], what);
+      if (!sets.ok()) return sets.status();
+      // A primitive without joints and weights is not skinned (e.g. a rigid prop in the
+      // same mesh): it is not part of what this importer returns.
+      if (*sets == 0) continue;
+      SkinnedPrimitive out;
+      out.name = fmt::format(
+          "{}/{}", mesh.name.empty() ? fmt::format("meshes[{}]", node.mesh) : mesh.name, p);
+      out.node = static_cast<int>(n);
+      out.skin = node.skin;
+      if (Status s =
+              ReadSkinnedPrimitive(model, mesh.primitives[p], what, *sets, joint_count, &out);
+          !s.ok()) {
+        return s;
+      }
+      primitives.push_back(std::move(out));
+    }
+  }
+  if (primitives.empty()) {
+    return InvalidArgument(
+        "the file has no skinned primitive (a node with both mesh and skin whose primitive has "
+        "JOINTS_0 and WEIGHTS_0)");
+  }
+  return primitives;
+}
+
+}  // namespace skinserve::gltf

@@ -1,0 +1,85 @@
+// Backend: one implementation of skinning (serial, openmp, sse, ...): linear blend
+// skinning always, dual-quaternion skinning where info().methods lists it.
+// A backend prepares each mesh once (its own layout, its own device buffers); per frame
+// only the palette goes in and the vertices come out.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "skinserve/model/mesh.h"
+#include "skinserve/model/skinning_method.h"
+#include "skinserve/model/status.h"
+
+namespace skinserve {
+
+struct BackendInfo {
+  std::string id;           // stable id, the same on the wire, in the CLI and in reports
+  std::string description;  // one line for humans
+  bool available = true;
+  std::string unavailable_reason;  // why not, when !available
+  std::string device;              // e.g. the CPU model or the OpenCL device name
+  int simd_width = 1;              // float lanes one instruction works on (1: scalar)
+  std::string simd_target;         // SIMD target chosen at run time (`simd`), e.g. "AVX2"
+  int threads = 1;                 // compute threads one frame occupies, at most
+  // The fewest threads a frame can run on (SkinFrame::threads); 0: exactly `threads`.
+  int min_threads = 0;
+  std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};  // what Skin() implements
+
+  bool Supports(SkinningMethod method) const;
+};
+
+// A backend's resident copy of one mesh. Backends derive from it to hold their layout.
+class PreparedMesh {
+ public:
+  explicit PreparedMesh(std::shared_ptr<const Mesh> mesh) : mesh_(std::move(mesh)) {}
+  virtual ~PreparedMesh() = default;
+  const Mesh& mesh() const { return *mesh_; }
+
+ private:
+  std::shared_ptr<const Mesh> mesh_;
+};
+
+// Device time of one frame, from a backend that runs on a device with profiling events
+// (OpenCL); zero elsewhere.
+struct DeviceTiming {
+  int64_t transfer_ns = 0;  // host<->device copies, summed (they may overlap the kernels)
+  int64_t kernel_ns = 0;    // kernels, summed
+};
+
+// One frame of work, in the manner of ozz's SkinningJob: plain spans, Validate() first.
+//  - palette:   12 * joint_count finite floats (see palette.h).
+//  - positions: 3 * vertex_count floats written by the backend, x y z per vertex.
+//  - normals:   empty to skip normals; else 3 * vertex_count floats, unit length, and
+//               the mesh must have normals.
+//  - threads:   the threads this frame may use, between info.min_threads and
+//               info.threads (the engine's scheduler decides); 0: info.threads.
+//  - device_timing: null, or where a device backend writes the frame's device time.
+//  - method:    dual-quaternion also needs every joint matrix rigid (ValidateRigidPalette).
+struct SkinFrame {
+  std::span<const float> palette;
+  std::span<float> positions;
+  std::span<float> normals;
+  int threads = 0;
+  DeviceTiming* device_timing = nullptr;
+  SkinningMethod method = SkinningMethod::kLinear;
+
+  Status Validate(const Mesh& mesh) const;
+};
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual const BackendInfo& info() const = 0;
+  // Builds this backend's resident copy of `mesh`. Called once per mesh and backend.
+  virtual Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) = 0;
+  // Skins one validated frame whose method info() lists (the engine checks before it
+  // queues the frame; the CPU backends also refuse others with INVALID_ARGUMENT).
+  // Thread-safe: may run concurrently, also on one mesh.
+  virtual Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) = 0;
+};
+
+}  // namespace skinserve

@@ -1,0 +1,206 @@
+// Engine: the backends by id, the mesh store and the compute threads. Usable in-process;
+// the server is a thin translation of wire messages onto it.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "skinserve/engine/backend.h"
+#include "skinserve/model/mesh.h"
+#include "skinserve/model/status.h"
+
+namespace skinserve {
+
+struct EngineOptions {
+  int compute_threads = 0;           // 0: one per core
+  std::size_t queue_capacity = 256;  // frames waiting for a compute thread
+  uint32_t max_instances = 64;       // crowd batches: instances per request
+  // A parallel backend's frame is split across threads only when nothing else waits and
+  // each thread gets at least this many vertices (waking a team costs ~10-50 us; a
+  // 25k-vertex, 2-bone frame takes ~50 us on one thread).
+  uint64_t split_min_vertices = 50'000;
+  uint64_t mesh_budget_bytes = 4ull << 30;    // LRU eviction beyond this
+  MeshOptions mesh;                           // limits and weight policy on ingest
+  std::vector<std::string> enabled_backends;  // ids; empty: all
+  // The OpenCL backends' device: "" (the first CPU device, else the first device), "cpu",
+  // "gpu", or part of a platform or device name. A choice that finds no device fails
+  // Engine::Create (with the devices there are); "" leaves OpenCL unavailable instead.
+  std::string opencl_device;
+};
+
+struct MeshInfo {
+  std::string id;
+  uint32_t vertex_count = 0;
+  uint32_t influences = 0;
+  uint32_t joint_count = 0;
+  bool has_normals = false;
+  uint64_t bytes = 0;
+  uint32_t normalized_vertices = 0;
+  bool already_stored = false;  // the same content was stored before (dedupe)
+};
+
+// Server-side time of one frame, for the wire's timing breakdown.
+struct FrameTiming {
+  int64_t queued_ns = 0;  // from Submit until a compute thread took it
+  // From the first instance's start to the last instance's end: the backend's Skin calls
+  // and, in between, each instance's SkinJob::OnInstanceSkinned.
+  int64_t compute_ns = 0;
+  // Of compute_ns, device time from profiling events (OpenCL backends; else 0):
+  int64_t device_transfer_ns = 0;  // host<->device transfers, summed
+  int64_t device_kernel_ns = 0;    // kernels, summed
+};
+
+// One frame to skin: one instance of a mesh, or a crowd of `instances` instances (K), each
+// with its own palette, skinned side by side. Inputs and outputs are caller-owned and
+// must stay valid until the frame is done; instance i's arrays follow instance i-1's.
+struct SkinRequest {
+  std::string mesh_id;
+  std::string backend;
+  std::span<const float> palette;  // 12 * joint_count * K floats
+  uint32_t instances = 1;          // K; 0 means 1; at most EngineOptions::max_instances
+  std::span<float> positions;      // 3 * vertex_count * K
+  std::span<float> normals;        // empty: no normals; else 3 * vertex_count * K
+  SkinningMethod method = SkinningMethod::kLinear;  // the backend must list it
+  // Jobs only (Engine::Submit(SkinJob*)): skin each instance into scratch memory of the
+  // compute thread that runs it and hand it to SkinJob::OnInstanceSkinned, which must use
+  // it up (e.g. encode it) before returning; positions and normals then stay empty. Keeps a
+  // crowd's float results in that core's cache instead of streaming a frame-sized buffer
+  // through memory. At most kMaxScratchFloatsPerInstance floats per instance (positions
+  // and normals together), so each compute thread keeps at most that much.
+  bool skin_into_scratch = false;
+  bool scratch_normals = false;  // with skin_into_scratch: skin normals too
+};
+
+inline constexpr std::size_t kMaxScratchFloatsPerInstance = std::size_t{1} << 20;  // 4 MiB
+// The scratch floats one instance takes: positions, then normals from the next cache line.
+constexpr std::size_t ScratchFloatsPerInstance(uint32_t vertex_count, bool normals) {
+  const std::size_t outputs = 3ull * vertex_count;
+  constexpr std::size_t kFloatsPerLine = 16;
+  return normals ? (outputs + kFloatsPerLine - 1) / kFloatsPerLine * kFloatsPerLine + outputs
+                 : outputs;
+}
+using SkinDone = std::function<void(Status, FrameTiming)>;
+
+// A frame the caller owns and reuses frame after frame, so that the steady-state path
+// allocates nothing: fill `request`, Engine::Submit(job); OnInstanceSkinned runs once per
+// instance skinned without error, and OnSkinned once, after every instance. Resubmit only
+// after OnSkinned has run.
+class SkinJob {
+ public:
+  SkinJob() = default;
+  SkinJob(const SkinJob&) = delete;
+  SkinJob& operator=(const SkinJob&) = delete;
+  virtual ~SkinJob() = default;
+
+  SkinRequest request;
+
+ protected:
+  // Runs on the compute thread that skinned `instance`, right after it, while its output is
+  // still in that core's cache (e.g. to encode it); other instances' calls may run at the
+  // same time on other threads. `positions` and `normals` (empty without normals) are the
+  // instance's output: its part of the request's arrays, or with skin_into_scratch the
+  // thread's scratch, valid until this returns. Non-OK fails the frame as a failed instance
+  // would.
+  virtual Status OnInstanceSkinned(uint32_t /*instance*/, std::span<const float> /*positions*/,
+                                   std::span<const float> /*normals*/) {
+    return Status::Ok();
+  }
+  // Runs once, on a compute thread, after every instance (and its OnInstanceSkinned).
+  virtual void OnSkinned(Status status, const FrameTiming& timing) = 0;
+
+ private:
+  friend class Engine;
+  // The engine's bookkeeping for the frame in flight.
+  std::shared_ptr<void> lease_;  // pins the mesh
+  void* engine_ = nullptr;
+  std::size_t backend_index_ = 0;
+  uint32_t vertex_count_ = 0;
+  int64_t submitted_ns_ = 0;
+  std::atomic<int64_t> started_ns_{0};
+  std::atomic<uint32_t> remaining_{0};
+  std::atomic<int64_t> device_transfer_ns_{0};  // OpenCL instances' device time, summed
+  std::atomic<int64_t> device_kernel_ns_{0};
+  std::mutex status_mutex_;
+  Status status_;  // the first failure among the instances
+};
+
+struct BackendStats {
+  std::string id;
+  uint64_t frames = 0;
+  uint64_t vertices = 0;
+  uint64_t errors = 0;
+  int64_t compute_ns_total = 0;
+};
+
+struct EngineStats {
+  std::vector<BackendStats> backends;
+  std::size_t queue_depth = 0;
+  std::size_t queue_capacity = 0;
+  int compute_threads = 0;
+  std::size_t meshes = 0;
+  uint64_t mesh_bytes = 0;
+  uint64_t mesh_budget_bytes = 0;
+  uint64_t evictions = 0;
+  uint64_t rejected_queue_full = 0;
+  int peak_busy_threads = 0;  // most compute threads ever skinning at once
+};
+
+class Engine {
+ public:
+  // Builds every enabled backend (the OpenCL program included) before returning, so a
+  // server that holds an Engine is ready to serve.
+  static Result<std::unique_ptr<Engine>> Create(const EngineOptions& options);
+  ~Engine();  // Shutdown(), then joins the compute threads
+
+  const EngineOptions& options() const;
+  // Enabled backends in a stable order, available or not (with the reason).
+  std::vector<BackendInfo> Backends() const;
+
+  // Checks an upload's declared shape against the limits and the mesh budget before any
+  // array is received or allocated (INVALID_ARGUMENT or RESOURCE_EXHAUSTED).
+  Status CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
+                        bool has_normals) const;
+  // Validates and stores a mesh (dedupe by content id; LRU eviction beyond the budget).
+  // `weight_policy` overrides the engine's (options().mesh) for this mesh.
+  Result<MeshInfo> AddMesh(const MeshArrays& arrays,
+                           std::optional<WeightPolicy> weight_policy = std::nullopt);
+  Result<MeshInfo> GetMesh(const std::string& id) const;
+  // The same into `info`, reusing its strings (no allocation once they have grown).
+  Status GetMesh(const std::string& id, MeshInfo* info) const;
+  // Whether a batch of `instances` (0 means 1) of a mesh of `vertex_count` vertices is
+  // within the limits (max_instances; instances * vertex_count <= max_vertices), so a
+  // caller can check before sizing its buffers. INVALID_ARGUMENT naming the limit.
+  Status CheckBatch(uint32_t vertex_count, uint32_t instances) const;
+  bool DeleteMesh(const std::string& id);
+
+  // Checks the request (unknown mesh: NOT_FOUND; unknown or unavailable backend, bad
+  // palette or output sizes, too many instances, a method the backend lacks, for
+  // dual-quaternion a joint that is not rigid: INVALID_ARGUMENT naming the instance;
+  // full queue: RESOURCE_EXHAUSTED; shut down: UNAVAILABLE) and queues it. On OK,
+  // OnSkinned is called exactly once, on a compute thread; on an error, never.
+  // Allocates nothing.
+  Status Submit(SkinJob* job);
+  // The same for a request and a callback (allocates the job: for tools and tests).
+  Status Submit(SkinRequest request, SkinDone done);
+  // Submit and wait: for tools and tests.
+  Status SkinBlocking(SkinRequest request, FrameTiming* timing = nullptr);
+
+  EngineStats Stats() const;
+  // Refuses new frames with UNAVAILABLE and waits for the queued ones to finish.
+  void Shutdown();
+
+ private:
+  class Impl;
+  static void RunPart(void* job, uint32_t instance, int threads);
+  explicit Engine(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace skinserve

@@ -1,0 +1,295 @@
+// `opencl`: the paper's plain OpenCL path. The mesh is copied into device buffers once;
+// each frame writes the palette to the device and reads the result back.
+//
+// On a device with memory of its own (a discrete GPU) every frame crosses PCIe, so:
+//  - the palette and the results travel through page-locked (pinned) host memory of the
+//    frame's lane, which the DMA engine reads and writes at the link's speed (pageable
+//    memory makes the driver stage each transfer through its own pinned buffers);
+//  - the frame runs in chunks: chunk k's kernel on the lane's compute queue, its read-back
+//    on the lane's transfer queue after that kernel's event, so the read-back of one chunk
+//    overlaps the kernel of the next, and the host copies chunk k out of pinned memory
+//    while chunk k + 1 is still crossing the link, with the engine's threads that no other
+//    frame's copy-out is using (one frame alone: all of them; see Lease::copy_threads);
+//  - frames of several compute threads run on different lanes at once, so one frame's
+//    read-back also overlaps another's upload and kernels.
+// On a device that shares host memory (PoCL) the frame is one write, one kernel and one
+// read straight from and into the caller's memory: staging would only add a copy.
+#include <omp.h>
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+#include "opencl_backends.h"
+#include "skinserve/model/palette.h"
+
+namespace skinserve {
+namespace {
+
+struct OpenClPreparedMesh final : PreparedMesh {
+  using PreparedMesh::PreparedMesh;
+  ClBuffer positions, normals, joints, weights;
+};
+
+// Copies `bytes` with up to `threads` threads (large copies only).
+void ParallelCopy(void* to, const void* from, std::size_t bytes, int threads) {
+  constexpr std::size_t kPerThreadMin = 1u << 20;
+  const int use = static_cast<int>(
+      std::clamp<std::size_t>(bytes / kPerThreadMin, 1, static_cast<std::size_t>(threads)));
+  if (use == 1) {
+    std::memcpy(to, from, bytes);
+    return;
+  }
+  const std::size_t piece = (bytes / use + 63) / 64 * 64;
+#pragma omp parallel for num_threads(use) schedule(static)
+  for (int t = 0; t < use; ++t) {
+    const std::size_t begin = std::min(bytes, piece * t), end = std::min(bytes, begin + piece);
+    std::memcpy(static_cast<char*>(to) + begin, static_cast<const char*>(from) + begin,
+                end - begin);
+  }
+}
+
+class OpenClCopyBackend final : public Backend {
+ public:
+  explicit OpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime)
+      : runtime_(std::move(runtime)),
+        info_(OpenClBackendInfo(
+            *runtime_, "opencl",
+            runtime_->staging() ? "OpenCL kernel; palette written and result read back per frame "
+                                  "through pinned memory, in overlapped chunks"
+                                : "OpenCL kernel; palette written and result read back per frame",
+            // Staged: a frame waits on the device and then copies with the threads other
+            // frames leave free, so it holds one compute thread of the engine.
+            runtime_->staging() ? 1 : runtime_->compute_units())) {}
+  const BackendInfo& info() const override { return info_; }
+
+  Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
+    auto prepared = std::make_unique<OpenClPreparedMesh>(mesh);
+    constexpr cl_mem_flags kCopyIn = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
+    struct Plan {
+      const char* what;
+      ClBuffer* buffer;
+      std::size_t bytes;
+      const void* host;
+    };
+    std::vector<Plan> plan = {
+        {"positions", &prepared->positions, mesh->positions().size_bytes(),
+         mesh->positions().data()},
+        {"joints", &prepared->joints, mesh->joints().size_bytes(), mesh->joints().data()},
+        {"weights", &prepared->weights, mesh->weights().size_bytes(), mesh->weights().data()}};
+    if (mesh->has_normals()) {
+      plan.push_back(
+          {"normals", &prepared->normals, mesh->normals().size_bytes(), mesh->normals().data()});
+    }
+    for (const Plan& p : plan) {
+      auto buffer = runtime_->CreateBuffer(p.what, kCopyIn, p.bytes, p.host);
+      if (!buffer.ok()) return buffer.status();
+      *p.buffer = std::move(buffer).value();
+    }
+    return std::unique_ptr<PreparedMesh>(std::move(prepared));
+  }
+
+  Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    const auto& prepared = static_cast<const OpenClPreparedMesh&>(base);
+    const bool with_normals = !frame.normals.empty();
+    if (with_normals && prepared.normals.get() == nullptr) {
+      return InvalidArgument("normals requested, but the mesh has none");
+    }
+    auto lane = runtime_->AcquireLane();
+    if (Status s = Reserve(*lane, frame); !s.ok()) return s;
+    ClEvents kernels, transfers;
+    Status status = runtime_->staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame,
+                                                     kernels, transfers)
+                                        : SkinDirect(*lane, prepared, frame, kernels, transfers);
+    if (!status.ok()) {
+      // Enqueued commands may still use the lane's buffers (and, direct, the caller's
+      // memory): the lane is idle before it is handed on.
+      clFinish(lane->compute);
+      clFinish(lane->transfer);
+      return status;
+    }
+    if (frame.device_timing != nullptr) {
+      auto kernel_ns = ProfiledNs(kernels.all());
+      if (!kernel_ns.ok()) return kernel_ns.status();
+      auto transfer_ns = ProfiledNs(transfers.all());
+      if (!transfer_ns.ok()) return transfer_ns.status();
+      *frame.device_timing = {.transfer_ns = *transfer_ns, .kernel_ns = *kernel_ns};
+    }
+    return Status::Ok();
+  }
+
+ private:
+  // The lane's device buffers (and pinned staging) large enough for `frame`.
+  Status Reserve(OpenClLane& lane, const SkinFrame& frame) {
+    const std::size_t out_bytes = frame.positions.size_bytes();
+    if (Status s = runtime_->GrowBuffer("palette", CL_MEM_READ_ONLY, frame.palette.size_bytes(),
+                                        &lane.palette, &lane.palette_bytes);
+        !s.ok()) {
+      return s;
+    }
+    if (Status s = runtime_->GrowBuffer("output positions", CL_MEM_WRITE_ONLY, out_bytes,
+                                        &lane.out_positions, &lane.positions_bytes);
+        !s.ok()) {
+      return s;
+    }
+    if (!frame.normals.empty()) {
+      if (Status s = runtime_->GrowBuffer("output normals", CL_MEM_WRITE_ONLY, out_bytes,
+                                          &lane.out_normals, &lane.normals_bytes);
+          !s.ok()) {
+        return s;
+      }
+    }
+    if (!runtime_->staging()) return Status::Ok();
+    if (Status s = runtime_->GrowPinned(lane.compute, "pinned palette", frame.palette.size_bytes(),
+                                        &lane.pinned_palette);
+        !s.ok()) {
+      return s;
+    }
+    if (Status s = runtime_->GrowPinned(lane.compute, "pinned positions", out_bytes,
+                                        &lane.pinned_positions);
+        !s.ok()) {
+      return s;
+    }
+    if (!frame.normals.empty()) {
+      return runtime_->GrowPinned(lane.compute, "pinned normals", out_bytes, &lane.pinned_normals);
+    }
+    return Status::Ok();
+  }
+
+  SkinKernelArgs Args(const OpenClLane& lane, const OpenClPreparedMesh& prepared,
+                      bool with_normals) const {
+    SkinKernelArgs args{.palette = lane.palette.get(),
+                        .joints = prepared.joints.get(),
+                        .weights = prepared.weights.get(),
+                        .positions = prepared.positions.get(),
+                        .out_positions = lane.out_positions.get()};
+    if (with_normals) {
+      args.normals = prepared.normals.get();
+      args.out_normals = lane.out_normals.get();
+    }
+    return args;
+  }
+
+  // One in-order queue: write, run, read in sequence; the last read blocks, so the
+  // caller's palette and outputs are in use only within this call.
+  Status SkinDirect(OpenClLane& lane, const OpenClPreparedMesh& prepared, const SkinFrame& frame,
+                    ClEvents& kernels, ClEvents& transfers) {
+    const bool with_normals = !frame.normals.empty();
+    if (cl_int err = clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
+                                          frame.palette.size_bytes(), frame.palette.data(), 0,
+                                          nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueWriteBuffer(palette)", err);
+    }
+    const Mesh& mesh = prepared.mesh();
+    if (Status s = runtime_->EnqueueSkin(lane, mesh, Args(lane, prepared, with_normals), 0,
+                                         mesh.vertex_count(), kernels.Next());
+        !s.ok()) {
+      return s;
+    }
+    if (with_normals) {
+      if (cl_int err = clEnqueueReadBuffer(lane.compute, lane.out_normals.get(), CL_FALSE, 0,
+                                           frame.normals.size_bytes(), frame.normals.data(), 0,
+                                           nullptr, transfers.Next());
+          err != CL_SUCCESS) {
+        return ClError("clEnqueueReadBuffer(normals)", err);
+      }
+    }
+    if (cl_int err = clEnqueueReadBuffer(lane.compute, lane.out_positions.get(), CL_TRUE, 0,
+                                         frame.positions.size_bytes(), frame.positions.data(), 0,
+                                         nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueReadBuffer(positions)", err);
+    }
+    return Status::Ok();
+  }
+
+  // Pinned staging, chunks, two queues: see the top of this file.
+  Status SkinStaged(OpenClLane& lane, int copy_threads, const OpenClPreparedMesh& prepared,
+                    const SkinFrame& frame, ClEvents& kernels, ClEvents& transfers) {
+    const bool with_normals = !frame.normals.empty();
+    const Mesh& mesh = prepared.mesh();
+    const uint32_t vertices = mesh.vertex_count();
+    std::memcpy(lane.pinned_palette.host, frame.palette.data(), frame.palette.size_bytes());
+    if (cl_int err = clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
+                                          frame.palette.size_bytes(), lane.pinned_palette.host, 0,
+                                          nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueWriteBuffer(palette)", err);
+    }
+    const uint32_t align = OpenClRuntime::kChunkAlignment;
+    const uint32_t most = static_cast<uint32_t>(runtime_->max_chunks());
+    // Chunks start at multiples of `align` (the runtime rounds min_chunk_vertices up too).
+    const uint32_t per_chunk = std::max(runtime_->min_chunk_vertices(),
+                                        ((vertices + most - 1) / most + align - 1) / align * align);
+    struct Chunk {
+      uint32_t first, end;
+      std::vector<cl_event> reads;
+    };
+    std::vector<Chunk> chunks;
+    const SkinKernelArgs args = Args(lane, prepared, with_normals);
+    for (uint32_t first = 0; first < vertices; first += per_chunk) {
+      Chunk chunk{first, std::min(vertices, first + per_chunk), {}};
+      cl_event* kernel = kernels.Next();
+      if (Status s = runtime_->EnqueueSkin(lane, mesh, args, chunk.first, chunk.end, kernel);
+          !s.ok()) {
+        return s;
+      }
+      const std::size_t offset = 3ull * chunk.first * sizeof(float),
+                        bytes = 3ull * (chunk.end - chunk.first) * sizeof(float);
+      struct Read {
+        const char* what;
+        cl_mem from;
+        void* to;
+      };
+      std::vector<Read> reads = {
+          {"clEnqueueReadBuffer(positions)", lane.out_positions.get(), lane.pinned_positions.host}};
+      if (with_normals) {
+        reads.push_back(
+            {"clEnqueueReadBuffer(normals)", lane.out_normals.get(), lane.pinned_normals.host});
+      }
+      for (const Read& read : reads) {
+        cl_event* event = transfers.Next();
+        if (cl_int err =
+                clEnqueueReadBuffer(lane.transfer, read.from, CL_FALSE, offset, bytes,
+                                    static_cast<char*>(read.to) + offset, 1, kernel, event);
+            err != CL_SUCCESS) {
+          return ClError(read.what, err);
+        }
+        chunk.reads.push_back(*event);
+      }
+      chunks.push_back(std::move(chunk));
+      // Submit now, so the device starts on this chunk while the next is enqueued.
+      clFlush(lane.compute);
+      clFlush(lane.transfer);
+    }
+    for (const Chunk& chunk : chunks) {
+      if (cl_int err =
+              clWaitForEvents(static_cast<cl_uint>(chunk.reads.size()), chunk.reads.data());
+          err != CL_SUCCESS) {
+        return ClError("clWaitForEvents(read-back)", err);
+      }
+      const std::size_t offset = 3ull * chunk.first * sizeof(float),
+                        bytes = 3ull * (chunk.end - chunk.first) * sizeof(float);
+      const int threads = copy_threads;
+      ParallelCopy(reinterpret_cast<char*>(frame.positions.data()) + offset,
+                   static_cast<const char*>(lane.pinned_positions.host) + offset, bytes, threads);
+      if (with_normals) {
+        ParallelCopy(reinterpret_cast<char*>(frame.normals.data()) + offset,
+                     static_cast<const char*>(lane.pinned_normals.host) + offset, bytes, threads);
+      }
+    }
+    return Status::Ok();
+  }
+
+  std::shared_ptr<OpenClRuntime> runtime_;
+  BackendInfo info_;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> MakeOpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime) {
+  return std::make_unique<OpenClCopyBackend>(std::move(runtime));
+}
+
+}  // namespace skinserve

@@ -1,0 +1,227 @@
+// OpenClRuntime: the one platform, device, context and built program an engine shares
+// between its OpenCL backends, created once at start-up, and its lanes: each lane an
+// in-order compute queue, an in-order transfer queue, its own kernel objects and its own
+// per-frame buffers, so frames on different lanes run on the device at the same time.
+#pragma once
+
+#include <CL/cl.h>
+
+#include <algorithm>
+#include <array>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "skinserve/model/mesh.h"
+#include "skinserve/model/status.h"
+
+namespace skinserve {
+
+// "CL_INVALID_VALUE" for -30; "CL_UNKNOWN_ERROR" for codes OpenCL 1.2 does not define.
+const char* ClErrorName(cl_int code);
+// "clCreateBuffer(palette) failed: CL_INVALID_VALUE (-30)". Out-of-memory codes map to
+// RESOURCE_EXHAUSTED, every other code to INTERNAL.
+Status ClError(const char* call, cl_int code);
+
+// Owns one cl_mem.
+class ClBuffer {
+ public:
+  ClBuffer() = default;
+  explicit ClBuffer(cl_mem mem) : mem_(mem) {}
+  ClBuffer(ClBuffer&& other) noexcept : mem_(std::exchange(other.mem_, nullptr)) {}
+  ClBuffer& operator=(ClBuffer&& other) noexcept {
+    std::swap(mem_, other.mem_);
+    return *this;
+  }
+  ClBuffer(const ClBuffer&) = delete;
+  ClBuffer& operator=(const ClBuffer&) = delete;
+  ~ClBuffer() {
+    if (mem_ != nullptr) clReleaseMemObject(mem_);
+  }
+  cl_mem get() const { return mem_; }
+
+ private:
+  cl_mem mem_ = nullptr;
+};
+
+// Owns the events of one frame's commands.
+class ClEvents {
+ public:
+  ClEvents() = default;
+  ClEvents(const ClEvents&) = delete;
+  ClEvents& operator=(const ClEvents&) = delete;
+  ~ClEvents() {
+    for (cl_event event : events_) {
+      if (event != nullptr) clReleaseEvent(event);
+    }
+  }
+  // Where the next enqueue writes its event; it is owned from then on.
+  cl_event* Next() { return &events_.emplace_back(nullptr); }
+  const std::vector<cl_event>& all() const { return events_; }
+
+ private:
+  std::vector<cl_event> events_;
+};
+
+// Device time of the commands in `events` (CL_PROFILING_COMMAND_END - _START, summed).
+Result<int64_t> ProfiledNs(const std::vector<cl_event>& events);
+
+// The device-side arrays of one frame. `normals` and `out_normals` are null when the
+// frame skips normals.
+struct SkinKernelArgs {
+  cl_mem palette = nullptr;
+  cl_mem joints = nullptr;
+  cl_mem weights = nullptr;
+  cl_mem positions = nullptr;
+  cl_mem out_positions = nullptr;
+  cl_mem normals = nullptr;
+  cl_mem out_normals = nullptr;
+};
+
+// Page-locked host memory (CL_MEM_ALLOC_HOST_PTR, mapped for the buffer's lifetime), for
+// transfers the DMA engine does at the link's speed without the driver's own staging.
+struct PinnedBuffer {
+  ClBuffer buffer;
+  void* host = nullptr;
+  std::size_t bytes = 0;
+};
+
+class OpenClRuntime;
+
+// One lane: queues, kernels and the per-frame buffers a backend keeps on it. Used by one
+// frame at a time (OpenClRuntime::Lease).
+struct OpenClLane {
+  cl_command_queue compute = nullptr;   // kernels (and, on a CPU device, every command)
+  cl_command_queue transfer = nullptr;  // read-backs, so they overlap the next kernel
+  // [with normals][influences - 1]
+  std::array<std::array<cl_kernel, kMaxInfluences>, 2> kernels = {};
+  // The copy backend's per-frame buffers, grown to the largest frame this lane has run.
+  ClBuffer palette, out_positions, out_normals;
+  std::size_t palette_bytes = 0, positions_bytes = 0, normals_bytes = 0;
+  PinnedBuffer pinned_palette, pinned_positions, pinned_normals;
+};
+
+struct OpenClRuntimeOptions {
+  // Compute threads of the engine: PoCL's worker count, and the host threads the copy
+  // backend's frames share for copying results out of pinned memory (Lease::copy_threads).
+  int threads = 1;
+  // "" (the first CPU device, else the first device), "cpu", "gpu", or a case-insensitive
+  // substring of a platform's or a device's name.
+  std::string device;
+  // Lanes: 0 chooses (4 with staging; else 1: on a CPU device one frame already occupies
+  // every PoCL thread).
+  int lanes = 0;
+  // Pinned staging and chunked transfers even on a device that shares host memory (for
+  // tests of that path on PoCL); devices with memory of their own always use them.
+  bool force_staging = false;
+  // With staging, a frame of V vertices runs in up to max_chunks chunks of at least
+  // min_chunk_vertices (0: SKINSERVE_OPENCL_CHUNKS if set, else kDefaultChunks). Each
+  // chunk costs a wait on its event and a start of the copy-out's threads (tens of us on
+  // NVIDIA's driver): on the H100, 1.6M vertices ran fastest in 2 chunks, 400k in 1 (see
+  // README, "Figure 5 today").
+  int max_chunks = 0;
+  uint32_t min_chunk_vertices = 512 * 1024;
+};
+
+class OpenClRuntime {
+ public:
+  // Picks the device, sets PoCL's thread count to `threads` (unless POCL_MAX_PTHREAD_COUNT
+  // is set), builds the program and runs every kernel once on every lane so that the
+  // first real frame compiles nothing. FAILED_PRECONDITION (no platform, no device, no
+  // device matching the choice - with the list of what there is - or the build log) or
+  // the failing call's error.
+  static Result<std::shared_ptr<OpenClRuntime>> Create(const OpenClRuntimeOptions& options);
+  ~OpenClRuntime();
+  OpenClRuntime(const OpenClRuntime&) = delete;
+  OpenClRuntime& operator=(const OpenClRuntime&) = delete;
+
+  // A lane held by one frame; returned to the pool when destroyed. Blocks while every
+  // lane is busy.
+  class Lease {
+   public:
+    Lease(OpenClRuntime* runtime, OpenClLane* lane, int busy)
+        : runtime_(runtime), lane_(lane), busy_(busy) {}
+    Lease(const Lease&) = delete;
+    Lease& operator=(const Lease&) = delete;
+    ~Lease() { runtime_->Release(lane_); }
+    OpenClLane& operator*() const { return *lane_; }
+    OpenClLane* operator->() const { return lane_; }
+    // Host threads this frame may use to copy its results out of pinned memory: the
+    // engine's threads shared among the lanes busy when it was acquired (this one too).
+    int copy_threads() const { return std::max(1, runtime_->threads_ / busy_); }
+
+   private:
+    OpenClRuntime* runtime_;
+    OpenClLane* lane_;
+    int busy_;
+  };
+  Lease AcquireLane();
+
+  // Sets the arguments of `lane`'s kernel for `mesh`'s influence count (with normals when
+  // args.out_normals is set) and enqueues it on the lane's compute queue over vertices
+  // [first, end) (first a multiple of kChunkAlignment). `event`: null or where to put the
+  // kernel's event.
+  Status EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args, uint32_t first,
+                     uint32_t end, cl_event* event);
+  // A buffer: device memory (host == nullptr), a copy of `host`, or `host` used in place
+  // (CL_MEM_USE_HOST_PTR). `what` names the buffer in errors.
+  Result<ClBuffer> CreateBuffer(const char* what, cl_mem_flags flags, std::size_t bytes,
+                                const void* host);
+  // Makes `buffer` (device memory, `flags`) hold at least `bytes`, `capacity` its size.
+  Status GrowBuffer(const char* what, cl_mem_flags flags, std::size_t bytes, ClBuffer* buffer,
+                    std::size_t* capacity);
+  // Makes `pinned` page-locked host memory of at least `bytes`, mapped on `queue` for
+  // reading and writing (unmapping the old one).
+  Status GrowPinned(cl_command_queue queue, const char* what, std::size_t bytes,
+                    PinnedBuffer* pinned);
+
+  // Vertex ranges of a chunked frame start at multiples of this (one work-group's).
+  static constexpr uint32_t kChunkAlignment = 256;
+
+  cl_context context() const { return context_; }
+  cl_device_id device() const { return device_; }
+  const std::string& device_name() const { return device_name_; }
+  // The platform's version, e.g. "OpenCL 3.0 PoCL 3.1+debian".
+  const std::string& platform_version() const { return platform_version_; }
+  // Compute units: PoCL's worker threads on its CPU device, SMs on an NVIDIA GPU.
+  int compute_units() const { return compute_units_; }
+  int vector_width() const { return vector_width_; }
+  bool is_cpu() const { return is_cpu_; }
+  // Whether frames go through pinned staging in chunks (a device with memory of its own,
+  // or forced): else the device reads and writes host memory directly.
+  bool staging() const { return staging_; }
+  int lane_count() const { return static_cast<int>(lanes_.size()); }
+  int max_chunks() const { return max_chunks_; }
+  uint32_t min_chunk_vertices() const { return min_chunk_vertices_; }
+  static constexpr int kDefaultChunks = 2;
+
+ private:
+  OpenClRuntime() = default;
+  Status Build(const std::string& options);
+  Status CreateLanes(int count);
+  Status Warm();
+  void Release(OpenClLane* lane);
+
+  cl_device_id device_ = nullptr;
+  cl_context context_ = nullptr;
+  cl_program program_ = nullptr;
+  std::vector<std::unique_ptr<OpenClLane>> lanes_;
+  std::mutex lanes_mutex_;
+  std::condition_variable lane_freed_;
+  std::vector<OpenClLane*> free_lanes_;
+  std::string device_name_;
+  std::string platform_version_;
+  int compute_units_ = 1;
+  int vector_width_ = 1;
+  bool is_cpu_ = true;
+  bool staging_ = false;
+  int threads_ = 1;
+  int max_chunks_ = kDefaultChunks;
+  uint32_t min_chunk_vertices_ = 1;
+};
+
+}  // namespace skinserve

@@ -1,0 +1,496 @@
+#include "skinserve/engine/engine.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <exception>
+#include <future>
+#include <thread>
+
+#include "compute_pool.h"
+#include "mesh_store.h"
+#include "skinserve/model/aligned_buffer.h"
+#include "skinserve/engine/backend_registry.h"
+#include "skinserve/model/palette.h"
+
+namespace skinserve {
+namespace {
+
+int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+MeshInfo DescribeMesh(const Mesh& mesh) {
+  MeshInfo info;
+  info.id = mesh.id();
+  info.vertex_count = mesh.vertex_count();
+  info.influences = mesh.influences();
+  info.joint_count = mesh.joint_count();
+  info.has_normals = mesh.has_normals();
+  info.bytes = mesh.byte_size();
+  info.normalized_vertices = mesh.normalized_vertices();
+  return info;
+}
+
+// Per compute thread: where instances of skin_into_scratch jobs are skinned. It grows to
+// the largest instance the thread has met (at most kMaxScratchFloatsPerInstance floats)
+// and is reused for every later one, so it stays in that core's cache.
+AlignedBuffer<float>& ThreadScratch(std::size_t floats) {
+  thread_local AlignedBuffer<float> scratch;
+  if (scratch.size() < floats) scratch = AlignedBuffer<float>(floats);
+  return scratch;
+}
+
+}  // namespace
+
+class Engine::Impl {
+ public:
+  struct Counters {
+    std::atomic<uint64_t> frames{0}, vertices{0}, errors{0};
+    std::atomic<int64_t> compute_ns{0};
+  };
+
+  Impl(const EngineOptions& options, int threads, std::vector<std::unique_ptr<Backend>> backends)
+      : options_(options),
+        backends_(std::move(backends)),
+        counters_(backends_.size()),
+        store_(options.mesh_budget_bytes, backends_.size()),
+        pool_(threads, options.queue_capacity, options.split_min_vertices) {
+    options_.compute_threads = threads;
+  }
+
+  // The index of backend `id` if it is enabled and available; else why not.
+  Result<std::size_t> FindBackend(const std::string& id) const {
+    std::string available;
+    for (std::size_t i = 0; i < backends_.size(); ++i) {
+      const BackendInfo& info = backends_[i]->info();
+      if (info.id == id) {
+        if (info.available) return i;
+        return InvalidArgument(
+            fmt::format("backend '{}' is not available here: {}", id, info.unavailable_reason));
+      }
+      if (info.available) available += (available.empty() ? "" : ", ") + info.id;
+    }
+    return InvalidArgument(
+        fmt::format("backend '{}' is unknown; available backends: {}", id, available));
+  }
+
+  // OK when backend `index` implements `method`; else an error naming the backends that do.
+  Status CheckMethod(std::size_t index, SkinningMethod method) const {
+    const BackendInfo& info = backends_[index]->info();
+    if (info.Supports(method)) return Status::Ok();
+    std::string supporting;
+    for (const auto& backend : backends_) {
+      const BackendInfo& other = backend->info();
+      if (other.available && other.Supports(method)) {
+        supporting += (supporting.empty() ? "" : ", ") + other.id;
+      }
+    }
+    return InvalidArgument(fmt::format(
+        "backend '{}' does not implement method {} (it implements {}); backends here that do: {}",
+        info.id, MethodName(method), MethodNames(info.methods),
+        supporting.empty() ? "none" : supporting));
+  }
+
+  // The limits of a batch (Engine::CheckBatch).
+  Status CheckBatch(uint32_t vertex_count, uint32_t instances) const {
+    if (instances > options_.max_instances) {
+      return InvalidArgument(
+          fmt::format("instances = {} exceeds the limit of {} instances per request", instances,
+                      options_.max_instances));
+    }
+    const uint64_t total_vertices = uint64_t{vertex_count} * std::max<uint32_t>(instances, 1);
+    if (total_vertices > options_.mesh.limits.max_vertices) {
+      return InvalidArgument(fmt::format(
+          "instances * vertex_count = {} * {} = {} exceeds the limit of {} vertices per frame",
+          instances, vertex_count, total_vertices, options_.mesh.limits.max_vertices));
+    }
+    return Status::Ok();
+  }
+
+  // Everything a frame needs checked before it is queued.
+  Status Check(const SkinRequest& request, const Mesh& mesh, uint32_t instances) const {
+    if (Status s = CheckBatch(mesh.vertex_count(), instances); !s.ok()) return s;
+    const std::size_t per_instance = 12ull * mesh.joint_count();
+    if (instances > 1 && request.palette.size() != per_instance * instances) {
+      const std::size_t whole = request.palette.size() / std::max<std::size_t>(per_instance, 1);
+      return InvalidArgument(
+          whole < instances
+              ? fmt::format("palette holds {} floats: instance {}'s palette is missing or short "
+                            "(a batch of {} instances of a mesh with {} joints needs 12 * {} * "
+                            "{} = {} floats)",
+                            request.palette.size(), whole, instances, mesh.joint_count(),
+                            mesh.joint_count(), instances, per_instance * instances)
+              : fmt::format("palette holds {} floats, more than the 12 * {} * {} = {} of a "
+                            "batch of {} instances",
+                            request.palette.size(), mesh.joint_count(), instances,
+                            per_instance * instances, instances));
+    }
+    const std::size_t outputs = 3ull * mesh.vertex_count();
+    if (request.skin_into_scratch) return CheckScratch(request, mesh, instances);
+    if (request.positions.size() != outputs * instances) {
+      return InvalidArgument(fmt::format(
+          "positions output holds {} floats; expected 3 * vertex_count * instances = {}",
+          request.positions.size(), outputs * instances));
+    }
+    if (!request.normals.empty() && request.normals.size() != outputs * instances) {
+      return InvalidArgument(
+          fmt::format("normals output holds {} floats; expected 3 * vertex_count * instances = {}",
+                      request.normals.size(), outputs * instances));
+    }
+    for (uint32_t i = 0; i < instances; ++i) {
+      if (Status s = InstanceFrame(request, mesh, i).Validate(mesh); !s.ok()) {
+        if (instances == 1) return s;
+        return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
+      }
+    }
+    return Status::Ok();
+  }
+
+  // Check() for skin_into_scratch: no output arrays; the instance fits the scratch.
+  static Status CheckScratch(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
+    if (!request.positions.empty() || !request.normals.empty()) {
+      return InvalidArgument(
+          "skin_into_scratch: positions and normals must be empty (each instance is skinned "
+          "into its compute thread's scratch)");
+    }
+    if (request.scratch_normals && !mesh.has_normals()) {
+      return InvalidArgument("normals were requested but the mesh has none");
+    }
+    const std::size_t floats = ScratchFloats(request, mesh);
+    if (floats > kMaxScratchFloatsPerInstance) {
+      return InvalidArgument(fmt::format(
+          "skin_into_scratch: an instance of {} vertices needs {} floats, over the limit of {}",
+          mesh.vertex_count(), floats, kMaxScratchFloatsPerInstance));
+    }
+    for (uint32_t i = 0; i < instances; ++i) {
+      SkinFrame frame = InstanceFrame(request, mesh, i);
+      Status s = ValidatePalette(frame.palette, mesh.joint_count());
+      if (s.ok() && frame.method == SkinningMethod::kDualQuaternion) {
+        s = ValidateRigidPalette(frame.palette);
+      }
+      if (!s.ok()) {
+        if (instances == 1) return s;
+        return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
+      }
+    }
+    return Status::Ok();
+  }
+
+  static std::size_t ScratchFloats(const SkinRequest& request, const Mesh& mesh) {
+    return ScratchFloatsPerInstance(mesh.vertex_count(), request.scratch_normals);
+  }
+
+  static SkinFrame InstanceFrame(const SkinRequest& request, const Mesh& mesh, uint32_t i,
+                                 int threads = 0) {
+    const std::size_t palette = 12ull * mesh.joint_count();
+    const std::size_t outputs = 3ull * mesh.vertex_count();
+    SkinFrame frame{request.palette.subspan(std::min(request.palette.size(), i * palette)),
+                    std::span<float>(), std::span<float>(), threads};
+    if (!request.skin_into_scratch) {
+      frame.positions = request.positions.subspan(i * outputs, outputs);
+      if (!request.normals.empty()) frame.normals = request.normals.subspan(i * outputs, outputs);
+    }
+    frame.method = request.method;
+    if (request.instances > 1) frame.palette = frame.palette.first(palette);  // sizes checked
+    return frame;
+  }
+
+  Status Submit(SkinJob* job, void (*run)(void*, uint32_t, int)) {
+    if (shut_down_.load()) return Unavailable("the engine is shutting down");
+    const SkinRequest& request = job->request;
+    Result<std::size_t> backend_index = FindBackend(request.backend);
+    if (!backend_index.ok()) return backend_index.status();
+    if (Status s = CheckMethod(*backend_index, request.method); !s.ok()) return s;
+    MeshStore::Lease entry = store_.Acquire(request.mesh_id);
+    if (!entry) {
+      return NotFound(
+          fmt::format("mesh '{}' is not stored on this server; upload it again", request.mesh_id));
+    }
+    const Mesh& mesh = *entry->mesh();
+    const uint32_t instances = std::max<uint32_t>(request.instances, 1);
+    if (Status s = Check(request, mesh, instances); !s.ok()) return s;
+
+    const BackendInfo& info = backends_[*backend_index]->info();
+    job->engine_ = this;
+    job->backend_index_ = *backend_index;
+    job->vertex_count_ = mesh.vertex_count();
+    job->submitted_ns_ = NowNs();
+    job->started_ns_.store(0);
+    job->remaining_.store(instances);
+    job->status_ = Status::Ok();
+    job->lease_ = std::move(entry);
+    ComputePool::Task task;
+    task.run = run;
+    task.context = job;
+    task.parts = instances;
+    task.max_width = info.threads;
+    task.min_width = info.min_threads > 0 ? info.min_threads : info.threads;
+    task.work = mesh.vertex_count();
+    if (!pool_.TrySubmit(task)) {
+      job->lease_.reset();
+      if (shut_down_.load()) return Unavailable("the engine is shutting down");
+      rejected_.fetch_add(1);
+      return ResourceExhausted(fmt::format(
+          "the compute queue is full ({} frames waiting); retry later or keep fewer frames in "
+          "flight",
+          pool_.capacity()));
+    }
+    return Status::Ok();
+  }
+
+  // Skins instance `i` of `job` on `threads` threads into `*frame` (its outputs are what
+  // OnInstanceSkinned gets).
+  Status RunInstance(SkinJob& job, uint32_t i, int threads, SkinFrame* frame) {
+    Backend& backend = *backends_[job.backend_index_];
+    auto& entry = *static_cast<MeshStore::Entry*>(job.lease_.get());
+    Counters& counters = counters_[job.backend_index_];
+    Status status;
+    const int64_t started = NowNs();
+    try {
+      Result<const PreparedMesh*> prepared = entry.Prepared(job.backend_index_, backend);
+      DeviceTiming device;
+      const Mesh& mesh = *entry.mesh();
+      *frame = InstanceFrame(job.request, mesh, i, threads);
+      if (job.request.skin_into_scratch) {
+        const std::size_t outputs = 3ull * mesh.vertex_count();
+        const std::size_t floats = ScratchFloats(job.request, mesh);
+        float* scratch = ThreadScratch(floats).data();
+        frame->positions = {scratch, outputs};
+        if (job.request.scratch_normals) frame->normals = {scratch + floats - outputs, outputs};
+      }
+      frame->device_timing = &device;
+      status = prepared.ok() ? backend.Skin(**prepared, *frame) : prepared.status();
+      job.device_transfer_ns_.fetch_add(device.transfer_ns);
+      job.device_kernel_ns_.fetch_add(device.kernel_ns);
+    } catch (const std::exception& e) {
+      status = Internal(fmt::format("backend '{}' failed: {}", backend.info().id, e.what()));
+    }
+    if (status.ok()) {
+      counters.vertices.fetch_add(job.vertex_count_);
+      counters.compute_ns.fetch_add(NowNs() - started);
+    }
+    return status;
+  }
+
+  EngineOptions options_;
+  std::vector<std::unique_ptr<Backend>> backends_;
+  std::vector<Counters> counters_;
+  MeshStore store_;
+  std::atomic<bool> shut_down_{false};
+  std::atomic<uint64_t> rejected_{0};
+  ComputePool pool_;  // last: its threads stop before the rest is destroyed
+};
+
+Result<std::unique_ptr<Engine>> Engine::Create(const EngineOptions& options) {
+  int threads = options.compute_threads;
+  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<std::unique_ptr<Backend>> all = CreateAllBackends(threads, options.opencl_device);
+  if (!options.opencl_device.empty()) {
+    // The operator chose a device: not finding it is a start-up error, not a warning.
+    for (const auto& b : all) {
+      if (b->info().id == "opencl" && !b->info().available) {
+        return FailedPrecondition(b->info().unavailable_reason);
+      }
+    }
+  }
+  std::vector<std::unique_ptr<Backend>> enabled;
+  if (options.enabled_backends.empty()) {
+    enabled = std::move(all);
+  } else {
+    for (const std::string& id : options.enabled_backends) {
+      auto it = std::find_if(all.begin(), all.end(),
+                             [&](const auto& b) { return b && b->info().id == id; });
+      if (it == all.end()) {
+        std::string known;
+        for (const auto& b : all) {
+          if (b) known += (known.empty() ? "" : ", ") + b->info().id;
+        }
+        return InvalidArgument(
+            fmt::format("enabled backend '{}' is unknown or listed twice; known: {}", id, known));
+      }
+      enabled.push_back(std::move(*it));
+    }
+  }
+  return std::unique_ptr<Engine>(
+      new Engine(std::make_unique<Impl>(options, threads, std::move(enabled))));
+}
+
+Engine::Engine(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Engine::~Engine() { Shutdown(); }
+
+const EngineOptions& Engine::options() const { return impl_->options_; }
+
+std::vector<BackendInfo> Engine::Backends() const {
+  std::vector<BackendInfo> infos;
+  for (const auto& backend : impl_->backends_) infos.push_back(backend->info());
+  return infos;
+}
+
+Status Engine::CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
+                              bool has_normals) const {
+  if (Status s =
+          CheckMeshHeader(vertex_count, influences, joint_count, impl_->options_.mesh.limits);
+      !s.ok()) {
+    return s;
+  }
+  return impl_->store_.CheckFits(MeshByteSize(vertex_count, influences, has_normals));
+}
+
+Result<MeshInfo> Engine::AddMesh(const MeshArrays& arrays,
+                                 std::optional<WeightPolicy> weight_policy) {
+  if (Status s = CheckMeshShape(arrays.vertex_count, arrays.influences, arrays.joint_count,
+                                !arrays.normals.empty());
+      !s.ok()) {
+    return s;
+  }
+  MeshOptions mesh_options = impl_->options_.mesh;
+  if (weight_policy) mesh_options.weight_policy = *weight_policy;
+  auto mesh = Mesh::Create(arrays, mesh_options);
+  if (!mesh.ok()) return mesh.status();
+  bool already_stored = false;
+  if (Status s = impl_->store_.Insert(*mesh, &already_stored); !s.ok()) return s;
+  MeshInfo info = DescribeMesh(**mesh);
+  info.already_stored = already_stored;
+  return info;
+}
+
+Result<MeshInfo> Engine::GetMesh(const std::string& id) const {
+  MeshStore::Lease entry = impl_->store_.Acquire(id);
+  if (!entry) {
+    return NotFound(fmt::format("mesh '{}' is not stored on this server; upload it again", id));
+  }
+  MeshInfo info = DescribeMesh(*entry->mesh());
+  info.already_stored = true;
+  return info;
+}
+
+Status Engine::GetMesh(const std::string& id, MeshInfo* info) const {
+  MeshStore::Lease entry = impl_->store_.Acquire(id);
+  if (!entry) {
+    return NotFound(fmt::format("mesh '{}' is not stored on this server; upload it again", id));
+  }
+  const Mesh& mesh = *entry->mesh();
+  info->id.assign(mesh.id());
+  info->vertex_count = mesh.vertex_count();
+  info->influences = mesh.influences();
+  info->joint_count = mesh.joint_count();
+  info->has_normals = mesh.has_normals();
+  info->bytes = mesh.byte_size();
+  info->normalized_vertices = mesh.normalized_vertices();
+  info->already_stored = true;
+  return Status::Ok();
+}
+
+Status Engine::CheckBatch(uint32_t vertex_count, uint32_t instances) const {
+  return impl_->CheckBatch(vertex_count, instances);
+}
+
+bool Engine::DeleteMesh(const std::string& id) { return impl_->store_.Erase(id); }
+
+Status Engine::Submit(SkinJob* job) { return impl_->Submit(job, &Engine::RunPart); }
+
+void Engine::RunPart(void* context, uint32_t instance, int threads) {
+  auto& job = *static_cast<SkinJob*>(context);
+  auto& impl = *static_cast<Impl*>(job.engine_);
+  int64_t unset = 0;
+  job.started_ns_.compare_exchange_strong(unset, NowNs());
+  SkinFrame frame;
+  Status status = impl.RunInstance(job, instance, threads, &frame);
+  if (status.ok()) {
+    try {
+      status = job.OnInstanceSkinned(instance, frame.positions, frame.normals);
+    } catch (const std::exception& e) {
+      status = Internal(fmt::format("after skinning instance {}: {}", instance, e.what()));
+    }
+  }
+  if (!status.ok()) {
+    std::lock_guard lock(job.status_mutex_);
+    if (job.status_.ok()) job.status_ = std::move(status);
+  }
+  if (job.remaining_.fetch_sub(1) != 1) return;
+  // The last instance: the frame is done.
+  FrameTiming timing;
+  const int64_t started = job.started_ns_.load();
+  timing.queued_ns = started - job.submitted_ns_;
+  timing.compute_ns = NowNs() - started;
+  timing.device_transfer_ns = job.device_transfer_ns_.exchange(0);  // summed over instances
+  timing.device_kernel_ns = job.device_kernel_ns_.exchange(0);
+  Impl::Counters& counters = impl.counters_[job.backend_index_];
+  (job.status_.ok() ? counters.frames : counters.errors).fetch_add(1);
+  job.lease_.reset();  // unpin before the caller learns the frame is done
+  Status result = std::move(job.status_);
+  job.status_ = Status::Ok();
+  job.OnSkinned(std::move(result), timing);  // may reuse or delete the job: nothing after
+}
+
+namespace {
+
+// Engine::Submit(request, done): a job that owns its request and deletes itself.
+class CallbackJob final : public SkinJob {
+ public:
+  explicit CallbackJob(SkinDone done) : done_(std::move(done)) {}
+
+ private:
+  void OnSkinned(Status status, const FrameTiming& timing) override {
+    SkinDone done = std::move(done_);
+    delete this;
+    done(std::move(status), timing);
+  }
+  SkinDone done_;
+};
+
+}  // namespace
+
+Status Engine::Submit(SkinRequest request, SkinDone done) {
+  if (request.skin_into_scratch) {
+    return InvalidArgument("skin_into_scratch needs a SkinJob to take each instance's output");
+  }
+  auto* job = new CallbackJob(std::move(done));
+  job->request = std::move(request);
+  Status status = Submit(job);
+  if (!status.ok()) delete job;
+  return status;
+}
+
+Status Engine::SkinBlocking(SkinRequest request, FrameTiming* timing) {
+  std::promise<std::pair<Status, FrameTiming>> result;
+  auto future = result.get_future();
+  Status submitted = Submit(std::move(request), [&result](Status status, FrameTiming t) {
+    result.set_value({std::move(status), t});
+  });
+  if (!submitted.ok()) return submitted;
+  auto [status, t] = future.get();
+  if (timing != nullptr) *timing = t;
+  return status;
+}
+
+EngineStats Engine::Stats() const {
+  EngineStats stats;
+  for (std::size_t i = 0; i < impl_->backends_.size(); ++i) {
+    const auto& c = impl_->counters_[i];
+    stats.backends.push_back({impl_->backends_[i]->info().id, c.frames.load(), c.vertices.load(),
+                              c.errors.load(), c.compute_ns.load()});
+  }
+  stats.queue_depth = impl_->pool_.depth();
+  stats.queue_capacity = impl_->pool_.capacity();
+  stats.compute_threads = impl_->pool_.size();
+  stats.meshes = impl_->store_.count();
+  stats.mesh_bytes = impl_->store_.bytes();
+  stats.mesh_budget_bytes = impl_->store_.budget_bytes();
+  stats.evictions = impl_->store_.evictions();
+  stats.rejected_queue_full = impl_->rejected_.load();
+  stats.peak_busy_threads = impl_->pool_.peak_busy();
+  return stats;
+}
+
+void Engine::Shutdown() {
+  impl_->shut_down_.store(true);
+  impl_->pool_.Shutdown();
+}
+
+}  // namespace skinserve

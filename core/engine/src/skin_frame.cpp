@@ -1,0 +1,39 @@
+#include <fmt/format.h>
+
+#include "skinserve/engine/backend.h"
+#include "skinserve/model/palette.h"
+
+namespace skinserve {
+
+bool BackendInfo::Supports(SkinningMethod method) const {
+  for (SkinningMethod m : methods) {
+    if (m == method) return true;
+  }
+  return false;
+}
+
+Status SkinFrame::Validate(const Mesh& mesh) const {
+  if (Status s = ValidatePalette(palette, mesh.joint_count()); !s.ok()) return s;
+  if (method == SkinningMethod::kDualQuaternion) {
+    if (Status s = ValidateRigidPalette(palette); !s.ok()) return s;
+  }
+  const std::size_t expected = 3ull * mesh.vertex_count();
+  if (positions.size() != expected) {
+    return InvalidArgument(
+        fmt::format("positions output holds {} floats; expected 3 * vertex_count = {}",
+                    positions.size(), expected));
+  }
+  if (!normals.empty()) {
+    if (!mesh.has_normals()) {
+      return InvalidArgument("normals were requested but the mesh has none");
+    }
+    if (normals.size() != expected) {
+      return InvalidArgument(
+          fmt::format("normals output holds {} floats; expected 3 * vertex_count = {}",
+                      normals.size(), expected));
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace skinserve

@@ -1,0 +1,367 @@
+// skinserve-bench: Backend::Skin timed per backend over the paper's grid, plus the
+// machine's memory bandwidth, so each figure can be read against its physical bound.
+//
+//   skinserve-bench                    every benchmark, Google Benchmark's usual output
+//   skinserve-bench --paper-tables     the grid (positions only), medians of 3, then the
+//                                      paper's tables 2 and 3 layout
+// Filters: --backends=a,b  --vertices=25000,100000  --bones=1,2  --normals (paper tables
+// with normals too). --opencl-device=gpu (cpu, gpu or part of a platform or device name,
+// as skinserve's option). --streams=N: the OpenCL backends also with N threads skinning
+// at once (BM_SkinStreams), frames of several streams in flight on the device.
+// Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
+//
+// OpenCL backends report per frame, from profiling events, the device's kernel_ns and
+// transfer_ns and kernel_vertices_per_second (kernel only); and the device's bounds are
+// measured in the same run: BM_PcieHostToDevice, BM_PcieDeviceToHost (pinned memory) and
+// BM_DeviceMemoryCopy (device to device, read + write).
+// Run it on an otherwise idle machine: with another process on a core, libgomp's default
+// spin-wait makes the OpenMP backends' frames wait for a 4 ms scheduler tick (wall time
+// twice the CPU time); OMP_WAIT_POLICY=passive limits that, at some cost on small frames.
+#include <benchmark/benchmark.h>
+#include <fmt/format.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <cstring>
+#include <exception>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <thread>
+
+#include "backends/opencl_runtime.h"
+#include "paper_tables.h"
+#include "skinserve/model/aligned_buffer.h"
+#include "skinserve/engine/backend_registry.h"
+#include "workload_cache.h"
+
+namespace skinserve::bench {
+namespace {
+
+struct Options {
+  bool paper_tables = false;
+  bool normals_in_tables = false;
+  std::vector<std::string> backends;
+  std::vector<uint32_t> vertices = {25'000, 100'000, 400'000, 1'600'000};
+  std::vector<uint32_t> bones = {1, 2, 3, 4};
+  std::string opencl_device;
+  int streams = 1;
+};
+
+template <typename T>
+std::vector<T> ParseList(const std::string& s) {
+  std::vector<T> out;
+  std::stringstream stream(s);
+  for (std::string item; std::getline(stream, item, ',');) {
+    if constexpr (std::is_same_v<T, std::string>) {
+      out.push_back(item);
+    } else {
+      out.push_back(static_cast<T>(std::stoul(item)));
+    }
+  }
+  return out;
+}
+
+// Takes our flags out of argv, leaving Google Benchmark's.
+Options ParseOptions(int* argc, char** argv) {
+  Options options;
+  int kept = 1;
+  for (int i = 1; i < *argc; ++i) {
+    const std::string arg = argv[i];
+    auto value = [&](const char* prefix) -> const char* {
+      return arg.rfind(prefix, 0) == 0 ? argv[i] + std::strlen(prefix) : nullptr;
+    };
+    if (arg == "--paper-tables") {
+      options.paper_tables = true;
+    } else if (arg == "--normals") {
+      options.normals_in_tables = true;
+    } else if (const char* list = value("--backends=")) {
+      options.backends = ParseList<std::string>(list);
+    } else if (const char* counts = value("--vertices=")) {
+      options.vertices = ParseList<uint32_t>(counts);
+    } else if (const char* bones = value("--bones=")) {
+      options.bones = ParseList<uint32_t>(bones);
+    } else if (const char* device = value("--opencl-device=")) {
+      options.opencl_device = device;
+    } else if (const char* streams = value("--streams=")) {
+      options.streams = static_cast<int>(std::stoul(streams));
+    } else {
+      argv[kept++] = argv[i];
+    }
+  }
+  *argc = kept;
+  return options;
+}
+
+WorkloadCache& Cache() {
+  static WorkloadCache cache;
+  return cache;
+}
+
+void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
+                   bool normals) {
+  const Workload& workload = Cache().Get(vertices, bones);
+  const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones);
+  AlignedBuffer<float> positions(3ull * vertices), out_normals(normals ? 3ull * vertices : 0);
+  std::size_t frame = state.thread_index();
+  DeviceTiming device, total;
+  for (auto _ : state) {
+    const SkinFrame skin{.palette = workload.palettes[frame++ % workload.palettes.size()],
+                         .positions = positions.span(),
+                         .normals = out_normals.span(),
+                         .device_timing = &device};
+    if (Status s = backend->Skin(prepared, skin); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+      break;
+    }
+    total.kernel_ns += device.kernel_ns;
+    total.transfer_ns += device.transfer_ns;
+    benchmark::DoNotOptimize(positions.data());
+    benchmark::ClobberMemory();
+  }
+  // Items: summed over threads, over the run's real time (BM_SkinStreams).
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
+  state.counters["vertices_per_second"] =
+      benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
+  state.SetBytesProcessed(
+      static_cast<int64_t>(state.iterations() * vertices * BytesPerVertex(bones, normals)));
+  if (total.kernel_ns > 0 && state.iterations() > 0) {
+    const double frames = static_cast<double>(state.iterations());
+    state.counters["kernel_ns"] = benchmark::Counter(static_cast<double>(total.kernel_ns) / frames,
+                                                     benchmark::Counter::kAvgThreads);
+    state.counters["transfer_ns"] = benchmark::Counter(
+        static_cast<double>(total.transfer_ns) / frames, benchmark::Counter::kAvgThreads);
+    state.counters["kernel_vertices_per_second"] =
+        benchmark::Counter(vertices * frames * 1e9 / static_cast<double>(total.kernel_ns),
+                           benchmark::Counter::kAvgThreads);
+  }
+}
+
+// The device's bounds, measured with the runtime the OpenCL backends use (a second one
+// on the same device): PCIe each way between pinned host memory and the device, and a
+// device-to-device copy (bytes read + written).
+enum class DeviceBound { kHostToDevice, kDeviceToHost, kDeviceCopy, kPinnedCopyOut };
+
+void DeviceBandwidth(benchmark::State& state, OpenClRuntime* runtime, DeviceBound bound) {
+  const std::size_t bytes = bound == DeviceBound::kDeviceCopy ? (512ull << 20) : (64ull << 20);
+  auto lane = runtime->AcquireLane();
+  auto device = runtime->CreateBuffer("bandwidth", CL_MEM_READ_WRITE, bytes, nullptr);
+  auto target = runtime->CreateBuffer("bandwidth target", CL_MEM_READ_WRITE, bytes, nullptr);
+  PinnedBuffer pinned;
+  Status grown = runtime->GrowPinned(lane->compute, "bandwidth pinned", bytes, &pinned);
+  if (!device.ok() || !target.ok() || !grown.ok()) {
+    state.SkipWithError("cannot allocate the bandwidth buffers");
+    return;
+  }
+  std::memset(pinned.host, 1, bytes);
+  cl_int err = clEnqueueWriteBuffer(lane->compute, device->get(), CL_TRUE, 0, bytes, pinned.host, 0,
+                                    nullptr, nullptr);
+  for (auto _ : state) {
+    switch (bound) {
+      case DeviceBound::kHostToDevice:
+        err |= clEnqueueWriteBuffer(lane->compute, device->get(), CL_FALSE, 0, bytes, pinned.host,
+                                    0, nullptr, nullptr);
+        break;
+      case DeviceBound::kDeviceToHost:
+        err |= clEnqueueReadBuffer(lane->compute, device->get(), CL_FALSE, 0, bytes, pinned.host, 0,
+                                   nullptr, nullptr);
+        break;
+      case DeviceBound::kDeviceCopy:
+        err |= clEnqueueCopyBuffer(lane->compute, device->get(), target->get(), 0, 0, bytes, 0,
+                                   nullptr, nullptr);
+        break;
+      case DeviceBound::kPinnedCopyOut: {
+        // What the copy backend's copy-out can do: pinned memory to pageable, threads
+        // as in the benchmark's argument.
+        static AlignedBuffer<char> pageable(bytes);
+        const int threads = static_cast<int>(state.range(0));
+        const std::size_t piece = bytes / threads;
+#pragma omp parallel for num_threads(threads) schedule(static)
+        for (int t = 0; t < threads; ++t) {
+          std::memcpy(pageable.data() + t * piece, static_cast<char*>(pinned.host) + t * piece,
+                      piece);
+        }
+        benchmark::ClobberMemory();
+        break;
+      }
+    }
+    err |= clFinish(lane->compute);
+  }
+  if (err != CL_SUCCESS) state.SkipWithError("an OpenCL transfer failed");
+  clEnqueueUnmapMemObject(lane->compute, pinned.buffer.get(), pinned.host, 0, nullptr, nullptr);
+  clFinish(lane->compute);
+  const double moved = bound == DeviceBound::kDeviceCopy ? 2.0 * bytes : bytes;
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * moved));
+}
+
+// STREAM-style scaled copy over 256 MB on every core: what memory can move, read + write.
+void MemoryBandwidth(benchmark::State& state) {
+  constexpr std::size_t kFloats = 64ull << 20;
+  static AlignedBuffer<float> source(kFloats), target(kFloats);
+  const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (std::size_t i = 0; i < kFloats; ++i) source[i] = 1.0f, target[i] = 0.0f;  // first touch
+  for (auto _ : state) {
+    float* out = target.data();
+    const float* in = source.data();
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (std::size_t i = 0; i < kFloats; ++i) out[i] = 1.0001f * in[i];
+    benchmark::ClobberMemory();
+  }
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * 2 * kFloats * sizeof(float)));
+}
+
+}  // namespace
+}  // namespace skinserve::bench
+
+int main(int argc, char** argv) {
+  using namespace skinserve;
+  using namespace skinserve::bench;
+  Options options;
+  try {
+    options = ParseOptions(&argc, argv);
+  } catch (const std::exception&) {  // std::stoul on a malformed list
+    fmt::print(stderr, "skinserve-bench: --vertices= and --bones= take comma-separated counts\n");
+    return 2;
+  }
+  const auto bad_bones = [](uint32_t b) { return b < 1 || b > kMaxInfluences; };
+  if (std::count(options.vertices.begin(), options.vertices.end(), 0u) != 0 ||
+      std::any_of(options.bones.begin(), options.bones.end(), bad_bones)) {
+    fmt::print(stderr, "skinserve-bench: vertex counts must be >= 1 and bones 1..{}\n",
+               kMaxInfluences);
+    return 2;
+  }
+  // Every speedup in the tables is against serial: measure it even when not asked for.
+  if (options.paper_tables && !options.backends.empty() &&
+      std::count(options.backends.begin(), options.backends.end(), "serial") == 0) {
+    options.backends.push_back("serial");
+  }
+  const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  static std::vector<std::unique_ptr<Backend>> backends =
+      CreateAllBackends(threads, options.opencl_device);
+  if (!options.opencl_device.empty()) {
+    for (const auto& backend : backends) {
+      if (backend->info().id == "opencl" && !backend->info().available) {
+        fmt::print(stderr, "skinserve-bench: {}\n", backend->info().unavailable_reason);
+        return 2;
+      }
+    }
+  }
+
+  std::vector<std::string> measured;
+  for (const auto& backend : backends) {
+    const BackendInfo& info = backend->info();
+    const bool wanted = options.backends.empty() ||
+                        std::count(options.backends.begin(), options.backends.end(), info.id);
+    if (!wanted) continue;
+    if (!info.available) {
+      fmt::print(stderr, "skipping {}: {}\n", info.id, info.unavailable_reason);
+      continue;
+    }
+    measured.push_back(info.id);
+  }
+  for (bool normals : {false, true}) {
+    if (options.paper_tables && normals && !options.normals_in_tables) continue;
+    for (uint32_t v : options.vertices) {
+      for (uint32_t b : options.bones) {
+        for (const auto& backend : backends) {
+          if (std::count(measured.begin(), measured.end(), backend->info().id) == 0) continue;
+          const std::string name = fmt::format(
+              "{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", backend->info().id, v, b);
+          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals)
+              ->UseRealTime()
+              ->Unit(benchmark::kMicrosecond);
+        }
+      }
+    }
+  }
+  const bool opencl_measured = std::count(measured.begin(), measured.end(), "opencl") +
+                                   std::count(measured.begin(), measured.end(), "opencl-zerocopy") >
+                               0;
+  if (opencl_measured && options.streams > 1) {
+    for (uint32_t v : options.vertices) {
+      for (uint32_t b : options.bones) {
+        for (const auto& backend : backends) {
+          const std::string& id = backend->info().id;
+          if (id.rfind("opencl", 0) != 0 || std::count(measured.begin(), measured.end(), id) == 0)
+            continue;
+          const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
+          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, false)
+              ->Threads(options.streams)
+              ->UseRealTime()
+              ->Unit(benchmark::kMicrosecond);
+        }
+      }
+    }
+  }
+  auto best = [](const std::vector<double>& values) {
+    return *std::max_element(values.begin(), values.end());
+  };
+  static std::shared_ptr<OpenClRuntime> bound_runtime;
+  if (opencl_measured) {
+    auto runtime = OpenClRuntime::Create({.threads = threads, .device = options.opencl_device});
+    if (runtime.ok()) {
+      bound_runtime = *runtime;
+      for (auto [name, bound] : {std::pair{"BM_PcieHostToDevice", DeviceBound::kHostToDevice},
+                                 std::pair{"BM_PcieDeviceToHost", DeviceBound::kDeviceToHost},
+                                 std::pair{"BM_DeviceMemoryCopy", DeviceBound::kDeviceCopy}}) {
+        benchmark::RegisterBenchmark(name, DeviceBandwidth, bound_runtime.get(), bound)
+            ->UseRealTime()
+            ->Unit(benchmark::kMicrosecond)
+            ->ComputeStatistics("max", best);
+      }
+      benchmark::RegisterBenchmark("BM_PinnedCopyOut", DeviceBandwidth, bound_runtime.get(),
+                                   DeviceBound::kPinnedCopyOut)
+          ->Arg(1)
+          ->Arg(threads)
+          ->UseRealTime()
+          ->Unit(benchmark::kMicrosecond)
+          ->ComputeStatistics("max", best);
+    }
+  }
+  // The bound is what memory can do, and other processes only ever slow a run down: the
+  // tables take the best repetition ("max" of bytes_per_second), not the median.
+  benchmark::RegisterBenchmark("BM_MemoryBandwidth", MemoryBandwidth)
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond)
+      ->ComputeStatistics("max", [](const std::vector<double>& values) {
+        return *std::max_element(values.begin(), values.end());
+      });
+
+  // Our defaults go first, so that the same flags given on the command line win.
+  std::string repetitions = "--benchmark_repetitions=3",
+              aggregates = "--benchmark_report_aggregates_only=true";
+  std::vector<char*> args = {argv[0]};
+  if (options.paper_tables) {
+    args.push_back(repetitions.data());
+    args.push_back(aggregates.data());
+  }
+  args.insert(args.end(), argv + 1, argv + argc);
+  // --benchmark_format=json|csv: Google Benchmark's own reporter, nothing else on stdout
+  // (the paper tables belong to the console output only). The last occurrence wins, as in
+  // Google Benchmark's own parsing (read before Initialize, which removes the flags it knows).
+  std::string format = "console";
+  for (std::size_t i = 1; i < args.size(); ++i) {
+    constexpr std::string_view kFlag = "--benchmark_format=";
+    if (std::string_view(args[i]).rfind(kFlag, 0) == 0) format = args[i] + kFlag.size();
+  }
+  int args_count = static_cast<int>(args.size());
+  benchmark::Initialize(&args_count, args.data());
+  if (benchmark::ReportUnrecognizedArguments(args_count, args.data())) return 1;
+  if (format != "console") {
+    if (options.paper_tables) {
+      fmt::print(stderr,
+                 "skinserve-bench: --paper-tables: the tables are printed with "
+                 "--benchmark_format=console only\n");
+    }
+    benchmark::RunSpecifiedBenchmarks();  // the reporter --benchmark_format names
+    benchmark::Shutdown();
+    return 0;
+  }
+  PaperTablesReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  if (options.paper_tables) reporter.PrintTables(measured);
+  reporter.PrintDeviceBounds();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,0 +1,39 @@
+#include "workload_cache.h"
+
+#include <stdexcept>
+
+#include "skinserve/reference/synthetic.h"
+
+namespace skinserve::bench {
+
+const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones) {
+  std::lock_guard lock(mutex_);
+  auto [it, inserted] = workloads_.try_emplace({vertices, bones});
+  if (inserted) {
+    auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
+                                                .influences = bones,
+                                                .joint_count = kPaperJoints,
+                                                .normals = true,
+                                                .seed = vertices * 10ull + bones}));
+    if (!mesh.ok()) throw std::runtime_error(mesh.status().ToString());
+    it->second.mesh = *mesh;
+    for (int frame = 0; frame < kPalettesPerWorkload; ++frame) {
+      it->second.palettes.push_back(MakeSyntheticPalette(kPaperJoints, 42, frame));
+    }
+  }
+  return it->second;
+}
+
+const PreparedMesh& WorkloadCache::Prepared(Backend& backend, uint32_t vertices, uint32_t bones) {
+  const Workload& workload = Get(vertices, bones);
+  std::lock_guard lock(mutex_);
+  auto& slot = prepared_[{&backend, vertices, bones}];
+  if (!slot) {
+    auto prepared = backend.Prepare(workload.mesh);
+    if (!prepared.ok()) throw std::runtime_error(prepared.status().ToString());
+    slot = std::move(prepared).value();
+  }
+  return *slot;
+}
+
+}  // namespace skinserve::bench

@@ -1,0 +1,40 @@
+// The benchmark's meshes and palettes, made once per (vertices, bones) and prepared once
+// per backend, so the whole grid does not regenerate 1.6M-vertex meshes per benchmark.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <tuple>
+#include <vector>
+
+#include "skinserve/engine/backend.h"
+
+namespace skinserve::bench {
+
+inline constexpr uint32_t kPaperJoints = 77;
+inline constexpr int kPalettesPerWorkload = 8;
+
+struct Workload {
+  std::shared_ptr<const Mesh> mesh;  // with normals: positions-only frames ignore them
+  std::vector<std::vector<float>> palettes;
+};
+
+class WorkloadCache {
+ public:
+  const Workload& Get(uint32_t vertices, uint32_t bones);
+  const PreparedMesh& Prepared(Backend& backend, uint32_t vertices, uint32_t bones);
+
+ private:
+  std::mutex mutex_;
+  std::map<std::pair<uint32_t, uint32_t>, Workload> workloads_;
+  std::map<std::tuple<Backend*, uint32_t, uint32_t>, std::unique_ptr<PreparedMesh>> prepared_;
+};
+
+// Bytes one frame moves through memory: per influence a uint16 joint and a float weight,
+// 12 bytes of position in and out, and as much again for normals.
+inline double BytesPerVertex(uint32_t bones, bool normals) {
+  return bones * (2.0 + 4.0) + (normals ? 48.0 : 24.0);
+}
+
+}  // namespace skinserve::bench

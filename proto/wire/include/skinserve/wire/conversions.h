@@ -1,0 +1,42 @@
+// Conversions between wire messages (skinserve.v1) and the model's types, written once for
+// the server and the clients. Nothing here decides policy: the engine validates, this only
+// converts, and names the wire field when bytes or enum values are malformed.
+#pragma once
+
+#include <grpcpp/support/status.h>
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "skinserve/encoding/vertex_encoding.h"
+#include "skinserve/model/skinning_method.h"
+#include "skinserve/model/status.h"
+#include "skinserve/v1/skinning.pb.h"
+
+namespace skinserve::wire {
+
+// The model's codes are the gRPC codes of the same name; both directions keep the message.
+grpc::Status ToGrpc(const Status& status);
+Status FromGrpc(const grpc::Status& status);
+
+// float32 values as the wire's little-endian bytes (a palette), reusing `bytes`' capacity.
+void EncodeFloats(std::span<const float> values, std::string* bytes);
+std::string EncodeFloats(std::span<const float> values);
+// Little-endian bytes to values; INVALID_ARGUMENT naming `field` if the length is not a
+// whole number of values.
+Status DecodeFloats(const std::string& bytes, const char* field, std::vector<float>* out);
+
+// The request's method; INVALID_ARGUMENT naming the field for a value this side does not
+// know (proto3 enums carry unknown numbers through).
+Result<SkinningMethod> FromWire(v1::SkinningMethod method);
+v1::SkinningMethod ToWire(SkinningMethod method);
+
+// The request's encoding; INVALID_ARGUMENT naming the field and the known values.
+Result<VertexEncoding> FromWire(v1::Encoding encoding);
+v1::Encoding ToWire(VertexEncoding encoding);
+
+Bounds FromWire(const v1::Bounds& bounds);
+void ToWire(const Bounds& bounds, v1::Bounds* wire);
+
+}  // namespace skinserve::wire

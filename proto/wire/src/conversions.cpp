@@ -1,0 +1,132 @@
+#include "skinserve/wire/conversions.h"
+
+#include <fmt/format.h>
+
+#include <bit>
+#include <cstring>
+
+namespace skinserve::wire {
+
+static_assert(std::endian::native == std::endian::little, "the wire is little-endian");
+
+grpc::Status ToGrpc(const Status& status) {
+  switch (status.code()) {
+    case StatusCode::kOk:
+      return grpc::Status::OK;
+    case StatusCode::kInvalidArgument:
+      return {grpc::StatusCode::INVALID_ARGUMENT, status.message()};
+    case StatusCode::kNotFound:
+      return {grpc::StatusCode::NOT_FOUND, status.message()};
+    case StatusCode::kResourceExhausted:
+      return {grpc::StatusCode::RESOURCE_EXHAUSTED, status.message()};
+    case StatusCode::kFailedPrecondition:
+      return {grpc::StatusCode::FAILED_PRECONDITION, status.message()};
+    case StatusCode::kUnavailable:
+      return {grpc::StatusCode::UNAVAILABLE, status.message()};
+    case StatusCode::kInternal:
+      return {grpc::StatusCode::INTERNAL, status.message()};
+  }
+  return {grpc::StatusCode::UNKNOWN, status.message()};
+}
+
+Status FromGrpc(const grpc::Status& status) {
+  switch (status.error_code()) {
+    case grpc::StatusCode::OK:
+      return Status::Ok();
+    case grpc::StatusCode::INVALID_ARGUMENT:
+      return InvalidArgument(status.error_message());
+    case grpc::StatusCode::NOT_FOUND:
+      return NotFound(status.error_message());
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      return ResourceExhausted(status.error_message());
+    case grpc::StatusCode::FAILED_PRECONDITION:
+      return FailedPrecondition(status.error_message());
+    case grpc::StatusCode::UNAVAILABLE:
+      return Unavailable(status.error_message());
+    default:
+      return Internal(fmt::format("gRPC status {}: {}", static_cast<int>(status.error_code()),
+                                  status.error_message()));
+  }
+}
+
+void EncodeFloats(std::span<const float> values, std::string* bytes) {
+  bytes->resize(values.size_bytes());
+  if (!values.empty()) std::memcpy(bytes->data(), values.data(), values.size_bytes());
+}
+
+std::string EncodeFloats(std::span<const float> values) {
+  std::string bytes;
+  EncodeFloats(values, &bytes);
+  return bytes;
+}
+
+Status DecodeFloats(const std::string& bytes, const char* field, std::vector<float>* out) {
+  if (bytes.size() % sizeof(float) != 0) {
+    return InvalidArgument(fmt::format("{} holds {} bytes, not a whole number of float32 values",
+                                       field, bytes.size()));
+  }
+  out->resize(bytes.size() / sizeof(float));
+  if (!bytes.empty()) std::memcpy(out->data(), bytes.data(), bytes.size());
+  return Status::Ok();
+}
+
+Result<SkinningMethod> FromWire(v1::SkinningMethod method) {
+  switch (method) {
+    case v1::SKINNING_METHOD_LINEAR:
+      return SkinningMethod::kLinear;
+    case v1::SKINNING_METHOD_DUAL_QUATERNION:
+      return SkinningMethod::kDualQuaternion;
+    default:
+      return InvalidArgument(
+          fmt::format("method = {} is unknown; known: 0 (linear), 1 (dual-quaternion)",
+                      static_cast<int>(method)));
+  }
+}
+
+v1::SkinningMethod ToWire(SkinningMethod method) {
+  return method == SkinningMethod::kDualQuaternion ? v1::SKINNING_METHOD_DUAL_QUATERNION
+                                                   : v1::SKINNING_METHOD_LINEAR;
+}
+
+Result<VertexEncoding> FromWire(v1::Encoding encoding) {
+  switch (encoding) {
+    case v1::ENCODING_FLOAT32:
+      return VertexEncoding::kFloat32;
+    case v1::ENCODING_FLOAT16:
+      return VertexEncoding::kFloat16;
+    case v1::ENCODING_SNORM16:
+      return VertexEncoding::kSnorm16;
+    default:
+      return InvalidArgument(
+          fmt::format("encoding = {} is unknown; use ENCODING_FLOAT32 (0), ENCODING_FLOAT16 (1) "
+                      "or ENCODING_SNORM16 (2)",
+                      static_cast<int>(encoding)));
+  }
+}
+
+v1::Encoding ToWire(VertexEncoding encoding) {
+  switch (encoding) {
+    case VertexEncoding::kFloat16:
+      return v1::ENCODING_FLOAT16;
+    case VertexEncoding::kSnorm16:
+      return v1::ENCODING_SNORM16;
+    case VertexEncoding::kFloat32:
+      break;
+  }
+  return v1::ENCODING_FLOAT32;
+}
+
+Bounds FromWire(const v1::Bounds& b) {
+  return {{b.min_x(), b.min_y(), b.min_z()}, {b.max_x(), b.max_y(), b.max_z()}};
+}
+
+void ToWire(const Bounds& b, v1::Bounds* wire) {
+  wire->set_min_x(b.min[0]);
+  wire->set_min_y(b.min[1]);
+  wire->set_min_z(b.min[2]);
+  wire->set_max_x(b.max[0]);
+  wire->set_max_y(b.max[1]);
+  wire->set_max_z(b.max[2]);
+}
+
+}  // namespace skinserve::wire

@@ -1,0 +1,150 @@
+#include "skinserve/wire/raw_part.h"
+
+#include <fmt/format.h>
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
+#include <google/protobuf/wire_format_lite.h>
+#include <grpcpp/support/proto_buffer_reader.h>
+
+#include <algorithm>
+#include <cstring>
+
+namespace skinserve::wire {
+namespace {
+
+using google::protobuf::internal::WireFormatLite;
+
+google::protobuf::ArenaOptions OverBlock(char* block, std::size_t size) {
+  google::protobuf::ArenaOptions options;
+  options.initial_block = block;
+  options.initial_block_size = size;
+  return options;
+}
+
+}  // namespace
+
+RawPart::RawPart() : arena_(OverBlock(arena_block_, sizeof arena_block_)) {}
+
+bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
+  positions_ = normals_ = {};
+  header_bytes_.clear();
+  // The reader only reads (gRPC's ProtoBufferReader takes a non-const buffer).
+  grpc::ProtoBufferReader reader(const_cast<grpc::ByteBuffer*>(&bytes));
+  if (!reader.status().ok()) return false;
+  {
+    google::protobuf::io::CodedInputStream input(&reader);
+    // Bytes left in the part: no length read from it may claim more.
+    const auto remaining = [&] {
+      return bytes.Length() - static_cast<std::size_t>(input.CurrentPosition());
+    };
+    google::protobuf::io::StringOutputStream header_stream(&header_bytes_);
+    google::protobuf::io::CodedOutputStream header_out(&header_stream);
+    // protobuf's parser takes a tag or a length of at most 5 bytes (CodedInputStream reads
+    // up to 10 and drops the excess): refuse what it refuses.
+    const auto varint_fits = [&](int before) { return input.CurrentPosition() - before <= 5; };
+    while (true) {
+      const int tag_at = input.CurrentPosition();
+      const uint32_t tag = input.ReadTag();
+      if (tag == 0) break;
+      if (!varint_fits(tag_at)) return false;
+      if (WireFormatLite::GetTagWireType(tag) != WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
+        if (!WireFormatLite::SkipField(&input, tag, &header_out)) return false;  // kept
+        continue;
+      }
+      uint32_t length = 0;
+      const int length_at = input.CurrentPosition();
+      if (!input.ReadVarint32(&length) || !varint_fits(length_at) || length > remaining()) {
+        return false;
+      }
+      const int field = WireFormatLite::GetTagFieldNumber(tag);
+      if (field == v1::SkinResponse::kPositionsFieldNumber ||
+          field == v1::SkinResponse::kNormalsFieldNumber) {
+        // A repeated field: the last one counts, as when parsing.
+        Field& f = field == v1::SkinResponse::kPositionsFieldNumber ? positions_ : normals_;
+        f = {static_cast<std::size_t>(input.CurrentPosition()), length};
+        if (!input.Skip(static_cast<int>(length))) return false;
+        continue;
+      }
+      // Kept, to be parsed below; copied through field_bytes_ (SkipField would use a fresh
+      // string for each).
+      field_bytes_.resize(length);
+      if (!input.ReadRaw(field_bytes_.data(), static_cast<int>(length))) return false;
+      header_out.WriteTag(tag);
+      header_out.WriteVarint32(length);
+      header_out.WriteRaw(field_bytes_.data(), static_cast<int>(length));
+    }
+    if (!input.ConsumedEntireMessage()) return false;
+  }
+  header_ = nullptr;
+  arena_.Reset();  // keeps the block: no heap allocation
+  header_ = google::protobuf::Arena::CreateMessage<v1::SkinResponse>(&arena_);
+  if (!header_->ParseFromString(header_bytes_)) return false;
+  if (!bytes.Dump(&slices_).ok()) return false;
+  starts_.clear();
+  std::size_t at = 0;
+  for (const grpc::Slice& s : slices_) {
+    starts_.push_back(at);
+    at += s.size();
+  }
+  return true;
+}
+
+Status RawPart::Decode(bool normals, std::size_t offset, VertexEncoding encoding,
+                       const Bounds& bounds, std::span<float> out) const {
+  const Field& f = normals ? normals_ : positions_;
+  const std::size_t per_value = EncodedBytesPerValue(encoding);
+  const std::size_t per_triple = 3 * per_value;
+  const std::size_t size = out.size() * per_value;
+  if (offset + size > f.size || offset % per_triple != 0 || out.size() % 3 != 0) {
+    return Internal(
+        fmt::format("{}: bytes [{}, +{}) are not whole vertices inside the {} "
+                    "received",
+                    normals ? "normals" : "positions", offset, size, f.size));
+  }
+  if (size == 0) return Status::Ok();
+  const auto decode = [&](const std::byte* bytes, std::size_t n, std::size_t first_value) {
+    const std::span<const std::byte> in(bytes, n);
+    const std::span<float> into = out.subspan(first_value, n / per_value);
+    return normals ? DecodeNormals(encoding, in, into)
+                   : DecodePositions(encoding, in, bounds, into);
+  };
+  // The field's bytes slice by slice; a triple cut by a slice boundary goes through
+  // `carry` (the decoders' per-axis pattern starts at x).
+  std::byte carry[12];
+  std::size_t carried = 0, decoded = 0;  // values written to `out`
+  std::size_t at = f.offset + offset;
+  const std::size_t end = at + size;
+  auto slice = std::upper_bound(starts_.begin(), starts_.end(), at) - 1;
+  for (std::size_t i = slice - starts_.begin(); at < end && i < slices_.size(); ++i) {
+    const auto* data = reinterpret_cast<const std::byte*>(slices_[i].begin());
+    std::size_t from = at - starts_[i];
+    std::size_t n = std::min(slices_[i].size() - from, end - at);
+    at += n;
+    if (carried > 0) {
+      const std::size_t take = std::min(per_triple - carried, n);
+      std::memcpy(carry + carried, data + from, take);
+      carried += take;
+      from += take;
+      n -= take;
+      if (carried == per_triple) {
+        if (Status s = decode(carry, per_triple, decoded); !s.ok()) return s;
+        decoded += 3;
+        carried = 0;
+      }
+    }
+    const std::size_t whole = n / per_triple * per_triple;
+    if (whole > 0) {
+      if (Status s = decode(data + from, whole, decoded); !s.ok()) return s;
+      decoded += whole / per_value;
+    }
+    std::memcpy(carry + carried, data + from + whole, n - whole);
+    carried += n - whole;
+  }
+  if (decoded != out.size()) {
+    return Internal(fmt::format("{}: {} of {} values in the received bytes",
+                                normals ? "normals" : "positions", decoded, out.size()));
+  }
+  return Status::Ok();
+}
+
+}  // namespace skinserve::wire

@@ -1,0 +1,56 @@
+#include "engine_messages.h"
+
+#include <fmt/format.h>
+
+
+namespace skinserve::server {
+
+v1::MeshInfo ToWire(const MeshInfo& info) {
+  v1::MeshInfo wire;
+  wire.set_mesh_id(info.id);
+  wire.set_vertex_count(info.vertex_count);
+  wire.set_influences(info.influences);
+  wire.set_joint_count(info.joint_count);
+  wire.set_has_normals(info.has_normals);
+  wire.set_bytes(info.bytes);
+  wire.set_normalized_vertices(info.normalized_vertices);
+  wire.set_already_stored(info.already_stored);
+  return wire;
+}
+
+v1::BackendInfo ToWire(const BackendInfo& info) {
+  v1::BackendInfo wire;
+  wire.set_id(info.id);
+  wire.set_description(info.description);
+  wire.set_available(info.available);
+  wire.set_unavailable_reason(info.unavailable_reason);
+  wire.set_device(info.device);
+  wire.set_simd_width(info.simd_width);
+  wire.set_simd_target(info.simd_target);
+  wire.set_threads(info.threads);
+  for (SkinningMethod method : info.methods) wire.add_methods(ToWire(method));
+  return wire;
+}
+
+v1::ServerStats ToWire(const EngineStats& stats) {
+  v1::ServerStats wire;
+  for (const BackendStats& b : stats.backends) {
+    v1::BackendStats* out = wire.add_backends();
+    out->set_id(b.id);
+    out->set_frames(b.frames);
+    out->set_vertices(b.vertices);
+    out->set_errors(b.errors);
+    out->set_compute_ns_total(b.compute_ns_total);
+  }
+  wire.set_queue_depth(stats.queue_depth);
+  wire.set_queue_capacity(stats.queue_capacity);
+  wire.set_compute_threads(stats.compute_threads);
+  wire.set_meshes(stats.meshes);
+  wire.set_mesh_bytes(stats.mesh_bytes);
+  wire.set_mesh_budget_bytes(stats.mesh_budget_bytes);
+  wire.set_evictions(stats.evictions);
+  wire.set_rejected_queue_full(stats.rejected_queue_full);
+  return wire;
+}
+
+}  // namespace skinserve::server
