@@ -19,8 +19,9 @@ A .csv without view= is rendered as it is: its first row is the header.
 Usage:
     scripts/docs-tables.py            rewrite every page whose tables differ from their data
     scripts/docs-tables.py --check    change nothing; exit 1 if a page's table differs, a data
-                                      file is missing, or a results folder lacks command.txt
-                                      or machine.txt
+                                      file is missing, a results folder lacks command.txt or
+                                      machine.txt or is not listed in docs/results/index.md, or
+                                      a relative link of README.md is broken
     scripts/docs-tables.py --check-site SITE
                                       after `mkdocs build`: every link between pages of the
                                       built site whose #anchor names no element on its page
@@ -242,18 +243,37 @@ def check_folders():
     problems = []
     if not os.path.isdir(RESULTS):
         return problems
+    index = os.path.join(RESULTS, "index.md")
+    listed = open(index, encoding="utf-8").read() if os.path.isfile(index) else ""
     for name in sorted(os.listdir(RESULTS)):
         folder = os.path.join(RESULTS, name)
         if not os.path.isdir(folder):
             continue
+        if f"({name}/SOURCE.md)" not in listed:
+            problems.append(f"docs/results/{name} is not listed in docs/results/index.md")
         for required in ("command.txt", "machine.txt"):
             if not os.path.isfile(os.path.join(folder, required)):
                 problems.append(f"docs/results/{name} has no {required}")
     return problems
 
 
+def check_readme_links():
+    """README.md is not part of the site, so MkDocs does not check its links: here, every
+    relative link must name a file or folder of the repository."""
+    problems = []
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
+        text = f.read()
+    for target in re.findall(r"\]\(([^)\s]+)\)", text):
+        if re.match(r"^[a-z]+:", target) or target.startswith("#"):
+            continue
+        path = target.split("#", 1)[0]
+        if not os.path.exists(os.path.join(ROOT, path)):
+            problems.append(f"README.md: link {target}: no such file")
+    return problems
+
+
 def run(check):
-    stale, problems = [], check_folders()
+    stale, problems = [], check_folders() + check_readme_links()
     for page in pages():
         with open(page, encoding="utf-8") as f:
             text = f.read()
