@@ -9,6 +9,7 @@
 #include <grpcpp/impl/codegen/proto_utils.h>
 
 #include "engine_messages.h"
+#include "skinserve/wire/region_layout.h"
 
 namespace skinserve::server {
 namespace {
@@ -70,7 +71,7 @@ FrameJob::PartRange FrameJob::RangeOf(std::size_t part) const {
 }
 
 Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
-                         const std::string& default_backend) {
+                         const std::string& default_backend, RegionRegistry* regions) {
   record_.Begin(wire.backend().empty() ? default_backend : wire.backend());
   frame_ = wire.frame();
   done_ = false;
@@ -81,6 +82,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   timing_ = {};
   mesh_.vertex_count = 0;
   instances_ = 1;
+  region_.reset();
   if (Status s = engine.GetMesh(wire.mesh_id(), &mesh_); !s.ok()) return s;
   want_normals_ = wire.want_normals();
   if (want_normals_ && !mesh_.has_normals) {
@@ -115,6 +117,15 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   const std::size_t payload = values * EncodedBytesPerValue(encoding_);
   normals_offset_ = RoundUp(payload);  // the positions start the buffer
   headers_offset_ = normals_offset_ + (want_normals_ ? RoundUp(payload) : 0);
+  region_part_ = wire.has_output();
+  if (region_part_) {  // the vertices go into the region: the wire carries one header
+    if (Status s = PrepareRegion(wire.output(), regions); !s.ok()) return s;
+    part_count_ = 1;
+    instances_per_part_ = 1;
+    header_room_ = kHeaderRoom + wire.output().region().size() +
+                   (encoding_ == VertexEncoding::kSnorm16 ? kBoundsRoom * instances_ : 0);
+    normals_offset_ = headers_offset_ = 0;
+  }
   wire_used_ = headers_offset_ + part_count_ * header_room_;
 
   // Encoded instance by instance: skinned into the compute thread's scratch, kept in its
@@ -143,12 +154,12 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   if (bounds_.size() < instances_) bounds_.resize(instances_);
 
   if (wire_.size() < wire_used_) wire_ = AlignedBuffer<std::byte>(wire_used_);
-  if (float32) {  // skinned straight into the wire buffer, which is aligned for SIMD
-    const auto floats = [&](std::size_t offset) {
-      return std::span<float>(reinterpret_cast<float*>(wire_.data() + offset), values);
+  if (float32) {  // skinned straight into the wire buffer or the region, aligned for SIMD
+    const auto floats = [&](std::byte* out) {
+      return std::span<float>(reinterpret_cast<float*>(out), values);
     };
-    request.positions = floats(0);
-    request.normals = want_normals_ ? floats(normals_offset_) : std::span<float>();
+    request.positions = floats(PositionsOut());
+    request.normals = want_normals_ ? floats(NormalsOut()) : std::span<float>();
   } else if (scratch) {
     request.positions = {};
     request.normals = {};
@@ -161,7 +172,51 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   return Status::Ok();
 }
 
+Status FrameJob::PrepareRegion(const v1::OutputRegion& output, RegionRegistry* regions) {
+  if (regions == nullptr) {
+    return FailedPrecondition(
+        "output names a shared-memory region, but this server's shared memory is off (--shm-dir "
+        "is empty)");
+  }
+  Result<std::shared_ptr<MappedRegion>> region = regions->Acquire(output.region());
+  if (!region.ok()) return region.status();
+  if (Status s = (*region)->CheckIntact(); !s.ok()) return s;
+  const uint64_t size = (*region)->byte_size();
+  const uint64_t offset = output.offset();
+  if (offset % wire::kRegionAlignment != 0) {
+    return InvalidArgument(fmt::format("output.offset = {} in region '{}' is not a multiple of {}",
+                                       offset, output.region(), wire::kRegionAlignment));
+  }
+  const wire::RegionLayout layout =
+      wire::LayoutInRegion(offset, mesh_.vertex_count, instances_, encoding_, want_normals_);
+  region_positions_ = layout.positions_offset;
+  region_normals_ = layout.normals_offset;
+  region_end_ = layout.end_offset;
+  const uint64_t limit =
+      output.byte_size() == 0 ? size : std::min(size, offset + std::min(output.byte_size(), size));
+  if (offset > size || region_end_ > limit) {
+    return InvalidArgument(fmt::format(
+        "frame {} needs bytes [{}, {}) of region '{}' ({} instance(s) of {} vertices{}), but {}",
+        frame_, offset, region_end_, output.region(), instances_, mesh_.vertex_count,
+        want_normals_ ? " with normals" : "",
+        limit < size ? fmt::format("output.byte_size = {} allows {} from the offset",
+                                   output.byte_size(), output.byte_size())
+                     : fmt::format("the region holds {} bytes", size)));
+  }
+  region_ = std::move(region).value();
+  return Status::Ok();
+}
+
+std::byte* FrameJob::PositionsOut() {
+  return region_ ? region_->bytes().data() + region_positions_ : wire_.data();
+}
+
+std::byte* FrameJob::NormalsOut() {
+  return region_ ? region_->bytes().data() + region_normals_ : wire_.data() + normals_offset_;
+}
+
 void FrameJob::Fail(Status status) {
+  region_.reset();
   result_ = std::move(status);
   record_.EndFailed(result_.code());
   SetErrorPart();
@@ -170,7 +225,17 @@ void FrameJob::Fail(Status status) {
 void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
   timing_ = timing;
   result_ = std::move(status);
+  if (region_) {  // the frame is in the region: check nobody took it away meanwhile
+    if (result_.ok() && region_->removed()) {
+      result_ = FailedPrecondition(fmt::format(
+          "region '{}' was unregistered while frame {} was in flight: its output is undefined",
+          region_->name(), frame_));
+    }
+    if (result_.ok()) result_ = region_->CheckIntact();
+    if (result_.ok()) region_->CountFrame();
+  }
   if (result_.ok()) result_ = WriteHeaders();
+  region_.reset();  // an unregister waiting for this frame may answer from here
   if (result_.ok()) {
     record_.EndAnswered(timing_, encode_ns_.load());
   } else {
@@ -202,10 +267,9 @@ Status FrameJob::EncodeInstance(uint32_t i, std::span<const float> positions,
     bounds = *box;
   }
   Status s = EncodePositions(encoding_, positions, bounds,
-                             {wire_.data() + i * instance_bytes, instance_bytes});
+                             {PositionsOut() + i * instance_bytes, instance_bytes});
   if (s.ok() && want_normals_) {
-    s = EncodeNormals(encoding_, normals,
-                      {wire_.data() + normals_offset_ + i * instance_bytes, instance_bytes});
+    s = EncodeNormals(encoding_, normals, {NormalsOut() + i * instance_bytes, instance_bytes});
   }
   return s.ok() ? s : InstanceError(s, i, instances_);
 }
@@ -222,6 +286,7 @@ Status FrameJob::WriteHeaders() {
   timing->set_device_transfer_ns(timing_.device_transfer_ns);
   timing->set_device_kernel_ns(timing_.device_kernel_ns);
   timing->set_encode_ns(encode_ns_.load());
+  if (region_) return WriteRegionHeader();
   for (std::size_t p = 0; p < part_count_; ++p) {
     const PartRange r = RangeOf(p);
     header_.set_first_vertex(r.first);
@@ -255,6 +320,33 @@ Status FrameJob::WriteHeaders() {
   return Status::Ok();
 }
 
+Status FrameJob::WriteRegionHeader() {
+  header_.set_first_vertex(0);
+  header_.set_vertex_count(mesh_.vertex_count);
+  header_.set_instance(0);
+  header_.set_instance_count(instances_);
+  header_.set_last(true);
+  header_.clear_instance_bounds();  // keeps the elements: no allocation next time
+  if (encoding_ == VertexEncoding::kSnorm16) {
+    ToWire(bounds_[0], header_.mutable_bounds());
+    for (uint32_t k = 0; k < instances_; ++k) ToWire(bounds_[k], header_.add_instance_bounds());
+  }
+  v1::RegionWrite* write = header_.mutable_region_write();
+  write->set_region(region_->name());
+  write->set_positions_offset(region_positions_);
+  write->set_normals_offset(region_normals_);
+  write->set_instance_bytes(EncodedBytes(encoding_, mesh_.vertex_count));
+  write->set_end_offset(region_end_);
+  const std::size_t size = header_.ByteSizeLong();
+  if (size > header_room_) {
+    return Internal(
+        fmt::format("a response header of {} bytes exceeds the {} reserved", size, header_room_));
+  }
+  header_.SerializeWithCachedSizesToArray(reinterpret_cast<uint8_t*>(wire_.data()));
+  headers_[0] = {size, 0};
+  return Status::Ok();
+}
+
 void FrameJob::SetErrorPart() {
   header_.Clear();
   header_.set_frame(frame_);
@@ -285,6 +377,12 @@ const grpc::ByteBuffer* FrameJob::NextPart(bool* last) {
     wire_refs_.store(1, std::memory_order_release);
     listener_->HoldForWire();
     wire_slice_ = grpc::Slice(wire_.data(), wire_used_, &FrameJob::WireReleased, this);
+  }
+  if (region_part_) {  // one part, header only: the vertices are in the region
+    const grpc::Slice slice = wire_slice_.sub(0, headers_[0].size);
+    out_.emplace(&slice, 1);
+    wire_slice_ = grpc::Slice();
+    return &*out_;
   }
   const PartRange r = RangeOf(p);
   const std::size_t bytes_per_vertex = EncodedBytes(encoding_, 1);

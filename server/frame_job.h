@@ -9,6 +9,8 @@
 // only one. While gRPC holds those slices the buffer must not change: wire_in_use() tells,
 // and the listener is held until gRPC lets go. All buffers grow to the largest frame seen
 // and are charged to the in-flight budget until the job is destroyed (its stream ends).
+// A frame that names a shared-memory region (SkinRequest.output) is skinned (float32) or
+// encoded straight into the region instead, and its answer is one part of header only.
 #pragma once
 
 #include <grpcpp/support/byte_buffer.h>
@@ -20,10 +22,12 @@
 #include <vector>
 
 #include "inflight_budget.h"
+#include "mapped_region.h"
 #include "metrics_frames.h"
-#include "skinserve/model/aligned_buffer.h"
-#include "skinserve/engine/engine.h"
+#include "region_registry.h"
 #include "skinserve/encoding/vertex_encoding.h"
+#include "skinserve/engine/engine.h"
+#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/v1/skinning.pb.h"
 
 namespace skinserve::server {
@@ -51,10 +55,11 @@ class FrameJob final : public SkinJob {
   ~FrameJob() override;
 
   // Prepares `request` for the engine: checks what the server must know before sizing
-  // buffers (mesh, encoding, batch limits, budget), decodes the palette and sizes the
-  // outputs. Then Engine::Submit(this). Non-OK: the frame failed before the engine.
+  // buffers (mesh, encoding, batch limits, budget, the output region's range), decodes
+  // the palette and sizes the outputs. Then Engine::Submit(this). Non-OK: the frame
+  // failed before the engine. `regions` is null when shared memory is off.
   Status Prepare(const v1::SkinRequest& request, const Engine& engine,
-                 const std::string& default_backend);
+                 const std::string& default_backend, RegionRegistry* regions);
   // The frame failed before the engine: it is answered with `status`.
   void Fail(Status status);
 
@@ -79,8 +84,14 @@ class FrameJob final : public SkinJob {
   void OnSkinned(Status status, const FrameTiming& timing) override;
   Status EncodeInstance(uint32_t i, std::span<const float> positions,
                         std::span<const float> normals);
+  // Checks the request's output range against its region and pins the region.
+  Status PrepareRegion(const v1::OutputRegion& output, RegionRegistry* regions);
+  // The frame's output: the wire buffer, or the region's bytes.
+  std::byte* PositionsOut();
+  std::byte* NormalsOut();
   // Once every instance is in the wire buffer: each part's header, with the timings.
   Status WriteHeaders();
+  Status WriteRegionHeader();  // the one part of a frame written into a region
   void SetErrorPart();
   static void WireReleased(void* job);  // gRPC dropped the last slice
 
@@ -99,6 +110,12 @@ class FrameJob final : public SkinJob {
   std::vector<float> positions_;
   std::vector<float> normals_;
   std::vector<Bounds> bounds_;  // snorm16: each instance's box
+
+  // Frames into a shared-memory region: the region, pinned from Prepare until the frame
+  // is done, and where in it positions and normals go.
+  std::shared_ptr<MappedRegion> region_;
+  bool region_part_ = false;  // the answer is one header-only part (RegionWrite)
+  uint64_t region_positions_ = 0, region_normals_ = 0, region_end_ = 0;
 
   // Part p's header sits at headers_offset_ + p * header_room_ in wire_: the serialized
   // header with the positions field's tag and length, then the normals field's.

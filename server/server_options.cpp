@@ -29,6 +29,17 @@ uint64_t ServerOptions::InflightBudgetBytes() const {
   return inflight_budget_mb > 0 ? inflight_budget_mb << 20 : InflightBudget::DefaultLimitBytes();
 }
 
+RegionLimits ServerOptions::ToRegionLimits() const {
+  RegionLimits limits;
+  limits.dir = shm_dir;
+  limits.budget_bytes =
+      shm_budget_mb > 0 ? shm_budget_mb << 20 : InflightBudget::DefaultLimitBytes();
+  limits.max_regions = shm_max_regions;
+  limits.max_per_connection = shm_max_regions_per_connection;
+  limits.idle_seconds = shm_idle_seconds;
+  return limits;
+}
+
 EngineOptions ServerOptions::ToEngineOptions() const {
   EngineOptions engine;
   engine.compute_threads = ComputeThreads();
@@ -42,8 +53,11 @@ EngineOptions ServerOptions::ToEngineOptions() const {
 }
 
 void AddServerOptions(CLI::App& app, ServerOptions& o) {
-  app.add_option("--listen", o.listen, "address:port to serve gRPC on")
+  app.add_option("--listen", o.listen,
+                 "addresses to serve gRPC on, comma-separated: host:port, and unix:PATH for "
+                 "clients on this host (e.g. 0.0.0.0:50051,unix:/run/skinserve/grpc.sock)")
       ->envname("SKINSERVE_LISTEN")
+      ->delimiter(',')
       ->capture_default_str();
   app.add_option("--threads", o.threads,
                  "compute threads doing skinning, for all streams together (0: one per usable "
@@ -129,6 +143,32 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--metrics-listen", o.metrics_listen,
                  "address:port to serve Prometheus metrics on (GET /metrics); empty: off")
       ->envname("SKINSERVE_METRICS_LISTEN");
+  app.add_option("--shm-dir", o.shm_dir,
+                 "directory of the shared-memory regions clients on this host may register "
+                 "(their files must be inside it); empty: shared memory off")
+      ->envname("SKINSERVE_SHM_DIR")
+      ->capture_default_str();
+  app.add_option("--shm-budget-mb", o.shm_budget_mb,
+                 "bytes all registered regions may map together, MiB (0: a quarter of the "
+                 "machine's or the cgroup's memory); beyond, RegisterRegion is refused")
+      ->envname("SKINSERVE_SHM_BUDGET_MB")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--shm-max-regions", o.shm_max_regions, "regions registered at once, in all")
+      ->envname("SKINSERVE_SHM_MAX_REGIONS")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  app.add_option("--shm-max-regions-per-connection", o.shm_max_regions_per_connection,
+                 "regions one client connection may register")
+      ->envname("SKINSERVE_SHM_MAX_REGIONS_PER_CONNECTION")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--shm-idle-seconds", o.shm_idle_seconds,
+                 "a region no frame names for this long is unregistered and unmapped (a client "
+                 "that went away leaves nothing mapped)")
+      ->envname("SKINSERVE_SHM_IDLE_SECONDS")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--keepalive-seconds", o.keepalive_seconds,
                  "ping an idle connection after this long, to find peers that are gone")
       ->envname("SKINSERVE_KEEPALIVE_SECONDS")

@@ -6,12 +6,14 @@
 #include <string>
 #include <vector>
 
+#include "region_registry.h"
 #include "skinserve/engine/engine.h"
 
 namespace skinserve::server {
 
 struct ServerOptions {
-  std::string listen = "127.0.0.1:50051";
+  // Addresses to serve gRPC on: host:port, and unix:PATH for same-host clients.
+  std::vector<std::string> listen = {"127.0.0.1:50051"};
   int threads = 0;                    // 0: one per core less one (see ComputeThreads)
   std::vector<std::string> backends;  // empty: all
   std::string default_backend = "sse-openmp";
@@ -39,6 +41,13 @@ struct ServerOptions {
   double max_connection_age_grace_seconds = 30;
   uint64_t inflight_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
   std::string opencl_device;        // "": the first CPU device (PoCL), else the first device
+  // The same-host data plane (docs/shared-memory.md): where clients' regions live (empty:
+  // off), what they may map together, how many, and when an unused one is dropped.
+  std::string shm_dir = "/dev/shm";
+  uint64_t shm_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
+  uint32_t shm_max_regions = 256;
+  uint32_t shm_max_regions_per_connection = 16;
+  double shm_idle_seconds = 60;
 
   EngineOptions ToEngineOptions() const;
   // --threads, or by default one per core less one (at least one): gRPC's threads do most
@@ -46,6 +55,7 @@ struct ServerOptions {
   // compute threads hold.
   int ComputeThreads() const;
   uint64_t InflightBudgetBytes() const;
+  RegionLimits ToRegionLimits() const;
 };
 
 // Registers the options on `app`, each with its SKINSERVE_* environment variable.

@@ -5,7 +5,8 @@
 namespace skinserve::server {
 
 SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
-                         const grpc::ByteBuffer& request_bytes, InflightBudget* budget)
+                         const grpc::ByteBuffer& request_bytes, InflightBudget* budget,
+                         RegionRegistry* regions)
     : job_(static_cast<FrameJob::Listener*>(this), budget) {
   v1::SkinRequest request;
   grpc::ByteBuffer bytes(request_bytes);  // parsing consumes it
@@ -13,7 +14,7 @@ SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
                       ? Unavailable("the server is starting: backends are being built")
                   : !grpc::SerializationTraits<v1::SkinRequest>::Deserialize(&bytes, &request).ok()
                       ? InvalidArgument("the request is not a valid skinserve.v1.SkinRequest")
-                      : job_.Prepare(request, *engine, default_backend);
+                      : job_.Prepare(request, *engine, default_backend, regions);
   if (status.ok()) {
     refs_.fetch_add(1);
     status = engine->Submit(&job_);

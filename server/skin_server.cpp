@@ -1,6 +1,7 @@
 #include "skin_server.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <spdlog/spdlog.h>
@@ -25,9 +26,14 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   spdlog::set_level(spdlog::level::from_str(options.log_level));
   SetLogFormat(options.log_format);
   std::unique_ptr<SkinServer> server(new SkinServer());
-  server->service_ =
-      std::make_unique<SkinningService>(options.default_backend, options.stream_window,
-                                        options.max_streams, options.InflightBudgetBytes());
+  if (!options.shm_dir.empty()) {
+    auto regions = RegionRegistry::Create(options.ToRegionLimits());
+    if (!regions.ok()) return regions.status();
+    server->regions_ = std::move(regions).value();
+  }
+  server->service_ = std::make_unique<SkinningService>(
+      options.default_backend, options.stream_window, options.max_streams,
+      options.InflightBudgetBytes(), server->regions_.get());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -40,16 +46,25 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
     builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS,
                                ms(options.max_connection_age_grace_seconds));
   }
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
+  if (options.listen.empty()) return InvalidArgument("--listen names no address");
+  std::vector<int> ports(options.listen.size(), 0);
+  for (std::size_t i = 0; i < options.listen.size(); ++i) {
+    builder.AddListeningPort(options.listen[i], grpc::InsecureServerCredentials(), &ports[i]);
+  }
   builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
   builder.RegisterService(server->service_.get());
   server->server_ = builder.BuildAndStart();
-  if (!server->server_ || server->port_ == 0) {
-    return Unavailable(fmt::format("cannot listen on {}", options.listen));
+  for (std::size_t i = 0; i < options.listen.size(); ++i) {
+    if (!server->server_ || ports[i] == 0) {
+      return Unavailable(fmt::format("cannot listen on {}", options.listen[i]));
+    }
+    // The first TCP address's port is the one --port-file reports.
+    if (server->port_ == 0 && options.listen[i].rfind("unix:", 0) != 0) server->port_ = ports[i];
   }
   grpc::HealthCheckServiceInterface* health = server->server_->GetHealthCheckService();
   health->SetServingStatus(false);
-  spdlog::info("listening on {} (port {}); building backends", options.listen, server->port_);
+  spdlog::info("listening on {} (port {}); building backends", fmt::join(options.listen, ", "),
+               server->port_);
   if (!options.metrics_listen.empty()) {
     FrameMetrics::Enable();
     auto metrics = MetricsServer::Start(options.metrics_listen,

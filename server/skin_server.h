@@ -31,7 +31,8 @@ class SkinServer {
 
  private:
   SkinServer() = default;
-  std::string RenderMetrics() const;  // on the metrics server's threads
+  std::string RenderMetrics() const;         // on the metrics server's threads
+  std::unique_ptr<RegionRegistry> regions_;  // null: shared memory off; outlives service_
   std::unique_ptr<SkinningService> service_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<Engine> engine_;

@@ -1,9 +1,9 @@
 #include "skinning_service.h"
 
+#include "engine_messages.h"
 #include "mesh_upload_reactor.h"
 #include "skin_reactor.h"
 #include "stream_skin_reactor.h"
-#include "engine_messages.h"
 
 namespace skinserve::server {
 namespace {
@@ -15,6 +15,16 @@ grpc::ServerUnaryReactor* Done(grpc::CallbackServerContext* context, const Statu
 }
 
 const Status kWarmingUp = Unavailable("the server is starting: backends are being built");
+const Status kNoSharedMemory =
+    FailedPrecondition("this server's shared memory is off (--shm-dir is empty)");
+
+void ToWire(const RegionInfo& info, v1::RegionInfo* wire) {
+  wire->set_name(info.name);
+  wire->set_key(info.key);
+  wire->set_byte_size(info.byte_size);
+  wire->set_frames_written(info.frames_written);
+  wire->set_idle_seconds(info.idle_seconds);
+}
 
 }  // namespace
 
@@ -44,13 +54,13 @@ grpc::ServerUnaryReactor* SkinningService::DeleteMesh(grpc::CallbackServerContex
 
 grpc::ServerWriteReactor<grpc::ByteBuffer>* SkinningService::Skin(grpc::CallbackServerContext*,
                                                                   const grpc::ByteBuffer* request) {
-  return new SkinReactor(engine_.load(), default_backend_, *request, &budget_);
+  return new SkinReactor(engine_.load(), default_backend_, *request, &budget_, regions_);
 }
 
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* SkinningService::StreamSkin(
     grpc::CallbackServerContext*) {
   return new StreamSkinReactor(engine_.load(), default_backend_, stream_window_, &open_streams_,
-                               &budget_);
+                               &budget_, regions_);
 }
 
 grpc::ServerUnaryReactor* SkinningService::ListBackends(grpc::CallbackServerContext* context,
@@ -73,6 +83,52 @@ grpc::ServerUnaryReactor* SkinningService::GetServerStats(grpc::CallbackServerCo
   response->set_inflight_budget_bytes(budget_.limit());
   response->set_inflight_bytes(budget_.used());
   response->set_rejected_inflight_budget(budget_.refused());
+  if (regions_ != nullptr) {
+    const RegionStats regions = regions_->Stats();
+    response->set_regions(regions.regions);
+    response->set_region_bytes(regions.mapped_bytes);
+    response->set_region_budget_bytes(regions.budget_bytes);
+    response->set_region_frames(regions.frames);
+    response->set_rejected_regions(regions.rejected);
+  }
+  return Done(context, Status::Ok());
+}
+
+grpc::ServerUnaryReactor* SkinningService::RegisterRegion(grpc::CallbackServerContext* context,
+                                                          const v1::RegisterRegionRequest* request,
+                                                          v1::RegionInfo* response) {
+  if (regions_ == nullptr) return Done(context, kNoSharedMemory);
+  Result<RegionInfo> info =
+      regions_->Register(request->name(), request->key(), request->byte_size(), context->peer());
+  if (info.ok()) ToWire(*info, response);
+  return Done(context, info.status());
+}
+
+grpc::ServerUnaryReactor* SkinningService::UnregisterRegion(
+    grpc::CallbackServerContext* context, const v1::UnregisterRegionRequest* request,
+    v1::UnregisterRegionResponse*) {
+  if (regions_ == nullptr) return Done(context, kNoSharedMemory);
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  // Answered once the last frame writing into the region is done and it is unmapped.
+  Status status =
+      regions_->Unregister(request->name(), [reactor] { reactor->Finish(grpc::Status::OK); });
+  if (!status.ok()) reactor->Finish(ToGrpc(status));
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* SkinningService::ListRegions(grpc::CallbackServerContext* context,
+                                                       const v1::ListRegionsRequest*,
+                                                       v1::ListRegionsResponse* response) {
+  if (regions_ == nullptr) return Done(context, kNoSharedMemory);
+  for (const RegionInfo& info : regions_->List()) ToWire(info, response->add_regions());
+  const RegionLimits& limits = regions_->limits();
+  const RegionStats stats = regions_->Stats();
+  response->set_shm_dir(limits.dir);
+  response->set_budget_bytes(limits.budget_bytes);
+  response->set_mapped_bytes(stats.mapped_bytes);
+  response->set_idle_limit_seconds(limits.idle_seconds);
+  response->set_max_regions(limits.max_regions);
+  response->set_max_regions_per_connection(limits.max_per_connection);
   return Done(context, Status::Ok());
 }
 

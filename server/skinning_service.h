@@ -6,6 +6,7 @@
 
 #include "inflight_budget.h"
 #include "open_streams.h"
+#include "region_registry.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
@@ -17,16 +18,22 @@ using SkinningCallbackService = v1::Skinning::WithCallbackMethod_UploadMesh<
     v1::Skinning::WithCallbackMethod_GetMesh<v1::Skinning::WithCallbackMethod_DeleteMesh<
         v1::Skinning::WithRawCallbackMethod_Skin<v1::Skinning::WithRawCallbackMethod_StreamSkin<
             v1::Skinning::WithCallbackMethod_ListBackends<
-                v1::Skinning::WithCallbackMethod_GetServerStats<v1::Skinning::Service>>>>>>>;
+                v1::Skinning::WithCallbackMethod_GetServerStats<
+                    v1::Skinning::WithCallbackMethod_RegisterRegion<
+                        v1::Skinning::WithCallbackMethod_UnregisterRegion<
+                            v1::Skinning::WithCallbackMethod_ListRegions<
+                                v1::Skinning::Service>>>>>>>>>>;
 
 class SkinningService final : public SkinningCallbackService {
  public:
+  // `regions` (null: shared memory is off) outlives the service.
   SkinningService(std::string default_backend, int stream_window, std::size_t max_streams,
-                  uint64_t inflight_budget_bytes)
+                  uint64_t inflight_budget_bytes, RegionRegistry* regions)
       : default_backend_(std::move(default_backend)),
         stream_window_(stream_window),
         open_streams_(max_streams),
-        budget_(inflight_budget_bytes) {}
+        budget_(inflight_budget_bytes),
+        regions_(regions) {}
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }
   // Shutdown: open streams answer the frames they have read and end UNAVAILABLE; new
@@ -55,6 +62,15 @@ class SkinningService final : public SkinningCallbackService {
   grpc::ServerUnaryReactor* GetServerStats(grpc::CallbackServerContext* context,
                                            const v1::GetServerStatsRequest* request,
                                            v1::ServerStats* response) override;
+  grpc::ServerUnaryReactor* RegisterRegion(grpc::CallbackServerContext* context,
+                                           const v1::RegisterRegionRequest* request,
+                                           v1::RegionInfo* response) override;
+  grpc::ServerUnaryReactor* UnregisterRegion(grpc::CallbackServerContext* context,
+                                             const v1::UnregisterRegionRequest* request,
+                                             v1::UnregisterRegionResponse* response) override;
+  grpc::ServerUnaryReactor* ListRegions(grpc::CallbackServerContext* context,
+                                        const v1::ListRegionsRequest* request,
+                                        v1::ListRegionsResponse* response) override;
 
  private:
   std::atomic<Engine*> engine_{nullptr};
@@ -62,6 +78,7 @@ class SkinningService final : public SkinningCallbackService {
   const int stream_window_;
   OpenStreams open_streams_;
   InflightBudget budget_;  // the bytes of frames in flight, all streams and Skin calls
+  RegionRegistry* const regions_;
 };
 
 }  // namespace skinserve::server

@@ -8,12 +8,14 @@
 namespace skinserve::server {
 
 StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend, int window,
-                                     OpenStreams* open_streams, InflightBudget* budget)
+                                     OpenStreams* open_streams, InflightBudget* budget,
+                                     RegionRegistry* regions)
     : engine_(engine),
       default_backend_(std::move(default_backend)),
       window_(static_cast<std::size_t>(std::max(window, 1))),
       open_streams_(open_streams),
-      budget_(budget) {
+      budget_(budget),
+      regions_(regions) {
   jobs_.reserve(window_);
   in_flight_jobs_.resize(window_, nullptr);
   idle_jobs_.reserve(window_);
@@ -48,7 +50,7 @@ void StreamSkinReactor::OnReadDone(bool ok) {
   FrameJob& job = *TakeIdleJobLocked();
   in_flight_jobs_[(oldest_ + in_flight_) % window_] = &job;
   ++in_flight_;
-  Status status = job.Prepare(request_, *engine_, default_backend_);
+  Status status = job.Prepare(request_, *engine_, default_backend_, regions_);
   if (status.ok()) {
     refs_.fetch_add(1);
     status = engine_->Submit(&job);

@@ -33,7 +33,7 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
  public:
   StreamSkinReactor(Engine* engine,  // null: warming up
                     std::string default_backend, int window, OpenStreams* open_streams,
-                    InflightBudget* budget);
+                    InflightBudget* budget, RegionRegistry* regions);
   void OnReadDone(bool ok) override;
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
@@ -60,6 +60,7 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   const std::size_t window_;
   OpenStreams* open_streams_;
   InflightBudget* budget_;
+  RegionRegistry* regions_;  // null: shared memory is off
 
   std::mutex mutex_;
   grpc::ByteBuffer request_bytes_;

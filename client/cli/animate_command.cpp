@@ -18,10 +18,10 @@
 
 #include "character_input.h"
 #include "commands.h"
-#include "skinserve/client/channel.h"
-#include "skinserve/client/frame_stream.h"
 #include "skinserve/character/animation.h"
 #include "skinserve/character/character_mesh.h"
+#include "skinserve/client/channel.h"
+#include "skinserve/client/frame_stream.h"
 #include "skinserve/render/character_camera.h"
 #include "skinserve/render/contact_sheet.h"
 #include "skinserve/render/mesh_renderer.h"

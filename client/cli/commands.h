@@ -32,6 +32,7 @@ void AddStatsCommand(CLI::App& app, CommonOptions& common);
 void AddVerifyCommand(CLI::App& app, CommonOptions& common);
 void AddAnimateCommand(CLI::App& app, CommonOptions& common);
 void AddTwistCommand(CLI::App& app, CommonOptions& common);
+void AddRegionsCommand(CLI::App& app, CommonOptions& common);
 
 // --method linear|dual-quaternion on `command`, into `method`.
 void AddMethodOption(CLI::App* command, SkinningMethod* method);

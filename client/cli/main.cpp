@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   AddVerifyCommand(app, common);
   AddAnimateCommand(app, common);
   AddTwistCommand(app, common);
+  AddRegionsCommand(app, common);
   CLI11_PARSE(app, argc, argv);
   return common.exit_code;
 }

@@ -3,6 +3,7 @@
 #include "commands.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/reference/reference.h"
+#include "skinserve/wire/region_layout.h"
 
 namespace skinserve::cli {
 
@@ -17,7 +18,14 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common) {
   AddMethodOption(command, method.get());
   command->add_option("--backend", *backend, "backend id (default: the server's)");
   command->add_option("--frame", *frame, "frame number (selects the pose)")->capture_default_str();
-  command->callback([&common, mesh, backend, frame, method] {
+  auto shared_memory = std::make_shared<bool>(false);
+  auto shm_dir = std::make_shared<std::string>("/dev/shm");
+  command->add_flag("--shared-memory", *shared_memory,
+                    "have the server write the frame into a shared-memory region this command "
+                    "creates and registers (the server must run on this host)");
+  command->add_option("--shm-dir", *shm_dir, "the server's --shm-dir, where the region is made")
+      ->capture_default_str();
+  command->callback([&common, mesh, backend, frame, method, shared_memory, shm_dir] {
     client::SkinClient client(client::MakeChannel(common.target));
     const MeshArrays arrays = MakeSyntheticMesh(mesh->spec);
     auto info = client.Upload(arrays);
@@ -30,8 +38,37 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common) {
                              ? MakeRigidPalette(arrays.joint_count, mesh->spec.seed, *frame)
                              : MakeSyntheticPalette(arrays.joint_count, mesh->spec.seed, *frame);
     client::FrameResult result;
-    Status s = client.Skin(info->mesh_id(), *backend, palette, *frame, mesh->spec.normals, &result,
-                           *method);
+    client::SkinOptions options{
+        .backend = *backend, .want_normals = mesh->spec.normals, .method = *method};
+    std::unique_ptr<client::SharedMemoryRegion> region;
+    const std::string region_name = client::SharedMemoryRegion::UniqueKey("cli");
+    if (*shared_memory) {
+      auto made = client::SharedMemoryRegion::Create(
+          region_name,
+          wire::RegionFrameBytes(arrays.vertex_count, 1, VertexEncoding::kFloat32,
+                                 mesh->spec.normals),
+          *shm_dir);
+      if (!made.ok()) {
+        common.exit_code = Report(made.status());
+        return;
+      }
+      region = std::move(made).value();
+      if (auto registered = client.RegisterRegion(region_name, *region); !registered.ok()) {
+        common.exit_code = Report(registered.status());
+        return;
+      }
+      options.output = {.name = region_name, .region = region.get()};
+    }
+    Status s = client.Skin(info->mesh_id(), palette, *frame, options, &result);
+    if (s.ok() && result.in_region()) {
+      fmt::print("written into region {} ({}): {} bytes from offset 0, read in place\n",
+                 region_name, region->path(),
+                 result.region_positions.size() + result.region_normals.size());
+      s = client::DecodeRegionFrame(&result);
+    }
+    if (region != nullptr) {
+      if (Status u = client.UnregisterRegion(region_name); s.ok()) s = u;
+    }
     if (!s.ok()) {
       common.exit_code = Report(s);
       return;

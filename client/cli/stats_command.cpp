@@ -34,6 +34,11 @@ void AddStatsCommand(CLI::App& app, CommonOptions& common) {
     fmt::print("meshes {} using {} of {} bytes; evictions {}; frames refused (queue full) {}\n",
                stats->meshes(), stats->mesh_bytes(), stats->mesh_budget_bytes(), stats->evictions(),
                stats->rejected_queue_full());
+    fmt::print(
+        "shared-memory regions {} mapping {} of {} bytes; frames written into them {}; "
+        "registrations refused {}\n",
+        stats->regions(), stats->region_bytes(), stats->region_budget_bytes(),
+        stats->region_frames(), stats->rejected_regions());
   });
 }
 

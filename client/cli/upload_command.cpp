@@ -2,8 +2,8 @@
 
 #include "character_input.h"
 #include "commands.h"
-#include "skinserve/client/channel.h"
 #include "skinserve/character/character_mesh.h"
+#include "skinserve/client/channel.h"
 
 namespace skinserve::cli {
 namespace {

@@ -25,7 +25,12 @@ class InFlightRing {
   explicit InFlightRing(std::size_t window) : slots_(window) {}
   bool empty() const { return size_ == 0; }
   std::size_t size() const { return size_; }
-  void push_back(const InFlight& f) { slots_[(head_ + size_++) % slots_.size()] = f; }
+  // Returns the slot it took: frames in flight never share one (a region's slots follow it).
+  std::size_t push_back(const InFlight& f) {
+    const std::size_t slot = (head_ + size_++) % slots_.size();
+    slots_[slot] = f;
+    return slot;
+  }
   const InFlight& front() const { return slots_[head_]; }
   void pop_front() {
     head_ = (head_ + 1) % slots_.size();
@@ -53,6 +58,18 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   const std::size_t window = static_cast<std::size_t>(std::max(options.window, 1));
   InFlightRing in_flight(window);
   int reuploads = 0;
+  if (options.output.enabled() && window > 1 && options.output.stride == 0) {
+    return InvalidArgument(
+        "StreamOptions.output.stride is 0 with a window above 1: frames in flight would share "
+        "the region's bytes (use wire::RegionFrameBytes)");
+  }
+  if (options.output.enabled() &&
+      options.output.offset + window * options.output.stride > options.output.region->byte_size()) {
+    return InvalidArgument(fmt::format(
+        "region '{}' holds {} bytes, fewer than {} frames in flight of {} bytes from offset {}",
+        options.output.name, options.output.region->byte_size(), window, options.output.stride,
+        options.output.offset));
+  }
   Status status;
   // One request, one response part and one result for the whole run: protobuf keeps the
   // strings' capacity and the result its vectors', so steady frames allocate nothing here.
@@ -64,6 +81,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   request.set_instances(options.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_method(wire::ToWire(options.method));
+  if (options.output.enabled()) request.mutable_output()->set_region(options.output.name);
   RawPart part;  // reads each answer part from gRPC's bytes (no copy into a message)
   grpc::ByteBuffer bytes;
   FrameResult result;
@@ -95,7 +113,11 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         const uint64_t frame = again ? resend.front() : next;
         request.set_frame(frame);
         wire::EncodeFloats(palette(frame), request.mutable_palette());
-        in_flight.push_back({frame, Clock::now(), reuploads});
+        const std::size_t slot = in_flight.push_back({frame, Clock::now(), reuploads});
+        if (options.output.enabled()) {
+          request.mutable_output()->set_offset(options.output.offset +
+                                               slot * options.output.stride);
+        }
         if (again) {
           resend.pop_front();
         } else {
@@ -107,7 +129,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     };
     fill();
     while (!broken && !in_flight.empty()) {
-      FrameAssembler assembler;
+      FrameAssembler assembler(&options.output);
       bool complete = false;
       while (!complete && stream->Read(&bytes)) complete = assembler.Add(bytes, &part, &result);
       if (!complete) {

@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "skinserve/client/channel.h"
+#include "skinserve/wire/region_layout.h"
 
 namespace skinserve::client {
 
@@ -17,7 +18,82 @@ bool FrameAssembler::Fail(const v1::SkinResponse& part, FrameResult* result, Sta
   result->positions.clear();  // keeps the capacity for the next frame
   result->normals.clear();
   result->bounds.clear();
+  result->region_positions = result->region_normals = {};
   return part.last();
+}
+
+bool FrameAssembler::AddRegionPart(const v1::SkinResponse& part, FrameResult* result) {
+  const v1::RegionWrite& write = part.region_write();
+  const auto fail = [&](const std::string& why) {
+    return Fail(part, result, Internal(fmt::format("frame {}: {}", part.frame(), why)));
+  };
+  if (output_ == nullptr || !output_->enabled() || write.region() != output_->name) {
+    return fail(
+        fmt::format("answered in region '{}', which the frame did not name", write.region()));
+  }
+  const uint32_t instances = std::max(part.instances(), 1u);
+  const auto encoding = static_cast<VertexEncoding>(part.encoding());
+  const uint64_t instance_bytes =
+      uint64_t{part.total_vertices()} * 3 * EncodedBytesPerValue(encoding);
+  const uint64_t array_bytes = instance_bytes * instances;
+  const bool normals = write.normals_offset() != write.positions_offset();
+  const wire::RegionLayout layout = wire::LayoutInRegion(
+      write.positions_offset(), part.total_vertices(), instances, encoding, normals);
+  const std::span<const std::byte> mapping = output_->region->bytes();
+  if (!part.last() || write.instance_bytes() != instance_bytes ||
+      write.normals_offset() != layout.normals_offset || write.end_offset() != layout.end_offset ||
+      layout.end_offset > mapping.size()) {
+    return fail(fmt::format(
+        "region '{}': the answer's ranges (positions at {}, normals at {}, {} bytes per "
+        "instance, end {}) do not fit {} x {} vertices in {} within the region's {} bytes",
+        write.region(), write.positions_offset(), write.normals_offset(), write.instance_bytes(),
+        write.end_offset(), instances, part.total_vertices(), VertexEncodingName(encoding),
+        mapping.size()));
+  }
+  if (encoding == VertexEncoding::kSnorm16 &&
+      part.instance_bounds_size() != static_cast<int>(instances)) {
+    return fail(
+        fmt::format("{} instances but {} instance_bounds", instances, part.instance_bounds_size()));
+  }
+  result->vertices = part.total_vertices();
+  result->instances = instances;
+  result->encoding = encoding;
+  result->positions.clear();
+  result->normals.clear();
+  result->bounds.assign(instances, Bounds{});
+  for (uint32_t k = 0; encoding == VertexEncoding::kSnorm16 && k < instances; ++k) {
+    result->bounds[k] = FromWire(part.instance_bounds(static_cast<int>(k)));
+  }
+  result->region_positions = mapping.subspan(layout.positions_offset, array_bytes);
+  result->region_normals =
+      normals ? mapping.subspan(layout.normals_offset, array_bytes) : std::span<const std::byte>();
+  return true;
+}
+
+Status DecodeRegionFrame(FrameResult* result) {
+  if (!result->in_region()) return Status::Ok();
+  const std::size_t count = 3ull * result->vertices;
+  const std::size_t instance_bytes = count * EncodedBytesPerValue(result->encoding);
+  const bool normals = !result->region_normals.empty();
+  result->positions.resize(count * result->instances);
+  result->normals.resize(normals ? count * result->instances : 0);
+  for (uint32_t k = 0; k < result->instances; ++k) {
+    const Bounds& bounds = result->bounds[k];
+    if (Status s = DecodePositions(
+            result->encoding, result->region_positions.subspan(k * instance_bytes, instance_bytes),
+            bounds, std::span<float>(result->positions).subspan(k * count, count));
+        !s.ok()) {
+      return s;
+    }
+    if (!normals) continue;
+    if (Status s = DecodeNormals(result->encoding,
+                                 result->region_normals.subspan(k * instance_bytes, instance_bytes),
+                                 std::span<float>(result->normals).subspan(k * count, count));
+        !s.ok()) {
+      return s;
+    }
+  }
+  return Status::Ok();
 }
 
 // `part` is the header; `positions_size` and `normals_size` the bytes of its vertex fields;
@@ -32,16 +108,18 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
     result->frame = part.frame();
     result->status = Status::Ok();
     result->timing = part.timing();
+    result->region_positions = result->region_normals = {};
     if (part.has_error()) {
       return Fail(part, result,
                   wire::FromGrpc(grpc::Status(static_cast<grpc::StatusCode>(part.error().code()),
-                                        part.error().message())));
+                                              part.error().message())));
     }
     if (!v1::Encoding_IsValid(part.encoding())) {
       return Fail(part, result,
                   Internal(fmt::format("frame {}: unknown encoding {}", part.frame(),
                                        static_cast<int>(part.encoding()))));
     }
+    if (part.has_region_write()) return AddRegionPart(part, result);
     const uint64_t vertices = uint64_t{instances} * part.total_vertices();
     if (vertices > kMaxFrameVertices) {
       return Fail(
@@ -318,6 +396,35 @@ Result<v1::ServerStats> SkinClient::GetServerStats() {
   return response;
 }
 
+Result<v1::RegionInfo> SkinClient::RegisterRegion(const std::string& name,
+                                                  const SharedMemoryRegion& region) {
+  grpc::ClientContext context;
+  v1::RegisterRegionRequest request;
+  request.set_name(name);
+  request.set_key(region.key());
+  request.set_byte_size(region.byte_size());
+  v1::RegionInfo info;
+  grpc::Status status = stub_->RegisterRegion(&context, request, &info);
+  if (!status.ok()) return wire::FromGrpc(status);
+  return info;
+}
+
+Status SkinClient::UnregisterRegion(const std::string& name) {
+  grpc::ClientContext context;
+  v1::UnregisterRegionRequest request;
+  request.set_name(name);
+  v1::UnregisterRegionResponse response;
+  return wire::FromGrpc(stub_->UnregisterRegion(&context, request, &response));
+}
+
+Result<v1::ListRegionsResponse> SkinClient::ListRegions() {
+  grpc::ClientContext context;
+  v1::ListRegionsResponse response;
+  grpc::Status status = stub_->ListRegions(&context, v1::ListRegionsRequest(), &response);
+  if (!status.ok()) return wire::FromGrpc(status);
+  return response;
+}
+
 Status SkinClient::Skin(const std::string& mesh_id, const std::string& backend,
                         std::span<const float> palette, uint64_t frame, bool want_normals,
                         FrameResult* result, SkinningMethod method) {
@@ -341,18 +448,25 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
-  Status status = SkinOnce(request, part, result);
+  if (options.output.enabled()) {
+    request.mutable_output()->set_region(options.output.name);
+    request.mutable_output()->set_offset(options.output.offset);
+  } else {
+    request.clear_output();
+  }
+  Status status = SkinOnce(request, options.output, part, result);
   if (status.code() == StatusCode::kNotFound) {
     if (Status s = Reupload(mesh_id); !s.ok()) return status;  // the original NOT_FOUND
-    status = SkinOnce(request, part, result);
+    status = SkinOnce(request, options.output, part, result);
   }
   return status;
 }
 
-Status SkinClient::SkinOnce(const v1::SkinRequest& request, RawPart* part, FrameResult* result) {
+Status SkinClient::SkinOnce(const v1::SkinRequest& request, const RegionOutput& output,
+                            RawPart* part, FrameResult* result) {
   grpc::ClientContext context;
   auto reader = SkinRaw(&context, request);
-  FrameAssembler assembler;
+  FrameAssembler assembler(&output);
   bool complete = false;
   grpc::ByteBuffer bytes;
   while (reader->Read(&bytes)) {

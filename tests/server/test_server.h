@@ -15,7 +15,7 @@ struct TestServer {
   std::string target;
 
   explicit TestServer(server::ServerOptions options = {}) {
-    options.listen = "127.0.0.1:0";
+    options.listen = {"127.0.0.1:0"};
     options.log_level = "warn";
     auto started = server::SkinServer::Start(options);
     EXPECT_TRUE(started.ok()) << started.status().ToString();

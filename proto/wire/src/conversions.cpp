@@ -17,6 +17,8 @@ grpc::Status ToGrpc(const Status& status) {
       return {grpc::StatusCode::INVALID_ARGUMENT, status.message()};
     case StatusCode::kNotFound:
       return {grpc::StatusCode::NOT_FOUND, status.message()};
+    case StatusCode::kAlreadyExists:
+      return {grpc::StatusCode::ALREADY_EXISTS, status.message()};
     case StatusCode::kResourceExhausted:
       return {grpc::StatusCode::RESOURCE_EXHAUSTED, status.message()};
     case StatusCode::kFailedPrecondition:
@@ -37,6 +39,8 @@ Status FromGrpc(const grpc::Status& status) {
       return InvalidArgument(status.error_message());
     case grpc::StatusCode::NOT_FOUND:
       return NotFound(status.error_message());
+    case grpc::StatusCode::ALREADY_EXISTS:
+      return AlreadyExists(status.error_message());
     case grpc::StatusCode::RESOURCE_EXHAUSTED:
       return ResourceExhausted(status.error_message());
     case grpc::StatusCode::FAILED_PRECONDITION:

@@ -26,6 +26,9 @@ struct StreamOptions {
   // Crowd batches: each frame's palette holds this many instances' palettes back to back,
   // and its result this many vertex sets.
   uint32_t instances = 1;
+  // Same host: every frame is written into this region, each frame in flight into its own
+  // slot (RegionOutput::stride); the sink's result views it (FrameResult::in_region).
+  RegionOutput output;
   uint64_t first_frame = 0;
   uint64_t frames = 100;
   int window = 4;  // frames in flight

@@ -13,13 +13,14 @@
 #include <string>
 #include <vector>
 
-#include "skinserve/wire/conversions.h"
-#include "skinserve/wire/raw_part.h"
+#include "skinserve/client/shared_memory_region.h"
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/model/mesh.h"
 #include "skinserve/model/skinning_method.h"
 #include "skinserve/model/status.h"
-#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
+#include "skinserve/wire/conversions.h"
+#include "skinserve/wire/raw_part.h"
 
 namespace skinserve::client {
 
@@ -42,6 +43,23 @@ struct FrameResult {
   std::vector<float> normals;    // as positions, or empty when not asked for
   std::vector<Bounds> bounds;    // per instance: the box snorm16 positions were quantised to
   v1::ServerTiming timing;
+  // A frame written into a shared-memory region (SkinOptions::output): `positions` and
+  // `normals` stay empty and these view the region instead, every instance back to back,
+  // in `encoding` (no copy; valid until the region's bytes are written again).
+  // DecodeRegionFrame decodes them into `positions` and `normals`.
+  std::span<const std::byte> region_positions;
+  std::span<const std::byte> region_normals;
+
+  bool in_region() const { return !region_positions.empty(); }
+  // float32 frames in a region: one instance's positions or normals, read in place.
+  std::span<const float> region_floats(bool of_normals, uint32_t instance) const {
+    const std::span<const std::byte> bytes = of_normals ? region_normals : region_positions;
+    const std::size_t count = 3ull * vertices;
+    if (encoding != VertexEncoding::kFloat32 || bytes.size() < (instance + 1ull) * count * 4) {
+      return {};
+    }
+    return {reinterpret_cast<const float*>(bytes.data()) + count * instance, count};
+  }
 
   std::span<const float> instance_positions(uint32_t instance) const {
     return std::span<const float>(positions).subspan(3ull * vertices * instance, 3ull * vertices);
@@ -52,6 +70,22 @@ struct FrameResult {
   }
 };
 
+// Where the server writes a frame on the same host (the same-host data plane,
+// docs/shared-memory.md): a region this process mapped and registered.
+struct RegionOutput {
+  std::string name;                            // as registered (SkinClient::RegisterRegion)
+  const SharedMemoryRegion* region = nullptr;  // this process's mapping of it; null: off
+  uint64_t offset = 0;                         // a multiple of wire::kRegionAlignment
+  // StreamFrames: each frame in flight has its own slot, the i-th at offset + i * stride
+  // (wire::RegionFrameBytes of the frame's shape, or more); the region must hold `window`.
+  uint64_t stride = 0;
+  bool enabled() const { return region != nullptr; }
+};
+
+// Decodes a frame written into a region (FrameResult::in_region) into its `positions` and
+// `normals`, as a frame sent over gRPC arrives; other frames are left as they are.
+Status DecodeRegionFrame(FrameResult* result);
+
 // Gathers a frame's parts into a FrameResult, decoding each part's encoding; true once
 // the part with `last` has arrived. Parts must come as the contract says: instance by
 // instance, each in vertex order, ranges inside the frame (or, packed, several whole
@@ -61,6 +95,8 @@ struct FrameResult {
 // assembler per frame (it allocates nothing); the result may be reused.
 class FrameAssembler {
  public:
+  // `output`: the region the frame named, if any (it must outlive the assembler).
+  explicit FrameAssembler(const RegionOutput* output = nullptr) : output_(output) {}
   bool Add(const v1::SkinResponse& part, FrameResult* result);
   // The same from the bytes gRPC received, read with `reader` (one per stream, reused) and
   // decoded without copying them first. Bytes that are no SkinResponse fail the frame.
@@ -71,7 +107,11 @@ class FrameAssembler {
   bool AddPart(const v1::SkinResponse& part, std::size_t positions_size, std::size_t normals_size,
                const Decode& decode, FrameResult* result);
   bool Fail(const v1::SkinResponse& part, FrameResult* result, Status status);
+  // The frame's one part when it went into the region: checks its ranges against the
+  // mapping and points the result at them.
+  bool AddRegionPart(const v1::SkinResponse& part, FrameResult* result);
 
+  const RegionOutput* output_ = nullptr;
   bool started_ = false;
   bool failed_ = false;
   bool normals_ = false;
@@ -87,6 +127,8 @@ struct SkinOptions {
   VertexEncoding encoding = VertexEncoding::kFloat32;
   // Crowd batch: palettes of this many instances back to back (1: a single instance).
   uint32_t instances = 1;
+  // Same host: the server writes the answer into this region instead of sending it.
+  RegionOutput output;
 };
 
 class SkinClient {
@@ -117,6 +159,12 @@ class SkinClient {
   Result<bool> DeleteMesh(const std::string& mesh_id);
   Result<v1::ListBackendsResponse> ListBackends();
   Result<v1::ServerStats> GetServerStats();
+  // The same-host data plane: `region` under `name` (unique on the server), until
+  // UnregisterRegion (which returns once the server has unmapped it) or the server's idle
+  // limit.
+  Result<v1::RegionInfo> RegisterRegion(const std::string& name, const SharedMemoryRegion& region);
+  Status UnregisterRegion(const std::string& name);
+  Result<v1::ListRegionsResponse> ListRegions();
 
   // One frame through Skin; on NOT_FOUND for a mesh this client uploaded, uploads it
   // again and retries once.
@@ -129,7 +177,8 @@ class SkinClient {
               const SkinOptions& options, FrameResult* result);
 
  private:
-  Status SkinOnce(const v1::SkinRequest& request, RawPart* part, FrameResult* result);
+  Status SkinOnce(const v1::SkinRequest& request, const RegionOutput& output, RawPart* part,
+                  FrameResult* result);
   Result<v1::MeshInfo> SendUpload(const MeshArrays& arrays, WeightPolicy weight_policy);
 
   std::shared_ptr<grpc::Channel> channel_;

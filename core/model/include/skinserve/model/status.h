@@ -12,6 +12,7 @@ enum class StatusCode {
   kOk,
   kInvalidArgument,     // bad input: the message names the field, the index and the limit
   kNotFound,            // unknown mesh: the client re-uploads
+  kAlreadyExists,       // a name that is taken (a shared-memory region's)
   kResourceExhausted,   // over a size limit or a full queue
   kFailedPrecondition,  // e.g. a backend that is not available on this machine
   kUnavailable,         // draining or shut down
@@ -40,6 +41,7 @@ inline Status InvalidArgument(std::string m) {
   return {StatusCode::kInvalidArgument, std::move(m)};
 }
 inline Status NotFound(std::string m) { return {StatusCode::kNotFound, std::move(m)}; }
+inline Status AlreadyExists(std::string m) { return {StatusCode::kAlreadyExists, std::move(m)}; }
 inline Status ResourceExhausted(std::string m) {
   return {StatusCode::kResourceExhausted, std::move(m)};
 }

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "skinserve/model/status.h"
 #include "skinserve/encoding/vertex_encoding.h"
+#include "skinserve/model/status.h"
 #include "skinserve/v1/skinning.pb.h"
 
 namespace skinserve::wire {

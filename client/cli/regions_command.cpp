@@ -1,0 +1,31 @@
+#include <fmt/format.h>
+
+#include "commands.h"
+#include "skinserve/client/channel.h"
+
+namespace skinserve::cli {
+
+void AddRegionsCommand(CLI::App& app, CommonOptions& common) {
+  auto* command = app.add_subcommand(
+      "regions", "the shared-memory regions registered with the server, and its limits");
+  command->callback([&common] {
+    client::SkinClient client(client::MakeChannel(common.target));
+    auto list = client.ListRegions();
+    if (!list.ok()) {
+      common.exit_code = Report(list.status());
+      return;
+    }
+    fmt::print("{:<24} {:<32} {:>14} {:>10} {:>8}\n", "name", "key", "bytes", "frames", "idle s");
+    for (const auto& r : list->regions()) {
+      fmt::print("{:<24} {:<32} {:>14} {:>10} {:>8.1f}\n", r.name(), r.key(), r.byte_size(),
+                 r.frames_written(), r.idle_seconds());
+    }
+    fmt::print(
+        "{} regions mapping {} of {} bytes in {}; at most {} ({} per connection); dropped after "
+        "{} s unused\n",
+        list->regions_size(), list->mapped_bytes(), list->budget_bytes(), list->shm_dir(),
+        list->max_regions(), list->max_regions_per_connection(), list->idle_limit_seconds());
+  });
+}
+
+}  // namespace skinserve::cli

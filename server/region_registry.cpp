@@ -1,0 +1,240 @@
+#include "region_registry.h"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include "sigbus_guard.h"
+
+namespace skinserve::server {
+namespace {
+
+constexpr std::size_t kMaxNameLength = 64;
+
+int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+Status CheckName(const std::string& name) {
+  const bool valid = !name.empty() && name.size() <= kMaxNameLength &&
+                     std::all_of(name.begin(), name.end(), [](char c) {
+                       return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                              (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
+                     });
+  if (valid) return Status::Ok();
+  return InvalidArgument(fmt::format("region name '{}' is not 1-{} characters of [A-Za-z0-9._-]",
+                                     name, kMaxNameLength));
+}
+
+// A POSIX shared-memory name ("/name") or a plain file name: one component inside the dir.
+Result<std::string> FileOf(const std::string& key) {
+  std::string file = !key.empty() && key[0] == '/' ? key.substr(1) : key;
+  if (file.empty() || file.size() > 255 || file == "." || file == ".." ||
+      file.find('/') != std::string::npos || file.find('\0') != std::string::npos) {
+    return InvalidArgument(fmt::format(
+        "key '{}' must name one file inside the server's --shm-dir (a POSIX shared-memory "
+        "name such as '/skin-1', or 'skin-1'): no other '/', not '.' or '..'",
+        key));
+  }
+  return file;
+}
+
+}  // namespace
+
+Result<std::unique_ptr<RegionRegistry>> RegionRegistry::Create(const RegionLimits& limits) {
+  const int fd = open(limits.dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) {
+    return InvalidArgument(
+        fmt::format("--shm-dir '{}' cannot be opened: {}", limits.dir, std::strerror(errno)));
+  }
+  if (limits.max_regions > SigbusGuard::kMaxRanges) {
+    close(fd);
+    return InvalidArgument(
+        fmt::format("--shm-max-regions = {} is above the most the server guards, {}",
+                    limits.max_regions, SigbusGuard::kMaxRanges));
+  }
+  SigbusGuard::Install();
+  return std::unique_ptr<RegionRegistry>(new RegionRegistry(limits, fd));
+}
+
+RegionRegistry::RegionRegistry(const RegionLimits& limits, int dir_fd)
+    : limits_(limits), dir_fd_(dir_fd) {
+  reaper_ = std::thread([this] { ReapIdle(); });
+}
+
+RegionRegistry::~RegionRegistry() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  reaper_.join();
+  std::lock_guard lock(mutex_);
+  while (!regions_.empty()) EraseLocked(regions_.begin(), nullptr);
+  close(dir_fd_);
+}
+
+Result<RegionInfo> RegionRegistry::Register(const std::string& name, const std::string& key,
+                                            uint64_t byte_size, const std::string& owner) {
+  if (Status s = CheckName(name); !s.ok()) return s;
+  Result<std::string> file = FileOf(key);
+  if (!file.ok()) return file.status();
+  if (byte_size == 0) {
+    return InvalidArgument(fmt::format("region '{}': byte_size must be above 0", name));
+  }
+  std::unique_lock lock(mutex_);
+  const auto refuse = [&](std::string why) {
+    ++rejected_;
+    return ResourceExhausted(fmt::format("region '{}' refused: {}", name, why));
+  };
+  if (regions_.find(name) != regions_.end()) {
+    return AlreadyExists(fmt::format(
+        "a region named '{}' is registered already; unregister it first or choose another name",
+        name));
+  }
+  if (regions_.size() >= limits_.max_regions) {
+    return refuse(fmt::format("the server holds --shm-max-regions = {} regions already",
+                              limits_.max_regions));
+  }
+  if (auto it = per_owner_.find(owner);
+      it != per_owner_.end() && it->second >= limits_.max_per_connection) {
+    return refuse(fmt::format("this connection holds --shm-max-regions-per-connection = {} already",
+                              limits_.max_per_connection));
+  }
+  if (byte_size > limits_.budget_bytes - std::min(mapped_bytes_, limits_.budget_bytes)) {
+    return refuse(
+        fmt::format("{} more bytes would take the regions' {} mapped bytes beyond "
+                    "--shm-budget-mb = {} MiB",
+                    byte_size, mapped_bytes_, limits_.budget_bytes >> 20));
+  }
+  // Reserve the name and the bytes, then open and map without the lock (file system calls).
+  mapped_bytes_ += byte_size;
+  ++per_owner_[owner];
+  regions_.emplace(name, nullptr);
+  lock.unlock();
+  Result<std::shared_ptr<MappedRegion>> region =
+      MappedRegion::Open(dir_fd_, name, *file, byte_size, owner);
+  lock.lock();
+  auto it = regions_.find(name);
+  if (!region.ok()) {
+    regions_.erase(it);
+    mapped_bytes_ -= byte_size;
+    if (--per_owner_[owner] == 0) per_owner_.erase(owner);
+    return region.status();
+  }
+  (*region)->Touch(NowNs());
+  it->second = *region;
+  spdlog::info("region '{}' registered by {}: {} bytes of {}/{}", name, owner, byte_size,
+               limits_.dir, *file);
+  return InfoOf(**region, NowNs());
+}
+
+void RegionRegistry::EraseLocked(
+    std::map<std::string, std::shared_ptr<MappedRegion>, std::less<>>::iterator it,
+    std::function<void()> on_unmapped) {
+  std::shared_ptr<MappedRegion> region = std::move(it->second);
+  regions_.erase(it);
+  mapped_bytes_ -= region->byte_size();
+  frames_of_removed_ += region->frames();
+  if (auto owner = per_owner_.find(region->owner());
+      owner != per_owner_.end() && --owner->second == 0) {
+    per_owner_.erase(owner);
+  }
+  region->MarkRemoved(std::move(on_unmapped));
+  // Unmapped here unless a frame still holds it; then when that frame lets go.
+}
+
+Status RegionRegistry::Unregister(const std::string& name, std::function<void()> on_unmapped) {
+  std::shared_ptr<MappedRegion> last;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = regions_.find(name);
+    if (it == regions_.end() || it->second == nullptr) {
+      return NotFound(fmt::format("no region named '{}' is registered", name));
+    }
+    last = it->second;  // unmapped outside the lock if nothing else holds it
+    EraseLocked(it, std::move(on_unmapped));
+  }
+  spdlog::info("region '{}' unregistered", name);
+  return Status::Ok();
+}
+
+Result<std::shared_ptr<MappedRegion>> RegionRegistry::Acquire(const std::string& name) {
+  std::lock_guard lock(mutex_);
+  auto it = regions_.find(name);
+  if (it == regions_.end() || it->second == nullptr) {
+    // Not NOT_FOUND: on a frame that means "upload the mesh again" (the wire contract).
+    return FailedPrecondition(fmt::format(
+        "no region named '{}' is registered (never, unregistered, or idle for --shm-idle-seconds "
+        "= {}); register it again",
+        name, limits_.idle_seconds));
+  }
+  it->second->Touch(NowNs());
+  return it->second;
+}
+
+RegionInfo RegionRegistry::InfoOf(const MappedRegion& region, int64_t now_ns) const {
+  return {region.name(), region.key(), region.byte_size(), region.frames(),
+          static_cast<double>(now_ns - region.last_used_ns()) * 1e-9};
+}
+
+std::vector<RegionInfo> RegionRegistry::List() const {
+  const int64_t now = NowNs();
+  std::lock_guard lock(mutex_);
+  std::vector<RegionInfo> out;
+  for (const auto& [name, region] : regions_) {
+    if (region != nullptr) out.push_back(InfoOf(*region, now));
+  }
+  return out;
+}
+
+RegionStats RegionRegistry::Stats() const {
+  std::lock_guard lock(mutex_);
+  RegionStats stats;
+  stats.budget_bytes = limits_.budget_bytes;
+  stats.mapped_bytes = mapped_bytes_;
+  stats.rejected = rejected_;
+  stats.frames = frames_of_removed_;
+  for (const auto& [name, region] : regions_) {
+    if (region == nullptr) continue;
+    ++stats.regions;
+    stats.frames += region->frames();
+  }
+  return stats;
+}
+
+void RegionRegistry::ReapIdle() {
+  const auto idle = std::chrono::duration<double>(limits_.idle_seconds);
+  const auto period = std::chrono::duration_cast<std::chrono::milliseconds>(
+      std::clamp(idle / 4, std::chrono::duration<double>(0.05), std::chrono::duration<double>(1)));
+  std::vector<std::shared_ptr<MappedRegion>> dropped;  // unmapped outside the lock
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    wake_.wait_for(lock, period);
+    const int64_t now = NowNs();
+    for (auto it = regions_.begin(); it != regions_.end();) {
+      auto next = std::next(it);
+      const std::shared_ptr<MappedRegion>& region = it->second;
+      if (region != nullptr &&
+          static_cast<double>(now - region->last_used_ns()) * 1e-9 >= limits_.idle_seconds) {
+        spdlog::info("region '{}' unregistered: unused for --shm-idle-seconds = {}", region->name(),
+                     limits_.idle_seconds);
+        dropped.push_back(region);
+        EraseLocked(it, nullptr);
+      }
+      it = next;
+    }
+    lock.unlock();
+    dropped.clear();
+    lock.lock();
+  }
+}
+
+}  // namespace skinserve::server
