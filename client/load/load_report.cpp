@@ -21,10 +21,13 @@ std::string ErrorsText(const RunResult& r) {
 }
 
 // The backend, with the encoding and crowd size when they are not float32 x 1.
+// The backend, with the encoding and crowd size when they are not float32 x 1, and "+shm"
+// for the shared-memory data plane.
 std::string BackendLabel(const RunResult& r) {
-  if (r.encoding == "float32" && r.instances <= 1) return r.backend;
-  return r.instances > 1 ? fmt::format("{}/{}x{}", r.backend, r.encoding, r.instances)
-                         : fmt::format("{}/{}", r.backend, r.encoding);
+  const std::string shm = r.data_plane == "shm" ? "+shm" : "";
+  if (r.encoding == "float32" && r.instances <= 1) return r.backend + shm;
+  return r.instances > 1 ? fmt::format("{}/{}x{}{}", r.backend, r.encoding, r.instances, shm)
+                         : fmt::format("{}/{}{}", r.backend, r.encoding, shm);
 }
 
 }  // namespace
@@ -105,6 +108,7 @@ Status WriteJson(const std::string& path, const std::vector<RunResult>& results)
         {"normals", r.normals},
         {"encoding", r.encoding},
         {"instances", r.instances},
+        {"data_plane", r.data_plane},
         {"characters_per_second", r.frames_per_second() * r.instances},
         {"frames", r.frames},
         {"seconds", r.seconds},
@@ -136,18 +140,19 @@ Status WriteCsv(const std::string& path, const std::vector<RunResult>& results) 
   std::ofstream out(path);
   out << "backend,vertices,bones,normals,frames,seconds,frames_per_second,vertices_per_second,"
          "megabytes_per_second,p50_ms,p90_ms,p99_ms,max_ms,queue_ms,compute_ms,encode_ms,"
-         "errors,mismatches,late,dropped,speedup_over_serial\n";
+         "errors,mismatches,late,dropped,speedup_over_serial,encoding,instances,data_plane\n";
   for (const RunResult& r : results) {
     const LatencySummary l = Summarize(r.latencies_ms);
     const double serial = SerialFramesPerSecond(results, r);
     out << fmt::format(
         "{},{},{},{},{},{:.3f},{:.3f},{:.0f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},"
-        "{:.3f},{:.3f},{:.3f},{},{},{},{},{}\n",
+        "{:.3f},{:.3f},{:.3f},{},{},{},{},{},{},{},{}\n",
         r.backend, r.vertices, r.bones, r.normals ? 1 : 0, r.frames, r.seconds,
         r.frames_per_second(), r.vertices_per_second(), r.megabytes_per_second(), l.p50, l.p90,
         l.p99, l.max, r.mean(r.server_queue_ms_sum), r.mean(r.server_compute_ms_sum),
         r.mean(r.server_encode_ms_sum), r.error_count(), r.mismatches, r.late, r.dropped,
-        serial > 0 ? fmt::format("{:.3f}", r.frames_per_second() / serial) : "");
+        serial > 0 ? fmt::format("{:.3f}", r.frames_per_second() / serial) : "", r.encoding,
+        r.instances, r.data_plane);
   }
   if (!out) return InvalidArgument(fmt::format("--csv: cannot write {}", path));
   return Status::Ok();

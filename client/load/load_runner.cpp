@@ -9,8 +9,10 @@
 
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/reference/encoded_reference.h"
+#include "skinserve/client/shared_memory_region.h"
 #include "skinserve/model/palette.h"
+#include "skinserve/reference/encoded_reference.h"
+#include "skinserve/wire/region_layout.h"
 
 namespace skinserve::load {
 namespace {
@@ -40,6 +42,43 @@ class FramePalette {
   std::vector<float> buffer_;
 };
 
+// A stream's shared-memory region (RunConfig::shared_memory): one slot per frame in flight,
+// registered under its own name for the stream's life. Off: output() is disabled.
+class StreamRegion {
+ public:
+  StreamRegion(const RunConfig& config, const Workload& workload, client::SkinClient& client)
+      : client_(client) {
+    if (!config.shared_memory) return;
+    const uint32_t instances = std::max(config.instances, 1u);
+    const uint64_t stride =
+        wire::RegionFrameBytes(workload.vertices, instances, config.encoding, workload.normals);
+    const std::string name = client::SharedMemoryRegion::UniqueKey("load");
+    auto region = client::SharedMemoryRegion::Create(
+        name, stride * static_cast<uint64_t>(std::max(config.window, 1)), config.shm_dir);
+    if (!region.ok()) {
+      status_ = region.status();
+      return;
+    }
+    region_ = std::move(region).value();
+    if (auto registered = client.RegisterRegion(name, *region_); !registered.ok()) {
+      status_ = registered.status();
+      return;
+    }
+    output_ = {.name = name, .region = region_.get(), .offset = 0, .stride = stride};
+  }
+  ~StreamRegion() {
+    if (output_.enabled()) (void)client_.UnregisterRegion(output_.name);  // idle-dropped anyway
+  }
+  const Status& status() const { return status_; }
+  const client::RegionOutput& output() const { return output_; }
+
+ private:
+  client::SkinClient& client_;
+  std::unique_ptr<client::SharedMemoryRegion> region_;
+  client::RegionOutput output_;
+  Status status_;
+};
+
 // The identity pose: what `passthrough` (no compute) answers, as a palette.
 std::vector<float> IdentityPalette(uint32_t joints) {
   std::vector<float> p(kFloatsPerJoint * joints, 0.0f);
@@ -66,6 +105,7 @@ class Recorder {
     result_.normals = workload.normals;
     result_.encoding = VertexEncodingName(config.encoding);
     result_.instances = std::max(config.instances, 1u);
+    result_.data_plane = config.shared_memory ? "shm" : "grpc";
     // Open loop knows its frame count: no reallocation while measuring.
     if (config.rate > 0) {
       result_.latencies_ms.reserve(static_cast<std::size_t>(
@@ -114,7 +154,13 @@ class Recorder {
   // run on the stream's reader: all K instances of a crowd (K float64 skinnings) would
   // delay the next answers past a frame's time, so the instance checked rotates with the
   // frame number and a run covers every instance.
-  bool Matches(const client::FrameResult& frame) const {
+  bool Matches(const client::FrameResult& answer) const {
+    client::FrameResult decoded;
+    if (answer.in_region()) {  // decoded from the region for the check only
+      decoded = answer;
+      if (!client::DecodeRegionFrame(&decoded).ok()) return false;
+    }
+    const client::FrameResult& frame = answer.in_region() ? decoded : answer;
     const uint32_t instances = std::max(config_.instances, 1u);
     if (frame.instances != instances || frame.encoding != config_.encoding) return false;
     for (uint32_t k = static_cast<uint32_t>(frame.frame % instances); k < instances;
@@ -182,6 +228,11 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
                       Recorder& recorder) {
   client::SkinClient client(client::MakeChannel(config.target, connection));
   client.Remember(mesh_id, workload.arrays);  // re-uploads where a replica lacks the mesh
+  const StreamRegion region(config, workload, client);
+  if (!region.status().ok()) {
+    recorder.RecordStreamError(region.status());
+    return;
+  }
   FramePalette palette(workload, config.instances);
   client::StreamOptions options{.mesh_id = mesh_id,
                                 .backend = config.backend,
@@ -189,6 +240,7 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
                                 .method = workload.method,
                                 .encoding = config.encoding,
                                 .instances = config.instances,
+                                .output = region.output(),
                                 .frames = UINT64_MAX / 2,
                                 .window = config.window,
                                 .stop = &stop};
@@ -241,6 +293,12 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
                     Clock::time_point end, Recorder& recorder) {
   client::SkinClient client(client::MakeChannel(config.target, connection));
   client.Remember(mesh_id, workload.arrays);
+  const StreamRegion region(config, workload, client);
+  if (!region.status().ok()) {
+    recorder.RecordStreamError(region.status());
+    return;
+  }
+  const client::RegionOutput& output = region.output();
   grpc::ClientContext context;
   auto stream = client.StreamSkinRaw(&context);
   // Before the schedule starts, make sure this stream's replica holds the mesh: one frame
@@ -295,20 +353,24 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     wire::RawPart part;
     grpc::ByteBuffer bytes;
     client::FrameResult result;
-    client::FrameAssembler assembler;
+    client::FrameAssembler assembler(&output);
     while (stream->Read(&bytes)) {
       if (!assembler.Add(bytes, &part, &result)) continue;
+      const Clock::time_point answered = Clock::now();
       Scheduled frame;
       {
         std::lock_guard lock(mutex);
         frame = ring[ring_head];
+      }
+      const auto latency = answered - frame.due;
+      recorder.Record(result, std::chrono::duration<double, std::milli>(latency).count(),
+                      latency > period, frame.measured);
+      {  // only now may the frame's slot (and its range of a region) take the next frame
+        std::lock_guard lock(mutex);
         ring_head = (ring_head + 1) % ring.size();
         --in_flight;
       }
-      const auto latency = Clock::now() - frame.due;
-      recorder.Record(result, std::chrono::duration<double, std::milli>(latency).count(),
-                      latency > period, frame.measured);
-      assembler = client::FrameAssembler();
+      assembler = client::FrameAssembler(&output);
     }
   });
   FramePalette palette(workload, config.instances);
@@ -320,6 +382,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   request.set_instances(config.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_method(wire::ToWire(workload.method));
+  if (output.enabled()) request.mutable_output()->set_region(output.name);
   for (uint64_t k = first_frame; k < last_frame && !stop.load(); ++k) {
     const Clock::time_point due = start + k * period;
     std::this_thread::sleep_until(due);
@@ -331,7 +394,10 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
         dropped += counted;
         continue;
       }
-      ring[(ring_head + in_flight++) % ring.size()] = {due, counted};
+      const std::size_t slot = (ring_head + in_flight++) % ring.size();
+      ring[slot] = {due, counted};
+      // Frames in flight take the ring's slots in turn: each its own range of the region.
+      if (output.enabled()) request.mutable_output()->set_offset(slot * output.stride);
     }
     request.set_frame(k);
     wire::EncodeFloats(palette(k), request.mutable_palette());

@@ -28,6 +28,10 @@ struct RunConfig {
   // server works one connection's HTTP/2 on one thread at a time, so a pool of connections
   // spreads heavy streams over its cores (gRPC's performance guide says the same).
   int streams_per_connection = 8;
+  // Same host: each stream's answers are written into a shared-memory region of its own
+  // (created in shm_dir, which must be the server's --shm-dir) instead of sent over gRPC.
+  bool shared_memory = false;
+  std::string shm_dir = "/dev/shm";
 };
 
 // Called now and then with the fraction done (for a progress bar).

@@ -34,7 +34,8 @@ struct Options {
   bool capacity = false;
   int capacity_max_streams = 64;
   std::string encoding = "float32";
-  std::string modes;  // --capacity: ENCODING[xK] list, e.g. float32,snorm16x16
+  std::string modes;                 // --capacity: ENCODING[xK] list, e.g. float32,snorm16x16
+  std::string data_planes = "grpc";  // grpc and/or shm, each run once per data plane
   std::string json, csv, plot;
 };
 
@@ -172,55 +173,59 @@ int RunMain(const Options& o) {
       modes.push_back(*mode);
     }
     if (modes.empty()) modes.push_back({*ParseVertexEncoding(o.encoding), o.run.instances});
-    std::vector<std::pair<Mode, int>> held;  // characters per mode
+    std::vector<std::pair<std::string, int>> held;  // characters per mode and data plane
     for (const Mode& mode : modes) {
-      fmt::print(
-          "capacity of {} at {:.0f} fps per stream, {} vertices x {} bones, {}, {} instance(s) "
-          "per stream: p99 <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} {:>9} {:>9} {:>8} "
-          "{:>8} {:>7}\n",
-          backend, o.run.rate, w.vertices, w.bones, VertexEncodingName(mode.encoding),
-          mode.instances, budget_ms, "streams", "characters", "frames/s", "p99 ms", "max ms",
-          "late", "dropped", "holds");
-      auto probe = [&](int streams) {
-        RunConfig config = o.run;
-        config.backend = backend;
-        config.streams = streams;
-        config.encoding = mode.encoding;
-        config.instances = mode.instances;
-        RunResult r = RunLoad(config, w, *mesh,
-                              MakeProgress(fmt::format("{} {} streams", mode.Name(), streams)));
-        const LatencySummary l = Summarize(r.latencies_ms);
-        const bool holds = l.p99 <= budget_ms && r.dropped == 0 && !r.failed() && r.frames > 0;
-        fmt::print("{:>8} {:>10} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}\n", streams,
-                   streams * mode.instances, r.frames_per_second(), l.p99, l.max, r.late, r.dropped,
-                   holds ? "yes" : "no");
-        results.push_back(std::move(r));
-        return holds;
-      };
-      int good = 0, bad = 0;
-      for (int n = 1; n <= o.capacity_max_streams; n *= 2) {
-        if (!probe(n)) {
-          bad = n;
-          break;
+      for (const std::string& plane : SplitList(o.data_planes)) {
+        const std::string label = plane == "shm" ? mode.Name() + "+shm" : mode.Name();
+        fmt::print(
+            "capacity of {} at {:.0f} fps per stream, {} vertices x {} bones, {}, {} instance(s) "
+            "per stream, {} data plane: p99 <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
+            "{:>9} {:>9} {:>8} {:>8} {:>7}\n",
+            backend, o.run.rate, w.vertices, w.bones, VertexEncodingName(mode.encoding),
+            mode.instances, plane, budget_ms, "streams", "characters", "frames/s", "p99 ms",
+            "max ms", "late", "dropped", "holds");
+        auto probe = [&](int streams) {
+          RunConfig config = o.run;
+          config.backend = backend;
+          config.streams = streams;
+          config.encoding = mode.encoding;
+          config.instances = mode.instances;
+          config.shared_memory = plane == "shm";
+          RunResult r =
+              RunLoad(config, w, *mesh, MakeProgress(fmt::format("{} {} streams", label, streams)));
+          const LatencySummary l = Summarize(r.latencies_ms);
+          const bool holds = l.p99 <= budget_ms && r.dropped == 0 && !r.failed() && r.frames > 0;
+          fmt::print("{:>8} {:>10} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}\n", streams,
+                     streams * mode.instances, r.frames_per_second(), l.p99, l.max, r.late,
+                     r.dropped, holds ? "yes" : "no");
+          results.push_back(std::move(r));
+          return holds;
+        };
+        int good = 0, bad = 0;
+        for (int n = 1; n <= o.capacity_max_streams; n *= 2) {
+          if (!probe(n)) {
+            bad = n;
+            break;
+          }
+          good = n;
         }
-        good = n;
+        while (bad > 0 && bad - good > 1) {
+          const int mid = (good + bad) / 2;
+          (probe(mid) ? good : bad) = mid;
+        }
+        const int characters = good * static_cast<int>(mode.instances);
+        fmt::print(
+            "capacity: {} characters ({} streams x {} instances, {:.0f} fps, {}, {}{})\n",
+            characters, good, mode.instances, o.run.rate, backend, label,
+            bad == 0 ? fmt::format(", the most streams tried: {}", o.capacity_max_streams) : "");
+        held.push_back({label, characters});
       }
-      while (bad > 0 && bad - good > 1) {
-        const int mid = (good + bad) / 2;
-        (probe(mid) ? good : bad) = mid;
-      }
-      const int characters = good * static_cast<int>(mode.instances);
-      fmt::print(
-          "capacity: {} characters ({} streams x {} instances, {:.0f} fps, {}, {}{})\n", characters,
-          good, mode.instances, o.run.rate, backend, mode.Name(),
-          bad == 0 ? fmt::format(", the most streams tried: {}", o.capacity_max_streams) : "");
-      held.push_back({mode, characters});
     }
     if (held.size() > 1) {
       fmt::print("\ncharacters held at {:.0f} fps (p99 <= {:.1f} ms, nothing dropped), {}:\n",
                  o.run.rate, budget_ms, backend);
-      for (const auto& [mode, characters] : held) {
-        fmt::print("  {:<14} {:>6}\n", mode.Name(), characters);
+      for (const auto& [label, characters] : held) {
+        fmt::print("  {:<18} {:>6}\n", label, characters);
       }
     }
   } else {
@@ -231,10 +236,13 @@ int RunMain(const Options& o) {
       auto mesh = Upload(client, w);
       if (!mesh.ok()) return fmt::print(stderr, "error: {}\n", mesh.status().ToString()), 1;
       for (const std::string& backend : *backends) {
-        RunConfig config = o.run;
-        config.backend = backend;
-        results.push_back(
-            RunLoad(config, w, *mesh, MakeProgress(fmt::format("{} {}x{}", backend, v, b))));
+        for (const std::string& plane : SplitList(o.data_planes)) {
+          RunConfig config = o.run;
+          config.backend = backend;
+          config.shared_memory = plane == "shm";
+          results.push_back(RunLoad(
+              config, w, *mesh, MakeProgress(fmt::format("{} {} {}x{}", backend, plane, v, b))));
+        }
       }
       // A sweep stores 16 meshes; free each when done with it.
       if (grid.size() > 1) (void)client.DeleteMesh(*mesh);
@@ -333,6 +341,24 @@ int main(int argc, char** argv) {
                "one frame and nothing dropped, on the first --backends entry (default: "
                "simd-openmp, the fastest CPU loop on every CPU)");
   app.add_option("--capacity-max-streams", o.capacity_max_streams, "upper end of the search")
+      ->capture_default_str();
+  app.add_option("--data-planes", o.data_planes,
+                 "how answers travel, each run once per entry, comma-separated: grpc (the "
+                 "vertices in the gRPC answers) and shm (written into a shared-memory region of "
+                 "each stream's: the server must run on this host, with --shm-dir as here)")
+      ->check([](const std::string& text) {
+        for (const std::string& plane : SplitList(text)) {
+          if (plane != "grpc" && plane != "shm")
+            return "grpc, shm or grpc,shm: not '" + plane + "'";
+        }
+        return std::string();
+      })
+      ->capture_default_str();
+  app.add_flag_callback(
+      "--shared-memory", [&o] { o.data_planes = "shm"; },
+      "the same-host shared-memory data plane alone (--data-planes shm)");
+  app.add_option("--shm-dir", o.run.shm_dir,
+                 "where the streams' regions are made: the server's --shm-dir")
       ->capture_default_str();
   app.add_option("--json", o.json, "write results as JSON");
   app.add_option("--csv", o.csv, "write results as CSV");

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -28,8 +29,8 @@ std::string UniqueJsonPath() {
 class ServerProcess {
  public:
   // `streams_per_connection`: the server's --max-streams-per-connection (0: its default).
-  explicit ServerProcess(int streams_per_connection = 0)
-      : child_(Arguments(streams_per_connection)) {
+  explicit ServerProcess(int streams_per_connection = 0, std::vector<std::string> extra = {})
+      : child_(Arguments(streams_per_connection, std::move(extra))) {
     EXPECT_TRUE(child_.ready()) << child_.error();
   }
   const std::string& target() const { return child_.target(); }
@@ -47,8 +48,10 @@ class ServerProcess {
   }
 
  private:
-  static std::vector<std::string> Arguments(int streams_per_connection) {
+  static std::vector<std::string> Arguments(int streams_per_connection,
+                                            std::vector<std::string> extra) {
     std::vector<std::string> args = {"--log-level", "warn"};
+    args.insert(args.end(), extra.begin(), extra.end());
     if (streams_per_connection > 0) {
       args.insert(args.end(),
                   {"--max-streams-per-connection", std::to_string(streams_per_connection)});
@@ -213,6 +216,57 @@ TEST(LoadIntegrationTest, RoundRobinSpreadsStreamsOverTwoServers) {
   EXPECT_GT(from_a, 0u) << "round_robin left a replica idle";
   EXPECT_GT(from_b, 0u) << "round_robin left a replica idle";
   EXPECT_EQ(FramesReported(doc).at("serial"), from_a + from_b);
+}
+
+// Both data planes side by side, closed and open loop, crowds and a compact encoding, every
+// answer checked against the float64 reference: the shared-memory rows count what the
+// server wrote into the streams' regions, and the regions are gone afterwards.
+TEST(LoadIntegrationTest, SharedMemoryDataPlaneInEveryModeCountsAndChecksEveryFrame) {
+  char name[] = "/dev/shm/skinserve-load-XXXXXX";
+  const std::string dir = mkdtemp(name);
+  ServerProcess server(0, {"--shm-dir", dir});
+  ASSERT_TRUE(server.ready());
+  const std::string common = "--target " + server.target() + " --shm-dir " + dir +
+                             " --data-planes grpc,shm --check-every 1 --warmup 0";
+  int code = 0;
+  const nlohmann::json closed =
+      RunLoad(common +
+                  " --backends simd-openmp,opencl --vertices 20000 --bones 3 --normals --streams 2"
+                  " --window 3 --frames 15 --encoding snorm16 --instances 3",
+              &code);
+  EXPECT_EQ(code, 0);
+  const auto served = server.FramesServed();
+  for (const auto& [backend, frames] : FramesReported(closed)) {
+    EXPECT_EQ(frames, served.at(backend)) << backend;
+  }
+  const nlohmann::json open = RunLoad(
+      common + " --backends sse --vertices 5000 --bones 2 --rate 50 --streams 2 --frames 20",
+      &code);
+  EXPECT_EQ(code, 0);
+  const nlohmann::json capacity = RunLoad(
+      common + " --capacity --vertices 2000 --capacity-max-streams 2 --duration 0.5", &code);
+  EXPECT_EQ(code, 0);
+  uint64_t shm_rows = 0;
+  for (const nlohmann::json* doc : {&closed, &open, &capacity}) {
+    for (const auto& r : (*doc)["results"]) {
+      EXPECT_GT(r["frames"], 0) << r.dump();
+      if (r["data_plane"] == "shm") {
+        ++shm_rows;
+        EXPECT_GT(r["checked"], 0) << r.dump();
+        EXPECT_TRUE(r["errors"].empty()) << r.dump();
+        EXPECT_EQ(r["mismatches"], 0) << r.dump();
+      }
+    }
+  }
+  EXPECT_EQ(closed["results"].size(), 4u);
+  EXPECT_EQ(open["results"].size(), 2u);
+  EXPECT_GE(shm_rows, 3u + 2u);  // and the capacity probes
+  client::SkinClient c(client::MakeChannel(server.target()));
+  auto stats = c.GetServerStats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->regions(), 0u) << "the load client unregisters its regions";
+  EXPECT_GT(stats->region_frames(), 0u);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(LoadIntegrationTest, FailsWhenTheServerIsUnreachable) {

@@ -7,8 +7,13 @@
     crowd = client.skin(mesh_id, palettes, encoding="snorm16")  # (K,J,3,4) -> (K,V,3)
     for vertices in client.stream(mesh_id, palettes, backend="sse"):
         ...
+    # On the server's host: the server skins into shared memory, the answer views it.
+    with skinserve.SharedMemoryRegion(64 << 20) as region:
+        client.register_region(region)
+        vertices = client.skin(mesh_id, palette, region=region)
 """
 from ._client import Client, SkinserveError
 from ._encoding import decode_values
+from ._shared_memory import SharedMemoryRegion
 
-__all__ = ["Client", "SkinserveError", "decode_values"]
+__all__ = ["Client", "SkinserveError", "SharedMemoryRegion", "decode_values"]

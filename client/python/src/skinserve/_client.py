@@ -6,7 +6,7 @@ import threading
 import grpc
 import numpy as np
 
-from . import _arrays, _encoding
+from . import _arrays, _encoding, _shared_memory
 from .v1 import skinning_pb2 as pb
 from .v1 import skinning_pb2_grpc as pb_grpc
 
@@ -98,6 +98,40 @@ class _Frame:
                 self.normals[k, rows] = _encoding.decode_values(
                     normals[j * n_size:(j + 1) * n_size], part.encoding, part.vertex_count,
                     normals=True)
+
+    def add_region(self, part, want_normals, region):
+        """The frame's one part when it went into `region`: arrays that view the region
+        (float32 and float16: no copy; snorm16 positions are decoded into new arrays)."""
+        write = part.region_write
+        if region is None or write.region != region.name:
+            self._fail(part, f"answered in region '{write.region}', which the frame did not name")
+        instances, vertices = max(part.instances, 1), part.total_vertices
+        if instances != (self.crowd or 1) or not part.last:
+            self._fail(part, f"{instances} instances in region '{write.region}'")
+        dtype = {_encoding.FLOAT32: "<f4", _encoding.FLOAT16: "<f2",
+                 _encoding.SNORM16: "<i2"}[part.encoding]
+        count = instances * vertices * 3
+        size = count * np.dtype(dtype).itemsize
+        if write.instance_bytes * instances != size or write.end_offset > region.byte_size \
+                or write.positions_offset + size > region.byte_size:
+            self._fail(part, f"ranges of region '{write.region}' do not fit the frame")
+
+        def view(offset, normals):
+            values = np.frombuffer(region.buffer, dtype=dtype, count=count, offset=offset)
+            values = values.reshape(instances, vertices, 3)
+            if part.encoding != _encoding.SNORM16:
+                return values
+            out = np.empty(values.shape, dtype=np.float32)
+            for k in range(instances):
+                b = part.instance_bounds[k]
+                out[k] = _encoding.decode_values(
+                    values[k].tobytes(), part.encoding, vertices,
+                    (b.min_x, b.min_y, b.min_z, b.max_x, b.max_y, b.max_z), normals=normals)
+            return out
+
+        self.positions = view(write.positions_offset, False)
+        if want_normals:
+            self.normals = view(write.normals_offset, True)
 
     def result(self, want_normals):
         positions, normals = self.positions, self.normals
@@ -194,29 +228,90 @@ class Client:
         return known[1] if known else None
 
     # ---- frames -------------------------------------------------------------------------
-    def _request(self, mesh_id, palette, crowd, frame, backend, want_normals, encoding):
+    def _request(self, mesh_id, palette, crowd, frame, backend, want_normals, encoding,
+                 region=None, offset=0):
         if encoding not in _ENCODINGS:
             raise ValueError(f"encoding: '{encoding}', expected one of {sorted(_ENCODINGS)}")
-        return pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
-                              palette=_arrays.little_endian_bytes(palette, "f4"),
-                              want_normals=want_normals, encoding=_ENCODINGS[encoding],
-                              instances=crowd or 0, pack_instances=True)
+        request = pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
+                                 palette=_arrays.little_endian_bytes(palette, "f4"),
+                                 want_normals=want_normals, encoding=_ENCODINGS[encoding],
+                                 instances=crowd or 0, pack_instances=True)
+        if region is not None:
+            if region.name is None:
+                raise ValueError("region: not registered (Client.register_region)")
+            request.output.region = region.name
+            request.output.offset = offset
+        return request
+
+    def _add(self, frame, part, want_normals, region):
+        if part.HasField("region_write"):
+            frame.add_region(part, want_normals, region)
+        else:
+            frame.add(part, want_normals)
+
+    # ---- shared memory (same host) ------------------------------------------------------
+    def register_region(self, region, name=None):
+        """Registers a SharedMemoryRegion with the server (which must run on this host,
+        with the region's directory as its --shm-dir) under `name` (default: its key).
+        Frames naming it are skinned straight into it. Returns the server's RegionInfo."""
+        name = name or region.key
+        try:
+            info = self._stub.RegisterRegion(pb.RegisterRegionRequest(
+                name=name, key=region.key, byte_size=region.byte_size))
+        except grpc.RpcError as e:
+            raise _rpc_error(e) from None
+        region.name = name
+        return info
+
+    def unregister_region(self, region_or_name):
+        """Returns once the server has unmapped the region: it writes there no more."""
+        name = getattr(region_or_name, "name", region_or_name)
+        try:
+            self._stub.UnregisterRegion(pb.UnregisterRegionRequest(name=name))
+        except grpc.RpcError as e:
+            raise _rpc_error(e) from None
+        if hasattr(region_or_name, "name"):
+            region_or_name.name = None
+
+    def regions(self):
+        """The server's registered regions: a list of dicts (name, key, byte_size, ...)."""
+        try:
+            response = self._stub.ListRegions(pb.ListRegionsRequest())
+        except grpc.RpcError as e:
+            raise _rpc_error(e) from None
+        return [{"name": r.name, "key": r.key, "byte_size": r.byte_size,
+                 "frames_written": r.frames_written, "idle_seconds": r.idle_seconds}
+                for r in response.regions]
+
+    def _frame_bytes(self, mesh_id, crowd, want_normals, encoding):
+        try:
+            info = self._stub.GetMesh(pb.GetMeshRequest(mesh_id=mesh_id))
+        except grpc.RpcError as e:
+            raise _rpc_error(e) from None
+        size = 4 if encoding == "float32" else 2
+        return _shared_memory.frame_bytes(info.vertex_count, crowd or 1, size, want_normals)
 
     def skin(self, mesh_id, palette, backend=None, want_normals=False, encoding="float32",
-             frame=0):
+             frame=0, region=None, offset=0):
         """One frame: palette float32 (J, 3, 4) -> positions (V, 3) float32, or
         (positions, normals) with want_normals. A crowd, palettes (K, J, 3, 4) of K
         instances of the mesh, is one request and answers (K, V, 3) arrays.
 
         encoding: how the server sends the vertices ("float32", "float16" or "snorm16",
-        see README "Encodings"); the answer is always decoded to float32."""
+        see docs/serving/encodings.md); the answer is decoded to float32.
+
+        region: a registered SharedMemoryRegion: the server writes the frame into it from
+        `offset` (a multiple of 64) and the answer views it: float32 arrays (float16 ones
+        with encoding="float16"; snorm16 is decoded into new arrays), valid until the
+        region's bytes are written again."""
         crowd = _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
-        request = self._request(mesh_id, palette, crowd, frame, backend, want_normals, encoding)
+        request = self._request(mesh_id, palette, crowd, frame, backend, want_normals, encoding,
+                                region, offset)
         for attempt in range(self.max_reuploads + 1):
             result = _Frame(crowd)
             try:
                 for part in self._stub.Skin(request):
-                    result.add(part, want_normals)
+                    self._add(result, part, want_normals, region)
                 return result.result(want_normals)
             except grpc.RpcError as e:
                 error = _rpc_error(e, frame)
@@ -226,7 +321,7 @@ class Client:
         raise AssertionError("unreachable")
 
     def stream(self, mesh_id, palettes, backend=None, want_normals=False, encoding="float32",
-               window=8):
+               window=8, region=None):
         """Frame after frame over one StreamSkin call: yields each frame's positions (or
         (positions, normals)) in order. `palettes`: a sequence of float32 (J, 3, 4)
         palettes (or an array (F, J, 3, 4)), all checked before the first is sent. A crowd
@@ -236,6 +331,10 @@ class Client:
         A frame answered NOT_FOUND re-uploads the mesh and the stream resumes from that
         frame; a stream that ends UNAVAILABLE (a replica draining or gone) resumes on a new
         stream (up to max_reconnects times); any other failed frame raises SkinserveError.
+
+        region: a registered SharedMemoryRegion large enough for `window` frames: frame i is
+        written into slot i % window and yielded as arrays that view it, valid until the
+        next frame is taken (copy what you keep).
         """
         palettes = list(palettes)
         joints = self._joint_count(mesh_id)
@@ -243,13 +342,21 @@ class Client:
                   for i, palette in enumerate(palettes)]
         if window < 1:
             raise ValueError(f"window: {window}, expected >= 1")
-        requests = [self._request(mesh_id, p, k, i, backend, want_normals, encoding)
+        stride = 0
+        if region is not None:
+            stride = max((self._frame_bytes(mesh_id, k, want_normals, encoding)
+                          for k in set(crowds)), default=0)
+            if window * stride > region.byte_size:
+                raise ValueError(f"region: {region.byte_size} bytes, fewer than {window} frames "
+                                 f"in flight of {stride} bytes")
+        requests = [self._request(mesh_id, p, k, i, backend, want_normals, encoding, region,
+                                  (i % window) * stride)
                     for i, (p, k) in enumerate(zip(palettes, crowds))]
         next_frame, reuploads, reconnects = 0, 0, 0
         while next_frame < len(requests):
             restart = None
             with contextlib.closing(self._one_stream(requests, next_frame, window,
-                                                     want_normals)) as answers:
+                                                     want_normals, region)) as answers:
                 for index, frame in answers:
                     if frame.error is None:
                         next_frame = index + 1
@@ -270,9 +377,10 @@ class Client:
                     raise SkinserveError(grpc.StatusCode.UNAVAILABLE,
                                          f"stream ended {reconnects} times", next_frame)
 
-    def _one_stream(self, requests, first, window, want_normals):
+    def _one_stream(self, requests, first, window, want_normals, region=None):
         """Sends requests[first:] with at most `window` unanswered; yields (index, _Frame)
-        in order. Ends early (without raising) when the stream ends UNAVAILABLE."""
+        in order. Ends early (without raising) when the stream ends UNAVAILABLE. With a
+        region, a frame's slot is reused only once the caller has taken the next frame."""
         credits = threading.Semaphore(window)
         stop = threading.Event()
         outbox = queue.Queue()
@@ -303,10 +411,13 @@ class Client:
         frame, index = new_frame(first), first
         try:
             for part in call:
-                frame.add(part, want_normals)
+                self._add(frame, part, want_normals, region)
                 if part.last:
-                    credits.release()
+                    if region is None:
+                        credits.release()
                     yield index, frame
+                    if region is not None:  # the caller is done with the frame's slot
+                        credits.release()
                     index += 1
                     frame = new_frame(index)
         except grpc.RpcError as e:
@@ -338,7 +449,9 @@ class Client:
             raise _rpc_error(e) from None
         out = {f: getattr(s, f) for f in (
             "queue_depth", "queue_capacity", "compute_threads", "meshes", "mesh_bytes",
-            "mesh_budget_bytes", "evictions", "rejected_queue_full", "open_streams")}
+            "mesh_budget_bytes", "evictions", "rejected_queue_full", "open_streams",
+            "regions", "region_bytes", "region_budget_bytes", "region_frames",
+            "rejected_regions")}
         out["backends"] = {b.id: {"frames": b.frames, "vertices": b.vertices,
                                   "errors": b.errors, "compute_ns_total": b.compute_ns_total}
                            for b in s.backends}
