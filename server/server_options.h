@@ -39,6 +39,12 @@ struct ServerOptions {
   double max_connection_age_grace_seconds = 30;
   uint64_t inflight_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
   std::string opencl_device;        // "": the first CPU device (PoCL), else the first device
+  // Uploads (see OpenUploads): what their arrays may hold together, how many may be open
+  // at once (over all connections and per connection), and how long one may send nothing.
+  uint64_t upload_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
+  std::size_t max_uploads = 16;
+  std::size_t max_uploads_per_connection = 4;
+  double upload_idle_seconds = 10;
 
   EngineOptions ToEngineOptions() const;
   // --threads, or by default one per core less one (at least one): gRPC's threads do most
@@ -46,6 +52,7 @@ struct ServerOptions {
   // compute threads hold.
   int ComputeThreads() const;
   uint64_t InflightBudgetBytes() const;
+  uint64_t UploadBudgetBytes() const;
 };
 
 // Registers the options on `app`, each with its SKINSERVE_* environment variable.

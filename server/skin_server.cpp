@@ -25,9 +25,13 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   spdlog::set_level(spdlog::level::from_str(options.log_level));
   SetLogFormat(options.log_format);
   std::unique_ptr<SkinServer> server(new SkinServer());
-  server->service_ =
-      std::make_unique<SkinningService>(options.default_backend, options.stream_window,
-                                        options.max_streams, options.InflightBudgetBytes());
+  server->service_ = std::make_unique<SkinningService>(
+      options.default_backend, options.stream_window, options.max_streams,
+      options.InflightBudgetBytes(),
+      UploadLimits{.max_uploads = options.max_uploads,
+                   .max_uploads_per_connection = options.max_uploads_per_connection,
+                   .budget_bytes = options.UploadBudgetBytes(),
+                   .idle_seconds = options.upload_idle_seconds});
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;

@@ -19,8 +19,9 @@ const Status kWarmingUp = Unavailable("the server is starting: backends are bein
 }  // namespace
 
 grpc::ServerReadReactor<v1::UploadMeshRequest>* SkinningService::UploadMesh(
-    grpc::CallbackServerContext*, v1::MeshInfo* response) {
-  return new MeshUploadReactor(engine_.load(), response);
+    grpc::CallbackServerContext* context, v1::MeshInfo* response) {
+  // The peer address ("ipv4:127.0.0.1:54321") names the client's connection.
+  return new MeshUploadReactor(engine_.load(), &open_uploads_, context->peer(), response);
 }
 
 grpc::ServerUnaryReactor* SkinningService::GetMesh(grpc::CallbackServerContext* context,

@@ -6,6 +6,7 @@
 
 #include "inflight_budget.h"
 #include "open_streams.h"
+#include "open_uploads.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
@@ -22,11 +23,12 @@ using SkinningCallbackService = v1::Skinning::WithCallbackMethod_UploadMesh<
 class SkinningService final : public SkinningCallbackService {
  public:
   SkinningService(std::string default_backend, int stream_window, std::size_t max_streams,
-                  uint64_t inflight_budget_bytes)
+                  uint64_t inflight_budget_bytes, const UploadLimits& upload_limits)
       : default_backend_(std::move(default_backend)),
         stream_window_(stream_window),
         open_streams_(max_streams),
-        budget_(inflight_budget_bytes) {}
+        budget_(inflight_budget_bytes),
+        open_uploads_(upload_limits) {}
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }
   // Shutdown: open streams answer the frames they have read and end UNAVAILABLE; new
@@ -36,6 +38,7 @@ class SkinningService final : public SkinningCallbackService {
     return open_streams_.WaitUntilAllEnded(deadline);
   }
   std::size_t OpenStreamCount() const { return open_streams_.count(); }
+  UploadStats Uploads() const { return open_uploads_.Stats(); }
 
   grpc::ServerReadReactor<v1::UploadMeshRequest>* UploadMesh(grpc::CallbackServerContext*,
                                                              v1::MeshInfo* response) override;
@@ -61,7 +64,8 @@ class SkinningService final : public SkinningCallbackService {
   const std::string default_backend_;
   const int stream_window_;
   OpenStreams open_streams_;
-  InflightBudget budget_;  // the bytes of frames in flight, all streams and Skin calls
+  InflightBudget budget_;     // the bytes of frames in flight, all streams and Skin calls
+  OpenUploads open_uploads_;  // the caps and budget of uploads, and their idle watchdog
 };
 
 }  // namespace skinserve::server
