@@ -131,6 +131,7 @@ std::string SkinServer::RenderMetrics() const {
   snapshot.version = SKINSERVE_VERSION;
   snapshot.serving = serving_.load();
   snapshot.open_streams = service_->OpenStreamCount();
+  snapshot.uploads = service_->Uploads();
   if (const Engine* engine = ready_engine_.load()) snapshot.engine = engine->Stats();
   if (const FrameMetrics* frames = FrameMetrics::Installed()) snapshot.frames = frames->Snapshot();
   return RenderPrometheusText(snapshot);

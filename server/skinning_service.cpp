@@ -74,6 +74,14 @@ grpc::ServerUnaryReactor* SkinningService::GetServerStats(grpc::CallbackServerCo
   response->set_inflight_budget_bytes(budget_.limit());
   response->set_inflight_bytes(budget_.used());
   response->set_rejected_inflight_budget(budget_.refused());
+  const UploadStats uploads = open_uploads_.Stats();
+  response->set_upload_budget_bytes(uploads.budget_bytes);
+  response->set_upload_bytes(uploads.bytes);
+  response->set_open_uploads(uploads.open);
+  response->set_rejected_uploads_max_uploads(uploads.refused_max_uploads);
+  response->set_rejected_uploads_per_connection(uploads.refused_per_connection);
+  response->set_rejected_uploads_budget(uploads.refused_budget);
+  response->set_cancelled_uploads_idle(uploads.cancelled_idle);
   return Done(context, Status::Ok());
 }
 
