@@ -4,7 +4,6 @@
 
 #include <fstream>
 #include <memory>
-#include <string_view>
 #include <vector>
 
 #include "skinserve/client/channel.h"
@@ -106,14 +105,14 @@ UploadAttackRound RunUploadAttackRound(const UploadAttackOptions& o) {
     const grpc::Status status = upload->End();
     // By code and by the limit the message names ("(--max-uploads 16)"), if any.
     std::string name = CodeName(status.error_code());
-    const std::string_view message = status.error_message();
-    if (const auto flag = message.find("(--"); flag != std::string_view::npos) {
-      const std::string_view limit = message.substr(flag + 1);
+    const std::string message = status.error_message();
+    if (const auto flag = message.find("(--"); flag != std::string::npos) {
+      const auto end = message.find_first_of(" )", flag + 1);
       name.push_back(' ');
-      name.append(limit.substr(0, limit.find_first_of(" )")));
+      name.append(message, flag + 1, end == std::string::npos ? end : end - flag - 1);
     }
     ++round.endings[name];
-    round.messages.emplace(name, status.error_message());
+    round.messages.emplace(name, message);
   }
   round.drip_bytes_sent = drip_bytes.load();
   return round;
