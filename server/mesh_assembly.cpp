@@ -77,6 +77,7 @@ Status MeshAssembly::Append(std::vector<T>& array, const char* name, const v1::M
         fmt::format("{} chunk ends at value {}, past the {} values the header implies", name,
                     received + count, declared));
   }
+  if (count == 0) return Status::Ok();  // an array not grown yet has no block to copy into
   if (Status s = Reserve(array, chunk.array(), received + count); !s.ok()) {
     return ResourceExhausted(
         fmt::format("{} chunk at offset {}: {}; nothing was stored", name, received, s.message()));

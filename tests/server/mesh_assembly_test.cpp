@@ -68,6 +68,15 @@ TEST(MeshAssemblyTest, AHeaderAloneTakesAndChargesNothing) {
   EXPECT_EQ(budget.used(), 0u);
 }
 
+TEST(MeshAssemblyTest, AnEmptyChunkTakesNothing) {
+  auto engine = SerialEngine();
+  server::InflightBudget budget(64 << 20, server::kUploadBudgetWording);
+  server::MeshAssembly assembly(engine.get(), &budget);
+  ASSERT_TRUE(assembly.Accept(Header(1000, 2, false)).ok());
+  ASSERT_TRUE(assembly.Accept(Chunk(v1::MESH_ARRAY_POSITIONS, std::vector<float>(), 0, 0)).ok());
+  EXPECT_EQ(assembly.charged_bytes(), 0u);
+}
+
 TEST(MeshAssemblyTest, ArraysGrowWithTheirChunksAndAreChargedAsTheyGrow) {
   auto engine = SerialEngine();
   const MeshArrays arrays =
