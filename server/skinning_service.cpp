@@ -1,9 +1,9 @@
 #include "skinning_service.h"
 
+#include "engine_messages.h"
 #include "mesh_upload_reactor.h"
 #include "skin_reactor.h"
 #include "stream_skin_reactor.h"
-#include "engine_messages.h"
 
 namespace skinserve::server {
 namespace {
