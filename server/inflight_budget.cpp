@@ -15,10 +15,10 @@ Status InflightBudget::TryCharge(uint64_t bytes) {
     if (bytes > limit_ || used > limit_ - bytes) {
       refused_.fetch_add(1);
       return ResourceExhausted(fmt::format(
-          "the in-flight budget is spent: this frame needs {:.1f} MiB more and frames in flight "
-          "hold {:.1f} of {:.1f} MiB (--inflight-budget-mb); read answers sooner, keep fewer "
-          "frames in flight or retry later",
-          bytes / 1048576.0, used / 1048576.0, limit_ / 1048576.0));
+          "the {} budget is spent: {} needs {:.1f} MiB more and {} hold {:.1f} of {:.1f} MiB "
+          "({} {}); {}",
+          wording_.budget, wording_.asker, bytes / 1048576.0, wording_.holders, used / 1048576.0,
+          limit_ / 1048576.0, wording_.flag, limit_ >> 20, wording_.advice));
     }
   } while (!used_.compare_exchange_weak(used, used + bytes));
   return Status::Ok();

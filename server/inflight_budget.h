@@ -3,6 +3,7 @@
 // buffers). A frame that would take the total beyond the budget is refused with
 // RESOURCE_EXHAUSTED naming the budget, so slow or hostile readers cannot grow the
 // process without limit; the memory returns when their streams end.
+// Uploads have a budget of their own, a second instance worded for them (OpenUploads).
 #pragma once
 
 #include <atomic>
@@ -12,9 +13,24 @@
 
 namespace skinserve::server {
 
+// What a refusal says: which budget, who asked and who holds it, the flag that sets it
+// and what the client can do.
+struct BudgetWording {
+  const char* budget;
+  const char* asker;
+  const char* holders;
+  const char* flag;
+  const char* advice;
+};
+
+inline constexpr BudgetWording kFrameBudgetWording{
+    "in-flight", "this frame", "frames in flight", "--inflight-budget-mb",
+    "read answers sooner, keep fewer frames in flight or retry later"};
+
 class InflightBudget {
  public:
-  explicit InflightBudget(uint64_t limit_bytes) : limit_(limit_bytes) {}
+  explicit InflightBudget(uint64_t limit_bytes, const BudgetWording& wording = kFrameBudgetWording)
+      : limit_(limit_bytes), wording_(wording) {}
 
   // Takes `bytes` from the budget, or refuses (RESOURCE_EXHAUSTED) and takes nothing.
   Status TryCharge(uint64_t bytes);
@@ -30,6 +46,7 @@ class InflightBudget {
 
  private:
   const uint64_t limit_;
+  const BudgetWording wording_;
   std::atomic<uint64_t> used_{0};
   std::atomic<uint64_t> refused_{0};
 };

@@ -2,21 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cstring>
-#include <utility>
 
 namespace skinserve::server {
-namespace {
-
-// Where a chunk's values go, and how many the header promised.
-struct Target {
-  const char* name;
-  void* data;
-  std::size_t value_size;
-  uint64_t expected;
-};
-
-}  // namespace
 
 Status MeshAssembly::Accept(const v1::UploadMeshRequest& message) {
   switch (message.part_case()) {
@@ -42,65 +31,94 @@ Status MeshAssembly::AcceptHeader(const v1::MeshHeader& header) {
   arrays_.vertex_count = header.vertex_count();
   arrays_.influences = header.influences();
   arrays_.joint_count = header.joint_count();
-  arrays_.positions.resize(3 * v);
-  arrays_.normals.resize(header.has_normals() ? 3 * v : 0);
-  arrays_.joints.resize(b * v);
-  arrays_.weights.resize(b * v);
+  // Only the sizes are noted: the arrays grow as their chunks arrive (see the header).
+  declared_[v1::MESH_ARRAY_POSITIONS] = 3 * v;
+  declared_[v1::MESH_ARRAY_NORMALS] = header.has_normals() ? 3 * v : 0;
+  declared_[v1::MESH_ARRAY_JOINTS] = b * v;
+  declared_[v1::MESH_ARRAY_WEIGHTS] = b * v;
   return Status::Ok();
 }
 
 Status MeshAssembly::AcceptChunk(const v1::MeshChunk& chunk) {
   if (!have_header_) return InvalidArgument("chunk before header; the header comes first");
-  Target target;
   switch (chunk.array()) {
     case v1::MESH_ARRAY_POSITIONS:
-      target = {"positions", arrays_.positions.data(), sizeof(float), arrays_.positions.size()};
-      break;
+      return Append(arrays_.positions, "positions", chunk);
     case v1::MESH_ARRAY_NORMALS:
-      if (arrays_.normals.empty()) {
+      if (declared_[v1::MESH_ARRAY_NORMALS] == 0) {
         return InvalidArgument("normals chunk, but the header says has_normals = false");
       }
-      target = {"normals", arrays_.normals.data(), sizeof(float), arrays_.normals.size()};
-      break;
+      return Append(arrays_.normals, "normals", chunk);
     case v1::MESH_ARRAY_JOINTS:
-      target = {"joints", arrays_.joints.data(), sizeof(uint16_t), arrays_.joints.size()};
-      break;
+      return Append(arrays_.joints, "joints", chunk);
     case v1::MESH_ARRAY_WEIGHTS:
-      target = {"weights", arrays_.weights.data(), sizeof(float), arrays_.weights.size()};
-      break;
+      return Append(arrays_.weights, "weights", chunk);
     default:
       return InvalidArgument(fmt::format("chunk.array {} is not a mesh array", chunk.array()));
   }
-  uint64_t& received = received_[chunk.array()];
+}
+
+template <typename T>
+Status MeshAssembly::Append(std::vector<T>& array, const char* name, const v1::MeshChunk& chunk) {
+  const uint64_t received = array.size(), declared = declared_[chunk.array()];
   if (chunk.offset() != received) {
     return InvalidArgument(
         fmt::format("{} chunk at offset {}; expected offset {} (chunks of an "
                     "array arrive in order)",
-                    target.name, chunk.offset(), received));
+                    name, chunk.offset(), received));
   }
-  if (chunk.data().size() % target.value_size != 0) {
-    return InvalidArgument(fmt::format("{} chunk holds {} bytes, not whole {}-byte values",
-                                       target.name, chunk.data().size(), target.value_size));
+  if (chunk.data().size() % sizeof(T) != 0) {
+    return InvalidArgument(fmt::format("{} chunk holds {} bytes, not whole {}-byte values", name,
+                                       chunk.data().size(), sizeof(T)));
   }
-  const uint64_t count = chunk.data().size() / target.value_size;
-  if (received + count > target.expected) {
+  const uint64_t count = chunk.data().size() / sizeof(T);
+  if (received + count > declared) {
     return InvalidArgument(
-        fmt::format("{} chunk ends at value {}, past the {} values the header implies", target.name,
-                    received + count, target.expected));
+        fmt::format("{} chunk ends at value {}, past the {} values the header implies", name,
+                    received + count, declared));
   }
-  std::memcpy(static_cast<char*>(target.data) + received * target.value_size, chunk.data().data(),
-              chunk.data().size());
-  received += count;
+  if (count == 0) return Status::Ok();  // an array not grown yet has no block to copy into
+  if (Status s = Reserve(array, chunk.array(), received + count); !s.ok()) {
+    return ResourceExhausted(
+        fmt::format("{} chunk at offset {}: {}; nothing was stored", name, received, s.message()));
+  }
+  array.resize(received + count);  // within the capacity reserved: no allocation
+  std::memcpy(array.data() + received, chunk.data().data(), chunk.data().size());
+  return Status::Ok();
+}
+
+template <typename T>
+Status MeshAssembly::Reserve(std::vector<T>& array, int array_number, uint64_t values) {
+  if (values <= array.capacity()) return Status::Ok();
+  // Doubling keeps the copying linear in the mesh's size; the declared size caps it, so a
+  // complete array holds no spare room.
+  const uint64_t capacity = std::min<uint64_t>(
+      declared_[array_number], std::max<uint64_t>(values, 2 * uint64_t{array.capacity()}));
+  const uint64_t bytes = capacity * sizeof(T);
+  // The new block is charged in full before it is taken: until the old one is freed
+  // below, both are held.
+  if (budget_ != nullptr) {
+    if (Status s = budget_->TryCharge(bytes); !s.ok()) return s;
+  }
+  array.reserve(capacity);
+  const uint64_t old_bytes = charged_[array_number];
+  if (budget_ != nullptr) budget_->Release(old_bytes);
+  charged_[array_number] = bytes;
+  charged_bytes_ += bytes - old_bytes;
   return Status::Ok();
 }
 
 Result<MeshInfo> MeshAssembly::Store() {
+  struct DiscardOnReturn {
+    MeshAssembly* assembly;
+    ~DiscardOnReturn() { assembly->Discard(); }
+  } discard{this};
   if (!have_header_) return InvalidArgument("upload ended without a header");
-  const std::pair<const char*, std::pair<uint64_t, std::size_t>> arrays[] = {
-      {"positions", {received_[v1::MESH_ARRAY_POSITIONS], arrays_.positions.size()}},
-      {"normals", {received_[v1::MESH_ARRAY_NORMALS], arrays_.normals.size()}},
-      {"joints", {received_[v1::MESH_ARRAY_JOINTS], arrays_.joints.size()}},
-      {"weights", {received_[v1::MESH_ARRAY_WEIGHTS], arrays_.weights.size()}}};
+  const std::pair<const char*, std::pair<uint64_t, uint64_t>> arrays[] = {
+      {"positions", {arrays_.positions.size(), declared_[v1::MESH_ARRAY_POSITIONS]}},
+      {"normals", {arrays_.normals.size(), declared_[v1::MESH_ARRAY_NORMALS]}},
+      {"joints", {arrays_.joints.size(), declared_[v1::MESH_ARRAY_JOINTS]}},
+      {"weights", {arrays_.weights.size(), declared_[v1::MESH_ARRAY_WEIGHTS]}}};
   for (const auto& [name, counts] : arrays) {
     if (counts.first != counts.second) {
       return InvalidArgument(
@@ -108,8 +126,19 @@ Result<MeshInfo> MeshAssembly::Store() {
                       counts.first, counts.second));
     }
   }
+  // The engine copies the arrays into the mesh store (its own budget); ours are freed
+  // right after, so an upload's peak is its arrays plus the stored mesh, once.
   return engine_->AddMesh(arrays_,
                           normalize_weights_ ? WeightPolicy::kNormalize : WeightPolicy::kReject);
+}
+
+void MeshAssembly::Discard() {
+  if (budget_ != nullptr) budget_->Release(charged_bytes_);
+  charged_bytes_ = 0;
+  std::fill(std::begin(charged_), std::end(charged_), 0);
+  std::fill(std::begin(declared_), std::end(declared_), 0);
+  arrays_ = MeshArrays();  // frees the blocks, not just their contents
+  have_header_ = false;
 }
 
 }  // namespace skinserve::server

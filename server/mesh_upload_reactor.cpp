@@ -6,25 +6,63 @@
 
 namespace skinserve::server {
 
-MeshUploadReactor::MeshUploadReactor(Engine* engine, v1::MeshInfo* response)
-    : assembly_(engine), response_(response) {
+MeshUploadReactor::MeshUploadReactor(Engine* engine, OpenUploads* uploads, const std::string& peer,
+                                     v1::MeshInfo* response)
+    : uploads_(uploads), assembly_(engine, uploads->budget()), response_(response) {
   if (engine == nullptr) {
-    Finish(ToGrpc(Unavailable("the server is starting: backends are being built")));
+    std::lock_guard lock(mutex_);
+    FinishLocked(ToGrpc(Unavailable("the server is starting: backends are being built")));
     return;
   }
-  StartRead(&message_);
+  const Status admitted = uploads_->Add(this, peer);
+  registered_ = admitted.ok();
+  std::lock_guard lock(mutex_);
+  if (!admitted.ok()) {
+    FinishLocked(ToGrpc(admitted));
+  } else {
+    ReadLocked();
+  }
 }
 
 void MeshUploadReactor::OnReadDone(bool ok) {
-  if (!ok) {  // the client finished sending (or went away: then Finish goes nowhere)
-    Finish(ToGrpc(Store()));
-    return;
+  {
+    std::lock_guard lock(mutex_);
+    reading_ = false;
+    waiting_since_.store(std::chrono::steady_clock::time_point::max().time_since_epoch().count());
+    if (finished_) return;  // ended meanwhile (idle, cancelled): OnDone frees what it holds
   }
-  if (Status s = assembly_.Accept(message_); !s.ok()) {
-    Finish(ToGrpc(s));  // drop everything received so far
-    return;
+  // The message is handled outside the lock, so the watchdog never waits on a big copy
+  // or a store; it leaves an upload alone while reading_ is false.
+  // !ok: the client finished sending (or went away: then Finish goes nowhere).
+  const Status status = ok ? assembly_.Accept(message_) : Store();
+  if (!status.ok()) assembly_.Discard();  // drop everything received so far
+  // A waiting upload holds its (charged) arrays and nothing more: not its last chunk.
+  message_.clear_part();
+  std::lock_guard lock(mutex_);
+  if (!ok || !status.ok()) {
+    FinishLocked(ToGrpc(status));
+  } else {
+    ReadLocked();
   }
-  StartRead(&message_);
+}
+
+void MeshUploadReactor::OnCancel() {
+  std::lock_guard lock(mutex_);
+  FinishLocked(grpc::Status::CANCELLED);
+}
+
+void MeshUploadReactor::OnDone() {
+  if (registered_) uploads_->Remove(this);
+  assembly_.Discard();  // now, not when the last Hold lets go
+  Unref();
+}
+
+bool MeshUploadReactor::EndIfWaitingSince(std::chrono::steady_clock::time_point cutoff,
+                                          const Status& status) {
+  std::lock_guard lock(mutex_);
+  if (finished_ || !reading_ || waiting_since() > cutoff) return false;
+  FinishLocked(ToGrpc(status));
+  return true;
 }
 
 Status MeshUploadReactor::Store() {
@@ -35,6 +73,23 @@ Status MeshUploadReactor::Store() {
                info->vertex_count, info->influences, info->joint_count,
                info->already_stored ? " (already stored)" : "");
   return Status::Ok();
+}
+
+void MeshUploadReactor::ReadLocked() {
+  if (finished_) return;
+  reading_ = true;
+  waiting_since_.store(std::chrono::steady_clock::now().time_since_epoch().count());
+  StartRead(&message_);
+}
+
+void MeshUploadReactor::FinishLocked(const grpc::Status& status) {
+  if (finished_) return;
+  finished_ = true;
+  Finish(status);
+}
+
+void MeshUploadReactor::Unref() {
+  if (refs_.fetch_sub(1) == 1) delete this;
 }
 
 }  // namespace skinserve::server

@@ -116,6 +116,27 @@ std::string RenderPrometheusText(const MetricsSnapshot& s) {
 
   w.Header("skinserve_open_streams", "gauge", "StreamSkin calls in progress.");
   w.Sample("skinserve_open_streams", "", static_cast<double>(s.open_streams));
+  const UploadStats& u = s.uploads;
+  w.Header("skinserve_open_uploads", "gauge", "UploadMesh calls in progress.");
+  w.Sample("skinserve_open_uploads", "", static_cast<double>(u.open));
+  w.Header("skinserve_upload_bytes", "gauge",
+           "Memory held by the arrays of uploads in progress (charged to the upload budget).");
+  w.Sample("skinserve_upload_bytes", "", static_cast<double>(u.bytes));
+  w.Header("skinserve_upload_budget_bytes", "gauge",
+           "Memory uploads in progress may hold together; beyond, a chunk ends its upload.");
+  w.Sample("skinserve_upload_budget_bytes", "", static_cast<double>(u.budget_bytes));
+  w.Header("skinserve_upload_refusals_total", "counter",
+           "Uploads refused or ended, by the limit: max_uploads, max_uploads_per_connection, "
+           "upload_budget, upload_idle.");
+  const std::pair<const char*, uint64_t> refusals[] = {
+      {"max_uploads", u.refused_max_uploads},
+      {"max_uploads_per_connection", u.refused_per_connection},
+      {"upload_budget", u.refused_budget},
+      {"upload_idle", u.cancelled_idle}};
+  for (const auto& [reason, n] : refusals) {
+    w.Sample("skinserve_upload_refusals_total", fmt::format("reason=\"{}\"", reason),
+             static_cast<double>(n));
+  }
   w.Header("skinserve_meshes", "gauge", "Meshes stored.");
   w.Sample("skinserve_meshes", "", static_cast<double>(e.meshes));
   w.Header("skinserve_mesh_bytes", "gauge", "Memory held by stored meshes.");

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "metrics_frames.h"
+#include "open_uploads.h"
 #include "skinserve/engine/engine.h"
 
 namespace skinserve::server {
@@ -15,6 +16,7 @@ struct MetricsSnapshot {
   std::string version;
   bool serving = false;  // false while starting and while draining
   std::size_t open_streams = 0;
+  UploadStats uploads;
   EngineStats engine;  // empty while starting
   std::map<std::string, BackendFrameMetrics> frames;
 };

@@ -40,6 +40,10 @@ RegionLimits ServerOptions::ToRegionLimits() const {
   return limits;
 }
 
+uint64_t ServerOptions::UploadBudgetBytes() const {
+  return upload_budget_mb > 0 ? upload_budget_mb << 20 : InflightBudget::DefaultLimitBytes();
+}
+
 EngineOptions ServerOptions::ToEngineOptions() const {
   EngineOptions engine;
   engine.compute_threads = ComputeThreads();
@@ -114,6 +118,32 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "StreamSkin streams open at once over all connections; beyond, a new stream "
                  "is refused with RESOURCE_EXHAUSTED")
       ->envname("SKINSERVE_MAX_STREAMS")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--upload-budget-mb", o.upload_budget_mb,
+                 "memory for the arrays of uploads in progress, all together, MiB; taken as "
+                 "chunks arrive (a header costs nothing; an upload holds up to 1.5 times its "
+                 "mesh's size while its arrays grow); a chunk beyond it ends its upload with "
+                 "RESOURCE_EXHAUSTED (0: a quarter of the machine's or the cgroup's memory)")
+      ->envname("SKINSERVE_UPLOAD_BUDGET_MB")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--max-uploads", o.max_uploads,
+                 "UploadMesh calls open at once over all connections; beyond, a new upload is "
+                 "refused with RESOURCE_EXHAUSTED")
+      ->envname("SKINSERVE_MAX_UPLOADS")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-uploads-per-connection", o.max_uploads_per_connection,
+                 "UploadMesh calls one client connection may have open at once; beyond, a new "
+                 "upload is refused with RESOURCE_EXHAUSTED")
+      ->envname("SKINSERVE_MAX_UPLOADS_PER_CONNECTION")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--upload-idle-seconds", o.upload_idle_seconds,
+                 "an upload that sends nothing for this long is ended with RESOURCE_EXHAUSTED "
+                 "and what it sent is dropped")
+      ->envname("SKINSERVE_UPLOAD_IDLE_SECONDS")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error or off")

@@ -48,6 +48,12 @@ struct ServerOptions {
   uint32_t shm_max_regions = 256;
   uint32_t shm_max_regions_per_connection = 16;
   double shm_idle_seconds = 60;
+  // Uploads (see OpenUploads): what their arrays may hold together, how many may be open
+  // at once (over all connections and per connection), and how long one may send nothing.
+  uint64_t upload_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
+  std::size_t max_uploads = 16;
+  std::size_t max_uploads_per_connection = 4;
+  double upload_idle_seconds = 10;
 
   EngineOptions ToEngineOptions() const;
   // --threads, or by default one per core less one (at least one): gRPC's threads do most
@@ -56,6 +62,7 @@ struct ServerOptions {
   int ComputeThreads() const;
   uint64_t InflightBudgetBytes() const;
   RegionLimits ToRegionLimits() const;
+  uint64_t UploadBudgetBytes() const;
 };
 
 // Registers the options on `app`, each with its SKINSERVE_* environment variable.

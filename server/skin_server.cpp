@@ -33,7 +33,12 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   }
   server->service_ = std::make_unique<SkinningService>(
       options.default_backend, options.stream_window, options.max_streams,
-      options.InflightBudgetBytes(), server->regions_.get());
+      options.InflightBudgetBytes(),
+      UploadLimits{.max_uploads = options.max_uploads,
+                   .max_uploads_per_connection = options.max_uploads_per_connection,
+                   .budget_bytes = options.UploadBudgetBytes(),
+                   .idle_seconds = options.upload_idle_seconds},
+      server->regions_.get());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -142,6 +147,7 @@ std::string SkinServer::RenderMetrics() const {
   snapshot.version = SKINSERVE_VERSION;
   snapshot.serving = serving_.load();
   snapshot.open_streams = service_->OpenStreamCount();
+  snapshot.uploads = service_->Uploads();
   if (const Engine* engine = ready_engine_.load()) snapshot.engine = engine->Stats();
   if (const FrameMetrics* frames = FrameMetrics::Installed()) snapshot.frames = frames->Snapshot();
   return RenderPrometheusText(snapshot);

@@ -29,8 +29,9 @@ void ToWire(const RegionInfo& info, v1::RegionInfo* wire) {
 }  // namespace
 
 grpc::ServerReadReactor<v1::UploadMeshRequest>* SkinningService::UploadMesh(
-    grpc::CallbackServerContext*, v1::MeshInfo* response) {
-  return new MeshUploadReactor(engine_.load(), response);
+    grpc::CallbackServerContext* context, v1::MeshInfo* response) {
+  // The peer address ("ipv4:127.0.0.1:54321") names the client's connection.
+  return new MeshUploadReactor(engine_.load(), &open_uploads_, context->peer(), response);
 }
 
 grpc::ServerUnaryReactor* SkinningService::GetMesh(grpc::CallbackServerContext* context,
@@ -91,6 +92,14 @@ grpc::ServerUnaryReactor* SkinningService::GetServerStats(grpc::CallbackServerCo
     response->set_region_frames(regions.frames);
     response->set_rejected_regions(regions.rejected);
   }
+  const UploadStats uploads = open_uploads_.Stats();
+  response->set_upload_budget_bytes(uploads.budget_bytes);
+  response->set_upload_bytes(uploads.bytes);
+  response->set_open_uploads(uploads.open);
+  response->set_rejected_uploads_max_uploads(uploads.refused_max_uploads);
+  response->set_rejected_uploads_per_connection(uploads.refused_per_connection);
+  response->set_rejected_uploads_budget(uploads.refused_budget);
+  response->set_cancelled_uploads_idle(uploads.cancelled_idle);
   return Done(context, Status::Ok());
 }
 

@@ -6,6 +6,7 @@
 
 #include "inflight_budget.h"
 #include "open_streams.h"
+#include "open_uploads.h"
 #include "region_registry.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
@@ -28,12 +29,14 @@ class SkinningService final : public SkinningCallbackService {
  public:
   // `regions` (null: shared memory is off) outlives the service.
   SkinningService(std::string default_backend, int stream_window, std::size_t max_streams,
-                  uint64_t inflight_budget_bytes, RegionRegistry* regions)
+                  uint64_t inflight_budget_bytes, const UploadLimits& upload_limits,
+                  RegionRegistry* regions)
       : default_backend_(std::move(default_backend)),
         stream_window_(stream_window),
         open_streams_(max_streams),
         budget_(inflight_budget_bytes),
-        regions_(regions) {}
+        regions_(regions),
+        open_uploads_(upload_limits) {}
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }
   // Shutdown: open streams answer the frames they have read and end UNAVAILABLE; new
@@ -43,6 +46,7 @@ class SkinningService final : public SkinningCallbackService {
     return open_streams_.WaitUntilAllEnded(deadline);
   }
   std::size_t OpenStreamCount() const { return open_streams_.count(); }
+  UploadStats Uploads() const { return open_uploads_.Stats(); }
 
   grpc::ServerReadReactor<v1::UploadMeshRequest>* UploadMesh(grpc::CallbackServerContext*,
                                                              v1::MeshInfo* response) override;
@@ -79,6 +83,7 @@ class SkinningService final : public SkinningCallbackService {
   OpenStreams open_streams_;
   InflightBudget budget_;  // the bytes of frames in flight, all streams and Skin calls
   RegionRegistry* const regions_;
+  OpenUploads open_uploads_;  // the caps and budget of uploads, and their idle watchdog
 };
 
 }  // namespace skinserve::server

@@ -90,7 +90,8 @@ expect(f'skinserve_build_info{{version="{version}"}}', 1)
 expect("skinserve_serving", 1)
 expect("skinserve_open_streams", 0)
 expect("skinserve_queue_depth", 0)
-for key in ("skinserve_meshes", "skinserve_mesh_bytes"):
+expect('skinserve_upload_refusals_total{reason="max_uploads"}', 0)
+for key in ("skinserve_meshes", "skinserve_mesh_bytes", "skinserve_upload_budget_bytes"):
     if not samples.get(key, 0) > 0:
         problems.append(f"{key} is not positive")
 for r in load["results"]:
