@@ -77,6 +77,9 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   done_ = false;
   error_part_ = false;
   part_count_ = next_part_ = 0;
+  early_ = false;
+  ready_instances_ = 0;
+  parts_ready_.store(0, std::memory_order_relaxed);
   if (wire_in_use()) return Internal("a frame job was reused while gRPC still sent its answer");
   result_ = Status::Ok();
   timing_ = {};
@@ -127,6 +130,8 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
     normals_offset_ = headers_offset_ = 0;
   }
   wire_used_ = headers_offset_ + part_count_ * header_room_;
+  early_ = wire.early_parts() && !region_part_ && part_count_ > 1 && instances_ > 1;
+  if (early_) instance_ready_.assign(instances_, 0);  // keeps its capacity
 
   // Encoded instance by instance: skinned into the compute thread's scratch, kept in its
   // core's cache, unless an instance is too large for it.
@@ -247,13 +252,15 @@ void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
 
 Status FrameJob::OnInstanceSkinned(uint32_t instance, std::span<const float> positions,
                                    std::span<const float> normals) {
-  if (encoding_ == VertexEncoding::kFloat32) return Status::Ok();  // skinned in place
-  const auto started = std::chrono::steady_clock::now();
-  Status s = EncodeInstance(instance, positions, normals);
-  encode_ns_.fetch_add(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                           std::chrono::steady_clock::now() - started)
-                           .count());
-  return s;
+  if (encoding_ != VertexEncoding::kFloat32) {  // float32 is skinned in place
+    const auto started = std::chrono::steady_clock::now();
+    Status s = EncodeInstance(instance, positions, normals);
+    encode_ns_.fetch_add(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                             std::chrono::steady_clock::now() - started)
+                             .count());
+    if (!s.ok()) return s;
+  }
+  return early_ ? MarkInstanceReady(instance) : Status::Ok();
 }
 
 Status FrameJob::EncodeInstance(uint32_t i, std::span<const float> positions,
@@ -274,52 +281,89 @@ Status FrameJob::EncodeInstance(uint32_t i, std::span<const float> positions,
   return s.ok() ? s : InstanceError(s, i, instances_);
 }
 
-Status FrameJob::WriteHeaders() {
+void FrameJob::SetCommonHeader(bool with_timing) {
   header_.Clear();
   header_.set_frame(frame_);
   header_.set_total_vertices(mesh_.vertex_count);
   header_.set_instances(instances_);
   header_.set_encoding(ToWire(encoding_));
+  if (!with_timing) return;
   v1::ServerTiming* timing = header_.mutable_timing();
   timing->set_queued_ns(timing_.queued_ns);
   timing->set_compute_ns(timing_.compute_ns);
   timing->set_device_transfer_ns(timing_.device_transfer_ns);
   timing->set_device_kernel_ns(timing_.device_kernel_ns);
   timing->set_encode_ns(encode_ns_.load());
-  if (region_) return WriteRegionHeader();
-  for (std::size_t p = 0; p < part_count_; ++p) {
-    const PartRange r = RangeOf(p);
-    header_.set_first_vertex(r.first);
-    header_.set_vertex_count(r.count);
-    header_.set_instance(r.instance);
-    header_.set_last(p + 1 == part_count_);
-    if (instances_per_part_ > 1) header_.set_instance_count(r.instances);
-    if (encoding_ == VertexEncoding::kSnorm16) {
-      ToWire(bounds_[r.instance], header_.mutable_bounds());
-      header_.clear_instance_bounds();  // keeps the elements: no allocation next time
-      for (uint32_t k = 0; instances_per_part_ > 1 && k < r.instances; ++k) {
-        ToWire(bounds_[r.instance + k], header_.add_instance_bounds());
-      }
-    }
-    const std::size_t size = header_.ByteSizeLong();
-    if (size + 12 > header_room_) {
-      return Internal(fmt::format("a response header of {} bytes exceeds the {} reserved", size,
-                                  header_room_ - 12));
-    }
-    std::byte* room = wire_.data() + headers_offset_ + p * header_room_;
-    header_.SerializeWithCachedSizesToArray(reinterpret_cast<uint8_t*>(room));
-    const std::size_t payload = EncodedBytes(encoding_, r.count) * r.instances;
-    PartHeader& h = headers_[p];
-    h.size =
-        size + PutLengthDelimitedTag(v1::SkinResponse::kPositionsFieldNumber, payload, room + size);
-    h.normals_tag_size =
-        want_normals_
-            ? PutLengthDelimitedTag(v1::SkinResponse::kNormalsFieldNumber, payload, room + h.size)
-            : 0;
+}
+
+Status FrameJob::WriteHeaders() {
+  SetCommonHeader(/*with_timing=*/true);
+  if (region_) {
+    Status s = WriteRegionHeader();
+    if (s.ok()) parts_ready_.store(1, std::memory_order_release);
+    return s;
   }
+  // Early parts already went out with their headers: only the rest are written now.
+  std::lock_guard lock(parts_mutex_);
+  for (std::size_t p = parts_ready_.load(std::memory_order_relaxed); p < part_count_; ++p) {
+    if (Status s = WritePartHeader(p); !s.ok()) return s;
+  }
+  parts_ready_.store(part_count_, std::memory_order_release);
   return Status::Ok();
 }
 
+Status FrameJob::WritePartHeader(std::size_t p) {
+  const PartRange r = RangeOf(p);
+  header_.set_first_vertex(r.first);
+  header_.set_vertex_count(r.count);
+  header_.set_instance(r.instance);
+  header_.set_last(p + 1 == part_count_);
+  if (instances_per_part_ > 1) header_.set_instance_count(r.instances);
+  if (encoding_ == VertexEncoding::kSnorm16) {
+    ToWire(bounds_[r.instance], header_.mutable_bounds());
+    header_.clear_instance_bounds();  // keeps the elements: no allocation next time
+    for (uint32_t k = 0; instances_per_part_ > 1 && k < r.instances; ++k) {
+      ToWire(bounds_[r.instance + k], header_.add_instance_bounds());
+    }
+  }
+  const std::size_t size = header_.ByteSizeLong();
+  if (size + 12 > header_room_) {
+    return Internal(fmt::format("a response header of {} bytes exceeds the {} reserved", size,
+                                header_room_ - 12));
+  }
+  std::byte* room = wire_.data() + headers_offset_ + p * header_room_;
+  header_.SerializeWithCachedSizesToArray(reinterpret_cast<uint8_t*>(room));
+  const std::size_t payload = EncodedBytes(encoding_, r.count) * r.instances;
+  PartHeader& h = headers_[p];
+  h.size =
+      size + PutLengthDelimitedTag(v1::SkinResponse::kPositionsFieldNumber, payload, room + size);
+  h.normals_tag_size = want_normals_ ? PutLengthDelimitedTag(v1::SkinResponse::kNormalsFieldNumber,
+                                                             payload, room + h.size)
+                                     : 0;
+  return Status::Ok();
+}
+
+Status FrameJob::MarkInstanceReady(uint32_t instance) {
+  std::size_t covered = 0;
+  {
+    std::lock_guard lock(parts_mutex_);
+    if (error_part_) return Status::Ok();
+    instance_ready_[instance] = 1;
+    while (ready_instances_ < instances_ && instance_ready_[ready_instances_]) ++ready_instances_;
+    covered = instances_per_part_ > 1 ? ready_instances_ / instances_per_part_
+                                      : ready_instances_ * parts_per_instance_;
+    covered = std::min(covered, part_count_ - 1);  // the final part waits for the timings
+    const std::size_t ready = parts_ready_.load(std::memory_order_relaxed);
+    if (covered <= ready) return Status::Ok();
+    SetCommonHeader(/*with_timing=*/false);
+    for (std::size_t p = ready; p < covered; ++p) {
+      if (Status s = WritePartHeader(p); !s.ok()) return s;
+    }
+    parts_ready_.store(covered, std::memory_order_release);
+  }
+  listener_->OnPartsReady(this);
+  return Status::Ok();
+}
 Status FrameJob::WriteRegionHeader() {
   header_.set_first_vertex(0);
   header_.set_vertex_count(mesh_.vertex_count);
@@ -361,18 +405,33 @@ void FrameJob::SetErrorPart() {
     header_.mutable_error()->set_message("the error message could not be serialized");
     (void)grpc::SerializationTraits<v1::SkinResponse>::Serialize(header_, &bytes, &own);
   }
-  out_.reset();
+  std::lock_guard lock(parts_mutex_);
+  // With early parts out, gRPC may be writing the last one handed out: it stays.
+  if (next_part_ == 0) out_.reset();
   error_part_ = true;
   error_bytes_ = std::move(bytes);
-  part_count_ = 1;
-  next_part_ = 0;
+  part_count_ = next_part_ + 1;  // after the early parts already handed out, if any
+}
+
+bool FrameJob::HasPartToSend() {
+  std::lock_guard lock(parts_mutex_);
+  if (error_part_) return next_part_ < part_count_;
+  return next_part_ < parts_ready_.load(std::memory_order_acquire);
 }
 
 const grpc::ByteBuffer* FrameJob::NextPart(bool* last) {
-  if (next_part_ >= part_count_) return nullptr;
+  std::lock_guard lock(parts_mutex_);
+  if (error_part_) {
+    if (next_part_ >= part_count_) return nullptr;
+    next_part_ = part_count_;
+    *last = true;
+    // Early parts went out over the wire buffer: the error part ends them.
+    wire_slice_ = grpc::Slice();
+    return &error_bytes_;
+  }
+  if (next_part_ >= parts_ready_.load(std::memory_order_acquire)) return nullptr;
   const std::size_t p = next_part_++;
   *last = next_part_ == part_count_;
-  if (error_part_) return &error_bytes_;
   if (p == 0) {  // gRPC gets slices of wire_: hold the listener until it lets go of them
     wire_refs_.store(1, std::memory_order_release);
     listener_->HoldForWire();

@@ -18,6 +18,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <mutex>
 #include <optional>
 #include <vector>
 
@@ -40,6 +41,9 @@ class FrameJob final : public SkinJob {
   class Listener {
    public:
     virtual void OnFrameDone(FrameJob* job) = 0;
+    // SkinRequest.early_parts: more of the frame's parts may go out (HasPartToSend), on a
+    // compute thread, before OnFrameDone.
+    virtual void OnPartsReady(FrameJob* job) = 0;
     // The listener stays alive from HoldForWire (the first part handed out) until
     // ReleaseForWire (gRPC dropped the last slice of the job's wire buffer). Release may
     // come on any thread, also from inside the listener's own calls into gRPC while it
@@ -67,8 +71,11 @@ class FrameJob final : public SkinJob {
   void set_done() { done_ = true; }
   const Status& status() const { return result_; }
   uint64_t frame() const { return frame_; }
-  // The next response part, serialized; nullptr once every part was handed out. `*last`
-  // tells whether it is the frame's final part. Valid until PartWritten or the next call.
+  // Whether a part is ready to go out that was not handed out yet.
+  bool HasPartToSend();
+  // The next response part, serialized; nullptr while none is ready (every part handed
+  // out, or the rest not skinned yet). `*last` tells whether it is the frame's final
+  // part. Valid until PartWritten or the next call.
   const grpc::ByteBuffer* NextPart(bool* last);
   // The part handed out last was written (or failed): the job lets go of it.
   void PartWritten() { out_.reset(); }
@@ -92,6 +99,12 @@ class FrameJob final : public SkinJob {
   // Once every instance is in the wire buffer: each part's header, with the timings.
   Status WriteHeaders();
   Status WriteRegionHeader();  // the one part of a frame written into a region
+  // The fields every part of the frame shares, with the timings or (early parts) without.
+  void SetCommonHeader(bool with_timing);
+  Status WritePartHeader(std::size_t part);
+  // early_parts: instance `instance` is in the wire buffer; releases the parts that the
+  // instances done in order cover (never the final one) and tells the listener.
+  Status MarkInstanceReady(uint32_t instance);
   void SetErrorPart();
   static void WireReleased(void* job);  // gRPC dropped the last slice
 
@@ -146,6 +159,15 @@ class FrameJob final : public SkinJob {
   uint32_t instances_per_part_ = 1;    // > 1: packed parts (SkinRequest.pack_instances)
   std::atomic<int64_t> encode_ns_{0};  // summed over instances (they may run in parallel)
   std::size_t next_part_ = 0;
+  // SkinRequest.early_parts: instances encoded so far (any order), how many lead without a
+  // gap, and the parts whose headers are written and may go out (all of them otherwise,
+  // once the frame is done). parts_mutex_ guards the parts' hand-out state against the
+  // compute threads that release early parts and fail frames.
+  bool early_ = false;
+  std::vector<uint8_t> instance_ready_;
+  uint32_t ready_instances_ = 0;
+  std::atomic<std::size_t> parts_ready_{0};
+  std::mutex parts_mutex_;
   Status result_;
   FrameTiming timing_;
   bool done_ = false;

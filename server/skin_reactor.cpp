@@ -31,17 +31,19 @@ void SkinReactor::OnFrameDone(FrameJob*) {
   {
     std::lock_guard lock(mutex_);
     job_.set_done();
-    if (!job_.status().ok()) {
-      FinishLocked(ToGrpc(job_.status()));
-    } else {
-      WriteNextLocked();
-    }
+    WriteNextLocked();
   }
   Unref();
 }
 
+void SkinReactor::OnPartsReady(FrameJob*) {
+  std::lock_guard lock(mutex_);
+  WriteNextLocked();
+}
+
 void SkinReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mutex_);
+  writing_ = false;
   job_.PartWritten();
   if (!ok) {
     FinishLocked(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away"));
@@ -64,11 +66,17 @@ void SkinReactor::OnCancel() {
 }
 
 void SkinReactor::WriteNextLocked() {
-  if (finished_) return;
+  if (finished_ || writing_) return;
+  // A failed frame's status ends the call (after an early part still being written).
+  if (job_.done() && !job_.status().ok()) {
+    FinishLocked(ToGrpc(job_.status()));
+    return;
+  }
   bool last = false;
   if (const grpc::ByteBuffer* part = job_.NextPart(&last)) {
+    writing_ = true;
     StartWrite(part);
-  } else {
+  } else if (job_.done()) {  // every part written (early parts: else more are coming)
     FinishLocked(grpc::Status::OK);
   }
 }

@@ -26,6 +26,7 @@ class SkinReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
 
  private:
   void OnFrameDone(FrameJob* job) override;
+  void OnPartsReady(FrameJob* job) override;
   void HoldForWire() override { refs_.fetch_add(1); }
   void ReleaseForWire() override { Unref(); }
   void WriteNextLocked();
@@ -35,6 +36,7 @@ class SkinReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
   std::mutex mutex_;
   FrameJob job_;
   bool finished_ = false;
+  bool writing_ = false;
   // gRPC's reference (dropped in OnDone), the engine's (dropped after its callback) and
   // the answer's (while gRPC holds the job's wire buffer): the reactor lives until all
   // are gone.

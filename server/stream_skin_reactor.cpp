@@ -72,6 +72,11 @@ void StreamSkinReactor::OnFrameDone(FrameJob* job) {
   Unref();
 }
 
+void StreamSkinReactor::OnPartsReady(FrameJob*) {
+  std::lock_guard lock(mutex_);
+  PumpLocked();  // the oldest frame may have a part to write now
+}
+
 void StreamSkinReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mutex_);
   writing_ = false;
@@ -125,7 +130,7 @@ FrameJob* StreamSkinReactor::TakeIdleJobLocked() {
 void StreamSkinReactor::PumpLocked() {
   if (finished_) return;
   // Write the oldest frame's next part once it is done: responses keep request order.
-  if (!writing_ && in_flight_ > 0 && Slot(oldest_).done()) {
+  if (!writing_ && in_flight_ > 0 && Slot(oldest_).HasPartToSend()) {
     bool last = false;
     if (const grpc::ByteBuffer* part = Slot(oldest_).NextPart(&last)) {
       writing_ = true;

@@ -47,6 +47,7 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
 
  private:
   void OnFrameDone(FrameJob* job) override;
+  void OnPartsReady(FrameJob* job) override;
   void HoldForWire() override { refs_.fetch_add(1); }
   void ReleaseForWire() override { Unref(); }
   FrameJob& Slot(std::size_t i) { return *in_flight_jobs_[i % window_]; }

@@ -241,6 +241,7 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
                                 .encoding = config.encoding,
                                 .instances = config.instances,
                                 .output = region.output(),
+                                .early_parts = config.early_parts,
                                 .frames = UINT64_MAX / 2,
                                 .window = config.window,
                                 .stop = &stop};
@@ -383,6 +384,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_method(wire::ToWire(workload.method));
   if (output.enabled()) request.mutable_output()->set_region(output.name);
+  request.set_early_parts(config.early_parts);
   for (uint64_t k = first_frame; k < last_frame && !stop.load(); ++k) {
     const Clock::time_point due = start + k * period;
     std::this_thread::sleep_until(due);

@@ -31,6 +31,8 @@ struct RunConfig {
   // Same host: each stream's answers are written into a shared-memory region of its own
   // (created in shm_dir, which must be the server's --shm-dir) instead of sent over gRPC.
   bool shared_memory = false;
+  // Crowds over gRPC: parts go out as their instances are skinned (SkinRequest.early_parts).
+  bool early_parts = false;
   std::string shm_dir = "/dev/shm";
 };
 

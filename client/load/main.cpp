@@ -354,6 +354,9 @@ int main(int argc, char** argv) {
         return std::string();
       })
       ->capture_default_str();
+  app.add_flag("--early-parts", o.run.early_parts,
+               "crowds over gRPC: ask for each part as soon as its instances are skinned "
+               "(compute and transport overlap) instead of after the frame's last instance");
   app.add_flag_callback(
       "--shared-memory", [&o] { o.data_planes = "shm"; },
       "the same-host shared-memory data plane alone (--data-planes shm)");

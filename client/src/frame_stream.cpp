@@ -81,6 +81,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   request.set_instances(options.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_method(wire::ToWire(options.method));
+  request.set_early_parts(options.early_parts);
   if (options.output.enabled()) request.mutable_output()->set_region(options.output.name);
   RawPart part;  // reads each answer part from gRPC's bytes (no copy into a message)
   grpc::ByteBuffer bytes;

@@ -137,13 +137,20 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
     result->bounds.assign(instances, Bounds{});
   }
   if (failed_) return part.last();
+  if (part.has_error()) {  // after early parts: the frame failed, drop what came before
+    return Fail(part, result,
+                wire::FromGrpc(grpc::Status(static_cast<grpc::StatusCode>(part.error().code()),
+                                            part.error().message())));
+  }
+  // Early parts (SkinRequest.early_parts): only the final part carries the timings.
+  if (part.last()) result->timing = part.timing();
   const auto where = [&] {
     return fmt::format("frame {}, instance {}, vertices [{}, +{})", part.frame(), part.instance(),
                        part.first_vertex(), part.vertex_count());
   };
-  if (part.frame() != result->frame || part.has_error() ||
-      part.total_vertices() != result->vertices || instances != result->instances ||
-      encoding != result->encoding || normals_ != (normals_size > 0)) {
+  if (part.frame() != result->frame || part.total_vertices() != result->vertices ||
+      instances != result->instances || encoding != result->encoding ||
+      normals_ != (normals_size > 0)) {
     return Fail(part, result,
                 Internal(fmt::format("{}: the part does not match its frame's first part "
                                      "(frame {}, {} x {} vertices, {}, normals {})",
@@ -448,6 +455,7 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
+  request.set_early_parts(options.early_parts);
   if (options.output.enabled()) {
     request.mutable_output()->set_region(options.output.name);
     request.mutable_output()->set_offset(options.output.offset);

@@ -169,6 +169,80 @@ def main(root):
     load = compose["services"]["load"]
     check(load["depends_on"]["server"]["condition"] == "service_healthy",
           "compose.yaml: load does not wait for a healthy server")
+    check_same_host_compose(compose)
+    for path in sorted((root / "deploy" / "k8s" / "same-host").glob("*.yaml")):
+        for doc in yaml.safe_load_all(path.read_text()):
+            if doc and doc["kind"] == "Deployment":
+                check_same_host_pod(path.name, doc, version)
+
+
+def flag(args, name):
+    """The value of --name=VALUE in a list of arguments, or None."""
+    for a in args:
+        if a.startswith(f"--{name}="):
+            return a.split("=", 1)[1]
+    return None
+
+
+def check_same_host_client(where, args, shm_dir, socket_dir):
+    """A same-host client: the shared-memory data plane in the server's --shm-dir, and
+    gRPC over the server's Unix socket in the shared folder."""
+    check("--shared-memory" in args or flag(args, "data-planes") in ("shm", "grpc,shm"),
+          f"{where}: the client does not use the shared-memory data plane")
+    check(flag(args, "shm-dir") == shm_dir,
+          f"{where}: --shm-dir {flag(args, 'shm-dir')} is not the server's {shm_dir}")
+    target = flag(args, "target") or ""
+    check(target.startswith("unix:" + socket_dir + "/"),
+          f"{where}: --target {target} is not the server's socket in {socket_dir}")
+
+
+def check_same_host_compose(compose):
+    """compose.yaml's renderer: beside the server on the shared tmpfs volume."""
+    server, renderer = compose["services"]["server"], compose["services"].get("renderer")
+    if not check(renderer is not None, "compose.yaml: no renderer (same-host client)"):
+        return
+    env = server.get("environment", {})
+    shm_dir = env.get("SKINSERVE_SHM_DIR")
+    sockets = [a[5:] for a in env.get("SKINSERVE_LISTEN", "").split(",") if a.startswith("unix:")]
+    mounts = {v.split(":")[1]: v.split(":")[0] for v in server.get("volumes", [])}
+    check(shm_dir in mounts, f"compose.yaml: the server's SKINSERVE_SHM_DIR {shm_dir} is no volume")
+    check(sockets and sockets[0].rsplit("/", 1)[0] == shm_dir,
+          "compose.yaml: the server has no Unix socket in its shm volume")
+    renderer_mounts = {v.split(":")[1]: v.split(":")[0] for v in renderer.get("volumes", [])}
+    check(renderer_mounts.get(shm_dir) == mounts.get(shm_dir),
+          "compose.yaml: the renderer does not mount the server's shm volume there")
+    volume = compose.get("volumes", {}).get(mounts.get(shm_dir), {}) or {}
+    check(volume.get("driver_opts", {}).get("type") == "tmpfs",
+          "compose.yaml: the shared volume is not memory-backed (tmpfs)")
+    check_same_host_client("compose.yaml renderer", renderer.get("command", []), shm_dir,
+                           shm_dir)
+
+
+def check_same_host_pod(name, dep, version):
+    """A pod with skinserve and a client sharing a memory-backed emptyDir."""
+    pod = dep["spec"]["template"]["spec"]
+    containers = {c["name"]: c for c in pod["containers"]}
+    server = containers.get("skinserve")
+    clients = [c for n, c in containers.items() if n != "skinserve"]
+    if not check(server is not None and clients, f"{name}: not skinserve plus a client"):
+        return
+    for c in pod["containers"]:
+        check(c["image"].endswith(":" + version), f"{name}: {c['name']} image not {version}")
+    env = {e["name"]: e.get("value") for e in server.get("env", [])}
+    shm_dir = env.get("SKINSERVE_SHM_DIR")
+    memory = {v["name"] for v in pod["volumes"] if v.get("emptyDir", {}).get("medium") == "Memory"}
+    server_mounts = {m["mountPath"]: m["name"] for m in server["volumeMounts"]}
+    check(server_mounts.get(shm_dir) in memory,
+          f"{name}: SKINSERVE_SHM_DIR {shm_dir} is not a memory-backed emptyDir")
+    sockets = [a[5:] for a in (env.get("SKINSERVE_LISTEN") or "").split(",") if a.startswith("unix:")]
+    check(sockets and sockets[0].rsplit("/", 1)[0] == shm_dir,
+          f"{name}: no Unix socket in the shared folder {shm_dir}")
+    for client in clients:
+        mounts = {m["mountPath"]: m["name"] for m in client["volumeMounts"]}
+        check(mounts.get(shm_dir) == server_mounts.get(shm_dir),
+              f"{name}: {client['name']} does not share {shm_dir} with skinserve")
+        check_same_host_client(f"{name} {client['name']}", client.get("args", []), shm_dir,
+                               shm_dir)
 
 
 if __name__ == "__main__":

@@ -46,6 +46,7 @@ class DoneListener final : public server::FrameJob::Listener {
     done_ = true;
     changed_.notify_all();
   }
+  void OnPartsReady(server::FrameJob*) override {}  // early parts: read after the frame
   void HoldForWire() override { holds.fetch_add(1); }
   void ReleaseForWire() override { holds.fetch_sub(1); }
   void Wait() {

@@ -9,9 +9,9 @@
 #include <limits>
 #include <thread>
 
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
-#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 #include "test_server.h"
 
@@ -388,6 +388,112 @@ TEST(EncodingBatchTest, BadInstancesAreNamedAndTheStreamGoesOn) {
   expect_good(8, 3, v1::ENCODING_FLOAT32);  // nothing else on the stream was harmed
   stream->WritesDone();
   EXPECT_TRUE(stream->Finish().ok());
+}
+
+// SkinRequest.early_parts: a crowd's parts go out as their instances are skinned. Every part
+// but the final one leaves before the frame is done, so only the final one carries the
+// timings; the values are those of the parts sent after the frame; a frame that fails
+// after some parts went out ends with its error part, and the stream goes on.
+TEST(EncodingBatchTest, EarlyPartsLeaveBeforeTheFrameIsDoneAndAFailureEndsThem) {
+  TestServer t;
+  // 100k vertices: 1.2 MB of float32 per instance, two parts each.
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 100'000, .influences = 2});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok());
+  auto mesh = Mesh::Create(arrays).value();
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  grpc::ClientContext context;
+  auto stream = stub->StreamSkin(&context);
+  uint64_t frame = 0;
+  for (const char* backend : {"serial", "simd-openmp", "opencl"}) {
+    for (v1::Encoding encoding : kEncodings) {
+      for (bool pack : {false, true}) {
+        const uint32_t k = 6;
+        const auto palettes = CrowdPalettes(77, k, frame);
+        v1::SkinRequest request =
+            MakeRequest(info->mesh_id(), backend, frame, k, encoding, false, palettes, pack);
+        request.set_early_parts(true);
+        // Once for the timings, once for the values.
+        ASSERT_TRUE(stream->Write(request));
+        v1::SkinResponse part;
+        int parts = 0, timed = 0;
+        do {
+          ASSERT_TRUE(stream->Read(&part));
+          ASSERT_FALSE(part.has_error()) << part.error().message();
+          ++parts;
+          timed += part.has_timing();
+        } while (!part.last());
+        EXPECT_TRUE(part.has_timing() && part.timing().compute_ns() > 0) << backend;
+        EXPECT_EQ(timed, 1) << backend << ": " << parts << " parts, only the final one timed";
+        EXPECT_GT(parts, 1);
+        request.set_frame(++frame);
+        ASSERT_TRUE(stream->Write(request));
+        const Answer answer = ReadFrame(*stream, frame, 100'000, k, encoding, false);
+        ASSERT_EQ(answer.error, grpc::StatusCode::OK) << answer.message;
+        for (uint32_t i = 0; i < k; ++i) {
+          ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77),
+                            answer.positions[i], {}, encoding, answer.bounds[i]);
+        }
+        ++frame;
+      }
+    }
+  }
+  // Instance 4 of 6 overflows float16: the parts of 0..3 may be out; its error ends them.
+  auto far = CrowdPalettes(77, 6, frame);
+  for (std::size_t j = 0; j < 77; ++j) far[4 * 12 * 77 + j * 12 + 3] = 1e6f;
+  v1::SkinRequest bad =
+      MakeRequest(info->mesh_id(), "serial", frame, 6, v1::ENCODING_FLOAT16, false, far);
+  bad.set_early_parts(true);
+  ASSERT_TRUE(stream->Write(bad));
+  const Answer overflow = ReadFrame(*stream, frame, 100'000, 6, v1::ENCODING_FLOAT16, false);
+  EXPECT_EQ(overflow.error, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(overflow.message.find("instance 4: "), std::string::npos) << overflow.message;
+  // The stream goes on, with and without early parts.
+  for (bool early : {true, false}) {
+    const auto palettes = CrowdPalettes(77, 3, ++frame);
+    v1::SkinRequest good =
+        MakeRequest(info->mesh_id(), "sse", frame, 3, v1::ENCODING_SNORM16, false, palettes);
+    good.set_early_parts(early);
+    ASSERT_TRUE(stream->Write(good));
+    const Answer answer = ReadFrame(*stream, frame, 100'000, 3, v1::ENCODING_SNORM16, false);
+    ASSERT_EQ(answer.error, grpc::StatusCode::OK) << answer.message;
+    for (uint32_t i = 0; i < 3; ++i) {
+      ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77),
+                        answer.positions[i], {}, v1::ENCODING_SNORM16, answer.bounds[i]);
+    }
+  }
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+}
+
+// Skin (one frame per call) with early parts: the parts, then the call's status.
+TEST(EncodingBatchTest, SkinTakesEarlyPartsAndEndsAFailedFrameWithItsStatus) {
+  TestServer t;
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 100'000, .influences = 2});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok());
+  auto mesh = Mesh::Create(arrays).value();
+  const auto palettes = CrowdPalettes(77, 4, 3);
+  client::FrameResult result;
+  ASSERT_TRUE(t.client
+                  ->Skin(info->mesh_id(), palettes, 3,
+                         {.backend = "simd", .instances = 4, .early_parts = true}, &result)
+                  .ok());
+  EXPECT_GT(result.timing.compute_ns(), 0) << "the final part's timings";
+  for (uint32_t i = 0; i < 4; ++i) {
+    ExpectWithinBound(*mesh, std::span(palettes).subspan(i * 12 * 77, 12 * 77),
+                      result.instance_positions(i), {}, v1::ENCODING_FLOAT32, {});
+  }
+  auto far = palettes;
+  for (std::size_t j = 0; j < 77; ++j) far[3 * 12 * 77 + j * 12 + 3] = 1e6f;
+  const Status s = t.client->Skin(info->mesh_id(), far, 4,
+                                  {.backend = "simd",
+                                   .encoding = VertexEncoding::kFloat16,
+                                   .instances = 4,
+                                   .early_parts = true},
+                                  &result);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << s.ToString();
+  EXPECT_NE(s.message().find("instance 3: "), std::string::npos) << s.message();
 }
 
 // A stream takes the frame job freed last for its next frame: answered one frame at a time

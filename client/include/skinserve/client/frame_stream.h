@@ -29,6 +29,7 @@ struct StreamOptions {
   // Same host: every frame is written into this region, each frame in flight into its own
   // slot (RegionOutput::stride); the sink's result views it (FrameResult::in_region).
   RegionOutput output;
+  bool early_parts = false;  // as SkinOptions::early_parts
   uint64_t first_frame = 0;
   uint64_t frames = 100;
   int window = 4;  // frames in flight

@@ -129,6 +129,9 @@ struct SkinOptions {
   uint32_t instances = 1;
   // Same host: the server writes the answer into this region instead of sending it.
   RegionOutput output;
+  // Crowds: the server sends each part as soon as its instances are skinned
+  // (SkinRequest.early_parts), so compute and transport overlap.
+  bool early_parts = false;
 };
 
 class SkinClient {
