@@ -4,7 +4,10 @@
 #   2. starts the server container (detached, host network, on a free loopback port),
 #   3. waits for SERVING through the image's own HEALTHCHECK (grpc.health.v1),
 #   4. runs the image's load client against it on every backend with correctness checks,
-#   5. sends SIGTERM during a load run and checks the server drains and exits 0.
+#   5. runs the load client as a same-host client in a second container: the two share a
+#      memory-backed volume (the server's --shm-dir and its Unix socket), gRPC goes over
+#      the socket and every frame is written into the client's shared-memory regions,
+#   6. sends SIGTERM during a load run and checks the server drains and exits 0.
 # The containers (and the PoCL cache volume) are always removed, whatever happens.
 #
 # Exits 77 (ctest's skip code) with the reason when podman, runc or debootstrap are
@@ -25,6 +28,7 @@ duration="${SKINSERVE_SMOKE_DURATION:-2}"
 name="skinserve-smoke-$$"
 load_name="skinserve-smoke-load-$$"
 volume="skinserve-smoke-pocl-$$"
+run_volume="skinserve-smoke-run-$$"  # tmpfs: the regions and the socket
 work=$(mktemp -d "${TMPDIR:-/tmp}/skinserve-smoke.XXXXXX")
 trap 'rm -rf "$work"' EXIT  # replaced by the full clean-up once podman is in play
 
@@ -74,7 +78,7 @@ cleanup() {
     fi
     podman rm -f -t 0 "$name" >/dev/null 2>&1 || true
   fi
-  podman volume rm -f "$volume" >/dev/null 2>&1 || true
+  podman volume rm -f "$volume" "$run_volume" >/dev/null 2>&1 || true
   rm -rf "$work"
   exit $rc
 }
@@ -91,7 +95,7 @@ podman info >"$work/podman-info.txt" 2>&1 || {
 for leftover in $(podman ps -a --format '{{.Names}}' | grep -E '^skinserve-smoke-(load-)?[0-9]+$' || true); do
   kill -0 "${leftover##*-}" 2>/dev/null || podman rm -f -t 0 "$leftover" >/dev/null 2>&1 || true
 done
-for leftover in $(podman volume ls --format '{{.Name}}' | grep -E '^skinserve-smoke-pocl-[0-9]+$' || true); do
+for leftover in $(podman volume ls --format '{{.Name}}' | grep -E '^skinserve-smoke-(pocl|run)-[0-9]+$' || true); do
   kill -0 "${leftover##*-}" 2>/dev/null || podman volume rm -f "$leftover" >/dev/null 2>&1 || true
 done
 
@@ -131,12 +135,17 @@ say "image $image: version $label, user $user, size $((size / 1000000)) MB"
 # ---- run -------------------------------------------------------------------------------
 port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 drain=10
-say "starting $name on 127.0.0.1:$port (read-only root and a PoCL cache volume, as in k8s/)"
+say "starting $name on 127.0.0.1:$port and unix:/run/skinserve/grpc.sock (read-only root, a" \
+  "PoCL cache volume, a tmpfs volume for same-host clients, as in k8s/)"
+podman volume create --opt type=tmpfs --opt device=tmpfs --opt o=uid=10001,gid=10001,mode=0770 \
+  "$run_volume" >/dev/null
 # Without systemd podman cannot put the HEALTHCHECK on a timer and says so on stderr (kept
 # aside, shown on failure); this test runs the check itself with `podman healthcheck run`.
 podman_run -d --name "$name" \
   --read-only --mount "type=volume,source=$volume,destination=/var/cache/pocl" \
-  -e SKINSERVE_LISTEN="127.0.0.1:$port" -e SKINSERVE_DRAIN_SECONDS="$drain" \
+  --mount "type=volume,source=$run_volume,destination=/run/skinserve" \
+  -e SKINSERVE_LISTEN="127.0.0.1:$port,unix:/run/skinserve/grpc.sock" \
+  -e SKINSERVE_SHM_DIR=/run/skinserve -e SKINSERVE_DRAIN_SECONDS="$drain" \
   -e SKINSERVE_THREADS=2 "$image" >/dev/null 2>"$work/run-server.err" || {
   cat "$work/run-server.err"
   fail "podman run of the server failed"
@@ -171,6 +180,14 @@ run_load() {
     --entrypoint skinserve-load "$image" \
     --target "127.0.0.1:$port" "$@"
 }
+# The load client as a same-host client: in its own container, sharing the server's tmpfs
+# volume (its --shm-dir and socket), nothing else: no host path, no network needed.
+run_same_host_load() {
+  podman_run --rm --name "$load_name" --no-healthcheck -v "$work:/out" --read-only \
+    --mount "type=volume,source=$run_volume,destination=/run/skinserve" \
+    --entrypoint skinserve-load "$image" \
+    --target unix:/run/skinserve/grpc.sock --shm-dir /run/skinserve "$@"
+}
 
 # ---- load on every backend, with correctness checks ------------------------------------
 say "load: every backend, ${duration} s each, 2 streams, every answer checked against the reference"
@@ -194,6 +211,32 @@ print("smoke: every backend answered and checked:",
       ", ".join(f"{r['backend']} {r['checked']}/{r['frames']}" for r in results))
 sys.exit(1 if bad or want - seen else 0)
 PY
+
+# ---- the same-host data plane across two containers ------------------------------------
+say "same host: a second container on the shared tmpfs volume, gRPC over the Unix socket," \
+  "frames written into its shared-memory regions, both data planes, every answer checked"
+if ! run_same_host_load --backends simd-openmp,opencl --data-planes grpc,shm --vertices 20000 \
+    --streams 2 --window 2 --instances 2 --warmup 0.5 --duration "$duration" --check-every 1 \
+    --json /out/same-host.json >"$work/same-host.out" 2>&1; then
+  cat "$work/same-host.out"
+  fail "same-host load client reported errors"
+fi
+sed 's/^/  /' "$work/same-host.out"
+python3 - "$work/same-host.json" <<'PY' || fail "same-host report shows problems"
+import json, sys
+results = json.load(open(sys.argv[1]))["results"]
+shm = [r for r in results if r["data_plane"] == "shm"]
+bad = [r["backend"] for r in results
+       if r["errors"] or r["mismatches"] or not r["checked"] or not r["frames"]]
+if len(shm) != 2: print("expected 2 shared-memory rows, got", len(shm))
+if bad: print("errors, mismatches or nothing checked:", bad)
+print("smoke: same host, shared memory:",
+      ", ".join(f"{r['backend']} {r['checked']}/{r['frames']}" for r in shm))
+sys.exit(1 if bad or len(shm) != 2 else 0)
+PY
+regions=$(podman exec "$name" skinserve-cli --target "127.0.0.1:$port" regions | tail -1)
+echo "  $regions"
+case "$regions" in "0 regions"*) ;; *) fail "regions left registered after the client ended" ;; esac
 
 # ---- SIGTERM during a load run: drain and exit 0 ---------------------------------------
 say "SIGTERM during a load run (sse, 2 streams): the server must drain and exit 0"

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# Characters per server in the set-ups the README reports (60 fps streams of 25k vertices x
-# 2 bones, p99 within one frame and nothing dropped), each with its own server on loopback:
+# Characters per server in the set-ups docs/serving/capacity.md reports (60 fps streams of
+# 25k vertices x 2 bones, p99 within one frame and nothing dropped), each with its own
+# server on loopback, over both data planes side by side (gRPC, and shared memory: the
+# vertices written into each stream's region in /dev/shm):
 #   shared    server and load client on the same two cores (taskset -c 0,1)
 #   pinned    server on core 0 (--threads 1), load client on core 1 (backend sse)
 #   wide      server on cores 0,1 (--threads 2), load client on cores 2.. (a bigger machine)
@@ -51,7 +53,7 @@ run_setup() {
   echo
 }
 
-probe=(--duration "$seconds" --warmup 0.5 --check-every 20)
+probe=(--duration "$seconds" --warmup 0.5 --check-every 20 --data-planes grpc,shm)
 for setup in "${@:-shared pinned}"; do
   for s in $setup; do
     case "$s" in
@@ -72,7 +74,7 @@ for setup in "${@:-shared pinned}"; do
         ;;
       transport)
         run_setup transport 0,1 0,1 "" -- --backends all --vertices 100000 --bones 2 \
-          --streams 8 --window 4 --duration 3 --warmup 1
+          --streams 8 --window 4 --duration 3 --warmup 1 --data-planes grpc,shm
         ;;
       *) echo "unknown set-up '$s'" >&2; exit 2 ;;
     esac

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds skinserve, starts the server on loopback, streams the paper's main case (100k
 # vertices, 2 bones, 77 joints) on every backend through the real service, prints the
-# table, and stops the server. Extra arguments go to the load run.
+# table, then the fastest CPU backend over both data planes (gRPC, and shared memory on
+# the same host), and stops the server. Extra arguments go to the load runs.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build="${SKINSERVE_BUILD_DIR:-$root/build}"
@@ -31,5 +32,11 @@ echo "skinserve on $target; backends:"
 echo
 "$build/bin/skinserve-load" --target "$target" --backends all --vertices 100000 \
   --bones 2 --streams 2 --window 4 --duration 3 --warmup 1 --check-every 25 "$@"
+echo
+echo "The two data planes side by side: vertices in the gRPC answers, or written by the"
+echo "server straight into each stream's shared-memory region (same host, /dev/shm):"
+"$build/bin/skinserve-load" --target "$target" --backends simd-openmp,passthrough \
+  --data-planes grpc,shm --vertices 100000 --bones 2 --streams 2 --window 4 --duration 3 \
+  --warmup 1 --check-every 25 "$@"
 echo
 "$build/bin/skinserve-cli" --target "$target" verify
