@@ -13,6 +13,8 @@ The path is relative to docs/ (also in README.md). Options may follow the path:
     view=figure5      a Google Benchmark JSON of skinserve-bench --paper-tables (M vertices/s
                       per series and grid point, medians; as scripts/figure5-plot.sh prints it)
     view=chunks       the chunk sweep's console output (== chunks N, then benchmark lines)
+    view=data-plane   scripts/data-plane.sh's bench.json, with the service-*.json beside it
+    view=capacity     skinserve-load --capacity's console output (its "capacity:" lines)
     data=no           no "Data:" line under the table
 A .csv without view= is rendered as it is: its first row is the header.
 
@@ -201,7 +203,58 @@ def chunks_view(path, options):
     return markdown_table(header, rows, right=[False] + [True] * len(chunks))
 
 
-VIEWS = {"figure5": figure5_view, "chunks": chunks_view}
+def data_plane_view(path, options):
+    """scripts/data-plane.sh's run: its bench.json (the engine alone, medians) beside the
+    load client's service-<vertices>.json (both data planes), in M vertices/s and as the
+    engine's share."""
+    with open(path, encoding="utf-8") as f:
+        bench = json.load(f)
+    folder = os.path.dirname(path)
+    engine = {}  # (backend, vertices) -> vertices/s
+    for b in bench["benchmarks"]:
+        name = b["run_name"].split("/")
+        if name[0] == "BM_Skin" and b.get("aggregate_name") == "median":
+            engine[(name[1], int(name[2]))] = (b["vertices_per_second"], name[3])
+    rows = []
+    for (backend, vertices), (alone, bones) in sorted(engine.items(), key=lambda kv: kv[0][1]):
+        service = os.path.join(folder, f"service-{vertices}.json")
+        if not os.path.isfile(service):
+            raise TableError(f"{os.path.relpath(service, DOCS)} does not exist")
+        with open(service, encoding="utf-8") as f:
+            results = json.load(f)["results"]
+        planes = {r.get("data_plane", "grpc"): r["vertices_per_second"] for r in results
+                  if r["backend"] == backend}
+        row = [backend, f"{vertices // 1000}k x {bones}", f"{alone / 1e6:.0f}"]
+        for plane in ("grpc", "shm"):
+            if plane not in planes:
+                raise TableError(f"{os.path.relpath(service, DOCS)}: no {plane} row")
+            row += [f"{planes[plane] / 1e6:.0f}", f"{100 * planes[plane] / alone:.0f}%"]
+        rows.append(row)
+    header = ["backend", "frame", "engine alone M/s", "gRPC M/s", "gRPC share",
+              "shared memory M/s", "shared memory share"]
+    return markdown_table(header, rows)
+
+
+def capacity_view(path, options):
+    """skinserve-load --capacity's console output: characters held per mode and data plane."""
+    held = []
+    pattern = re.compile(r"^capacity: (\d+) characters \((\d+) streams x (\d+) instances, "
+                         r"([0-9.]+) fps, ([^,]+), ([^,)]+)")
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            m = pattern.match(line)
+            if m:
+                mode = m.group(6)
+                plane = "shared memory" if mode.endswith("+shm") else "gRPC"
+                held.append([m.group(5), mode.removesuffix("+shm"), plane, m.group(4),
+                             m.group(1)])
+    if not held:
+        raise TableError(f"{path}: no 'capacity:' lines")
+    return markdown_table(["backend", "mode", "data plane", "fps", "characters held"], held)
+
+
+VIEWS = {"figure5": figure5_view, "chunks": chunks_view, "data-plane": data_plane_view,
+         "capacity": capacity_view}
 
 
 def render(page, spec):

@@ -1,5 +1,5 @@
 // RegionRegistry: the shared-memory regions clients registered, by name (the same-host
-// data plane, docs/shared-memory.md). Every region is a file inside the operator's
+// data plane, docs/serving/shared-memory.md). Every region is a file inside the operator's
 // --shm-dir; together they map at most the budget, at most max_regions of them, and at
 // most max_per_connection per client connection. A region that no frame names for
 // idle_seconds is unregistered (a client that went away leaves nothing mapped after that).

@@ -41,7 +41,7 @@ struct ServerOptions {
   double max_connection_age_grace_seconds = 30;
   uint64_t inflight_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
   std::string opencl_device;        // "": the first CPU device (PoCL), else the first device
-  // The same-host data plane (docs/shared-memory.md): where clients' regions live (empty:
+  // The same-host data plane (docs/serving/shared-memory.md): where clients' regions live (empty:
   // off), what they may map together, how many, and when an unused one is dropped.
   std::string shm_dir = "/dev/shm";
   uint64_t shm_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()

@@ -109,6 +109,8 @@ Status WriteJson(const std::string& path, const std::vector<RunResult>& results)
         {"encoding", r.encoding},
         {"instances", r.instances},
         {"data_plane", r.data_plane},
+        {"streams", r.streams},
+        {"rate", r.rate},
         {"characters_per_second", r.frames_per_second() * r.instances},
         {"frames", r.frames},
         {"seconds", r.seconds},

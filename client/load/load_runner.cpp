@@ -106,6 +106,8 @@ class Recorder {
     result_.encoding = VertexEncodingName(config.encoding);
     result_.instances = std::max(config.instances, 1u);
     result_.data_plane = config.shared_memory ? "shm" : "grpc";
+    result_.streams = config.streams;
+    result_.rate = config.rate;
     // Open loop knows its frame count: no reallocation while measuring.
     if (config.rate > 0) {
       result_.latencies_ms.reserve(static_cast<std::size_t>(

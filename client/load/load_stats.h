@@ -27,8 +27,10 @@ struct RunResult {
   std::string encoding = "float32";
   uint32_t instances = 1;           // characters per frame (crowd batch)
   std::string data_plane = "grpc";  // or "shm": vertices written into shared memory
-  uint64_t frames = 0;              // answered correctly within the measured window
-  double seconds = 0;               // the measured window
+  int streams = 0;
+  double rate = 0;      // frames/s per stream (open loop); 0: closed loop
+  uint64_t frames = 0;  // answered correctly within the measured window
+  double seconds = 0;   // the measured window
   std::vector<double> latencies_ms;
   double server_queue_ms_sum = 0, server_compute_ms_sum = 0, server_encode_ms_sum = 0;
   std::map<std::string, uint64_t> errors;  // by gRPC status code name

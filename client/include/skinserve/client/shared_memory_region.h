@@ -1,5 +1,5 @@
 // SharedMemoryRegion: memory this process shares with a skinserve on the same host (the
-// same-host data plane, docs/shared-memory.md). It creates a file inside the server's
+// same-host data plane, docs/serving/shared-memory.md). It creates a file inside the server's
 // --shm-dir (by default /dev/shm, where POSIX shared-memory objects live), sizes it and
 // maps it; register it with SkinClient::RegisterRegion and name it in SkinOptions::output,
 // and the server skins straight into it. The file is removed when the region is

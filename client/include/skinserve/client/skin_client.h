@@ -71,7 +71,7 @@ struct FrameResult {
 };
 
 // Where the server writes a frame on the same host (the same-host data plane,
-// docs/shared-memory.md): a region this process mapped and registered.
+// docs/serving/shared-memory.md): a region this process mapped and registered.
 struct RegionOutput {
   std::string name;                            // as registered (SkinClient::RegisterRegion)
   const SharedMemoryRegion* region = nullptr;  // this process's mapping of it; null: off
