@@ -5,7 +5,7 @@
 # OpenCL test suite on the GPU. Run from a folder holding bin/ (skinserve-bench,
 # skinserve_opencl_tests) and lib/ (their shared libraries); results go to $1.
 #   scripts/gpu-figure5.sh OUT [extra skinserve-bench flags]
-# Then, where gnuplot is: scripts/figure5-plot.sh OUT/figure5.json docs/figure5.png
+# Then, where gnuplot is: scripts/figure5-plot.sh OUT/figure5.json OUT/figure5.png (keep both in docs/results/<date>-<name>/)
 set -uo pipefail
 out=${1:?usage: gpu-figure5.sh OUT_DIR [bench flags]}
 shift

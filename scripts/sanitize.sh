@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Sanitizer and fuzzing runs (clang-14; README "Proof under stress"):
+# Sanitizer and fuzzing runs (clang-14; docs/reliability.md):
 #   scripts/sanitize.sh asan [ctest args]  ASan+UBSan build of everything in build-asan (the
 #                                          fuzz targets too), then ctest there; without ctest
 #                                          args every test but the deploy (containers) and

@@ -1,4 +1,4 @@
-// skinserve-cli twist: the README's picture of linear blend against dual-quaternion
+// skinserve-cli twist: the picture on docs/backends/dual-quaternion.md of linear blend against dual-quaternion
 // skinning. The twisted cylinder (core/twist_cylinder.h) is skinned by the server at each
 // angle under both methods, every frame checked against its float64 reference, drawn by
 // the project's renderer and gathered into one sheet: linear on the top row,

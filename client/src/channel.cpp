@@ -21,7 +21,7 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string& target, int connec
   // Flow control: a fixed 4 MiB receive window per stream instead of gRPC's BDP-probed one.
   // With BDP probing, the second 1 MiB part of a crowd frame stalled 10-15 ms now and then
   // on loopback (p99 of a 7-instance snorm16 frame 16.7 ms; 4.8-6.4 ms with these
-  // settings; README, "Capacity"). 4 MiB still fills a 50 ms round trip at 80 MB/s per
+  // settings; docs/serving/capacity.md). 4 MiB still fills a 50 ms round trip at 80 MB/s per
   // stream, which BDP probing would otherwise have grown the window to.
   args.SetInt(GRPC_ARG_HTTP2_BDP_PROBE, 0);
   args.SetInt(GRPC_ARG_HTTP2_STREAM_LOOKAHEAD_BYTES, kStreamWindowBytes);

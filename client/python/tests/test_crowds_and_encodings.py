@@ -17,7 +17,7 @@ ENCODINGS = ["float32", "float16", "snorm16"]
 
 def encoding_bound(encoding, want, normals=False):
     """Per value, how far a decoded answer may lie from the exact result beyond float32's
-    rounding (README, "Encodings")."""
+    rounding (docs/serving/encodings.md)."""
     if encoding == "float32":
         return np.zeros_like(want)
     if encoding == "float16":

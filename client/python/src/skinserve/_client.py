@@ -155,7 +155,7 @@ class Client:
         self.max_reuploads, self.max_reconnects = max_reuploads, max_reconnects
         # Flow control as the C++ library's MakeChannel: a fixed 4 MiB receive window per
         # stream, BDP probing off (with probing, crowd frames of several 1 MiB parts
-        # stalled now and then; README, "Flow control").
+        # stalled now and then; docs/client-library.md, "Channels").
         options = [("grpc.service_config",
                     '{"loadBalancingConfig": [{"round_robin": {}}]}'),
                    ("grpc.http2.bdp_probe", 0),

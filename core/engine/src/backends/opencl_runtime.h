@@ -122,7 +122,7 @@ struct OpenClRuntimeOptions {
   // min_chunk_vertices (0: SKINSERVE_OPENCL_CHUNKS if set, else kDefaultChunks). Each
   // chunk costs a wait on its event and a start of the copy-out's threads (tens of us on
   // NVIDIA's driver): on the H100, 1.6M vertices ran fastest in 2 chunks, 400k in 1 (see
-  // README, "Figure 5 today").
+  // docs/backends/opencl.md, "Chunks").
   int max_chunks = 0;
   uint32_t min_chunk_vertices = 512 * 1024;
 };

@@ -13,7 +13,7 @@
 // doing. NVIDIA's driver copies a USE_HOST_PTR buffer to the device when a kernel first
 // uses it (the mesh: once, then cached, as the buffers are read-only) and copies the
 // outputs back at the map, from the device into the caller's pageable memory. The map is
-// profiled as this frame's transfer time. README's "Figure 5 today" says when that wins.
+// profiled as this frame's transfer time. docs/backends/opencl.md ("Figure 5") says when that wins.
 #include "opencl_backends.h"
 
 namespace skinserve {
