@@ -2,7 +2,6 @@
 
 #include <fmt/format.h>
 
-
 namespace skinserve::server {
 
 v1::MeshInfo ToWire(const MeshInfo& info) {
@@ -29,27 +28,6 @@ v1::BackendInfo ToWire(const BackendInfo& info) {
   wire.set_simd_target(info.simd_target);
   wire.set_threads(info.threads);
   for (SkinningMethod method : info.methods) wire.add_methods(ToWire(method));
-  return wire;
-}
-
-v1::ServerStats ToWire(const EngineStats& stats) {
-  v1::ServerStats wire;
-  for (const BackendStats& b : stats.backends) {
-    v1::BackendStats* out = wire.add_backends();
-    out->set_id(b.id);
-    out->set_frames(b.frames);
-    out->set_vertices(b.vertices);
-    out->set_errors(b.errors);
-    out->set_compute_ns_total(b.compute_ns_total);
-  }
-  wire.set_queue_depth(stats.queue_depth);
-  wire.set_queue_capacity(stats.queue_capacity);
-  wire.set_compute_threads(stats.compute_threads);
-  wire.set_meshes(stats.meshes);
-  wire.set_mesh_bytes(stats.mesh_bytes);
-  wire.set_mesh_budget_bytes(stats.mesh_budget_bytes);
-  wire.set_evictions(stats.evictions);
-  wire.set_rejected_queue_full(stats.rejected_queue_full);
   return wire;
 }
 

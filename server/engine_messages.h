@@ -15,6 +15,5 @@ using wire::ToWire;
 
 v1::MeshInfo ToWire(const MeshInfo& info);
 v1::BackendInfo ToWire(const BackendInfo& info);
-v1::ServerStats ToWire(const EngineStats& stats);
 
 }  // namespace skinserve::server

@@ -63,7 +63,7 @@ std::string BackendLabel(const std::string& id) {
 
 }  // namespace
 
-std::string RenderPrometheusText(const MetricsSnapshot& s) {
+std::string RenderPrometheusText(const ServerSnapshot& s) {
   Writer w;
   w.Header("skinserve_build_info", "gauge", "Always 1; the labels say which build runs.");
   w.Sample("skinserve_build_info", fmt::format("version=\"{}\"", Escape(s.version)), 1);
@@ -80,6 +80,17 @@ std::string RenderPrometheusText(const MetricsSnapshot& s) {
   w.Header("skinserve_vertices_total", "counter", "Vertices skinned, by backend.");
   for (const BackendStats& b : e.backends) {
     w.Sample("skinserve_vertices_total", BackendLabel(b.id), static_cast<double>(b.vertices));
+  }
+  w.Header("skinserve_compute_seconds_total", "counter",
+           "Time the backend spent skinning frames, by backend.");
+  for (const BackendStats& b : e.backends) {
+    w.Sample("skinserve_compute_seconds_total", BackendLabel(b.id),
+             static_cast<double>(b.compute_ns_total) * 1e-9);
+  }
+  w.Header("skinserve_backend_errors_total", "counter",
+           "Frames that failed inside the engine (after it took them), by backend.");
+  for (const BackendStats& b : e.backends) {
+    w.Sample("skinserve_backend_errors_total", BackendLabel(b.id), static_cast<double>(b.errors));
   }
   w.Header("skinserve_frame_errors_total", "counter",
            "Frames answered with an error, by backend and gRPC status code.");
@@ -154,6 +165,35 @@ std::string RenderPrometheusText(const MetricsSnapshot& s) {
   w.Header("skinserve_queue_rejections_total", "counter",
            "Frames refused because the queue was full.");
   w.Sample("skinserve_queue_rejections_total", "", static_cast<double>(e.rejected_queue_full));
+  w.Header("skinserve_peak_busy_threads", "gauge",
+           "The most compute threads ever skinning at once (never above the compute threads).");
+  w.Sample("skinserve_peak_busy_threads", "", static_cast<double>(e.peak_busy_threads));
+  w.Header("skinserve_inflight_bytes", "gauge",
+           "Memory frames in flight hold (every stream's frame buffers).");
+  w.Sample("skinserve_inflight_bytes", "", static_cast<double>(s.inflight.bytes));
+  w.Header("skinserve_inflight_budget_bytes", "gauge",
+           "Memory frames in flight may hold; beyond, frames are refused (RESOURCE_EXHAUSTED).");
+  w.Sample("skinserve_inflight_budget_bytes", "", static_cast<double>(s.inflight.budget_bytes));
+  w.Header("skinserve_inflight_rejections_total", "counter",
+           "Frames refused for want of in-flight budget.");
+  w.Sample("skinserve_inflight_rejections_total", "", static_cast<double>(s.inflight.refused));
+  if (s.shared_memory) {
+    const RegionStats& r = s.regions;
+    w.Header("skinserve_regions", "gauge", "Shared-memory regions registered.");
+    w.Sample("skinserve_regions", "", static_cast<double>(r.regions));
+    w.Header("skinserve_region_bytes", "gauge", "Bytes the registered regions map.");
+    w.Sample("skinserve_region_bytes", "", static_cast<double>(r.mapped_bytes));
+    w.Header("skinserve_region_budget_bytes", "gauge",
+             "Bytes the regions may map together (--shm-budget-mb).");
+    w.Sample("skinserve_region_budget_bytes", "", static_cast<double>(r.budget_bytes));
+    w.Header("skinserve_region_frames_total", "counter",
+             "Frames written into shared-memory regions.");
+    w.Sample("skinserve_region_frames_total", "", static_cast<double>(r.frames));
+    w.Header("skinserve_region_rejections_total", "counter",
+             "Registrations refused for a limit (budget, regions, per connection).");
+    w.Sample("skinserve_region_rejections_total", "", static_cast<double>(r.rejected));
+  }
+  // Last: a scrape that ends with it is whole (tests/ops/metrics-test.sh checks that).
   w.Header("skinserve_compute_threads", "gauge", "Compute threads skinning frames.");
   w.Sample("skinserve_compute_threads", "", static_cast<double>(e.compute_threads));
   return w.Take();

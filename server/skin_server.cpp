@@ -70,8 +70,9 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   health->SetServingStatus(false);
   spdlog::info("listening on {} (port {}); building backends", fmt::join(options.listen, ", "),
                server->port_);
+  // The per-frame histograms feed GetServerStats as well as /metrics: always on.
+  FrameMetrics::Enable();
   if (!options.metrics_listen.empty()) {
-    FrameMetrics::Enable();
     auto metrics = MetricsServer::Start(options.metrics_listen,
                                         [s = server.get()] { return s->RenderMetrics(); });
     if (!metrics.ok()) return metrics.status();
@@ -104,9 +105,8 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
     for (const BackendInfo& b : backends) ids.push_back(b.id);
     frames->SetBackends(ids);
   }
-  server->ready_engine_.store(server->engine_.get());
   health->SetServingStatus(true);
-  server->serving_.store(true);
+  server->service_->SetServing(true);
   spdlog::info("serving");
   return server;
 }
@@ -115,7 +115,7 @@ SkinServer::~SkinServer() { Shutdown(std::chrono::milliseconds(0)); }
 
 void SkinServer::Shutdown(std::chrono::milliseconds grace) {
   std::call_once(shutdown_once_, [&] {
-    serving_.store(false);
+    if (service_) service_->SetServing(false);
     if (server_) {
       server_->GetHealthCheckService()->SetServingStatus(false);
       spdlog::info("draining: up to {} ms for in-flight calls", grace.count());
@@ -142,16 +142,7 @@ void SkinServer::Shutdown(std::chrono::milliseconds grace) {
   });
 }
 
-std::string SkinServer::RenderMetrics() const {
-  MetricsSnapshot snapshot;
-  snapshot.version = SKINSERVE_VERSION;
-  snapshot.serving = serving_.load();
-  snapshot.open_streams = service_->OpenStreamCount();
-  snapshot.uploads = service_->Uploads();
-  if (const Engine* engine = ready_engine_.load()) snapshot.engine = engine->Stats();
-  if (const FrameMetrics* frames = FrameMetrics::Installed()) snapshot.frames = frames->Snapshot();
-  return RenderPrometheusText(snapshot);
-}
+std::string SkinServer::RenderMetrics() const { return RenderPrometheusText(service_->Snapshot()); }
 
 void SkinServer::Wait() {
   if (server_) server_->Wait();

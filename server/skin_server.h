@@ -36,8 +36,6 @@ class SkinServer {
   std::unique_ptr<SkinningService> service_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<Engine> engine_;
-  std::atomic<Engine*> ready_engine_{nullptr};  // engine_, once built (for scrapes)
-  std::atomic<bool> serving_{false};
   // Declared last: destroyed first, so no scrape outlives what it reads.
   std::unique_ptr<MetricsServer> metrics_;
   int port_ = 0;

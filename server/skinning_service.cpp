@@ -74,32 +74,25 @@ grpc::ServerUnaryReactor* SkinningService::ListBackends(grpc::CallbackServerCont
   return Done(context, Status::Ok());
 }
 
+ServerSnapshot SkinningService::Snapshot() const {
+  ServerSnapshot s;
+  s.version = SKINSERVE_VERSION;
+  s.serving = serving_.load();
+  s.open_streams = open_streams_.count();
+  s.inflight = {budget_.limit(), budget_.used(), budget_.refused()};
+  s.uploads = open_uploads_.Stats();
+  s.shared_memory = regions_ != nullptr;
+  if (regions_ != nullptr) s.regions = regions_->Stats();
+  if (const Engine* engine = engine_.load()) s.engine = engine->Stats();
+  if (const FrameMetrics* frames = FrameMetrics::Installed()) s.frames = frames->Snapshot();
+  return s;
+}
+
 grpc::ServerUnaryReactor* SkinningService::GetServerStats(grpc::CallbackServerContext* context,
                                                           const v1::GetServerStatsRequest*,
                                                           v1::ServerStats* response) {
-  Engine* engine = engine_.load();
-  if (engine == nullptr) return Done(context, kWarmingUp);
-  *response = ToWire(engine->Stats());
-  response->set_open_streams(open_streams_.count());
-  response->set_inflight_budget_bytes(budget_.limit());
-  response->set_inflight_bytes(budget_.used());
-  response->set_rejected_inflight_budget(budget_.refused());
-  if (regions_ != nullptr) {
-    const RegionStats regions = regions_->Stats();
-    response->set_regions(regions.regions);
-    response->set_region_bytes(regions.mapped_bytes);
-    response->set_region_budget_bytes(regions.budget_bytes);
-    response->set_region_frames(regions.frames);
-    response->set_rejected_regions(regions.rejected);
-  }
-  const UploadStats uploads = open_uploads_.Stats();
-  response->set_upload_budget_bytes(uploads.budget_bytes);
-  response->set_upload_bytes(uploads.bytes);
-  response->set_open_uploads(uploads.open);
-  response->set_rejected_uploads_max_uploads(uploads.refused_max_uploads);
-  response->set_rejected_uploads_per_connection(uploads.refused_per_connection);
-  response->set_rejected_uploads_budget(uploads.refused_budget);
-  response->set_cancelled_uploads_idle(uploads.cancelled_idle);
+  if (engine_.load() == nullptr) return Done(context, kWarmingUp);
+  *response = ToWire(Snapshot());
   return Done(context, Status::Ok());
 }
 

@@ -8,6 +8,7 @@
 #include "open_streams.h"
 #include "open_uploads.h"
 #include "region_registry.h"
+#include "server_snapshot.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
@@ -46,7 +47,10 @@ class SkinningService final : public SkinningCallbackService {
     return open_streams_.WaitUntilAllEnded(deadline);
   }
   std::size_t OpenStreamCount() const { return open_streams_.count(); }
-  UploadStats Uploads() const { return open_uploads_.Stats(); }
+  // Everything the server reports, taken at once for /metrics and GetServerStats.
+  ServerSnapshot Snapshot() const;
+  // SERVING or not (starting, draining), as the health service says.
+  void SetServing(bool serving) { serving_.store(serving); }
 
   grpc::ServerReadReactor<v1::UploadMeshRequest>* UploadMesh(grpc::CallbackServerContext*,
                                                              v1::MeshInfo* response) override;
@@ -78,6 +82,7 @@ class SkinningService final : public SkinningCallbackService {
 
  private:
   std::atomic<Engine*> engine_{nullptr};
+  std::atomic<bool> serving_{false};
   const std::string default_backend_;
   const int stream_window_;
   OpenStreams open_streams_;
