@@ -11,8 +11,8 @@
 #include <limits>
 
 #include "backend_fixture.h"
-#include "skinserve/reference/reference.h"
 #include "skinserve/engine/simd_targets.h"
+#include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {

@@ -12,64 +12,33 @@
 #include <tuple>
 
 #include "opencl_test_support.h"
+#include "reference_cases.h"
 #include "skinserve/model/aligned_buffer.h"
 #include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {
 namespace {
 
-struct Case {
-  uint32_t vertices;
-  uint32_t influences;
-  uint32_t joints;
-  bool normals;
-};
-
-std::vector<Case> Cases() {
-  std::vector<Case> cases;
-  for (uint32_t v : {1u, 2u, 3u, 4u, 5u, 7u, 255u, 256u, 257u, 1001u}) {
-    for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
-      for (uint32_t j : {1u, 77u, 1024u}) {
-        for (bool n : {false, true}) cases.push_back({v, b, j, n});
-      }
-    }
-  }
-  for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
-    for (bool n : {false, true}) cases.push_back({100003, b, 77, n});
-  }
+std::vector<MeshCase> Cases() {
+  std::vector<MeshCase> cases = MeshCases({1, 2, 3, 4, 5, 7, 255, 256, 257, 1001}, {1, 77, 1024});
+  for (const MeshCase& c : MeshCases({100003}, {77})) cases.push_back(c);
   cases.push_back({100003, 8, 1024, true});
   return cases;
 }
 
-class OpenClReferenceTest : public ::testing::TestWithParam<std::tuple<std::string, Case>> {};
+class OpenClReferenceTest : public ::testing::TestWithParam<BackendCase> {};
 
 TEST_P(OpenClReferenceTest, MatchesTheFloat64Reference) {
   const auto& [id, c] = GetParam();
   Backend& backend = OpenClBackend(id);
   SKIP_IF_OPENCL_UNAVAILABLE(backend);
-  const uint64_t seed = 7919ull * c.vertices + 31 * c.influences + c.joints + c.normals;
-  auto mesh = SyntheticMesh(c.vertices, c.influences, c.joints, c.normals, seed);
+  auto mesh = CaseMesh(c);
+  ASSERT_NE(mesh, nullptr);
   auto prepared = backend.Prepare(mesh);
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
-  // Outputs pre-filled with NaN: an element the kernel skips shows up as an error.
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::vector<float> positions(3ull * c.vertices, nan);
-  std::vector<float> normals(c.normals ? 3ull * c.vertices : 0, nan);
-  const auto palette = MakeSyntheticPalette(c.joints, seed, 3);
-  ASSERT_TRUE(backend.Skin(**prepared, {palette, positions, normals}).ok());
-  EXPECT_EQ(ReferenceMismatch(*mesh, palette, positions, normals), "")
-      << id << " V=" << c.vertices << " B=" << c.influences << " J=" << c.joints
-      << " normals=" << c.normals;
-}
-
-std::string CaseName(const ::testing::TestParamInfo<std::tuple<std::string, Case>>& info) {
-  const auto& [id, c] = info.param;
-  std::string name = id + "_V" + std::to_string(c.vertices) + "_B" + std::to_string(c.influences) +
-                     "_J" + std::to_string(c.joints) + (c.normals ? "_normals" : "");
-  for (char& ch : name) {
-    if (ch == '-') ch = '_';
-  }
-  return name;
+  const auto palette = MakeSyntheticPalette(c.joints, CaseSeed(c), 3);
+  ExpectFrameMatchesReference(backend, **prepared, *mesh, palette, c, SkinningMethod::kLinear,
+                              "frame 3");
 }
 
 INSTANTIATE_TEST_SUITE_P(OpenCl, OpenClReferenceTest,

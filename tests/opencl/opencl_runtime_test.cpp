@@ -13,8 +13,8 @@
 #include "backends/backend_factories.h"
 #include "backends/opencl_runtime.h"
 #include "opencl_test_support.h"
-#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/engine/engine.h"
+#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {

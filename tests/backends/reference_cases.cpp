@@ -1,0 +1,67 @@
+#include "reference_cases.h"
+
+#include <algorithm>
+#include <limits>
+
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
+
+namespace skinserve::testing {
+
+std::vector<MeshCase> MeshCases(std::initializer_list<uint32_t> vertices,
+                                std::initializer_list<uint32_t> joints, uint32_t max_influences) {
+  std::vector<MeshCase> cases;
+  for (uint32_t v : vertices) {
+    for (uint32_t b = 1; b <= max_influences; ++b) {
+      for (uint32_t j : joints) {
+        for (bool n : {false, true}) cases.push_back({v, b, j, n});
+      }
+    }
+  }
+  return cases;
+}
+
+uint64_t CaseSeed(const MeshCase& c) {
+  return c.vertices * 131ull + c.influences * 17ull + c.joints + (c.normals ? 1 : 0);
+}
+
+std::shared_ptr<const Mesh> CaseMesh(const MeshCase& c) {
+  auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = c.vertices,
+                                              .influences = c.influences,
+                                              .joint_count = c.joints,
+                                              .normals = c.normals,
+                                              .seed = CaseSeed(c)}));
+  EXPECT_TRUE(mesh.ok()) << mesh.status().ToString();
+  return mesh.ok() ? *mesh : nullptr;
+}
+
+std::string CaseName(const ::testing::TestParamInfo<BackendCase>& info) {
+  const auto& [id, c] = info.param;
+  std::string name = id + "_V" + std::to_string(c.vertices) + "_B" + std::to_string(c.influences) +
+                     "_J" + std::to_string(c.joints) + (c.normals ? "_normals" : "");
+  std::replace(name.begin(), name.end(), '-', '_');
+  return name;
+}
+
+void ExpectFrameMatchesReference(Backend& backend, const PreparedMesh& prepared, const Mesh& mesh,
+                                 std::span<const float> palette, const MeshCase& c,
+                                 SkinningMethod method, const std::string& what) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> positions(3ull * c.vertices, nan);
+  std::vector<float> normals(c.normals ? 3ull * c.vertices : 0, nan);
+  SkinFrame frame;
+  frame.palette = palette;
+  frame.positions = positions;
+  frame.normals = normals;
+  frame.method = method;
+  const Status s = backend.Skin(prepared, frame);
+  ASSERT_TRUE(s.ok()) << backend.info().id << " " << what << ": " << s.ToString();
+  const Deviation d = CompareWithReference(mesh, palette, positions, normals, method);
+  EXPECT_TRUE(d.within_tolerance())
+      << backend.info().id << " V=" << c.vertices << " B=" << c.influences << " J=" << c.joints
+      << " normals=" << c.normals << " " << what << ": position error " << d.max_position_error
+      << " (tolerance " << d.position_tolerance << "), normal error " << d.max_normal_error
+      << " (tolerance " << d.normal_tolerance << "), worst vertex " << d.worst_vertex;
+}
+
+}  // namespace skinserve::testing

@@ -1,0 +1,50 @@
+// The mesh shapes every backend is checked on against the float64 reference, and what
+// the checks share: a case's mesh (seeded by its shape), its test name, and one frame
+// skinned into NaN-filled outputs and compared with the reference. Used by the backend
+// conformance and dual-quaternion tests (tests/backends) and the OpenCL tests
+// (tests/opencl), each with its own list of shapes.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <span>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "skinserve/engine/backend.h"
+#include "skinserve/model/mesh.h"
+#include "skinserve/model/skinning_method.h"
+
+namespace skinserve::testing {
+
+struct MeshCase {
+  uint32_t vertices;
+  uint32_t influences;
+  uint32_t joints;
+  bool normals;
+};
+
+// Every combination of the vertex counts, 1..max_influences, the joint counts and with and
+// without normals.
+std::vector<MeshCase> MeshCases(std::initializer_list<uint32_t> vertices,
+                                std::initializer_list<uint32_t> joints,
+                                uint32_t max_influences = kMaxInfluences);
+
+// The case's synthetic mesh; its seed follows from its shape, so a failure reproduces.
+std::shared_ptr<const Mesh> CaseMesh(const MeshCase& c);
+uint64_t CaseSeed(const MeshCase& c);
+
+// "<backend>_V<vertices>_B<influences>_J<joints>[_normals]", '-' as '_'.
+using BackendCase = std::tuple<std::string, MeshCase>;
+std::string CaseName(const ::testing::TestParamInfo<BackendCase>& info);
+
+// Skins `palette` with `backend` into outputs pre-filled with NaN (an element the backend
+// skips shows up) and expects them within CompareWithReference's tolerance, naming the
+// backend, the case and `what` otherwise.
+void ExpectFrameMatchesReference(Backend& backend, const PreparedMesh& prepared, const Mesh& mesh,
+                                 std::span<const float> palette, const MeshCase& c,
+                                 SkinningMethod method, const std::string& what);
+
+}  // namespace skinserve::testing
