@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "process_probe.h"
 #include "server_child.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
@@ -16,16 +17,6 @@
 
 namespace skinserve::testing {
 namespace {
-
-std::string RunAndCapture(const std::string& command) {
-  std::string out;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return out;
-  char buffer[4096];
-  while (std::size_t n = fread(buffer, 1, sizeof(buffer), pipe)) out.append(buffer, n);
-  pclose(pipe);
-  return out;
-}
 
 TEST(ServerProcessTest, HelpDocumentsEveryOption) {
   const std::string help = RunAndCapture(std::string(SKINSERVE_SERVER_BINARY) + " --help");

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <thread>
 
+#include "process_probe.h"
 #include "server_child.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
@@ -39,42 +40,9 @@ constexpr uint64_t kBudgetMb = 256;
 // stacks. Measured peaks are printed with each run.
 // Under AddressSanitizer the server also keeps up to 256 MB of freed memory in ASan's
 // quarantine (its default quarantine_size_mb), which the allocator would have reused.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr uint64_t kMarginMb = 192 + 256;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr uint64_t kMarginMb = 192 + 256;
-#else
-constexpr uint64_t kMarginMb = 192;
-#endif
-#else
-constexpr uint64_t kMarginMb = 192;
-#endif
+constexpr uint64_t kMarginMb = 192 + kSanitizerQuarantineMb;
 // Allowed growth of the resting size from the first round to the last.
 constexpr uint64_t kGrowthMarginMb = 64;
-
-std::string RunAndCapture(const std::string& command) {
-  std::string out;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return out;
-  char buffer[4096];
-  while (std::size_t n = fread(buffer, 1, sizeof(buffer), pipe)) out.append(buffer, n);
-  pclose(pipe);
-  return out;
-}
-
-uint64_t RssMb(pid_t pid) {
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  uint64_t kb = 0;
-  while (status >> key) {
-    if (key == "VmRSS:") {
-      status >> kb;
-      break;
-    }
-  }
-  return kb / 1024;
-}
 
 // A channel with a TCP connection of its own (channels with equal arguments share one).
 std::shared_ptr<grpc::Channel> OwnConnection(const std::string& target) {

@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "process_probe.h"
 #include "server_child.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
@@ -40,29 +41,9 @@ constexpr int kMaxUploads = 32;
 // well-behaved clients' meshes and frames. Measured peaks are printed with each run.
 // Under AddressSanitizer the server also keeps up to 256 MB of freed memory in its
 // quarantine.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr uint64_t kMarginMb = 128 + 256;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr uint64_t kMarginMb = 128 + 256;
-#else
-constexpr uint64_t kMarginMb = 128;
-#endif
-#else
-constexpr uint64_t kMarginMb = 128;
-#endif
+constexpr uint64_t kMarginMb = 128 + kSanitizerQuarantineMb;
 // Allowed growth of the size after a round from the first round to the last.
 constexpr uint64_t kGrowthMarginMb = 64;
-
-std::string RunAndCapture(const std::string& command) {
-  std::string out;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return out;
-  char buffer[4096];
-  while (std::size_t n = fread(buffer, 1, sizeof(buffer), pipe)) out.append(buffer, n);
-  pclose(pipe);
-  return out;
-}
 
 // A client that uploads a small mesh of its own, skins one frame of it (checked against
 // the float64 reference) and deletes it, again and again until told to stop.
