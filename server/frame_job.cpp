@@ -94,6 +94,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   Result<VertexEncoding> encoding = FromWire(wire.encoding());
   if (!encoding.ok()) return encoding.status();
   encoding_ = *encoding;
+  boxed_ = QuantisedToBox(encoding_);
   if (Status s = engine.CheckBatch(mesh_.vertex_count, wire.instances()); !s.ok()) return s;
   instances_ = std::max<uint32_t>(wire.instances(), 1);
 
@@ -114,9 +115,8 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
     instances_per_part_ = std::max<uint32_t>(instances_per_part_, 1);
     part_count_ = (instances_ + instances_per_part_ - 1) / instances_per_part_;
   }
-  header_room_ = kHeaderRoom + (encoding_ == VertexEncoding::kSnorm16 && instances_per_part_ > 1
-                                    ? kBoundsRoom * instances_per_part_
-                                    : 0);
+  header_room_ =
+      kHeaderRoom + (boxed_ && instances_per_part_ > 1 ? kBoundsRoom * instances_per_part_ : 0);
   const std::size_t payload = values * EncodedBytesPerValue(encoding_);
   normals_offset_ = RoundUp(payload);  // the positions start the buffer
   headers_offset_ = normals_offset_ + (want_normals_ ? RoundUp(payload) : 0);
@@ -125,8 +125,8 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
     if (Status s = PrepareRegion(wire.output(), regions); !s.ok()) return s;
     part_count_ = 1;
     instances_per_part_ = 1;
-    header_room_ = kHeaderRoom + wire.output().region().size() +
-                   (encoding_ == VertexEncoding::kSnorm16 ? kBoundsRoom * instances_ : 0);
+    header_room_ =
+        kHeaderRoom + wire.output().region().size() + (boxed_ ? kBoundsRoom * instances_ : 0);
     normals_offset_ = headers_offset_ = 0;
   }
   wire_used_ = headers_offset_ + part_count_ * header_room_;
@@ -268,7 +268,7 @@ Status FrameJob::EncodeInstance(uint32_t i, std::span<const float> positions,
   const std::size_t instance_bytes = positions.size() * EncodedBytesPerValue(encoding_);
   Bounds& bounds = bounds_[i];
   bounds = {};
-  if (encoding_ == VertexEncoding::kSnorm16) {
+  if (boxed_) {
     Result<Bounds> box = ComputeBounds(positions);
     if (!box.ok()) return InstanceError(box.status(), i, instances_);
     bounds = *box;
@@ -319,7 +319,7 @@ Status FrameJob::WritePartHeader(std::size_t p) {
   header_.set_instance(r.instance);
   header_.set_last(p + 1 == part_count_);
   if (instances_per_part_ > 1) header_.set_instance_count(r.instances);
-  if (encoding_ == VertexEncoding::kSnorm16) {
+  if (boxed_) {
     ToWire(bounds_[r.instance], header_.mutable_bounds());
     header_.clear_instance_bounds();  // keeps the elements: no allocation next time
     for (uint32_t k = 0; instances_per_part_ > 1 && k < r.instances; ++k) {
@@ -371,7 +371,7 @@ Status FrameJob::WriteRegionHeader() {
   header_.set_instance_count(instances_);
   header_.set_last(true);
   header_.clear_instance_bounds();  // keeps the elements: no allocation next time
-  if (encoding_ == VertexEncoding::kSnorm16) {
+  if (boxed_) {
     ToWire(bounds_[0], header_.mutable_bounds());
     for (uint32_t k = 0; k < instances_; ++k) ToWire(bounds_[k], header_.add_instance_bounds());
   }

@@ -117,12 +117,13 @@ class FrameJob final : public SkinJob {
   uint32_t instances_ = 1;
   bool want_normals_ = false;
   VertexEncoding encoding_ = VertexEncoding::kFloat32;
+  bool boxed_ = false;  // each instance's box travels with it (snorm16)
   std::vector<float> palette_;
   // Skinned floats for encodings other than float32, for instances too large for the
   // compute thread's scratch (SkinRequest::skin_into_scratch).
   std::vector<float> positions_;
   std::vector<float> normals_;
-  std::vector<Bounds> bounds_;  // snorm16: each instance's box
+  std::vector<Bounds> bounds_;  // each instance's box, for boxed encodings
 
   // Frames into a shared-memory region: the region, pinned from Prepare until the frame
   // is done, and where in it positions and normals go.

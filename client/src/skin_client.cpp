@@ -50,8 +50,7 @@ bool FrameAssembler::AddRegionPart(const v1::SkinResponse& part, FrameResult* re
         write.end_offset(), instances, part.total_vertices(), VertexEncodingName(encoding),
         mapping.size()));
   }
-  if (encoding == VertexEncoding::kSnorm16 &&
-      part.instance_bounds_size() != static_cast<int>(instances)) {
+  if (QuantisedToBox(encoding) && part.instance_bounds_size() != static_cast<int>(instances)) {
     return fail(
         fmt::format("{} instances but {} instance_bounds", instances, part.instance_bounds_size()));
   }
@@ -61,7 +60,7 @@ bool FrameAssembler::AddRegionPart(const v1::SkinResponse& part, FrameResult* re
   result->positions.clear();
   result->normals.clear();
   result->bounds.assign(instances, Bounds{});
-  for (uint32_t k = 0; encoding == VertexEncoding::kSnorm16 && k < instances; ++k) {
+  for (uint32_t k = 0; QuantisedToBox(encoding) && k < instances; ++k) {
     result->bounds[k] = FromWire(part.instance_bounds(static_cast<int>(k)));
   }
   result->region_positions = mapping.subspan(layout.positions_offset, array_bytes);
@@ -171,7 +170,7 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
                                      where(), next_instance_, next_vertex_, result->vertices,
                                      packed, result->instances)));
   }
-  if (packed > 1 && encoding == VertexEncoding::kSnorm16 &&
+  if (packed > 1 && QuantisedToBox(encoding) &&
       part.instance_bounds_size() != static_cast<int>(packed)) {
     return Fail(part, result,
                 Internal(fmt::format("{}: {} instances in the part but {} instance_bounds", where(),
@@ -192,9 +191,9 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
   }
   for (uint32_t k = 0; k < packed; ++k) {
     const uint32_t instance = part.instance() + k;
-    const Bounds bounds = FromWire(packed > 1 && encoding == VertexEncoding::kSnorm16
-                                       ? part.instance_bounds(static_cast<int>(k))
-                                       : part.bounds());
+    const Bounds bounds =
+        FromWire(packed > 1 && QuantisedToBox(encoding) ? part.instance_bounds(static_cast<int>(k))
+                                                        : part.bounds());
     Bounds& instance_bounds = result->bounds[instance];
     if (part.first_vertex() == 0) {
       instance_bounds = bounds;

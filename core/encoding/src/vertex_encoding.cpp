@@ -210,46 +210,121 @@ void DecodeFloat16(std::span<const std::byte> bytes, std::span<float> out) {
   for (std::size_t i = 0; i < out.size(); ++i) o[i] = FloatOfHalfBits(Load16<uint16_t>(in, i));
 }
 
-Status DecodeValues(const char* field, VertexEncoding encoding, std::span<const std::byte> bytes,
-                    std::span<float> out) {
-  if (Status s = CheckDecodeLength(field, encoding, bytes, out.size()); !s.ok()) return s;
-  switch (encoding) {
-    case VertexEncoding::kFloat32:
-      if (!bytes.empty()) std::memcpy(out.data(), bytes.data(), bytes.size());
-      return Status::Ok();
-    case VertexEncoding::kFloat16:
-      DecodeFloat16(bytes, out);
-      return Status::Ok();
-    case VertexEncoding::kSnorm16:
-      break;
+// ---- each encoding's own functions -----------------------------------------------------
+
+Status EncodeFloat32(std::span<const float> values, bool, const Bounds&, std::span<std::byte> out,
+                     std::size_t) {
+  if (!out.empty()) std::memcpy(out.data(), values.data(), out.size());
+  return Status::Ok();
+}
+
+Status DecodeFloat32(std::span<const std::byte> bytes, bool, const Bounds&, std::span<float> out) {
+  if (!bytes.empty()) std::memcpy(out.data(), bytes.data(), bytes.size());
+  return Status::Ok();
+}
+
+double Float32Error(bool, const Bounds&, int, double) { return 0.0; }
+
+Status EncodeHalf(std::span<const float> values, bool normals, const Bounds&,
+                  std::span<std::byte> out, std::size_t first_vertex) {
+  return EncodeFloat16(normals ? "normals" : "positions", values, out, first_vertex);
+}
+
+Status DecodeHalf(std::span<const std::byte> bytes, bool, const Bounds&, std::span<float> out) {
+  DecodeFloat16(bytes, out);
+  return Status::Ok();
+}
+
+double HalfError(bool, const Bounds&, int, double x) {
+  return std::max(std::fabs(x) * 0x1p-11, 0x1p-25);
+}
+
+Status EncodeSnorm16(std::span<const float> values, bool normals, const Bounds& bounds,
+                     std::span<std::byte> out, std::size_t first_vertex) {
+  if (normals) return EncodeSnorm16Normals(values, out, first_vertex);
+  if (Status s = ValidateBounds(bounds); !s.ok()) return s;
+  return EncodeSnorm16Positions(values, bounds, out, first_vertex);
+}
+
+Status DecodeSnorm16(std::span<const std::byte> bytes, bool normals, const Bounds& bounds,
+                     std::span<float> out) {
+  if (normals) {
+    encoding_kernels::DecodeSnorm16Normals(bytes.data(), out.size(), out.data());
+    return Status::Ok();
   }
-  return Internal("DecodeValues: snorm16 is decoded by its caller");
+  if (out.size() % 3 != 0) return NotATriple("positions", out.size());
+  if (Status s = ValidateBounds(bounds); !s.ok()) return s;
+  const Snorm16Axes axes = AxesOf(bounds);
+  encoding_kernels::DecodeSnorm16Positions(bytes.data(), out.size(), axes.centre, axes.half_extent,
+                                           out.data());
+  return Status::Ok();
+}
+
+double Snorm16Error(bool normals, const Bounds& bounds, int axis, double) {
+  if (normals) return 1.0 / 65534.0 + 0x1p-24;
+  const double lo = bounds.min[axis];
+  const double hi = bounds.max[axis];
+  const double magnitude = std::max({std::fabs(lo), std::fabs(hi), 0x1p-126});
+  return (hi - lo) / 131068.0 + 0x1p-20 * magnitude;
+}
+
+// The encodings, in the order of their values (skinserve.v1.Encoding).
+constexpr EncodingDescription kEncodings[] = {
+    {VertexEncoding::kFloat32, "float32", 4, false, &EncodeFloat32, &DecodeFloat32, &Float32Error},
+    {VertexEncoding::kFloat16, "float16", 2, false, &EncodeHalf, &DecodeHalf, &HalfError},
+    {VertexEncoding::kSnorm16, "snorm16", 2, true, &EncodeSnorm16, &DecodeSnorm16, &Snorm16Error},
+};
+
+const EncodingDescription* Find(VertexEncoding encoding) {
+  const auto index = static_cast<std::size_t>(encoding);
+  return index < std::size(kEncodings) ? &kEncodings[index] : nullptr;
+}
+
+Status Unknown(VertexEncoding encoding) {
+  return InvalidArgument(fmt::format("encoding {} is unknown", static_cast<int>(encoding)));
+}
+
+Status Encode(const char* field, bool normals, VertexEncoding encoding,
+              std::span<const float> values, const Bounds& bounds, std::span<std::byte> out,
+              std::size_t first_vertex) {
+  const EncodingDescription* e = Find(encoding);
+  if (e == nullptr) return Unknown(encoding);
+  if (values.size() % 3 != 0) return NotATriple(field, values.size());
+  if (out.size() != values.size() * e->bytes_per_value) {
+    return WrongOutputSize(field, encoding, values.size(), out.size());
+  }
+  return e->encode(values, normals, bounds, out, first_vertex);
+}
+
+Status Decode(const char* field, bool normals, VertexEncoding encoding,
+              std::span<const std::byte> bytes, const Bounds& bounds, std::span<float> out) {
+  const EncodingDescription* e = Find(encoding);
+  if (e == nullptr) return Unknown(encoding);
+  if (Status s = CheckDecodeLength(field, encoding, bytes, out.size()); !s.ok()) return s;
+  return e->decode(bytes, normals, bounds, out);
 }
 
 }  // namespace
 
+std::span<const EncodingDescription> Encodings() { return kEncodings; }
+
+const EncodingDescription* DescribeEncoding(VertexEncoding encoding) { return Find(encoding); }
+
 const char* VertexEncodingName(VertexEncoding encoding) {
-  switch (encoding) {
-    case VertexEncoding::kFloat32:
-      return "float32";
-    case VertexEncoding::kFloat16:
-      return "float16";
-    case VertexEncoding::kSnorm16:
-      return "snorm16";
-  }
-  return "unknown";
+  const EncodingDescription* e = Find(encoding);
+  return e != nullptr ? e->name : "unknown";
 }
 
 std::optional<VertexEncoding> ParseVertexEncoding(std::string_view name) {
-  for (VertexEncoding e :
-       {VertexEncoding::kFloat32, VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
-    if (name == VertexEncodingName(e)) return e;
+  for (const EncodingDescription& e : kEncodings) {
+    if (name == e.name) return e.id;
   }
   return std::nullopt;
 }
 
 std::size_t EncodedBytesPerValue(VertexEncoding encoding) {
-  return encoding == VertexEncoding::kFloat32 ? 4 : 2;
+  const EncodingDescription* e = Find(encoding);
+  return e != nullptr ? e->bytes_per_value : 4;
 }
 
 std::size_t EncodedBytes(VertexEncoding encoding, std::size_t vertex_count) {
@@ -293,87 +368,32 @@ Status ValidateBounds(const Bounds& bounds) {
 
 Status EncodePositions(VertexEncoding encoding, std::span<const float> positions,
                        const Bounds& bounds, std::span<std::byte> out, std::size_t first_vertex) {
-  if (positions.size() % 3 != 0) return NotATriple("positions", positions.size());
-  if (out.size() != positions.size() * EncodedBytesPerValue(encoding)) {
-    return WrongOutputSize("positions", encoding, positions.size(), out.size());
-  }
-  switch (encoding) {
-    case VertexEncoding::kFloat32:
-      if (!out.empty()) std::memcpy(out.data(), positions.data(), out.size());
-      return Status::Ok();
-    case VertexEncoding::kFloat16:
-      return EncodeFloat16("positions", positions, out, first_vertex);
-    case VertexEncoding::kSnorm16:
-      if (Status s = ValidateBounds(bounds); !s.ok()) return s;
-      return EncodeSnorm16Positions(positions, bounds, out, first_vertex);
-  }
-  return InvalidArgument(fmt::format("encoding {} is unknown", static_cast<int>(encoding)));
+  return Encode("positions", false, encoding, positions, bounds, out, first_vertex);
 }
 
 Status EncodeNormals(VertexEncoding encoding, std::span<const float> normals,
                      std::span<std::byte> out, std::size_t first_vertex) {
-  if (normals.size() % 3 != 0) return NotATriple("normals", normals.size());
-  if (out.size() != normals.size() * EncodedBytesPerValue(encoding)) {
-    return WrongOutputSize("normals", encoding, normals.size(), out.size());
-  }
-  switch (encoding) {
-    case VertexEncoding::kFloat32:
-      if (!out.empty()) std::memcpy(out.data(), normals.data(), out.size());
-      return Status::Ok();
-    case VertexEncoding::kFloat16:
-      return EncodeFloat16("normals", normals, out, first_vertex);
-    case VertexEncoding::kSnorm16:
-      return EncodeSnorm16Normals(normals, out, first_vertex);
-  }
-  return InvalidArgument(fmt::format("encoding {} is unknown", static_cast<int>(encoding)));
+  return Encode("normals", true, encoding, normals, Bounds{}, out, first_vertex);
 }
 
 Status DecodePositions(VertexEncoding encoding, std::span<const std::byte> bytes,
                        const Bounds& bounds, std::span<float> out) {
-  if (encoding != VertexEncoding::kSnorm16) return DecodeValues("positions", encoding, bytes, out);
-  if (Status s = CheckDecodeLength("positions", encoding, bytes, out.size()); !s.ok()) return s;
-  if (out.size() % 3 != 0) return NotATriple("positions", out.size());
-  if (Status s = ValidateBounds(bounds); !s.ok()) return s;
-  const Snorm16Axes axes = AxesOf(bounds);
-  encoding_kernels::DecodeSnorm16Positions(bytes.data(), out.size(), axes.centre, axes.half_extent,
-                                           out.data());
-  return Status::Ok();
+  return Decode("positions", false, encoding, bytes, bounds, out);
 }
 
 Status DecodeNormals(VertexEncoding encoding, std::span<const std::byte> bytes,
                      std::span<float> out) {
-  if (encoding != VertexEncoding::kSnorm16) return DecodeValues("normals", encoding, bytes, out);
-  if (Status s = CheckDecodeLength("normals", encoding, bytes, out.size()); !s.ok()) return s;
-  encoding_kernels::DecodeSnorm16Normals(bytes.data(), out.size(), out.data());
-  return Status::Ok();
+  return Decode("normals", true, encoding, bytes, Bounds{}, out);
 }
 
 double PositionEncodingError(VertexEncoding encoding, const Bounds& bounds, int axis, double x) {
-  switch (encoding) {
-    case VertexEncoding::kFloat32:
-      return 0.0;
-    case VertexEncoding::kFloat16:
-      return std::max(std::fabs(x) * 0x1p-11, 0x1p-25);
-    case VertexEncoding::kSnorm16: {
-      const double lo = bounds.min[axis];
-      const double hi = bounds.max[axis];
-      const double magnitude = std::max({std::fabs(lo), std::fabs(hi), 0x1p-126});
-      return (hi - lo) / 131068.0 + 0x1p-20 * magnitude;
-    }
-  }
-  return 0.0;
+  const EncodingDescription* e = Find(encoding);
+  return e != nullptr ? e->error(false, bounds, axis, x) : 0.0;
 }
 
 double NormalEncodingError(VertexEncoding encoding, double n) {
-  switch (encoding) {
-    case VertexEncoding::kFloat32:
-      return 0.0;
-    case VertexEncoding::kFloat16:
-      return std::max(std::fabs(n) * 0x1p-11, 0x1p-25);
-    case VertexEncoding::kSnorm16:
-      return 1.0 / 65534.0 + 0x1p-24;
-  }
-  return 0.0;
+  const EncodingDescription* e = Find(encoding);
+  return e != nullptr ? e->error(true, Bounds{}, 0, n) : 0.0;
 }
 
 uint16_t FloatToHalf(float value) {

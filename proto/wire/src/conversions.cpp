@@ -93,32 +93,18 @@ v1::SkinningMethod ToWire(SkinningMethod method) {
 }
 
 Result<VertexEncoding> FromWire(v1::Encoding encoding) {
-  switch (encoding) {
-    case v1::ENCODING_FLOAT32:
-      return VertexEncoding::kFloat32;
-    case v1::ENCODING_FLOAT16:
-      return VertexEncoding::kFloat16;
-    case v1::ENCODING_SNORM16:
-      return VertexEncoding::kSnorm16;
-    default:
-      return InvalidArgument(
-          fmt::format("encoding = {} is unknown; use ENCODING_FLOAT32 (0), ENCODING_FLOAT16 (1) "
-                      "or ENCODING_SNORM16 (2)",
-                      static_cast<int>(encoding)));
+  // The wire's values are the encodings' own (EncodingDescription, in their order).
+  const auto value = static_cast<VertexEncoding>(encoding);
+  if (encoding >= 0 && DescribeEncoding(value) != nullptr) return value;
+  std::string known;
+  for (const EncodingDescription& e : Encodings()) {
+    known += fmt::format("{}{} ({})", known.empty() ? "" : ", ", e.name, static_cast<int>(e.id));
   }
+  return InvalidArgument(
+      fmt::format("encoding = {} is unknown; known: {}", static_cast<int>(encoding), known));
 }
 
-v1::Encoding ToWire(VertexEncoding encoding) {
-  switch (encoding) {
-    case VertexEncoding::kFloat16:
-      return v1::ENCODING_FLOAT16;
-    case VertexEncoding::kSnorm16:
-      return v1::ENCODING_SNORM16;
-    case VertexEncoding::kFloat32:
-      break;
-  }
-  return v1::ENCODING_FLOAT32;
-}
+v1::Encoding ToWire(VertexEncoding encoding) { return static_cast<v1::Encoding>(encoding); }
 
 Bounds FromWire(const v1::Bounds& b) {
   return {{b.min_x(), b.min_y(), b.min_z()}, {b.max_x(), b.max_y(), b.max_z()}};

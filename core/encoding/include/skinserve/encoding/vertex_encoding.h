@@ -24,6 +24,36 @@ inline constexpr std::size_t kValuesPerVertex = 3;
 inline constexpr float kFloat16Max = 65504.0f;
 inline constexpr int32_t kSnorm16Max = 32767;
 
+struct Bounds;
+
+// An encoding, described once: its name, its size, its side data, its kernels and the error
+// it states. Adding an encoding is a row of the table (vertex_encoding.cpp), its kernels,
+// and its value in skinserve.v1.Encoding; everything below and the wire read the table.
+struct EncodingDescription {
+  VertexEncoding id;
+  const char* name;             // as on the command line and in reports
+  std::size_t bytes_per_value;  // per x, y or z
+  bool quantised_to_box;        // each instance's Bounds travels with its values
+  // x y z triples into exactly bytes_per_value * values.size() bytes; `normals` picks the
+  // normals' rule; errors name the vertex (counted from first_vertex).
+  Status (*encode)(std::span<const float> values, bool normals, const Bounds& bounds,
+                   std::span<std::byte> out, std::size_t first_vertex);
+  Status (*decode)(std::span<const std::byte> bytes, bool normals, const Bounds& bounds,
+                   std::span<float> out);
+  // The most a decoded value may differ from the float32 it encoded (axis: of `bounds`).
+  double (*error)(bool normals, const Bounds& bounds, int axis, double value);
+};
+
+// Every encoding, in the order of their values.
+std::span<const EncodingDescription> Encodings();
+// Null for a value no encoding has.
+const EncodingDescription* DescribeEncoding(VertexEncoding encoding);
+// Whether each instance's box travels with its values (false for unknown values).
+inline bool QuantisedToBox(VertexEncoding encoding) {
+  const EncodingDescription* e = DescribeEncoding(encoding);
+  return e != nullptr && e->quantised_to_box;
+}
+
 // "float32", "float16", "snorm16".
 const char* VertexEncodingName(VertexEncoding encoding);
 std::optional<VertexEncoding> ParseVertexEncoding(std::string_view name);
