@@ -60,17 +60,17 @@ FrameJob::PartRange FrameJob::RangeOf(std::size_t part) const {
   PartRange r;
   if (instances_per_part_ > 1) {
     r.instance = static_cast<uint32_t>(part * instances_per_part_);
-    r.count = mesh_.vertex_count;
+    r.count = vertices_;
     r.instances = std::min(instances_per_part_, instances_ - r.instance);
     return r;
   }
   r.instance = static_cast<uint32_t>(part / parts_per_instance_);
   r.first = static_cast<uint32_t>(part % parts_per_instance_) * vertices_per_part_;
-  r.count = std::min(vertices_per_part_, mesh_.vertex_count - r.first);
+  r.count = std::min(vertices_per_part_, vertices_ - r.first);
   return r;
 }
 
-Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
+Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
                          const std::string& default_backend, RegionRegistry* regions) {
   record_.Begin(wire.backend().empty() ? default_backend : wire.backend());
   frame_ = wire.frame();
@@ -83,35 +83,43 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   if (wire_in_use()) return Internal("a frame job was reused while gRPC still sent its answer");
   result_ = Status::Ok();
   timing_ = {};
-  mesh_.vertex_count = 0;
+  vertices_ = 0;
   instances_ = 1;
   region_.reset();
-  if (Status s = engine.GetMesh(wire.mesh_id(), &mesh_); !s.ok()) return s;
+  // The engine checks the backend, the method, the mesh and the batch once, and pins the
+  // mesh: its shape sizes the buffers below, and Submit looks nothing up again.
+  request.mesh_id.assign(wire.mesh_id());
+  request.backend.assign(wire.backend().empty() ? default_backend : wire.backend());
+  Result<SkinningMethod> method = FromWire(wire.method());
+  if (!method.ok()) return method.status();
+  request.method = *method;
+  request.instances = std::max<uint32_t>(wire.instances(), 1);
+  if (Status s = engine.Plan(this); !s.ok()) return s;
+  vertices_ = plan().vertex_count;
   want_normals_ = wire.want_normals();
-  if (want_normals_ && !mesh_.has_normals) {
-    return InvalidArgument("want_normals is set but mesh " + mesh_.id + " has no normals");
+  if (want_normals_ && !plan().has_normals) {
+    return InvalidArgument("want_normals is set but mesh " + wire.mesh_id() + " has no normals");
   }
   Result<VertexEncoding> encoding = FromWire(wire.encoding());
   if (!encoding.ok()) return encoding.status();
   encoding_ = *encoding;
   boxed_ = QuantisedToBox(encoding_);
-  if (Status s = engine.CheckBatch(mesh_.vertex_count, wire.instances()); !s.ok()) return s;
-  instances_ = std::max<uint32_t>(wire.instances(), 1);
+  instances_ = request.instances;
 
-  const uint64_t values = 3ull * mesh_.vertex_count * instances_;
+  const uint64_t values = 3ull * vertices_ * instances_;
   const uint64_t arrays = want_normals_ ? 2 : 1;
   const bool float32 = encoding_ == VertexEncoding::kFloat32;
   const std::size_t vertex_bytes = arrays * 3 * EncodedBytesPerValue(encoding_);
   vertices_per_part_ =
       static_cast<uint32_t>(std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes));
   parts_per_instance_ =
-      std::max<std::size_t>(1, (mesh_.vertex_count + vertices_per_part_ - 1) / vertices_per_part_);
+      std::max<std::size_t>(1, (vertices_ + vertices_per_part_ - 1) / vertices_per_part_);
   part_count_ = parts_per_instance_ * instances_;
   // Packed: as many whole instances per part as fit in 1 MiB.
   instances_per_part_ = 1;
-  if (wire.pack_instances() && parts_per_instance_ == 1 && mesh_.vertex_count > 0) {
-    instances_per_part_ = static_cast<uint32_t>(std::min<std::size_t>(
-        instances_, kMaxPartPayloadBytes / (vertex_bytes * mesh_.vertex_count)));
+  if (wire.pack_instances() && parts_per_instance_ == 1 && vertices_ > 0) {
+    instances_per_part_ = static_cast<uint32_t>(
+        std::min<std::size_t>(instances_, kMaxPartPayloadBytes / (vertex_bytes * vertices_)));
     instances_per_part_ = std::max<uint32_t>(instances_per_part_, 1);
     part_count_ = (instances_ + instances_per_part_ - 1) / instances_per_part_;
   }
@@ -135,7 +143,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
 
   // Encoded instance by instance: skinned into the compute thread's scratch, kept in its
   // core's cache, unless an instance is too large for it.
-  const bool scratch = !float32 && ScratchFloatsPerInstance(mesh_.vertex_count, want_normals_) <=
+  const bool scratch = !float32 && ScratchFloatsPerInstance(vertices_, want_normals_) <=
                                        kMaxScratchFloatsPerInstance;
   // What this frame holds while in flight; the job keeps its buffers, so only growth is
   // charged.
@@ -147,13 +155,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, const Engine& engine,
   }
 
   if (Status s = DecodeFloats(wire.palette(), "palette", &palette_); !s.ok()) return s;
-  request.mesh_id.assign(wire.mesh_id());
-  request.backend.assign(wire.backend().empty() ? default_backend : wire.backend());
   request.palette = palette_;
-  request.instances = instances_;
-  Result<SkinningMethod> method = FromWire(wire.method());
-  if (!method.ok()) return method.status();
-  request.method = *method;
   encode_ns_.store(0);
   if (headers_.size() < part_count_) headers_.resize(part_count_);
   if (bounds_.size() < instances_) bounds_.resize(instances_);
@@ -193,7 +195,7 @@ Status FrameJob::PrepareRegion(const v1::OutputRegion& output, RegionRegistry* r
                                        offset, output.region(), wire::kRegionAlignment));
   }
   const wire::RegionLayout layout =
-      wire::LayoutInRegion(offset, mesh_.vertex_count, instances_, encoding_, want_normals_);
+      wire::LayoutInRegion(offset, vertices_, instances_, encoding_, want_normals_);
   region_positions_ = layout.positions_offset;
   region_normals_ = layout.normals_offset;
   region_end_ = layout.end_offset;
@@ -202,7 +204,7 @@ Status FrameJob::PrepareRegion(const v1::OutputRegion& output, RegionRegistry* r
   if (offset > size || region_end_ > limit) {
     return InvalidArgument(fmt::format(
         "frame {} needs bytes [{}, {}) of region '{}' ({} instance(s) of {} vertices{}), but {}",
-        frame_, offset, region_end_, output.region(), instances_, mesh_.vertex_count,
+        frame_, offset, region_end_, output.region(), instances_, vertices_,
         want_normals_ ? " with normals" : "",
         limit < size ? fmt::format("output.byte_size = {} allows {} from the offset",
                                    output.byte_size(), output.byte_size())
@@ -221,6 +223,7 @@ std::byte* FrameJob::NormalsOut() {
 }
 
 void FrameJob::Fail(Status status) {
+  DropPlan();  // never submitted: the mesh is not pinned for it
   region_.reset();
   result_ = std::move(status);
   record_.EndFailed(result_.code());
@@ -284,7 +287,7 @@ Status FrameJob::EncodeInstance(uint32_t i, std::span<const float> positions,
 void FrameJob::SetCommonHeader(bool with_timing) {
   header_.Clear();
   header_.set_frame(frame_);
-  header_.set_total_vertices(mesh_.vertex_count);
+  header_.set_total_vertices(vertices_);
   header_.set_instances(instances_);
   header_.set_encoding(ToWire(encoding_));
   if (!with_timing) return;
@@ -366,7 +369,7 @@ Status FrameJob::MarkInstanceReady(uint32_t instance) {
 }
 Status FrameJob::WriteRegionHeader() {
   header_.set_first_vertex(0);
-  header_.set_vertex_count(mesh_.vertex_count);
+  header_.set_vertex_count(vertices_);
   header_.set_instance(0);
   header_.set_instance_count(instances_);
   header_.set_last(true);
@@ -379,7 +382,7 @@ Status FrameJob::WriteRegionHeader() {
   write->set_region(region_->name());
   write->set_positions_offset(region_positions_);
   write->set_normals_offset(region_normals_);
-  write->set_instance_bytes(EncodedBytes(encoding_, mesh_.vertex_count));
+  write->set_instance_bytes(EncodedBytes(encoding_, vertices_));
   write->set_end_offset(region_end_);
   const std::size_t size = header_.ByteSizeLong();
   if (size > header_room_) {
@@ -394,7 +397,7 @@ Status FrameJob::WriteRegionHeader() {
 void FrameJob::SetErrorPart() {
   header_.Clear();
   header_.set_frame(frame_);
-  header_.set_total_vertices(mesh_.vertex_count);
+  header_.set_total_vertices(vertices_);
   header_.set_instances(instances_);
   header_.mutable_error()->set_code(ToGrpc(result_).error_code());
   header_.mutable_error()->set_message(result_.message());
@@ -447,7 +450,7 @@ const grpc::ByteBuffer* FrameJob::NextPart(bool* last) {
   const std::size_t bytes_per_vertex = EncodedBytes(encoding_, 1);
   const std::size_t payload = std::size_t{r.count} * r.instances * bytes_per_vertex;
   const std::size_t offset =
-      (static_cast<std::size_t>(r.instance) * mesh_.vertex_count + r.first) * bytes_per_vertex;
+      (static_cast<std::size_t>(r.instance) * vertices_ + r.first) * bytes_per_vertex;
   const std::size_t header = headers_offset_ + p * header_room_;
   const PartHeader& h = headers_[p];
   grpc::Slice slices[4] = {wire_slice_.sub(header, header + h.size),

@@ -62,8 +62,8 @@ class FrameJob final : public SkinJob {
   // buffers (mesh, encoding, batch limits, budget, the output region's range), decodes
   // the palette and sizes the outputs. Then Engine::Submit(this). Non-OK: the frame
   // failed before the engine. `regions` is null when shared memory is off.
-  Status Prepare(const v1::SkinRequest& request, const Engine& engine,
-                 const std::string& default_backend, RegionRegistry* regions);
+  Status Prepare(const v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
+                 RegionRegistry* regions);
   // The frame failed before the engine: it is answered with `status`.
   void Fail(Status status);
 
@@ -112,7 +112,7 @@ class FrameJob final : public SkinJob {
   InflightBudget* const budget_;
   uint64_t charged_ = 0;  // bytes of this job's buffers charged to the budget
 
-  MeshInfo mesh_;
+  uint32_t vertices_ = 0;  // per instance: the planned mesh's
   uint64_t frame_ = 0;
   uint32_t instances_ = 1;
   bool want_normals_ = false;

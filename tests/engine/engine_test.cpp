@@ -198,6 +198,69 @@ TEST(EngineTest, ScratchOutputIsRefusedWhereItCannotWork) {
   EXPECT_NE(s.message().find("over the limit of 1048576"), std::string::npos) << s.message();
 }
 
+// A job planned by Engine::Plan: the mesh is looked up and pinned once, so a frame planned
+// before its mesh is deleted is still skinned; what the plan checks fails before any
+// buffer is sized, naming it; a dropped plan unpins the mesh.
+class PlannedJob final : public SkinJob {
+ public:
+  void Drop() { DropPlan(); }
+  std::promise<Status> done;
+
+ private:
+  void OnSkinned(Status status, const FrameTiming&) override { done.set_value(status); }
+};
+
+TEST(EngineTest, APlannedFrameUsesItsPinnedMeshAndPlansFailNamingWhy) {
+  auto engine = MakeEngine();
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 500, .influences = 2});
+  auto info = engine->AddMesh(arrays);
+  ASSERT_TRUE(info.ok());
+  PlannedJob job;
+  job.request.mesh_id = info->id;
+  job.request.backend = "serial";
+  ASSERT_TRUE(engine->Plan(&job).ok());
+  EXPECT_TRUE(job.plan().planned);
+  EXPECT_EQ(job.plan().vertex_count, 500u);
+  EXPECT_EQ(job.plan().joint_count, info->joint_count);
+  EXPECT_FALSE(job.plan().has_normals);
+  // Deleted after planning: the plan's pin keeps it for this frame.
+  EXPECT_TRUE(engine->DeleteMesh(info->id));
+  const auto palette = MakeSyntheticPalette(info->joint_count, 3, 1);
+  std::vector<float> positions(3 * 500);
+  job.request.palette = palette;
+  job.request.positions = positions;
+  auto done = job.done.get_future();
+  ASSERT_TRUE(engine->Submit(&job).ok());
+  ASSERT_TRUE(done.get().ok());
+  auto mesh = Mesh::Create(arrays).value();
+  EXPECT_TRUE(CompareWithReference(*mesh, palette, positions, {}).within_tolerance());
+  EXPECT_FALSE(job.plan().planned) << "done: the plan is gone with the frame";
+
+  auto again = engine->AddMesh(arrays);
+  ASSERT_TRUE(again.ok());
+  PlannedJob bad;
+  bad.request.mesh_id = again->id;
+  bad.request.backend = "no-such";
+  EXPECT_NE(engine->Plan(&bad).message().find("no-such"), std::string::npos);
+  bad.request.backend = "passthrough";  // linear only
+  bad.request.method = SkinningMethod::kDualQuaternion;
+  EXPECT_EQ(engine->Plan(&bad).code(), StatusCode::kInvalidArgument);
+  bad.request.method = SkinningMethod::kLinear;
+  bad.request.backend = "serial";
+  bad.request.mesh_id = "unknown";
+  EXPECT_EQ(engine->Plan(&bad).code(), StatusCode::kNotFound);
+  bad.request.mesh_id = again->id;
+  bad.request.instances = 65;
+  EXPECT_NE(engine->Plan(&bad).message().find("instances = 65"), std::string::npos);
+  EXPECT_FALSE(bad.plan().planned);
+  bad.request.instances = 1;
+  ASSERT_TRUE(engine->Plan(&bad).ok());
+  bad.Drop();
+  EXPECT_FALSE(bad.plan().planned);
+  EXPECT_TRUE(engine->DeleteMesh(again->id));
+  EXPECT_EQ(engine->Plan(&bad).code(), StatusCode::kNotFound) << "unpinned and deleted";
+}
+
 TEST(EngineTest, DedupesMeshesByContent) {
   auto engine = MakeEngine();
   const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 10});

@@ -11,8 +11,8 @@
 
 #include "compute_pool.h"
 #include "mesh_store.h"
-#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/engine/backend_registry.h"
+#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/model/palette.h"
 
 namespace skinserve {
@@ -200,8 +200,7 @@ class Engine::Impl {
     return frame;
   }
 
-  Status Submit(SkinJob* job, void (*run)(void*, uint32_t, int)) {
-    if (shut_down_.load()) return Unavailable("the engine is shutting down");
+  Status Plan(SkinJob* job) {
     const SkinRequest& request = job->request;
     Result<std::size_t> backend_index = FindBackend(request.backend);
     if (!backend_index.ok()) return backend_index.status();
@@ -212,18 +211,47 @@ class Engine::Impl {
           fmt::format("mesh '{}' is not stored on this server; upload it again", request.mesh_id));
     }
     const Mesh& mesh = *entry->mesh();
+    if (Status s = CheckBatch(mesh.vertex_count(), std::max<uint32_t>(request.instances, 1));
+        !s.ok()) {
+      return s;
+    }
+    job->backend_index_ = *backend_index;
+    job->lease_ = std::move(entry);
+    job->plan_ = {.planned = true,
+                  .vertex_count = mesh.vertex_count(),
+                  .joint_count = mesh.joint_count(),
+                  .has_normals = mesh.has_normals()};
+    return Status::Ok();
+  }
+
+  Status Submit(SkinJob* job, void (*run)(void*, uint32_t, int)) {
+    if (shut_down_.load()) {
+      job->DropPlan();
+      return Unavailable("the engine is shutting down");
+    }
+    if (!job->plan_.planned) {
+      if (Status s = Plan(job); !s.ok()) return s;
+    }
+    Status status = Queue(job, run);
+    if (!status.ok()) job->DropPlan();
+    return status;
+  }
+
+  // Queues a planned job once the rest of its request is checked.
+  Status Queue(SkinJob* job, void (*run)(void*, uint32_t, int)) {
+    const SkinRequest& request = job->request;
+    auto& entry = *static_cast<MeshStore::Entry*>(job->lease_.get());
+    const Mesh& mesh = *entry.mesh();
     const uint32_t instances = std::max<uint32_t>(request.instances, 1);
     if (Status s = Check(request, mesh, instances); !s.ok()) return s;
 
-    const BackendInfo& info = backends_[*backend_index]->info();
+    const BackendInfo& info = backends_[job->backend_index_]->info();
     job->engine_ = this;
-    job->backend_index_ = *backend_index;
     job->vertex_count_ = mesh.vertex_count();
     job->submitted_ns_ = NowNs();
     job->started_ns_.store(0);
     job->remaining_.store(instances);
     job->status_ = Status::Ok();
-    job->lease_ = std::move(entry);
     ComputePool::Task task;
     task.run = run;
     task.context = job;
@@ -232,7 +260,6 @@ class Engine::Impl {
     task.min_width = info.min_threads > 0 ? info.min_threads : info.threads;
     task.work = mesh.vertex_count();
     if (!pool_.TrySubmit(task)) {
-      job->lease_.reset();
       if (shut_down_.load()) return Unavailable("the engine is shutting down");
       rejected_.fetch_add(1);
       return ResourceExhausted(fmt::format(
@@ -392,6 +419,8 @@ Status Engine::CheckBatch(uint32_t vertex_count, uint32_t instances) const {
 
 bool Engine::DeleteMesh(const std::string& id) { return impl_->store_.Erase(id); }
 
+Status Engine::Plan(SkinJob* job) { return impl_->Plan(job); }
+
 Status Engine::Submit(SkinJob* job) { return impl_->Submit(job, &Engine::RunPart); }
 
 void Engine::RunPart(void* context, uint32_t instance, int threads) {
@@ -423,6 +452,7 @@ void Engine::RunPart(void* context, uint32_t instance, int threads) {
   Impl::Counters& counters = impl.counters_[job.backend_index_];
   (job.status_.ok() ? counters.frames : counters.errors).fetch_add(1);
   job.lease_.reset();  // unpin before the caller learns the frame is done
+  job.plan_ = {};
   Status result = std::move(job.status_);
   job.status_ = Status::Ok();
   job.OnSkinned(std::move(result), timing);  // may reuse or delete the job: nothing after

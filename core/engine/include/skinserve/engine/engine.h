@@ -88,6 +88,15 @@ constexpr std::size_t ScratchFloatsPerInstance(uint32_t vertex_count, bool norma
 }
 using SkinDone = std::function<void(Status, FrameTiming)>;
 
+// What Engine::Plan found for a frame: its mesh's shape. While a job holds a plan its mesh
+// stays stored (pinned), until the frame is done or the plan is dropped.
+struct FramePlan {
+  bool planned = false;
+  uint32_t vertex_count = 0;
+  uint32_t joint_count = 0;
+  bool has_normals = false;
+};
+
 // A frame the caller owns and reuses frame after frame, so that the steady-state path
 // allocates nothing: fill `request`, Engine::Submit(job); OnInstanceSkinned runs once per
 // instance skinned without error, and OnSkinned once, after every instance. Resubmit only
@@ -100,8 +109,15 @@ class SkinJob {
   virtual ~SkinJob() = default;
 
   SkinRequest request;
+  // Set by Engine::Plan (and by Submit for a job not planned before).
+  const FramePlan& plan() const { return plan_; }
 
  protected:
+  // Lets go of a plan whose frame will not be submitted (the mesh is no longer pinned).
+  void DropPlan() {
+    lease_.reset();
+    plan_ = {};
+  }
   // Runs on the compute thread that skinned `instance`, right after it, while its output is
   // still in that core's cache (e.g. to encode it); other instances' calls may run at the
   // same time on other threads. `positions` and `normals` (empty without normals) are the
@@ -119,6 +135,7 @@ class SkinJob {
   friend class Engine;
   // The engine's bookkeeping for the frame in flight.
   std::shared_ptr<void> lease_;  // pins the mesh
+  FramePlan plan_;
   void* engine_ = nullptr;
   std::size_t backend_index_ = 0;
   uint32_t vertex_count_ = 0;
@@ -180,12 +197,18 @@ class Engine {
   Status CheckBatch(uint32_t vertex_count, uint32_t instances) const;
   bool DeleteMesh(const std::string& id);
 
-  // Checks the request (unknown mesh: NOT_FOUND; unknown or unavailable backend, bad
-  // palette or output sizes, too many instances, a method the backend lacks, for
-  // dual-quaternion a joint that is not rigid: INVALID_ARGUMENT naming the instance;
-  // full queue: RESOURCE_EXHAUSTED; shut down: UNAVAILABLE) and queues it. On OK,
-  // OnSkinned is called exactly once, on a compute thread; on an error, never.
+  // Checks what a frame needs known before its buffers are sized, from job->request's
+  // mesh_id, backend, method and instances: the backend (unknown or unavailable, or
+  // without the method: INVALID_ARGUMENT), the mesh (NOT_FOUND: upload it again), the
+  // batch (instances, instances x vertices: INVALID_ARGUMENT); pins the mesh and fills
+  // job->plan(). A caller that plans looks the mesh up once: Submit uses the plan.
   // Allocates nothing.
+  Status Plan(SkinJob* job);
+  // Plans the job unless it was planned, checks the rest of the request (palette and
+  // output sizes, for dual-quaternion a joint that is not rigid: INVALID_ARGUMENT naming
+  // the instance; full queue: RESOURCE_EXHAUSTED; shut down: UNAVAILABLE) and queues it.
+  // On OK, OnSkinned is called exactly once, on a compute thread; on an error, never, and
+  // the plan is dropped. Allocates nothing.
   Status Submit(SkinJob* job);
   // The same for a request and a callback (allocates the job: for tools and tests).
   Status Submit(SkinRequest request, SkinDone done);
