@@ -48,7 +48,9 @@ int Twist(const CommonOptions& common, const TwistOptions& o) {
   const TwistCylinder cylinder = MakeTwistCylinder();
   const auto local = Mesh::Create(cylinder.mesh);
   if (!local.ok()) return Report(local.status());
-  client::SkinClient client(client::MakeChannel(common.target));
+  auto channel = common.Channel();
+  if (!channel.ok()) return Report(channel.status());
+  client::SkinClient client(*channel, common.Limits());
   auto info = client.Upload(cylinder.mesh);
   if (!info.ok()) return Report(info.status());
   // One camera for every frame: the rest pose, with room for nothing to leave it.
