@@ -5,6 +5,7 @@
 #include <signal.h>
 
 #include <atomic>
+#include <fstream>
 #include <map>
 #include <thread>
 
@@ -34,7 +35,21 @@ class DeadlinesTest : public ::testing::Test {
   void TearDown() override {
     if (server_ && server_->pid() > 0) kill(server_->pid(), SIGCONT);
   }
-  void Freeze() { ASSERT_EQ(kill(server_->pid(), SIGSTOP), 0); }
+  // SIGSTOP is delivered asynchronously: wait until the kernel says the process stopped
+  // (state 'T' in /proc/PID/stat), so nothing it answers afterwards is a race.
+  void Freeze() {
+    ASSERT_EQ(kill(server_->pid(), SIGSTOP), 0);
+    const std::string stat = "/proc/" + std::to_string(server_->pid()) + "/stat";
+    for (int i = 0; i < 1000; ++i) {
+      std::ifstream in(stat);
+      std::string line;
+      std::getline(in, line);
+      const std::size_t close = line.rfind(')');
+      if (close != std::string::npos && close + 2 < line.size() && line[close + 2] == 'T') return;
+      std::this_thread::sleep_for(1ms);
+    }
+    FAIL() << "the server did not stop within 1 s of SIGSTOP";
+  }
 
   // Streams frames until the stream ends; the server is frozen once `answered_before`
   // frames came back. Returns the stream's status; `frozen` and `ended` when that happened.

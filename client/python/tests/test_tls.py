@@ -119,6 +119,19 @@ def test_unreadable_files_name_the_option(certs):
                          tls_cert=str(certs / "renderer.pem"))
 
 
+def freeze(process):
+    """SIGSTOP, then wait until the kernel says the process stopped (delivery is
+    asynchronous: without the wait it may still answer a call)."""
+    process.send_signal(signal.SIGSTOP)
+    deadline = time.monotonic() + 1
+    while time.monotonic() < deadline:
+        with open(f"/proc/{process.pid}/stat") as f:
+            if f.read().rsplit(")", 1)[1].split()[0] == "T":
+                return
+        time.sleep(0.001)
+    raise AssertionError("the server did not stop within 1 s of SIGSTOP")
+
+
 def test_a_frozen_server_ends_calls_and_streams_in_time(binary, rng, tmp_path):
     """SIGSTOP: the server's kernel keeps the connection, nothing answers. A call ends at
     its timeout, a stream at its idle limit (keepalive off here)."""
@@ -131,7 +144,7 @@ def test_a_frozen_server_ends_calls_and_streams_in_time(binary, rng, tmp_path):
             palettes = [random_palette(rng, JOINTS) for _ in range(400)]
             frames = client.stream(mesh_id, palettes, backend="sse", window=4)
             next(frames)
-            process.send_signal(signal.SIGSTOP)
+            freeze(process)
             started = time.monotonic()
             with pytest.raises(skinserve.SkinserveError) as idle:
                 for _ in frames:
