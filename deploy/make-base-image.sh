@@ -11,7 +11,8 @@ image=docker.io/library/debian:bookworm-slim
 mirror="${DEBIAN_MIRROR:-http://deb.debian.org/debian}"
 
 if [ "${1:-}" != "--force" ] && podman image exists "$image"; then
-  echo "make-base-image: $image already present"
+  echo "make-base-image: $image already present, digest" \
+    "$(podman image inspect --format '{{.Digest}}' "$image")"
   exit 0
 fi
 
@@ -53,3 +54,6 @@ rm -rf "$rootfs"/usr/share/man/* "$rootfs"/usr/share/info/* "$rootfs"/usr/share/
 
 tar -C "$rootfs" -c . | podman import - "$image" >/dev/null
 echo "make-base-image: imported $image ($(podman image inspect --format '{{.Size}}' "$image") bytes)"
+# deploy/Dockerfile pins its base by digest: build on this one with
+#   --build-arg BASE_IMAGE=docker.io/library/debian@<digest>
+echo "make-base-image: digest $(podman image inspect --format '{{.Digest}}' "$image")"

@@ -1,9 +1,14 @@
 #!/usr/bin/env bash
 # Smoke test of the container image, for real, with podman:
-#   1. builds deploy/Dockerfile (making the local Debian base image first when missing),
-#   2. starts the server container (detached, host network, on a free loopback port),
-#   3. waits for SERVING through the image's own HEALTHCHECK (grpc.health.v1),
+#   1. builds deploy/Dockerfile (making the local Debian base image first when missing) on
+#      that base image pinned by its digest,
+#   2. starts the server container (detached, host network, on a free loopback port) with
+#      mutual TLS on TCP (certificates made here, mounted read-only) and a CPU and memory
+#      limit, which it must read from its cgroup,
+#   3. waits for SERVING through the image's own HEALTHCHECK (grpc.health.v1, over the
+#      plaintext Unix socket),
 #   4. runs the image's load client against it on every backend with correctness checks,
+#      over mutual TLS (and checks a plaintext client is refused),
 #   5. runs the load client as a same-host client in a second container: the two share a
 #      memory-backed volume (the server's --shm-dir and its Unix socket), gRPC goes over
 #      the socket and every frame is written into the client's shared-memory regions,
@@ -112,8 +117,12 @@ if [ "${SKINSERVE_SMOKE_NO_BUILD:-0}" = 1 ] && podman image exists "$image"; the
 else
   say "building $image from deploy/Dockerfile (compiles the three binaries; ~10 min on 2 cores)"
   start=$(date +%s)
+  # The Dockerfile pins Docker Hub's image by digest; here the local one, by its own digest.
+  base_digest=$(podman image inspect --format '{{.Digest}}' docker.io/library/debian:bookworm-slim)
+  say "base image docker.io/library/debian@$base_digest (the local bookworm-slim)"
   if ! podman build --pull=never --isolation chroot --network host --format docker \
-      --build-arg VERSION="$version" -f "$root/deploy/Dockerfile" -t "$image" "$root" \
+      --build-arg VERSION="$version" --build-arg BASE_IMAGE="docker.io/library/debian@$base_digest" \
+      -f "$root/deploy/Dockerfile" -t "$image" "$root" \
       >"$work/build.log" 2>&1; then
     tail -60 "$work/build.log"
     fail "podman build failed (last lines above)"
@@ -132,21 +141,36 @@ podman image inspect --format '{{.HealthCheck}}' "$image" | grep -q skinserve-cl
 size=$(podman image inspect --format '{{.Size}}' "$image")
 say "image $image: version $label, user $user, size $((size / 1000000)) MB"
 
+# No debugging tools in the runtime image.
+for tool in clinfo gdb strace curl; do
+  if podman_run --rm --no-healthcheck --entrypoint sh "$image" -c "command -v $tool" >/dev/null 2>&1; then
+    fail "the runtime image has $tool"
+  fi
+done
+
 # ---- run -------------------------------------------------------------------------------
 port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+# Certificates for mutual TLS, readable by the image's user (10001): test keys only.
+bash "$root/scripts/make-dev-certs.sh" "$work/certs" renderer >/dev/null
+chmod 0755 "$work/certs" && chmod 0644 "$work/certs"/*
+tls_mount=(-v "$work/certs:/etc/skinserve/tls:ro")
+client_tls=(--tls-ca /etc/skinserve/tls/ca.pem --tls-cert /etc/skinserve/tls/renderer.pem
+  --tls-key /etc/skinserve/tls/renderer.key)
 drain=10
-say "starting $name on 127.0.0.1:$port and unix:/run/skinserve/grpc.sock (read-only root, a" \
-  "PoCL cache volume, a tmpfs volume for same-host clients, as in k8s/)"
+say "starting $name on 127.0.0.1:$port (mutual TLS) and unix:/run/skinserve/grpc.sock (read-only" \
+  "root, a PoCL cache volume, a tmpfs volume for same-host clients, 1 CPU and 2 GiB, as in k8s/)"
 podman volume create --opt type=tmpfs --opt device=tmpfs --opt o=uid=10001,gid=10001,mode=0770 \
   "$run_volume" >/dev/null
 # Without systemd podman cannot put the HEALTHCHECK on a timer and says so on stderr (kept
 # aside, shown on failure); this test runs the check itself with `podman healthcheck run`.
-podman_run -d --name "$name" \
+podman_run -d --name "$name" --cpus 1 --memory 2g \
   --read-only --mount "type=volume,source=$volume,destination=/var/cache/pocl" \
-  --mount "type=volume,source=$run_volume,destination=/run/skinserve" \
+  --mount "type=volume,source=$run_volume,destination=/run/skinserve" "${tls_mount[@]}" \
   -e SKINSERVE_LISTEN="127.0.0.1:$port,unix:/run/skinserve/grpc.sock" \
+  -e SKINSERVE_TLS_CERT=/etc/skinserve/tls/server.pem -e SKINSERVE_TLS_KEY=/etc/skinserve/tls/server.key \
+  -e SKINSERVE_TLS_CLIENT_CA=/etc/skinserve/tls/ca.pem \
   -e SKINSERVE_SHM_DIR=/run/skinserve -e SKINSERVE_DRAIN_SECONDS="$drain" \
-  -e SKINSERVE_THREADS=2 "$image" >/dev/null 2>"$work/run-server.err" || {
+  "$image" >/dev/null 2>"$work/run-server.err" || {
   cat "$work/run-server.err"
   fail "podman run of the server failed"
 }
@@ -160,11 +184,23 @@ until podman healthcheck run "$name" >/dev/null 2>&1; do
   sleep 1
 done
 say "healthy after $(($(date +%s) - start)) s:" \
-  "$(podman exec "$name" skinserve-cli --target "127.0.0.1:$port" health 2>&1 | tr '\n' ' ')"
+  "$(podman exec "$name" skinserve-cli --target "127.0.0.1:$port" "${client_tls[@]}" health 2>&1 | tr '\n' ' ')"
+# The limits came from the cgroup: the server says what it sized itself from.
+sizing=$(podman logs "$name" 2>&1 | grep -m1 'compute threads' || true)
+echo "  | ${sizing#*] }"
+case "$sizing" in
+  *"cgroup CPU limit 1)"*"cgroup memory limit 2048 MiB"*) ;;
+  *) fail "the server did not size itself from the container's cgroup (--cpus 1 --memory 2g)" ;;
+esac
+if podman exec "$name" skinserve-cli --target "127.0.0.1:$port" --deadline-seconds 5 backends \
+    >"$work/plaintext.txt" 2>&1; then
+  fail "a plaintext client was served by the mutual-TLS port"
+fi
+say "plaintext client refused: $(tail -1 "$work/plaintext.txt")"
 
 # SERVING means every backend was built; an OpenCL backend that failed to build (e.g. an
 # unwritable PoCL cache) would still leave the server SERVING, degraded. Not here.
-podman exec "$name" skinserve-cli --target "127.0.0.1:$port" backends >"$work/backends.txt"
+podman exec "$name" skinserve-cli --target "127.0.0.1:$port" "${client_tls[@]}" backends >"$work/backends.txt"
 sed 's/^/  /' "$work/backends.txt"
 unavailable=$(awk 'NR > 1 && $2 == "no" { print $1 }' "$work/backends.txt" | tr '\n' ' ')
 [ -z "$unavailable" ] || fail "backends unavailable in the container: $unavailable"
@@ -176,9 +212,9 @@ done
 # The load client from the image, writing its JSON report into $work.
 chmod 0777 "$work"
 run_load() {
-  podman_run --rm --name "$load_name" --no-healthcheck -v "$work:/out" \
+  podman_run --rm --name "$load_name" --no-healthcheck -v "$work:/out" "${tls_mount[@]}" \
     --entrypoint skinserve-load "$image" \
-    --target "127.0.0.1:$port" "$@"
+    --target "127.0.0.1:$port" "${client_tls[@]}" "$@"
 }
 # The load client as a same-host client: in its own container, sharing the server's tmpfs
 # volume (its --shm-dir and socket), nothing else: no host path, no network needed.
@@ -190,7 +226,8 @@ run_same_host_load() {
 }
 
 # ---- load on every backend, with correctness checks ------------------------------------
-say "load: every backend, ${duration} s each, 2 streams, every answer checked against the reference"
+say "load: every backend, ${duration} s each, 2 streams, over mutual TLS, every answer checked" \
+  "against the reference"
 if ! run_load --backends all --vertices 20000 --streams 2 --warmup 0.5 --duration "$duration" \
     --check-every 1 --json /out/load.json >"$work/load.out" 2>&1; then
   cat "$work/load.out"
@@ -234,7 +271,7 @@ print("smoke: same host, shared memory:",
       ", ".join(f"{r['backend']} {r['checked']}/{r['frames']}" for r in shm))
 sys.exit(1 if bad or len(shm) != 2 else 0)
 PY
-regions=$(podman exec "$name" skinserve-cli --target "127.0.0.1:$port" regions | tail -1)
+regions=$(podman exec "$name" skinserve-cli --target unix:/run/skinserve/grpc.sock regions | tail -1)
 echo "  $regions"
 case "$regions" in "0 regions"*) ;; *) fail "regions left registered after the client ended" ;; esac
 

@@ -17,7 +17,7 @@ BUILD_PACKAGES=(
 )
 # What the binaries need at run time (the container's runtime stage uses this list).
 RUNTIME_PACKAGES=(
-  pocl-opencl-icd ocl-icd-libopencl1 clinfo
+  pocl-opencl-icd ocl-icd-libopencl1
   libgrpc++1.51 libprotobuf32 libspdlog1.10 libfmt9 libgomp1 libtinygltf2d libcairo2 libssl3
 )
 # The interop test (a client nobody here wrote), the plots, and the documentation site
@@ -35,6 +35,9 @@ GPU_PACKAGES=(
 DEPLOY_PACKAGES=(
   yamllint podman runc debootstrap
 )
+# Security (issue 27): openssl makes the tests' certificates (scripts/make-dev-certs.sh);
+# clinfo lists OpenCL platforms when debugging a machine (not in the runtime image).
+TEST_PACKAGES+=(openssl clinfo)
 # Operations (issue 15): the metrics endpoint's HTTP server (cpp-httplib); promtool
 # (prometheus) and curl to check the exposition; the Python client's venv, pip install and
 # pytest (Debian's grpcio and numpy are its runtime).

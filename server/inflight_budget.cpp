@@ -4,8 +4,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <fstream>
 #include <string>
+
+#include "cgroup_limits.h"
 
 namespace skinserve::server {
 
@@ -27,14 +28,7 @@ Status InflightBudget::TryCharge(uint64_t bytes) {
 uint64_t InflightBudget::DefaultLimitBytes() {
   const long pages = sysconf(_SC_PHYS_PAGES), page_size = sysconf(_SC_PAGE_SIZE);
   uint64_t memory = pages > 0 && page_size > 0 ? uint64_t(pages) * uint64_t(page_size) : 4ull << 30;
-  std::ifstream cgroup("/sys/fs/cgroup/memory.max");  // cgroup v2; "max" when unlimited
-  std::string limit;
-  if (cgroup >> limit && limit != "max") {
-    try {
-      memory = std::min<uint64_t>(memory, std::stoull(limit));
-    } catch (const std::exception&) {  // unreadable: keep physical memory
-    }
-  }
+  if (const auto limit = ReadCgroupLimits().memory_bytes) memory = std::min(memory, *limit);
   return std::max<uint64_t>(memory / 4, 64ull << 20);
 }
 

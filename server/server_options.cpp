@@ -2,20 +2,32 @@
 
 #include <sched.h>
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <thread>
 
+#include "cgroup_limits.h"
 #include "inflight_budget.h"
 
 namespace skinserve::server {
 
 namespace {
 
-// The cores this process may run on (taskset, a container's cpuset), not the machine's.
-int UsableCores() {
+// The cores this process may run on (taskset, a container's cpuset).
+int AffinityCores() {
   cpu_set_t set;
-  if (sched_getaffinity(0, sizeof(set), &set) == 0) return std::max(1, CPU_COUNT(&set));
-  return std::max(1u, std::thread::hardware_concurrency());
+  return sched_getaffinity(0, sizeof(set), &set) == 0
+             ? std::max(1, CPU_COUNT(&set))
+             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+// The cores this process may use: those it may run on, no more than its cgroup's CPU quota
+// rounded up (a container's CPU limit), not the machine's.
+int UsableCores() {
+  int cores = AffinityCores();
+  if (const auto quota = ReadCgroupLimits().whole_cpus()) cores = std::min(cores, *quota);
+  return cores;
 }
 
 }  // namespace
@@ -23,6 +35,20 @@ int UsableCores() {
 int ServerOptions::ComputeThreads() const {
   if (threads > 0) return threads;
   return std::max(1, UsableCores() - 1);
+}
+
+std::string ServerOptions::DescribeSizing() const {
+  const CgroupLimits cgroup = ReadCgroupLimits();
+  const std::string cpu_limit =
+      cgroup.cpus ? fmt::format("cgroup CPU limit {:g}", *cgroup.cpus) : "no cgroup CPU limit";
+  const std::string memory_limit =
+      cgroup.memory_bytes ? fmt::format("cgroup memory limit {} MiB", *cgroup.memory_bytes >> 20)
+                          : "no cgroup memory limit";
+  return fmt::format(
+      "compute threads {} ({}usable cores {}: affinity {}, {}); in-flight budget {} MiB ({}{})",
+      ComputeThreads(), threads > 0 ? "--threads; " : "", UsableCores(), AffinityCores(), cpu_limit,
+      InflightBudgetBytes() >> 20, inflight_budget_mb > 0 ? "--inflight-budget-mb; " : "",
+      memory_limit);
 }
 
 uint64_t ServerOptions::InflightBudgetBytes() const {
@@ -38,6 +64,27 @@ RegionLimits ServerOptions::ToRegionLimits() const {
   limits.max_per_connection = shm_max_regions_per_connection;
   limits.idle_seconds = shm_idle_seconds;
   return limits;
+}
+
+Status ServerOptions::CheckSecurity() const {
+  if (tls_cert.empty() != tls_key.empty()) {
+    return InvalidArgument(
+        fmt::format("--tls-cert and --tls-key go together: --tls-cert is '{}', --tls-key '{}'",
+                    tls_cert, tls_key));
+  }
+  if (!tls_client_ca.empty() && tls_cert.empty()) {
+    return InvalidArgument(
+        fmt::format("--tls-client-ca '{}' needs --tls-cert and --tls-key: mutual TLS is TLS first",
+                    tls_client_ca));
+  }
+  for (const auto& [flag, seconds] :
+       {std::pair{"--tls-refresh-seconds", tls_refresh_seconds},
+        std::pair{"--authz-refresh-seconds", authz_refresh_seconds}}) {
+    if (!(seconds >= 1 && seconds <= 86400)) {
+      return InvalidArgument(fmt::format("{} is {}: from 1 to 86400", flag, seconds));
+    }
+  }
+  return Status::Ok();
 }
 
 uint64_t ServerOptions::UploadBudgetBytes() const {
@@ -65,7 +112,8 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->capture_default_str();
   app.add_option("--threads", o.threads,
                  "compute threads doing skinning, for all streams together (0: one per usable "
-                 "core less one, at least one: the rest is left to gRPC's threads)")
+                 "core less one, at least one: the rest is left to gRPC's threads; usable: the "
+                 "cores this process may run on, at most its cgroup's CPU quota rounded up)")
       ->envname("SKINSERVE_THREADS")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -198,6 +246,38 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "that went away leaves nothing mapped)")
       ->envname("SKINSERVE_SHM_IDLE_SECONDS")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--tls-cert", o.tls_cert,
+                 "PEM certificate chain of the server: TLS on every host:port address (unix: "
+                 "addresses stay plaintext, guarded by their folder's permissions); re-read when "
+                 "the file changes")
+      ->envname("SKINSERVE_TLS_CERT");
+  app.add_option("--tls-key", o.tls_key, "PEM private key of --tls-cert")
+      ->envname("SKINSERVE_TLS_KEY");
+  app.add_option("--tls-client-ca", o.tls_client_ca,
+                 "PEM CA certificates: mutual TLS, every TCP client must present a certificate "
+                 "they signed (its subject and SANs are what --authz-policy names)")
+      ->envname("SKINSERVE_TLS_CLIENT_CA");
+  app.add_option("--tls-refresh-seconds", o.tls_refresh_seconds,
+                 "how often the --tls-* files are checked for changes; new connections use what "
+                 "was read last, open ones keep theirs")
+      ->envname("SKINSERVE_TLS_REFRESH_SECONDS")
+      ->capture_default_str();
+  app.add_option("--authz-policy", o.authz_policy,
+                 "authorization policy in gRPC's format (JSON: allow_rules and deny_rules by "
+                 "method path and client certificate principal), checked when each call of "
+                 "skinserve.v1.Skinning starts (health stays open to all); calls it denies end "
+                 "PERMISSION_DENIED; re-read when the file changes (empty: every client may "
+                 "call every method)")
+      ->envname("SKINSERVE_AUTHZ_POLICY");
+  app.add_option("--authz-refresh-seconds", o.authz_refresh_seconds,
+                 "how often the --authz-policy file is checked for changes")
+      ->envname("SKINSERVE_AUTHZ_REFRESH_SECONDS")
+      ->capture_default_str();
+  app.add_option("--reflection", o.reflection,
+                 "serve gRPC server reflection (grpc.reflection.v1alpha), which lists the "
+                 "service's methods to anyone who may call it")
+      ->envname("SKINSERVE_REFLECTION")
       ->capture_default_str();
   app.add_option("--keepalive-seconds", o.keepalive_seconds,
                  "ping an idle connection after this long, to find peers that are gone")

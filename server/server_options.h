@@ -48,6 +48,16 @@ struct ServerOptions {
   uint32_t shm_max_regions = 256;
   uint32_t shm_max_regions_per_connection = 16;
   double shm_idle_seconds = 60;
+  // Transport security (docs/security.md): TLS on every TCP address when a certificate is
+  // given, mutual TLS when a client CA is given too; unix: addresses stay plaintext. The
+  // files are re-read every tls_refresh_seconds, so mounted secrets rotate without a restart.
+  std::string tls_cert, tls_key, tls_client_ca;
+  double tls_refresh_seconds = 60;
+  // An authorization policy in gRPC's format (authz_policy.h), re-read every
+  // authz_refresh_seconds; empty: none.
+  std::string authz_policy;
+  double authz_refresh_seconds = 60;
+  bool reflection = true;
   // Uploads (see OpenUploads): what their arrays may hold together, how many may be open
   // at once (over all connections and per connection), and how long one may send nothing.
   uint64_t upload_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
@@ -60,9 +70,14 @@ struct ServerOptions {
   // of a frame's work (messages, copies, the socket) and must not wait for cores that
   // compute threads hold.
   int ComputeThreads() const;
+  // What the threads and the in-flight budget were sized from, for the start-up log:
+  // "compute threads 1 (usable cores 2: affinity 2, cgroup CPU limit 1.5), ...".
+  std::string DescribeSizing() const;
   uint64_t InflightBudgetBytes() const;
   RegionLimits ToRegionLimits() const;
   uint64_t UploadBudgetBytes() const;
+  // The combinations of the TLS and policy options that cannot work, each named.
+  Status CheckSecurity() const;
 };
 
 // Registers the options on `app`, each with its SKINSERVE_* environment variable.

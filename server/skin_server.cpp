@@ -4,14 +4,17 @@
 #include <fmt/ranges.h>
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/impl/server_builder_option.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <thread>
 
+#include "authz_policy_file.h"
 #include "log_format.h"
 #include "metrics_frames.h"
 #include "metrics_text.h"
+#include "server_tls.h"
 
 namespace skinserve::server {
 namespace {
@@ -20,7 +23,37 @@ namespace {
 // shutdown may close the connections (see Shutdown). Loopback needs well under 1 ms.
 constexpr std::chrono::milliseconds kStatusLinger{100};
 
+// Clients may send keepalive pings this often on a connection the server sends nothing on
+// (gRPC's default, 5 minutes, answers a client pinging every 10 s with GOAWAY
+// "too_many_pings" after two pings). The client library pings every 10 s.
+constexpr int kMinClientPingIntervalMs = 1000;
+
+// --reflection=false: gRPC registers reflection as a plugin of every ServerBuilder of the
+// process once InitProtoReflectionServerBuilderPlugin ran; this option takes it out again
+// for this server alone.
+class WithoutReflection : public grpc::ServerBuilderOption {
+ public:
+  void UpdateArguments(grpc::ChannelArguments*) override {}
+  void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
+    std::erase_if(*plugins,
+                  [](const auto& plugin) { return plugin->name() == "proto_server_reflection"; });
+  }
+};
+
+std::string DescribeSecurity(const ServerOptions& options) {
+  if (options.tls_cert.empty()) return "plaintext";
+  return fmt::format("{} (files re-read every {} s)",
+                     options.tls_client_ca.empty() ? "TLS" : "mutual TLS",
+                     options.tls_refresh_seconds);
+}
+
 }  // namespace
+
+void SkinServer::SetReady(bool ready) {
+  grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService();
+  health->SetServingStatus("", ready);
+  health->SetServingStatus(v1::Skinning::service_full_name(), ready);
+}
 
 Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& options) {
   spdlog::set_level(spdlog::level::from_str(options.log_level));
@@ -31,6 +64,15 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
     if (!regions.ok()) return regions.status();
     server->regions_ = std::move(regions).value();
   }
+  auto tcp_credentials = MakeTcpCredentials(options);
+  if (!tcp_credentials.ok()) return tcp_credentials.status();
+  if (!options.authz_policy.empty()) {
+    auto policy = PolicyFile::Load(
+        options.authz_policy,
+        std::chrono::milliseconds(static_cast<int64_t>(options.authz_refresh_seconds * 1000)));
+    if (!policy.ok()) return policy.status();
+    server->policy_ = std::move(policy).value();
+  }
   server->service_ = std::make_unique<SkinningService>(
       options.default_backend, options.stream_window, options.max_streams,
       options.InflightBudgetBytes(),
@@ -38,13 +80,16 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
                    .max_uploads_per_connection = options.max_uploads_per_connection,
                    .budget_bytes = options.UploadBudgetBytes(),
                    .idle_seconds = options.upload_idle_seconds},
-      server->regions_.get());
+      server->regions_.get(), server->policy_.get());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  if (!options.reflection) builder.SetOption(std::make_unique<WithoutReflection>());
   auto ms = [](double seconds) { return static_cast<int>(std::min(seconds * 1000, 2.0e9)); };
   builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, ms(options.keepalive_seconds));
   builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, ms(options.keepalive_timeout_seconds));
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
+                             kMinClientPingIntervalMs);
   if (options.max_connection_age_seconds > 0) {
     builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS,
                                ms(options.max_connection_age_seconds));
@@ -54,7 +99,9 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   if (options.listen.empty()) return InvalidArgument("--listen names no address");
   std::vector<int> ports(options.listen.size(), 0);
   for (std::size_t i = 0; i < options.listen.size(); ++i) {
-    builder.AddListeningPort(options.listen[i], grpc::InsecureServerCredentials(), &ports[i]);
+    const bool unix_socket = options.listen[i].rfind("unix:", 0) == 0;
+    builder.AddListeningPort(options.listen[i],
+                             unix_socket ? MakeUnixCredentials() : *tcp_credentials, &ports[i]);
   }
   builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
   builder.RegisterService(server->service_.get());
@@ -66,10 +113,19 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
     // The first TCP address's port is the one --port-file reports.
     if (server->port_ == 0 && options.listen[i].rfind("unix:", 0) != 0) server->port_ = ports[i];
   }
-  grpc::HealthCheckServiceInterface* health = server->server_->GetHealthCheckService();
-  health->SetServingStatus(false);
-  spdlog::info("listening on {} (port {}); building backends", fmt::join(options.listen, ", "),
-               server->port_);
+  // Readiness ("" and the service's name) waits for the engine; liveness answers SERVING
+  // from now until the process stops, draining included (docs/deployment.md#probes).
+  server->SetReady(false);
+  server->server_->GetHealthCheckService()->SetServingStatus(kLivenessService, true);
+  spdlog::info(
+      "listening on {} (port {}; TCP {}{}, unix: plaintext; reflection {}); building "
+      "backends",
+      fmt::join(options.listen, ", "), server->port_, DescribeSecurity(options),
+      options.authz_policy.empty()
+          ? ""
+          : fmt::format(", authorization policy {} re-read every {} s", options.authz_policy,
+                        options.authz_refresh_seconds),
+      options.reflection ? "on" : "off");
   // The per-frame histograms feed GetServerStats as well as /metrics: always on.
   FrameMetrics::Enable();
   if (!options.metrics_listen.empty()) {
@@ -81,6 +137,7 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
                  server->metrics_->port());
   }
 
+  spdlog::info("{}", options.DescribeSizing());
   auto engine = Engine::Create(options.ToEngineOptions());
   if (!engine.ok()) return engine.status();
   server->engine_ = std::move(engine).value();
@@ -105,7 +162,7 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
     for (const BackendInfo& b : backends) ids.push_back(b.id);
     frames->SetBackends(ids);
   }
-  health->SetServingStatus(true);
+  server->SetReady(true);
   server->service_->SetServing(true);
   spdlog::info("serving");
   return server;
@@ -117,7 +174,7 @@ void SkinServer::Shutdown(std::chrono::milliseconds grace) {
   std::call_once(shutdown_once_, [&] {
     if (service_) service_->SetServing(false);
     if (server_) {
-      server_->GetHealthCheckService()->SetServingStatus(false);
+      SetReady(false);
       spdlog::info("draining: up to {} ms for in-flight calls", grace.count());
       const auto deadline = std::chrono::steady_clock::now() + grace;
       const bool had_streams = service_->OpenStreamCount() > 0;

@@ -9,11 +9,16 @@
 #include <chrono>
 #include <memory>
 
+#include "authz_policy_file.h"
 #include "metrics_server.h"
 #include "server_options.h"
 #include "skinning_service.h"
 
 namespace skinserve::server {
+
+// The health service's name for liveness: SERVING from the moment the server listens until
+// it stops, whether or not it is ready (the names "" and "skinserve.v1.Skinning" say that).
+inline constexpr char kLivenessService[] = "liveness";
 
 class SkinServer {
  public:
@@ -31,8 +36,10 @@ class SkinServer {
 
  private:
   SkinServer() = default;
+  void SetReady(bool ready);                 // the readiness names of the health service
   std::string RenderMetrics() const;         // on the metrics server's threads
   std::unique_ptr<RegionRegistry> regions_;  // null: shared memory off; outlives service_
+  std::unique_ptr<PolicyFile> policy_;       // null: no --authz-policy; outlives service_
   std::unique_ptr<SkinningService> service_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<Engine> engine_;

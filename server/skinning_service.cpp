@@ -1,5 +1,7 @@
 #include "skinning_service.h"
 
+#include <fmt/format.h>
+
 #include "engine_messages.h"
 #include "mesh_upload_reactor.h"
 #include "skin_reactor.h"
@@ -13,6 +15,14 @@ grpc::ServerUnaryReactor* Done(grpc::CallbackServerContext* context, const Statu
   reactor->Finish(ToGrpc(status));
   return reactor;
 }
+
+// A call refused before it starts (the authorization policy): it finishes at once.
+template <typename Reactor>
+class Refused final : public Reactor {
+ public:
+  explicit Refused(const Status& status) { this->Finish(ToGrpc(status)); }
+  void OnDone() override { delete this; }
+};
 
 const Status kWarmingUp = Unavailable("the server is starting: backends are being built");
 const Status kNoSharedMemory =
@@ -28,8 +38,17 @@ void ToWire(const RegionInfo& info, v1::RegionInfo* wire) {
 
 }  // namespace
 
+Status SkinningService::Authorize(const grpc::CallbackServerContext& context,
+                                  const char* method) const {
+  if (policy_ == nullptr) return Status::Ok();
+  return policy_->Check(context, fmt::format("/{}/{}", v1::Skinning::service_full_name(), method));
+}
+
 grpc::ServerReadReactor<v1::UploadMeshRequest>* SkinningService::UploadMesh(
     grpc::CallbackServerContext* context, v1::MeshInfo* response) {
+  if (Status s = Authorize(*context, "UploadMesh"); !s.ok()) {
+    return new Refused<grpc::ServerReadReactor<v1::UploadMeshRequest>>(s);
+  }
   // The peer address ("ipv4:127.0.0.1:54321") names the client's connection.
   return new MeshUploadReactor(engine_.load(), &open_uploads_, context->peer(), response);
 }
@@ -37,6 +56,7 @@ grpc::ServerReadReactor<v1::UploadMeshRequest>* SkinningService::UploadMesh(
 grpc::ServerUnaryReactor* SkinningService::GetMesh(grpc::CallbackServerContext* context,
                                                    const v1::GetMeshRequest* request,
                                                    v1::MeshInfo* response) {
+  if (Status s = Authorize(*context, "GetMesh"); !s.ok()) return Done(context, s);
   Engine* engine = engine_.load();
   if (engine == nullptr) return Done(context, kWarmingUp);
   auto info = engine->GetMesh(request->mesh_id());
@@ -47,19 +67,26 @@ grpc::ServerUnaryReactor* SkinningService::GetMesh(grpc::CallbackServerContext* 
 grpc::ServerUnaryReactor* SkinningService::DeleteMesh(grpc::CallbackServerContext* context,
                                                       const v1::DeleteMeshRequest* request,
                                                       v1::DeleteMeshResponse* response) {
+  if (Status s = Authorize(*context, "DeleteMesh"); !s.ok()) return Done(context, s);
   Engine* engine = engine_.load();
   if (engine == nullptr) return Done(context, kWarmingUp);
   response->set_deleted(engine->DeleteMesh(request->mesh_id()));
   return Done(context, Status::Ok());
 }
 
-grpc::ServerWriteReactor<grpc::ByteBuffer>* SkinningService::Skin(grpc::CallbackServerContext*,
-                                                                  const grpc::ByteBuffer* request) {
+grpc::ServerWriteReactor<grpc::ByteBuffer>* SkinningService::Skin(
+    grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) {
+  if (Status s = Authorize(*context, "Skin"); !s.ok()) {
+    return new Refused<grpc::ServerWriteReactor<grpc::ByteBuffer>>(s);
+  }
   return new SkinReactor(engine_.load(), default_backend_, *request, &budget_, regions_);
 }
 
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* SkinningService::StreamSkin(
-    grpc::CallbackServerContext*) {
+    grpc::CallbackServerContext* context) {
+  if (Status s = Authorize(*context, "StreamSkin"); !s.ok()) {
+    return new Refused<grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>>(s);
+  }
   return new StreamSkinReactor(engine_.load(), default_backend_, stream_window_, &open_streams_,
                                &budget_, regions_);
 }
@@ -67,6 +94,7 @@ grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* SkinningService::St
 grpc::ServerUnaryReactor* SkinningService::ListBackends(grpc::CallbackServerContext* context,
                                                         const v1::ListBackendsRequest*,
                                                         v1::ListBackendsResponse* response) {
+  if (Status s = Authorize(*context, "ListBackends"); !s.ok()) return Done(context, s);
   Engine* engine = engine_.load();
   if (engine == nullptr) return Done(context, kWarmingUp);
   for (const BackendInfo& info : engine->Backends()) *response->add_backends() = ToWire(info);
@@ -91,6 +119,7 @@ ServerSnapshot SkinningService::Snapshot() const {
 grpc::ServerUnaryReactor* SkinningService::GetServerStats(grpc::CallbackServerContext* context,
                                                           const v1::GetServerStatsRequest*,
                                                           v1::ServerStats* response) {
+  if (Status s = Authorize(*context, "GetServerStats"); !s.ok()) return Done(context, s);
   if (engine_.load() == nullptr) return Done(context, kWarmingUp);
   *response = ToWire(Snapshot());
   return Done(context, Status::Ok());
@@ -99,6 +128,7 @@ grpc::ServerUnaryReactor* SkinningService::GetServerStats(grpc::CallbackServerCo
 grpc::ServerUnaryReactor* SkinningService::RegisterRegion(grpc::CallbackServerContext* context,
                                                           const v1::RegisterRegionRequest* request,
                                                           v1::RegionInfo* response) {
+  if (Status s = Authorize(*context, "RegisterRegion"); !s.ok()) return Done(context, s);
   if (regions_ == nullptr) return Done(context, kNoSharedMemory);
   Result<RegionInfo> info =
       regions_->Register(request->name(), request->key(), request->byte_size(), context->peer());
@@ -109,6 +139,7 @@ grpc::ServerUnaryReactor* SkinningService::RegisterRegion(grpc::CallbackServerCo
 grpc::ServerUnaryReactor* SkinningService::UnregisterRegion(
     grpc::CallbackServerContext* context, const v1::UnregisterRegionRequest* request,
     v1::UnregisterRegionResponse*) {
+  if (Status s = Authorize(*context, "UnregisterRegion"); !s.ok()) return Done(context, s);
   if (regions_ == nullptr) return Done(context, kNoSharedMemory);
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
   // Answered once the last frame writing into the region is done and it is unmapped.
@@ -121,6 +152,7 @@ grpc::ServerUnaryReactor* SkinningService::UnregisterRegion(
 grpc::ServerUnaryReactor* SkinningService::ListRegions(grpc::CallbackServerContext* context,
                                                        const v1::ListRegionsRequest*,
                                                        v1::ListRegionsResponse* response) {
+  if (Status s = Authorize(*context, "ListRegions"); !s.ok()) return Done(context, s);
   if (regions_ == nullptr) return Done(context, kNoSharedMemory);
   for (const RegionInfo& info : regions_->List()) ToWire(info, response->add_regions());
   const RegionLimits& limits = regions_->limits();

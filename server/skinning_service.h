@@ -4,6 +4,7 @@
 #include <atomic>
 #include <string>
 
+#include "authz_policy_file.h"
 #include "inflight_budget.h"
 #include "open_streams.h"
 #include "open_uploads.h"
@@ -31,12 +32,13 @@ class SkinningService final : public SkinningCallbackService {
   // `regions` (null: shared memory is off) outlives the service.
   SkinningService(std::string default_backend, int stream_window, std::size_t max_streams,
                   uint64_t inflight_budget_bytes, const UploadLimits& upload_limits,
-                  RegionRegistry* regions)
+                  RegionRegistry* regions, const PolicyFile* policy = nullptr)
       : default_backend_(std::move(default_backend)),
         stream_window_(stream_window),
         open_streams_(max_streams),
         budget_(inflight_budget_bytes),
         regions_(regions),
+        policy_(policy),
         open_uploads_(upload_limits) {}
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }
@@ -81,6 +83,9 @@ class SkinningService final : public SkinningCallbackService {
                                         v1::ListRegionsResponse* response) override;
 
  private:
+  // OK when there is no policy or it allows `method` ("UploadMesh") for this call's peer.
+  Status Authorize(const grpc::CallbackServerContext& context, const char* method) const;
+
   std::atomic<Engine*> engine_{nullptr};
   std::atomic<bool> serving_{false};
   const std::string default_backend_;
@@ -88,7 +93,8 @@ class SkinningService final : public SkinningCallbackService {
   OpenStreams open_streams_;
   InflightBudget budget_;  // the bytes of frames in flight, all streams and Skin calls
   RegionRegistry* const regions_;
-  OpenUploads open_uploads_;  // the caps and budget of uploads, and their idle watchdog
+  const PolicyFile* const policy_;  // null: every client may call every method
+  OpenUploads open_uploads_;        // the caps and budget of uploads, and their idle watchdog
 };
 
 }  // namespace skinserve::server

@@ -165,11 +165,12 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
 
   // One client per mesh (each remembers its mesh, to upload it again to a replica that
   // lacks it), on one channel.
-  auto channel = client::MakeChannel(common.target);
+  auto channel = common.Channel();
+  if (!channel.ok()) return Report(channel.status());
   std::vector<std::unique_ptr<client::SkinClient>> clients;
   std::vector<std::string> mesh_ids;
   for (const CharacterMesh& mesh : meshes) {
-    clients.push_back(std::make_unique<client::SkinClient>(channel));
+    clients.push_back(std::make_unique<client::SkinClient>(*channel, common.Limits()));
     auto info = clients.back()->Upload(mesh.arrays);
     if (!info.ok()) {
       return Report(

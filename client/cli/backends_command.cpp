@@ -8,7 +8,12 @@ namespace skinserve::cli {
 void AddBackendsCommand(CLI::App& app, CommonOptions& common) {
   auto* command = app.add_subcommand("backends", "list the server's backends");
   command->callback([&common] {
-    client::SkinClient client(client::MakeChannel(common.target));
+    auto channel = common.Channel();
+    if (!channel.ok()) {
+      common.exit_code = Report(channel.status());
+      return;
+    }
+    client::SkinClient client(*channel, common.Limits());
     auto list = client.ListBackends();
     if (!list.ok()) {
       common.exit_code = Report(list.status());

@@ -6,16 +6,32 @@
 
 #include <string>
 
+#include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
 #include "skinserve/model/skinning_method.h"
 #include "skinserve/reference/synthetic.h"
 
 namespace skinserve::cli {
 
+// The options before the subcommand: where the server is, how to reach it, how long to wait.
 struct CommonOptions {
   std::string target = "127.0.0.1:50051";
+  client::TlsFiles tls;
+  double deadline_seconds = 30;
+  double upload_deadline_seconds = 300;
+  double stream_idle_seconds = 30;
+  double keepalive_seconds = 10;
+  double keepalive_timeout_seconds = 5;
   int exit_code = 0;
+
+  // A channel to `target` (TLS when --tls-ca is given); an unreadable file is an error
+  // naming its option.
+  Result<std::shared_ptr<grpc::Channel>> Channel() const;
+  client::CallLimits Limits() const;
 };
+
+// --target, --tls-*, --deadline-seconds, ... on the app, each with its environment variable.
+void AddCommonOptions(CLI::App& app, CommonOptions& common);
 
 // The synthetic mesh options shared by upload, skin, stream and verify.
 struct MeshOptionsCli {

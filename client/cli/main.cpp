@@ -7,11 +7,7 @@ int main(int argc, char** argv) {
   using namespace skinserve::cli;
   CLI::App app{"skinserve-cli: upload meshes, skin frames and check a skinserve server"};
   CommonOptions common;
-  app.add_option("--target", common.target,
-                 "gRPC target of the server(s), e.g. 127.0.0.1:50051 or "
-                 "ipv4:127.0.0.1:50051,127.0.0.1:50052 (round_robin)")
-      ->envname("SKINSERVE_TARGET")
-      ->capture_default_str();
+  AddCommonOptions(app, common);
   app.require_subcommand(1);
   AddHealthCommand(app, common);
   AddBackendsCommand(app, common);

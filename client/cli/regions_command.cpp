@@ -9,7 +9,12 @@ void AddRegionsCommand(CLI::App& app, CommonOptions& common) {
   auto* command = app.add_subcommand(
       "regions", "the shared-memory regions registered with the server, and its limits");
   command->callback([&common] {
-    client::SkinClient client(client::MakeChannel(common.target));
+    auto channel = common.Channel();
+    if (!channel.ok()) {
+      common.exit_code = Report(channel.status());
+      return;
+    }
+    client::SkinClient client(*channel, common.Limits());
     auto list = client.ListRegions();
     if (!list.ok()) {
       common.exit_code = Report(list.status());

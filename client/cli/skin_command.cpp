@@ -26,7 +26,12 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common) {
   command->add_option("--shm-dir", *shm_dir, "the server's --shm-dir, where the region is made")
       ->capture_default_str();
   command->callback([&common, mesh, backend, frame, method, shared_memory, shm_dir] {
-    client::SkinClient client(client::MakeChannel(common.target));
+    auto channel = common.Channel();
+    if (!channel.ok()) {
+      common.exit_code = Report(channel.status());
+      return;
+    }
+    client::SkinClient client(*channel, common.Limits());
     const MeshArrays arrays = MakeSyntheticMesh(mesh->spec);
     auto info = client.Upload(arrays);
     if (!info.ok()) {

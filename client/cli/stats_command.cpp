@@ -10,7 +10,12 @@ void AddStatsCommand(CLI::App& app, CommonOptions& common) {
   auto json = std::make_shared<bool>(false);
   command->add_flag("--frames-only", *json, "print only the total frames served (for scripts)");
   command->callback([&common, json] {
-    client::SkinClient client(client::MakeChannel(common.target));
+    auto channel = common.Channel();
+    if (!channel.ok()) {
+      common.exit_code = Report(channel.status());
+      return;
+    }
+    client::SkinClient client(*channel, common.Limits());
     auto stats = client.GetServerStats();
     if (!stats.ok()) {
       common.exit_code = Report(stats.status());

@@ -15,9 +15,19 @@ void AddStreamCommand(CLI::App& app, CommonOptions& common) {
   command->add_option("--backend", options->backend, "backend id (default: the server's)");
   command->add_option("--frames", options->frames, "frames to stream")->capture_default_str();
   command->add_option("--window", options->window, "frames in flight")->capture_default_str();
+  command
+      ->add_option("--max-reconnects", options->max_reconnects,
+                   "new streams after one ended UNAVAILABLE or idle (--stream-idle-seconds), in a "
+                   "row without an answer; 0: the first such end ends the command")
+      ->capture_default_str();
   AddMethodOption(command, &options->method);
   command->callback([&common, mesh, options] {
-    client::SkinClient client(client::MakeChannel(common.target));
+    auto channel = common.Channel();
+    if (!channel.ok()) {
+      common.exit_code = Report(channel.status());
+      return;
+    }
+    client::SkinClient client(*channel, common.Limits());
     const MeshArrays arrays = MakeSyntheticMesh(mesh->spec);
     auto info = client.Upload(arrays);
     if (!info.ok()) {

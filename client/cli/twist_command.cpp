@@ -1,8 +1,7 @@
-// skinserve-cli twist: the picture on docs/backends/dual-quaternion.md of linear blend against dual-quaternion
-// skinning. The twisted cylinder (core/twist_cylinder.h) is skinned by the server at each
-// angle under both methods, every frame checked against its float64 reference, drawn by
-// the project's renderer and gathered into one sheet: linear on the top row,
-// dual-quaternion below.
+// skinserve-cli twist: the picture on docs/backends/dual-quaternion.md of linear blend against
+// dual-quaternion skinning. The twisted cylinder (core/twist_cylinder.h) is skinned by the server
+// at each angle under both methods, every frame checked against its float64 reference, drawn by the
+// project's renderer and gathered into one sheet: linear on the top row, dual-quaternion below.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -48,7 +47,9 @@ int Twist(const CommonOptions& common, const TwistOptions& o) {
   const TwistCylinder cylinder = MakeTwistCylinder();
   const auto local = Mesh::Create(cylinder.mesh);
   if (!local.ok()) return Report(local.status());
-  client::SkinClient client(client::MakeChannel(common.target));
+  auto channel = common.Channel();
+  if (!channel.ok()) return Report(channel.status());
+  client::SkinClient client(*channel, common.Limits());
   auto info = client.Upload(cylinder.mesh);
   if (!info.ok()) return Report(info.status());
   // One camera for every frame: the rest pose, with room for nothing to leave it.

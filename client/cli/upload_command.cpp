@@ -53,7 +53,12 @@ void AddUploadCommand(CLI::App& app, CommonOptions& common) {
                       "glTF 2.0 character: every skinned primitive is uploaded, one mesh per skin "
                       "(the synthetic mesh options are then ignored)");
   command->callback([&common, mesh, file] {
-    client::SkinClient client(client::MakeChannel(common.target));
+    auto channel = common.Channel();
+    if (!channel.ok()) {
+      common.exit_code = Report(channel.status());
+      return;
+    }
+    client::SkinClient client(*channel, common.Limits());
     if (!file->empty()) {
       common.exit_code = UploadCharacter(client, *file);
       return;

@@ -16,7 +16,12 @@ void AddVerifyCommand(CLI::App& app, CommonOptions& common) {
   mesh->spec = {.vertex_count = 10'007, .influences = 4, .normals = true, .seed = 2024};
   mesh->Add(command);
   command->callback([&common, mesh] {
-    client::SkinClient client(client::MakeChannel(common.target));
+    auto channel = common.Channel();
+    if (!channel.ok()) {
+      common.exit_code = Report(channel.status());
+      return;
+    }
+    client::SkinClient client(*channel, common.Limits());
     const MeshArrays arrays = MakeSyntheticMesh(mesh->spec);
     auto info = client.Upload(arrays);
     auto list = client.ListBackends();

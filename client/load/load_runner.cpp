@@ -1,5 +1,7 @@
 #include "load_runner.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -9,6 +11,7 @@
 
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
+#include "skinserve/client/idle_watchdog.h"
 #include "skinserve/client/shared_memory_region.h"
 #include "skinserve/model/palette.h"
 #include "skinserve/reference/encoded_reference.h"
@@ -228,7 +231,8 @@ class Recorder {
 void ClosedLoopStream(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
                       int connection, const std::atomic<bool>& stop, const std::atomic<bool>& warm,
                       Recorder& recorder) {
-  client::SkinClient client(client::MakeChannel(config.target, connection));
+  client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
+                            config.limits);
   client.Remember(mesh_id, workload.arrays);  // re-uploads where a replica lacks the mesh
   const StreamRegion region(config, workload, client);
   if (!region.status().ok()) {
@@ -294,7 +298,8 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
 void OpenLoopStream(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
                     int connection, const std::atomic<bool>& stop, Clock::time_point start,
                     Clock::time_point end, Recorder& recorder) {
-  client::SkinClient client(client::MakeChannel(config.target, connection));
+  client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
+                            config.limits);
   client.Remember(mesh_id, workload.arrays);
   const StreamRegion region(config, workload, client);
   if (!region.status().ok()) {
@@ -304,6 +309,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   const client::RegionOutput& output = region.output();
   grpc::ClientContext context;
   auto stream = client.StreamSkinRaw(&context);
+  client::IdleWatchdog watchdog(&context, config.limits.stream_idle);
   // Before the schedule starts, make sure this stream's replica holds the mesh: one frame
   // outside the schedule, re-uploading on NOT_FOUND (round_robin may place the upload on
   // another replica, hence the retries). It asks for `passthrough`, so that it never counts
@@ -320,7 +326,9 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     wire::RawPart part;
     grpc::ByteBuffer bytes;
     bool complete = false;
+    watchdog.Awaiting(true);
     while (!complete && stream->Read(&bytes)) complete = assembler.Add(bytes, &part, &result);
+    watchdog.Awaiting(false);
     if (!complete || result.status.code() != StatusCode::kNotFound) break;
     if (!client.Reupload(mesh_id).ok()) break;
   }
@@ -358,6 +366,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     client::FrameResult result;
     client::FrameAssembler assembler(&output);
     while (stream->Read(&bytes)) {
+      watchdog.Answered();
       if (!assembler.Add(bytes, &part, &result)) continue;
       const Clock::time_point answered = Clock::now();
       Scheduled frame;
@@ -372,6 +381,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
         std::lock_guard lock(mutex);
         ring_head = (ring_head + 1) % ring.size();
         --in_flight;
+        watchdog.Awaiting(in_flight > 0);
       }
       assembler = client::FrameAssembler(&output);
     }
@@ -400,6 +410,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
       }
       const std::size_t slot = (ring_head + in_flight++) % ring.size();
       ring[slot] = {due, counted};
+      watchdog.Awaiting(true);
       // Frames in flight take the ring's slots in turn: each its own range of the region.
       if (output.enabled()) request.mutable_output()->set_offset(slot * output.stride);
     }
@@ -411,6 +422,11 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   stream->WritesDone();
   reader.join();
   Status status = wire::FromGrpc(stream->Finish());
+  if (watchdog.fired()) {
+    status = DeadlineExceeded(
+        fmt::format("no answer for {:.1f} s with frames in flight (--stream-idle-seconds)",
+                    watchdog.limit().count() / 1000.0));
+  }
   {
     std::lock_guard lock(mutex);
     // Sent but never answered: failed, not lost.

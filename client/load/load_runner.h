@@ -7,6 +7,8 @@
 #include <string>
 
 #include "load_stats.h"
+#include "skinserve/client/channel.h"
+#include "skinserve/client/skin_client.h"
 #include "skinserve/encoding/vertex_encoding.h"
 #include "workload.h"
 
@@ -14,6 +16,8 @@ namespace skinserve::load {
 
 struct RunConfig {
   std::string target = "127.0.0.1:50051";
+  client::ChannelOptions channel;  // TLS and keepalive
+  client::CallLimits limits;       // deadlines, and the streams' idle limit
   std::string backend;
   int streams = 2;
   int window = 4;

@@ -23,6 +23,9 @@ namespace {
 
 struct Options {
   RunConfig run;
+  client::TlsFiles tls;
+  double deadline_seconds = 30, stream_idle_seconds = 30;
+  double keepalive_seconds = 10, keepalive_timeout_seconds = 5;
   std::string backends = "all";
   uint32_t vertices = 100'000, bones = 2, joints = 77;
   bool normals = false;
@@ -134,9 +137,12 @@ Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bone
 }
 
 int RunMain(const Options& o) {
-  client::SkinClient client(client::MakeChannel(o.run.target));
+  client::SkinClient client(client::MakeChannel(o.run.target, o.run.channel), o.run.limits);
   if (Status s = client::WaitUntilServing(client.channel(), std::chrono::seconds(10)); !s.ok()) {
     fmt::print(stderr, "error: {}: {}\n", o.run.target, s.ToString());
+    if (const std::string hint = client::ConnectionHint(s); !hint.empty()) {
+      fmt::print(stderr, "hint: {}\n", hint);
+    }
     return 1;
   }
   auto backends = ResolveBackends(client, o.backends, *ParseMethod(o.method));
@@ -284,6 +290,37 @@ int main(int argc, char** argv) {
                  "(round_robin)")
       ->envname("SKINSERVE_TARGET")
       ->capture_default_str();
+  app.add_option("--tls-ca", o.tls.ca,
+                 "TLS: PEM CA certificate(s) that signed the server's certificate (without it: "
+                 "plaintext; unix: addresses are always plaintext)")
+      ->envname("SKINSERVE_CLIENT_TLS_CA");
+  app.add_option("--tls-cert", o.tls.cert,
+                 "mutual TLS: this client's PEM certificate chain (with --tls-key)")
+      ->envname("SKINSERVE_CLIENT_TLS_CERT");
+  app.add_option("--tls-key", o.tls.key, "mutual TLS: this client's PEM private key")
+      ->envname("SKINSERVE_CLIENT_TLS_KEY");
+  app.add_option("--tls-server-name", o.tls.server_name,
+                 "TLS: the name the server's certificate must carry, when the target's host is "
+                 "not it (e.g. an IP address)")
+      ->envname("SKINSERVE_CLIENT_TLS_SERVER_NAME");
+  app.add_option("--deadline-seconds", o.deadline_seconds,
+                 "deadline of each unary call (uploads: 300 s) (0: none)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--stream-idle-seconds", o.stream_idle_seconds,
+                 "a stream with frames in flight and no answer for this long is ended, its "
+                 "frames failed DEADLINE_EXCEEDED (0: wait for ever)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--keepalive-seconds", o.keepalive_seconds,
+                 "with calls open, ping the server this often (0: never); a ping unanswered "
+                 "for --keepalive-timeout-seconds closes the connection (UNAVAILABLE)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--keepalive-timeout-seconds", o.keepalive_timeout_seconds,
+                 "how long a keepalive ping may go unanswered")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--backends", o.backends, "comma-separated ids, or 'all' (as the server lists)")
       ->capture_default_str();
   app.add_option("--vertices", o.vertices, "synthetic mesh: vertices")->capture_default_str();
@@ -372,6 +409,19 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "warning: glibc refused the malloc settings for streaming\n");
   }
   o.run.encoding = *skinserve::ParseVertexEncoding(o.encoding);
+  auto channel = skinserve::client::ChannelOptionsFromFiles(o.tls);
+  if (!channel.ok()) {
+    fmt::print(stderr, "error: {}\n", channel.status().ToString());
+    return 2;
+  }
+  const auto ms = [](double seconds) {
+    return std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
+  };
+  o.run.channel = *channel;
+  o.run.channel.keepalive_time = ms(o.keepalive_seconds);
+  o.run.channel.keepalive_timeout = ms(o.keepalive_timeout_seconds);
+  o.run.limits.deadline = ms(o.deadline_seconds);
+  o.run.limits.stream_idle = ms(o.stream_idle_seconds);
   if (o.capacity) {
     if (o.run.rate <= 0) o.run.rate = 60;
     if (app.count("--vertices") == 0) o.vertices = 25'000;

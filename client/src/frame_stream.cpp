@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "skinserve/client/channel.h"
+#include "skinserve/client/idle_watchdog.h"
 
 namespace skinserve::client {
 namespace {
@@ -101,6 +102,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   while (more_new() || !resend.empty()) {
     grpc::ClientContext context;
     auto stream = client.StreamSkinRaw(&context);
+    IdleWatchdog watchdog(&context, client.limits().stream_idle);
     bool broken = false;
     // A failed Write means the server has ended the stream (e.g. it is shutting down); the
     // answers it sent before are still to be read, and gRPC's Finish only returns once
@@ -127,12 +129,16 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         }
         if (!stream->Write(request)) writes_closed = true;
       }
+      watchdog.Awaiting(!in_flight.empty());
     };
     fill();
     while (!broken && !in_flight.empty()) {
       FrameAssembler assembler(&options.output);
       bool complete = false;
-      while (!complete && stream->Read(&bytes)) complete = assembler.Add(bytes, &part, &result);
+      while (!complete && stream->Read(&bytes)) {
+        watchdog.Answered();
+        complete = assembler.Add(bytes, &part, &result);
+      }
       if (!complete) {
         broken = true;
         break;
@@ -163,6 +169,12 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     }
     if (!writes_closed) stream->WritesDone();
     status = wire::FromGrpc(stream->Finish());
+    if (watchdog.fired()) {
+      status = DeadlineExceeded(
+          fmt::format("no answer for {:.1f} s with {} frame(s) in flight: the stream's idle limit "
+                      "(CallLimits::stream_idle; --stream-idle-seconds)",
+                      watchdog.limit().count() / 1000.0, in_flight.size()));
+    }
     // Everything so far answered on a stream that ended cleanly: more to send?
     if (!broken && !writes_closed && status.ok()) continue;
     if (status.ok()) status = Internal("the stream ended with frames unanswered");
@@ -170,8 +182,10 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
     // connection age, or a replica that went away) starts the count anew: max_reconnects
     // bounds reconnects in a row that bring no answer.
     if (summary.answered > answered_at_reconnect) reconnects_in_a_row = 0;
-    const bool reconnect =
-        status.code() == StatusCode::kUnavailable && reconnects_in_a_row < options.max_reconnects;
+    // UNAVAILABLE: the connection or the replica went; an idle stream: its server stopped
+    // answering. Either way the next stream may find a live replica (round_robin).
+    const bool reconnect = (status.code() == StatusCode::kUnavailable || watchdog.fired()) &&
+                           reconnects_in_a_row < options.max_reconnects;
     if (reconnect && heard == 0) {
       // UNAVAILABLE before the stream's first answer: it never got going (typically gRPC's
       // "GOAWAY received", a stream opened on a connection the server was just ageing out).

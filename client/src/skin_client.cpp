@@ -266,14 +266,19 @@ bool FrameAssembler::Add(const grpc::ByteBuffer& bytes, RawPart* reader, FrameRe
   return AddPart(part.header(), part.positions_size(), part.normals_size(), decode, result);
 }
 
-SkinClient::SkinClient(std::shared_ptr<grpc::Channel> channel)
+SkinClient::SkinClient(std::shared_ptr<grpc::Channel> channel, const CallLimits& limits)
     : channel_(std::move(channel)),
+      limits_(limits),
       stub_(v1::Skinning::NewStub(channel_)),
       stream_skin_name_(fmt::format("/{}/StreamSkin", v1::Skinning::service_full_name())),
       skin_name_(fmt::format("/{}/Skin", v1::Skinning::service_full_name())),
       stream_skin_raw_(stream_skin_name_.c_str(), grpc::internal::RpcMethod::BIDI_STREAMING,
                        channel_),
       skin_raw_(skin_name_.c_str(), grpc::internal::RpcMethod::SERVER_STREAMING, channel_) {}
+
+void SkinClient::SetDeadline(grpc::ClientContext* context, std::chrono::milliseconds limit) {
+  if (limit.count() > 0) context->set_deadline(std::chrono::system_clock::now() + limit);
+}
 
 // gRPC's public API reads typed messages only through generated stubs (or the async and
 // callback generic stubs); these use the factories the generated code itself calls, with
@@ -332,6 +337,7 @@ Status SkinClient::Reupload(const std::string& mesh_id) {
 
 Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays, WeightPolicy weight_policy) {
   grpc::ClientContext context;
+  SetDeadline(&context, limits_.upload_deadline);
   v1::MeshInfo info;
   auto writer = stub_->UploadMesh(&context, &info);
   v1::UploadMeshRequest request;
@@ -368,6 +374,7 @@ Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays, WeightPoli
 
 Result<v1::MeshInfo> SkinClient::GetMesh(const std::string& mesh_id) {
   grpc::ClientContext context;
+  SetDeadline(&context, limits_.deadline);
   v1::GetMeshRequest request;
   request.set_mesh_id(mesh_id);
   v1::MeshInfo info;
@@ -378,6 +385,7 @@ Result<v1::MeshInfo> SkinClient::GetMesh(const std::string& mesh_id) {
 
 Result<bool> SkinClient::DeleteMesh(const std::string& mesh_id) {
   grpc::ClientContext context;
+  SetDeadline(&context, limits_.deadline);
   v1::DeleteMeshRequest request;
   request.set_mesh_id(mesh_id);
   v1::DeleteMeshResponse response;
@@ -388,6 +396,7 @@ Result<bool> SkinClient::DeleteMesh(const std::string& mesh_id) {
 
 Result<v1::ListBackendsResponse> SkinClient::ListBackends() {
   grpc::ClientContext context;
+  SetDeadline(&context, limits_.deadline);
   v1::ListBackendsResponse response;
   grpc::Status status = stub_->ListBackends(&context, v1::ListBackendsRequest(), &response);
   if (!status.ok()) return wire::FromGrpc(status);
@@ -396,6 +405,7 @@ Result<v1::ListBackendsResponse> SkinClient::ListBackends() {
 
 Result<v1::ServerStats> SkinClient::GetServerStats() {
   grpc::ClientContext context;
+  SetDeadline(&context, limits_.deadline);
   v1::ServerStats response;
   grpc::Status status = stub_->GetServerStats(&context, v1::GetServerStatsRequest(), &response);
   if (!status.ok()) return wire::FromGrpc(status);
@@ -405,6 +415,7 @@ Result<v1::ServerStats> SkinClient::GetServerStats() {
 Result<v1::RegionInfo> SkinClient::RegisterRegion(const std::string& name,
                                                   const SharedMemoryRegion& region) {
   grpc::ClientContext context;
+  SetDeadline(&context, limits_.deadline);
   v1::RegisterRegionRequest request;
   request.set_name(name);
   request.set_key(region.key());
@@ -417,6 +428,7 @@ Result<v1::RegionInfo> SkinClient::RegisterRegion(const std::string& name,
 
 Status SkinClient::UnregisterRegion(const std::string& name) {
   grpc::ClientContext context;
+  SetDeadline(&context, limits_.deadline);
   v1::UnregisterRegionRequest request;
   request.set_name(name);
   v1::UnregisterRegionResponse response;
@@ -425,6 +437,7 @@ Status SkinClient::UnregisterRegion(const std::string& name) {
 
 Result<v1::ListRegionsResponse> SkinClient::ListRegions() {
   grpc::ClientContext context;
+  SetDeadline(&context, limits_.deadline);
   v1::ListRegionsResponse response;
   grpc::Status status = stub_->ListRegions(&context, v1::ListRegionsRequest(), &response);
   if (!status.ok()) return wire::FromGrpc(status);
@@ -472,6 +485,7 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
 Status SkinClient::SkinOnce(const v1::SkinRequest& request, const RegionOutput& output,
                             RawPart* part, FrameResult* result) {
   grpc::ClientContext context;
+  SetDeadline(&context, limits_.deadline);
   auto reader = SkinRaw(&context, request);
   FrameAssembler assembler(&output);
   bool complete = false;

@@ -2,13 +2,19 @@
 """Checks that the deployment files agree with each other and with the project.
 
 yamllint checks the syntax and style; this checks what a cluster would only tell us at
-apply time, or never: the version label everywhere equals project(VERSION), the CPU the
-pods get equals the compute threads they run, the probes are native gRPC probes on the
-served port, the grace period outlasts the drain, and the Service, autoscaler and
-disruption budget select the Deployment's pods.
+apply time, or never: the version label everywhere equals project(VERSION), the pods have
+CPU and memory limits and no thread count matched to them by hand (the server reads its
+cgroup), the probes reach the health service (through skinserve-cli over the pod's Unix
+socket when TCP has TLS, which the kubelet's gRPC probes cannot speak) with liveness asking
+"liveness" and readiness the whole server, the TLS files come from a Secret and the
+authorization policy from a ConfigMap equal to deploy/authz-policy.json, no pod mounts a
+service account token, the grace period outlasts the drain, the Service, autoscaler and
+disruption budget select the Deployment's pods, and the image is built on a base pinned by
+digest with no debugging tools in its runtime packages.
 
 usage: check_manifests.py <repository root>
 """
+import json
 import pathlib
 import re
 import sys
@@ -43,22 +49,25 @@ def main(root):
     cmake = (root / "CMakeLists.txt").read_text()
     version = re.search(r"project\(skinserve\s+VERSION\s+([0-9][0-9.]*)", cmake).group(1)
 
-    docs = {}
+    docs, config_maps = {}, {}
     for path in sorted((root / "deploy" / "k8s").glob("*.yaml")):
         for doc in yaml.safe_load_all(path.read_text()):
             if doc:
-                docs[doc["kind"]] = doc
+                if doc["kind"] == "ConfigMap":
+                    config_maps[doc["metadata"]["name"]] = doc
+                else:
+                    docs[doc["kind"]] = doc
                 labels = doc["metadata"].get("labels", {})
                 check(labels.get("app.kubernetes.io/version") == version,
                       f"{path.name}: {doc['kind']} label app.kubernetes.io/version is "
                       f"{labels.get('app.kubernetes.io/version')!r}, project is {version}")
-    for kind in ("Deployment", "Service", "HorizontalPodAutoscaler",
-                 "PodDisruptionBudget", "ConfigMap"):
+    for kind in ("Deployment", "Service", "HorizontalPodAutoscaler", "PodDisruptionBudget"):
         check(kind in docs, f"k8s/: no {kind}")
+    check("skinserve" in config_maps, "k8s/: no ConfigMap skinserve")
     if failures:
         return
 
-    config = docs["ConfigMap"]["data"]
+    docs["ConfigMap"] = config_maps["skinserve"]
     dep = docs["Deployment"]
     pod = dep["spec"]["template"]
     pod_labels = pod["metadata"]["labels"]
@@ -71,8 +80,17 @@ def main(root):
     (container,) = pod["spec"]["containers"]
     check(container["image"].endswith(":" + version),
           f"Deployment: image {container['image']} is not tagged {version}")
+    refs = [e["configMapRef"]["name"] for e in container.get("envFrom", [])
+            if "configMapRef" in e]
+    check(docs["ConfigMap"]["metadata"]["name"] in refs,
+          "Deployment: the ConfigMap is not in envFrom")
+    config = effective_env(container, config_maps)
+    check_pod_hardening("Deployment", pod["spec"])
     ports = {p["name"]: p["containerPort"] for p in container["ports"]}
-    listen_port = int(config["SKINSERVE_LISTEN"].rsplit(":", 1)[1])
+    tcp, sockets = listen_addresses(config.get("SKINSERVE_LISTEN", ""))
+    if not check(tcp, "Deployment: SKINSERVE_LISTEN has no host:port address"):
+        return
+    listen_port = int(tcp[0].rsplit(":", 1)[1])
     check(ports.get("grpc") == listen_port,
           f"Deployment: containerPort grpc {ports.get('grpc')} != SKINSERVE_LISTEN port")
     # Metrics: the port SKINSERVE_METRICS_LISTEN serves is the containerPort "metrics",
@@ -96,25 +114,15 @@ def main(root):
               "ConfigMap: connections never age out")
         check(float(config.get("SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS", 0)) >= 1,
               "ConfigMap: SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS under a second")
-    refs = [e["configMapRef"]["name"] for e in container.get("envFrom", [])
-            if "configMapRef" in e]
-    check(docs["ConfigMap"]["metadata"]["name"] in refs,
-          "Deployment: the ConfigMap is not in envFrom")
 
-    threads = int(config["SKINSERVE_THREADS"])
-    res = container["resources"]
-    check(cpu_cores(res["requests"]["cpu"]) == threads == cpu_cores(res["limits"]["cpu"]),
-          f"Deployment: cpu request/limit {res['requests']['cpu']}/{res['limits']['cpu']} "
-          f"!= SKINSERVE_THREADS {threads}")
-    if "POCL_MAX_PTHREAD_COUNT" in config:
-        check(int(config["POCL_MAX_PTHREAD_COUNT"]) == threads,
-              "ConfigMap: POCL_MAX_PTHREAD_COUNT != SKINSERVE_THREADS")
-
-    for probe in ("readinessProbe", "livenessProbe", "startupProbe"):
-        p = container.get(probe)
-        if check(p is not None, f"Deployment: no {probe}"):
-            check(p.get("grpc", {}).get("port") == listen_port,
-                  f"Deployment: {probe} is not a native grpc probe on port {listen_port}")
+    check_sizing("Deployment", container, config)
+    tls = bool(config.get("SKINSERVE_TLS_CERT"))
+    check(tls, "Deployment: no TLS on the gRPC port (SKINSERVE_TLS_CERT)")
+    if tls:
+        check_tls_files("Deployment", pod["spec"], container, config)
+    if check(config.get("SKINSERVE_AUTHZ_POLICY"), "Deployment: no SKINSERVE_AUTHZ_POLICY"):
+        check_policy("Deployment", root, pod["spec"], container, config, config_maps)
+    check_probes("Deployment", container, tls, listen_port, sockets)
 
     grace = pod["spec"].get("terminationGracePeriodSeconds", 30)
     if check("SKINSERVE_DRAIN_SECONDS" in config, "ConfigMap: no SKINSERVE_DRAIN_SECONDS"):
@@ -156,11 +164,17 @@ def main(root):
     check(re.search(r"^HEALTHCHECK", dockerfile, re.M) is not None, "Dockerfile: no HEALTHCHECK")
     check(re.search(r"^USER (?!0\b|root\b)", dockerfile, re.M) is not None,
           "Dockerfile: does not switch to a non-root USER")
+    check_base_image(dockerfile)
+    check_runtime_packages((root / "scripts" / "install-deps.sh").read_text())
 
     compose = yaml.safe_load((root / "deploy" / "compose.yaml").read_text())
     image = compose["services"]["server"]["image"]
     check(f":-{version}}}" in image, f"compose.yaml: default image version is not {version}")
     server_env = compose["services"]["server"].get("environment", {})
+    for name in ("SKINSERVE_THREADS", "POCL_MAX_PTHREAD_COUNT"):
+        check(name not in server_env,
+              f"compose.yaml: {name} is set; give the server a CPU limit (cpus:) instead")
+    check("cpus" in compose["services"]["server"], "compose.yaml: the server has no cpus limit")
     if check("SKINSERVE_METRICS_LISTEN" in server_env, "compose.yaml: no SKINSERVE_METRICS_LISTEN"):
         compose_metrics = server_env["SKINSERVE_METRICS_LISTEN"].rsplit(":", 1)[1]
         check(any(str(p).endswith(f":{compose_metrics}")
@@ -174,6 +188,159 @@ def main(root):
         for doc in yaml.safe_load_all(path.read_text()):
             if doc and doc["kind"] == "Deployment":
                 check_same_host_pod(path.name, doc, version)
+
+
+def effective_env(container, config_maps):
+    """The container's environment: its ConfigMaps (envFrom), then its own env over them."""
+    env = {}
+    for source in container.get("envFrom", []):
+        name = source.get("configMapRef", {}).get("name")
+        if name in config_maps:
+            env.update(config_maps[name].get("data", {}))
+    for e in container.get("env", []):
+        if "value" in e:
+            env[e["name"]] = e["value"]
+    return env
+
+
+def listen_addresses(text):
+    """SKINSERVE_LISTEN's host:port addresses and unix: socket paths."""
+    entries = [a for a in str(text).split(",") if a]
+    return ([a for a in entries if not a.startswith("unix:")],
+            [a[5:] for a in entries if a.startswith("unix:")])
+
+
+def check_pod_hardening(where, pod_spec):
+    check(pod_spec.get("automountServiceAccountToken") is False,
+          f"{where}: automountServiceAccountToken is not false (the server never calls the "
+          "Kubernetes API)")
+
+
+def check_sizing(where, container, env):
+    """CPU and memory limits the server reads from its cgroup, requests = limits, and no
+    thread count matched to them by hand."""
+    res = container.get("resources", {})
+    limits, requests = res.get("limits", {}), res.get("requests", {})
+    for what in ("cpu", "memory"):
+        check(what in limits, f"{where}: no {what} limit (the server sizes itself to it)")
+    if "cpu" in limits and "cpu" in requests:
+        check(cpu_cores(requests["cpu"]) == cpu_cores(limits["cpu"]),
+              f"{where}: cpu request {requests['cpu']} != limit {limits['cpu']}")
+    for name in ("SKINSERVE_THREADS", "POCL_MAX_PTHREAD_COUNT"):
+        check(name not in env,
+              f"{where}: {name} is set; the server reads the CPU limit from its cgroup "
+              "(cpu.max) and sizes its compute threads and PoCL's to it")
+
+
+def mounted_volume(pod_spec, container, path):
+    """The volume and mount that hold `path` in the container, or (None, None)."""
+    volumes = {v["name"]: v for v in pod_spec.get("volumes", [])}
+    for m in container.get("volumeMounts", []):
+        if path.startswith(m["mountPath"].rstrip("/") + "/"):
+            return volumes.get(m["name"]), m
+    return None, None
+
+
+def check_tls_files(where, pod_spec, container, env):
+    for name in ("SKINSERVE_TLS_CERT", "SKINSERVE_TLS_KEY", "SKINSERVE_TLS_CLIENT_CA"):
+        path = env.get(name)
+        if not check(path, f"{where}: TLS without {name}"):
+            continue
+        volume, mount = mounted_volume(pod_spec, container, path)
+        check(volume is not None and "secret" in volume and mount.get("readOnly") is True,
+              f"{where}: {name} {path} is not in a read-only Secret volume")
+
+
+def check_policy(where, root, pod_spec, container, env, config_maps):
+    """The policy file is a key of a ConfigMap volume, and that ConfigMap holds the same
+    policy as deploy/authz-policy.json (the one the tests run)."""
+    path = env["SKINSERVE_AUTHZ_POLICY"]
+    volume, mount = mounted_volume(pod_spec, container, path)
+    name = (volume or {}).get("configMap", {}).get("name")
+    if not check(name in config_maps and mount.get("readOnly") is True,
+                 f"{where}: SKINSERVE_AUTHZ_POLICY {path} is not in a read-only volume of a "
+                 "ConfigMap in k8s/"):
+        return
+    key = path.rsplit("/", 1)[1]
+    data = config_maps[name].get("data", {})
+    if check(key in data, f"{where}: ConfigMap {name} has no key {key}"):
+        example = json.loads((root / "deploy" / "authz-policy.json").read_text())
+        check(json.loads(data[key]) == example,
+              f"ConfigMap {name}: {key} differs from deploy/authz-policy.json")
+
+
+def probe_target(probe):
+    """(kind, detail, service) of a probe: ("grpc", port, service) or ("exec", target,
+    service) for `skinserve-cli ... health [--service S]`; None for anything else."""
+    if "grpc" in probe:
+        return "grpc", probe["grpc"].get("port"), probe["grpc"].get("service", "")
+    command = [str(c) for c in probe.get("exec", {}).get("command", [])]
+    if not command or command[0] != "skinserve-cli" or "health" not in command:
+        return None
+    target = command[command.index("--target") + 1] if "--target" in command else None
+    service = command[command.index("--service") + 1] if "--service" in command else ""
+    return "exec", target, service
+
+
+def check_probes(where, container, tls, listen_port, sockets):
+    """Readiness and startup ask the whole server (""), liveness asks "liveness" and gives
+    up later than readiness. With TLS on TCP the kubelet's gRPC probes cannot connect:
+    skinserve-cli over one of the server's Unix sockets instead."""
+    seen = {}
+    for name in ("readinessProbe", "livenessProbe", "startupProbe"):
+        probe = container.get(name)
+        if not check(probe is not None, f"{where}: no {name}"):
+            continue
+        target = probe_target(probe)
+        if not check(target is not None,
+                     f"{where}: {name} is neither a gRPC probe nor skinserve-cli health"):
+            continue
+        kind, detail, service = target
+        if kind == "grpc":
+            check(not tls and detail == listen_port,
+                  f"{where}: {name} is a gRPC probe on port {detail}"
+                  + (": the kubelet's gRPC probes speak no TLS" if tls else
+                     f", not the served port {listen_port}"))
+        else:
+            check(str(detail).startswith("unix:") and str(detail)[5:] in sockets,
+                  f"{where}: {name} asks {detail}, not one of the server's Unix sockets "
+                  f"{sockets}")
+        want = "liveness" if name == "livenessProbe" else ""
+        check(service == want, f"{where}: {name} asks the health service {service!r}, not "
+                               f"{want!r}")
+        seen[name] = probe
+    if "readinessProbe" in seen and "livenessProbe" in seen:
+        def patience(p):
+            return p.get("periodSeconds", 10) * p.get("failureThreshold", 3)
+        check(patience(seen["livenessProbe"]) > patience(seen["readinessProbe"]),
+              f"{where}: liveness gives up no later than readiness")
+
+
+# Tools for inspecting a machine or a process, not for running skinserve.
+DEBUGGING_TOOLS = {"clinfo", "gdb", "strace", "ltrace", "valgrind", "curl", "wget", "procps",
+                   "iproute2", "net-tools", "tcpdump", "vim", "nano", "less", "openssl",
+                   "python3", "jq"}
+
+
+def check_base_image(dockerfile):
+    """Every stage starts FROM the BASE_IMAGE argument, whose default is pinned by digest."""
+    m = re.search(r"^ARG BASE_IMAGE=(\S+)", dockerfile, re.M)
+    if check(m is not None, "Dockerfile: no ARG BASE_IMAGE"):
+        check(re.search(r"@sha256:[0-9a-f]{64}$", m.group(1)) is not None,
+              f"Dockerfile: BASE_IMAGE {m.group(1)} is not pinned by digest (@sha256:...)")
+    for line in re.findall(r"^FROM\s+(\S+)", dockerfile, re.M):
+        check(line == "${BASE_IMAGE}" or "@sha256:" in line,
+              f"Dockerfile: FROM {line} is neither ${{BASE_IMAGE}} nor pinned by digest")
+
+
+def check_runtime_packages(script):
+    """install-deps.sh's runtime set (the image's runtime stage) holds no debugging tools."""
+    runtime = []
+    for m in re.finditer(r"^(?:SIMD_)?RUNTIME_PACKAGES\+?=\(([^)]*)\)", script, re.M):
+        runtime += m.group(1).split()
+    check(runtime, "install-deps.sh: no RUNTIME_PACKAGES")
+    tools = sorted(set(runtime) & DEBUGGING_TOOLS)
+    check(not tools, f"install-deps.sh: debugging tools in the runtime set: {tools}")
 
 
 def flag(args, name):
@@ -228,6 +395,13 @@ def check_same_host_pod(name, dep, version):
         return
     for c in pod["containers"]:
         check(c["image"].endswith(":" + version), f"{name}: {c['name']} image not {version}")
+    check_pod_hardening(name, pod)
+    tcp, sockets = listen_addresses(
+        next((e.get("value") for e in server.get("env", []) if e["name"] == "SKINSERVE_LISTEN"),
+             ""))
+    check(not tcp or any(e["name"] == "SKINSERVE_TLS_CERT" for e in server.get("env", [])),
+          f"{name}: the server listens on TCP {tcp} without TLS")
+    check_probes(name, server, True, None, sockets)
     env = {e["name"]: e.get("value") for e in server.get("env", [])}
     shm_dir = env.get("SKINSERVE_SHM_DIR")
     memory = {v["name"] for v in pod["volumes"] if v.get("emptyDir", {}).get("medium") == "Memory"}

@@ -11,6 +11,12 @@
 #            only UNAVAILABLE errors; scaleout-driver (the client library's StreamFrames,
 #            every answer checked) must account for every frame:
 #            sent = answered + reported failed, none wrong.
+#   freeze   as fault, but the replica is frozen (SIGSTOP) instead: it vanishes without a
+#            FIN or a reset, as a hung node or a dropped link does, and nothing answers
+#            its connections. The clients (keepalive every 2 s, 1 s to answer) must give
+#            its streams up within that bound, report their frames in flight failed
+#            (UNAVAILABLE) and carry on on the other two; every frame accounted for, the
+#            run no longer than planned plus the bound.
 #   grow     a scale-up seen by clients that resolve a DNS name, as behind a headless
 #            Service: the name resolves (native resolver, /etc/hosts in a private mount
 #            namespace) to two replicas on 127.0.0.1 and 127.0.0.2, one port; mid-run a
@@ -22,15 +28,16 @@
 #
 # The servers are always stopped. Bounded: each run is a few seconds; the whole test well
 # under two minutes.
-# usage: scaleout-test.sh balance|fault SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD SCALEOUT-DRIVER
+# usage: scaleout-test.sh balance|fault|freeze|grow SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD
+#                        SCALEOUT-DRIVER
 set -euo pipefail
 
 if [ $# -ne 5 ]; then
-  echo "usage: $0 balance|fault skinserve skinserve-cli skinserve-load scaleout-driver" >&2
+  echo "usage: $0 balance|fault|freeze|grow skinserve skinserve-cli skinserve-load scaleout-driver" >&2
   exit 2
 fi
 mode=$1 server=$2 cli=$3 load=$4 driver=$5
-case "$mode" in balance | fault | grow) ;; *) echo "unknown mode $mode" >&2; exit 2 ;; esac
+case "$mode" in balance | fault | freeze | grow) ;; *) echo "unknown mode $mode" >&2; exit 2 ;; esac
 if [ "$mode" = grow ] && [ -z "${SKINSERVE_SCALEOUT_NAMESPACE:-}" ]; then
   # A private mount namespace, so the test's /etc/hosts is seen by this test alone.
   if [ "$(id -u)" -ne 0 ] || ! command -v unshare >/dev/null; then
@@ -49,6 +56,7 @@ fail() { echo "scaleout[$mode]: FAILED: $*" >&2; exit 1; }
 
 cleanup() {
   local rc=$?
+  for pid in "${pids[@]}"; do kill -CONT "$pid" 2>/dev/null || true; done
   for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
   for pid in "${pids[@]}"; do
     for _ in $(seq 1 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
@@ -198,23 +206,33 @@ EOF
   exit 0
 fi
 
-# ---- fault: SIGKILL one replica mid-run ---------------------------------------------------
+# ---- fault: SIGKILL one replica mid-run; freeze: SIGSTOP it -------------------------------
 run_seconds=8
 kill_after=3
+signal=KILL
+client_options=()
+expected=UNAVAILABLE
+if [ "$mode" = freeze ]; then
+  # A frozen replica answers nothing; keepalive (a ping every 2 s, 1 s to answer) finds it.
+  signal=STOP
+  client_options=(--keepalive-seconds 2 --keepalive-timeout-seconds 1)
+  bound=3
+fi
 say "skinserve-load (sse, 6 streams, ${run_seconds} s) and scaleout-driver (sse, 6 streams," \
-  "${run_seconds} s) at once; the busiest replica is SIGKILLed after ${kill_after} s"
-timeout 120 "$load" --target "$target" --backends sse --vertices 20000 --streams 6 --window 4 \
-  --warmup 0 --duration "$run_seconds" --check-every 1 --json "$work/load.json" \
-  >"$work/load.out" 2>&1 &
+  "${run_seconds} s) at once; the busiest replica gets SIG$signal after ${kill_after} s"
+started=$(date +%s.%N)
+timeout 120 "$load" --target "$target" "${client_options[@]}" --backends sse --vertices 20000 \
+  --streams 6 --window 4 --warmup 0 --duration "$run_seconds" --check-every 1 \
+  --json "$work/load.json" >"$work/load.out" 2>&1 &
 load_pid=$!
-timeout 120 "$driver" --target "$target" --backend sse --vertices 20000 --streams 6 --window 4 \
-  --seconds "$run_seconds" >"$work/driver.json" 2>"$work/driver.err" &
+timeout 120 "$driver" --target "$target" "${client_options[@]}" --backend sse --vertices 20000 \
+  --streams 6 --window 4 --seconds "$run_seconds" >"$work/driver.json" 2>"$work/driver.err" &
 driver_pid=$!
 
 sleep "$kill_after"
 before=()
 for i in "${!ports[@]}"; do before+=("$(frames_of "${ports[$i]}" || echo 0)"); done
-say "before the kill: frames per replica: ${before[*]}"
+say "before the fault: frames per replica: ${before[*]}"
 # The busiest replica: it certainly holds open streams when it dies. (That streams spread
 # over every replica is scaleout.balance's check; 12 random placements can miss one.)
 victim=0
@@ -222,14 +240,23 @@ for i in "${!ports[@]}"; do
   [ "${before[$i]}" -gt "${before[$victim]}" ] && victim=$i
 done
 [ "${before[$victim]}" -gt 0 ] || fail "no replica served frames in the first ${kill_after} s"
-kill -KILL "${pids[$victim]}"
-wait "${pids[$victim]}" 2>/dev/null || true
-say "replica $victim (127.0.0.1:${ports[$victim]}) SIGKILLed"
+kill -"$signal" "${pids[$victim]}"
+[ "$signal" = KILL ] && { wait "${pids[$victim]}" 2>/dev/null || true; }
+say "replica $victim (127.0.0.1:${ports[$victim]}) got SIG$signal"
 
 load_rc=0
 wait "$load_pid" || load_rc=$?
 driver_rc=0
 wait "$driver_pid" || driver_rc=$?
+took=$(python3 -c "import sys, time; print(f'{time.time() - float(sys.argv[1]):.1f}')" "$started")
+say "both clients finished ${took} s after they started (a ${run_seconds} s run)"
+if [ "$mode" = freeze ]; then
+  # Each stream on the frozen replica is given up within the keepalive bound; the clients'
+  # runs end on time (a stream still waiting on it would hold its client past the end).
+  python3 -c "import sys; sys.exit(0 if float(sys.argv[1]) <= float(sys.argv[2]) else 1)" \
+    "$took" "$((run_seconds + bound + 3))" ||
+    fail "the clients took ${took} s, more than the run (${run_seconds} s) + the keepalive bound (${bound} s) + 3 s"
+fi
 cat "$work/load.out"
 echo "driver: $(cat "$work/driver.json")"
 [ -s "$work/driver.err" ] && sed 's/^/driver stderr: /' "$work/driver.err" | tail -5
@@ -239,11 +266,11 @@ fi
 
 after=()
 for i in "${!ports[@]}"; do
-  if [ "$i" -eq "$victim" ]; then after+=(killed); continue; fi
+  if [ "$i" -eq "$victim" ]; then after+=("SIG$signal"); continue; fi
   after+=("$(frames_of "${ports[$i]}")")
 done
 say "after the run: frames per replica: ${after[*]} (replica $victim served ${before[$victim]}+" \
-  "before it was killed)"
+  "before SIG$signal)"
 
 python3 - "$work/load.json" "$work/driver.json" "$load_rc" "$driver_rc" <<'EOF' || fail "accounting"
 import json, sys

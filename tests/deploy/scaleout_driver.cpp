@@ -16,6 +16,9 @@
 //
 // usage: scaleout-driver --target T [--backend sse] [--streams 6] [--window 4]
 //                        [--seconds 8] [--vertices 20000] [--clip-frames 0 (one stream)]
+//                        [--tls-ca F [--tls-cert F --tls-key F] [--tls-server-name N]]
+//                        [--keepalive-seconds 10] [--keepalive-timeout-seconds 5]
+//                        [--deadline-seconds 30] [--stream-idle-seconds 30]
 #include <fmt/format.h>
 
 #include <atomic>
@@ -47,6 +50,9 @@ struct Options {
   double seconds = 8;
   uint32_t vertices = 20'000;
   uint64_t clip_frames = 0;  // 0: one stream per client for the whole run
+  client::TlsFiles tls;
+  double keepalive_seconds = 10, keepalive_timeout_seconds = 5;
+  double deadline_seconds = 30, stream_idle_seconds = 30;
 };
 
 Options Parse(int argc, char** argv) {
@@ -67,6 +73,22 @@ Options Parse(int argc, char** argv) {
       o.vertices = static_cast<uint32_t>(std::stoul(value));
     else if (key == "--clip-frames")
       o.clip_frames = std::stoull(value);
+    else if (key == "--tls-ca")
+      o.tls.ca = value;
+    else if (key == "--tls-cert")
+      o.tls.cert = value;
+    else if (key == "--tls-key")
+      o.tls.key = value;
+    else if (key == "--tls-server-name")
+      o.tls.server_name = value;
+    else if (key == "--keepalive-seconds")
+      o.keepalive_seconds = std::stod(value);
+    else if (key == "--keepalive-timeout-seconds")
+      o.keepalive_timeout_seconds = std::stod(value);
+    else if (key == "--deadline-seconds")
+      o.deadline_seconds = std::stod(value);
+    else if (key == "--stream-idle-seconds")
+      o.stream_idle_seconds = std::stod(value);
     else {
       fmt::print(stderr, "unknown option {}\n", key);
       std::exit(2);
@@ -75,7 +97,10 @@ Options Parse(int argc, char** argv) {
   if (o.target.empty() || argc % 2 == 0) {
     fmt::print(stderr,
                "usage: scaleout-driver --target T [--backend B] [--streams N] [--window W] "
-               "[--seconds S] [--vertices V] [--clip-frames N]\n");
+               "[--seconds S] [--vertices V] [--clip-frames N] [--tls-ca F [--tls-cert F "
+               "--tls-key F] [--tls-server-name N]] [--keepalive-seconds S] "
+               "[--keepalive-timeout-seconds S] [--deadline-seconds S] "
+               "[--stream-idle-seconds S]\n");
     std::exit(2);
   }
   return o;
@@ -107,9 +132,24 @@ int main(int argc, char** argv) {
   for (uint64_t f = 0; f < 16; ++f) palettes.push_back(MakeSyntheticPalette(kJoints, kSeed, f));
   auto palette = [&](uint64_t frame) { return palettes[frame % palettes.size()]; };
 
-  client::SkinClient uploader(client::MakeChannel(o.target));
+  auto channel_options = client::ChannelOptionsFromFiles(o.tls);
+  if (!channel_options.ok()) {
+    fmt::print(stderr, "error: {}\n", channel_options.status().ToString());
+    return 2;
+  }
+  const auto ms = [](double seconds) {
+    return std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
+  };
+  channel_options->keepalive_time = ms(o.keepalive_seconds);
+  channel_options->keepalive_timeout = ms(o.keepalive_timeout_seconds);
+  const client::CallLimits limits{.deadline = ms(o.deadline_seconds),
+                                  .stream_idle = ms(o.stream_idle_seconds)};
+  client::SkinClient uploader(client::MakeChannel(o.target, *channel_options), limits);
   if (Status s = client::WaitUntilServing(uploader.channel(), std::chrono::seconds(10)); !s.ok()) {
     fmt::print(stderr, "error: {}: {}\n", o.target, s.ToString());
+    if (const std::string hint = client::ConnectionHint(s); !hint.empty()) {
+      fmt::print(stderr, "hint: {}\n", hint);
+    }
     return 2;
   }
   auto info = uploader.Upload(*arrays);
@@ -125,7 +165,7 @@ int main(int argc, char** argv) {
   for (int s = 0; s < o.streams; ++s) {
     threads.emplace_back([&] {
       // One channel per stream, as separate clients would have: round_robin spreads them.
-      client::SkinClient client(client::MakeChannel(o.target));
+      client::SkinClient client(client::MakeChannel(o.target, *channel_options), limits);
       client.Remember(mesh_id, arrays);
       const uint64_t clip = o.clip_frames > 0 ? o.clip_frames : UINT64_MAX / 2;
       client::StreamSummary summary;

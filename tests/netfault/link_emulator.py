@@ -7,6 +7,8 @@ the caller (`ip link set ... netns ...`); our file descriptors keep working acro
 
     link_emulator.py DEV_A DEV_B --delay 20 --jitter 15 --loss 0.02 --seed 1 --ready FILE
 Writes FILE once both devices exist; runs until killed; prints its counts on SIGTERM.
+SIGUSR1 turns a blackhole on and off: while on, every packet both ways is dropped (a peer
+that vanished without a FIN or a reset, as a pulled cable or a dead node looks).
 """
 import argparse
 import fcntl
@@ -44,7 +46,8 @@ def main():
     fds = {open_tun(args.dev_a): None, open_tun(args.dev_b): None}
     a, b = list(fds)
     peer = {a: b, b: a}
-    counts = {"forwarded": 0, "dropped": 0, "reordered": 0}
+    counts = {"forwarded": 0, "dropped": 0, "reordered": 0, "blackholed": 0}
+    blackhole = [False]
     queue = []  # (due, seq, fd, packet)
     lock = threading.Condition()
     seq = 0
@@ -54,7 +57,12 @@ def main():
         print(f"link_emulator: {counts}", flush=True)
         sys.exit(0)
 
+    def toggle_blackhole(*_):
+        blackhole[0] = not blackhole[0]
+        print(f"link_emulator: blackhole {'on' if blackhole[0] else 'off'}", flush=True)
+
     signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGUSR1, toggle_blackhole)
 
     def writer():
         while True:
@@ -62,6 +70,9 @@ def main():
                 while not queue or queue[0][0] > time.monotonic():
                     lock.wait(None if not queue else max(0.0, queue[0][0] - time.monotonic()))
                 _, _, fd, packet = heapq.heappop(queue)
+            if blackhole[0]:  # queued before the blackhole began: lost with it
+                counts["blackholed"] += 1
+                continue
             try:
                 os.write(fd, packet)
                 counts["forwarded"] += 1
@@ -74,6 +85,9 @@ def main():
         readable, _, _ = select.select(list(fds), [], [])
         for fd in readable:
             packet = os.read(fd, 65536)
+            if blackhole[0]:
+                counts["blackholed"] += 1
+                continue
             if rng.random() < args.loss:
                 counts["dropped"] += 1
                 continue

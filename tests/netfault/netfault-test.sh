@@ -7,6 +7,10 @@
 #  2. The server is killed with SIGKILL in the middle of an upload: the client reports a
 #     clear error; the next replica holds no mesh until the client uploads it again, which
 #     then succeeds whole.
+#  3. The server is blackholed in the middle of a stream (the link drops every packet both
+#     ways: no FIN, no reset): the client gives up within its stated bound and says why,
+#     once by keepalive (UNAVAILABLE within ping interval + ping timeout) and once, with
+#     keepalive off, by the stream's idle limit (DEADLINE_EXCEEDED).
 # Skips (77) only when network namespaces cannot be made (not root, or no netns support).
 #   netfault-test.sh SKINSERVE SKINSERVE_LOAD SKINSERVE_CLI
 set -euo pipefail
@@ -121,6 +125,48 @@ in_client "$cli_bin" --target "$target" upload "${mesh[@]}" >"$tmp/upload2.log" 
   exit 1
 }
 echo "netfault: re-upload: $(tail -n 1 "$tmp/upload2.log")"
+# ---- 3. the server blackholed mid-stream ----
+# skinserve-cli streams frames (closed loop, 4 in flight) for 3 s; then the link drops every
+# packet both ways. The command must end within `bound` seconds of the blackhole, with the
+# error of the limit that gave up, and report its frames in flight failed (none lost).
+blackhole_case() {  # name, bound (s), expected code, client options...
+  local name=$1 bound=$2 code=$3
+  shift 3
+  in_client "$cli_bin" --target "$target" "$@" stream --vertices 5000 --frames 100000000 \
+    --window 4 --backend sse --max-reconnects 0 >"$tmp/$name.log" 2>&1 &
+  local client=$!
+  pids+=("$client")
+  sleep 3
+  kill -0 "$client" 2>/dev/null || { cat "$tmp/$name.log"; echo "FAIL: $name: the stream ended before the blackhole"; exit 1; }
+  kill -USR1 "$emulator"  # blackhole on
+  local start
+  start=$(date +%s.%N)
+  for _ in $(seq 300); do kill -0 "$client" 2>/dev/null || break; sleep 0.05; done
+  local took
+  took=$(python3 -c "import sys, time; print(f'{time.time() - float(sys.argv[1]):.2f}')" "$start")
+  kill -USR1 "$emulator"  # blackhole off
+  if kill -0 "$client" 2>/dev/null; then
+    kill -9 "$client"
+    echo "FAIL: $name: the client still waited ${took} s after the server was blackholed (bound ${bound} s)"
+    exit 1
+  fi
+  wait "$client" && { cat "$tmp/$name.log"; echo "FAIL: $name: the client reported success"; exit 1; }
+  echo "netfault: blackholed mid-stream, $name: the client gave up after ${took} s (bound ${bound} s):" \
+    "$(grep -E '^(error|default backend|sse)' "$tmp/$name.log" | tr '\n' ' ')"
+  python3 -c "import sys; sys.exit(0 if float(sys.argv[1]) <= float(sys.argv[2]) else 1)" "$took" "$bound" ||
+    { echo "FAIL: $name: ${took} s is over the bound of ${bound} s"; exit 1; }
+  grep -q "error: $code" "$tmp/$name.log" ||
+    { cat "$tmp/$name.log"; echo "FAIL: $name: the error is not $code"; exit 1; }
+  grep -qE '[1-9][0-9]* failed' "$tmp/$name.log" ||
+    { cat "$tmp/$name.log"; echo "FAIL: $name: no frame in flight reported failed"; exit 1; }
+}
+# Keepalive: a ping every 2 s, 2 s to answer: the blackhole is found within 2 + 2 s, plus
+# one second for TCP and the emulator's own delays.
+blackhole_case keepalive 5 UNAVAILABLE --keepalive-seconds 2 --keepalive-timeout-seconds 2 \
+  --stream-idle-seconds 0
+# Keepalive off: the stream's idle limit, 3 s without an answer, plus one second.
+blackhole_case idle-limit 4 DEADLINE_EXCEEDED --keepalive-seconds 0 --stream-idle-seconds 3
+
 kill -TERM "$server" "$emulator"
 wait "$server" "$emulator" 2>/dev/null || true
 cat "$tmp/emulator.log"

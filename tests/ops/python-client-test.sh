@@ -26,4 +26,4 @@ SKINSERVE_PROTO_DIR="$root/proto" "$work/venv/bin/pip" install --quiet --no-buil
 # package (with its generated skinserve/v1 stubs).
 cd "$work/src/tests"
 "$work/venv/bin/python" -c 'import skinserve, skinserve.v1.skinning_pb2_grpc; print("installed", skinserve.__file__)'
-SKINSERVE_BINARY="$server" exec "$work/venv/bin/python" -m pytest -q -p no:cacheprovider .
+SKINSERVE_BINARY="$server" SKINSERVE_SOURCE_DIR="$root" exec "$work/venv/bin/python" -m pytest -q -p no:cacheprovider .

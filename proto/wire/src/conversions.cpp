@@ -27,6 +27,14 @@ grpc::Status ToGrpc(const Status& status) {
       return {grpc::StatusCode::UNAVAILABLE, status.message()};
     case StatusCode::kInternal:
       return {grpc::StatusCode::INTERNAL, status.message()};
+    case StatusCode::kDeadlineExceeded:
+      return {grpc::StatusCode::DEADLINE_EXCEEDED, status.message()};
+    case StatusCode::kCancelled:
+      return {grpc::StatusCode::CANCELLED, status.message()};
+    case StatusCode::kPermissionDenied:
+      return {grpc::StatusCode::PERMISSION_DENIED, status.message()};
+    case StatusCode::kUnauthenticated:
+      return {grpc::StatusCode::UNAUTHENTICATED, status.message()};
   }
   return {grpc::StatusCode::UNKNOWN, status.message()};
 }
@@ -47,6 +55,14 @@ Status FromGrpc(const grpc::Status& status) {
       return FailedPrecondition(status.error_message());
     case grpc::StatusCode::UNAVAILABLE:
       return Unavailable(status.error_message());
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+      return DeadlineExceeded(status.error_message());
+    case grpc::StatusCode::CANCELLED:
+      return {StatusCode::kCancelled, status.error_message()};
+    case grpc::StatusCode::PERMISSION_DENIED:
+      return {StatusCode::kPermissionDenied, status.error_message()};
+    case grpc::StatusCode::UNAUTHENTICATED:
+      return {StatusCode::kUnauthenticated, status.error_message()};
     default:
       return Internal(fmt::format("gRPC status {}: {}", static_cast<int>(status.error_code()),
                                   status.error_message()));

@@ -6,6 +6,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <chrono>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -134,11 +135,26 @@ struct SkinOptions {
   bool early_parts = false;
 };
 
+// How long this client waits. Every call has a deadline; a stream (StreamFrames) has an
+// idle limit instead, since it may last for hours. 0: no limit.
+struct CallLimits {
+  // Each unary call and each Skin frame: from the call's start to its answer.
+  std::chrono::milliseconds deadline{30'000};
+  // Each UploadMesh call, whole (a 1.6M-vertex mesh is ~80 MB of chunks).
+  std::chrono::milliseconds upload_deadline{300'000};
+  // StreamFrames: no answer for this long while frames are in flight ends the stream
+  // (DEADLINE_EXCEEDED, its frames in flight reported failed) and opens the next one.
+  std::chrono::milliseconds stream_idle{30'000};
+};
+
 class SkinClient {
  public:
-  explicit SkinClient(std::shared_ptr<grpc::Channel> channel);
+  explicit SkinClient(std::shared_ptr<grpc::Channel> channel, const CallLimits& limits = {});
 
   grpc::Channel& channel() { return *channel_; }
+  const CallLimits& limits() const { return limits_; }
+  // A context for a call under `limit` (0: none).
+  static void SetDeadline(grpc::ClientContext* context, std::chrono::milliseconds limit);
   v1::Skinning::Stub& stub() { return *stub_; }
 
   // StreamSkin and Skin with the answers as gRPC received them, to be read with RawPart
@@ -185,6 +201,7 @@ class SkinClient {
   Result<v1::MeshInfo> SendUpload(const MeshArrays& arrays, WeightPolicy weight_policy);
 
   std::shared_ptr<grpc::Channel> channel_;
+  const CallLimits limits_;
   std::unique_ptr<v1::Skinning::Stub> stub_;
   // The two methods by name, registered with the channel as the generated stub does.
   const std::string stream_skin_name_, skin_name_;

@@ -2,6 +2,7 @@
 import contextlib
 import queue
 import threading
+import time
 
 import grpc
 import numpy as np
@@ -33,8 +34,24 @@ def _status_code(value):
     return grpc.StatusCode.UNKNOWN
 
 
+_HINTS = [  # gRPC's reasons for a failed connection, and what TLS setting likely caused it
+    ("Socket closed", "the server closed the connection at once: a TLS server refuses "
+     "plaintext clients (give tls_ca), a mutual-TLS server refuses clients without a "
+     "certificate (give tls_cert and tls_key)"),
+    ("wrong version number", "the server does not speak TLS there (plaintext, or a unix: "
+     "address): leave out tls_ca, tls_cert and tls_key"),
+    ("certificate verify failed", "the server's certificate is not signed by the CA of tls_ca"),
+]
+
+
 def _rpc_error(error, frame=None):
-    return SkinserveError(error.code(), error.details(), frame)
+    details = error.details() or ""
+    if error.code() == grpc.StatusCode.UNAVAILABLE:
+        for reason, hint in _HINTS:
+            if reason in details:
+                details = f"{details} (hint: {hint})"
+                break
+    return SkinserveError(error.code(), details, frame)
 
 
 class _Frame:
@@ -141,18 +158,79 @@ class _Frame:
         return (positions, normals) if want_normals else positions
 
 
+def _read(option, path):
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise ValueError(f"{option} '{path}': cannot read the file: {e.strerror}") from None
+    if b"-----BEGIN " not in data:
+        raise ValueError(f"{option} '{path}': no PEM block (-----BEGIN ...) in the file")
+    return data
+
+
+class _IdleWatchdog:
+    """Cancels `call` when no answer came for `limit` seconds while one was awaited (see the
+    C++ library's IdleWatchdog): a stream has no deadline, but must not wait for ever on a
+    server that stopped answering."""
+
+    def __init__(self, call, limit):
+        self._call, self._limit = call, limit
+        self._last, self._awaiting = time.monotonic(), False
+        self._done = threading.Event()
+        self.fired = False
+        if limit:
+            self._thread = threading.Thread(target=self._watch, daemon=True)
+            self._thread.start()
+
+    def answered(self):
+        self._last = time.monotonic()
+
+    def awaiting(self, value):
+        if value and not self._awaiting:
+            self._last = time.monotonic()
+        self._awaiting = value
+
+    def _watch(self):
+        while not self._done.is_set():
+            idle = time.monotonic() - self._last
+            if self._awaiting and idle >= self._limit:
+                self.fired = True
+                self._call.cancel()
+                return
+            self._done.wait(self._limit - idle if self._awaiting else self._limit)
+
+    def stop(self):
+        self._done.set()
+
+
 class Client:
     """A connection to skinserve at `target` ("host:port", or any gRPC target such as
     "dns:///skinserve.default.svc:50051", balanced with round_robin).
+
+    TLS: `tls_ca` (the PEM file of the CA that signed the server's certificate) turns it on;
+    `tls_cert` and `tls_key` present this client's certificate (mutual TLS);
+    `tls_server_name` is the name the server's certificate must carry when the target's
+    host is not it (an IP address). unix: targets are plaintext on the server's side.
+
+    Every call has a deadline: `timeout` seconds (uploads: `upload_timeout`); a stream whose
+    frames wait `stream_idle_timeout` seconds without an answer ends (DEADLINE_EXCEEDED) and
+    resumes on a new stream like one ended UNAVAILABLE. With calls open the channel pings the
+    server every `keepalive` seconds and gives up on one that does not answer within
+    `keepalive_timeout` (UNAVAILABLE). None: no limit.
 
     Meshes uploaded through this client are remembered: a frame answered NOT_FOUND (the
     replica evicted the mesh, or the call landed on another replica) uploads the mesh
     again and resends the frame, as the C++ client library does.
     """
 
-    def __init__(self, target, max_reuploads=8, max_reconnects=3):
+    def __init__(self, target, max_reuploads=8, max_reconnects=3, tls_ca=None, tls_cert=None,
+                 tls_key=None, tls_server_name=None, timeout=30.0, upload_timeout=300.0,
+                 stream_idle_timeout=30.0, keepalive=10.0, keepalive_timeout=5.0):
         self.target = target
         self.max_reuploads, self.max_reconnects = max_reuploads, max_reconnects
+        self.timeout, self.upload_timeout = timeout, upload_timeout
+        self.stream_idle_timeout = stream_idle_timeout
         # Flow control as the C++ library's MakeChannel: a fixed 4 MiB receive window per
         # stream, BDP probing off (with probing, crowd frames of several 1 MiB parts
         # stalled now and then; docs/client-library.md, "Channels").
@@ -160,7 +238,28 @@ class Client:
                     '{"loadBalancingConfig": [{"round_robin": {}}]}'),
                    ("grpc.http2.bdp_probe", 0),
                    ("grpc.http2.lookahead_bytes", _STREAM_WINDOW_BYTES)]
-        self._channel = grpc.insecure_channel(target, options=options)
+        if keepalive:
+            # Pings also while this side sends nothing (gRPC stops after two otherwise).
+            options += [("grpc.keepalive_time_ms", int(keepalive * 1000)),
+                        ("grpc.keepalive_timeout_ms", int(keepalive_timeout * 1000)),
+                        ("grpc.http2.max_pings_without_data", 0),
+                        ("grpc.keepalive_permit_without_calls", 0)]
+        if tls_ca is None and (tls_cert or tls_key or tls_server_name):
+            raise ValueError("tls_cert, tls_key and tls_server_name need tls_ca: the CA that "
+                             "signed the server's certificate")
+        if bool(tls_cert) != bool(tls_key):
+            raise ValueError(f"tls_cert and tls_key go together: tls_cert is {tls_cert!r}, "
+                             f"tls_key {tls_key!r}")
+        if tls_ca is None:
+            self._channel = grpc.insecure_channel(target, options=options)
+        else:
+            credentials = grpc.ssl_channel_credentials(
+                root_certificates=_read("tls_ca", tls_ca),
+                private_key=_read("tls_key", tls_key) if tls_key else None,
+                certificate_chain=_read("tls_cert", tls_cert) if tls_cert else None)
+            if tls_server_name:
+                options.append(("grpc.ssl_target_name_override", tls_server_name))
+            self._channel = grpc.secure_channel(target, credentials, options=options)
         self._stub = pb_grpc.SkinningStub(self._channel)
         self._meshes = {}  # mesh id -> (requests to upload it again, joint count)
 
@@ -214,7 +313,7 @@ class Client:
 
     def _upload(self, requests):
         try:
-            return self._stub.UploadMesh(iter(requests))
+            return self._stub.UploadMesh(iter(requests), timeout=self.upload_timeout)
         except grpc.RpcError as e:
             raise _rpc_error(e) from None
 
@@ -257,7 +356,7 @@ class Client:
         name = name or region.key
         try:
             info = self._stub.RegisterRegion(pb.RegisterRegionRequest(
-                name=name, key=region.key, byte_size=region.byte_size))
+                name=name, key=region.key, byte_size=region.byte_size), timeout=self.timeout)
         except grpc.RpcError as e:
             raise _rpc_error(e) from None
         region.name = name
@@ -267,7 +366,8 @@ class Client:
         """Returns once the server has unmapped the region: it writes there no more."""
         name = getattr(region_or_name, "name", region_or_name)
         try:
-            self._stub.UnregisterRegion(pb.UnregisterRegionRequest(name=name))
+            self._stub.UnregisterRegion(pb.UnregisterRegionRequest(name=name),
+                                        timeout=self.timeout)
         except grpc.RpcError as e:
             raise _rpc_error(e) from None
         if hasattr(region_or_name, "name"):
@@ -276,7 +376,7 @@ class Client:
     def regions(self):
         """The server's registered regions: a list of dicts (name, key, byte_size, ...)."""
         try:
-            response = self._stub.ListRegions(pb.ListRegionsRequest())
+            response = self._stub.ListRegions(pb.ListRegionsRequest(), timeout=self.timeout)
         except grpc.RpcError as e:
             raise _rpc_error(e) from None
         return [{"name": r.name, "key": r.key, "byte_size": r.byte_size,
@@ -285,7 +385,7 @@ class Client:
 
     def _frame_bytes(self, mesh_id, crowd, want_normals, encoding):
         try:
-            info = self._stub.GetMesh(pb.GetMeshRequest(mesh_id=mesh_id))
+            info = self._stub.GetMesh(pb.GetMeshRequest(mesh_id=mesh_id), timeout=self.timeout)
         except grpc.RpcError as e:
             raise _rpc_error(e) from None
         size = 4 if encoding == "float32" else 2
@@ -310,7 +410,7 @@ class Client:
         for attempt in range(self.max_reuploads + 1):
             result = _Frame(crowd)
             try:
-                for part in self._stub.Skin(request):
+                for part in self._stub.Skin(request, timeout=self.timeout):
                     self._add(result, part, want_normals, region)
                 return result.result(want_normals)
             except grpc.RpcError as e:
@@ -354,9 +454,9 @@ class Client:
                     for i, (p, k) in enumerate(zip(palettes, crowds))]
         next_frame, reuploads, reconnects = 0, 0, 0
         while next_frame < len(requests):
-            restart = None
+            restart, ended = None, []
             with contextlib.closing(self._one_stream(requests, next_frame, window,
-                                                     want_normals, region)) as answers:
+                                                     want_normals, region, ended)) as answers:
                 for index, frame in answers:
                     if frame.error is None:
                         next_frame = index + 1
@@ -371,19 +471,23 @@ class Client:
             if restart is not None:  # resume from the frame that was NOT_FOUND
                 reuploads += 1
                 self._reupload(mesh_id, restart)
-            elif next_frame < len(requests):  # the stream ended UNAVAILABLE early
+            elif next_frame < len(requests):  # the stream ended UNAVAILABLE or idle early
                 reconnects += 1
                 if reconnects > self.max_reconnects:
-                    raise SkinserveError(grpc.StatusCode.UNAVAILABLE,
-                                         f"stream ended {reconnects} times", next_frame)
+                    code, message = ended[0] if ended else (grpc.StatusCode.UNAVAILABLE, "")
+                    raise SkinserveError(code, f"stream ended {reconnects} times, the last: "
+                                         f"{message}", next_frame)
 
-    def _one_stream(self, requests, first, window, want_normals, region=None):
+    def _one_stream(self, requests, first, window, want_normals, region=None, ended=None):
         """Sends requests[first:] with at most `window` unanswered; yields (index, _Frame)
-        in order. Ends early (without raising) when the stream ends UNAVAILABLE. With a
-        region, a frame's slot is reused only once the caller has taken the next frame."""
+        in order. Ends early (without raising, the reason appended to `ended`) when the
+        stream ends UNAVAILABLE or waits stream_idle_timeout for an answer. With a region, a
+        frame's slot is reused only once the caller has taken the next frame."""
         credits = threading.Semaphore(window)
         stop = threading.Event()
         outbox = queue.Queue()
+        lock, in_flight = threading.Lock(), [0]
+        watchdog = None
 
         def send():
             for request in requests[first:]:
@@ -400,30 +504,50 @@ class Client:
                 request = outbox.get()
                 if request is None:
                     return
+                with lock:
+                    in_flight[0] += 1
+                    watchdog.awaiting(True)
                 yield request
 
+        call = self._stub.StreamSkin(request_iterator())
+        watchdog = _IdleWatchdog(call, self.stream_idle_timeout)
         sender = threading.Thread(target=send, daemon=True)
         sender.start()
-        call = self._stub.StreamSkin(request_iterator())
+
         def new_frame(i):  # the frame answering requests[i]; past the end, one never filled
             return _Frame((requests[i].instances or None) if i < len(requests) else None)
 
         frame, index = new_frame(first), first
         try:
             for part in call:
+                watchdog.answered()
                 self._add(frame, part, want_normals, region)
                 if part.last:
+                    with lock:
+                        in_flight[0] -= 1
                     if region is None:
                         credits.release()
+                    watchdog.awaiting(False)  # the caller holds the frame: nothing is read
                     yield index, frame
+                    with lock:
+                        watchdog.awaiting(in_flight[0] > 0)
                     if region is not None:  # the caller is done with the frame's slot
                         credits.release()
                     index += 1
                     frame = new_frame(index)
         except grpc.RpcError as e:
-            if e.code() != grpc.StatusCode.UNAVAILABLE:
+            if watchdog.fired:
+                if ended is not None:
+                    ended.append((grpc.StatusCode.DEADLINE_EXCEEDED,
+                                  f"no answer for {self.stream_idle_timeout} s with frames in "
+                                  "flight (stream_idle_timeout)"))
+            elif e.code() == grpc.StatusCode.UNAVAILABLE:
+                if ended is not None:
+                    ended.append((e.code(), e.details()))
+            else:
                 raise _rpc_error(e, index) from None
         finally:
+            watchdog.stop()
             stop.set()
             outbox.put(None)
             call.cancel()
@@ -433,7 +557,7 @@ class Client:
     def backends(self):
         """The server's backends: a list of dicts (id, description, available, ...)."""
         try:
-            response = self._stub.ListBackends(pb.ListBackendsRequest())
+            response = self._stub.ListBackends(pb.ListBackendsRequest(), timeout=self.timeout)
         except grpc.RpcError as e:
             raise _rpc_error(e) from None
         return [{"id": b.id, "description": b.description, "available": b.available,
@@ -444,7 +568,7 @@ class Client:
     def stats(self):
         """The server's counters: a dict, with "backends" a dict by backend id."""
         try:
-            s = self._stub.GetServerStats(pb.GetServerStatsRequest())
+            s = self._stub.GetServerStats(pb.GetServerStatsRequest(), timeout=self.timeout)
         except grpc.RpcError as e:
             raise _rpc_error(e) from None
         out = {f: getattr(s, f) for f in (

@@ -17,6 +17,12 @@ enum class StatusCode {
   kFailedPrecondition,  // e.g. a backend that is not available on this machine
   kUnavailable,         // draining or shut down
   kInternal,            // a bug or a device failure
+  // What a client meets on the way to the service: its own deadline or idle limit, a call
+  // it cancelled, a policy that denies the call, credentials the server refuses.
+  kDeadlineExceeded,
+  kCancelled,
+  kPermissionDenied,
+  kUnauthenticated,
 };
 
 const char* StatusCodeName(StatusCode code);
@@ -50,6 +56,9 @@ inline Status FailedPrecondition(std::string m) {
 }
 inline Status Unavailable(std::string m) { return {StatusCode::kUnavailable, std::move(m)}; }
 inline Status Internal(std::string m) { return {StatusCode::kInternal, std::move(m)}; }
+inline Status DeadlineExceeded(std::string m) {
+  return {StatusCode::kDeadlineExceeded, std::move(m)};
+}
 
 // A value or the Status saying why there is none.
 template <typename T>
