@@ -32,9 +32,10 @@ struct ServerOptions {
   std::string log_format = "text";  // text or json (one JSON object per line)
   std::string metrics_listen;       // empty: no metrics endpoint
   std::string port_file;            // empty: none; else the bound gRPC port is written there
-  // Connection hygiene (docs/deployment.md, "Connections"): keepalive pings find dead peers; a
-  // maximum connection age makes clients reconnect, and so re-resolve, so that replicas
-  // added by a scale-up get their share; the grace lets the frames in flight finish.
+  // Connection hygiene (docs/deployment/scale-out.md#connections): keepalive pings find
+  // dead peers; a maximum connection age makes clients reconnect, and so re-resolve, so
+  // that replicas added by a scale-up get their share; the grace lets the frames in flight
+  // finish.
   double keepalive_seconds = 30;
   double keepalive_timeout_seconds = 10;
   double max_connection_age_seconds = 300;  // 0: connections never age out

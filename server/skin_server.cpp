@@ -114,7 +114,8 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
     if (server->port_ == 0 && options.listen[i].rfind("unix:", 0) != 0) server->port_ = ports[i];
   }
   // Readiness ("" and the service's name) waits for the engine; liveness answers SERVING
-  // from now until the process stops, draining included (docs/deployment.md#probes).
+  // from now until the process stops, draining included
+  // (docs/deployment/kubernetes.md#probes).
   server->SetReady(false);
   server->server_->GetHealthCheckService()->SetServingStatus(kLivenessService, true);
   spdlog::info(
