@@ -119,7 +119,7 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->capture_default_str();
   app.add_option("--backends", o.backends,
                  "backend ids to enable, comma-separated (default: all of serial, openmp, sse, "
-                 "sse-openmp, opencl, opencl-zerocopy, passthrough)")
+                 "sse-openmp, simd, simd-openmp, opencl, opencl-zerocopy, passthrough)")
       ->envname("SKINSERVE_BACKENDS")
       ->delimiter(',');
   app.add_option("--default-backend", o.default_backend, "backend used when a request names none")

@@ -17,7 +17,7 @@ namespace {
 std::vector<MeshCase> Cases() {
   std::vector<MeshCase> cases = MeshCases({1, 7, 1001}, {1, 77, 1024});
   // Large, odd-sized meshes for the common influence counts.
-  for (uint32_t b : {1u, 4u, 8u}) cases.push_back({100003, b, 77, b == 4});
+  for (uint32_t b : {1u, 4u, 8u}) cases.push_back({LargeCaseVertices(), b, 77, b == 4});
   return cases;
 }
 

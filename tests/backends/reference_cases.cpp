@@ -1,7 +1,10 @@
 #include "reference_cases.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
+#include <string>
 
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
@@ -19,6 +22,23 @@ std::vector<MeshCase> MeshCases(std::initializer_list<uint32_t> vertices,
     }
   }
   return cases;
+}
+
+uint32_t LargeCaseVertices() {
+  const char* text = std::getenv("SKINSERVE_TEST_LARGE_VERTICES");
+  if (text == nullptr || *text == '\0') return 100003;
+  // Called while the suites' cases are listed, before any test runs: a bad value ends the
+  // run here, loudly.
+  char* end = nullptr;
+  const unsigned long value = std::strtoul(text, &end, 10);
+  if (*end != '\0' || value < 4097 || value > 100003 || value % 2 == 0) {
+    std::fprintf(stderr,
+                 "SKINSERVE_TEST_LARGE_VERTICES=%s: expected an odd vertex count in "
+                 "[4097, 100003]\n",
+                 text);
+    std::exit(2);
+  }
+  return static_cast<uint32_t>(value);
 }
 
 uint64_t CaseSeed(const MeshCase& c) {
