@@ -28,9 +28,10 @@ void OnSignal(int signal) {
 // glibc serves allocations above a dynamic threshold (128 KiB at first) with fresh mmaps
 // and trims the heap top eagerly, so gRPC's per-message buffers of a few hundred KiB
 // page-fault on every frame (7-12 minor faults per 25k-vertex frame measured; 1-1.3 with
-// these settings, fewer than jemalloc's 8 or mimalloc's 19: see docs/decisions/0004-allocator-glibc-tuned.md). Messages
-// are at most ~1 MiB, so 4 MiB keeps them on the heap while large per-stream buffers are
-// still mapped and returned when their stream ends. GLIBC_TUNABLES, when set, wins.
+// these settings, fewer than jemalloc's 8 or mimalloc's 19: see
+// docs/decisions/0004-allocator-glibc-tuned.md). Messages are at most ~1 MiB, so 4 MiB keeps them
+// on the heap while large per-stream buffers are still mapped and returned when their stream ends.
+// GLIBC_TUNABLES, when set, wins.
 void TuneMalloc() {
   if (std::getenv("GLIBC_TUNABLES") != nullptr) return;
   mallopt(M_MMAP_THRESHOLD, 4 << 20);

@@ -89,7 +89,8 @@ void PaperTablesReporter::PrintTables(const std::vector<std::string>& backends) 
     fmt::print("\nMillion vertices per second ({})\n{:>16}", what, "backend \\ V,B");
     const uint32_t v_max = *vertices.rbegin(), b_max = *bones.rbegin();
     // The memory bound at the largest frame: what the copy bandwidth allows at the bytes
-    // a vertex of the uploaded layout moves (the `simd` stream moves fewer, see docs/backends/simd.md).
+    // a vertex of the uploaded layout moves (the `simd` stream moves fewer, see
+    // docs/backends/simd.md).
     const double bound_at_max =
         bandwidth_bytes_per_second_ / BytesPerVertex(b_max, what != "positions");
     for (uint32_t v : vertices) fmt::print(" {:>10}", fmt::format("{}k,{}", v / 1000, b_max));

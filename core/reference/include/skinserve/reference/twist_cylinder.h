@@ -3,7 +3,8 @@
 // top about the cylinder's axis. Linear blending averages the two matrices and the
 // middle of the tube shrinks to a radius of cos(angle / 2), collapsing at 180 degrees
 // (the "candy wrapper"); dual quaternions blend the rotations and keep the radius.
-// Used by the tests and by `skinserve-cli twist`, which draws the picture on docs/backends/dual-quaternion.md.
+// Used by the tests and by `skinserve-cli twist`, which draws the picture on
+// docs/backends/dual-quaternion.md.
 #pragma once
 
 #include <cstdint>
