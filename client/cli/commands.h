@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "connection_flags.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
 #include "skinserve/model/skinning_method.h"
@@ -16,12 +17,10 @@ namespace skinserve::cli {
 // The options before the subcommand: where the server is, how to reach it, how long to wait.
 struct CommonOptions {
   std::string target = "127.0.0.1:50051";
-  client::TlsFiles tls;
+  client::ConnectionFlags connection;  // TLS and keepalive
   double deadline_seconds = 30;
   double upload_deadline_seconds = 300;
   double stream_idle_seconds = 30;
-  double keepalive_seconds = 10;
-  double keepalive_timeout_seconds = 5;
   int exit_code = 0;
 
   // A channel to `target` (TLS when --tls-ca is given); an unreadable file is an error

@@ -5,26 +5,19 @@
 #include "commands.h"
 
 namespace skinserve::cli {
-namespace {
 
-std::chrono::milliseconds Milliseconds(double seconds) {
-  return std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
-}
-
-}  // namespace
+using client::FlagMilliseconds;
 
 Result<std::shared_ptr<grpc::Channel>> CommonOptions::Channel() const {
-  auto options = client::ChannelOptionsFromFiles(tls);
+  auto options = connection.ToChannelOptions();
   if (!options.ok()) return options.status();
-  options->keepalive_time = Milliseconds(keepalive_seconds);
-  options->keepalive_timeout = Milliseconds(keepalive_timeout_seconds);
   return client::MakeChannel(target, *options);
 }
 
 client::CallLimits CommonOptions::Limits() const {
-  return {.deadline = Milliseconds(deadline_seconds),
-          .upload_deadline = Milliseconds(upload_deadline_seconds),
-          .stream_idle = Milliseconds(stream_idle_seconds)};
+  return {.deadline = FlagMilliseconds(deadline_seconds),
+          .upload_deadline = FlagMilliseconds(upload_deadline_seconds),
+          .stream_idle = FlagMilliseconds(stream_idle_seconds)};
 }
 
 void AddCommonOptions(CLI::App& app, CommonOptions& common) {
@@ -33,19 +26,7 @@ void AddCommonOptions(CLI::App& app, CommonOptions& common) {
                  "ipv4:127.0.0.1:50051,127.0.0.1:50052 (round_robin) or unix:PATH")
       ->envname("SKINSERVE_TARGET")
       ->capture_default_str();
-  app.add_option("--tls-ca", common.tls.ca,
-                 "TLS: PEM CA certificate(s) that signed the server's certificate (without it: "
-                 "plaintext; unix: addresses are always plaintext)")
-      ->envname("SKINSERVE_CLIENT_TLS_CA");
-  app.add_option("--tls-cert", common.tls.cert,
-                 "mutual TLS: this client's PEM certificate chain (with --tls-key)")
-      ->envname("SKINSERVE_CLIENT_TLS_CERT");
-  app.add_option("--tls-key", common.tls.key, "mutual TLS: this client's PEM private key")
-      ->envname("SKINSERVE_CLIENT_TLS_KEY");
-  app.add_option("--tls-server-name", common.tls.server_name,
-                 "TLS: the name the server's certificate must carry, when the target's host is "
-                 "not it (e.g. an IP address)")
-      ->envname("SKINSERVE_CLIENT_TLS_SERVER_NAME");
+  client::AddConnectionFlags(app, common.connection);
   app.add_option("--deadline-seconds", common.deadline_seconds,
                  "deadline of each call and each single frame (0: none)")
       ->check(CLI::NonNegativeNumber)
@@ -58,15 +39,6 @@ void AddCommonOptions(CLI::App& app, CommonOptions& common) {
                  "a stream with frames in flight and no answer for this long is ended "
                  "(DEADLINE_EXCEEDED) and the next one opened (0: wait for ever)")
       ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  app.add_option("--keepalive-seconds", common.keepalive_seconds,
-                 "with calls open, ping the server this often (0: never); a ping unanswered "
-                 "for --keepalive-timeout-seconds closes the connection (UNAVAILABLE)")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  app.add_option("--keepalive-timeout-seconds", common.keepalive_timeout_seconds,
-                 "how long a keepalive ping may go unanswered")
-      ->check(CLI::PositiveNumber)
       ->capture_default_str();
 }
 

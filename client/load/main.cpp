@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <sstream>
 
+#include "connection_flags.h"
 #include "load_report.h"
 #include "load_runner.h"
 #include "skinserve/client/channel.h"
@@ -23,9 +24,8 @@ namespace {
 
 struct Options {
   RunConfig run;
-  client::TlsFiles tls;
+  client::ConnectionFlags connection;  // TLS and keepalive
   double deadline_seconds = 30, stream_idle_seconds = 30;
-  double keepalive_seconds = 10, keepalive_timeout_seconds = 5;
   std::string backends = "all";
   uint32_t vertices = 100'000, bones = 2, joints = 77;
   bool normals = false;
@@ -290,19 +290,7 @@ int main(int argc, char** argv) {
                  "(round_robin)")
       ->envname("SKINSERVE_TARGET")
       ->capture_default_str();
-  app.add_option("--tls-ca", o.tls.ca,
-                 "TLS: PEM CA certificate(s) that signed the server's certificate (without it: "
-                 "plaintext; unix: addresses are always plaintext)")
-      ->envname("SKINSERVE_CLIENT_TLS_CA");
-  app.add_option("--tls-cert", o.tls.cert,
-                 "mutual TLS: this client's PEM certificate chain (with --tls-key)")
-      ->envname("SKINSERVE_CLIENT_TLS_CERT");
-  app.add_option("--tls-key", o.tls.key, "mutual TLS: this client's PEM private key")
-      ->envname("SKINSERVE_CLIENT_TLS_KEY");
-  app.add_option("--tls-server-name", o.tls.server_name,
-                 "TLS: the name the server's certificate must carry, when the target's host is "
-                 "not it (e.g. an IP address)")
-      ->envname("SKINSERVE_CLIENT_TLS_SERVER_NAME");
+  skinserve::client::AddConnectionFlags(app, o.connection);
   app.add_option("--deadline-seconds", o.deadline_seconds,
                  "deadline of each unary call (uploads: 300 s) (0: none)")
       ->check(CLI::NonNegativeNumber)
@@ -311,15 +299,6 @@ int main(int argc, char** argv) {
                  "a stream with frames in flight and no answer for this long is ended, its "
                  "frames failed DEADLINE_EXCEEDED (0: wait for ever)")
       ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  app.add_option("--keepalive-seconds", o.keepalive_seconds,
-                 "with calls open, ping the server this often (0: never); a ping unanswered "
-                 "for --keepalive-timeout-seconds closes the connection (UNAVAILABLE)")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  app.add_option("--keepalive-timeout-seconds", o.keepalive_timeout_seconds,
-                 "how long a keepalive ping may go unanswered")
-      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--backends", o.backends, "comma-separated ids, or 'all' (as the server lists)")
       ->capture_default_str();
@@ -409,19 +388,14 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "warning: glibc refused the malloc settings for streaming\n");
   }
   o.run.encoding = *skinserve::ParseVertexEncoding(o.encoding);
-  auto channel = skinserve::client::ChannelOptionsFromFiles(o.tls);
+  auto channel = o.connection.ToChannelOptions();
   if (!channel.ok()) {
     fmt::print(stderr, "error: {}\n", channel.status().ToString());
     return 2;
   }
-  const auto ms = [](double seconds) {
-    return std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
-  };
   o.run.channel = *channel;
-  o.run.channel.keepalive_time = ms(o.keepalive_seconds);
-  o.run.channel.keepalive_timeout = ms(o.keepalive_timeout_seconds);
-  o.run.limits.deadline = ms(o.deadline_seconds);
-  o.run.limits.stream_idle = ms(o.stream_idle_seconds);
+  o.run.limits.deadline = skinserve::client::FlagMilliseconds(o.deadline_seconds);
+  o.run.limits.stream_idle = skinserve::client::FlagMilliseconds(o.stream_idle_seconds);
   if (o.capacity) {
     if (o.run.rate <= 0) o.run.rate = 60;
     if (app.count("--vertices") == 0) o.vertices = 25'000;
