@@ -9,6 +9,7 @@
 #include <grpcpp/impl/codegen/proto_utils.h>
 
 #include "engine_messages.h"
+#include "skinserve/wire/part_framing.h"
 #include "skinserve/wire/region_layout.h"
 
 namespace skinserve::server {
@@ -22,19 +23,6 @@ constexpr std::size_t kBoundsRoom = 40;
 
 constexpr std::size_t RoundUp(std::size_t n) {
   return (n + kBufferAlignment - 1) / kBufferAlignment * kBufferAlignment;
-}
-
-// Appends a length-delimited field's tag and length (protobuf wire type 2) at `out`;
-// returns the bytes written (at most 6).
-std::size_t PutLengthDelimitedTag(int field, std::size_t length, std::byte* out) {
-  std::size_t n = 0;
-  out[n++] = static_cast<std::byte>(field << 3 | 2);
-  do {
-    const auto low = static_cast<uint8_t>(length & 0x7f);
-    length >>= 7;
-    out[n++] = static_cast<std::byte>(length ? (low | 0x80) : low);
-  } while (length);
-  return n;
 }
 
 // Grows `buffer` to hold `count` values (never shrinks, so alternating sizes do not
@@ -329,20 +317,12 @@ Status FrameJob::WritePartHeader(std::size_t p) {
       ToWire(bounds_[r.instance + k], header_.add_instance_bounds());
     }
   }
-  const std::size_t size = header_.ByteSizeLong();
-  if (size + 12 > header_room_) {
-    return Internal(fmt::format("a response header of {} bytes exceeds the {} reserved", size,
-                                header_room_ - 12));
-  }
-  std::byte* room = wire_.data() + headers_offset_ + p * header_room_;
-  header_.SerializeWithCachedSizesToArray(reinterpret_cast<uint8_t*>(room));
   const std::size_t payload = EncodedBytes(encoding_, r.count) * r.instances;
-  PartHeader& h = headers_[p];
-  h.size =
-      size + PutLengthDelimitedTag(v1::SkinResponse::kPositionsFieldNumber, payload, room + size);
-  h.normals_tag_size = want_normals_ ? PutLengthDelimitedTag(v1::SkinResponse::kNormalsFieldNumber,
-                                                             payload, room + h.size)
-                                     : 0;
+  std::byte* room = wire_.data() + headers_offset_ + p * header_room_;
+  auto framing = wire::WritePartFraming(header_, header_.ByteSizeLong(), payload, want_normals_,
+                                        {room, header_room_});
+  if (!framing.ok()) return framing.status();
+  headers_[p] = {framing->header_bytes, framing->normals_tag_bytes};
   return Status::Ok();
 }
 

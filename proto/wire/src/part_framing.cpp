@@ -1,0 +1,50 @@
+#include "skinserve/wire/part_framing.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+namespace skinserve::wire {
+namespace {
+
+// A length-delimited field's tag and length (protobuf wire type 2) at `out`; returns the
+// bytes written (at most kMaxFieldTagBytes).
+std::size_t PutLengthDelimitedTag(int field, std::size_t length, std::byte* out) {
+  std::size_t n = 0;
+  out[n++] = static_cast<std::byte>(field << 3 | 2);
+  do {
+    const auto low = static_cast<uint8_t>(length & 0x7f);
+    length >>= 7;
+    out[n++] = static_cast<std::byte>(length ? (low | 0x80) : low);
+  } while (length);
+  return n;
+}
+
+}  // namespace
+
+Result<PartFraming> WritePartFraming(const v1::SkinResponse& header, std::size_t header_size,
+                                     std::size_t payload_bytes, bool normals,
+                                     std::span<std::byte> room) {
+  const std::size_t tags = (normals ? 2 : 1) * kMaxFieldTagBytes;
+  if (header_size + tags > room.size()) {
+    return Internal(fmt::format("a response header of {} bytes exceeds the {} reserved",
+                                header_size, room.size() - std::min(room.size(), tags)));
+  }
+  if (payload_bytes >> 35 != 0) {
+    return Internal(fmt::format("a part of {} bytes per vertex field is past the wire's framing",
+                                payload_bytes));
+  }
+  std::byte* out = room.data();
+  header.SerializeWithCachedSizesToArray(reinterpret_cast<uint8_t*>(out));
+  PartFraming framing;
+  framing.header_bytes =
+      header_size + PutLengthDelimitedTag(v1::SkinResponse::kPositionsFieldNumber, payload_bytes,
+                                          out + header_size);
+  if (normals) {
+    framing.normals_tag_bytes = PutLengthDelimitedTag(v1::SkinResponse::kNormalsFieldNumber,
+                                                      payload_bytes, out + framing.header_bytes);
+  }
+  return framing;
+}
+
+}  // namespace skinserve::wire

@@ -1,0 +1,94 @@
+// A part framed by WritePartFraming, with its vertex bytes beside it as the server sends
+// them, must be a SkinResponse to protobuf's own parser (the independent reference) and to
+// the clients' RawPart, field for field and byte for byte, at every varint length boundary
+// of the payload.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "skinserve/wire/part_framing.h"
+#include "skinserve/wire/raw_part.h"
+
+namespace skinserve::wire {
+namespace {
+
+v1::SkinResponse Header() {
+  v1::SkinResponse header;
+  header.set_frame(123456789);
+  header.set_first_vertex(4096);
+  header.set_vertex_count(77);
+  header.set_total_vertices(100003);
+  header.set_last(true);
+  header.set_instance(3);
+  header.set_instances(8);
+  header.set_encoding(v1::ENCODING_SNORM16);
+  header.mutable_timing()->set_queued_ns(1234);
+  header.mutable_bounds()->set_min_x(-1.5f);
+  header.mutable_bounds()->set_max_z(2.5f);
+  return header;
+}
+
+std::string Bytes(std::size_t n, uint32_t seed) {
+  std::mt19937 random(seed);
+  std::string bytes(n, '\0');
+  for (char& c : bytes) c = static_cast<char>(random());
+  return bytes;
+}
+
+TEST(PartFramingTest, FramedPartsParseAsTheMessageTheyStandFor) {
+  for (bool normals : {false, true}) {
+    for (std::size_t payload : {0u, 1u, 127u, 128u, 16383u, 16384u, 2097151u, 2097152u}) {
+      SCOPED_TRACE(testing::Message() << "payload " << payload << ", normals " << normals);
+      const v1::SkinResponse header = Header();
+      std::vector<std::byte> room(256);
+      auto framing = WritePartFraming(header, header.ByteSizeLong(), payload, normals, room);
+      ASSERT_TRUE(framing.ok()) << framing.status().ToString();
+      EXPECT_EQ(framing->normals_tag_bytes == 0, !normals);
+
+      const std::string positions = Bytes(payload, 1);
+      const std::string normal_bytes = Bytes(payload, 2);
+      std::string wire(reinterpret_cast<const char*>(room.data()), framing->header_bytes);
+      wire += positions;
+      if (normals) {
+        wire.append(reinterpret_cast<const char*>(room.data()) + framing->header_bytes,
+                    framing->normals_tag_bytes);
+        wire += normal_bytes;
+      }
+
+      v1::SkinResponse parsed;
+      ASSERT_TRUE(parsed.ParseFromString(wire));
+      v1::SkinResponse expected = header;
+      expected.set_positions(positions);
+      if (normals) expected.set_normals(normal_bytes);
+      EXPECT_EQ(parsed.SerializeAsString(), expected.SerializeAsString());
+
+      // The clients' reader: the same header, the same field sizes.
+      grpc::Slice slice(wire.data(), wire.size());
+      RawPart raw;
+      ASSERT_TRUE(raw.Parse(grpc::ByteBuffer(&slice, 1)));
+      EXPECT_EQ(raw.header().frame(), header.frame());
+      EXPECT_EQ(raw.header().instance(), header.instance());
+      EXPECT_EQ(raw.header().bounds().max_z(), header.bounds().max_z());
+      EXPECT_EQ(raw.positions_size(), payload);
+      EXPECT_EQ(raw.normals_size(), normals ? payload : 0);
+    }
+  }
+}
+
+TEST(PartFramingTest, AHeaderThatDoesNotFitIsAnErrorNamingTheSizes) {
+  v1::SkinResponse header = Header();
+  for (int i = 0; i < 20; ++i) header.add_instance_bounds()->set_min_x(1.0f);
+  const std::size_t size = header.ByteSizeLong();
+  std::vector<std::byte> room(size + 11);  // one byte short of two tags' room
+  auto framing = WritePartFraming(header, size, 1000, /*normals=*/true, room);
+  ASSERT_FALSE(framing.ok());
+  EXPECT_NE(framing.status().message().find(std::to_string(size) + " bytes"), std::string::npos)
+      << framing.status().message();
+  // Without normals one tag's room is enough.
+  EXPECT_TRUE(WritePartFraming(header, size, 1000, /*normals=*/false, room).ok());
+}
+
+}  // namespace
+}  // namespace skinserve::wire
