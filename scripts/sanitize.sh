@@ -5,7 +5,9 @@
 #                                          args every test but the deploy (containers) and
 #                                          arm64 (cross-built) labels
 #   scripts/sanitize.sh asan-ci            what CI runs of it (its time budget): the engine,
-#                                          backends, service, glTF importer and fuzz corpora
+#                                          backends, service, security, stress (hostile clients,
+#                                          uploads, truncated regions), client, wire, glTF
+#                                          importer and fuzz corpora
 #   scripts/sanitize.sh tsan               TSan build of the engine's tests in build-tsan, run
 #                                          with OpenMP's TSan support (libarcher)
 #   scripts/sanitize.sh fuzz [SECONDS]     each libFuzzer target of build-asan for SECONDS
@@ -45,8 +47,9 @@ case "$mode" in
     if [ "$mode" = asan-ci ]; then
       cmake --build "$build" -j "$(nproc)" --target skinserve skinserve_engine_tests \
         skinserve_backend_tests skinserve_service_tests skinserve_character_tests \
-        mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer raw_part_fuzzer
-      set -- -R '^(skinserve_(engine|backend|service|character)_tests|.*_fuzzer\.corpus)$'
+        skinserve_security_tests skinserve_stress_tests skinserve_client_tests \
+        skinserve_wire_tests mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer raw_part_fuzzer
+      set -- -R '^(skinserve_(engine|backend|service|character|security|stress|client|wire)_tests|.*_fuzzer\.corpus)$'
     else
       cmake --build "$build" -j "$(nproc)"
       # Not the container tests (deploy) nor the arm64 cross-build (arm64: another compiler,
