@@ -25,6 +25,7 @@ Result<RunResult> Measure(const RunConfig& config, const Workload& workload,
   for (int trial = 0; trial < trials && !stable; ++trial) {
     RunConfig window = config;
     if (trial > 0) window.warmup_seconds = 0;  // the server is warm: measure straight away
+    window.arrivals_seed = config.arrivals_seed + trial;  // each window its own Poisson draws
     const Progress window_progress =
         progress ? Progress([&, trial](double f) { progress((trial + f) / trials); }) : nullptr;
     RunResult r = RunLoad(window, workload, mesh_id, window_progress);

@@ -112,9 +112,12 @@ Result<MetricSamples> ParseMetricsText(const std::string& text) {
     }
     const std::string family = FamilyOf(name, types);
     const auto type = types.find(family);
-    const bool cumulative =
-        type == types.end() || type->second == "counter" || type->second == "untyped" ||
-        ((type->second == "histogram" || type->second == "summary") && name != family);
+    // A histogram's buckets would bury the report in dozens of series per backend: its
+    // _sum and _count say what a row needs.
+    const bool cumulative = type == types.end() || type->second == "counter" ||
+                            type->second == "untyped" ||
+                            ((type->second == "histogram" || type->second == "summary") &&
+                             name != family && !name.ends_with("_bucket"));
     if (cumulative) samples[key] = value;
   }
   return samples;

@@ -16,9 +16,10 @@ using MetricSamples = std::map<std::string, double>;
 
 // Prometheus' text exposition format: comments and blank lines skipped; label values may
 // hold escaped quotes, commas, braces and spaces; values may be NaN or +/-Inf; an optional
-// timestamp follows. Only series of counters and the _sum/_count/_bucket of histograms and
+// timestamp follows. Only series of counters and the _sum/_count of histograms and
 // summaries (by their # TYPE; untyped series too) are kept: the ones whose difference means
-// something. A malformed line is INVALID_ARGUMENT naming its line number.
+// something (buckets left out: too many to report). A malformed line is INVALID_ARGUMENT
+// naming its line number.
 Result<MetricSamples> ParseMetricsText(const std::string& text);
 
 // GET `url` (http://HOST[:PORT][/PATH], path /metrics when none) over a plain socket, with a
