@@ -3,8 +3,9 @@
 //   open loop     --rate FPS (per stream), late and dropped frames reported; --rate-range
 //                 START:END:STEP one row per rate; --arrivals constant|poisson
 //   --sweep paper the paper's grid over every backend, tables 2 and 3 layout
-//   --capacity    the most characters (streams x --instances) held at 60 fps with p99
-//                 within one frame and nothing dropped, per --modes (encoding x crowd size)
+//   --capacity    the most characters (streams x --instances) held at 60 fps with the
+//                 latency at --percentile (p99) within one frame and nothing dropped, per
+//                 --modes (encoding x crowd size)
 #include <fmt/format.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
@@ -393,8 +394,9 @@ int main(int argc, char** argv) {
   app.add_option("--primitive", o.primitive,
                  "--mesh: only this skinned primitive (default: the whole character)");
   app.add_flag("--capacity", o.capacity,
-               "find the most concurrent --rate streams (default 60 fps) held with p99 within "
-               "one frame and nothing dropped, on the first --backends entry (default: "
+               "find the most concurrent --rate streams (default 60 fps) held with the latency at "
+               "--percentile within one frame (or --latency-limit-ms) and nothing dropped, on the "
+               "first --backends entry (default: "
                "simd-openmp, the fastest CPU loop on every CPU)");
   app.add_option("--capacity-max-streams", o.capacity_max_streams, "upper end of the search")
       ->capture_default_str();
