@@ -16,6 +16,12 @@ void AddMeasurementFlags(CLI::App& app, MeasurementFlags& flags) {
   app.add_option("--rate-range", flags.rate_range,
                  "open loop at each rate of START:END[:STEP] frames/s per stream (as --rate; "
                  "STEP 1 by default): one measurement and one report row per rate")
+      ->check([](const std::string& text) {
+        auto rates = ParseRateRange(text);
+        // CLI11 names the option itself: "--rate-range: '10:5': END must be >= START".
+        return rates.ok() ? std::string()
+                          : rates.status().message().substr(std::string("--rate-range ").size());
+      })
       ->excludes("--rate")
       ->excludes("--capacity");
   app.add_option("--arrivals", flags.arrivals,
