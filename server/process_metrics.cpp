@@ -76,8 +76,8 @@ std::string RenderProcessMetrics() {
   const double ticks = static_cast<double>(sysconf(_SC_CLK_TCK));
   const double page = static_cast<double>(sysconf(_SC_PAGESIZE));
   std::optional<double> cpu, start, rss, vsize;
-  if (auto user = StatField(fields, 14), system = StatField(fields, 15); user && system) {
-    cpu = (*user + *system) / ticks;
+  if (auto user = StatField(fields, 14), kernel = StatField(fields, 15); user && kernel) {
+    cpu = (*user + *kernel) / ticks;
   }
   if (auto since_boot = StatField(fields, 22), boot = BootTime(); since_boot && boot) {
     start = *boot + *since_boot / ticks;
