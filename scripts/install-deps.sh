@@ -35,6 +35,10 @@ GPU_PACKAGES=(
 DEPLOY_PACKAGES=(
   yamllint podman runc debootstrap
 )
+# kubectl renders the kustomize overlays offline (deploy.manifests). Debian's is
+# kubernetes-client; a kubectl already installed from elsewhere (a newer one owning
+# /usr/bin/kubectl) is left alone rather than replaced.
+if ! command -v kubectl >/dev/null 2>&1; then DEPLOY_PACKAGES+=(kubernetes-client); fi
 # Security (issue 27): openssl makes the tests' certificates (scripts/make-dev-certs.sh);
 # clinfo lists OpenCL platforms when debugging a machine (not in the runtime image).
 TEST_PACKAGES+=(openssl clinfo)
