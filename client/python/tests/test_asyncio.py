@@ -2,6 +2,7 @@
 unary and streamed, into shared memory too, each answer against the float64 reference
 within float32's rounding plus the encoding's bound (test_crowds_and_encodings.py)."""
 import asyncio
+import contextlib
 import shutil
 import tempfile
 
@@ -86,6 +87,25 @@ def test_concurrent_calls_on_one_client(server, rng):
                 for c, e in zip(crowds, ENCODINGS * 2)))
     for crowd, encoding, (p, n) in zip(crowds, ENCODINGS * 2, run(main())):
         check_crowd(p, n, mesh, crowd, encoding)
+
+
+def test_a_stream_closed_early_ends_its_call(server, rng):
+    mesh = random_mesh(rng, 1000, 2, JOINTS)
+    palettes = [random_palette(rng, JOINTS) for _ in range(200)]
+
+    async def main():
+        async with skinserve.AsyncClient(server.target) as client:
+            mesh_id = await client.upload(*mesh)
+            async with contextlib.aclosing(client.stream(mesh_id, palettes, backend="serial",
+                                                         window=2)) as frames:
+                got = [await frames.__anext__() for _ in range(3)]
+            for _ in range(100):  # the server sees the cancellation a moment later
+                if (await client.stats())["open_streams"] == 0:
+                    return got
+                await asyncio.sleep(0.05)
+            raise AssertionError("the stream stayed open after aclose()")
+    for got, palette in zip(run(main()), palettes):
+        check_instance(got, skin(*mesh, palette)[0], "float32", POSITION_TOLERANCE)
 
 
 def test_a_bad_instance_is_named_and_the_stream_stops_there(server, rng):

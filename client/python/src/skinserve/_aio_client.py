@@ -187,7 +187,9 @@ class AsyncClient:
                      encoding: str = "float32", window: int = 8,
                      region: Optional[SharedMemoryRegion] = None) -> AsyncIterator[Answer]:
         """Client.stream as an async generator: frame after frame over one StreamSkin call,
-        at most `window` unanswered, yielded in order."""
+        at most `window` unanswered, yielded in order. To stop early, close it
+        (`async with contextlib.aclosing(client.stream(...)) as frames:`): that cancels the
+        call at once, rather than when the generator is collected."""
         palettes = list(palettes)
         joints = self._joint_count(mesh_id)
         crowds = [_arrays.check_palette(f"palettes[{i}]", palette, joints)
