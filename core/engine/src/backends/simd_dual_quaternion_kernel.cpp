@@ -81,7 +81,41 @@ HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions, const float* 
   std::copy_n(b, 4, real);
   std::copy_n(b + 4, 4, dual);
 }
+#elif HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2
+// AVX2 and AVX-512: a joint's whole record is one 256-bit vector, so each influence is one
+// load and one multiply-add.
+template <int B, bool Table, typename Joint>
+HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions, const float* HWY_RESTRICT signs,
+                            uint32_t joint_count, const Joint* HWY_RESTRICT joints,
+                            const float* HWY_RESTRICT weights, float* HWY_RESTRICT real,
+                            float* HWY_RESTRICT dual) {
+  const hn::FixedTag<float, 8> d8;
+  const hn::FixedTag<float, 4> d4;
+  const auto q0 = hn::Load(d8, quaternions + kStride * joints[0]);  // 32-byte aligned
+  const auto r0 = hn::LowerHalf(d4, q0);
+  float last_weight = 1.0f;
+  const float w0 = B > 1 ? weights[0] : 1.0f;
+  last_weight -= w0;
+  auto b = hn::Mul(hn::Set(d8, w0), q0);
+  for (int i = 1; i < B; ++i) {
+    const auto q = hn::Load(d8, quaternions + kStride * joints[i]);
+    float w = last_weight;
+    if (i + 1 < B) w = weights[i], last_weight -= w;
+    // q and -q are the same rotation: take the one in the first influence's hemisphere.
+    if constexpr (Table) {
+      w *= signs[std::size_t{joint_count} * joints[0] + joints[i]];
+    } else {
+      const float dot = hn::GetLane(hn::SumOfLanes(d4, hn::Mul(r0, hn::LowerHalf(d4, q))));
+      w = dot < 0 ? -w : w;
+    }
+    b = hn::MulAdd(hn::Set(d8, w), q, b);
+  }
+  hn::Store(hn::LowerHalf(d4, b), d4, real);
+  hn::Store(hn::UpperHalf(d4, b), d4, dual);
+}
 #else
+// 128-bit targets (SSE4, NEON, SVE at any length): the rotation and the dual part are one
+// 4-lane vector each.
 template <int B, bool Table, typename Joint>
 HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions, const float* HWY_RESTRICT signs,
                             uint32_t joint_count, const Joint* HWY_RESTRICT joints,
