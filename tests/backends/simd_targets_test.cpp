@@ -59,9 +59,9 @@ void ExpectMatchesReference(Backend& backend, uint32_t vertices, uint32_t influe
   const Status skinned = backend.Skin(**prepared, frame);
   ASSERT_TRUE(skinned.ok()) << skinned.ToString();
   const std::string what = backend.info().id + " at " + backend.info().simd_target + " " +
-                           std::string(MethodName(method)) +
-                           " V=" + std::to_string(vertices) + " B=" + std::to_string(influences) +
-                           " J=" + std::to_string(joints) + (normals ? " normals" : "");
+                           std::string(MethodName(method)) + " V=" + std::to_string(vertices) +
+                           " B=" + std::to_string(influences) + " J=" + std::to_string(joints) +
+                           (normals ? " normals" : "");
   const Deviation d = CompareWithReference(**mesh, palette, p, nn, method);
   EXPECT_TRUE(d.within_tolerance())
       << what << ": position error " << d.max_position_error << " (tolerance "

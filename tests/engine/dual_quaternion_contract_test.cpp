@@ -20,9 +20,8 @@ namespace {
 class DualQuaternionContractTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    auto engine = Engine::Create(
-        {.enabled_backends = {"serial", kDualQuaternionOpenMpTestBackend, "simd-openmp",
-                              "passthrough"}});
+    auto engine = Engine::Create({.enabled_backends = {"serial", kDualQuaternionOpenMpTestBackend,
+                                                       "simd-openmp", "passthrough"}});
     ASSERT_TRUE(engine.ok()) << engine.status().ToString();
     engine_ = std::move(engine).value();
     arrays_ = MakeSyntheticMesh(

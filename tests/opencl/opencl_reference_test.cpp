@@ -42,8 +42,8 @@ TEST_P(OpenClReferenceTest, MatchesTheFloat64Reference) {
                               "frame 3");
   // The same prepared mesh in dual quaternions (dqs_* kernels), on a rigid palette.
   const auto rigid = MakeRigidPalette(c.joints, CaseSeed(c), 3);
-  ExpectFrameMatchesReference(backend, **prepared, *mesh, rigid, c,
-                              SkinningMethod::kDualQuaternion, "rigid frame 3");
+  ExpectFrameMatchesReference(backend, **prepared, *mesh, rigid, c, SkinningMethod::kDualQuaternion,
+                              "rigid frame 3");
 }
 
 INSTANTIATE_TEST_SUITE_P(OpenCl, OpenClReferenceTest,

@@ -79,9 +79,9 @@ TEST(DualQuaternionServiceTest, FramesMatchTheReferenceUnaryAndStreamed) {
                       .ok())
           << backend;
       ASSERT_EQ(result.bounds.size(), 1u) << backend;
-      const EncodedDeviation d = CompareEncodedWithReference(
-          *mesh, palette, encoding, result.bounds[0], result.positions, result.normals,
-          SkinningMethod::kDualQuaternion);
+      const EncodedDeviation d =
+          CompareEncodedWithReference(*mesh, palette, encoding, result.bounds[0], result.positions,
+                                      result.normals, SkinningMethod::kDualQuaternion);
       EXPECT_TRUE(d.within_tolerance())
           << backend << " " << VertexEncodingName(encoding) << ": position ratio "
           << d.worst_position_ratio << ", normal ratio " << d.worst_normal_ratio;
@@ -119,18 +119,19 @@ TEST(DualQuaternionServiceTest, RefusalsNameTheBackendTheMethodAndTheJoint) {
   auto info = t.client->Upload(arrays);
   ASSERT_TRUE(info.ok()) << info.status().ToString();
   client::FrameResult result;
-  ExpectStatus(t.client->Skin(info->mesh_id(), "passthrough", MakeRigidPalette(6, 2, 0), 0, false,
-                              &result, SkinningMethod::kDualQuaternion),
-               StatusCode::kInvalidArgument,
-               "backend 'passthrough' does not implement method dual-quaternion (it implements "
-               "linear); backends here that do: " +
-                   [&] {
-                     std::string names;
-                     for (const std::string& id : DualQuaternionBackends(*t.client)) {
-                       names += (names.empty() ? "" : ", ") + id;
-                     }
-                     return names;
-                   }());
+  ExpectStatus(
+      t.client->Skin(info->mesh_id(), "passthrough", MakeRigidPalette(6, 2, 0), 0, false, &result,
+                     SkinningMethod::kDualQuaternion),
+      StatusCode::kInvalidArgument,
+      "backend 'passthrough' does not implement method dual-quaternion (it implements "
+      "linear); backends here that do: " +
+          [&] {
+            std::string names;
+            for (const std::string& id : DualQuaternionBackends(*t.client)) {
+              names += (names.empty() ? "" : ", ") + id;
+            }
+            return names;
+          }());
   std::vector<float> scaled = MakeRigidPalette(6, 2, 0);
   for (int e : {0, 1, 2, 4, 5, 6, 8, 9, 10}) scaled[kFloatsPerJoint * 4 + e] *= 1.2f;
   ExpectStatus(t.client->Skin(info->mesh_id(), "serial", scaled, 0, false, &result,

@@ -7,10 +7,10 @@
 // Filters: --backends=a,b  --vertices=25000,100000  --bones=1,2  --normals (paper tables
 // with normals too). --methods=linear,dual-quaternion: the skinning methods to time
 // (default linear; dual quaternions on rigid palettes, rows BM_SkinDualQuaternion and
-// BM_SkinNormalsDualQuaternion beside BM_Skin and BM_SkinNormals). --opencl-device=gpu (cpu, gpu or part of a platform or device name,
-// as skinserve's option). --streams=N: the OpenCL backends also with N threads skinning
-// at once (BM_SkinStreams), frames of several streams in flight on the device.
-// Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
+// BM_SkinNormalsDualQuaternion beside BM_Skin and BM_SkinNormals). --opencl-device=gpu (cpu, gpu or
+// part of a platform or device name, as skinserve's option). --streams=N: the OpenCL backends also
+// with N threads skinning at once (BM_SkinStreams), frames of several streams in flight on the
+// device. Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
 // transfer_ns and kernel_vertices_per_second (kernel only); and the device's bounds are
@@ -34,8 +34,8 @@
 
 #include "backends/opencl_runtime.h"
 #include "paper_tables.h"
-#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/engine/backend_registry.h"
+#include "skinserve/model/aligned_buffer.h"
 #include "workload_cache.h"
 
 namespace skinserve::bench {
@@ -112,8 +112,8 @@ WorkloadCache& Cache() {
 void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
                    bool normals, SkinningMethod method) {
   const Workload& workload = Cache().Get(vertices, bones);
-  const auto& palettes = method == SkinningMethod::kDualQuaternion ? workload.rigid_palettes
-                                                                   : workload.palettes;
+  const auto& palettes =
+      method == SkinningMethod::kDualQuaternion ? workload.rigid_palettes : workload.palettes;
   const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones);
   AlignedBuffer<float> positions(3ull * vertices), out_normals(normals ? 3ull * vertices : 0);
   std::size_t frame = state.thread_index();

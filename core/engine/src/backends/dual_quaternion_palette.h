@@ -1,8 +1,8 @@
 // The frame's palette as unit dual quaternions, for the dual-quaternion kernels (scalar,
-// SSE, Highway and OpenCL): each rigid joint matrix [R | t] converted once per frame, J conversions, so
-// no vertex converts a matrix. Per joint 8 floats, 32-byte aligned: the rotation
-// q = (x, y, z, w), then the dual part d = 0.5 * (t, 0) * q, also (x, y, z, w).
-// The palette must have passed ValidateRigidPalette (SkinFrame::Validate does it).
+// SSE, Highway and OpenCL): each rigid joint matrix [R | t] converted once per frame, J
+// conversions, so no vertex converts a matrix. Per joint 8 floats, 32-byte aligned: the rotation q
+// = (x, y, z, w), then the dual part d = 0.5 * (t, 0) * q, also (x, y, z, w). The palette must have
+// passed ValidateRigidPalette (SkinFrame::Validate does it).
 #pragma once
 
 #include <cmath>

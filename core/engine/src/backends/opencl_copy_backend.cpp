@@ -197,8 +197,9 @@ class OpenClCopyBackend final : public Backend {
       return ClError("clEnqueueWriteBuffer(palette)", err);
     }
     const Mesh& mesh = prepared.mesh();
-    if (Status s = runtime_->EnqueueSkin(lane, mesh, Args(lane, prepared, frame.method, with_normals), 0,
-                                         mesh.vertex_count(), kernels.Next());
+    if (Status s =
+            runtime_->EnqueueSkin(lane, mesh, Args(lane, prepared, frame.method, with_normals), 0,
+                                  mesh.vertex_count(), kernels.Next());
         !s.ok()) {
       return s;
     }

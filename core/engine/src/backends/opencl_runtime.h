@@ -165,8 +165,8 @@ class OpenClRuntime {
   Lease AcquireLane();
 
   // Sets the arguments of `lane`'s kernel for args.method and `mesh`'s influence count
-  // (with normals when args.out_normals is set) and enqueues it on the lane's compute queue over vertices
-  // [first, end) (first a multiple of kChunkAlignment). `event`: null or where to put the
+  // (with normals when args.out_normals is set) and enqueues it on the lane's compute queue over
+  // vertices [first, end) (first a multiple of kChunkAlignment). `event`: null or where to put the
   // kernel's event.
   Status EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args, uint32_t first,
                      uint32_t end, cl_event* event);

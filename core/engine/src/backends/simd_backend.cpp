@@ -9,8 +9,8 @@
 #include "dual_quaternion_palette.h"
 #include "parallel_range.h"
 #include "simd_stream.h"
-#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/engine/simd_targets.h"
+#include "skinserve/model/aligned_buffer.h"
 #include "unavailable_backend.h"
 
 namespace skinserve {

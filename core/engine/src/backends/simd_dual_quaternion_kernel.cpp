@@ -6,17 +6,19 @@
 // is rotated by the blended rotation.
 //
 // Two passes per chunk of 256 vertices, so each part runs where it is cheap:
-//  1. the blend, one vertex at a time with 4-lane vectors: a joint's rotation and dual part
-//     are one aligned 128-bit load each (as the linear loop loads whole matrix records),
-//     the sign test is a 4-lane dot product; the blended real and dual parts go to two
-//     small arrays (L1) instead of being transposed in registers;
+//  1. the blend, one vertex at a time: a joint's record is one aligned 256-bit load on
+//     AVX2 and AVX-512 (its rotation and dual part two 128-bit ones elsewhere), as the
+//     linear loop loads whole matrix records; the sign test is a 4-lane dot product, or a
+//     look-up in the frame's sign table when there is one (DualQuaternionFrame::signs);
+//     the blended real and dual parts go to two small arrays (L1) instead of being
+//     transposed in registers;
 //  2. normalisation and the transform, one vertex per lane at the full vector width: the
 //     blends come back with LoadInterleaved4, positions and normals with
 //     LoadInterleaved3, so this part is plain lane-wise arithmetic.
 // (Gathering each component of each influence instead - 8 gathers an influence - measured
-// 3.2x the linear loop at 400k x 4 on AVX-512.) No vector lives in a struct or an array,
-// so SVE's sizeless vectors work as well. The chunk's last partial vector runs on padded
-// local copies: nothing outside the range is written.
+// 3.2x the linear loop at 400k x 4 on AVX-512; these two passes, 1.5x.) No vector lives in a struct
+// or an array, so SVE's sizeless vectors work as well. The chunk's last partial vector runs on
+// padded local copies: nothing outside the range is written.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_dual_quaternion_kernel.cpp"
 // The same targets as simd_kernel.cpp, which calls into each of them.

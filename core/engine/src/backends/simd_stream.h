@@ -42,9 +42,8 @@ struct DualQuaternionFrame {
 
 // The same for dual-quaternion skinning.
 using SkinDualQuaternionRangeFn = void (*)(const VertexStream& stream,
-                                           const DualQuaternionFrame& palette,
-                                           float* out_positions, float* out_normals,
-                                           std::size_t first, std::size_t last);
+                                           const DualQuaternionFrame& palette, float* out_positions,
+                                           float* out_normals, std::size_t first, std::size_t last);
 
 struct Kernel {
   SkinRangeFn skin_range = nullptr;
