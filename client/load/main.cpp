@@ -392,7 +392,7 @@ int main(int argc, char** argv) {
                  "a new time each frame")
       ->excludes("--vertices", "--bones", "--joints", "--sweep");
   app.add_option("--primitive", o.primitive,
-                 "--mesh: only this skinned primitive (default: the whole character)");
+                 "--mesh: only this primitive, skinned or rigid (default: the whole character)");
   app.add_flag("--capacity", o.capacity,
                "find the most concurrent --rate streams (default 60 fps) held with the latency at "
                "--percentile within one frame (or --latency-limit-ms) and nothing dropped, on the "
