@@ -267,7 +267,9 @@ TEST(LoadIntegrationTest, SharedMemoryDataPlaneInEveryModeCountsAndChecksEveryFr
   }
   EXPECT_EQ(closed["results"].size(), 4u);
   EXPECT_EQ(open["results"].size(), 2u);
-  EXPECT_GE(shm_rows, 3u + 2u);  // and the capacity probes
+  // And the capacity search's probes over shm: at least one (a second only when one stream
+  // held p99 within a frame, which a loaded 2-core machine may deny: timing, not counting).
+  EXPECT_GE(shm_rows, 3u + 1u);
   client::SkinClient c(client::MakeChannel(server.target()));
   auto stats = c.GetServerStats();
   ASSERT_TRUE(stats.ok());
