@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "report_columns.h"
+
 namespace skinserve::load {
 namespace {
 
@@ -43,25 +45,38 @@ double SerialFramesPerSecond(const std::vector<RunResult>& results, const RunRes
 }
 
 void PrintTable(const std::vector<RunResult>& results, bool open_loop) {
+  const double percentile = results.empty() ? 99 : results.front().percentile;
+  const bool trials = std::any_of(results.begin(), results.end(),
+                                  [](const RunResult& r) { return r.stable.has_value(); });
+  const bool rates = std::any_of(results.begin(), results.end(), [&](const RunResult& r) {
+    return r.rate != results.front().rate;
+  });
   fmt::print(
-      "{:<16} {:>8} {:>2} {:>7} {:>9} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} "
-      "{:>7} {:>7}{} {}\n",
-      "backend", "vertices", "B", "frames", "frames/s", "Mvert/s", "MB/s", "p50 ms", "p90 ms",
-      "p99 ms", "max ms", "queue", "compute", "encode", "speedup",
-      open_loop ? fmt::format(" {:>6} {:>7}", "late", "dropped") : "", "errors");
+      "{:<16}{} {:>8} {:>2} {:>7} {:>9} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} "
+      "{:>7} {:>9} {:>7}{}{} {}\n",
+      "backend", rates ? fmt::format(" {:>7}", "rate") : "", "vertices", "B", "frames", "frames/s",
+      "Mvert/s", "MB/s", "p50 ms", "p90 ms", "p99 ms", "max ms",
+      fmt::format("p{:g} ms", percentile), "queue", "compute", "encode", "transport", "speedup",
+      open_loop ? fmt::format(" {:>6} {:>7} {:>10}", "late", "dropped", "late sends") : "",
+      trials ? fmt::format(" {:>6}", "stable") : "", "errors");
   for (const RunResult& r : results) {
-    const LatencySummary l = Summarize(r.latencies_ms);
+    const LatencySummary l = Summarize(r.latencies_ms, r.percentile);
     const double serial = SerialFramesPerSecond(results, r);
     fmt::print(
-        "{:<16} {:>8} {:>2} {:>7} {:>9.1f} {:>9.1f} {:>8.1f} {:>7.2f} {:>7.2f} {:>7.2f} "
-        "{:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>7}{} {}{}\n",
-        BackendLabel(r), r.vertices, r.bones, r.frames, r.frames_per_second(),
-        r.vertices_per_second() / 1e6, r.megabytes_per_second(), l.p50, l.p90, l.p99, l.max,
-        r.mean(r.server_queue_ms_sum), r.mean(r.server_compute_ms_sum),
-        r.mean(r.server_encode_ms_sum),
+        "{:<16}{} {:>8} {:>2} {:>7} {:>9.1f} {:>9.1f} {:>8.1f} {:>7.2f} {:>7.2f} {:>7.2f} "
+        "{:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>9.2f} {:>7}{}{} {}{}{}\n",
+        BackendLabel(r), rates ? fmt::format(" {:>7g}", r.rate) : "", r.vertices, r.bones, r.frames,
+        r.frames_per_second(), r.vertices_per_second() / 1e6, r.megabytes_per_second(), l.p50,
+        l.p90, l.p99, l.max, l.at_percentile, r.mean(r.server_queue_ms_sum),
+        r.mean(r.server_compute_ms_sum), r.mean(r.server_encode_ms_sum), r.mean(r.transport_ms_sum),
         serial > 0 ? fmt::format("{:.2f}x", r.frames_per_second() / serial) : "-",
-        open_loop ? fmt::format(" {:>6} {:>7}", r.late, r.dropped) : "", ErrorsText(r),
-        r.mismatches > 0 ? fmt::format(" MISMATCHES={}", r.mismatches) : "");
+        open_loop ? fmt::format(" {:>6} {:>7} {:>10}", r.late, r.dropped, r.late_sends) : "",
+        trials ? fmt::format(" {:>6}", !r.stable   ? "-"
+                                       : *r.stable ? "yes"
+                                                   : "no")
+               : "",
+        ErrorsText(r), r.mismatches > 0 ? fmt::format(" MISMATCHES={}", r.mismatches) : "",
+        r.within_limit() ? "" : " OVER-LIMIT");
   }
 }
 
@@ -99,39 +114,7 @@ void PrintSpeedupTables(const std::vector<RunResult>& results) {
 Status WriteJson(const std::string& path, const std::vector<RunResult>& results) {
   nlohmann::json doc;
   doc["results"] = nlohmann::json::array();
-  for (const RunResult& r : results) {
-    const LatencySummary l = Summarize(r.latencies_ms);
-    nlohmann::json item = {
-        {"backend", r.backend},
-        {"vertices", r.vertices},
-        {"bones", r.bones},
-        {"normals", r.normals},
-        {"encoding", r.encoding},
-        {"instances", r.instances},
-        {"data_plane", r.data_plane},
-        {"streams", r.streams},
-        {"rate", r.rate},
-        {"characters_per_second", r.frames_per_second() * r.instances},
-        {"frames", r.frames},
-        {"seconds", r.seconds},
-        {"frames_per_second", r.frames_per_second()},
-        {"vertices_per_second", r.vertices_per_second()},
-        {"megabytes_per_second", r.megabytes_per_second()},
-        {"latency_ms", {{"p50", l.p50}, {"p90", l.p90}, {"p99", l.p99}, {"max", l.max}}},
-        {"server_ms",
-         {{"queue", r.mean(r.server_queue_ms_sum)},
-          {"compute", r.mean(r.server_compute_ms_sum)},
-          {"encode", r.mean(r.server_encode_ms_sum)}}},
-        {"errors", r.errors},
-        {"checked", r.checked},
-        {"mismatches", r.mismatches},
-        {"sent", r.sent},
-        {"late", r.late},
-        {"dropped", r.dropped}};
-    const double serial = SerialFramesPerSecond(results, r);
-    if (serial > 0) item["speedup_over_serial"] = r.frames_per_second() / serial;
-    doc["results"].push_back(item);
-  }
+  for (const RunResult& r : results) doc["results"].push_back(JsonRow(r, results));
   std::ofstream out(path);
   out << doc.dump(2) << "\n";
   if (!out) return InvalidArgument(fmt::format("--json: cannot write {}", path));
@@ -140,21 +123,16 @@ Status WriteJson(const std::string& path, const std::vector<RunResult>& results)
 
 Status WriteCsv(const std::string& path, const std::vector<RunResult>& results) {
   std::ofstream out(path);
-  out << "backend,vertices,bones,normals,frames,seconds,frames_per_second,vertices_per_second,"
-         "megabytes_per_second,p50_ms,p90_ms,p99_ms,max_ms,queue_ms,compute_ms,encode_ms,"
-         "errors,mismatches,late,dropped,speedup_over_serial,encoding,instances,data_plane\n";
+  const auto& columns = ReportColumns();
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    out << (c ? "," : "") << CsvColumnName(columns[c].path);
+  }
+  out << "\n";
   for (const RunResult& r : results) {
-    const LatencySummary l = Summarize(r.latencies_ms);
-    const double serial = SerialFramesPerSecond(results, r);
-    out << fmt::format(
-        "{},{},{},{},{},{:.3f},{:.3f},{:.0f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},"
-        "{:.3f},{:.3f},{:.3f},{},{},{},{},{},{},{},{}\n",
-        r.backend, r.vertices, r.bones, r.normals ? 1 : 0, r.frames, r.seconds,
-        r.frames_per_second(), r.vertices_per_second(), r.megabytes_per_second(), l.p50, l.p90,
-        l.p99, l.max, r.mean(r.server_queue_ms_sum), r.mean(r.server_compute_ms_sum),
-        r.mean(r.server_encode_ms_sum), r.error_count(), r.mismatches, r.late, r.dropped,
-        serial > 0 ? fmt::format("{:.3f}", r.frames_per_second() / serial) : "", r.encoding,
-        r.instances, r.data_plane);
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      out << (c ? "," : "") << CsvCell(columns[c].value(r, results));
+    }
+    out << "\n";
   }
   if (!out) return InvalidArgument(fmt::format("--csv: cannot write {}", path));
   return Status::Ok();

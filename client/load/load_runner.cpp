@@ -111,6 +111,7 @@ class Recorder {
     result_.data_plane = config.shared_memory ? "shm" : "grpc";
     result_.streams = config.streams;
     result_.rate = config.rate;
+    if (config.rate > 0) result_.arrivals = ArrivalsName(config.arrivals);
     // Open loop knows its frame count: no reallocation while measuring.
     if (config.rate > 0) {
       result_.latencies_ms.reserve(static_cast<std::size_t>(
@@ -129,8 +130,10 @@ class Recorder {
     measure_from_ = std::min(measure_from_, when);
   }
 
-  // One answered (or failed) frame; `late` only means something in open loop.
-  void Record(const client::FrameResult& frame, double latency_ms, bool late, bool measured) {
+  // One answered (or failed) frame; `late` and `send_lag_ms` (sent minus scheduled) only
+  // mean something in open loop, where the latency counts from the scheduled time.
+  void Record(const client::FrameResult& frame, double latency_ms, bool late, bool measured,
+              double send_lag_ms = 0) {
     const Clock::time_point now = Clock::now();
     bool mismatch = false, checked = false;
     if (frame.status.ok() && config_.check_every > 0 &&
@@ -152,6 +155,12 @@ class Recorder {
     result_.server_queue_ms_sum += frame.timing.queued_ns() / 1e6;
     result_.server_compute_ms_sum += frame.timing.compute_ns() / 1e6;
     result_.server_encode_ms_sum += frame.timing.encode_ns() / 1e6;
+    const double queue = frame.timing.queued_ns() / 1e6, compute = frame.timing.compute_ns() / 1e6;
+    const double encode = std::min(frame.timing.encode_ns() / 1e6, compute);
+    result_.send_lag_ms_sum += send_lag_ms;
+    result_.skinning_ms_sum += compute - encode;
+    result_.breakdown_encode_ms_sum += encode;
+    result_.transport_ms_sum += latency_ms - send_lag_ms - queue - compute;
     last_answer_ = std::max(last_answer_, now);
   }
   // One instance of a checked frame against the float64 reference, within the bound of the
@@ -201,6 +210,14 @@ class Recorder {
     std::lock_guard lock(mutex_);
     result_.sent += sent;
     result_.dropped += dropped;
+  }
+  // Open loop: sends that left late, and the gaps between a stream's measured sends.
+  void AddSendTiming(uint64_t late_sends, uint64_t gaps, double gap_ms_sum, double gap_ms_sq_sum) {
+    std::lock_guard lock(mutex_);
+    result_.late_sends += late_sends;
+    result_.send_gaps += gaps;
+    result_.send_gap_ms_sum += gap_ms_sum;
+    result_.send_gap_ms_sq_sum += gap_ms_sq_sum;
   }
   uint64_t frames() {
     std::lock_guard lock(mutex_);
@@ -287,17 +304,18 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
   run(true, nullptr);
 }
 
-// Sends frame k at start + k / rate whatever happened to earlier frames, and measures
+// Sends frame k at its time in the stream's ArrivalSchedule (constant: start + (k + stagger) /
+// rate; or Poisson) whatever happened to earlier frames, and measures
 // latency from that scheduled time, so a slow answer cannot hide the frames behind it
 // (no coordinated omission). A frame whose time comes while `window` frames are still
 // unanswered is dropped: not sent, and counted; so is a frame whose time had passed by more
-// than a period before the stream could send at all (its call waited for a place on the
+// than a mean period before the stream could send at all (its call waited for a place on the
 // connection, say). Whether a frame is measured depends on its
 // scheduled time (time-bounded runs) or its number (frame-count runs: warm-up * rate
 // frames first, then `config.frames` measured ones, then the stream ends).
 void OpenLoopStream(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
-                    int connection, const std::atomic<bool>& stop, Clock::time_point start,
-                    Clock::time_point end, Recorder& recorder) {
+                    int stream_index, int connection, const std::atomic<bool>& stop,
+                    Clock::time_point start, Clock::time_point end, Recorder& recorder) {
   client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
                             config.limits);
   client.Remember(mesh_id, workload.arrays);
@@ -337,21 +355,29 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   const uint64_t warmup_frames =
       config.frames > 0 ? static_cast<uint64_t>(std::ceil(config.warmup_seconds * config.rate)) : 0;
   const uint64_t last_frame = config.frames > 0 ? warmup_frames + config.frames : UINT64_MAX;
-  if (config.frames > 0) recorder.StartMeasuring(start + warmup_frames * period);
-  const auto measured = [&](uint64_t k) {
-    return config.frames > 0 ? k >= warmup_frames : recorder.Measuring(start + k * period);
+  ArrivalSchedule schedule(config.arrivals, config.rate, stream_index, config.streams,
+                           config.arrivals_seed);
+  uint64_t k = 0;
+  Clock::time_point due;
+  // Frame k's time; frame-count runs start measuring at the first measured frame's.
+  const auto schedule_next = [&] {
+    due = start + std::chrono::duration_cast<Clock::duration>(
+                      std::chrono::duration<double>(schedule.Next()));
+    if (config.frames > 0 && k == warmup_frames) recorder.StartMeasuring(due);
+  };
+  const auto measured = [&] {
+    return config.frames > 0 ? k >= warmup_frames : recorder.Measuring(due);
   };
   // The schedule began at `start` for every stream alike: frames whose time passed while
   // this one opened were not delivered.
   const Clock::time_point ready = Clock::now();
   uint64_t sent = 0, dropped = 0;  // measured frames only
-  uint64_t first_frame = 0;
-  for (; first_frame < last_frame && start + (first_frame + 1) * period < ready; ++first_frame) {
-    if (start + first_frame * period >= end) break;  // the run was over
-    dropped += measured(first_frame);
+  for (schedule_next(); k < last_frame && due + period < ready && due < end; schedule_next()) {
+    dropped += measured();
+    ++k;
   }
   struct Scheduled {
-    Clock::time_point due;
+    Clock::time_point due, sent;
     bool measured;
   };
   std::mutex mutex;
@@ -376,7 +402,8 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
       }
       const auto latency = answered - frame.due;
       recorder.Record(result, std::chrono::duration<double, std::milli>(latency).count(),
-                      latency > period, frame.measured);
+                      latency > period, frame.measured,
+                      std::chrono::duration<double, std::milli>(frame.sent - frame.due).count());
       {  // only now may the frame's slot (and its range of a region) take the next frame
         std::lock_guard lock(mutex);
         ring_head = (ring_head + 1) % ring.size();
@@ -397,28 +424,44 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   request.set_method(wire::ToWire(workload.method));
   if (output.enabled()) request.mutable_output()->set_region(output.name);
   request.set_early_parts(config.early_parts);
-  for (uint64_t k = first_frame; k < last_frame && !stop.load(); ++k) {
-    const Clock::time_point due = start + k * period;
+  uint64_t late_sends = 0, gaps = 0;
+  double gap_ms_sum = 0, gap_ms_sq_sum = 0;
+  Clock::time_point previous_send{};  // of the last measured frame sent, if it was the last
+  for (; k < last_frame && due < end && !stop.load(); ++k, schedule_next()) {
     std::this_thread::sleep_until(due);
     if (stop.load()) break;
-    const bool counted = measured(k);
+    const bool counted = measured();
+    const Clock::time_point sent_at = Clock::now();
     {
       std::lock_guard lock(mutex);
       if (in_flight >= ring.size()) {
         dropped += counted;
+        previous_send = {};
         continue;
       }
       const std::size_t slot = (ring_head + in_flight++) % ring.size();
-      ring[slot] = {due, counted};
+      ring[slot] = {due, sent_at, counted};
       watchdog.Awaiting(true);
       // Frames in flight take the ring's slots in turn: each its own range of the region.
       if (output.enabled()) request.mutable_output()->set_offset(slot * output.stride);
     }
     request.set_frame(k);
     wire::EncodeFloats(palette(k), request.mutable_palette());
-    sent += counted;
+    if (counted) {
+      ++sent;
+      late_sends += sent_at - due > std::chrono::duration<double, std::milli>(kLateSendMs);
+      if (previous_send != Clock::time_point{}) {
+        const double gap =
+            std::chrono::duration<double, std::milli>(sent_at - previous_send).count();
+        ++gaps;
+        gap_ms_sum += gap;
+        gap_ms_sq_sum += gap * gap;
+      }
+    }
+    previous_send = counted ? sent_at : Clock::time_point{};
     if (!stream->Write(request)) break;
   }
+  recorder.AddSendTiming(late_sends, gaps, gap_ms_sum, gap_ms_sq_sum);
   stream->WritesDone();
   reader.join();
   Status status = wire::FromGrpc(stream->Finish());
@@ -454,9 +497,9 @@ RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::
   std::vector<std::thread> streams;
   for (int s = 0; s < config.streams; ++s) {
     const int connection = s / std::max(config.streams_per_connection, 1);
-    streams.emplace_back([&, connection] {
+    streams.emplace_back([&, s, connection] {
       if (config.rate > 0) {
-        OpenLoopStream(config, workload, mesh_id, connection, stop, start,
+        OpenLoopStream(config, workload, mesh_id, s, connection, stop, start,
                        by_frames ? Clock::time_point::max() : start + total, recorder);
       } else {
         ClosedLoopStream(config, workload, mesh_id, connection, stop, warm, recorder);

@@ -6,6 +6,7 @@
 #include <functional>
 #include <string>
 
+#include "arrivals.h"
 #include "load_stats.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
@@ -25,7 +26,9 @@ struct RunConfig {
   double warmup_seconds = 1;    // answers before this are not counted (errors are)
   uint64_t frames = 0;          // > 0: measure this many frames per stream, not a duration
   double rate = 0;              // frames/s per stream; 0: closed loop
-  uint64_t check_every = 0;     // compare every Nth answer with the float64 reference
+  Arrivals arrivals = Arrivals::kConstant;  // open loop: when each stream sends
+  uint64_t arrivals_seed = 1;               // --arrivals poisson: the gaps' generator
+  uint64_t check_every = 0;                 // compare every Nth answer with the float64 reference
   VertexEncoding encoding = VertexEncoding::kFloat32;  // of the answers
   uint32_t instances = 1;  // crowd batches: palettes per request, characters per stream
   // Streams share a TCP connection this many at a time (each further group its own): a

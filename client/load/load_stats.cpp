@@ -14,9 +14,10 @@ double Percentile(std::vector<double>& values, double q) {
   return values[below] + (rank - static_cast<double>(below)) * (values[above] - values[below]);
 }
 
-LatencySummary Summarize(std::vector<double> latencies_ms) {
+LatencySummary Summarize(std::vector<double> latencies_ms, double percentile) {
   LatencySummary s;
   if (latencies_ms.empty()) return s;
+  s.at_percentile = Percentile(latencies_ms, percentile / 100);
   s.p50 = Percentile(latencies_ms, 0.50);
   s.p90 = Percentile(latencies_ms, 0.90);
   s.p99 = Percentile(latencies_ms, 0.99);
@@ -28,6 +29,50 @@ uint64_t RunResult::error_count() const {
   uint64_t total = 0;
   for (const auto& [code, count] : errors) total += count;
   return total;
+}
+
+bool RunResult::within_limit() const {
+  return !latency_limit_ms ||
+         Summarize(latencies_ms, percentile).at_percentile <= *latency_limit_ms;
+}
+
+double RunResult::send_gap_cv() const {
+  if (send_gaps < 2) return 0;
+  const double n = static_cast<double>(send_gaps);
+  const double mean = send_gap_ms_sum / n;
+  const double variance = std::max(0.0, (send_gap_ms_sq_sum - n * mean * mean) / (n - 1));
+  return mean > 0 ? std::sqrt(variance) / mean : 0;
+}
+
+RunResult MergeResults(const std::vector<RunResult>& windows) {
+  RunResult merged = windows.front();
+  for (std::size_t i = 1; i < windows.size(); ++i) {
+    const RunResult& w = windows[i];
+    merged.frames += w.frames;
+    merged.seconds += w.seconds;
+    merged.latencies_ms.insert(merged.latencies_ms.end(), w.latencies_ms.begin(),
+                               w.latencies_ms.end());
+    merged.server_queue_ms_sum += w.server_queue_ms_sum;
+    merged.server_compute_ms_sum += w.server_compute_ms_sum;
+    merged.server_encode_ms_sum += w.server_encode_ms_sum;
+    for (const auto& [code, count] : w.errors) merged.errors[code] += count;
+    merged.checked += w.checked;
+    merged.mismatches += w.mismatches;
+    merged.sent += w.sent;
+    merged.late += w.late;
+    merged.dropped += w.dropped;
+    merged.late_sends += w.late_sends;
+    merged.send_lag_ms_sum += w.send_lag_ms_sum;
+    merged.send_gaps += w.send_gaps;
+    merged.send_gap_ms_sum += w.send_gap_ms_sum;
+    merged.send_gap_ms_sq_sum += w.send_gap_ms_sq_sum;
+    merged.skinning_ms_sum += w.skinning_ms_sum;
+    merged.breakdown_encode_ms_sum += w.breakdown_encode_ms_sum;
+    merged.transport_ms_sum += w.transport_ms_sum;
+    merged.metrics_scraped = merged.metrics_scraped && w.metrics_scraped;
+    for (const auto& [series, delta] : w.server_metrics) merged.server_metrics[series] += delta;
+  }
+  return merged;
 }
 
 }  // namespace skinserve::load

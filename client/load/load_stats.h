@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,8 +16,10 @@ double Percentile(std::vector<double>& values, double q);
 
 struct LatencySummary {
   double p50 = 0, p90 = 0, p99 = 0, max = 0;
+  double at_percentile = 0;  // at Summarize's `percentile`
 };
-LatencySummary Summarize(std::vector<double> latencies_ms);
+// `percentile` in 0..100 (--percentile): the latency limit's and the headline's.
+LatencySummary Summarize(std::vector<double> latencies_ms, double percentile = 99);
 
 // What one backend delivered on one workload.
 struct RunResult {
@@ -39,6 +42,30 @@ struct RunResult {
   uint64_t sent = 0;     // frames sent in the measured part (open loop: on schedule)
   uint64_t late = 0;     // open loop: answered after their deadline
   uint64_t dropped = 0;  // open loop: not sent (window full at their time)
+  // Open loop: how sends kept to their schedule. A send is late when it left more than
+  // kLateSendMs after its scheduled time (the sender overslept, or the machine was busy).
+  std::string arrivals;  // constant or poisson; empty in closed loop
+  uint64_t late_sends = 0;
+  double send_lag_ms_sum = 0;  // sent minus scheduled, over measured answered frames
+  // Gaps between one stream's consecutive measured sends, pooled over streams: their mean
+  // and coefficient of variation tell the arrivals actually sent (about 1 for Poisson).
+  uint64_t send_gaps = 0;
+  double send_gap_ms_sum = 0, send_gap_ms_sq_sum = 0;
+  // The latency breakdown per answered frame: send lag + queue + skinning + encode +
+  // transport = the client's latency. The server's compute includes encoding (an encoded
+  // frame is encoded right after skinning), so skinning = compute - encode, the encode
+  // capped at compute (summed over a crowd's instances it may exceed compute's wall time).
+  double skinning_ms_sum = 0, breakdown_encode_ms_sum = 0, transport_ms_sum = 0;
+  double percentile = 99;  // --percentile: which the headline latency and the limit use
+  std::optional<double> latency_limit_ms;  // --latency-limit-ms, when given
+  int trials = 1;                          // measurement windows run (--max-trials)
+  std::optional<bool> stable;              // the stability rule's verdict; none when not applied
+  // --metrics-url: the server's counter deltas over this row's windows, by series.
+  bool metrics_scraped = false;
+  std::map<std::string, double> server_metrics;
+
+  // The latency at `percentile` within the limit (true when no limit).
+  bool within_limit() const;
 
   double frames_per_second() const { return seconds > 0 ? frames / seconds : 0; }
   // Every instance's vertices.
@@ -51,7 +78,15 @@ struct RunResult {
   }
   double mean(double sum) const { return frames > 0 ? sum / frames : 0; }
   uint64_t error_count() const;
+  double send_gap_mean_ms() const { return send_gaps > 0 ? send_gap_ms_sum / send_gaps : 0; }
+  double send_gap_cv() const;
   bool failed() const { return error_count() > 0 || mismatches > 0; }
 };
+
+inline constexpr double kLateSendMs = 1.0;
+
+// One row from several measurement windows of one configuration: counts and sums added,
+// latencies pooled, seconds summed, metric deltas added. `windows` must not be empty.
+RunResult MergeResults(const std::vector<RunResult>& windows);
 
 }  // namespace skinserve::load

@@ -1,9 +1,11 @@
 // skinserve-load: what each backend delivers through the real service.
 //   closed loop   --streams N --window W --duration S (or --frames N per stream)
-//   open loop     --rate FPS (per stream), late and dropped frames reported
+//   open loop     --rate FPS (per stream), late and dropped frames reported; --rate-range
+//                 START:END:STEP one row per rate; --arrivals constant|poisson
 //   --sweep paper the paper's grid over every backend, tables 2 and 3 layout
-//   --capacity    the most characters (streams x --instances) held at 60 fps with p99
-//                 within one frame and nothing dropped, per --modes (encoding x crowd size)
+//   --capacity    the most characters (streams x --instances) held at 60 fps with the
+//                 latency at --percentile (p99) within one frame and nothing dropped, per
+//                 --modes (encoding x crowd size)
 #include <fmt/format.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
@@ -14,6 +16,7 @@
 #include "connection_flags.h"
 #include "load_report.h"
 #include "load_runner.h"
+#include "measurement_flags.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/malloc_tuning.h"
 #include "skinserve/client/skin_client.h"
@@ -40,6 +43,7 @@ struct Options {
   std::string modes;                 // --capacity: ENCODING[xK] list, e.g. float32,snorm16x16
   std::string data_planes = "grpc";  // grpc and/or shm, each run once per data plane
   std::string json, csv, plot;
+  MeasurementFlags measurement;  // rates, arrivals, percentile, stability, server metrics
 };
 
 // An answer encoding and a crowd batch size: "snorm16x16" is snorm16 with 16 instances.
@@ -161,6 +165,19 @@ int RunMain(const Options& o) {
     return 2;
   }
 
+  std::vector<double> rates = {o.run.rate};
+  if (!o.measurement.rate_range.empty()) {
+    auto range = ParseRateRange(o.measurement.rate_range);
+    if (!range.ok()) return fmt::print(stderr, "error: {}\n", range.status().message()), 2;
+    rates = *range;
+  }
+  MeasureOptions measure = o.measurement.measure;
+  if (o.measurement.latency_limit_ms > 0) measure.latency_limit_ms = o.measurement.latency_limit_ms;
+  const auto measure_failed = [](const Status& s) {
+    fmt::print(stderr, "error: {}\n", s.ToString());
+    return 1;
+  };
+
   std::vector<RunResult> results;
   if (o.capacity) {
     // Open loop at the given rate, per mode; grow the stream count until p99 exceeds one
@@ -170,7 +187,9 @@ int RunMain(const Options& o) {
     const Workload& w = *loaded;
     auto mesh = Upload(client, w);
     if (!mesh.ok()) return fmt::print(stderr, "error: {}\n", mesh.status().ToString()), 1;
-    const double budget_ms = 1000.0 / o.run.rate;
+    const double budget_ms = measure.latency_limit_ms.value_or(1000.0 / o.run.rate);
+    measure.latency_limit_ms = budget_ms;
+    const std::string at = fmt::format("p{:g}", measure.percentile);
     const std::string backend = backends->empty() ? "" : backends->front();
     std::vector<Mode> modes;
     for (const std::string& text : SplitList(o.modes)) {
@@ -185,11 +204,12 @@ int RunMain(const Options& o) {
         const std::string label = plane == "shm" ? mode.Name() + "+shm" : mode.Name();
         fmt::print(
             "capacity of {} at {:.0f} fps per stream, {} vertices x {} bones, {}, {} instance(s) "
-            "per stream, {} data plane: p99 <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
+            "per stream, {} data plane: {} <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
             "{:>9} {:>9} {:>8} {:>8} {:>7}\n",
             backend, o.run.rate, w.vertices, w.bones, VertexEncodingName(mode.encoding),
-            mode.instances, plane, budget_ms, "streams", "characters", "frames/s", "p99 ms",
+            mode.instances, plane, at, budget_ms, "streams", "characters", "frames/s", at + " ms",
             "max ms", "late", "dropped", "holds");
+        Status probe_error;
         auto probe = [&](int streams) {
           RunConfig config = o.run;
           config.backend = backend;
@@ -197,19 +217,27 @@ int RunMain(const Options& o) {
           config.encoding = mode.encoding;
           config.instances = mode.instances;
           config.shared_memory = plane == "shm";
-          RunResult r =
-              RunLoad(config, w, *mesh, MakeProgress(fmt::format("{} {} streams", label, streams)));
-          const LatencySummary l = Summarize(r.latencies_ms);
-          const bool holds = l.p99 <= budget_ms && r.dropped == 0 && !r.failed() && r.frames > 0;
+          auto measured =
+              Measure(config, w, *mesh, MakeProgress(fmt::format("{} {} streams", label, streams)),
+                      measure);
+          if (!measured.ok()) {
+            probe_error = measured.status();
+            return std::optional<bool>();
+          }
+          RunResult r = std::move(measured).value();
+          const LatencySummary l = Summarize(r.latencies_ms, r.percentile);
+          const bool holds = r.within_limit() && r.dropped == 0 && !r.failed() && r.frames > 0;
           fmt::print("{:>8} {:>10} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}\n", streams,
-                     streams * mode.instances, r.frames_per_second(), l.p99, l.max, r.late,
-                     r.dropped, holds ? "yes" : "no");
+                     streams * mode.instances, r.frames_per_second(), l.at_percentile, l.max,
+                     r.late, r.dropped, holds ? "yes" : "no");
           results.push_back(std::move(r));
-          return holds;
+          return std::optional<bool>(holds);
         };
         int good = 0, bad = 0;
         for (int n = 1; n <= o.capacity_max_streams; n *= 2) {
-          if (!probe(n)) {
+          const std::optional<bool> holds = probe(n);
+          if (!holds) return measure_failed(probe_error);
+          if (!*holds) {
             bad = n;
             break;
           }
@@ -217,7 +245,9 @@ int RunMain(const Options& o) {
         }
         while (bad > 0 && bad - good > 1) {
           const int mid = (good + bad) / 2;
-          (probe(mid) ? good : bad) = mid;
+          const std::optional<bool> holds = probe(mid);
+          if (!holds) return measure_failed(probe_error);
+          (*holds ? good : bad) = mid;
         }
         const int characters = good * static_cast<int>(mode.instances);
         fmt::print(
@@ -228,8 +258,8 @@ int RunMain(const Options& o) {
       }
     }
     if (held.size() > 1) {
-      fmt::print("\ncharacters held at {:.0f} fps (p99 <= {:.1f} ms, nothing dropped), {}:\n",
-                 o.run.rate, budget_ms, backend);
+      fmt::print("\ncharacters held at {:.0f} fps ({} <= {:.1f} ms, nothing dropped), {}:\n",
+                 o.run.rate, at, budget_ms, backend);
       for (const auto& [label, characters] : held) {
         fmt::print("  {:<18} {:>6}\n", label, characters);
       }
@@ -243,17 +273,27 @@ int RunMain(const Options& o) {
       if (!mesh.ok()) return fmt::print(stderr, "error: {}\n", mesh.status().ToString()), 1;
       for (const std::string& backend : *backends) {
         for (const std::string& plane : SplitList(o.data_planes)) {
-          RunConfig config = o.run;
-          config.backend = backend;
-          config.shared_memory = plane == "shm";
-          results.push_back(RunLoad(
-              config, w, *mesh, MakeProgress(fmt::format("{} {} {}x{}", backend, plane, v, b))));
+          for (const double rate : rates) {
+            RunConfig config = o.run;
+            config.backend = backend;
+            config.shared_memory = plane == "shm";
+            config.rate = rate;
+            auto row =
+                Measure(config, w, *mesh,
+                        MakeProgress(fmt::format("{} {} {}x{}{}", backend, plane, v, b,
+                                                 rate > 0 ? fmt::format(" {:g}/s", rate) : "")),
+                        measure);
+            if (!row.ok()) return measure_failed(row.status());
+            results.push_back(std::move(row).value());
+            // perf_analyzer's --latency-threshold: higher rates would only be further over.
+            if (rates.size() > 1 && !results.back().within_limit()) break;
+          }
         }
       }
       // A sweep stores 16 meshes; free each when done with it.
       if (grid.size() > 1) (void)client.DeleteMesh(*mesh);
     }
-    PrintTable(results, o.run.rate > 0);
+    PrintTable(results, rates.front() > 0);
     if (grid.size() > 1) PrintSpeedupTables(results);
   }
 
@@ -312,7 +352,8 @@ int main(int argc, char** argv) {
                  "rigid; 'all' backends means those that implement it)")
       ->check(CLI::IsMember({"linear", "dual-quaternion"}))
       ->capture_default_str();
-  app.add_option("--seed", o.seed, "synthetic mesh and palettes seed")->capture_default_str();
+  app.add_option("--seed", o.seed, "synthetic mesh and palettes seed; Poisson arrivals' too")
+      ->capture_default_str();
   app.add_option("--streams", o.run.streams, "concurrent streams")->capture_default_str();
   app.add_option("--window", o.run.window, "frames in flight per stream")->capture_default_str();
   app.add_option("--streams-per-connection", o.run.streams_per_connection,
@@ -353,8 +394,9 @@ int main(int argc, char** argv) {
   app.add_option("--primitive", o.primitive,
                  "--mesh: only this primitive, skinned or rigid (default: the whole character)");
   app.add_flag("--capacity", o.capacity,
-               "find the most concurrent --rate streams (default 60 fps) held with p99 within "
-               "one frame and nothing dropped, on the first --backends entry (default: "
+               "find the most concurrent --rate streams (default 60 fps) held with the latency at "
+               "--percentile within one frame (or --latency-limit-ms) and nothing dropped, on the "
+               "first --backends entry (default: "
                "simd-openmp, the fastest CPU loop on every CPU)");
   app.add_option("--capacity-max-streams", o.capacity_max_streams, "upper end of the search")
       ->capture_default_str();
@@ -379,6 +421,7 @@ int main(int argc, char** argv) {
   app.add_option("--shm-dir", o.run.shm_dir,
                  "where the streams' regions are made: the server's --shm-dir")
       ->capture_default_str();
+  AddMeasurementFlags(app, o.measurement);
   app.add_option("--json", o.json, "write results as JSON");
   app.add_option("--csv", o.csv, "write results as CSV");
   app.add_option("--plot", o.plot, "write a PNG chart (gnuplot)");
@@ -388,6 +431,12 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "warning: glibc refused the malloc settings for streaming\n");
   }
   o.run.encoding = *skinserve::ParseVertexEncoding(o.encoding);
+  o.run.arrivals = *ParseArrivals(o.measurement.arrivals);
+  o.run.arrivals_seed = o.seed;
+  if (o.run.frames > 0 && o.measurement.measure.max_trials > 1) {
+    fmt::print(stderr, "error: --max-trials repeats windows of --duration: not with --frames\n");
+    return 2;
+  }
   auto channel = o.connection.ToChannelOptions();
   if (!channel.ok()) {
     fmt::print(stderr, "error: {}\n", channel.status().ToString());

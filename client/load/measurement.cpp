@@ -1,0 +1,52 @@
+#include "measurement.h"
+
+#include <algorithm>
+#include <vector>
+
+#include "server_metrics.h"
+#include "stability.h"
+
+namespace skinserve::load {
+
+Result<RunResult> Measure(const RunConfig& config, const Workload& workload,
+                          const std::string& mesh_id, const Progress& progress,
+                          const MeasureOptions& options) {
+  const bool scrape = !options.metrics_url.empty();
+  MetricSamples before;
+  if (scrape) {
+    auto samples = ScrapeMetrics(options.metrics_url);
+    if (!samples.ok()) return samples.status();
+    before = std::move(samples).value();
+  }
+  const int trials = std::max(options.max_trials, 1);
+  const bool rule = trials >= static_cast<int>(kStableWindows);
+  std::vector<RunResult> windows;
+  bool stable = false;
+  for (int trial = 0; trial < trials && !stable; ++trial) {
+    RunConfig window = config;
+    if (trial > 0) window.warmup_seconds = 0;  // the server is warm: measure straight away
+    window.arrivals_seed = config.arrivals_seed + trial;  // each window its own Poisson draws
+    const Progress window_progress =
+        progress ? Progress([&, trial](double f) { progress((trial + f) / trials); }) : nullptr;
+    RunResult r = RunLoad(window, workload, mesh_id, window_progress);
+    r.percentile = options.percentile;
+    if (scrape) {
+      auto after = ScrapeMetrics(options.metrics_url);
+      if (!after.ok()) return after.status();
+      r.server_metrics = MetricDeltas(before, *after);
+      r.metrics_scraped = true;
+      before = std::move(after).value();
+    }
+    windows.push_back(std::move(r));
+    if (windows.back().failed()) break;  // errors do not settle: report them now
+    stable = rule && LastWindowsAgree(windows, options.stability_percent, options.percentile);
+  }
+  const std::size_t kept = std::min(windows.size(), kStableWindows);
+  RunResult row = MergeResults(std::vector<RunResult>(windows.end() - kept, windows.end()));
+  row.trials = static_cast<int>(windows.size());
+  if (rule) row.stable = stable;
+  row.latency_limit_ms = options.latency_limit_ms;
+  return row;
+}
+
+}  // namespace skinserve::load
