@@ -53,6 +53,7 @@ class OpenClZeroCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    if (Status s = CheckMorphSupport(info(), frame.morph_weights); !s.ok()) return s;
     const auto& prepared = static_cast<const ZeroCopyPreparedMesh&>(base);
     const bool with_normals = !frame.normals.empty();
     if (with_normals && prepared.normals.get() == nullptr) {

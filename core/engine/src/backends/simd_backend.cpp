@@ -6,10 +6,11 @@
 
 #include "backend_factories.h"
 #include "cpu_model.h"
+#include "morph_stage.h"
 #include "parallel_range.h"
 #include "simd_stream.h"
-#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/engine/simd_targets.h"
+#include "skinserve/model/aligned_buffer.h"
 #include "unavailable_backend.h"
 
 namespace skinserve {
@@ -88,15 +89,25 @@ class SimdBackend final : public Backend {
     try {
       const float* columns = ColumnPalette(frame.palette);
       const int threads = FrameThreads(frame.threads, info_.threads);
+      // The kernel skins each range from the rest arrays the morph stage hands it.
+      const auto skin_range = [&](std::size_t first, std::size_t last) {
+        ForEachMorphedRange(
+            prepared.mesh(), frame, first, last,
+            [&](const float* rest_p, const float* rest_n, std::size_t from, std::size_t to) {
+              simd::VertexStream morphed = stream;
+              morphed.positions = rest_p;
+              if (rest_n != nullptr) morphed.normals = rest_n;
+              kernel_.skin_range(morphed, columns, frame.positions.data(), out_n, from, to);
+            });
+      };
       if (threads <= 1) {
-        kernel_.skin_range(stream, columns, frame.positions.data(), out_n, 0, count);
+        skin_range(0, count);
       } else {
-        ParallelOverVertices(count, threads, [&](std::size_t first, std::size_t last) {
-          kernel_.skin_range(stream, columns, frame.positions.data(), out_n, first, last);
-        });
+        ParallelOverVertices(count, threads, skin_range);
       }
-    } catch (const std::bad_alloc&) {  // a palette larger than any seen so far
-      return ResourceExhausted(info_.id + ": out of memory for the frame's palette");
+    } catch (const std::bad_alloc&) {  // a palette or morph scratch larger than any seen so far
+      return ResourceExhausted(info_.id +
+                               ": out of memory for the frame's palette or morph scratch");
     }
     return Status::Ok();
   }
@@ -123,7 +134,8 @@ std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_t
                                       : "the Highway loop across threads with OpenMP",
                    .device = CpuModelName(),
                    .threads = std::max(threads, 1),
-                   .min_threads = 1};  // a parallel loop runs on as few threads as given
+                   .min_threads = 1,        // a parallel loop runs on as few threads as given
+                   .morph_targets = true};  // the morph stage feeds the kernel
   simd::Kernel kernel;
   std::string error;
   if (!simd::SelectKernel(max_target, &kernel, &error)) {
