@@ -70,17 +70,20 @@ void MorphWalk::Apply(std::size_t first, std::size_t last) {
   for (Target& t : *targets_) {
     const float w = t.weight;
     const uint32_t* k = t.next;
-    for (; k != t.end && *k < last; ++k) {
-      const std::size_t delta = 3 * (t.first_delta + static_cast<std::size_t>(k - t.begin));
+    const std::size_t first_delta = t.first_delta + static_cast<std::size_t>(k - t.begin);
+    const float* d = dp + 3 * first_delta;
+    const float* n = morph_normals_ ? dn + 3 * first_delta : nullptr;
+    for (; k != t.end && *k < last; ++k, d += 3) {
       float* p = positions_ + 3ull * *k;
-      p[0] += w * dp[delta];
-      p[1] += w * dp[delta + 1];
-      p[2] += w * dp[delta + 2];
-      if (morph_normals_) {
-        float* n = scratch_normals_ + 3ull * *k;
-        n[0] += w * dn[delta];
-        n[1] += w * dn[delta + 1];
-        n[2] += w * dn[delta + 2];
+      p[0] += w * d[0];
+      p[1] += w * d[1];
+      p[2] += w * d[2];
+      if (n != nullptr) {
+        float* out = scratch_normals_ + 3ull * *k;
+        out[0] += w * n[0];
+        out[1] += w * n[1];
+        out[2] += w * n[2];
+        n += 3;
       }
     }
     t.next = k;
