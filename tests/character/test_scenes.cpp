@@ -205,7 +205,8 @@ Scene MorphFace(const std::string& interpolation) {
   s.meshes.push_back({"Face", {face0, face1}, {0.25, 0.0, -0.5}});
   s.meshes.push_back({"Brow", {brow}, {0.5, 1.0}});
   // Face's weights over 2 s: 3 keys of 3 weights (negative and beyond 1 included).
-  SceneWeightsChannel ch{.node = 3, .interpolation = interpolation, .times = {0, 0.8, 2}};
+  // Key times exact in float, as the file stores them (a STEP key is taken from its time on).
+  SceneWeightsChannel ch{.node = 3, .interpolation = interpolation, .times = {0, 0.75, 2}};
   const std::vector<double> keys = {0.0, 1.0, 0.2, 1.0, -0.5, 0.7, 0.3, 1.4, 0.0};
   if (interpolation == "CUBICSPLINE") {
     const std::vector<double> tangents = {0.5, -1.0, 0.25, 2.0, 0.0, -0.75, -0.4, 0.6, 1.0};
