@@ -6,6 +6,7 @@
 
 #include "backend_factories.h"
 #include "cpu_model.h"
+#include "dual_quaternion_palette.h"
 #include "morph_stage.h"
 #include "parallel_range.h"
 #include "simd_stream.h"
@@ -71,9 +72,33 @@ const float* ColumnPalette(std::span<const float> palette) {
   return buffer.data();
 }
 
+// The frame's quaternion sign table (simd::DualQuaternionFrame::signs), in this thread's
+// buffer like ColumnPalette: J x J dot products, built only where they are fewer than the
+// vertices' own (a vertex compares each of its B - 1 other influences with its first) and
+// the joints stream as 8 bits (J <= 256, 256 KB at most). Null otherwise.
+const float* SignTable(const DualQuaternionPalette& quaternions, const Mesh& mesh,
+                       const simd::VertexStream& stream) {
+  const std::size_t joints = mesh.joint_count();
+  const std::size_t dots = std::size_t{mesh.vertex_count()} * (mesh.influences() - 1);
+  if (stream.joints8 == nullptr || joints * joints > dots) return nullptr;
+  thread_local AlignedBuffer<float> buffer;
+  if (buffer.size() < joints * joints) buffer = AlignedBuffer<float>(joints * joints);
+  for (std::size_t i = 0; i < joints; ++i) {
+    const float* a = quaternions.joint(i);
+    for (std::size_t j = 0; j < joints; ++j) {
+      const float* b = quaternions.joint(j);
+      const float dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+      buffer[i * joints + j] = dot < 0 ? -1.0f : 1.0f;
+    }
+  }
+  return buffer.data();
+}
+
 class SimdBackend final : public Backend {
  public:
-  SimdBackend(BackendInfo info, simd::Kernel kernel) : info_(std::move(info)), kernel_(kernel) {}
+  SimdBackend(BackendInfo info, simd::Kernel kernel) : info_(std::move(info)), kernel_(kernel) {
+    info_.methods = {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion};
+  }
   const BackendInfo& info() const override { return info_; }
   Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
     try {
@@ -84,26 +109,18 @@ class SimdBackend final : public Backend {
   }
   Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) override {
     const auto& stream = static_cast<const SimdPreparedMesh&>(prepared).stream();
-    const std::size_t count = prepared.mesh().vertex_count();
     float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
     try {
-      const float* columns = ColumnPalette(frame.palette);
-      const int threads = FrameThreads(frame.threads, info_.threads);
-      // The kernel skins each range from the rest arrays the morph stage hands it.
-      const auto skin_range = [&](std::size_t first, std::size_t last) {
-        ForEachMorphedRange(
-            prepared.mesh(), frame, first, last,
-            [&](const float* rest_p, const float* rest_n, std::size_t from, std::size_t to) {
-              simd::VertexStream morphed = stream;
-              morphed.positions = rest_p;
-              if (rest_n != nullptr) morphed.normals = rest_n;
-              kernel_.skin_range(morphed, columns, frame.positions.data(), out_n, from, to);
-            });
-      };
-      if (threads <= 1) {
-        skin_range(0, count);
+      if (frame.method == SkinningMethod::kDualQuaternion) {
+        const DualQuaternionPalette quaternions(frame.palette);
+        const simd::DualQuaternionFrame palette{
+            .quaternions = quaternions.joint(0),
+            .signs = SignTable(quaternions, prepared.mesh(), stream),
+            .joint_count = prepared.mesh().joint_count()};
+        Run(kernel_.skin_dual_quaternion_range, prepared.mesh(), stream, palette, frame, out_n);
       } else {
-        ParallelOverVertices(count, threads, skin_range);
+        const float* columns = ColumnPalette(frame.palette);
+        Run(kernel_.skin_range, prepared.mesh(), stream, columns, frame, out_n);
       }
     } catch (const std::bad_alloc&) {  // a palette or morph scratch larger than any seen so far
       return ResourceExhausted(info_.id +
@@ -113,6 +130,31 @@ class SimdBackend final : public Backend {
   }
 
  private:
+  // Runs `range` (a linear or dual-quaternion kernel) over the frame's vertices, on the
+  // calling thread or split across the frame's threads, each range from the rest arrays
+  // the morph stage hands it (morph_stage.h).
+  template <typename RangeFn, typename Palette>
+  void Run(RangeFn range, const Mesh& mesh, const simd::VertexStream& stream,
+           const Palette& palette, const SkinFrame& frame, float* out_n) {
+    const std::size_t count = mesh.vertex_count();
+    const auto skin_range = [&](std::size_t first, std::size_t last) {
+      ForEachMorphedRange(
+          mesh, frame, first, last,
+          [&](const float* rest_p, const float* rest_n, std::size_t from, std::size_t to) {
+            simd::VertexStream morphed = stream;
+            morphed.positions = rest_p;
+            if (rest_n != nullptr) morphed.normals = rest_n;
+            range(morphed, palette, frame.positions.data(), out_n, from, to);
+          });
+    };
+    const int threads = FrameThreads(frame.threads, info_.threads);
+    if (threads <= 1) {
+      skin_range(0, count);
+    } else {
+      ParallelOverVertices(count, threads, skin_range);
+    }
+  }
+
   BackendInfo info_;
   simd::Kernel kernel_;
 };
