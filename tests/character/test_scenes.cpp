@@ -180,95 +180,96 @@ void AddTarget(ScenePrimitive* p, int every, int phase, double dx, double dy, do
   }
   p->target_positions.push_back(std::move(dp));
   p->target_normals.push_back(std::move(dn));
-  RefChannel Scale(int node, std::vector<double> times, std::vector<double> values) {
-    return {
-        .node = node, .path = "scale", .interpolation = "LINEAR", .times = times, .values = values};
-  }
+}
 
-  // A box of 8 corners (no shared normals: 24 vertices, 4 per face) centred at `c` with
-  // half-sizes `h`, normals when asked, 12 triangles; not skinned (a rigid part).
-  ScenePrimitive Box(const double c[3], const double h[3], bool normals) {
-    ScenePrimitive p;
-    for (int axis = 0; axis < 3; ++axis) {
-      for (int sign = -1; sign <= 1; sign += 2) {
-        const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-        const auto first = static_cast<uint16_t>(p.positions.size() / 3);
-        for (int corner = 0; corner < 4; ++corner) {
-          double x[3];
-          x[axis] = c[axis] + sign * h[axis];
-          x[u] = c[u] + ((corner & 1) ? h[u] : -h[u]);
-          x[v] = c[v] + ((corner & 2) ? h[v] : -h[v]);
-          for (double k : x) p.positions.push_back(static_cast<float>(k));
-          if (normals) {
-            float n[3] = {0, 0, 0};
-            n[axis] = static_cast<float>(sign);
-            p.normals.insert(p.normals.end(), n, n + 3);
-          }
+RefChannel Scale(int node, std::vector<double> times, std::vector<double> values) {
+  return {
+      .node = node, .path = "scale", .interpolation = "LINEAR", .times = times, .values = values};
+}
+
+// A box of 8 corners (no shared normals: 24 vertices, 4 per face) centred at `c` with
+// half-sizes `h`, normals when asked, 12 triangles; not skinned (a rigid part).
+ScenePrimitive Box(const double c[3], const double h[3], bool normals) {
+  ScenePrimitive p;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int sign = -1; sign <= 1; sign += 2) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      const auto first = static_cast<uint16_t>(p.positions.size() / 3);
+      for (int corner = 0; corner < 4; ++corner) {
+        double x[3];
+        x[axis] = c[axis] + sign * h[axis];
+        x[u] = c[u] + ((corner & 1) ? h[u] : -h[u]);
+        x[v] = c[v] + ((corner & 2) ? h[v] : -h[v]);
+        for (double k : x) p.positions.push_back(static_cast<float>(k));
+        if (normals) {
+          float n[3] = {0, 0, 0};
+          n[axis] = static_cast<float>(sign);
+          p.normals.insert(p.normals.end(), n, n + 3);
         }
-        p.indices.insert(
-            p.indices.end(),
-            {first, static_cast<uint16_t>(first + 1), static_cast<uint16_t>(first + 3), first,
-             static_cast<uint16_t>(first + 3), static_cast<uint16_t>(first + 2)});
       }
-    }
-    return p;
-  }
-
-  double TypeMax(int component_type) {
-    switch (component_type) {
-      case 5120:
-        return 127;
-      case 5121:
-        return 255;
-      case 5122:
-        return 32767;
-      case 5123:
-        return 65535;
-      default:
-        throw std::logic_error("test scene: no integer component type " +
-                               std::to_string(component_type));
+      p.indices.insert(p.indices.end(),
+                       {first, static_cast<uint16_t>(first + 1), static_cast<uint16_t>(first + 3),
+                        first, static_cast<uint16_t>(first + 3), static_cast<uint16_t>(first + 2)});
     }
   }
+  return p;
+}
 
-  // Positions replaced by integers q = round((p - offset) / scale): what a quantizer stores;
-  // the caller puts translate(offset) * scale(scale) back in a node or the bind shape.
-  void QuantizePositions(ScenePrimitive * p, const double offset[3], double scale) {
-    for (std::size_t i = 0; i < p->positions.size(); ++i) {
-      p->positions[i] = static_cast<float>(std::lround((p->positions[i] - offset[i % 3]) / scale));
+double TypeMax(int component_type) {
+  switch (component_type) {
+    case 5120:
+      return 127;
+    case 5121:
+      return 255;
+    case 5122:
+      return 32767;
+    case 5123:
+      return 65535;
+    default:
+      throw std::logic_error("test scene: no integer component type " +
+                             std::to_string(component_type));
+  }
+}
+
+// Positions replaced by integers q = round((p - offset) / scale): what a quantizer stores;
+// the caller puts translate(offset) * scale(scale) back in a node or the bind shape.
+void QuantizePositions(ScenePrimitive* p, const double offset[3], double scale) {
+  for (std::size_t i = 0; i < p->positions.size(); ++i) {
+    p->positions[i] = static_cast<float>(std::lround((p->positions[i] - offset[i % 3]) / scale));
+  }
+}
+
+// Values replaced by what normalized integers of `component_type` decode to (the importer's
+// float formula), so that the scene states exactly what the file holds.
+void SnapNormalized(std::vector<float>* values, int component_type) {
+  const double max = TypeMax(component_type);
+  for (float& v : *values) {
+    const auto q = static_cast<float>(std::lround(v * max));
+    v = std::max(q / static_cast<float>(max), -1.0f);
+  }
+}
+
+// Weights as normalized integers whose sum per vertex is exactly the type's max.
+void SnapWeights(ScenePrimitive* p, int component_type) {
+  const double max = TypeMax(component_type);
+  for (std::size_t v = 0; v < p->weights.size() / 4; ++v) {
+    long q[4], sum = 0;
+    int largest = 0;
+    for (int k = 0; k < 4; ++k) {
+      q[k] = std::lround(p->weights[4 * v + k] * max);
+      sum += q[k];
+      if (q[k] > q[largest]) largest = k;
+    }
+    q[largest] += static_cast<long>(max) - sum;
+    for (int k = 0; k < 4; ++k) {
+      p->weights[4 * v + k] = static_cast<float>(q[k]) / static_cast<float>(max);
     }
   }
+}
 
-  // Values replaced by what normalized integers of `component_type` decode to (the importer's
-  // float formula), so that the scene states exactly what the file holds.
-  void SnapNormalized(std::vector<float> * values, int component_type) {
-    const double max = TypeMax(component_type);
-    for (float& v : *values) {
-      const auto q = static_cast<float>(std::lround(v * max));
-      v = std::max(q / static_cast<float>(max), -1.0f);
-    }
-  }
-
-  // Weights as normalized integers whose sum per vertex is exactly the type's max.
-  void SnapWeights(ScenePrimitive * p, int component_type) {
-    const double max = TypeMax(component_type);
-    for (std::size_t v = 0; v < p->weights.size() / 4; ++v) {
-      long q[4], sum = 0;
-      int largest = 0;
-      for (int k = 0; k < 4; ++k) {
-        q[k] = std::lround(p->weights[4 * v + k] * max);
-        sum += q[k];
-        if (q[k] > q[largest]) largest = k;
-      }
-      q[largest] += static_cast<long>(max) - sum;
-      for (int k = 0; k < 4; ++k) {
-        p->weights[4 * v + k] = static_cast<float>(q[k]) / static_cast<float>(max);
-      }
-    }
-  }
-
-  Mat4 Dequantization(const double offset[3], double scale) {
-    return {scale, 0, 0, 0, 0, scale, 0, 0, 0, 0, scale, 0, offset[0], offset[1], offset[2], 1};
-  }
+Mat4 Dequantization(const double offset[3], double scale) {
+  return {scale, 0, 0, 0, 0, scale, 0, 0, 0, 0, scale, 0, offset[0], offset[1], offset[2], 1};
+}
 
 }  // namespace
 
