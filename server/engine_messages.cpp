@@ -14,6 +14,7 @@ v1::MeshInfo ToWire(const MeshInfo& info) {
   wire.set_bytes(info.bytes);
   wire.set_normalized_vertices(info.normalized_vertices);
   wire.set_already_stored(info.already_stored);
+  wire.set_morph_target_count(info.morph_target_count);
   return wire;
 }
 
@@ -28,6 +29,7 @@ v1::BackendInfo ToWire(const BackendInfo& info) {
   wire.set_simd_target(info.simd_target);
   wire.set_threads(info.threads);
   for (SkinningMethod method : info.methods) wire.add_methods(ToWire(method));
+  wire.set_morph_targets(info.morph_targets);
   return wire;
 }
 

@@ -119,6 +119,7 @@ class FrameJob final : public SkinJob {
   VertexEncoding encoding_ = VertexEncoding::kFloat32;
   bool boxed_ = false;  // each instance's box travels with it (snorm16)
   std::vector<float> palette_;
+  std::vector<MorphWeight> morph_;  // the frame's morph weights, capacity reused
   // Skinned floats for encodings other than float32, for instances too large for the
   // compute thread's scratch (SkinRequest::skin_into_scratch).
   std::vector<float> positions_;

@@ -20,8 +20,11 @@ Status MeshAssembly::Accept(const v1::UploadMeshRequest& message) {
 
 Status MeshAssembly::AcceptHeader(const v1::MeshHeader& header) {
   if (have_header_) return InvalidArgument("header sent twice; send it once, first");
-  if (Status s = engine_->CheckMeshShape(header.vertex_count(), header.influences(),
-                                         header.joint_count(), header.has_normals());
+  const std::span<const uint32_t> morph_sizes(header.morph_target_sizes().data(),
+                                              header.morph_target_sizes().size());
+  if (Status s =
+          engine_->CheckMeshShape(header.vertex_count(), header.influences(), header.joint_count(),
+                                  header.has_normals(), morph_sizes, header.morph_normals());
       !s.ok()) {
     return s;
   }
@@ -36,6 +39,13 @@ Status MeshAssembly::AcceptHeader(const v1::MeshHeader& header) {
   declared_[v1::MESH_ARRAY_NORMALS] = header.has_normals() ? 3 * v : 0;
   declared_[v1::MESH_ARRAY_JOINTS] = b * v;
   declared_[v1::MESH_ARRAY_WEIGHTS] = b * v;
+  // The sizes themselves are at most max_morph_targets numbers (checked above).
+  arrays_.morph_target_sizes.assign(morph_sizes.begin(), morph_sizes.end());
+  uint64_t deltas = 0;
+  for (uint32_t size : morph_sizes) deltas += size;
+  declared_[v1::MESH_ARRAY_MORPH_INDICES] = deltas;
+  declared_[v1::MESH_ARRAY_MORPH_POSITION_DELTAS] = 3 * deltas;
+  declared_[v1::MESH_ARRAY_MORPH_NORMAL_DELTAS] = header.morph_normals() ? 3 * deltas : 0;
   return Status::Ok();
 }
 
@@ -53,6 +63,17 @@ Status MeshAssembly::AcceptChunk(const v1::MeshChunk& chunk) {
       return Append(arrays_.joints, "joints", chunk);
     case v1::MESH_ARRAY_WEIGHTS:
       return Append(arrays_.weights, "weights", chunk);
+    case v1::MESH_ARRAY_MORPH_INDICES:
+      return Append(arrays_.morph_indices, "morph_indices", chunk);
+    case v1::MESH_ARRAY_MORPH_POSITION_DELTAS:
+      return Append(arrays_.morph_position_deltas, "morph_position_deltas", chunk);
+    case v1::MESH_ARRAY_MORPH_NORMAL_DELTAS:
+      if (declared_[v1::MESH_ARRAY_MORPH_NORMAL_DELTAS] == 0) {
+        return InvalidArgument(
+            "morph_normal_deltas chunk, but the header says morph_normals = false (or has no "
+            "morph targets)");
+      }
+      return Append(arrays_.morph_normal_deltas, "morph_normal_deltas", chunk);
     default:
       return InvalidArgument(fmt::format("chunk.array {} is not a mesh array", chunk.array()));
   }
@@ -118,7 +139,12 @@ Result<MeshInfo> MeshAssembly::Store() {
       {"positions", {arrays_.positions.size(), declared_[v1::MESH_ARRAY_POSITIONS]}},
       {"normals", {arrays_.normals.size(), declared_[v1::MESH_ARRAY_NORMALS]}},
       {"joints", {arrays_.joints.size(), declared_[v1::MESH_ARRAY_JOINTS]}},
-      {"weights", {arrays_.weights.size(), declared_[v1::MESH_ARRAY_WEIGHTS]}}};
+      {"weights", {arrays_.weights.size(), declared_[v1::MESH_ARRAY_WEIGHTS]}},
+      {"morph_indices", {arrays_.morph_indices.size(), declared_[v1::MESH_ARRAY_MORPH_INDICES]}},
+      {"morph_position_deltas",
+       {arrays_.morph_position_deltas.size(), declared_[v1::MESH_ARRAY_MORPH_POSITION_DELTAS]}},
+      {"morph_normal_deltas",
+       {arrays_.morph_normal_deltas.size(), declared_[v1::MESH_ARRAY_MORPH_NORMAL_DELTAS]}}};
   for (const auto& [name, counts] : arrays) {
     if (counts.first != counts.second) {
       return InvalidArgument(

@@ -56,8 +56,9 @@ class MeshAssembly {
   bool have_header_ = false;
   bool normalize_weights_ = false;
   MeshArrays arrays_;
-  uint64_t declared_[5] = {};  // values the header implies, by MeshArray number
-  uint64_t charged_[5] = {};   // bytes charged for each array's block, by MeshArray number
+  static constexpr int kArrays = 8;  // MeshArray numbers, 0 unused
+  uint64_t declared_[kArrays] = {};  // values the header implies, by MeshArray number
+  uint64_t charged_[kArrays] = {};   // bytes charged for each array's block, by MeshArray number
   uint64_t charged_bytes_ = 0;
 };
 

@@ -237,6 +237,14 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
                                    .frames = frames,
                                    .window = o.window,
                                    .stop = &stop};
+      // The mesh's morph target weights, sampled with the palette's pose.
+      std::vector<MorphWeight> morph;
+      if (!meshes[m].morph_sources.empty()) {
+        stream.morph_weights = [&, m](uint64_t f) {
+          MeshMorphWeights(meshes[m], SampleClip(*character, **clip, f / o.fps), &morph);
+          return std::span<const MorphWeight>(morph);
+        };
+      }
       streamed[m] = client::StreamFrames(
           *clients[m], stream,
           [&](uint64_t f) {

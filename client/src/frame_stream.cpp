@@ -116,6 +116,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         const uint64_t frame = again ? resend.front() : next;
         request.set_frame(frame);
         wire::EncodeFloats(palette(frame), request.mutable_palette());
+        if (options.morph_weights) wire::MorphWeightsToWire(options.morph_weights(frame), &request);
         const std::size_t slot = in_flight.push_back({frame, Clock::now(), reuploads});
         if (options.output.enabled()) {
           request.mutable_output()->set_offset(options.output.offset +

@@ -348,6 +348,9 @@ Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays, WeightPoli
   header->set_has_normals(!arrays.normals.empty());
   header->set_weight_policy(weight_policy == WeightPolicy::kNormalize ? v1::WEIGHT_POLICY_NORMALIZE
                                                                       : v1::WEIGHT_POLICY_REJECT);
+  header->mutable_morph_target_sizes()->Add(arrays.morph_target_sizes.begin(),
+                                            arrays.morph_target_sizes.end());
+  header->set_morph_normals(!arrays.morph_normal_deltas.empty());
   bool sending = writer->Write(request);
   auto send_array = [&](v1::MeshArray kind, const void* data, std::size_t count,
                         std::size_t value_size) {
@@ -366,6 +369,12 @@ Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays, WeightPoli
   send_array(v1::MESH_ARRAY_NORMALS, arrays.normals.data(), arrays.normals.size(), 4);
   send_array(v1::MESH_ARRAY_JOINTS, arrays.joints.data(), arrays.joints.size(), 2);
   send_array(v1::MESH_ARRAY_WEIGHTS, arrays.weights.data(), arrays.weights.size(), 4);
+  send_array(v1::MESH_ARRAY_MORPH_INDICES, arrays.morph_indices.data(), arrays.morph_indices.size(),
+             4);
+  send_array(v1::MESH_ARRAY_MORPH_POSITION_DELTAS, arrays.morph_position_deltas.data(),
+             arrays.morph_position_deltas.size(), 4);
+  send_array(v1::MESH_ARRAY_MORPH_NORMAL_DELTAS, arrays.morph_normal_deltas.data(),
+             arrays.morph_normal_deltas.size(), 4);
   if (sending) writer->WritesDone();
   grpc::Status status = writer->Finish();
   if (!status.ok()) return wire::FromGrpc(status);
@@ -468,6 +477,7 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   request.set_instances(options.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_early_parts(options.early_parts);
+  wire::MorphWeightsToWire(options.morph_weights, &request);
   if (options.output.enabled()) {
     request.mutable_output()->set_region(options.output.name);
     request.mutable_output()->set_offset(options.output.offset);

@@ -350,7 +350,8 @@ TEST(GltfImportTest, InterleavedAttributesAndAccessorWithoutBufferView) {
       << zeros.status().message();
 }
 
-// Weights channels (morph targets) are not skinning: skipped without an error. Two nodes
+// A weights channel of a node whose mesh has no morph targets animates nothing: skipped
+// without an error. Two nodes
 // instancing the skinned mesh give two primitives; a primitive without joints is not one.
 TEST(GltfImportTest, WeightsChannelsIgnoredEverySkinnedNodeCounted) {
   REQUIRE_ASSET("RiggedSimple.glb");

@@ -135,6 +135,53 @@ void Finish(Scene* scene) {
   }
 }
 
+// Weights channel `ch` at `t`, n values, per glTF's Appendix C (clamped to the keys).
+std::vector<double> SampleWeights(const SceneWeightsChannel& ch, std::size_t n, double t) {
+  const bool cubic = ch.interpolation == "CUBICSPLINE";
+  auto key = [&](std::size_t k, std::size_t part) {  // part: 0 in-tangent, 1 value, 2 out
+    const std::size_t at = (cubic ? 3 * k + part : k) * n;
+    return std::vector<double>(ch.values.begin() + static_cast<std::ptrdiff_t>(at),
+                               ch.values.begin() + static_cast<std::ptrdiff_t>(at + n));
+  };
+  if (t <= ch.times.front()) return key(0, 1);
+  if (t >= ch.times.back()) return key(ch.times.size() - 1, 1);
+  std::size_t k = 0;
+  while (!(ch.times[k] <= t && t < ch.times[k + 1])) ++k;
+  const double d = ch.times[k + 1] - ch.times[k], u = (t - ch.times[k]) / d;
+  const std::vector<double> a = key(k, 1), b = key(k + 1, 1);
+  if (ch.interpolation == "STEP") return a;
+  std::vector<double> out(n);
+  for (std::size_t c = 0; c < n; ++c) {
+    if (cubic) {
+      out[c] = (2 * u * u * u - 3 * u * u + 1) * a[c] +
+               (u * u * u - 2 * u * u + u) * d * key(k, 2)[c] +
+               (-2 * u * u * u + 3 * u * u) * b[c] + (u * u * u - u * u) * d * key(k + 1, 0)[c];
+    } else {
+      out[c] = a[c] + u * (b[c] - a[c]);
+    }
+  }
+  return out;
+}
+
+// A target over `p`'s vertices: position delta (dx, dy, dz) * (1 + row) on the vertices
+// whose index modulo `every` is `phase`, zero elsewhere; normal deltas (0.3, 0, -0.2) on
+// the same vertices when `normals`.
+void AddTarget(ScenePrimitive* p, int every, int phase, double dx, double dy, double dz,
+               bool normals) {
+  const std::size_t v_count = p->positions.size() / 3;
+  std::vector<float> dp(3 * v_count, 0.0f), dn(normals ? 3 * v_count : 0, 0.0f);
+  for (std::size_t v = 0; v < v_count; ++v) {
+    if (static_cast<int>(v) % every != phase) continue;
+    const double scale = 1.0 + static_cast<double>(v / 2);
+    dp[3 * v] = static_cast<float>(dx * scale);
+    dp[3 * v + 1] = static_cast<float>(dy * scale);
+    dp[3 * v + 2] = static_cast<float>(dz * scale);
+    if (normals) dn[3 * v] = 0.3f, dn[3 * v + 2] = -0.2f;
+  }
+  p->target_positions.push_back(std::move(dp));
+  p->target_normals.push_back(std::move(dn));
+}
+
 RefChannel Scale(int node, std::vector<double> times, std::vector<double> values) {
   return {
       .node = node, .path = "scale", .interpolation = "LINEAR", .times = times, .values = values};
@@ -225,6 +272,50 @@ Mat4 Dequantization(const double offset[3], double scale) {
 }
 
 }  // namespace
+
+Scene MorphFace(const std::string& interpolation) {
+  Scene s;
+  // 0 Root -> 1 Jaw -> 2 Head; 3 FaceNode (mesh 0), 4 BrowNode (mesh 1), both skin 0.
+  s.nodes.resize(5);
+  s.nodes[0] = {.name = "Root", .children = {1, 3, 4}};
+  s.nodes[1] = {.name = "Jaw", .children = {2}};
+  s.nodes[2] = {.name = "Head"};
+  s.nodes[2].t[1] = 0.8;
+  s.nodes[3] = {.name = "FaceNode", .mesh = 0, .skin = 0};
+  s.nodes[4] = {.name = "BrowNode", .mesh = 1, .skin = 0};
+  s.skins.push_back({.joints = {1, 2}, .inverse_bind = {}});
+  const double a[3] = {-0.3, 0.0, 0.1}, b[3] = {0.2, 0.4, 0.0}, top[3] = {-0.2, 1.2, 0.2};
+  ScenePrimitive face0 = Strip(a, 0.4, 1.2, 5, 0, 1, true);
+  ScenePrimitive face1 = Strip(b, 0.3, 0.6, 3, 1, 0, true);
+  ScenePrimitive brow = Strip(top, 0.5, 0.2, 2, 1, 1, true);
+  for (ScenePrimitive* p : {&face0, &face1}) {
+    AddTarget(p, 2, 0, 0.05, 0.0, 0.02, false);  // positions only
+    AddTarget(p, 3, 1, -0.03, 0.04, 0.0, true);
+    AddTarget(p, 1, 0, 0.0, -0.02, 0.06, true);  // every vertex
+  }
+  AddTarget(&brow, 2, 1, 0.0, 0.05, 0.0, true);
+  AddTarget(&brow, 1, 0, 0.02, 0.0, 0.0, false);
+  s.meshes.push_back({"Face", {face0, face1}, {0.25, 0.0, -0.5}});
+  s.meshes.push_back({"Brow", {brow}, {0.5, 1.0}});
+  // Face's weights over 2 s: 3 keys of 3 weights (negative and beyond 1 included).
+  // Key times exact in float, as the file stores them (a STEP key is taken from its time on).
+  SceneWeightsChannel ch{.node = 3, .interpolation = interpolation, .times = {0, 0.75, 2}};
+  const std::vector<double> keys = {0.0, 1.0, 0.2, 1.0, -0.5, 0.7, 0.3, 1.4, 0.0};
+  if (interpolation == "CUBICSPLINE") {
+    const std::vector<double> tangents = {0.5, -1.0, 0.25, 2.0, 0.0, -0.75, -0.4, 0.6, 1.0};
+    for (std::size_t k = 0; k < 3; ++k) {
+      for (std::size_t c = 0; c < 3; ++c) ch.values.push_back(tangents[3 * k + c]);  // in
+      for (std::size_t c = 0; c < 3; ++c) ch.values.push_back(keys[3 * k + c]);
+      for (std::size_t c = 0; c < 3; ++c) ch.values.push_back(-tangents[3 * k + c]);  // out
+    }
+  } else {
+    ch.values = keys;
+  }
+  s.weights_channels.push_back(ch);
+  s.clip.channels.push_back(Rotation(2, {0, 2}, {Quat(0, 0, 1, 0), Quat(1, 0, 1, 50)}));
+  Finish(&s);
+  return s;
+}
 
 Scene SeveralPrimitivesOneSkin() {
   Scene s;
@@ -600,9 +691,20 @@ std::vector<uint8_t> WriteGlb(const Scene& scene) {
                            e.sparse_weights, false, odd);
       }
       const int indices = AppendAccessor(glb, Bytes(p.indices), 5123, "SCALAR", p.indices.size());
-      primitives.push_back({{"attributes", attributes}, {"indices", indices}, {"mode", 4}});
+      json primitive = {{"attributes", attributes}, {"indices", indices}, {"mode", 4}};
+      for (std::size_t t = 0; t < p.target_positions.size(); ++t) {
+        json target;
+        target["POSITION"] = AppendAccessor(glb, Bytes(p.target_positions[t]), 5126, "VEC3", v);
+        if (!p.target_normals[t].empty()) {
+          target["NORMAL"] = AppendAccessor(glb, Bytes(p.target_normals[t]), 5126, "VEC3", v);
+        }
+        primitive["targets"].push_back(target);
+      }
+      primitives.push_back(primitive);
     }
-    j["meshes"].push_back({{"name", mesh.name}, {"primitives", primitives}});
+    json out_mesh = {{"name", mesh.name}, {"primitives", primitives}};
+    if (!mesh.weights.empty()) out_mesh["weights"] = mesh.weights;
+    j["meshes"].push_back(out_mesh);
   }
   for (const SceneSkin& skin : scene.skins) {
     std::vector<float> ibm;
@@ -624,6 +726,17 @@ std::vector<uint8_t> WriteGlb(const Scene& scene) {
     samplers.push_back({{"input", input}, {"output", output}, {"interpolation", "LINEAR"}});
     channels.push_back(
         {{"sampler", samplers.size() - 1}, {"target", {{"node", ch.node}, {"path", ch.path}}}});
+  }
+  for (const SceneWeightsChannel& ch : scene.weights_channels) {
+    std::vector<float> times(ch.times.begin(), ch.times.end());
+    std::vector<float> values(ch.values.begin(), ch.values.end());
+    const int input = AppendAccessor(glb, Bytes(times), 5126, "SCALAR", times.size());
+    j["accessors"].back()["min"] = {times.front()};
+    j["accessors"].back()["max"] = {times.back()};
+    const int output = AppendAccessor(glb, Bytes(values), 5126, "SCALAR", values.size());
+    samplers.push_back({{"input", input}, {"output", output}, {"interpolation", ch.interpolation}});
+    channels.push_back(
+        {{"sampler", samplers.size() - 1}, {"target", {{"node", ch.node}, {"path", "weights"}}}});
   }
   j["animations"].push_back(
       {{"name", scene.clip.name}, {"channels", channels}, {"samplers", samplers}});
@@ -695,6 +808,19 @@ RefFrame SceneFrame(const Scene& scene, const ScenePrimitiveRef& p, double t) {
   prim.joints.assign(sp.joints.begin(), sp.joints.end());
   prim.weights.assign(sp.weights.begin(), sp.weights.end());
   prim.index_count = sp.indices.size();
+  // Morph targets, in double: the node's weights at t, deltas added before skinning.
+  std::vector<double> weights = scene.meshes[static_cast<std::size_t>(p.mesh)].weights;
+  for (const SceneWeightsChannel& ch : scene.weights_channels) {
+    if (ch.node == p.node) weights = SampleWeights(ch, sp.target_positions.size(), t);
+  }
+  for (std::size_t k = 0; k < weights.size() && k < sp.target_positions.size(); ++k) {
+    for (std::size_t i = 0; i < prim.positions.size(); ++i) {
+      prim.positions[i] += weights[k] * sp.target_positions[k][i];
+      if (!prim.normals.empty() && !sp.target_normals[k].empty()) {
+        prim.normals[i] += weights[k] * sp.target_normals[k][i];
+      }
+    }
+  }
   return RefSkin(prim, RefPalette(ref, &scene.clip, t));
 }
 

@@ -8,6 +8,10 @@
 //   MovingParent              the skinned mesh node and its skeleton under one animated
 //                             node; only that node moves, so every vertex moves rigidly
 //                             with it (a check that needs no skinning code at all)
+//   MorphFace                 one skin; mesh "Face" (2 primitives, 3 morph targets with
+//                             POSITION and NORMAL deltas, default weights) driven by a
+//                             weights channel of the given interpolation, and mesh "Brow"
+//                             (1 primitive, 2 targets) on its default weights only
 //   RigidParts                one skin and meshes on nodes without a skin (rigid parts):
 //                             under an animated joint, on an animated node whose parent is
 //                             animated (non-uniform animated scale), one mesh on two nodes
@@ -46,11 +50,23 @@ struct ScenePrimitive {
   std::vector<uint8_t> joints;            // 4 per vertex (JOINTS_0); empty: not skinned
   std::vector<float> weights;             // 4 per vertex (WEIGHTS_0), summing to 1
   std::vector<uint16_t> indices;
+  // Morph targets, dense as glTF stores them: per target 3 floats per vertex; a target's
+  // normal deltas may be empty (it has no NORMAL).
+  std::vector<std::vector<float>> target_positions, target_normals;
   SceneEncoding encoding;
 };
 struct SceneMesh {
   std::string name;
   std::vector<ScenePrimitive> primitives;
+  std::vector<double> weights;  // the mesh's default morph weights (empty: none)
+};
+// A `weights` channel: per key one value per morph target of the node's mesh (CUBICSPLINE:
+// in-tangents, values, out-tangents).
+struct SceneWeightsChannel {
+  int node = -1;
+  std::string interpolation;
+  std::vector<double> times;
+  std::vector<double> values;
 };
 struct SceneNode {
   std::string name;
@@ -70,12 +86,14 @@ struct Scene {
   std::vector<SceneMesh> meshes;
   std::vector<SceneSkin> skins;
   RefClip clip;  // LINEAR channels; written as the file's one animation
+  std::vector<SceneWeightsChannel> weights_channels;  // in the same animation
   std::vector<std::string> extensions_required;
 };
 
 Scene SeveralPrimitivesOneSkin();
 Scene TwoSkins();
 Scene MovingParent();
+Scene MorphFace(const std::string& interpolation);
 Scene RigidParts();
 Scene Quantized();
 Scene Sparse();
@@ -90,6 +108,8 @@ struct ScenePrimitiveRef {
 };
 std::vector<ScenePrimitiveRef> SkinnedPrimitives(const Scene& scene);
 
+// Morph targets are applied first, with the node's weights at `t` (its weights channel
+// sampled in float64 by the test's own formulas, else the mesh's default weights).
 // Primitive `p` at time `t` of the clip in float64: skinned (the mesh node's own transform
 // plays no part, as glTF requires), or for a rigid part its node's world matrix applied to
 // the positions and its inverse transpose to the normals (renormalised).

@@ -15,7 +15,11 @@
 namespace skinserve {
 namespace {
 
-std::size_t Width(ChannelPath path) { return path == ChannelPath::kRotation ? 4 : 3; }
+// Floats per key value: 3 or 4 for TRS; for weights, the node's morph weight count.
+std::size_t Width(ChannelPath path, std::size_t weights) {
+  if (path == ChannelPath::kWeights) return weights;
+  return path == ChannelPath::kRotation ? 4 : 3;
+}
 
 // Shortest-path spherical interpolation of unit quaternions stored x y z w. Computed in
 // double, so plain slerp stays accurate down to tiny angles; only (nearly) equal keys fall
@@ -45,16 +49,56 @@ void Slerp(const float* a, const float* b, double u, double out[4]) {
 // True when the channel's arrays are consistent with its interpolation: importer output
 // always is; a hand-built Character that is not animates nothing through this channel
 // rather than reading out of bounds.
-bool IsWellFormed(const AnimationChannel& ch, std::size_t node_count) {
-  const std::size_t per_key =
-      Width(ch.path) * (ch.interpolation == Interpolation::kCubicSpline ? 3 : 1);
-  return ch.node >= 0 && static_cast<std::size_t>(ch.node) < node_count && !ch.times.empty() &&
-         ch.values.size() == ch.times.size() * per_key;
+bool IsWellFormed(const AnimationChannel& ch, const Pose& pose) {
+  if (ch.node < 0 || static_cast<std::size_t>(ch.node) >= pose.size()) return false;
+  const std::size_t width = Width(ch.path, pose[static_cast<std::size_t>(ch.node)].weights.size());
+  const std::size_t per_key = width * (ch.interpolation == Interpolation::kCubicSpline ? 3 : 1);
+  return width > 0 && !ch.times.empty() && ch.values.size() == ch.times.size() * per_key;
+}
+
+// A weights channel's n values at `t` (clamped to its keys) into `out`, per the spec:
+// STEP, LINEAR (per weight) or CUBICSPLINE (Hermite per weight, tangents per second).
+void SampleWeights(const AnimationChannel& ch, double t, std::size_t n, std::vector<float>* out) {
+  const bool cubic = ch.interpolation == Interpolation::kCubicSpline;
+  auto value = [&](std::size_t k) { return &ch.values[(cubic ? 3 * k + 1 : k) * n]; };
+  const std::vector<float>& times = ch.times;
+  if (std::isnan(t)) {
+    out->assign(n, std::numeric_limits<float>::quiet_NaN());
+    return;
+  }
+  t = std::clamp(t, double{times.front()}, double{times.back()});
+  const std::size_t k =
+      static_cast<std::size_t>(std::upper_bound(times.begin(), times.end(), t,
+                                                [](double x, float key) { return x < key; }) -
+                               times.begin()) -
+      1;
+  out->resize(n);
+  if (k + 1 >= times.size()) {
+    std::copy_n(value(times.size() - 1), n, out->begin());
+    return;
+  }
+  const double td = double{times[k + 1]} - times[k];
+  const double u = (t - times[k]) / td;
+  const float* v0 = value(k);
+  const float* v1 = value(k + 1);
+  for (std::size_t c = 0; c < n; ++c) {
+    double w = v0[c];
+    if (ch.interpolation == Interpolation::kLinear) {
+      w = (1.0 - u) * v0[c] + u * v1[c];
+    } else if (cubic) {
+      const double u2 = u * u, u3 = u2 * u;
+      const double out_tangent0 = ch.values[(3 * k + 2) * n + c];
+      const double in_tangent1 = ch.values[(3 * (k + 1)) * n + c];
+      w = (2 * u3 - 3 * u2 + 1) * v0[c] + (u3 - 2 * u2 + u) * td * out_tangent0 +
+          (-2 * u3 + 3 * u2) * v1[c] + (u3 - u2) * td * in_tangent1;
+    }
+    (*out)[c] = static_cast<float>(w);
+  }
 }
 
 // The channel's value at `t` per the glTF spec (Appendix C, "Interpolation").
 void SampleChannel(const AnimationChannel& ch, double t, double out[4]) {
-  const std::size_t n = Width(ch.path);
+  const std::size_t n = Width(ch.path, 0);
   const bool cubic = ch.interpolation == Interpolation::kCubicSpline;
   // CUBICSPLINE keys are (in-tangent, value, out-tangent).
   auto value = [&](std::size_t k) { return &ch.values[(cubic ? 3 * k + 1 : k) * n]; };
@@ -129,7 +173,12 @@ Pose RestPose(const Character& character) { return character.nodes; }
 Pose SampleClip(const Character& character, const AnimationClip& clip, double seconds) {
   Pose pose = character.nodes;
   for (const AnimationChannel& ch : clip.channels) {
-    if (!IsWellFormed(ch, pose.size())) continue;
+    if (!IsWellFormed(ch, pose)) continue;
+    if (ch.path == ChannelPath::kWeights) {
+      std::vector<float>& weights = pose[static_cast<std::size_t>(ch.node)].weights;
+      SampleWeights(ch, seconds, weights.size(), &weights);
+      continue;
+    }
     double v[4];
     SampleChannel(ch, seconds, v);
     CharacterNode& node = pose[static_cast<std::size_t>(ch.node)];
@@ -142,6 +191,8 @@ Pose SampleClip(const Character& character, const AnimationClip& clip, double se
         break;
       case ChannelPath::kRotation:
         node.rotation = glm::quat(glm::dquat(v[3], v[0], v[1], v[2]));  // file: x y z w
+        break;
+      case ChannelPath::kWeights:  // sampled above
         break;
     }
   }

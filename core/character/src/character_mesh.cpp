@@ -10,9 +10,32 @@
 namespace skinserve {
 namespace {
 
+// Appends `p`'s morph targets to `mesh`'s, renumbered to start at vertex `first`; with
+// `morph_normals`, normal deltas too (zeros where `p` has none).
+void AppendMorphTargets(const SkinnedPrimitive& p, uint32_t first, bool morph_normals,
+                        CharacterMesh* mesh) {
+  MeshArrays& a = mesh->arrays;
+  const MeshArrays& pa = p.arrays;
+  for (std::size_t t = 0; t < pa.morph_target_sizes.size(); ++t) {
+    a.morph_target_sizes.push_back(pa.morph_target_sizes[t]);
+    mesh->morph_sources.push_back({.node = p.node, .target = static_cast<uint32_t>(t)});
+  }
+  for (uint32_t v : pa.morph_indices) a.morph_indices.push_back(first + v);
+  a.morph_position_deltas.insert(a.morph_position_deltas.end(), pa.morph_position_deltas.begin(),
+                                 pa.morph_position_deltas.end());
+  if (!morph_normals) return;
+  if (pa.morph_normal_deltas.empty()) {
+    a.morph_normal_deltas.resize(a.morph_normal_deltas.size() + 3 * pa.morph_indices.size(), 0.0f);
+  } else {
+    a.morph_normal_deltas.insert(a.morph_normal_deltas.end(), pa.morph_normal_deltas.begin(),
+                                 pa.morph_normal_deltas.end());
+  }
+}
+
 // Appends `p` to `mesh`, padding its influences to the mesh's. A rigid part's vertices get
 // joint `rigid_joint` (its node's palette entry), weight 1.
-void Append(const SkinnedPrimitive& p, int index, uint16_t rigid_joint, CharacterMesh* mesh) {
+void Append(const SkinnedPrimitive& p, int index, uint16_t rigid_joint, bool morph_normals,
+            CharacterMesh* mesh) {
   MeshArrays& a = mesh->arrays;
   const uint32_t first = a.vertex_count;
   const uint32_t b = a.influences;
@@ -27,6 +50,7 @@ void Append(const SkinnedPrimitive& p, int index, uint16_t rigid_joint, Characte
       a.weights.push_back(real ? p.arrays.weights[std::size_t{v} * pb + i] : 0.0f);
     }
   }
+  AppendMorphTargets(p, first, morph_normals, mesh);
   a.vertex_count += p.arrays.vertex_count;
   const std::size_t first_index = mesh->indices.size();
   for (uint32_t i : p.indices) mesh->indices.push_back(first + i);
@@ -88,9 +112,11 @@ Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, i
       mesh.name += key.second ? " (normals)" : " (no normals)";
     }
     uint64_t vertices = 0;
+    bool morph_normals = false;  // a mesh's targets move normals for all or none of them
     for (int i : members) {
       const SkinnedPrimitive& p = primitives[static_cast<std::size_t>(i)];
       vertices += p.arrays.vertex_count;
+      morph_normals |= !p.arrays.morph_normal_deltas.empty();
       mesh.arrays.influences = std::max(mesh.arrays.influences, p.arrays.influences);
       if (p.rigid() && std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) ==
                            mesh.rigid_nodes.end()) {
@@ -116,11 +142,22 @@ Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, i
       const auto place = static_cast<std::size_t>(
           std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) -
           mesh.rigid_nodes.begin());
-      Append(p, i, static_cast<uint16_t>(skin_joints + place), &mesh);
+      Append(p, i, static_cast<uint16_t>(skin_joints + place), morph_normals, &mesh);
     }
     meshes.push_back(std::move(mesh));
   }
   return meshes;
+}
+
+void MeshMorphWeights(const CharacterMesh& mesh, const Pose& pose, std::vector<MorphWeight>* out) {
+  out->clear();
+  for (std::size_t t = 0; t < mesh.morph_sources.size(); ++t) {
+    const MorphTargetSource& source = mesh.morph_sources[t];
+    if (source.node < 0 || static_cast<std::size_t>(source.node) >= pose.size()) continue;
+    const std::vector<float>& weights = pose[static_cast<std::size_t>(source.node)].weights;
+    if (source.target >= weights.size() || weights[source.target] == 0.0f) continue;
+    out->push_back({static_cast<uint32_t>(t), weights[source.target]});
+  }
 }
 
 Result<std::vector<float>> MeshPalette(const Character& character, const Pose& pose,

@@ -1,4 +1,4 @@
-// Animations: translation, rotation and scale channels with their samplers' keys.
+// Animations: translation, rotation, scale and weights channels with their samplers' keys.
 #include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
@@ -42,10 +42,16 @@ Status ReadTimes(const tinygltf::Model& model, int accessor, const std::string& 
 
 Status ReadValues(const tinygltf::Model& model, int accessor, const std::string& what,
                   ChannelPath path, std::size_t expected_count, std::vector<float>* values) {
-  // Rotations may be stored as normalized integers (spec, "Animations"); the accessor
-  // converts them to floats per the spec's formulas.
+  // Rotations and weights may be stored as normalized integers (spec, "Animations"); the
+  // accessor converts them to floats per the spec's formulas.
   const bool rotation = path == ChannelPath::kRotation;
-  auto output = rotation
+  auto output = path == ChannelPath::kWeights
+                    ? AccessorReader::Open(
+                          model, accessor, what, TINYGLTF_TYPE_SCALAR,
+                          {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
+                           TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT,
+                           TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT})
+                : rotation
                     ? AccessorReader::Open(
                           model, accessor, what, TINYGLTF_TYPE_VEC4,
                           {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
@@ -72,7 +78,8 @@ Status ReadValues(const tinygltf::Model& model, int accessor, const std::string&
   return Status::Ok();
 }
 
-Result<AnimationClip> ImportClip(const tinygltf::Model& model, std::size_t index) {
+Result<AnimationClip> ImportClip(const tinygltf::Model& model, std::size_t index,
+                                 const std::vector<CharacterNode>& nodes) {
   const tinygltf::Animation& animation = model.animations[index];
   const std::string what = fmt::format("animations[{}]", index);
   AnimationClip clip;
@@ -81,8 +88,9 @@ Result<AnimationClip> ImportClip(const tinygltf::Model& model, std::size_t index
     const tinygltf::AnimationChannel& in = animation.channels[c];
     const std::string channel_what = fmt::format("{}.channels[{}]", what, c);
     AnimationChannel channel;
-    if (in.target_path == "weights") continue;  // morph target weights: not skinning
-    if (in.target_path == "translation") {
+    if (in.target_path == "weights") {
+      channel.path = ChannelPath::kWeights;
+    } else if (in.target_path == "translation") {
       channel.path = ChannelPath::kTranslation;
     } else if (in.target_path == "rotation") {
       channel.path = ChannelPath::kRotation;
@@ -101,6 +109,16 @@ Result<AnimationClip> ImportClip(const tinygltf::Model& model, std::size_t index
                                          channel_what, in.target_node, model.nodes.size()));
     }
     channel.node = in.target_node;
+    // Weights: one value per morph target of the node's mesh, per key.
+    const std::size_t per_key =
+        channel.path == ChannelPath::kWeights
+            ? (static_cast<std::size_t>(in.target_node) < nodes.size()
+                   ? nodes[static_cast<std::size_t>(in.target_node)].weights.size()
+                   : 0)
+            : 1;
+    // A weights channel of a node whose mesh has no targets animates nothing (exporters
+    // write such channels): skipped, as before morph targets were imported.
+    if (per_key == 0) continue;
     if (in.sampler < 0 || static_cast<std::size_t>(in.sampler) >= animation.samplers.size()) {
       return InvalidArgument(fmt::format("{}.sampler = {} is not a sampler of {} (it has {})",
                                          channel_what, in.sampler, what,
@@ -121,7 +139,7 @@ Result<AnimationClip> ImportClip(const tinygltf::Model& model, std::size_t index
       return InvalidArgument(fmt::format("{}.input: CUBICSPLINE needs at least 2 keys; it has {}",
                                          sampler_what, channel.times.size()));
     }
-    const std::size_t expected = channel.times.size() * (cubic ? 3 : 1);
+    const std::size_t expected = channel.times.size() * (cubic ? 3 : 1) * per_key;
     if (Status s = ReadValues(model, sampler.output, sampler_what + ".output", channel.path,
                               expected, &channel.values);
         !s.ok()) {
@@ -135,10 +153,11 @@ Result<AnimationClip> ImportClip(const tinygltf::Model& model, std::size_t index
 
 }  // namespace
 
-Result<std::vector<AnimationClip>> ImportClips(const tinygltf::Model& model) {
+Result<std::vector<AnimationClip>> ImportClips(const tinygltf::Model& model,
+                                               const std::vector<CharacterNode>& nodes) {
   std::vector<AnimationClip> clips;
   for (std::size_t i = 0; i < model.animations.size(); ++i) {
-    auto clip = ImportClip(model, i);
+    auto clip = ImportClip(model, i, nodes);
     if (!clip.ok()) return clip.status();
     clips.push_back(std::move(clip).value());
   }

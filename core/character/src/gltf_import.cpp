@@ -97,7 +97,8 @@ Result<Character> Import(const tinygltf::Model& model) {
   auto primitives = gltf::ImportSkinnedPrimitives(model, character.skins);
   if (!primitives.ok()) return primitives.status();
   character.primitives = std::move(primitives).value();
-  auto clips = gltf::ImportClips(model);
+  if (Status s = gltf::ImportMorphWeights(model, &character.nodes); !s.ok()) return s;
+  auto clips = gltf::ImportClips(model, character.nodes);
   if (!clips.ok()) return clips.status();
   character.clips = std::move(clips).value();
   return character;

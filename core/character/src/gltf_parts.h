@@ -25,8 +25,13 @@ Result<std::vector<CharacterSkin>> ImportSkins(const tinygltf::Model& model);
 Result<std::vector<SkinnedPrimitive>> ImportSkinnedPrimitives(
     const tinygltf::Model& model, const std::vector<CharacterSkin>& skins);
 
-// Every animation's translation, rotation and scale channels (weights channels are not
-// part of skinning and are left out).
-Result<std::vector<AnimationClip>> ImportClips(const tinygltf::Model& model);
+// Every node's morph target weights (CharacterNode::weights): the node's `weights`, else
+// its mesh's, else zeros, one per target of its mesh; the counts must agree.
+Status ImportMorphWeights(const tinygltf::Model& model, std::vector<CharacterNode>* nodes);
+
+// Every animation's translation, rotation, scale and weights channels; a weights channel's
+// node must have morph weights (`nodes`, after ImportMorphWeights), one value per weight.
+Result<std::vector<AnimationClip>> ImportClips(const tinygltf::Model& model,
+                                               const std::vector<CharacterNode>& nodes);
 
 }  // namespace skinserve::gltf

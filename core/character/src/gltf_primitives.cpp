@@ -2,6 +2,7 @@
 // (a mesh node with a skin) and rigid parts (a mesh node without one: every vertex follows
 // that node, one influence of weight 1).
 #include <fmt/format.h>
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
@@ -66,6 +67,56 @@ Result<int> CountInfluenceSets(const tinygltf::Primitive& p, const std::string& 
                                        sets, kMaxSets, kMaxInfluences));
   }
   return sets;
+}
+
+// The primitive's morph targets into `a` (which holds its positions and normals), dense
+// deltas made sparse: a vertex is listed in a target when one of its deltas is not zero.
+// NORMAL deltas are kept when the primitive has normals and a target moves them (zeros for
+// the targets that do not); TANGENT deltas are ignored (tangents are not served).
+Status ReadMorphTargets(const tinygltf::Model& model, const tinygltf::Primitive& p,
+                        const std::string& what, MeshArrays* a) {
+  if (p.targets.empty()) return Status::Ok();
+  if (p.targets.size() > kMaxMorphTargets) {
+    return InvalidArgument(fmt::format("{}.targets: {} targets; at most {}", what, p.targets.size(),
+                                       kMaxMorphTargets));
+  }
+  const std::size_t v_count = a->vertex_count;
+  bool normals = false;
+  for (const auto& target : p.targets) normals |= target.count("NORMAL") > 0;
+  normals &= !a->normals.empty();
+  std::vector<float> dp(3 * v_count), dn(normals ? 3 * v_count : 0);
+  for (std::size_t t = 0; t < p.targets.size(); ++t) {
+    const auto& target = p.targets[t];
+    std::fill(dp.begin(), dp.end(), 0.0f);
+    std::fill(dn.begin(), dn.end(), 0.0f);
+    for (const auto& [name, accessor] : target) {
+      std::vector<float>* deltas = name == "POSITION" ? &dp : name == "NORMAL" ? &dn : nullptr;
+      if (deltas == nullptr || deltas->empty()) continue;  // TANGENT, or normals unused
+      const std::string field = fmt::format("{}.targets[{}].{}", what, t, name);
+      auto reader = OpenAttribute(model, accessor, field, TINYGLTF_TYPE_VEC3,
+                                  {TINYGLTF_COMPONENT_TYPE_FLOAT}, v_count);
+      if (!reader.ok()) return reader.status();
+      for (std::size_t v = 0; v < v_count; ++v) {
+        for (int c = 0; c < 3; ++c) (*deltas)[3 * v + c] = reader->Normalized(v, c);
+      }
+    }
+    uint32_t size = 0;
+    for (std::size_t v = 0; v < v_count; ++v) {
+      bool moves = false;
+      for (int c = 0; c < 3; ++c) {
+        moves |= dp[3 * v + c] != 0.0f || (normals && dn[3 * v + c] != 0.0f);
+      }
+      if (!moves) continue;
+      ++size;
+      a->morph_indices.push_back(static_cast<uint32_t>(v));
+      a->morph_position_deltas.insert(a->morph_position_deltas.end(), &dp[3 * v], &dp[3 * v] + 3);
+      if (normals) {
+        a->morph_normal_deltas.insert(a->morph_normal_deltas.end(), &dn[3 * v], &dn[3 * v] + 3);
+      }
+    }
+    a->morph_target_sizes.push_back(size);
+  }
+  return Status::Ok();
 }
 
 Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& p,
@@ -202,6 +253,8 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
     return InvalidArgument(
         fmt::format("{}: {} triangle indices is not a multiple of 3", what, out->indices.size()));
   }
+
+  if (Status s = ReadMorphTargets(model, p, what, &a); !s.ok()) return s;
 
   // The engine's own validator, with no operator limits: what it rejects here (e.g. a zero
   // normal) would be rejected at upload, so say so now, naming the primitive.

@@ -33,6 +33,7 @@ MeshInfo DescribeMesh(const Mesh& mesh) {
   info.has_normals = mesh.has_normals();
   info.bytes = mesh.byte_size();
   info.normalized_vertices = mesh.normalized_vertices();
+  info.morph_target_count = mesh.morph_target_count();
   return info;
 }
 
@@ -151,6 +152,15 @@ class Engine::Impl {
     return Status::Ok();
   }
 
+  // The frame's morph weights, once for all its instances.
+  static Status CheckMorph(const SkinRequest& request, const Mesh& mesh, const BackendInfo& info) {
+    if (Status s = ValidateMorphWeights(request.morph_weights, mesh.morph_target_count());
+        !s.ok()) {
+      return s;
+    }
+    return CheckMorphSupport(info, request.morph_weights);
+  }
+
   // Check() for skin_into_scratch: no output arrays; the instance fits the scratch.
   static Status CheckScratch(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
     if (!request.positions.empty() || !request.normals.empty()) {
@@ -196,6 +206,7 @@ class Engine::Impl {
       if (!request.normals.empty()) frame.normals = request.normals.subspan(i * outputs, outputs);
     }
     frame.method = request.method;
+    frame.morph_weights = request.morph_weights;
     if (request.instances > 1) frame.palette = frame.palette.first(palette);  // sizes checked
     return frame;
   }
@@ -220,7 +231,8 @@ class Engine::Impl {
     job->plan_ = {.planned = true,
                   .vertex_count = mesh.vertex_count(),
                   .joint_count = mesh.joint_count(),
-                  .has_normals = mesh.has_normals()};
+                  .has_normals = mesh.has_normals(),
+                  .morph_target_count = mesh.morph_target_count()};
     return Status::Ok();
   }
 
@@ -243,9 +255,10 @@ class Engine::Impl {
     auto& entry = *static_cast<MeshStore::Entry*>(job->lease_.get());
     const Mesh& mesh = *entry.mesh();
     const uint32_t instances = std::max<uint32_t>(request.instances, 1);
+    const BackendInfo& info = backends_[job->backend_index_]->info();
+    if (Status s = CheckMorph(request, mesh, info); !s.ok()) return s;
     if (Status s = Check(request, mesh, instances); !s.ok()) return s;
 
-    const BackendInfo& info = backends_[job->backend_index_]->info();
     job->engine_ = this;
     job->vertex_count_ = mesh.vertex_count();
     job->submitted_ns_ = NowNs();
@@ -359,19 +372,28 @@ std::vector<BackendInfo> Engine::Backends() const {
 }
 
 Status Engine::CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
-                              bool has_normals) const {
+                              bool has_normals, std::span<const uint32_t> morph_target_sizes,
+                              bool morph_normals) const {
+  const MeshLimits& limits = impl_->options_.mesh.limits;
+  if (Status s = CheckMeshHeader(vertex_count, influences, joint_count, limits); !s.ok()) {
+    return s;
+  }
   if (Status s =
-          CheckMeshHeader(vertex_count, influences, joint_count, impl_->options_.mesh.limits);
+          CheckMorphHeader(morph_target_sizes, vertex_count, has_normals, morph_normals, limits);
       !s.ok()) {
     return s;
   }
-  return impl_->store_.CheckFits(MeshByteSize(vertex_count, influences, has_normals));
+  uint64_t deltas = 0;
+  for (uint32_t size : morph_target_sizes) deltas += size;
+  return impl_->store_.CheckFits(MeshByteSize(vertex_count, influences, has_normals,
+                                              morph_target_sizes.size(), deltas, morph_normals));
 }
 
 Result<MeshInfo> Engine::AddMesh(const MeshArrays& arrays,
                                  std::optional<WeightPolicy> weight_policy) {
   if (Status s = CheckMeshShape(arrays.vertex_count, arrays.influences, arrays.joint_count,
-                                !arrays.normals.empty());
+                                !arrays.normals.empty(), arrays.morph_target_sizes,
+                                !arrays.morph_normal_deltas.empty());
       !s.ok()) {
     return s;
   }
@@ -409,6 +431,7 @@ Status Engine::GetMesh(const std::string& id, MeshInfo* info) const {
   info->has_normals = mesh.has_normals();
   info->bytes = mesh.byte_size();
   info->normalized_vertices = mesh.normalized_vertices();
+  info->morph_target_count = mesh.morph_target_count();
   info->already_stored = true;
   return Status::Ok();
 }

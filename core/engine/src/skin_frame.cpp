@@ -12,11 +12,20 @@ bool BackendInfo::Supports(SkinningMethod method) const {
   return false;
 }
 
+Status CheckMorphSupport(const BackendInfo& info, std::span<const MorphWeight> weights) {
+  if (info.morph_targets || !HasActiveMorph(weights)) return Status::Ok();
+  return FailedPrecondition(fmt::format(
+      "backend '{}' does not apply morph targets yet; send the frame without morph weights or "
+      "choose a backend that does (serial, openmp, sse, sse-openmp, simd, simd-openmp)",
+      info.id));
+}
+
 Status SkinFrame::Validate(const Mesh& mesh) const {
   if (Status s = ValidatePalette(palette, mesh.joint_count()); !s.ok()) return s;
   if (method == SkinningMethod::kDualQuaternion) {
     if (Status s = ValidateRigidPalette(palette); !s.ok()) return s;
   }
+  if (Status s = ValidateMorphWeights(morph_weights, mesh.morph_target_count()); !s.ok()) return s;
   const std::size_t expected = 3ull * mesh.vertex_count();
   if (positions.size() != expected) {
     return InvalidArgument(

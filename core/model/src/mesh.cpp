@@ -3,6 +3,7 @@
 #include <openssl/evp.h>
 
 #include <fmt/format.h>
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdio>
@@ -44,6 +45,15 @@ std::string ContentId(const Mesh& mesh) {
   add(mesh.normals());
   add(mesh.joints());
   add(mesh.weights());
+  if (mesh.morph_target_count() > 0) {  // meshes without targets keep their ids
+    const uint32_t morph_header[2] = {mesh.morph_target_count(),
+                                      mesh.has_morph_normals() ? 1u : 0u};
+    EVP_DigestUpdate(ctx, morph_header, sizeof(morph_header));
+    add(mesh.morph_offsets());
+    add(mesh.morph_indices());
+    add(mesh.morph_position_deltas());
+    add(mesh.morph_normal_deltas());
+  }
   unsigned char digest[EVP_MAX_MD_SIZE];
   unsigned int length = 0;
   EVP_DigestFinal_ex(ctx, digest, &length);
@@ -54,7 +64,110 @@ std::string ContentId(const Mesh& mesh) {
   return hex;
 }
 
+// Validates the morph arrays of `arrays` (sizes already checked by CheckMorphHeader).
+Status CheckMorphArrays(const MeshArrays& arrays, uint64_t deltas) {
+  if (Status s = CheckArraySize("morph_indices", arrays.morph_indices.size(), deltas,
+                                "the sum of morph_target_sizes");
+      !s.ok()) {
+    return s;
+  }
+  if (Status s = CheckArraySize("morph_position_deltas", arrays.morph_position_deltas.size(),
+                                3 * deltas, "3 * the sum of morph_target_sizes");
+      !s.ok()) {
+    return s;
+  }
+  if (!arrays.morph_normal_deltas.empty()) {
+    if (Status s = CheckArraySize("morph_normal_deltas", arrays.morph_normal_deltas.size(),
+                                  3 * deltas, "3 * the sum of morph_target_sizes (or none)");
+        !s.ok()) {
+      return s;
+    }
+  }
+  // Position deltas are bounded relative to the mesh: beyond kMorphDeltaRange times its
+  // extent a delta is an exporter's error, not a shape.
+  float lo[3] = {arrays.positions[0], arrays.positions[1], arrays.positions[2]};
+  float hi[3] = {lo[0], lo[1], lo[2]};
+  for (std::size_t i = 0; i < arrays.positions.size(); ++i) {
+    lo[i % 3] = std::min(lo[i % 3], arrays.positions[i]);
+    hi[i % 3] = std::max(hi[i % 3], arrays.positions[i]);
+  }
+  double diagonal = 0;
+  for (int a = 0; a < 3; ++a) diagonal += (double{hi[a]} - lo[a]) * (double{hi[a]} - lo[a]);
+  const double position_limit = kMorphDeltaRange * std::max(1.0, std::sqrt(diagonal));
+  uint64_t first = 0;
+  for (std::size_t t = 0; t < arrays.morph_target_sizes.size(); ++t) {
+    const uint64_t last = first + arrays.morph_target_sizes[t];
+    for (uint64_t k = first; k < last; ++k) {
+      const uint32_t vertex = arrays.morph_indices[k];
+      if (vertex >= arrays.vertex_count) {
+        return InvalidArgument(
+            fmt::format("morph_indices[target {}, delta {}] = {} is not below vertex_count {}", t,
+                        k - first, vertex, arrays.vertex_count));
+      }
+      if (k > first && vertex <= arrays.morph_indices[k - 1]) {
+        return InvalidArgument(fmt::format(
+            "morph_indices[target {}, delta {}] = {} does not ascend (the one before is {}); "
+            "each target lists its vertices once, in ascending order",
+            t, k - first, vertex, arrays.morph_indices[k - 1]));
+      }
+      for (int a = 0; a < 3; ++a) {
+        const float d = arrays.morph_position_deltas[3 * k + a];
+        if (!std::isfinite(d) || std::fabs(d) > position_limit) {
+          return InvalidArgument(fmt::format(
+              "morph_position_deltas[target {}, delta {}].{} = {} must be finite and within "
+              "+-{:g} ({} times the mesh's extent, at least 1)",
+              t, k - first, "xyz"[a], d, position_limit, kMorphDeltaRange));
+        }
+        if (arrays.morph_normal_deltas.empty()) continue;
+        const float n = arrays.morph_normal_deltas[3 * k + a];
+        if (!std::isfinite(n) || std::fabs(n) > kMaxMorphNormalDelta) {
+          return InvalidArgument(
+              fmt::format("morph_normal_deltas[target {}, delta {}].{} = {} must be finite and "
+                          "within +-{}",
+                          t, k - first, "xyz"[a], n, kMaxMorphNormalDelta));
+        }
+      }
+    }
+    first = last;
+  }
+  return Status::Ok();
+}
+
 }  // namespace
+
+Status CheckMorphHeader(std::span<const uint32_t> target_sizes, uint64_t vertex_count,
+                        bool has_normals, bool morph_normals, const MeshLimits& limits) {
+  const uint32_t max_targets = std::min(limits.max_morph_targets, kMaxMorphTargets);
+  if (target_sizes.size() > max_targets) {
+    return ResourceExhausted(
+        fmt::format("morph_target_sizes lists {} targets, over the limit of {} targets per mesh",
+                    target_sizes.size(), max_targets));
+  }
+  if (morph_normals && target_sizes.empty()) {
+    return InvalidArgument("morph normal deltas were declared but the mesh has no morph targets");
+  }
+  if (morph_normals && !has_normals) {
+    return InvalidArgument("morph normal deltas were declared but the mesh has no normals");
+  }
+  uint64_t deltas = 0;
+  for (std::size_t t = 0; t < target_sizes.size(); ++t) {
+    if (target_sizes[t] > vertex_count) {
+      return InvalidArgument(
+          fmt::format("morph_target_sizes[{}] = {} exceeds vertex_count {}; a target moves each "
+                      "vertex at most once",
+                      t, target_sizes[t], vertex_count));
+    }
+    deltas += target_sizes[t];
+  }
+  // Offsets are 32-bit: no limit reaches past them.
+  const uint64_t max_deltas = std::min<uint64_t>(limits.max_morph_deltas, UINT32_MAX);
+  if (deltas > max_deltas) {
+    return ResourceExhausted(
+        fmt::format("morph targets hold {} deltas in all, over the limit of {} deltas per mesh",
+                    deltas, max_deltas));
+  }
+  return Status::Ok();
+}
 
 Status CheckMeshHeader(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
                        const MeshLimits& limits) {
@@ -79,13 +192,19 @@ Status CheckMeshHeader(uint64_t vertex_count, uint64_t influences, uint64_t join
   return Status::Ok();
 }
 
-uint64_t MeshByteSize(uint64_t vertex_count, uint64_t influences, bool has_normals) {
+uint64_t MeshByteSize(uint64_t vertex_count, uint64_t influences, bool has_normals,
+                      uint64_t morph_targets, uint64_t morph_deltas, bool morph_normals) {
   const uint64_t per_vertex =
       3 * sizeof(float) * (has_normals ? 2 : 1) + influences * (sizeof(uint16_t) + sizeof(float));
-  return vertex_count * per_vertex;
+  const uint64_t per_delta = sizeof(uint32_t) + 3 * sizeof(float) * (morph_normals ? 2 : 1);
+  const uint64_t offsets = morph_targets > 0 ? (morph_targets + 1) * sizeof(uint32_t) : 0;
+  return vertex_count * per_vertex + morph_deltas * per_delta + offsets;
 }
 
-uint64_t Mesh::byte_size() const { return MeshByteSize(vertex_count_, influences_, has_normals()); }
+uint64_t Mesh::byte_size() const {
+  return MeshByteSize(vertex_count_, influences_, has_normals(), morph_target_count_,
+                      morph_indices_.size(), has_morph_normals());
+}
 
 Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
                                                  const MeshOptions& options) {
@@ -113,6 +232,11 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
       !s.ok()) {
     return s;
   }
+  if (Status s = CheckMorphHeader(arrays.morph_target_sizes, v, !arrays.normals.empty(),
+                                  !arrays.morph_normal_deltas.empty(), options.limits);
+      !s.ok()) {
+    return s;
+  }
   if (Status s = CheckFinite3("positions", arrays.positions); !s.ok()) return s;
   if (Status s = CheckFinite3("normals", arrays.normals); !s.ok()) return s;
   for (uint64_t i = 0; i < arrays.normals.size() / 3; ++i) {
@@ -128,6 +252,10 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
                       k % b, arrays.joints[k], j));
     }
   }
+
+  uint64_t deltas = 0;
+  for (uint32_t size : arrays.morph_target_sizes) deltas += size;
+  if (Status s = CheckMorphArrays(arrays, deltas); !s.ok()) return s;
 
   std::shared_ptr<Mesh> mesh(new Mesh());
   mesh->vertex_count_ = static_cast<uint32_t>(v);
@@ -165,6 +293,21 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
   mesh->positions_ = AlignedBuffer<float>(std::span<const float>(arrays.positions));
   mesh->normals_ = AlignedBuffer<float>(std::span<const float>(arrays.normals));
   mesh->joints_ = AlignedBuffer<uint16_t>(std::span<const uint16_t>(arrays.joints));
+  if (!arrays.morph_target_sizes.empty()) {
+    mesh->morph_target_count_ = static_cast<uint32_t>(arrays.morph_target_sizes.size());
+    mesh->morph_offsets_ = AlignedBuffer<uint32_t>(arrays.morph_target_sizes.size() + 1);
+    uint32_t offset = 0;
+    for (std::size_t t = 0; t < arrays.morph_target_sizes.size(); ++t) {
+      mesh->morph_offsets_[t] = offset;
+      offset += arrays.morph_target_sizes[t];
+    }
+    mesh->morph_offsets_[arrays.morph_target_sizes.size()] = offset;
+    mesh->morph_indices_ = AlignedBuffer<uint32_t>(std::span<const uint32_t>(arrays.morph_indices));
+    mesh->morph_position_deltas_ =
+        AlignedBuffer<float>(std::span<const float>(arrays.morph_position_deltas));
+    mesh->morph_normal_deltas_ =
+        AlignedBuffer<float>(std::span<const float>(arrays.morph_normal_deltas));
+  }
   mesh->id_ = ContentId(*mesh);
   return std::shared_ptr<const Mesh>(std::move(mesh));
 }

@@ -13,7 +13,9 @@
 
 namespace skinserve {
 
-ReferenceFrame ReferenceSkinDualQuaternion(const Mesh& mesh, std::span<const float> palette) {
+ReferenceFrame ReferenceSkinDualQuaternion(const Mesh& mesh, std::span<const float> palette,
+                                           std::span<const MorphWeight> morph) {
+  const ReferenceFrame rest = ReferenceMorph(mesh, morph);
   // Each joint [R | t] as the unit dual quaternion of "rotate by R, then move by t".
   const std::size_t joint_count = palette.size() / kFloatsPerJoint;
   std::vector<glm::tdualquat<double>> joints(joint_count);
@@ -41,11 +43,11 @@ ReferenceFrame ReferenceSkinDualQuaternion(const Mesh& mesh, std::span<const flo
       blend = blend + q * w;
     }
     blend = glm::normalize(blend);
-    const float* p = &mesh.positions()[3 * v];
+    const double* p = &rest.positions[3 * v];
     const glm::dvec3 moved = blend * glm::dvec3(p[0], p[1], p[2]);
     for (int k = 0; k < 3; ++k) out.positions[3 * v + k] = moved[k];
     if (mesh.has_normals()) {
-      const float* n = &mesh.normals()[3 * v];
+      const double* n = &rest.normals[3 * v];
       const glm::dvec3 turned = blend.real * glm::dvec3(n[0], n[1], n[2]);
       for (int k = 0; k < 3; ++k) out.normals[3 * v + k] = turned[k];
     }

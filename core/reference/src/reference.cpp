@@ -8,7 +8,9 @@
 
 namespace skinserve {
 
-ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette) {
+ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette,
+                             std::span<const MorphWeight> morph) {
+  const ReferenceFrame rest = ReferenceMorph(mesh, morph);
   const std::size_t v_count = mesh.vertex_count();
   const std::size_t b = mesh.influences();
   ReferenceFrame out;
@@ -23,13 +25,13 @@ ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette) {
       for (int e = 0; e < 12; ++e) m[e] += w * joint[e];
     }
     // Equation 4: the affine transform of (x, y, z, 1).
-    const float* p = &mesh.positions()[3 * v];
+    const double* p = &rest.positions[3 * v];
     for (int r = 0; r < 3; ++r) {
       out.positions[3 * v + r] =
           m[4 * r] * p[0] + m[4 * r + 1] * p[1] + m[4 * r + 2] * p[2] + m[4 * r + 3];
     }
     if (mesh.has_normals()) {
-      const float* n = &mesh.normals()[3 * v];
+      const double* n = &rest.normals[3 * v];
       double t[3];
       for (int r = 0; r < 3; ++r)
         t[r] = m[4 * r] * n[0] + m[4 * r + 1] * n[1] + m[4 * r + 2] * n[2];
@@ -42,15 +44,16 @@ ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette) {
 
 Deviation CompareWithReference(const Mesh& mesh, std::span<const float> palette,
                                std::span<const float> positions, std::span<const float> normals,
-                               SkinningMethod method) {
+                               SkinningMethod method, std::span<const MorphWeight> morph) {
   const ReferenceFrame ref = method == SkinningMethod::kDualQuaternion
-                                 ? ReferenceSkinDualQuaternion(mesh, palette)
-                                 : ReferenceSkin(mesh, palette);
+                                 ? ReferenceSkinDualQuaternion(mesh, palette, morph)
+                                 : ReferenceSkin(mesh, palette, morph);
   Deviation d;
   // S bounds |M p| for this frame: float32 rounding is relative to it, not to |p'|, which
-  // may cancel to near zero.
+  // may cancel to near zero. With morphs, p's terms: |rest| + sum |w delta| per coordinate.
+  const MorphMagnitudes terms = ReferenceMorphMagnitudes(mesh, morph);
   double max_p = 0, max_row = 0, max_t = 0;
-  for (float x : mesh.positions()) max_p = std::max(max_p, std::fabs(double{x}));
+  for (double x : terms.positions) max_p = std::max(max_p, x);
   for (std::size_t j = 0; j < palette.size() / kFloatsPerJoint; ++j) {
     for (int r = 0; r < 3; ++r) {
       const float* row = &palette[kFloatsPerJoint * j + 4 * r];
@@ -60,7 +63,7 @@ Deviation CompareWithReference(const Mesh& mesh, std::span<const float> palette,
     }
   }
   d.position_tolerance = 1e-5 * (1 + max_p * max_row + max_t);
-  d.normal_tolerance = 1e-5;
+  d.normal_tolerance = 1e-5 * terms.normal_magnification;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   auto error = [](double a, double b) { return std::isnan(a) ? kInf : std::fabs(a - b); };
   double worst = -1;

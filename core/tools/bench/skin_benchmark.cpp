@@ -10,7 +10,10 @@
 // BM_SkinNormalsDualQuaternion beside BM_Skin and BM_SkinNormals). --opencl-device=gpu (cpu, gpu or
 // part of a platform or device name, as skinserve's option). --streams=N: the OpenCL backends also
 // with N threads skinning at once (BM_SkinStreams), frames of several streams in flight on the
-// device. Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
+// device. --morph: also BM_SkinMorph[Normals]/<backend>/<vertices>/<bones>/active:0 and
+// active:4, the same mesh with 64 morph targets each moving 10% of the vertices, frames with
+// no and with 4 active targets, beside the skin-only rows (issue 28's 1.3x target).
+// Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
 // transfer_ns and kernel_vertices_per_second (kernel only); and the device's bounds are
@@ -36,6 +39,7 @@
 #include "paper_tables.h"
 #include "skinserve/engine/backend_registry.h"
 #include "skinserve/model/aligned_buffer.h"
+#include "skinserve/reference/synthetic_morph.h"
 #include "workload_cache.h"
 
 namespace skinserve::bench {
@@ -50,6 +54,7 @@ struct Options {
   std::string opencl_device;
   int streams = 1;
   std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};
+  bool morph = false;
 };
 
 template <typename T>
@@ -77,6 +82,8 @@ Options ParseOptions(int* argc, char** argv) {
     };
     if (arg == "--paper-tables") {
       options.paper_tables = true;
+    } else if (arg == "--morph") {
+      options.morph = true;
     } else if (arg == "--normals") {
       options.normals_in_tables = true;
     } else if (const char* list = value("--backends=")) {
@@ -149,6 +156,34 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
         benchmark::Counter(vertices * frames * 1e9 / static_cast<double>(total.kernel_ns),
                            benchmark::Counter::kAvgThreads);
   }
+}
+
+// A frame of the morph workload with `active` targets (0: the frame carries no weights).
+void SkinMorphBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
+                        uint32_t bones, bool normals, uint32_t active) {
+  const Workload& workload = Cache().Get(vertices, bones, true);
+  const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones, true);
+  std::vector<std::vector<MorphWeight>> weights;
+  for (int frame = 0; frame < kPalettesPerWorkload; ++frame) {
+    weights.push_back(MakeMorphWeights(kMorphTargets, active, 42, frame));
+  }
+  AlignedBuffer<float> positions(3ull * vertices), out_normals(normals ? 3ull * vertices : 0);
+  std::size_t frame = 0;
+  for (auto _ : state) {
+    SkinFrame skin{.palette = workload.palettes[frame % workload.palettes.size()],
+                   .positions = positions.span(),
+                   .normals = out_normals.span()};
+    skin.morph_weights = weights[frame++ % weights.size()];
+    if (Status s = backend->Skin(prepared, skin); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+      break;
+    }
+    benchmark::DoNotOptimize(positions.data());
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
+  state.counters["vertices_per_second"] =
+      benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
 }
 
 // The device's bounds, measured with the runtime the OpenCL backends use (a second one
@@ -294,6 +329,26 @@ int main(int argc, char** argv) {
                             dqs ? "DualQuaternion" : "", backend->info().id, v, b);
             benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
                                          method)
+                ->UseRealTime()
+                ->Unit(benchmark::kMicrosecond);
+          }
+        }
+      }
+    }
+  }
+  for (bool normals : {false, true}) {
+    if (!options.morph) break;
+    for (uint32_t v : options.vertices) {
+      for (uint32_t b : options.bones) {
+        for (const auto& backend : backends) {
+          if (std::count(measured.begin(), measured.end(), backend->info().id) == 0) continue;
+          if (!backend->info().morph_targets) continue;
+          for (uint32_t active : {0u, 4u}) {
+            const std::string name = fmt::format("{}/{}/{}/{}/active:{}",
+                                                 normals ? "BM_SkinMorphNormals" : "BM_SkinMorph",
+                                                 backend->info().id, v, b, active);
+            benchmark::RegisterBenchmark(name.c_str(), SkinMorphBenchmark, backend.get(), v, b,
+                                         normals, active)
                 ->UseRealTime()
                 ->Unit(benchmark::kMicrosecond);
           }

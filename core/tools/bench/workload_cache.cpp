@@ -3,18 +3,25 @@
 #include <stdexcept>
 
 #include "skinserve/reference/synthetic.h"
+#include "skinserve/reference/synthetic_morph.h"
 
 namespace skinserve::bench {
 
-const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones) {
+const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph) {
   std::lock_guard lock(mutex_);
-  auto [it, inserted] = workloads_.try_emplace({vertices, bones});
+  auto [it, inserted] = workloads_.try_emplace({vertices, bones, morph});
   if (inserted) {
-    auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
-                                                .influences = bones,
-                                                .joint_count = kPaperJoints,
-                                                .normals = true,
-                                                .seed = vertices * 10ull + bones}));
+    MeshArrays arrays = MakeSyntheticMesh({.vertex_count = vertices,
+                                           .influences = bones,
+                                           .joint_count = kPaperJoints,
+                                           .normals = true,
+                                           .seed = vertices * 10ull + bones});
+    if (morph) {
+      AddSyntheticMorphTargets(
+          {.targets = kMorphTargets, .fraction = kMorphFraction, .seed = vertices * 10ull + bones},
+          &arrays);
+    }
+    auto mesh = Mesh::Create(arrays);
     if (!mesh.ok()) throw std::runtime_error(mesh.status().ToString());
     it->second.mesh = *mesh;
     for (int frame = 0; frame < kPalettesPerWorkload; ++frame) {
@@ -25,10 +32,11 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones) {
   return it->second;
 }
 
-const PreparedMesh& WorkloadCache::Prepared(Backend& backend, uint32_t vertices, uint32_t bones) {
-  const Workload& workload = Get(vertices, bones);
+const PreparedMesh& WorkloadCache::Prepared(Backend& backend, uint32_t vertices, uint32_t bones,
+                                            bool morph) {
+  const Workload& workload = Get(vertices, bones, morph);
   std::lock_guard lock(mutex_);
-  auto& slot = prepared_[{&backend, vertices, bones}];
+  auto& slot = prepared_[{&backend, vertices, bones, morph}];
   if (!slot) {
     auto prepared = backend.Prepare(workload.mesh);
     if (!prepared.ok()) throw std::runtime_error(prepared.status().ToString());

@@ -14,6 +14,11 @@ namespace skinserve::bench {
 
 inline constexpr uint32_t kPaperJoints = 77;
 inline constexpr int kPalettesPerWorkload = 8;
+// The morph workload (issue 28's target): 64 targets, each moving a random 10% of the
+// vertices spread over the whole mesh (positions and normals), so that nearly every chunk
+// of the morph stage is touched: the worst case for it, not a face rig's clustered targets.
+inline constexpr uint32_t kMorphTargets = 64;
+inline constexpr double kMorphFraction = 0.1;
 
 struct Workload {
   std::shared_ptr<const Mesh> mesh;  // with normals: positions-only frames ignore them
@@ -24,13 +29,15 @@ struct Workload {
 
 class WorkloadCache {
  public:
-  const Workload& Get(uint32_t vertices, uint32_t bones);
-  const PreparedMesh& Prepared(Backend& backend, uint32_t vertices, uint32_t bones);
+  // `morph`: the same synthetic mesh with kMorphTargets targets.
+  const Workload& Get(uint32_t vertices, uint32_t bones, bool morph = false);
+  const PreparedMesh& Prepared(Backend& backend, uint32_t vertices, uint32_t bones,
+                               bool morph = false);
 
  private:
   std::mutex mutex_;
-  std::map<std::pair<uint32_t, uint32_t>, Workload> workloads_;
-  std::map<std::tuple<Backend*, uint32_t, uint32_t>, std::unique_ptr<PreparedMesh>> prepared_;
+  std::map<std::tuple<uint32_t, uint32_t, bool>, Workload> workloads_;
+  std::map<std::tuple<Backend*, uint32_t, uint32_t, bool>, std::unique_ptr<PreparedMesh>> prepared_;
 };
 
 // Bytes one frame moves through memory: per influence a uint16 joint and a float weight,

@@ -135,4 +135,31 @@ void ToWire(const Bounds& b, v1::Bounds* wire) {
   wire->set_max_z(b.max[2]);
 }
 
+Status MorphWeightsFromWire(const v1::SkinRequest& request, std::vector<MorphWeight>* out) {
+  const int targets = request.morph_targets_size(), weights = request.morph_weights_size();
+  if (targets != weights) {
+    return InvalidArgument(
+        fmt::format("morph_targets holds {} entries but morph_weights {}; they pair up one to one",
+                    targets, weights));
+  }
+  if (static_cast<uint32_t>(targets) > kMaxMorphTargets) {
+    return InvalidArgument(fmt::format(
+        "morph_targets holds {} entries; at most {} (one per target)", targets, kMaxMorphTargets));
+  }
+  out->resize(static_cast<std::size_t>(targets));
+  for (int i = 0; i < targets; ++i) {
+    (*out)[i] = {request.morph_targets(i), request.morph_weights(i)};
+  }
+  return Status::Ok();
+}
+
+void MorphWeightsToWire(std::span<const MorphWeight> weights, v1::SkinRequest* request) {
+  request->clear_morph_targets();
+  request->clear_morph_weights();
+  for (const MorphWeight& w : weights) {
+    request->add_morph_targets(w.target);
+    request->add_morph_weights(w.weight);
+  }
+}
+
 }  // namespace skinserve::wire

@@ -44,6 +44,9 @@ struct StreamOptions {
   // When set and true, no new frame is sent (those in flight are still answered): for
   // runs bounded by time rather than by `frames`.
   const std::atomic<bool>* stop = nullptr;
+  // Frame f's morph target weights (sparse; valid until the next call), sent with its
+  // palette; empty function: no weights. A crowd's instances share them.
+  std::function<std::span<const MorphWeight>(uint64_t frame)> morph_weights;
 };
 
 // Gives frame f's palette (12 * joints * instances floats). Best without waste: a callable

@@ -133,6 +133,9 @@ struct SkinOptions {
   // Crowds: the server sends each part as soon as its instances are skinned
   // (SkinRequest.early_parts), so compute and transport overlap.
   bool early_parts = false;
+  // The frame's morph target weights, sparse (SkinRequest.morph_targets/morph_weights);
+  // caller-owned, read during the call. Empty: none.
+  std::span<const MorphWeight> morph_weights;
 };
 
 // How long this client waits. Every call has a deadline; a stream (StreamFrames) has an

@@ -10,6 +10,7 @@
 #include <new>
 #include <type_traits>
 
+#include "morph_stage.h"
 #include "parallel_range.h"
 #include "skinserve/engine/backend.h"
 
@@ -26,7 +27,8 @@ template <typename Kernel, typename DualQuaternionKernel = void>
 class CpuBackend final : public Backend {
  public:
   explicit CpuBackend(BackendInfo info) : info_(std::move(info)) {
-    info_.min_threads = 1;  // a parallel loop runs on as few threads as it is given
+    info_.min_threads = 1;       // a parallel loop runs on as few threads as it is given
+    info_.morph_targets = true;  // the morph stage feeds every kernel (morph_stage.h)
     info_.methods = {SkinningMethod::kLinear};
     if constexpr (!std::is_void_v<DualQuaternionKernel>) {
       info_.methods.push_back(SkinningMethod::kDualQuaternion);
@@ -54,16 +56,25 @@ class CpuBackend final : public Backend {
     try {
       const typename K::FramePalette palette(frame.palette);
       const int threads = FrameThreads(frame.threads, info_.threads);
+      // The kernel skins each range from the rest arrays the morph stage hands it.
+      const auto skin_range = [&](std::size_t first, std::size_t last) {
+        ForEachMorphedRange(
+            mesh, frame, first, last,
+            [&](const float* rest_p, const float* rest_n, std::size_t from, std::size_t to) {
+              SkinFrame morphed = frame;
+              morphed.rest_positions = rest_p;
+              morphed.rest_normals = rest_n;
+              K::SkinRange(mesh, palette, morphed, from, to);
+            });
+      };
       if (threads <= 1) {
-        K::SkinRange(mesh, palette, frame, 0, mesh.vertex_count());
+        skin_range(0, mesh.vertex_count());
       } else {
-        ParallelOverVertices(mesh.vertex_count(), threads,
-                             [&](std::size_t first, std::size_t last) {
-                               K::SkinRange(mesh, palette, frame, first, last);
-                             });
+        ParallelOverVertices(mesh.vertex_count(), threads, skin_range);
       }
-    } catch (const std::bad_alloc&) {  // a palette layout larger than any seen so far
-      return ResourceExhausted(info_.id + ": out of memory for the frame's palette");
+    } catch (const std::bad_alloc&) {  // a palette or morph scratch larger than any seen so far
+      return ResourceExhausted(info_.id +
+                               ": out of memory for the frame's palette or morph scratch");
     }
     return Status::Ok();
   }

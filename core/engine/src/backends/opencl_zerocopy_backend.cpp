@@ -54,6 +54,7 @@ class OpenClZeroCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    if (Status s = CheckMorphSupport(info(), frame.morph_weights); !s.ok()) return s;
     if (frame.method == SkinningMethod::kDualQuaternion) {
       // The kernels take the palette as unit dual quaternions, converted here once per
       // frame into this thread's buffer, which the kernel then reads in place.

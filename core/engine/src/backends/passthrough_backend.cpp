@@ -19,6 +19,7 @@ class PassthroughBackend final : public Backend {
     return std::make_unique<PreparedMesh>(std::move(mesh));
   }
   Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) override {
+    if (Status s = CheckMorphSupport(info(), frame.morph_weights); !s.ok()) return s;
     const Mesh& mesh = prepared.mesh();
     std::copy(mesh.positions().begin(), mesh.positions().end(), frame.positions.begin());
     if (!frame.normals.empty()) {

@@ -16,8 +16,8 @@ namespace skinserve::scalar {
 template <int B>
 void SkinScalarRange(const Mesh& mesh, const float* palette, const SkinFrame& frame,
                      std::size_t first, std::size_t last) {
-  const float* positions = mesh.positions().data();
-  const float* normals = mesh.normals().data();
+  const float* positions = RestPositions(mesh, frame);
+  const float* normals = RestNormals(mesh, frame);
   const uint16_t* joints = mesh.joints().data();
   const float* weights = mesh.weights().data();
   float* out_p = frame.positions.data();

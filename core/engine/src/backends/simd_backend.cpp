@@ -7,6 +7,7 @@
 #include "backend_factories.h"
 #include "cpu_model.h"
 #include "dual_quaternion_palette.h"
+#include "morph_stage.h"
 #include "parallel_range.h"
 #include "simd_stream.h"
 #include "skinserve/engine/simd_targets.h"
@@ -108,7 +109,6 @@ class SimdBackend final : public Backend {
   }
   Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) override {
     const auto& stream = static_cast<const SimdPreparedMesh&>(prepared).stream();
-    const std::size_t count = prepared.mesh().vertex_count();
     float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
     try {
       if (frame.method == SkinningMethod::kDualQuaternion) {
@@ -117,30 +117,41 @@ class SimdBackend final : public Backend {
             .quaternions = quaternions.joint(0),
             .signs = SignTable(quaternions, prepared.mesh(), stream),
             .joint_count = prepared.mesh().joint_count()};
-        Run(kernel_.skin_dual_quaternion_range, stream, palette, frame, out_n, count);
+        Run(kernel_.skin_dual_quaternion_range, prepared.mesh(), stream, palette, frame, out_n);
       } else {
         const float* columns = ColumnPalette(frame.palette);
-        Run(kernel_.skin_range, stream, columns, frame, out_n, count);
+        Run(kernel_.skin_range, prepared.mesh(), stream, columns, frame, out_n);
       }
-    } catch (const std::bad_alloc&) {  // a palette larger than any seen so far
-      return ResourceExhausted(info_.id + ": out of memory for the frame's palette");
+    } catch (const std::bad_alloc&) {  // a palette or morph scratch larger than any seen so far
+      return ResourceExhausted(info_.id +
+                               ": out of memory for the frame's palette or morph scratch");
     }
     return Status::Ok();
   }
 
  private:
   // Runs `range` (a linear or dual-quaternion kernel) over the frame's vertices, on the
-  // calling thread or split across the frame's threads.
+  // calling thread or split across the frame's threads, each range from the rest arrays
+  // the morph stage hands it (morph_stage.h).
   template <typename RangeFn, typename Palette>
-  void Run(RangeFn range, const simd::VertexStream& stream, const Palette& palette,
-           const SkinFrame& frame, float* out_n, std::size_t count) {
+  void Run(RangeFn range, const Mesh& mesh, const simd::VertexStream& stream,
+           const Palette& palette, const SkinFrame& frame, float* out_n) {
+    const std::size_t count = mesh.vertex_count();
+    const auto skin_range = [&](std::size_t first, std::size_t last) {
+      ForEachMorphedRange(
+          mesh, frame, first, last,
+          [&](const float* rest_p, const float* rest_n, std::size_t from, std::size_t to) {
+            simd::VertexStream morphed = stream;
+            morphed.positions = rest_p;
+            if (rest_n != nullptr) morphed.normals = rest_n;
+            range(morphed, palette, frame.positions.data(), out_n, from, to);
+          });
+    };
     const int threads = FrameThreads(frame.threads, info_.threads);
     if (threads <= 1) {
-      range(stream, palette, frame.positions.data(), out_n, 0, count);
+      skin_range(0, count);
     } else {
-      ParallelOverVertices(count, threads, [&](std::size_t first, std::size_t last) {
-        range(stream, palette, frame.positions.data(), out_n, first, last);
-      });
+      ParallelOverVertices(count, threads, skin_range);
     }
   }
 
@@ -165,7 +176,8 @@ std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_t
                                       : "the Highway loop across threads with OpenMP",
                    .device = CpuModelName(),
                    .threads = std::max(threads, 1),
-                   .min_threads = 1};  // a parallel loop runs on as few threads as given
+                   .min_threads = 1,        // a parallel loop runs on as few threads as given
+                   .morph_targets = true};  // the morph stage feeds the kernel
   simd::Kernel kernel;
   std::string error;
   if (!simd::SelectKernel(max_target, &kernel, &error)) {

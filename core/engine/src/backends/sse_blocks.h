@@ -18,8 +18,8 @@ namespace skinserve::sse {
 template <int B, bool Normals, typename SkinFour>
 inline void ForEachBlockOfFour(const Mesh& mesh, const SkinFrame& frame, std::size_t first,
                                std::size_t last, const SkinFour& skin_four) {
-  const float* positions = mesh.positions().data();
-  const float* normals = Normals ? mesh.normals().data() : nullptr;
+  const float* positions = RestPositions(mesh, frame);
+  const float* normals = Normals ? RestNormals(mesh, frame) : nullptr;
   const uint16_t* joints = mesh.joints().data();
   const float* weights = mesh.weights().data();
   float* out_p = frame.positions.data();

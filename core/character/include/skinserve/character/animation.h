@@ -19,7 +19,7 @@ Pose RestPose(const Character& character);
 
 // `pose` with every channel of `clip` sampled at `seconds` (clamped to [0, duration]),
 // per the glTF spec: LINEAR (slerp for rotations), STEP, CUBICSPLINE (Hermite, rotations
-// normalised).
+// normalised); weights channels set the nodes' morph weights (CharacterNode::weights).
 Pose SampleClip(const Character& character, const AnimationClip& clip, double seconds);
 
 // palette[j] = model(skin.joints[j]) * skin.inverse_bind[j], where model() composes local

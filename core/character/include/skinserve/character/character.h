@@ -24,6 +24,10 @@ struct CharacterNode {
   glm::vec3 translation{0.0f};
   glm::quat rotation{1.0f, 0.0f, 0.0f, 0.0f};  // w, x, y, z
   glm::vec3 scale{1.0f};
+  // The morph target weights of the node's mesh: the node's `weights`, else the mesh's,
+  // else zeros, one per target; empty when its mesh has no targets. `weights` channels
+  // replace them.
+  std::vector<float> weights;
 };
 
 // A glTF skin: its joints are nodes; palette[j] = model(joints[j]) * inverse_bind[j].
@@ -39,6 +43,9 @@ struct CharacterSkin {
 //    JOINTS_n/WEIGHTS_n set present (4 or 8), joint indices into the skin's joints; a
 //    rigid part has 1 influence, joint 0 weight 1, joint_count 1 (palette: the node's
 //    world matrix), and its positions in the node's space.
+//    Morph targets (the primitive's `targets`: POSITION and NORMAL deltas, TANGENT ignored)
+//    as sparse targets, in the file's order: a vertex whose deltas are all zero is left
+//    out. Target t takes weight t of `node` (CharacterNode::weights).
 //  - indices: triangle list into the vertices (3 per triangle), for viewers and renders.
 struct SkinnedPrimitive {
   std::string name;  // "<mesh name>/<primitive index>"
@@ -49,13 +56,14 @@ struct SkinnedPrimitive {
   std::vector<uint32_t> indices;
 };
 
-enum class ChannelPath { kTranslation, kRotation, kScale };
+enum class ChannelPath { kTranslation, kRotation, kScale, kWeights };
 enum class Interpolation { kLinear, kStep, kCubicSpline };
 
 // One animation channel with its sampler's data, as in the file.
 //  - times: strictly increasing keyframe times in seconds.
-//  - values: per key 3 (translation, scale) or 4 (rotation x y z w) floats; CUBICSPLINE keys
-//    hold in-tangent, value, out-tangent (3 times as many floats).
+//  - values: per key 3 (translation, scale), 4 (rotation x y z w) or, for weights, one per
+//    morph target of the node's mesh floats; CUBICSPLINE keys hold in-tangent, value,
+//    out-tangent (3 times as many floats).
 struct AnimationChannel {
   int node = -1;
   ChannelPath path = ChannelPath::kTranslation;

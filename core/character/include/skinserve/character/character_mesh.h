@@ -24,6 +24,13 @@ struct PrimitiveSpan {
   std::size_t index_count = 0;
 };
 
+// Where one of a CharacterMesh's morph targets takes its weight: weight `target` of node
+// `node` (CharacterNode::weights of the pose).
+struct MorphTargetSource {
+  int node = -1;
+  uint32_t target = 0;
+};
+
 // Primitives of one skin, and the character's rigid parts, concatenated.
 //  - arrays: positions, normals (all or none of the parts have them), joints/weights padded
 //    to the largest influence count of the parts (weight 0, joint 0), joint_count = the
@@ -32,6 +39,8 @@ struct PrimitiveSpan {
 //    a rigid part's vertices all have joint = the skin's joint count + its node's place in
 //    rigid_nodes, weight 1.
 //  - indices: every part's triangles, renumbered into the concatenated vertices.
+//  - morph_sources: one per morph target of `arrays` (every part's targets, part after
+//    part, their vertices renumbered), naming the node weight that drives it.
 struct CharacterMesh {
   int skin = -1;     // -1: no skin (rigid parts only)
   std::string name;  // the skin's name, or "skins[N]", or "rigid parts"; with " (normals)" /
@@ -40,6 +49,7 @@ struct CharacterMesh {
   MeshArrays arrays;
   std::vector<uint32_t> indices;
   std::vector<PrimitiveSpan> parts;  // in the file's order
+  std::vector<MorphTargetSource> morph_sources;
 };
 
 // The character's meshes: one per skin, in order of the skins' first primitive. Rigid
@@ -50,6 +60,10 @@ struct CharacterMesh {
 // INVALID_ARGUMENT when `only` is not a primitive, a mesh's parts exceed 2^32 - 1 vertices,
 // or its skin's joints and rigid nodes exceed kMaxJointsLimit.
 Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, int only = -1);
+
+// The mesh's non-zero morph target weights at `pose` (sparse, as a frame carries them),
+// into `out` (its capacity reused).
+void MeshMorphWeights(const CharacterMesh& mesh, const Pose& pose, std::vector<MorphWeight>* out);
 
 // The palette of `mesh` at one pose: SkinPalette of its skin (none for skin -1), then
 // NodePalette of its rigid nodes. Errors name the skin or the node.

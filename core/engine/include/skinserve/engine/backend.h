@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "skinserve/model/mesh.h"
+#include "skinserve/model/morph_targets.h"
 #include "skinserve/model/skinning_method.h"
 #include "skinserve/model/status.h"
 
@@ -28,6 +29,7 @@ struct BackendInfo {
   // The fewest threads a frame can run on (SkinFrame::threads); 0: exactly `threads`.
   int min_threads = 0;
   std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};  // what Skin() implements
+  bool morph_targets = false;  // Skin() applies SkinFrame::morph_weights (else refuses them)
 
   bool Supports(SkinningMethod method) const;
 };
@@ -59,6 +61,12 @@ struct DeviceTiming {
 //               info.threads (the engine's scheduler decides); 0: info.threads.
 //  - device_timing: null, or where a device backend writes the frame's device time.
 //  - method:    dual-quaternion also needs every joint matrix rigid (ValidateRigidPalette).
+//  - morph_weights: the frame's active morph targets (ValidateMorphWeights); their deltas
+//               are added to the rest positions and normals before skinning, whatever the
+//               method. Empty (or all zero): the rest arrays as they are.
+//  - rest_positions, rest_normals: set by a backend's morph stage only (morph_stage.h), for
+//               the loops: the rest arrays to skin, indexed by vertex like the mesh's (only
+//               the range being skinned is meaningful); null: the mesh's own.
 struct SkinFrame {
   std::span<const float> palette;
   std::span<float> positions;
@@ -66,9 +74,25 @@ struct SkinFrame {
   int threads = 0;
   DeviceTiming* device_timing = nullptr;
   SkinningMethod method = SkinningMethod::kLinear;
+  std::span<const MorphWeight> morph_weights;
+  const float* rest_positions = nullptr;
+  const float* rest_normals = nullptr;
 
   Status Validate(const Mesh& mesh) const;
 };
+
+// OK unless `weights` has a non-zero weight and the backend does not apply morph targets:
+// then FAILED_PRECONDITION naming the backend and those that do. Backends without morph
+// targets call it first in Skin(), so a frame's morphs are never dropped silently.
+Status CheckMorphSupport(const BackendInfo& info, std::span<const MorphWeight> weights);
+
+// The rest arrays a skinning loop reads for `frame`: the morph stage's, else the mesh's.
+inline const float* RestPositions(const Mesh& mesh, const SkinFrame& frame) {
+  return frame.rest_positions != nullptr ? frame.rest_positions : mesh.positions().data();
+}
+inline const float* RestNormals(const Mesh& mesh, const SkinFrame& frame) {
+  return frame.rest_normals != nullptr ? frame.rest_normals : mesh.normals().data();
+}
 
 class Backend {
  public:

@@ -44,6 +44,7 @@ struct MeshInfo {
   uint64_t bytes = 0;
   uint32_t normalized_vertices = 0;
   bool already_stored = false;  // the same content was stored before (dedupe)
+  uint32_t morph_target_count = 0;
 };
 
 // Server-side time of one frame, for the wire's timing breakdown.
@@ -68,6 +69,10 @@ struct SkinRequest {
   std::span<float> positions;      // 3 * vertex_count * K
   std::span<float> normals;        // empty: no normals; else 3 * vertex_count * K
   SkinningMethod method = SkinningMethod::kLinear;  // the backend must list it
+  // The frame's active morph targets (sparse, morph_targets.h), the same for every instance
+  // of a crowd; the backend must support morph targets (BackendInfo::morph_targets) when a
+  // weight is non-zero.
+  std::span<const MorphWeight> morph_weights;
   // Jobs only (Engine::Submit(SkinJob*)): skin each instance into scratch memory of the
   // compute thread that runs it and hand it to SkinJob::OnInstanceSkinned, which must use
   // it up (e.g. encode it) before returning; positions and normals then stay empty. Keeps a
@@ -95,6 +100,7 @@ struct FramePlan {
   uint32_t vertex_count = 0;
   uint32_t joint_count = 0;
   bool has_normals = false;
+  uint32_t morph_target_count = 0;
 };
 
 // A frame the caller owns and reuses frame after frame, so that the steady-state path
@@ -181,9 +187,11 @@ class Engine {
   std::vector<BackendInfo> Backends() const;
 
   // Checks an upload's declared shape against the limits and the mesh budget before any
-  // array is received or allocated (INVALID_ARGUMENT or RESOURCE_EXHAUSTED).
+  // array is received or allocated (INVALID_ARGUMENT or RESOURCE_EXHAUSTED); morph
+  // targets' sizes count towards the budget.
   Status CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
-                        bool has_normals) const;
+                        bool has_normals, std::span<const uint32_t> morph_target_sizes = {},
+                        bool morph_normals = false) const;
   // Validates and stores a mesh (dedupe by content id; LRU eviction beyond the budget).
   // `weight_policy` overrides the engine's (options().mesh) for this mesh.
   Result<MeshInfo> AddMesh(const MeshArrays& arrays,
@@ -205,10 +213,11 @@ class Engine {
   // Allocates nothing.
   Status Plan(SkinJob* job);
   // Plans the job unless it was planned, checks the rest of the request (palette and
-  // output sizes, for dual-quaternion a joint that is not rigid: INVALID_ARGUMENT naming
-  // the instance; full queue: RESOURCE_EXHAUSTED; shut down: UNAVAILABLE) and queues it.
-  // On OK, OnSkinned is called exactly once, on a compute thread; on an error, never, and
-  // the plan is dropped. Allocates nothing.
+  // output sizes, for dual-quaternion a joint that is not rigid, morph weights:
+  // INVALID_ARGUMENT naming the instance or the field; morph weights for a backend without
+  // morph targets: FAILED_PRECONDITION naming it; full queue: RESOURCE_EXHAUSTED; shut down:
+  // UNAVAILABLE) and queues it. On OK, OnSkinned is called exactly once, on a compute thread; on an
+  // error, never, and the plan is dropped. Allocates nothing.
   Status Submit(SkinJob* job);
   // The same for a request and a callback (allocates the job: for tools and tests).
   Status Submit(SkinRequest request, SkinDone done);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "skinserve/model/aligned_buffer.h"
+#include "skinserve/model/morph_targets.h"
 #include "skinserve/model/status.h"
 
 namespace skinserve {
@@ -20,6 +21,8 @@ inline constexpr float kWeightSumTolerance = 1e-3f;
 struct MeshLimits {
   uint32_t max_vertices = 4'000'000;
   uint32_t max_joints = 1024;
+  uint32_t max_morph_targets = kMaxMorphTargets;  // at most kMaxMorphTargets
+  uint64_t max_morph_deltas = 16'000'000;         // all targets' deltas together
 };
 
 // What to do with a vertex whose weights do not sum to 1 within kWeightSumTolerance.
@@ -41,6 +44,16 @@ struct MeshOptions {
 //  - weights:   influences * vertex_count floats, vertex-major, each >= 0, summing to 1
 //               per vertex within kWeightSumTolerance (within it they are renormalised to
 //               sum exactly 1; beyond it see WeightPolicy).
+// Morph targets (morph_targets.h), stored sparse: each target lists only the vertices it
+// moves. All targets' deltas lie back to back in target order:
+//  - morph_target_sizes:    one count per target (T <= max_morph_targets), each <= vertex_count;
+//                           their sum D <= max_morph_deltas. Empty: no targets.
+//  - morph_indices:         D vertex indices, strictly ascending within each target.
+//  - morph_position_deltas: 3 * D finite floats, x y z per delta, each component within
+//                           kMorphDeltaRange * max(1, the rest box's diagonal).
+//  - morph_normal_deltas:   empty, or 3 * D finite floats within +-kMaxMorphNormalDelta
+//                           (the mesh must have normals); a target that moves no normal has
+//                           zeros there.
 struct MeshArrays {
   uint32_t vertex_count = 0;
   uint32_t influences = 0;
@@ -49,14 +62,27 @@ struct MeshArrays {
   std::vector<float> normals;
   std::vector<uint16_t> joints;
   std::vector<float> weights;
+  std::vector<uint32_t> morph_target_sizes;
+  std::vector<uint32_t> morph_indices;
+  std::vector<float> morph_position_deltas;
+  std::vector<float> morph_normal_deltas;
 };
 
 // Checks the sizes a mesh declares before its arrays arrive (an upload's header).
 Status CheckMeshHeader(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
                        const MeshLimits& limits);
 
-// Bytes a mesh of this shape occupies once stored.
-uint64_t MeshByteSize(uint64_t vertex_count, uint64_t influences, bool has_normals);
+// Checks the morph targets an upload declares before their arrays arrive: the target
+// count, each target's size (<= vertex_count) and their sum against the limits; normal
+// deltas need a mesh with normals.
+Status CheckMorphHeader(std::span<const uint32_t> target_sizes, uint64_t vertex_count,
+                        bool has_normals, bool morph_normals, const MeshLimits& limits);
+
+// Bytes a mesh of this shape occupies once stored (its morph deltas included: they count
+// against the mesh store's budget and, while uploading, the upload budget).
+uint64_t MeshByteSize(uint64_t vertex_count, uint64_t influences, bool has_normals,
+                      uint64_t morph_targets = 0, uint64_t morph_deltas = 0,
+                      bool morph_normals = false);
 
 class Mesh {
  public:
@@ -77,6 +103,15 @@ class Mesh {
   std::span<const float> normals() const { return normals_.span(); }
   std::span<const uint16_t> joints() const { return joints_.span(); }
   std::span<const float> weights() const { return weights_.span(); }
+  // Morph targets: target t's deltas are [morph_offsets()[t], morph_offsets()[t + 1]) of
+  // morph_indices() (ascending vertex indices), morph_position_deltas() and, when
+  // has_morph_normals(), morph_normal_deltas() (3 floats per delta).
+  uint32_t morph_target_count() const { return morph_target_count_; }
+  bool has_morph_normals() const { return !morph_normal_deltas_.empty(); }
+  std::span<const uint32_t> morph_offsets() const { return morph_offsets_.span(); }
+  std::span<const uint32_t> morph_indices() const { return morph_indices_.span(); }
+  std::span<const float> morph_position_deltas() const { return morph_position_deltas_.span(); }
+  std::span<const float> morph_normal_deltas() const { return morph_normal_deltas_.span(); }
   // Vertices whose weights were renormalised beyond rounding (WeightPolicy::kNormalize).
   uint32_t normalized_vertices() const { return normalized_vertices_; }
   uint64_t byte_size() const;
@@ -92,6 +127,11 @@ class Mesh {
   AlignedBuffer<float> normals_;
   AlignedBuffer<uint16_t> joints_;
   AlignedBuffer<float> weights_;
+  uint32_t morph_target_count_ = 0;
+  AlignedBuffer<uint32_t> morph_offsets_;
+  AlignedBuffer<uint32_t> morph_indices_;
+  AlignedBuffer<float> morph_position_deltas_;
+  AlignedBuffer<float> morph_normal_deltas_;
 };
 
 }  // namespace skinserve

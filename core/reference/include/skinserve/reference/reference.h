@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "skinserve/model/mesh.h"
+#include "skinserve/model/morph_targets.h"
 #include "skinserve/model/skinning_method.h"
 
 namespace skinserve {
@@ -15,14 +16,32 @@ struct ReferenceFrame {
   std::vector<double> normals;    // 3 * V, or empty when the mesh has none
 };
 
-ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette);
+// The rest arrays a frame skins, in double: the mesh's, plus sum_t weight_t * delta_t of
+// the frame's morph targets (morph_reference.cpp, written apart from the engine's morph
+// stage: dense, target by target). `normals` is empty when the mesh has none.
+ReferenceFrame ReferenceMorph(const Mesh& mesh, std::span<const MorphWeight> morph);
+
+// What float32 rounding of a morphed frame is relative to: per position coordinate
+// |rest| + sum_t |w_t delta_t|, and the largest (|n| + sum_t |w_t| |dn_t|) / |morphed n|
+// over the vertices (at least 1).
+struct MorphMagnitudes {
+  std::vector<double> positions;  // 3 * V
+  double normal_magnification = 1;
+};
+MorphMagnitudes ReferenceMorphMagnitudes(const Mesh& mesh, std::span<const MorphWeight> morph);
+
+// Linear blend skinning in double of the mesh's rest arrays morphed by `morph` (none: the
+// rest arrays as they are).
+ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette,
+                             std::span<const MorphWeight> morph = {});
 
 // The float64 dual-quaternion reference (dual_quaternion_reference.cpp), written apart
 // from the kernels on glm's dual quaternions: each joint matrix to a unit dual quaternion,
 // the vertex's B of them blended with signs against the first influence, normalised,
 // applied to the position; the normal rotated by the blended rotation. The palette must
 // be rigid (ValidateRigidPalette).
-ReferenceFrame ReferenceSkinDualQuaternion(const Mesh& mesh, std::span<const float> palette);
+ReferenceFrame ReferenceSkinDualQuaternion(const Mesh& mesh, std::span<const float> palette,
+                                           std::span<const MorphWeight> morph = {});
 
 struct Deviation {
   double max_position_error = 0;  // max |backend - reference| over every coordinate
@@ -39,8 +58,12 @@ struct Deviation {
 // S bounds |M p| over the frame (max |p| * max row sum of |M| + max |t|); normals 1e-5
 // absolute (they are unit vectors). `normals` may be empty to skip them. A NaN anywhere
 // counts as an infinite error. `method` picks the reference; the tolerance is the same.
+// With morph targets, max |p| is over the morphed terms (|p| + sum |w d| per coordinate),
+// and the normal tolerance is 1e-5 * max over vertices of (|n| + sum |w dn|) / |morphed n|:
+// float32 rounds the sum's terms, and a normal that the deltas shorten magnifies that.
 Deviation CompareWithReference(const Mesh& mesh, std::span<const float> palette,
                                std::span<const float> positions, std::span<const float> normals,
-                               SkinningMethod method = SkinningMethod::kLinear);
+                               SkinningMethod method = SkinningMethod::kLinear,
+                               std::span<const MorphWeight> morph = {});
 
 }  // namespace skinserve

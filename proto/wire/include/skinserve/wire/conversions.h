@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "skinserve/encoding/vertex_encoding.h"
+#include "skinserve/model/morph_targets.h"
 #include "skinserve/model/skinning_method.h"
 #include "skinserve/model/status.h"
 #include "skinserve/v1/skinning.pb.h"
@@ -35,6 +36,14 @@ v1::SkinningMethod ToWire(SkinningMethod method);
 // The request's encoding; INVALID_ARGUMENT naming the field and the known values.
 Result<VertexEncoding> FromWire(v1::Encoding encoding);
 v1::Encoding ToWire(VertexEncoding encoding);
+
+// A frame's sparse morph weights (SkinRequest.morph_targets and .morph_weights), into
+// `out` (its capacity reused). INVALID_ARGUMENT naming the fields when their lengths
+// differ or exceed kMaxMorphTargets (checked before anything is copied); the values are
+// the engine's to check (ValidateMorphWeights).
+Status MorphWeightsFromWire(const v1::SkinRequest& request, std::vector<MorphWeight>* out);
+// Sets the request's morph fields to `weights` (all of them: zeros are sent as given).
+void MorphWeightsToWire(std::span<const MorphWeight> weights, v1::SkinRequest* request);
 
 Bounds FromWire(const v1::Bounds& bounds);
 void ToWire(const Bounds& bounds, v1::Bounds* wire);

@@ -1,0 +1,93 @@
+#include "morph_stage.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "skinserve/model/aligned_buffer.h"
+
+namespace skinserve {
+namespace {
+
+// Per thread: the morphed rest arrays, 3 floats per vertex each, indexed like the mesh's.
+// Grown to the largest mesh the thread morphed, never shrunk; only the chunks a walk
+// applies are written.
+float* ThreadMorphScratch(std::size_t floats) {
+  thread_local AlignedBuffer<float> scratch;
+  if (scratch.size() < floats) scratch = AlignedBuffer<float>(floats);
+  return scratch.data();
+}
+
+std::vector<MorphWalk::Target>* ThreadTargets() {
+  thread_local std::vector<MorphWalk::Target> targets;
+  return &targets;
+}
+
+}  // namespace
+
+MorphWalk::MorphWalk(const Mesh& mesh, const SkinFrame& frame, std::size_t first)
+    : mesh_(mesh), targets_(ThreadTargets()) {
+  const std::size_t outputs = 3ull * mesh.vertex_count();
+  const bool normals = !frame.normals.empty();
+  morph_normals_ = normals && mesh.has_morph_normals();
+  float* scratch = ThreadMorphScratch(morph_normals_ ? 2 * outputs : outputs);
+  positions_ = scratch;
+  if (morph_normals_) {
+    scratch_normals_ = scratch + outputs;
+    normals_ = scratch_normals_;
+  } else {
+    normals_ = normals ? mesh.normals().data() : nullptr;
+  }
+  targets_->clear();  // keeps its capacity
+  const std::span<const uint32_t> offsets = mesh.morph_offsets();
+  const uint32_t* indices = mesh.morph_indices().data();
+  for (const MorphWeight& w : frame.morph_weights) {
+    if (w.weight == 0.0f) continue;
+    const uint32_t* begin = indices + offsets[w.target];
+    const uint32_t* end = indices + offsets[w.target + 1];
+    const uint32_t* next = std::lower_bound(begin, end, static_cast<uint32_t>(first));
+    if (next == end) continue;
+    targets_->push_back({next, end, offsets[w.target], begin, w.weight});
+  }
+}
+
+bool MorphWalk::Touches(std::size_t last) const {
+  for (const Target& t : *targets_) {
+    if (t.next != t.end && *t.next < last) return true;
+  }
+  return false;
+}
+
+void MorphWalk::Apply(std::size_t first, std::size_t last) {
+  const std::size_t count = 3 * (last - first);
+  std::memcpy(positions_ + 3 * first, mesh_.positions().data() + 3 * first, count * sizeof(float));
+  if (morph_normals_) {
+    std::memcpy(scratch_normals_ + 3 * first, mesh_.normals().data() + 3 * first,
+                count * sizeof(float));
+  }
+  const float* dp = mesh_.morph_position_deltas().data();
+  const float* dn = mesh_.morph_normal_deltas().data();
+  // Targets in the frame's order, each vertex's deltas summed in that order.
+  for (Target& t : *targets_) {
+    const float w = t.weight;
+    const uint32_t* k = t.next;
+    const std::size_t first_delta = t.first_delta + static_cast<std::size_t>(k - t.begin);
+    const float* d = dp + 3 * first_delta;
+    const float* n = morph_normals_ ? dn + 3 * first_delta : nullptr;
+    for (; k != t.end && *k < last; ++k, d += 3) {
+      float* p = positions_ + 3ull * *k;
+      p[0] += w * d[0];
+      p[1] += w * d[1];
+      p[2] += w * d[2];
+      if (n != nullptr) {
+        float* out = scratch_normals_ + 3ull * *k;
+        out[0] += w * n[0];
+        out[1] += w * n[1];
+        out[2] += w * n[2];
+        n += 3;
+      }
+    }
+    t.next = k;
+  }
+}
+
+}  // namespace skinserve
