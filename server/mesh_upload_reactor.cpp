@@ -52,7 +52,7 @@ void MeshUploadReactor::OnCancel() {
 }
 
 void MeshUploadReactor::OnDone() {
-  if (registered_) uploads_->Remove(this);
+  if (registered_) uploads_->Remove(this);  // only if it never finished (not expected)
   assembly_.Discard();  // now, not when the last Hold lets go
   Unref();
 }
@@ -85,6 +85,12 @@ void MeshUploadReactor::ReadLocked() {
 void MeshUploadReactor::FinishLocked(const grpc::Status& status) {
   if (finished_) return;
   finished_ = true;
+  // The slot is given back before the client can see the status: a client that starts its
+  // next upload on that answer must find the slot free.
+  if (registered_) {
+    uploads_->Remove(this);
+    registered_ = false;
+  }
   Finish(status);
 }
 

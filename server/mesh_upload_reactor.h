@@ -46,7 +46,7 @@ class MeshUploadReactor final : public grpc::ServerReadReactor<v1::UploadMeshReq
   void Unref();
 
   OpenUploads* uploads_;
-  bool registered_ = false;  // admitted by uploads_: removed from it in OnDone
+  bool registered_ = false;  // admitted by uploads_: removed at Finish
   MeshAssembly assembly_;    // touched only by the reactions, one at a time
   v1::MeshInfo* response_;
   v1::UploadMeshRequest message_;
