@@ -44,6 +44,9 @@ TEST_PACKAGES+=(openssl clinfo)
 BUILD_PACKAGES+=(libcpp-httplib-dev)
 RUNTIME_PACKAGES+=(libcpp-httplib0.11)
 TEST_PACKAGES+=(prometheus curl python3-venv python3-pip python3-setuptools python3-pytest)
+# Conventions (issue 30): man pages generated from --help at build time (help2man);
+# script(1) (bsdutils, essential) gives the progress-line test its terminal.
+BUILD_PACKAGES+=(help2man)
 
 # Proof under stress: clang with its sanitizer and libFuzzer runtimes, libomp for TSan
 # (its libarcher), iproute2 for the network-fault test's namespaces and netem.
