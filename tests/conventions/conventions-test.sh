@@ -3,6 +3,7 @@
 #   1. --version: every program prints "<name> <version>", the same version for all;
 #   2. skinserve --config: a file's threads and max-vertices show in GetServerStats and in
 #      an upload refused; a flag overrides the file; the environment alone still applies;
+#      SKINSERVE_CONFIG names the file (a missing one refused);
 #      the file and the environment disagreeing is a start-up error naming both; a bad
 #      value and an unknown key are start-up errors naming the file's line;
 #   3. skinserve-load --config: the file's streams, frames and backends are in its JSON
@@ -109,7 +110,12 @@ threads=$("$cli" --target "127.0.0.1:$port" stats --json | json_field compute_th
 stop_servers
 SKINSERVE_THREADS=3 start_server env-agrees --config "$work/server.toml"
 stop_servers
-say "flag over file and environment; environment where the file is silent; agreeing ones start"
+SKINSERVE_CONFIG=$work/server.toml start_server env-file
+threads=$("$cli" --target "127.0.0.1:$port" stats --json | json_field compute_threads)
+[ "$threads" = 3 ] || fail "SKINSERVE_CONFIG=server.toml (threads = 3): the server runs $threads"
+stop_servers
+say "flag over file and environment; environment where the file is silent; agreeing ones start;"
+say "SKINSERVE_CONFIG names the file"
 
 expect=(SKINSERVE_THREADS=4 "$work/server.toml line 2" threads)
 SKINSERVE_THREADS=4 expect_refusal "$server" --listen 127.0.0.1:0 --config "$work/server.toml"
@@ -121,6 +127,7 @@ expect=("line 3" "no-such-option")
 expect_refusal "$server" --listen 127.0.0.1:0 --config "$work/bad-key.ini"
 expect=("no-such-file.toml")
 expect_refusal "$server" --listen 127.0.0.1:0 --config "$work/no-such-file.toml"
+SKINSERVE_CONFIG=$work/no-such-file.toml expect_refusal "$server" --listen 127.0.0.1:0
 
 # ---- 3. skinserve-load --config, 4. --json against the server -------------------------------------
 start_server load --threads 2

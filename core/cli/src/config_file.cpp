@@ -155,6 +155,21 @@ void AddConfigFile(CLI::App& app, const std::string& env_var) {
 }
 
 std::optional<int> ParseCommandLine(CLI::App& app, int argc, char** argv) {
+  // CLI11 reads the config file before it reads the environment, so the file's variable
+  // would name a file never read: it becomes --config FILE here, unless a flag gives one.
+  std::vector<char*> args(argv, argv + argc);
+  std::string env_file;
+  if (CLI::Option* config = app.get_config_ptr(); argc > 0 && config != nullptr &&
+                                                  !config->get_envname().empty() &&
+                                                  !OnCommandLine(*config, argc, argv)) {
+    if (const char* file = std::getenv(config->get_envname().c_str()); file && *file) {
+      env_file = file;
+      static char flag[] = "--config";
+      args.insert(args.begin() + 1, {flag, env_file.data()});
+    }
+  }
+  argc = static_cast<int>(args.size());
+  argv = args.data();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
