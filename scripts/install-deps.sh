@@ -35,6 +35,10 @@ GPU_PACKAGES=(
 DEPLOY_PACKAGES=(
   yamllint podman runc debootstrap
 )
+# kubectl renders the kustomize overlays offline (deploy.manifests). Debian's is
+# kubernetes-client; a kubectl already installed from elsewhere (a newer one owning
+# /usr/bin/kubectl) is left alone rather than replaced.
+if ! command -v kubectl >/dev/null 2>&1; then DEPLOY_PACKAGES+=(kubernetes-client); fi
 # Security (issue 27): openssl makes the tests' certificates (scripts/make-dev-certs.sh);
 # clinfo lists OpenCL platforms when debugging a machine (not in the runtime image).
 TEST_PACKAGES+=(openssl clinfo)
@@ -47,6 +51,10 @@ TEST_PACKAGES+=(prometheus curl python3-venv python3-pip python3-setuptools pyth
 # Conventions (issue 30): man pages generated from --help at build time (help2man);
 # script(1) (bsdutils, essential) gives the progress-line test its terminal.
 BUILD_PACKAGES+=(help2man)
+# The Python client's wheel (issue 30): built with pip, setuptools and wheel, its messages
+# from protobuf-compiler's protoc, run on Debian's protobuf; mypy --strict on it, packaging
+# to compare its pinned ranges with what is installed.
+TEST_PACKAGES+=(python3-protobuf python3-wheel python3-packaging python3-mypy)
 
 # Proof under stress: clang with its sanitizer and libFuzzer runtimes, libomp for TSan
 # (its libarcher), iproute2 for the network-fault test's namespaces and netem.

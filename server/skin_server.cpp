@@ -14,6 +14,7 @@
 #include "log_format.h"
 #include "metrics_frames.h"
 #include "metrics_text.h"
+#include "process_metrics.h"
 #include "server_tls.h"
 
 namespace skinserve::server {
@@ -200,7 +201,10 @@ void SkinServer::Shutdown(std::chrono::milliseconds grace) {
   });
 }
 
-std::string SkinServer::RenderMetrics() const { return RenderPrometheusText(service_->Snapshot()); }
+// The process series first: RenderPrometheusText ends with the line that marks a whole scrape.
+std::string SkinServer::RenderMetrics() const {
+  return RenderProcessMetrics() + RenderPrometheusText(service_->Snapshot());
+}
 
 void SkinServer::Wait() {
   if (server_) server_->Wait();

@@ -146,7 +146,7 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
   // Sampled as frames are sent (a long clip of a big skeleton would not fit in memory);
   // frame 0 first, so that a palette error shows before anything is uploaded.
   auto palette_at = [&](uint64_t i, const CharacterMesh& mesh) {
-    return SkinPalette(*character, SampleClip(*character, **clip, i / o.fps), mesh.skin);
+    return MeshPalette(*character, SampleClip(*character, **clip, i / o.fps), mesh);
   };
   for (const CharacterMesh& mesh : meshes) {
     if (auto first = palette_at(0, mesh); !first.ok()) return Report(first.status());
@@ -325,8 +325,9 @@ void AddAnimateCommand(CLI::App& app, CommonOptions& common) {
                     "also draw each frame as PNG (Cairo, fixed camera) and a contact sheet");
   command->add_option("--width", o->width, "PNG width")->capture_default_str();
   command->add_option("--height", o->height, "PNG height")->capture_default_str();
-  command->add_option("--primitive", o->primitive,
-                      "only this skinned primitive (default: every one, the whole character)");
+  command->add_option(
+      "--primitive", o->primitive,
+      "only this primitive, skinned or rigid (default: every one, the whole character)");
   command->add_option("--window", o->window, "frames in flight")->capture_default_str();
   command
       ->add_option("--sheet-frames", o->sheet_frames, "frames on the contact sheet, evenly spaced")

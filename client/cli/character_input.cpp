@@ -30,8 +30,8 @@ Result<const SkinnedPrimitive*> PickPrimitive(const Character& character, int in
                                               const std::string& path) {
   if (index < 0 || static_cast<std::size_t>(index) >= character.primitives.size()) {
     return InvalidArgument(
-        fmt::format("--primitive {} is not below the {} skinned primitive(s) of {}", index,
-                    character.primitives.size(), path));
+        fmt::format("--primitive {} is not below the {} primitive(s) (skinned and rigid) of {}",
+                    index, character.primitives.size(), path));
   }
   return &character.primitives[static_cast<std::size_t>(index)];
 }

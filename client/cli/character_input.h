@@ -16,7 +16,7 @@ bool IsGltfPath(const std::string& path);
 // LoadGltfFile, with `path` in front of its error (once).
 Result<Character> ImportCharacter(const std::string& path);
 
-// primitives[index], or INVALID_ARGUMENT "--primitive 3 is not below the 1 skinned
+// primitives[index], or INVALID_ARGUMENT "--primitive 3 is not below the 1
 // primitive(s) of FILE".
 Result<const SkinnedPrimitive*> PickPrimitive(const Character& character, int index,
                                               const std::string& path);

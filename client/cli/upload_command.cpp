@@ -14,8 +14,8 @@ void PrintInfo(const std::string& name, const v1::MeshInfo& info) {
              info.joint_count(), info.bytes(), info.already_stored() ? " (already stored)" : "");
 }
 
-// The whole character: one mesh per skin, its primitives concatenated (what `animate`
-// streams), each listed with its primitives.
+// The whole character: one mesh per skin, its primitives concatenated with the rigid
+// parts (what `animate` streams), each listed with its primitives.
 int UploadCharacter(client::SkinClient& client, const std::string& path) {
   if (!IsGltfPath(path)) {
     return Report(InvalidArgument(fmt::format("{}: not a .glb or .gltf file", path)));
@@ -44,14 +44,15 @@ int UploadCharacter(client::SkinClient& client, const std::string& path) {
 void AddUploadCommand(CLI::App& app, CommonOptions& common) {
   auto* command = app.add_subcommand(
       "upload",
-      "upload a glTF character (FILE.glb or .gltf: one mesh per skin, its primitives "
-      "together), or else a synthetic mesh; prints the ids");
+      "upload a glTF character (FILE.glb or .gltf: one mesh per skin, its primitives and the "
+      "rigid parts together), or else a synthetic mesh; prints the ids");
   auto mesh = std::make_shared<MeshOptionsCli>();
   mesh->Add(command);
   auto file = std::make_shared<std::string>();
-  command->add_option("file", *file,
-                      "glTF 2.0 character: every skinned primitive is uploaded, one mesh per skin "
-                      "(the synthetic mesh options are then ignored)");
+  command->add_option(
+      "file", *file,
+      "glTF 2.0 character: every skinned primitive and rigid part is uploaded, one mesh per skin "
+      "(the synthetic mesh options are then ignored)");
   command->callback([&common, mesh, file] {
     auto channel = common.Channel();
     if (!channel.ok()) {

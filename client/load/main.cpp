@@ -353,7 +353,7 @@ int main(int argc, char** argv) {
                  "a new time each frame")
       ->excludes("--vertices", "--bones", "--joints", "--sweep");
   app.add_option("--primitive", o.primitive,
-                 "--mesh: only this skinned primitive (default: the whole character)");
+                 "--mesh: only this primitive, skinned or rigid (default: the whole character)");
   app.add_flag("--capacity", o.capacity,
                "find the most concurrent --rate streams (default 60 fps) held with p99 within "
                "one frame and nothing dropped, on the first --backends entry (default: "

@@ -81,8 +81,8 @@ Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool n
   }
   if (primitive >= static_cast<int>(character->primitives.size())) {
     return InvalidArgument(
-        fmt::format("--primitive {} is not below the {} skinned primitive(s) of {}", primitive,
-                    character->primitives.size(), path));
+        fmt::format("--primitive {} is not below the {} primitive(s) (skinned and rigid) of {}",
+                    primitive, character->primitives.size(), path));
   }
   auto meshes = CharacterMeshes(*character, primitive);
   if (!meshes.ok()) return meshes.status();

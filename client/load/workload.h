@@ -38,15 +38,15 @@ Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool n
 // Frames of clip time per second in a glTF workload's palettes.
 inline constexpr double kGltfWorkloadFps = 30.0;
 
-// The whole character of the glTF file at `path` as one mesh (or only skinned primitive
-// `primitive` when >= 0): primitives that share a skin are concatenated, and several skins
-// are concatenated too, each skin's joint indices shifted past the skins before it, so that
-// one palette (the skins' palettes one after another) skins the whole character in one
-// request per frame. Palettes sample the file's first clip every 1 / kGltfWorkloadFps s
-// over its duration, so frame f shows time f / 30 s wrapped around the clip.
-// INVALID_ARGUMENT (naming the file) when it does not import, has no such primitive or no
-// clip, its skins have more than 65535 joints together, or `normals` is asked of a mesh
-// without them.
+// The whole character of the glTF file at `path` as one mesh (or only primitive
+// `primitive` when >= 0): primitives that share a skin are concatenated with the rigid
+// parts (CharacterMeshes), and several meshes are concatenated too, each mesh's joint
+// indices shifted past the meshes before it, so that one palette (the meshes' palettes one
+// after another) skins the whole character in one request per frame. Palettes sample the file's
+// first clip every 1 / kGltfWorkloadFps s over its duration, so frame f shows time f / 30 s wrapped
+// around the clip. INVALID_ARGUMENT (naming the file) when it does not import, has no such
+// primitive or no clip, its meshes have more than 65535 palette entries together, or `normals` is
+// asked of a mesh without them.
 Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool normals);
 
 }  // namespace skinserve::load

@@ -1,7 +1,10 @@
-// Dual-quaternion skinning: every backend that lists it against the independent float64
-// reference (ReferenceSkinDualQuaternion, on glm) on random rigid palettes, B = 1..8,
-// vertex counts that leave tails, with and without normals; the twist, where it must keep
-// the tube's radius while linear blending collapses it; and the method lists.
+// Dual-quaternion skinning: every backend that lists it (every computing backend) against
+// the independent float64 reference (ReferenceSkinDualQuaternion, on glm) on random rigid
+// palettes, B = 1..8, vertex counts that leave tails, 1, 77 and 300 joints (`simd`
+// streams 8-bit joints up to 256, 16-bit above), with and without normals; the twist,
+// where it must keep the tube's radius while linear blending collapses it; and the method
+// lists. (`simd` at every SIMD target: simd_targets_test.cpp; the OpenCL kernels' own
+// cases and the staged copy path: tests/opencl.)
 // Tolerance: CompareWithReference's (1e-5 relative to the frame's scale, 1e-5 on normals).
 #include <gtest/gtest.h>
 
@@ -20,7 +23,7 @@ namespace skinserve::testing {
 namespace {
 
 std::vector<MeshCase> Cases() {
-  std::vector<MeshCase> cases = MeshCases({1, 7, 1001}, {1, 77});
+  std::vector<MeshCase> cases = MeshCases({1, 7, 1001}, {1, 77, 300});
   cases.push_back({LargeCaseVertices(), 4, 77, true});
   return cases;
 }
@@ -148,12 +151,21 @@ INSTANTIATE_TEST_SUITE_P(DualQuaternionBackends, TwistTest,
                            return name;
                          });
 
-TEST(DualQuaternionMethodsTest, TheCpuBackendsListItOthersDoNot) {
-  std::vector<std::string> expected = {"serial", "openmp", "sse", "sse-openmp"};
-  if (!kSseBackendsRunHere) expected.resize(2);  // the SSE ones are x86 only
-  EXPECT_EQ(BackendIdsWithMethod(SkinningMethod::kDualQuaternion), expected);
+TEST(DualQuaternionMethodsTest, EveryComputingBackendListsIt) {
+  // Every backend that runs here but passthrough (the SSE ones off x86 and the OpenCL
+  // ones without a platform are listed unavailable, with their reason).
+  int listing = 0;
   for (const auto& backend : AllBackends()) {
-    EXPECT_TRUE(backend->info().Supports(SkinningMethod::kLinear)) << backend->info().id;
+    const BackendInfo& info = backend->info();
+    EXPECT_TRUE(info.Supports(SkinningMethod::kLinear)) << info.id;
+    if (!info.available) continue;
+    EXPECT_EQ(info.Supports(SkinningMethod::kDualQuaternion), info.id != "passthrough") << info.id;
+    listing += info.Supports(SkinningMethod::kDualQuaternion) ? 1 : 0;
+  }
+  // serial, openmp, simd and simd-openmp run everywhere.
+  EXPECT_GE(listing, 4);
+  for (const char* id : {"serial", "openmp", "simd", "simd-openmp"}) {
+    EXPECT_TRUE(BackendById(id).info().Supports(SkinningMethod::kDualQuaternion)) << id;
   }
 }
 

@@ -1,8 +1,10 @@
 // `simd` and `simd-openmp` at every SIMD target this binary and CPU can run (AVX3, AVX2,
 // SSE4 and the scalar fallback on an AVX-512 machine; NEON and SVE under qemu-aarch64),
 // each capped at it the way SKINSERVE_SIMD_MAX_TARGET caps it, against the float64
-// reference: every influence count 1..8, with and without normals, 8-bit and 16-bit
-// joint streams, and every tail length (1..33 vertices, and around the 256-vertex
+// reference, in both skinning methods (linear blending on scaled palettes, dual
+// quaternions on rigid ones): every influence count 1..8, with and without normals, 8-bit
+// and 16-bit joint streams (and the dual-quaternion sign table, built or not), and every
+// tail length (1..33 vertices, and around the 256-vertex
 // chunks the normals are renormalised in). Writing outside the frame is caught by guard
 // floats on both sides of each output.
 #include <gtest/gtest.h>
@@ -31,7 +33,7 @@ std::vector<uint32_t> VertexCounts() {
 // Skins into outputs with guard floats before and after; checks both the reference and
 // the guards.
 void ExpectMatchesReference(Backend& backend, uint32_t vertices, uint32_t influences,
-                            uint32_t joints, bool normals) {
+                            uint32_t joints, bool normals, SkinningMethod method) {
   const uint64_t seed = vertices * 131 + influences * 17 + joints + (normals ? 1 : 0);
   auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
                                               .influences = influences,
@@ -42,7 +44,9 @@ void ExpectMatchesReference(Backend& backend, uint32_t vertices, uint32_t influe
   auto prepared = backend.Prepare(*mesh);
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
   const std::size_t n = 3ull * vertices;
-  const auto palette = MakeSyntheticPalette(joints, seed, 3);
+  const auto palette = method == SkinningMethod::kDualQuaternion
+                           ? MakeRigidPalette(joints, seed, 3)
+                           : MakeSyntheticPalette(joints, seed, 3);
   std::vector<float> positions(n + 2 * kGuardFloats, kGuard);
   std::vector<float> normal_out(normals ? n + 2 * kGuardFloats : 0, kGuard);
   const std::span<float> p(positions.data() + kGuardFloats, n);
@@ -50,14 +54,15 @@ void ExpectMatchesReference(Backend& backend, uint32_t vertices, uint32_t influe
       normals ? std::span<float>(normal_out.data() + kGuardFloats, n) : std::span<float>();
   std::fill(p.begin(), p.end(), std::numeric_limits<float>::quiet_NaN());
   std::fill(nn.begin(), nn.end(), std::numeric_limits<float>::quiet_NaN());
-  const SkinFrame frame{palette, p, nn};
+  const SkinFrame frame{.palette = palette, .positions = p, .normals = nn, .method = method};
   ASSERT_TRUE(frame.Validate(**mesh).ok());
   const Status skinned = backend.Skin(**prepared, frame);
   ASSERT_TRUE(skinned.ok()) << skinned.ToString();
-  const std::string what = backend.info().id + " at " + backend.info().simd_target +
-                           " V=" + std::to_string(vertices) + " B=" + std::to_string(influences) +
-                           " J=" + std::to_string(joints) + (normals ? " normals" : "");
-  const Deviation d = CompareWithReference(**mesh, palette, p, nn);
+  const std::string what = backend.info().id + " at " + backend.info().simd_target + " " +
+                           std::string(MethodName(method)) + " V=" + std::to_string(vertices) +
+                           " B=" + std::to_string(influences) + " J=" + std::to_string(joints) +
+                           (normals ? " normals" : "");
+  const Deviation d = CompareWithReference(**mesh, palette, p, nn, method);
   EXPECT_TRUE(d.within_tolerance())
       << what << ": position error " << d.max_position_error << " (tolerance "
       << d.position_tolerance << "), normal error " << d.max_normal_error << " (tolerance "
@@ -73,23 +78,33 @@ void ExpectMatchesReference(Backend& backend, uint32_t vertices, uint32_t influe
 
 class SimdTargetTest : public ::testing::TestWithParam<std::string> {};
 
-TEST_P(SimdTargetTest, BothBackendsMatchTheFloat64ReferenceAtThisTarget) {
-  const std::string& target = GetParam();
+void ExpectBothBackendsMatchAt(const std::string& target, SkinningMethod method) {
   for (int threads : {0, 2}) {  // simd, simd-openmp
     const auto backend = CreateSimdBackend(threads, target);
     ASSERT_TRUE(backend->info().available) << backend->info().unavailable_reason;
     ASSERT_EQ(backend->info().simd_target, target) << "the cap did not select the target";
+    ASSERT_TRUE(backend->info().Supports(method));
     for (uint32_t b = 1; b <= 8; ++b) {
-      for (uint32_t j : {1u, 256u, 300u}) {  // 8-bit joints up to 256, 16-bit above
+      // 8-bit joints up to 256, 16-bit above; with 20 joints the dual-quaternion kernel
+      // takes its per-frame sign table from 400 / (B - 1) vertices on, per-vertex signs below.
+      for (uint32_t j : {1u, 20u, 256u, 300u}) {
         for (bool normals : {false, true}) {
           for (uint32_t v : VertexCounts()) {
-            ExpectMatchesReference(*backend, v, b, j, normals);
-            if (HasFatalFailure()) return;
+            ExpectMatchesReference(*backend, v, b, j, normals, method);
+            if (::testing::Test::HasFatalFailure()) return;
           }
         }
       }
     }
   }
+}
+
+TEST_P(SimdTargetTest, BothBackendsMatchTheFloat64ReferenceAtThisTarget) {
+  ExpectBothBackendsMatchAt(GetParam(), SkinningMethod::kLinear);
+}
+
+TEST_P(SimdTargetTest, BothBackendsMatchTheDualQuaternionReferenceAtThisTarget) {
+  ExpectBothBackendsMatchAt(GetParam(), SkinningMethod::kDualQuaternion);
 }
 
 INSTANTIATE_TEST_SUITE_P(RunnableHere, SimdTargetTest, ::testing::ValuesIn(RunnableSimdTargets()),

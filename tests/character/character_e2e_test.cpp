@@ -8,9 +8,9 @@
 #include <sstream>
 
 #include "gltf_test_support.h"
-#include "skinserve/client/frame_stream.h"
 #include "skinserve/character/animation.h"
 #include "skinserve/character/gltf_import.h"
+#include "skinserve/client/frame_stream.h"
 #include "test_server.h"
 
 namespace skinserve::testing {

@@ -96,7 +96,57 @@ TEST(CharacterMeshesTest, OnePrimitiveAloneAndOutOfRange) {
   auto bad = CharacterMeshes(c, 4);
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.status().code(), StatusCode::kInvalidArgument);
-  EXPECT_EQ(bad.status().message(), "primitive 4 is not below the 4 skinned primitive(s)");
+  EXPECT_EQ(bad.status().message(), "primitive 4 is not below the 4 primitive(s)");
+}
+
+// A rigid part: skin -1, one influence (joint 0, weight 1), following `node`.
+SkinnedPrimitive RigidPart(const std::string& name, int node, uint32_t vertices, bool normals) {
+  SkinnedPrimitive p = Part(name, 0, vertices, 1, 1, normals);
+  p.skin = -1;
+  p.node = node;
+  return p;
+}
+
+TEST(CharacterMeshesTest, RigidPartsJoinTheFirstSkinEachNodeOneEntryPastItsJoints) {
+  Character c = Make();
+  c.nodes.resize(9);
+  c.primitives.insert(c.primitives.begin(), RigidPart("r/0", 7, 3, true));  // before any skin
+  c.primitives.push_back(RigidPart("s/0", 8, 4, true));
+  c.primitives.push_back(RigidPart("r/1", 7, 5, false));
+  auto meshes = CharacterMeshes(c);
+  ASSERT_TRUE(meshes.ok()) << meshes.status().ToString();
+  // Skin 0 (first skinned primitive a/0) with normals: r/0, a/0, a/1, s/0; skin 1: b/0;
+  // skin 0 without normals: c/0, r/1.
+  ASSERT_EQ(meshes->size(), 3u);
+  const CharacterMesh& body = (*meshes)[0];
+  EXPECT_EQ(body.skin, 0);
+  EXPECT_EQ(body.rigid_nodes, (std::vector<int>{7, 8}));
+  EXPECT_EQ(body.arrays.joint_count, 5u);  // 3 joints + 2 nodes
+  ASSERT_EQ(body.parts.size(), 4u);
+  EXPECT_EQ(body.parts[0].name, "r/0");
+  EXPECT_EQ(body.parts[3].name, "s/0");
+  const std::size_t b = body.arrays.influences;  // 8: a/1's
+  for (const PrimitiveSpan& part : {body.parts[0], body.parts[3]}) {
+    const uint16_t joint = part.name == "r/0" ? 3 : 4;
+    for (uint32_t v = part.first_vertex; v < part.first_vertex + part.vertex_count; ++v) {
+      EXPECT_EQ(body.arrays.joints[v * b], joint) << part.name;
+      EXPECT_EQ(body.arrays.weights[v * b], 1.0f) << part.name;
+      for (std::size_t i = 1; i < b; ++i) EXPECT_EQ(body.arrays.weights[v * b + i], 0.0f);
+    }
+  }
+  EXPECT_TRUE(Mesh::Create(body.arrays).ok());
+  const CharacterMesh& plain = (*meshes)[2];
+  EXPECT_EQ(plain.rigid_nodes, (std::vector<int>{7}));
+  EXPECT_EQ(plain.arrays.joint_count, 4u);
+
+  // A rigid part alone: a mesh of its own with no skin, its node the only entry.
+  auto alone = CharacterMeshes(c, 0);
+  ASSERT_TRUE(alone.ok()) << alone.status().ToString();
+  ASSERT_EQ(alone->size(), 1u);
+  EXPECT_EQ((*alone)[0].skin, -1);
+  EXPECT_EQ((*alone)[0].name, "rigid parts");
+  EXPECT_EQ((*alone)[0].rigid_nodes, (std::vector<int>{7}));
+  EXPECT_EQ((*alone)[0].arrays.joint_count, 1u);
 }
 
 }  // namespace

@@ -56,7 +56,7 @@ TEST(CharacterWorkloadTest, TwoSkinsAsOneMeshAndOnePaletteSkinLikeTheScene) {
   ASSERT_TRUE(one.ok()) << one.status().ToString();
   EXPECT_EQ(one->vertices, 8u);
   EXPECT_EQ(load::MakeGltfWorkload(path, 3, false).status().message(),
-            "--primitive 3 is not below the 3 skinned primitive(s) of " + path);
+            "--primitive 3 is not below the 3 primitive(s) (skinned and rigid) of " + path);
 }
 
 }  // namespace

@@ -187,9 +187,17 @@ TEST_F(MalformedGltfTest, SkinJointNotANode) {
   ExpectInvalid({"skins[0].joints[2] = 40"});
 }
 
-TEST_F(MalformedGltfTest, NoSkinnedPrimitive) {
+// Without its skin the mesh is a rigid part (what a viewer draws); without the mesh node
+// nothing is left to skin.
+TEST_F(MalformedGltfTest, NoPrimitiveToSkin) {
   glb_.json["nodes"][4].erase("skin");
-  ExpectInvalid({"no skinned primitive"});
+  auto rigid = LoadGltfBytes(BuildGlb(glb_));
+  ASSERT_TRUE(rigid.ok()) << rigid.status().ToString();
+  ASSERT_EQ(rigid->primitives.size(), 1u);
+  EXPECT_TRUE(rigid->primitives[0].rigid());
+  EXPECT_EQ(rigid->primitives[0].arrays.influences, 1u);
+  glb_.json["nodes"][4].erase("mesh");
+  ExpectInvalid({"no primitive to skin"});
 }
 
 TEST_F(MalformedGltfTest, NotTriangles) {
@@ -203,12 +211,103 @@ TEST_F(MalformedGltfTest, TriangleIndexPastTheVertices) {
   ExpectInvalid({"meshes[0].primitives[0].indices[11] = 60000"});
 }
 
-TEST_F(MalformedGltfTest, SparseAccessorRejected) {
-  glb_.json["accessors"][Accessor("POSITION")]["sparse"] = {
-      {"count", 1},
-      {"indices", {{"bufferView", 0}, {"componentType", 5125}}},
-      {"values", {{"bufferView", 0}}}};
-  ExpectInvalid({"attributes.POSITION", "sparse"});
+// A sparse POSITION substituting vertices 3 and 700 (UNSIGNED_SHORT indices).
+class SparseGltfTest : public MalformedGltfTest {
+ protected:
+  void SetUp() override {
+    MalformedGltfTest::SetUp();
+    if (HasFatalFailure()) return;
+    const std::vector<uint16_t> indices = {3, 700};
+    const std::vector<float> values = {1.5f, -2.0f, 0.25f, 4.0f, 5.0f, -6.0f};
+    indices_view_ = AppendBufferView(glb_, Bytes(indices));
+    values_view_ = AppendBufferView(glb_, Bytes(values));
+    Sparse() = {{"count", 2},
+                {"indices", {{"bufferView", indices_view_}, {"componentType", 5123}}},
+                {"values", {{"bufferView", values_view_}}}};
+  }
+  template <typename T>
+  static std::vector<uint8_t> Bytes(const std::vector<T>& v) {
+    std::vector<uint8_t> out(v.size() * sizeof(T));
+    std::memcpy(out.data(), v.data(), out.size());
+    return out;
+  }
+  json& Sparse() { return glb_.json["accessors"][Accessor("POSITION")]["sparse"]; }
+  int indices_view_ = -1, values_view_ = -1;
+};
+
+TEST_F(SparseGltfTest, SubstitutesTheListedVerticesOnly) {
+  const std::vector<double> base = ReadAccessor(glb_, Accessor("POSITION"));
+  auto character = LoadGltfBytes(BuildGlb(glb_));
+  ASSERT_TRUE(character.ok()) << character.status().ToString();
+  const std::vector<float>& got = character->primitives[0].arrays.positions;
+  ASSERT_EQ(got.size(), base.size());
+  const double replaced[2][3] = {{1.5, -2.0, 0.25}, {4.0, 5.0, -6.0}};
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    const std::size_t v = i / 3;
+    const double expected = v == 3 ? replaced[0][i % 3] : v == 700 ? replaced[1][i % 3] : base[i];
+    ASSERT_EQ(got[i], expected) << "vertex " << v;
+  }
+}
+
+TEST_F(SparseGltfTest, IndexPastTheCountOrNotIncreasing) {
+  const std::size_t at = glb_.json["bufferViews"][indices_view_]["byteOffset"].get<std::size_t>();
+  const std::vector<uint8_t> bin = glb_.bin;
+  const uint16_t past = 960;
+  std::memcpy(&glb_.bin[at + 2], &past, 2);
+  ExpectInvalid({"attributes.POSITION", "sparse.indices[1] = 960", "count 960"});
+  glb_.bin = bin;
+  const uint16_t back = 2;
+  std::memcpy(&glb_.bin[at + 2], &back, 2);
+  ExpectInvalid({"attributes.POSITION", "sparse.indices[1] = 2", "does not increase"});
+}
+
+TEST_F(SparseGltfTest, CountIndexTypeAndViewsChecked) {
+  const json sparse = Sparse();
+  Sparse()["count"] = 961;
+  ExpectInvalid({"attributes.POSITION", "sparse.count is 961", "1..960"});
+  Sparse() = sparse;
+  Sparse()["count"] = 0;
+  ExpectInvalid({"attributes.POSITION", "sparse.count is 0"});
+  Sparse() = sparse;
+  Sparse()["indices"]["componentType"] = 5126;
+  ExpectInvalid({"attributes.POSITION", "sparse.indices.componentType", "FLOAT"});
+  Sparse() = sparse;
+  Sparse()["count"] = 3;  // the values view holds two VEC3
+  ExpectInvalid({"attributes.POSITION", "sparse.indices", "reads past bufferView"});
+  Sparse() = sparse;
+  Sparse()["values"]["byteOffset"] = 4;
+  ExpectInvalid({"attributes.POSITION", "sparse.values", "reads past bufferView"});
+  Sparse() = sparse;
+  Sparse()["values"]["bufferView"] = 500;
+  ExpectInvalid({"attributes.POSITION", "sparse.values", "bufferView 500"});
+}
+
+// KHR_mesh_quantization allows integer POSITION (byte, short, normalized or not) and
+// normalized BYTE/SHORT NORMAL; the rest stays refused.
+TEST_F(MalformedGltfTest, QuantizedAttributesOfForbiddenComponentTypes) {
+  glb_.json["extensionsRequired"] = {"KHR_mesh_quantization"};
+  glb_.json["extensionsUsed"] = {"KHR_mesh_quantization"};
+  json& position = glb_.json["accessors"][Accessor("POSITION")];
+  json& normal = glb_.json["accessors"][Accessor("NORMAL")];
+  const json position_kept = position, normal_kept = normal;
+  position["componentType"] = 5125;  // UNSIGNED_INT
+  ExpectInvalid({"attributes.POSITION", "UNSIGNED_INT", "allowed: FLOAT, BYTE"});
+  position = position_kept;
+  normal["componentType"] = 5121;  // UNSIGNED_BYTE
+  ExpectInvalid({"attributes.NORMAL", "UNSIGNED_BYTE", "allowed: FLOAT, BYTE, SHORT"});
+  normal["componentType"] = 5122;  // SHORT, not normalized
+  ExpectInvalid({"attributes.NORMAL", "SHORT", "normalized"});
+  normal = normal_kept;
+  glb_.json["accessors"][Accessor("WEIGHTS_0")]["componentType"] = 5122;  // SHORT
+  ExpectInvalid({"attributes.WEIGHTS_0", "SHORT", "allowed"});
+}
+
+// The extension itself is accepted; any unknown one still is not (next test).
+TEST_F(MalformedGltfTest, MeshQuantizationRequiredIsAccepted) {
+  glb_.json["extensionsRequired"] = {"KHR_mesh_quantization", "KHR_materials_unlit"};
+  glb_.json["extensionsUsed"] = {"KHR_mesh_quantization", "KHR_materials_unlit"};
+  auto character = LoadGltfBytes(BuildGlb(glb_));
+  EXPECT_TRUE(character.ok()) << character.status().ToString();
 }
 
 TEST_F(MalformedGltfTest, HierarchyCycleAndTwoParents) {
@@ -222,9 +321,9 @@ TEST_F(MalformedGltfTest, HierarchyCycleAndTwoParents) {
 }
 
 TEST_F(MalformedGltfTest, UnsupportedRequiredExtension) {
-  glb_.json["extensionsRequired"] = {"KHR_draco_mesh_compression"};
-  glb_.json["extensionsUsed"] = {"KHR_draco_mesh_compression"};
-  ExpectInvalid({"KHR_draco_mesh_compression"});
+  glb_.json["extensionsRequired"] = {"KHR_mesh_quantization", "KHR_draco_mesh_compression"};
+  glb_.json["extensionsUsed"] = {"KHR_mesh_quantization", "KHR_draco_mesh_compression"};
+  ExpectInvalid({"extensionsRequired: KHR_draco_mesh_compression is not supported"});
 }
 
 TEST_F(MalformedGltfTest, GarbageBytes) {

@@ -3,7 +3,9 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <numbers>
+#include <stdexcept>
 
 namespace skinserve::testing {
 namespace {
@@ -66,7 +68,9 @@ Mat4 RestWorld(const Scene& scene, int node) {
 void BindSkins(Scene* scene) {
   for (SceneSkin& skin : scene->skins) {
     skin.inverse_bind.clear();
-    for (int j : skin.joints) skin.inverse_bind.push_back(RigidInverse(RestWorld(*scene, j)));
+    for (int j : skin.joints) {
+      skin.inverse_bind.push_back(Mul(RigidInverse(RestWorld(*scene, j)), skin.bind_shape));
+    }
   }
 }
 
@@ -129,6 +133,95 @@ void Finish(Scene* scene) {
   for (const RefChannel& ch : scene->clip.channels) {
     scene->clip.duration = std::max(scene->clip.duration, ch.times.back());
   }
+}
+
+RefChannel Scale(int node, std::vector<double> times, std::vector<double> values) {
+  return {
+      .node = node, .path = "scale", .interpolation = "LINEAR", .times = times, .values = values};
+}
+
+// A box of 8 corners (no shared normals: 24 vertices, 4 per face) centred at `c` with
+// half-sizes `h`, normals when asked, 12 triangles; not skinned (a rigid part).
+ScenePrimitive Box(const double c[3], const double h[3], bool normals) {
+  ScenePrimitive p;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int sign = -1; sign <= 1; sign += 2) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      const auto first = static_cast<uint16_t>(p.positions.size() / 3);
+      for (int corner = 0; corner < 4; ++corner) {
+        double x[3];
+        x[axis] = c[axis] + sign * h[axis];
+        x[u] = c[u] + ((corner & 1) ? h[u] : -h[u]);
+        x[v] = c[v] + ((corner & 2) ? h[v] : -h[v]);
+        for (double k : x) p.positions.push_back(static_cast<float>(k));
+        if (normals) {
+          float n[3] = {0, 0, 0};
+          n[axis] = static_cast<float>(sign);
+          p.normals.insert(p.normals.end(), n, n + 3);
+        }
+      }
+      p.indices.insert(p.indices.end(),
+                       {first, static_cast<uint16_t>(first + 1), static_cast<uint16_t>(first + 3),
+                        first, static_cast<uint16_t>(first + 3), static_cast<uint16_t>(first + 2)});
+    }
+  }
+  return p;
+}
+
+double TypeMax(int component_type) {
+  switch (component_type) {
+    case 5120:
+      return 127;
+    case 5121:
+      return 255;
+    case 5122:
+      return 32767;
+    case 5123:
+      return 65535;
+    default:
+      throw std::logic_error("test scene: no integer component type " +
+                             std::to_string(component_type));
+  }
+}
+
+// Positions replaced by integers q = round((p - offset) / scale): what a quantizer stores;
+// the caller puts translate(offset) * scale(scale) back in a node or the bind shape.
+void QuantizePositions(ScenePrimitive* p, const double offset[3], double scale) {
+  for (std::size_t i = 0; i < p->positions.size(); ++i) {
+    p->positions[i] = static_cast<float>(std::lround((p->positions[i] - offset[i % 3]) / scale));
+  }
+}
+
+// Values replaced by what normalized integers of `component_type` decode to (the importer's
+// float formula), so that the scene states exactly what the file holds.
+void SnapNormalized(std::vector<float>* values, int component_type) {
+  const double max = TypeMax(component_type);
+  for (float& v : *values) {
+    const auto q = static_cast<float>(std::lround(v * max));
+    v = std::max(q / static_cast<float>(max), -1.0f);
+  }
+}
+
+// Weights as normalized integers whose sum per vertex is exactly the type's max.
+void SnapWeights(ScenePrimitive* p, int component_type) {
+  const double max = TypeMax(component_type);
+  for (std::size_t v = 0; v < p->weights.size() / 4; ++v) {
+    long q[4], sum = 0;
+    int largest = 0;
+    for (int k = 0; k < 4; ++k) {
+      q[k] = std::lround(p->weights[4 * v + k] * max);
+      sum += q[k];
+      if (q[k] > q[largest]) largest = k;
+    }
+    q[largest] += static_cast<long>(max) - sum;
+    for (int k = 0; k < 4; ++k) {
+      p->weights[4 * v + k] = static_cast<float>(q[k]) / static_cast<float>(max);
+    }
+  }
+}
+
+Mat4 Dequantization(const double offset[3], double scale) {
+  return {scale, 0, 0, 0, 0, scale, 0, 0, 0, 0, scale, 0, offset[0], offset[1], offset[2], 1};
 }
 
 }  // namespace
@@ -217,6 +310,227 @@ Scene MovingParent() {
   return s;
 }
 
+Scene RigidParts() {
+  Scene s;
+  // 0 Root -> 1 Hip -> 2 Knee -> 5 Shield; 3 Helmet under Hip; 4 BodyNode (mesh 0, skin 0:
+  // Hip, Knee); 6 Lamp under Root. Rigid: 3 (mesh 1, 2 primitives, non-trivial TRS), 5
+  // (mesh 2, no normals, animated rotation and non-uniform scale, under animated Knee under
+  // animated Hip), 6 (mesh 1 again, animated translation).
+  s.nodes.resize(7);
+  s.nodes[0] = {.name = "Root", .children = {1, 4, 6}};
+  s.nodes[1] = {.name = "Hip", .children = {2, 3}};
+  s.nodes[1].t[1] = 0.5;
+  s.nodes[2] = {.name = "Knee", .children = {5}};
+  s.nodes[2].t[1] = 1.0;
+  s.nodes[3] = {.name = "Helmet"};
+  s.nodes[3].t[0] = 0.2, s.nodes[3].t[1] = 1.8, s.nodes[3].t[2] = -0.1;
+  SetRotation(&s.nodes[3], Quat(1, 2, 0, 35));
+  s.nodes[3].s[0] = s.nodes[3].s[1] = s.nodes[3].s[2] = 1.5;
+  s.nodes[3].mesh = 1;
+  s.nodes[4] = {.name = "BodyNode", .mesh = 0, .skin = 0};
+  s.nodes[4].t[2] = 3.0;  // ignored for a skinned mesh
+  s.nodes[5] = {.name = "Shield", .mesh = 2};
+  s.nodes[5].t[0] = 0.4;
+  SetRotation(&s.nodes[5], Quat(0, 1, 0, 20));
+  s.nodes[5].s[0] = 2.0, s.nodes[5].s[1] = 0.5, s.nodes[5].s[2] = 1.25;
+  s.nodes[6] = {.name = "Lamp", .mesh = 1};
+  s.nodes[6].t[0] = -1.5;
+  s.skins.push_back({.joints = {1, 2}, .inverse_bind = {}});
+  const double a[3] = {-0.3, 0.5, 0.0};
+  s.meshes.push_back({"Body", {Strip(a, 0.6, 2.0, 5, 0, 1, true)}});
+  const double c1[3] = {0, 0, 0}, h1[3] = {0.2, 0.15, 0.25}, c2[3] = {0.1, 0.3, 0},
+               h2[3] = {0.05, 0.1, 0.05}, c3[3] = {0.3, 0, 0.1}, h3[3] = {0.3, 0.4, 0.05};
+  s.meshes.push_back({"Helmet", {Box(c1, h1, true), Box(c2, h2, true)}});
+  s.meshes.push_back({"Shield", {Box(c3, h3, false)}});
+  s.clip.channels.push_back(Translation(0, {0, 2}, {0, 0, 0, 1, 0.5, -2}));
+  s.clip.channels.push_back(
+      Rotation(1, {0, 1, 2}, {Quat(0, 0, 1, 0), Quat(0, 0, 1, 50), Quat(1, 1, 0, 30)}));
+  s.clip.channels.push_back(Rotation(2, {0, 2}, {Quat(0, 0, 1, 0), Quat(1, 0, 0, -70)}));
+  s.clip.channels.push_back(Rotation(5, {0, 2}, {Quat(0, 1, 0, 20), Quat(0, 1, 1, 100)}));
+  s.clip.channels.push_back(Scale(5, {0, 1, 2}, {2, 0.5, 1.25, 1, 1.5, 0.75, 0.5, 1, 2}));
+  s.clip.channels.push_back(Translation(6, {0.5, 1.5}, {-1.5, 0, 0, -1, 1, 0.5}));
+  Finish(&s);
+  return s;
+}
+
+Scene Quantized() {
+  Scene s;
+  s.extensions_required = {"KHR_mesh_quantization"};
+  // 0 Root -> 1 Bone0 -> 2 Bone1, 3 SkinNode (mesh 0, skin 0), 4 Arm (animated) -> 5 ArmMesh
+  // (mesh 1, rigid) whose transform is the dequantization, as gltfpack writes it.
+  s.nodes.resize(6);
+  s.nodes[0] = {.name = "Root", .children = {1, 3, 4}};
+  s.nodes[1] = {.name = "Bone0", .children = {2}};
+  s.nodes[2] = {.name = "Bone1"};
+  s.nodes[2].t[1] = 1.0;
+  s.nodes[3] = {.name = "SkinNode", .mesh = 0, .skin = 0};
+  s.nodes[4] = {.name = "Arm", .children = {5}};
+  s.nodes[4].t[0] = 1.0;
+  const double rigid_offset[3] = {-0.25, 0.5, 0.125};
+  const double rigid_scale = 1.0 / 1024;
+  s.nodes[5] = {.name = "ArmMesh", .mesh = 1};
+  std::copy(rigid_offset, rigid_offset + 3, s.nodes[5].t);
+  s.nodes[5].s[0] = s.nodes[5].s[1] = s.nodes[5].s[2] = rigid_scale;
+
+  // Skinned: int16 positions (dequantized by the bind shape in the inverse bind matrices),
+  // int8 normals, uint8 weights.
+  const double skin_offset[3] = {-0.5, 0.0, -0.25};
+  const double skin_scale = 1.0 / 4096;
+  s.skins.push_back({.joints = {1, 2}, .inverse_bind = {}});
+  s.skins[0].bind_shape = Dequantization(skin_offset, skin_scale);
+  const double a[3] = {-0.4, 0.1, 0.0};
+  ScenePrimitive skinned = Strip(a, 0.5, 1.8, 6, 0, 1, true);
+  for (std::size_t i = 0; i < skinned.normals.size(); i += 3) {  // tilted: not axis-aligned
+    skinned.normals[i] = 0.3f, skinned.normals[i + 1] = -0.2f, skinned.normals[i + 2] = 0.93f;
+  }
+  QuantizePositions(&skinned, skin_offset, skin_scale);
+  SnapNormalized(&skinned.normals, 5120);
+  SnapWeights(&skinned, 5121);
+  skinned.encoding = {.position_type = 5122, .normal_type = 5120, .weight_type = 5121};
+  // The same with uint16 weights and int16 normals.
+  const double b[3] = {0.2, 0.3, 0.1};
+  ScenePrimitive skinned16 = Strip(b, 0.2, 1.0, 3, 1, 0, true);
+  QuantizePositions(&skinned16, skin_offset, skin_scale);
+  SnapNormalized(&skinned16.normals, 5122);
+  SnapWeights(&skinned16, 5123);
+  skinned16.encoding = {.position_type = 5122, .normal_type = 5122, .weight_type = 5123};
+  s.meshes.push_back({"QuantizedBody", {skinned, skinned16}});
+
+  // Rigid: int16 positions with the node's dequantization, int8 normals; and normalized
+  // uint16 positions (values in [0, 1]) under the same node.
+  const double c[3] = {0.1, 0.2, 0.0}, h[3] = {0.3, 0.1, 0.2};
+  ScenePrimitive box = Box(c, h, true);
+  QuantizePositions(&box, rigid_offset, rigid_scale);
+  SnapNormalized(&box.normals, 5120);
+  box.encoding = {.position_type = 5122, .normal_type = 5120};
+  const double c2[3] = {0.5, 0.5, 0.5}, h2[3] = {0.25, 0.5, 0.125};
+  ScenePrimitive unit = Box(c2, h2, true);
+  SnapNormalized(&unit.positions, 5123);
+  SnapNormalized(&unit.normals, 5122);
+  unit.encoding = {.position_type = 5123, .position_normalized = true, .normal_type = 5122};
+  s.meshes.push_back({"QuantizedArm", {box, unit}});
+
+  s.clip.channels.push_back(
+      Rotation(2, {0, 1, 2}, {Quat(0, 0, 1, 0), Quat(0, 0, 1, 60), Quat(1, 0, 1, 40)}));
+  s.clip.channels.push_back(Rotation(4, {0, 2}, {Quat(0, 1, 0, 0), Quat(1, 1, 0, 90)}));
+  s.clip.channels.push_back(Translation(0, {0, 2}, {0, 0, 0, 0.5, 0, 1}));
+  Finish(&s);
+  return s;
+}
+
+Scene Sparse() {
+  Scene s;
+  // 0 Root -> 1 Bone0 -> 2 Bone1, 3 SkinNode (mesh 0, skin 0), 4 Prop (mesh 1, rigid,
+  // animated).
+  s.nodes.resize(5);
+  s.nodes[0] = {.name = "Root", .children = {1, 3, 4}};
+  s.nodes[1] = {.name = "Bone0", .children = {2}};
+  s.nodes[2] = {.name = "Bone1"};
+  s.nodes[2].t[1] = 1.0;
+  s.nodes[3] = {.name = "SkinNode", .mesh = 0, .skin = 0};
+  s.nodes[4] = {.name = "Prop", .mesh = 1};
+  s.nodes[4].t[2] = 0.5;
+  s.skins.push_back({.joints = {1, 2}, .inverse_bind = {}});
+  const double a[3] = {-0.3, 0.0, 0.0}, b[3] = {0.3, 0.2, 0.1};
+  ScenePrimitive over_base = Strip(a, 0.4, 2.0, 6, 0, 1, true);
+  over_base.encoding = {.sparse_positions = 5121, .sparse_normals = 5123, .sparse_weights = 5125};
+  ScenePrimitive short_indices = Strip(b, 0.2, 1.0, 4, 1, 0, true);
+  short_indices.encoding = {.sparse_positions = 5123};
+  s.meshes.push_back({"SparseBody", {over_base, short_indices}});
+  // Corners at the origin stay in the zero base; the others are substituted.
+  const double c[3] = {0.2, 0.3, 0.1}, h[3] = {0.2, 0.3, 0.1};
+  ScenePrimitive prop = Box(c, h, true);
+  prop.encoding = {.sparse_positions = 5125, .positions_no_base = true};
+  s.meshes.push_back({"SparseProp", {prop}});
+  s.clip.channels.push_back(Rotation(2, {0, 2}, {Quat(0, 0, 1, 0), Quat(1, 0, 1, 70)}));
+  s.clip.channels.push_back(Rotation(4, {0, 2}, {Quat(1, 0, 0, 0), Quat(1, 0, 0, 120)}));
+  Finish(&s);
+  return s;
+}
+
+namespace {
+
+void PutComponent(std::vector<uint8_t>* out, double v, int component_type, bool normalized) {
+  auto put = [&](auto x) {
+    const auto* p = reinterpret_cast<const uint8_t*>(&x);
+    out->insert(out->end(), p, p + sizeof x);
+  };
+  if (component_type == 5126) return put(static_cast<float>(v));
+  const double q = normalized ? std::round(v * TypeMax(component_type)) : v;
+  if (q != std::round(q))
+    throw std::logic_error("test scene: " + std::to_string(v) + " is no integer");
+  switch (component_type) {
+    case 5120:
+      return put(static_cast<int8_t>(q));
+    case 5121:
+      return put(static_cast<uint8_t>(q));
+    case 5122:
+      return put(static_cast<int16_t>(q));
+    case 5123:
+      return put(static_cast<uint16_t>(q));
+    default:
+      throw std::logic_error("test scene: component type " + std::to_string(component_type));
+  }
+}
+
+std::size_t TypeSize(int component_type) {
+  return component_type == 5120 || component_type == 5121   ? 1
+         : component_type == 5122 || component_type == 5123 ? 2
+                                                            : 4;
+}
+
+// Appends a vertex attribute accessor of `values` (`n` components per vertex) stored as
+// `component_type`, each element padded to 4 bytes (byteStride) as the spec asks of vertex
+// attributes. sparse_type != 0 writes the elements `substituted` picks as a sparse
+// substitution (indices of that type), over a base holding garbage there, or no base at all
+// (`no_base`: zeros, so the others must be zero).
+int WriteAttribute(Glb& glb, const std::vector<float>& values, int n, const char* type,
+                   int component_type, bool normalized, int sparse_type, bool no_base,
+                   const std::function<bool(std::size_t)>& substituted) {
+  const std::size_t count = values.size() / static_cast<std::size_t>(n);
+  const std::size_t element = TypeSize(component_type) * static_cast<std::size_t>(n);
+  const std::size_t stride = (element + 3) / 4 * 4;
+  std::vector<uint8_t> base, sparse_indices, sparse_values;
+  for (std::size_t e = 0; e < count; ++e) {
+    const bool sparse = sparse_type != 0 && substituted(e);
+    for (int c = 0; c < n; ++c) {
+      const float v = values[e * static_cast<std::size_t>(n) + static_cast<std::size_t>(c)];
+      if (!sparse && no_base && v != 0.0f) {
+        throw std::logic_error("test scene: a non-zero value left to a zero base");
+      }
+      // Garbage under a substitution: the importer must not read it.
+      if (!no_base)
+        PutComponent(&base, sparse ? (component_type == 5126 ? 99.0 : 3.0) : v, component_type,
+                     sparse ? false : normalized);
+      if (sparse) PutComponent(&sparse_values, v, component_type, normalized);
+    }
+    if (!no_base) base.resize(base.size() + stride - element);
+    if (sparse) {
+      const auto at = static_cast<uint32_t>(e);
+      const auto* p = reinterpret_cast<const uint8_t*>(&at);
+      sparse_indices.insert(sparse_indices.end(), p, p + TypeSize(sparse_type));
+    }
+  }
+  json a = {{"componentType", component_type}, {"type", type}, {"count", count}};
+  if (normalized) a["normalized"] = true;
+  if (!no_base) {
+    a["bufferView"] = AppendBufferView(glb, base);
+    glb.json["bufferViews"].back()["byteStride"] = stride;
+  }
+  if (sparse_type != 0) {
+    const std::size_t substitutions = sparse_indices.size() / TypeSize(sparse_type);
+    a["sparse"] = {
+        {"count", substitutions},
+        {"indices",
+         {{"bufferView", AppendBufferView(glb, sparse_indices)}, {"componentType", sparse_type}}},
+        {"values", {{"bufferView", AppendBufferView(glb, sparse_values)}}}};
+  }
+  glb.json["accessors"].push_back(a);
+  return static_cast<int>(glb.json["accessors"].size()) - 1;
+}
+
+}  // namespace
+
 std::vector<uint8_t> WriteGlb(const Scene& scene) {
   Glb glb;
   json& j = glb.json;
@@ -240,26 +554,51 @@ std::vector<uint8_t> WriteGlb(const Scene& scene) {
     if (n.skin >= 0) node["skin"] = n.skin;
     j["nodes"].push_back(node);
   }
+  if (!scene.extensions_required.empty()) {
+    j["extensionsRequired"] = scene.extensions_required;
+    j["extensionsUsed"] = scene.extensions_required;
+  }
   j["scene"] = 0;
   j["scenes"] = json::array({{{"nodes", roots}}});
   for (const SceneMesh& mesh : scene.meshes) {
     json primitives = json::array();
     for (const ScenePrimitive& p : mesh.primitives) {
       const std::size_t v = p.positions.size() / 3;
+      const SceneEncoding& e = p.encoding;
+      const auto odd = [](std::size_t i) { return i % 2 == 1; };
+      const auto non_zero = [&](std::size_t i) {
+        return p.positions[3 * i] != 0 || p.positions[3 * i + 1] != 0 ||
+               p.positions[3 * i + 2] != 0;
+      };
       json attributes;
-      attributes["POSITION"] = AppendAccessor(glb, Bytes(p.positions), 5126, "VEC3", v);
+      attributes["POSITION"] =
+          WriteAttribute(glb, p.positions, 3, "VEC3", e.position_type, e.position_normalized,
+                         e.sparse_positions, e.positions_no_base,
+                         e.positions_no_base ? std::function<bool(std::size_t)>(non_zero)
+                                             : std::function<bool(std::size_t)>(odd));
+      // min/max are in the stored units: the integers of a normalized accessor.
+      const bool scaled = e.position_type != 5126 && e.position_normalized;
       std::vector<float> lo(3, 1e30f), hi(3, -1e30f);
       for (std::size_t i = 0; i < p.positions.size(); ++i) {
-        lo[i % 3] = std::min(lo[i % 3], p.positions[i]);
-        hi[i % 3] = std::max(hi[i % 3], p.positions[i]);
+        const float stored =
+            scaled ? static_cast<float>(std::round(p.positions[i] * TypeMax(e.position_type)))
+                   : p.positions[i];
+        lo[i % 3] = std::min(lo[i % 3], stored);
+        hi[i % 3] = std::max(hi[i % 3], stored);
       }
       j["accessors"].back()["min"] = lo;
       j["accessors"].back()["max"] = hi;
       if (!p.normals.empty()) {
-        attributes["NORMAL"] = AppendAccessor(glb, Bytes(p.normals), 5126, "VEC3", v);
+        attributes["NORMAL"] = WriteAttribute(
+            glb, p.normals, 3, "VEC3", e.normal_type, e.normal_type != 5126, e.sparse_normals,
+            e.sparse_normals != 0, [](std::size_t) { return true; });
       }
-      attributes["JOINTS_0"] = AppendAccessor(glb, Bytes(p.joints), 5121, "VEC4", v);
-      attributes["WEIGHTS_0"] = AppendAccessor(glb, Bytes(p.weights), 5126, "VEC4", v);
+      if (!p.joints.empty()) {
+        attributes["JOINTS_0"] = AppendAccessor(glb, Bytes(p.joints), 5121, "VEC4", v);
+        attributes["WEIGHTS_0"] =
+            WriteAttribute(glb, p.weights, 4, "VEC4", e.weight_type, e.weight_type != 5126,
+                           e.sparse_weights, false, odd);
+      }
       const int indices = AppendAccessor(glb, Bytes(p.indices), 5123, "SCALAR", p.indices.size());
       primitives.push_back({{"attributes", attributes}, {"indices", indices}, {"mode", 4}});
     }
@@ -295,7 +634,7 @@ std::vector<ScenePrimitiveRef> SkinnedPrimitives(const Scene& scene) {
   std::vector<ScenePrimitiveRef> out;
   for (std::size_t n = 0; n < scene.nodes.size(); ++n) {
     const SceneNode& node = scene.nodes[n];
-    if (node.mesh < 0 || node.skin < 0) continue;
+    if (node.mesh < 0) continue;
     const SceneMesh& mesh = scene.meshes[static_cast<std::size_t>(node.mesh)];
     for (std::size_t p = 0; p < mesh.primitives.size(); ++p) {
       out.push_back({static_cast<int>(n), node.mesh, static_cast<int>(p), node.skin,
@@ -305,7 +644,43 @@ std::vector<ScenePrimitiveRef> SkinnedPrimitives(const Scene& scene) {
   return out;
 }
 
+namespace {
+
+RefFrame RigidFrame(const Scene& scene, const ScenePrimitiveRef& p, double t) {
+  const ScenePrimitive& sp = scene.meshes[static_cast<std::size_t>(p.mesh)]
+                                 .primitives[static_cast<std::size_t>(p.primitive)];
+  const Mat4 m = WorldMatrix(scene, p.node, t);
+  // Normals go by the inverse transpose of the upper 3x3: cofactor(A) / det(A).
+  auto at = [&](int r, int c) { return m[4 * c + r]; };
+  double cof[3][3];
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      const int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+      cof[r][c] = at(r1, c1) * at(r2, c2) - at(r1, c2) * at(r2, c1);
+    }
+  }
+  const double det = at(0, 0) * cof[0][0] + at(0, 1) * cof[0][1] + at(0, 2) * cof[0][2];
+  RefFrame f;
+  for (std::size_t v = 0; v < sp.positions.size() / 3; ++v) {
+    const float* x = &sp.positions[3 * v];
+    for (int r = 0; r < 3; ++r) {
+      f.positions.push_back(at(r, 0) * x[0] + at(r, 1) * x[1] + at(r, 2) * x[2] + at(r, 3));
+    }
+    if (sp.normals.empty()) continue;
+    const float* n = &sp.normals[3 * v];
+    double o[3];
+    for (int r = 0; r < 3; ++r)
+      o[r] = (cof[r][0] * n[0] + cof[r][1] * n[1] + cof[r][2] * n[2]) / det;
+    const double len = std::sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
+    for (double c : o) f.normals.push_back(c / len);
+  }
+  return f;
+}
+
+}  // namespace
+
 RefFrame SceneFrame(const Scene& scene, const ScenePrimitiveRef& p, double t) {
+  if (p.skin < 0) return RigidFrame(scene, p, t);
   RefCharacter ref;
   ref.nodes = RefNodes(scene);
   const SceneSkin& skin = scene.skins[static_cast<std::size_t>(p.skin)];

@@ -8,6 +8,15 @@
 //   MovingParent              the skinned mesh node and its skeleton under one animated
 //                             node; only that node moves, so every vertex moves rigidly
 //                             with it (a check that needs no skinning code at all)
+//   RigidParts                one skin and meshes on nodes without a skin (rigid parts):
+//                             under an animated joint, on an animated node whose parent is
+//                             animated (non-uniform animated scale), one mesh on two nodes
+//   Quantized                 KHR_mesh_quantization as gltfpack writes it: int16 positions
+//                             with the dequantization in the rigid mesh node's transform or
+//                             the skin's inverse bind matrices, normalized uint16 positions,
+//                             int8/int16 normals, uint8/uint16 weights, padded strides
+//   Sparse                    sparse accessors: positions over a base, normals and rigid
+//                             positions with no base (zeros), weights with uint32 indices
 #pragma once
 
 #include <cstdint>
@@ -18,11 +27,26 @@
 
 namespace skinserve::testing {
 
+// How WriteGlb stores a primitive's attributes. Component types are glTF's (5126 FLOAT,
+// 5120 BYTE, 5121 UNSIGNED_BYTE, 5122 SHORT, 5123 UNSIGNED_SHORT); integer normals and
+// weights are normalized. The scene's values must be what the stored integers decode to
+// (Snap* below make them so). sparse_*: 0 dense, else the sparse indices' component type.
+struct SceneEncoding {
+  int position_type = 5126;
+  bool position_normalized = false;
+  int normal_type = 5126;
+  int weight_type = 5126;
+  int sparse_positions = 0;        // every odd vertex substituted over a base of garbage
+  bool positions_no_base = false;  // sparse positions: no bufferView (zeros) + the non-zero ones
+  int sparse_normals = 0;          // no bufferView; every vertex substituted
+  int sparse_weights = 0;          // every odd vertex substituted over a base of garbage
+};
 struct ScenePrimitive {
   std::vector<float> positions, normals;  // normals: empty or 3 per vertex
-  std::vector<uint8_t> joints;            // 4 per vertex (JOINTS_0)
+  std::vector<uint8_t> joints;            // 4 per vertex (JOINTS_0); empty: not skinned
   std::vector<float> weights;             // 4 per vertex (WEIGHTS_0), summing to 1
   std::vector<uint16_t> indices;
+  SceneEncoding encoding;
 };
 struct SceneMesh {
   std::string name;
@@ -38,31 +62,37 @@ struct SceneNode {
 };
 struct SceneSkin {
   std::vector<int> joints;
-  std::vector<Mat4> inverse_bind;
+  std::vector<Mat4> inverse_bind;  // rest world^-1 * bind_shape, filled by the scene
+  Mat4 bind_shape = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // e.g. dequantization
 };
 struct Scene {
   std::vector<SceneNode> nodes;
   std::vector<SceneMesh> meshes;
   std::vector<SceneSkin> skins;
   RefClip clip;  // LINEAR channels; written as the file's one animation
+  std::vector<std::string> extensions_required;
 };
 
 Scene SeveralPrimitivesOneSkin();
 Scene TwoSkins();
 Scene MovingParent();
+Scene RigidParts();
+Scene Quantized();
+Scene Sparse();
 
 std::vector<uint8_t> WriteGlb(const Scene& scene);
 
-// What a spec-following importer lists: every primitive of every node with mesh and skin,
-// nodes in file order.
+// What a spec-following importer lists: every primitive of every node with a mesh (skin
+// -1: a rigid part, following the node), nodes in file order.
 struct ScenePrimitiveRef {
   int node = -1, mesh = -1, primitive = -1, skin = -1;
   std::string name;  // "<mesh name>/<primitive>"
 };
 std::vector<ScenePrimitiveRef> SkinnedPrimitives(const Scene& scene);
 
-// Primitive `p` skinned in float64 at time `t` of the clip (the mesh node's own transform
-// plays no part, as glTF requires).
+// Primitive `p` at time `t` of the clip in float64: skinned (the mesh node's own transform
+// plays no part, as glTF requires), or for a rigid part its node's world matrix applied to
+// the positions and its inverse transpose to the normals (renormalised).
 RefFrame SceneFrame(const Scene& scene, const ScenePrimitiveRef& p, double t);
 
 // The world matrix of node `node` at time `t` (column-major).

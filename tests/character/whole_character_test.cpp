@@ -1,16 +1,17 @@
 // Whole characters end to end: hand-made glTF files (test_scenes.h) written by the test,
-// imported, grouped into one mesh per skin (CharacterMeshes), uploaded to a real server on
-// loopback and streamed on every available CPU/OpenCL backend; every primitive's vertices
-// and normals in each answer are compared with a float64 skinning of the scene the file was
-// written from (the test's own glTF formulas, not the importer).
+// imported, grouped into one mesh per skin with the rigid parts (CharacterMeshes), uploaded to a
+// real server on loopback and streamed on every available CPU/OpenCL backend; every primitive's
+// vertices and normals in each answer are compared with a float64 skinning of the scene the file
+// was written from (the test's own glTF formulas, not the importer).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "gltf_test_support.h"
-#include "skinserve/client/frame_stream.h"
 #include "skinserve/character/character_mesh.h"
 #include "skinserve/character/gltf_import.h"
+#include "skinserve/client/frame_stream.h"
 #include "test_scenes.h"
 #include "test_server.h"
 
@@ -80,12 +81,11 @@ int ExpectServerMatchesReference(const Imported& c, const Scene& scene,
           *t.client,
           {.mesh_id = ids[m],
            .backend = backend.id(),
-           .want_normals = true,
+           .want_normals = !mesh.arrays.normals.empty(),
            .frames = times.size()},
           [&](uint64_t frame) {
-            auto palette =
-                SkinPalette(c.character,
-                            SampleClip(c.character, c.character.clips[0], times[frame]), mesh.skin);
+            auto palette = MeshPalette(
+                c.character, SampleClip(c.character, c.character.clips[0], times[frame]), mesh);
             EXPECT_TRUE(palette.ok()) << palette.status().ToString();
             return palette.ok() ? *palette : std::vector<float>();
           },
@@ -93,7 +93,8 @@ int ExpectServerMatchesReference(const Imported& c, const Scene& scene,
             ASSERT_TRUE(r.status.ok()) << r.status.ToString();
             ++answered;
             ASSERT_EQ(r.positions.size(), 3u * mesh.arrays.vertex_count);
-            ASSERT_EQ(r.normals.size(), r.positions.size());
+            const bool normals = !mesh.arrays.normals.empty();
+            ASSERT_EQ(r.normals.size(), normals ? r.positions.size() : 0u);
             for (const PrimitiveSpan& part : mesh.parts) {
               const RefFrame expected = SceneFrame(
                   scene, prims[static_cast<std::size_t>(part.primitive)], times[r.frame]);
@@ -105,6 +106,7 @@ int ExpectServerMatchesReference(const Imported& c, const Scene& scene,
                 const std::size_t at = 3 * std::size_t{part.first_vertex} + i;
                 ASSERT_NEAR(r.positions[at], expected.positions[i], tolerance)
                     << part.name << " vertex " << i / 3 << " t " << times[r.frame];
+                if (!normals) continue;
                 ASSERT_NEAR(r.normals[at], expected.normals[i], kNormalTolerance)
                     << part.name << " vertex " << i / 3 << " t " << times[r.frame];
               }
@@ -205,6 +207,73 @@ TEST(WholeCharacterTest, AMovingParentCarriesTheSkinnedMeshOnceAndItsOwnTransfor
       }
     }
   }
+}
+
+// Rigid parts: meshes on nodes without a skin join the skin's mesh, each node one palette
+// entry past the skin's joints, so the character with normals is one mesh and one request.
+TEST(WholeCharacterTest, RigidPartsFollowTheirNodesInTheSkinsMesh) {
+  const Scene scene = RigidParts();
+  const Imported c = Import(scene);
+  ExpectPrimitivesAreTheScenes(c, scene);
+  // Helmet/0, Helmet/1 on node 3, Body/0 (skinned), Helmet/0, Helmet/1 on node 6: normals;
+  // Shield/0 on node 5: none.
+  ASSERT_EQ(c.meshes.size(), 2u);
+  const CharacterMesh& with = c.meshes[0];
+  EXPECT_EQ(with.skin, 0);
+  EXPECT_EQ(with.rigid_nodes, (std::vector<int>{3, 6}));
+  EXPECT_EQ(with.arrays.joint_count, 4u);  // Hip, Knee, then nodes 3 and 6
+  ASSERT_EQ(with.parts.size(), 5u);
+  const CharacterMesh& without = c.meshes[1];
+  EXPECT_EQ(without.rigid_nodes, (std::vector<int>{5}));
+  EXPECT_EQ(without.arrays.joint_count, 3u);
+  ASSERT_EQ(without.parts.size(), 1u);
+  // Every vertex of a rigid part has one influence: its node's entry, weight 1.
+  for (const CharacterMesh* mesh : {&with, &without}) {
+    const std::size_t b = mesh->arrays.influences;
+    for (const PrimitiveSpan& part : mesh->parts) {
+      const SkinnedPrimitive& p = c.character.primitives[static_cast<std::size_t>(part.primitive)];
+      if (!p.rigid()) continue;
+      const auto place = std::find(mesh->rigid_nodes.begin(), mesh->rigid_nodes.end(), p.node) -
+                         mesh->rigid_nodes.begin();
+      for (uint32_t v = part.first_vertex; v < part.first_vertex + part.vertex_count; ++v) {
+        EXPECT_EQ(mesh->arrays.joints[v * b], 2 + place) << part.name;
+        EXPECT_EQ(mesh->arrays.weights[v * b], 1.0f) << part.name;
+        for (std::size_t i = 1; i < b; ++i) EXPECT_EQ(mesh->arrays.weights[v * b + i], 0.0f);
+      }
+    }
+  }
+  EXPECT_GE(ExpectServerMatchesReference(c, scene, {0.0, 0.4, 1.0, 1.3, 2.0}), 4);
+}
+
+// KHR_mesh_quantization as gltfpack writes it: integer attributes, dequantized by the rigid
+// mesh node's transform or the skin's inverse bind matrices.
+TEST(WholeCharacterTest, QuantizedAttributesSkinAsTheirDequantizedValues) {
+  const Scene scene = Quantized();
+  const Imported c = Import(scene);
+  ExpectPrimitivesAreTheScenes(c, scene);
+  ASSERT_EQ(c.meshes.size(), 1u);
+  EXPECT_EQ(c.meshes[0].parts.size(), 4u);
+  // The stored integers, not normalized ones: the int16 box's positions are whole numbers
+  // well beyond 1.
+  const SkinnedPrimitive& box = c.character.primitives[2];
+  ASSERT_TRUE(box.rigid());
+  float largest = 0;
+  for (float x : box.arrays.positions) {
+    EXPECT_EQ(x, std::round(x));
+    largest = std::max(largest, std::fabs(x));
+  }
+  EXPECT_GT(largest, 100.0f);
+  EXPECT_GE(ExpectServerMatchesReference(c, scene, {0.0, 0.7, 1.0, 1.5, 2.0}), 4);
+}
+
+TEST(WholeCharacterTest, SparseAccessorsAreSubstituted) {
+  const Scene scene = Sparse();
+  const Imported c = Import(scene);
+  ExpectPrimitivesAreTheScenes(c, scene);
+  ASSERT_EQ(c.meshes.size(), 1u);
+  // The base's garbage (99) under the substituted vertices never shows.
+  for (float x : c.meshes[0].arrays.positions) EXPECT_LT(std::fabs(x), 10.0f);
+  EXPECT_GE(ExpectServerMatchesReference(c, scene, {0.0, 0.5, 1.1, 2.0}), 4);
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // skinserve-test-scene: writes one of the hand-made test characters (test_scenes.h) as a
 // GLB, for the command-line end-to-end tests (tests/render/animate-e2e-test.sh), and prints
-// its skinned primitives: "<vertices> vertices in <n> primitives: <name> <name> ...".
-// usage: skinserve-test-scene several-primitives|two-skins|moving-parent OUT.glb
+// its primitives (skinned and rigid): "<vertices> vertices in <n> primitives: <name> ...".
+// usage: skinserve-test-scene several-primitives|two-skins|moving-parent|rigid-parts|
+//        quantized|sparse OUT.glb
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -12,7 +13,9 @@
 int main(int argc, char** argv) {
   using namespace skinserve::testing;
   if (argc != 3) {
-    std::cerr << "usage: " << argv[0] << " several-primitives|two-skins|moving-parent OUT.glb\n";
+    std::cerr << "usage: " << argv[0]
+              << " several-primitives|two-skins|moving-parent|rigid-parts|quantized|sparse "
+                 "OUT.glb\n";
     return 2;
   }
   const std::string kind = argv[1];
@@ -23,6 +26,12 @@ int main(int argc, char** argv) {
     scene = TwoSkins();
   } else if (kind == "moving-parent") {
     scene = MovingParent();
+  } else if (kind == "rigid-parts") {
+    scene = RigidParts();
+  } else if (kind == "quantized") {
+    scene = Quantized();
+  } else if (kind == "sparse") {
+    scene = Sparse();
   } else {
     std::cerr << "unknown scene '" << kind << "'\n";
     return 2;

@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Checks that the deployment files agree with each other and with the project.
 
-yamllint checks the syntax and style; this checks what a cluster would only tell us at
-apply time, or never: the version label everywhere equals project(VERSION), the pods have
+yamllint checks the syntax and style; this renders every kustomize overlay under
+deploy/k8s/overlays/ (`kubectl kustomize`, offline) and checks what a cluster would only tell
+us at apply time, or never: the version label everywhere equals project(VERSION), the pods have
 CPU and memory limits and no thread count matched to them by hand (the server reads its
 cgroup), the probes reach the health service (through skinserve-cli over the pod's Unix
 socket when TCP has TLS, which the kubelet's gRPC probes cannot speak) with liveness asking
@@ -10,13 +11,18 @@ socket when TCP has TLS, which the kubelet's gRPC probes cannot speak) with live
 authorization policy from a ConfigMap equal to deploy/authz-policy.json, no pod mounts a
 service account token, the grace period outlasts the drain, the Service, autoscaler and
 disruption budget select the Deployment's pods, and the image is built on a base pinned by
-digest with no debugging tools in its runtime packages.
+digest with no debugging tools in its runtime packages. Each overlay has its own rules on
+top (PROFILES): production and gpu with mutual TLS, the policy, anti-affinity, an autoscaler
+and a disruption budget; development one plaintext replica; gpu a GPU limit, the GPU pool's
+node selector and toleration, and OpenCL on the GPU by default.
 
-usage: check_manifests.py <repository root>
+usage: check_manifests.py <repository root>   (kubectl from $KUBECTL, else PATH)
 """
 import json
+import os
 import pathlib
 import re
+import subprocess
 import sys
 
 import yaml
@@ -44,27 +50,64 @@ def duration_seconds(text):
     return value / 1000 if unit == "ms" else value * 60 if unit == "m" else value
 
 
+# What each overlay must be, beyond what every rendered server must be.
+PROFILES = {
+    "development": {"tls": False, "replicas": (1, 1), "autoscaled": False, "gpu": False},
+    "production": {"tls": True, "replicas": (2, None), "autoscaled": True, "gpu": False},
+    "gpu": {"tls": True, "replicas": (2, None), "autoscaled": True, "gpu": True},
+}
+
+
+def render(overlay):
+    """The overlay's objects as `kubectl kustomize` renders them (no cluster needed)."""
+    kubectl = os.environ.get("KUBECTL", "kubectl")
+    done = subprocess.run([kubectl, "kustomize", str(overlay)], capture_output=True, text=True)
+    if not check(done.returncode == 0,
+                 f"{overlay.name}: kubectl kustomize failed: {done.stderr.strip()}"):
+        return []
+    return [d for d in yaml.safe_load_all(done.stdout) if d]
+
+
 def main(root):
     root = pathlib.Path(root)
     cmake = (root / "CMakeLists.txt").read_text()
     version = re.search(r"project\(skinserve\s+VERSION\s+([0-9][0-9.]*)", cmake).group(1)
 
+    k8s = root / "deploy" / "k8s"
+    check(not list(k8s.glob("*.yaml")),
+          "deploy/k8s/: manifests outside base/ and overlays/ (kubectl apply -f would mix them)")
+    overlays = sorted(p for p in (k8s / "overlays").iterdir() if p.is_dir())
+    check(sorted(p.name for p in overlays) == sorted(PROFILES),
+          f"deploy/k8s/overlays: {[p.name for p in overlays]}, the checks know {sorted(PROFILES)}")
+    for overlay in overlays:
+        if overlay.name in PROFILES:
+            check_overlay(root, overlay.name, render(overlay), version, PROFILES[overlay.name])
+
+    check_repository(root, version)
+
+
+def check_overlay(root, name, objects, version, profile):
+    """One rendered overlay: a server Deployment, its Service and ConfigMaps, and what its
+    profile asks for."""
+    where = f"overlays/{name}"
     docs, config_maps = {}, {}
-    for path in sorted((root / "deploy" / "k8s").glob("*.yaml")):
-        for doc in yaml.safe_load_all(path.read_text()):
-            if doc:
-                if doc["kind"] == "ConfigMap":
-                    config_maps[doc["metadata"]["name"]] = doc
-                else:
-                    docs[doc["kind"]] = doc
-                labels = doc["metadata"].get("labels", {})
-                check(labels.get("app.kubernetes.io/version") == version,
-                      f"{path.name}: {doc['kind']} label app.kubernetes.io/version is "
-                      f"{labels.get('app.kubernetes.io/version')!r}, project is {version}")
-    for kind in ("Deployment", "Service", "HorizontalPodAutoscaler", "PodDisruptionBudget"):
-        check(kind in docs, f"k8s/: no {kind}")
-    check("skinserve" in config_maps, "k8s/: no ConfigMap skinserve")
-    if failures:
+    for doc in objects:
+        if doc["kind"] == "ConfigMap":
+            config_maps[doc["metadata"]["name"]] = doc
+        else:
+            check(doc["kind"] not in docs, f"{where}: two {doc['kind']} objects")
+            docs[doc["kind"]] = doc
+        labels = doc["metadata"].get("labels", {})
+        check(labels.get("app.kubernetes.io/version") == version,
+              f"{where}: {doc['kind']} label app.kubernetes.io/version is "
+              f"{labels.get('app.kubernetes.io/version')!r}, project is {version}")
+    wanted = ["Deployment", "Service"]
+    if profile["autoscaled"]:
+        wanted += ["HorizontalPodAutoscaler", "PodDisruptionBudget"]
+    for kind in wanted:
+        check(kind in docs, f"{where}: no {kind}")
+    check("skinserve" in config_maps, f"{where}: no ConfigMap skinserve")
+    if not all(kind in docs for kind in wanted) or "skinserve" not in config_maps:
         return
 
     docs["ConfigMap"] = config_maps["skinserve"]
@@ -72,60 +115,66 @@ def main(root):
     pod = dep["spec"]["template"]
     pod_labels = pod["metadata"]["labels"]
     check(pod_labels.get("app.kubernetes.io/version") == version,
-          "Deployment: pod template version label differs from the project version")
+          f"{where}: pod template version label differs from the project version")
     check(dep["spec"]["selector"]["matchLabels"].items() <= pod_labels.items(),
-          "Deployment: selector does not match its pod template")
-    check(dep["spec"].get("replicas", 1) >= 2, "Deployment: fewer than 2 replicas")
+          f"{where}: Deployment selector does not match its pod template")
+    low, high = profile["replicas"]
+    replicas = dep["spec"].get("replicas", 1)
+    check(replicas >= low and (high is None or replicas <= high),
+          f"{where}: {replicas} replicas, wanted {low}" + (f"..{high}" if high else " or more"))
 
     (container,) = pod["spec"]["containers"]
     check(container["image"].endswith(":" + version),
-          f"Deployment: image {container['image']} is not tagged {version}")
+          f"{where}: image {container['image']} is not tagged {version}")
     refs = [e["configMapRef"]["name"] for e in container.get("envFrom", [])
             if "configMapRef" in e]
     check(docs["ConfigMap"]["metadata"]["name"] in refs,
-          "Deployment: the ConfigMap is not in envFrom")
+          f"{where}: the ConfigMap is not in envFrom")
     config = effective_env(container, config_maps)
-    check_pod_hardening("Deployment", pod["spec"])
+    check_pod_hardening(where, pod["spec"])
     ports = {p["name"]: p["containerPort"] for p in container["ports"]}
     tcp, sockets = listen_addresses(config.get("SKINSERVE_LISTEN", ""))
-    if not check(tcp, "Deployment: SKINSERVE_LISTEN has no host:port address"):
+    if not check(tcp, f"{where}: SKINSERVE_LISTEN has no host:port address"):
         return
     listen_port = int(tcp[0].rsplit(":", 1)[1])
     check(ports.get("grpc") == listen_port,
-          f"Deployment: containerPort grpc {ports.get('grpc')} != SKINSERVE_LISTEN port")
+          f"{where}: containerPort grpc {ports.get('grpc')} != SKINSERVE_LISTEN port")
     # Metrics: the port SKINSERVE_METRICS_LISTEN serves is the containerPort "metrics",
     # and the pod's scrape annotations point at it.
-    if check("SKINSERVE_METRICS_LISTEN" in config, "ConfigMap: no SKINSERVE_METRICS_LISTEN"):
+    if check("SKINSERVE_METRICS_LISTEN" in config, f"{where}: no SKINSERVE_METRICS_LISTEN"):
         metrics_port = int(config["SKINSERVE_METRICS_LISTEN"].rsplit(":", 1)[1])
         check(ports.get("metrics") == metrics_port,
-              f"Deployment: containerPort metrics {ports.get('metrics')} != "
+              f"{where}: containerPort metrics {ports.get('metrics')} != "
               f"SKINSERVE_METRICS_LISTEN port {metrics_port}")
         notes = pod["metadata"].get("annotations", {})
         check(notes.get("prometheus.io/scrape") == "true" and
               notes.get("prometheus.io/port") == str(metrics_port) and
               notes.get("prometheus.io/path") == "/metrics",
-              "Deployment: pod template lacks prometheus.io/scrape, port and path annotations "
+              f"{where}: pod template lacks prometheus.io/scrape, port and path annotations "
               f"for port {metrics_port}")
     # Connection hygiene: connections age out (clients re-resolve and find new replicas),
     # with a grace that lets a frame finish.
     if check("SKINSERVE_MAX_CONNECTION_AGE_SECONDS" in config,
-             "ConfigMap: no SKINSERVE_MAX_CONNECTION_AGE_SECONDS"):
+             f"{where}: no SKINSERVE_MAX_CONNECTION_AGE_SECONDS"):
         check(float(config["SKINSERVE_MAX_CONNECTION_AGE_SECONDS"]) > 0,
-              "ConfigMap: connections never age out")
+              f"{where}: connections never age out")
         check(float(config.get("SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS", 0)) >= 1,
-              "ConfigMap: SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS under a second")
+              f"{where}: SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS under a second")
 
-    check_sizing("Deployment", container, config)
+    check_sizing(where, container, config)
+    check_mesh_budget(where, container, config)
     tls = bool(config.get("SKINSERVE_TLS_CERT"))
-    check(tls, "Deployment: no TLS on the gRPC port (SKINSERVE_TLS_CERT)")
+    check(tls == profile["tls"],
+          f"{where}: TLS on the gRPC port (SKINSERVE_TLS_CERT) is {tls}, wanted {profile['tls']}")
     if tls:
-        check_tls_files("Deployment", pod["spec"], container, config)
-    if check(config.get("SKINSERVE_AUTHZ_POLICY"), "Deployment: no SKINSERVE_AUTHZ_POLICY"):
-        check_policy("Deployment", root, pod["spec"], container, config, config_maps)
-    check_probes("Deployment", container, tls, listen_port, sockets)
+        check_tls_files(where, pod["spec"], container, config)
+    if profile["tls"]:
+        if check(config.get("SKINSERVE_AUTHZ_POLICY"), f"{where}: no SKINSERVE_AUTHZ_POLICY"):
+            check_policy(where, root, pod["spec"], container, config, config_maps)
+    check_probes(where, container, tls, listen_port, sockets)
 
     grace = pod["spec"].get("terminationGracePeriodSeconds", 30)
-    if check("SKINSERVE_DRAIN_SECONDS" in config, "ConfigMap: no SKINSERVE_DRAIN_SECONDS"):
+    if check("SKINSERVE_DRAIN_SECONDS" in config, f"{where}: no SKINSERVE_DRAIN_SECONDS"):
         drain = duration_seconds(config["SKINSERVE_DRAIN_SECONDS"])
         pre_stop = container.get("lifecycle", {}).get("preStop", {})
         pause = 0.0
@@ -134,29 +183,88 @@ def main(root):
         if "sleep" in pre_stop:
             pause = float(pre_stop["sleep"]["seconds"])
         check(grace > pause + drain,
-              f"Deployment: terminationGracePeriodSeconds {grace} <= preStop {pause} s + "
+              f"{where}: terminationGracePeriodSeconds {grace} <= preStop {pause} s + "
               f"drain {drain} s")
 
     svc = docs["Service"]
-    check(svc["spec"].get("clusterIP") == "None", "Service: not headless (clusterIP: None)")
+    check(svc["spec"].get("clusterIP") == "None", f"{where}: Service not headless (clusterIP: None)")
     check(svc["spec"]["selector"].items() <= pod_labels.items(),
-          "Service: selector does not match the pods")
+          f"{where}: Service selector does not match the pods")
     svc_ports = svc["spec"]["ports"]
     check(any(p.get("targetPort") in ("grpc", listen_port) for p in svc_ports),
-          "Service: no port to the grpc containerPort")
+          f"{where}: Service has no port to the grpc containerPort")
 
+    if profile["autoscaled"]:
+        check_autoscaled(where, dep, pod["spec"], pod_labels, docs)
+    else:
+        check("HorizontalPodAutoscaler" not in docs,
+              f"{where}: an autoscaler on a single-replica overlay")
+    check_gpu(where, pod["spec"], container, config, profile["gpu"])
+
+
+def check_autoscaled(where, dep, pod_spec, pod_labels, docs):
+    """Autoscaler on CPU from two replicas up, a disruption budget, and replicas kept on
+    different nodes where the nodes allow."""
     hpa = docs["HorizontalPodAutoscaler"]
-    check(hpa["apiVersion"] == "autoscaling/v2", "HPA: not autoscaling/v2")
+    check(hpa["apiVersion"] == "autoscaling/v2", f"{where}: HPA not autoscaling/v2")
     check(hpa["spec"]["scaleTargetRef"]["name"] == dep["metadata"]["name"],
-          "HPA: does not target the Deployment")
+          f"{where}: HPA does not target the Deployment")
     check(any(m["type"] == "Resource" and m["resource"]["name"] == "cpu"
-              for m in hpa["spec"]["metrics"]), "HPA: no CPU metric")
-    check(hpa["spec"]["minReplicas"] >= 2, "HPA: minReplicas below 2")
+              for m in hpa["spec"]["metrics"]), f"{where}: HPA has no CPU metric")
+    check(hpa["spec"]["minReplicas"] >= 2, f"{where}: HPA minReplicas below 2")
 
     pdb = docs["PodDisruptionBudget"]
     check(pdb["spec"]["selector"]["matchLabels"].items() <= pod_labels.items(),
-          "PDB: selector does not match the pods")
+          f"{where}: PDB selector does not match the pods")
 
+    anti = pod_spec.get("affinity", {}).get("podAntiAffinity", {})
+    terms = [t.get("podAffinityTerm", t) for key in (
+        "requiredDuringSchedulingIgnoredDuringExecution",
+        "preferredDuringSchedulingIgnoredDuringExecution") for t in anti.get(key, [])]
+    check(any(t.get("topologyKey") == "kubernetes.io/hostname" and
+              t.get("labelSelector", {}).get("matchLabels", {}).items() <= pod_labels.items()
+              for t in terms),
+          f"{where}: no pod anti-affinity on kubernetes.io/hostname selecting its own pods")
+
+
+def check_gpu(where, pod_spec, container, config, gpu):
+    """A GPU overlay asks for a GPU on nodes that have one and makes OpenCL on the GPU the
+    default; the others ask for none."""
+    limits = container.get("resources", {}).get("limits", {})
+    has_gpu = "nvidia.com/gpu" in limits
+    check(has_gpu == gpu, f"{where}: nvidia.com/gpu limit present is {has_gpu}, wanted {gpu}")
+    if not gpu:
+        return
+    check(int(limits["nvidia.com/gpu"]) >= 1, f"{where}: nvidia.com/gpu limit under 1")
+    check(bool(pod_spec.get("nodeSelector")), f"{where}: no nodeSelector for the GPU pool")
+    check(any(t.get("key") == "nvidia.com/gpu" for t in pod_spec.get("tolerations", [])),
+          f"{where}: no toleration for the GPU pool's nvidia.com/gpu taint")
+    check(config.get("SKINSERVE_DEFAULT_BACKEND") == "opencl",
+          f"{where}: SKINSERVE_DEFAULT_BACKEND is {config.get('SKINSERVE_DEFAULT_BACKEND')!r}, "
+          "not opencl")
+    check(config.get("SKINSERVE_OPENCL_DEVICE") == "gpu",
+          f"{where}: SKINSERVE_OPENCL_DEVICE is not gpu (the first CPU device would be chosen)")
+
+
+def memory_bytes(quantity):
+    m = re.fullmatch(r"([0-9.]+)(Ki|Mi|Gi|Ti|k|M|G|T)?", str(quantity))
+    scale = {None: 1, "Ki": 2**10, "Mi": 2**20, "Gi": 2**30, "Ti": 2**40, "k": 1e3, "M": 1e6,
+             "G": 1e9, "T": 1e12}
+    return float(m.group(1)) * scale[m.group(2)]
+
+
+def check_mesh_budget(where, container, env):
+    """Stored meshes fit in half the memory limit, leaving room for frames and buffers."""
+    limit = container.get("resources", {}).get("limits", {}).get("memory")
+    if limit and "SKINSERVE_MESH_BUDGET_MB" in env:
+        budget = float(env["SKINSERVE_MESH_BUDGET_MB"]) * 2**20
+        check(budget <= memory_bytes(limit) / 2,
+              f"{where}: SKINSERVE_MESH_BUDGET_MB {env['SKINSERVE_MESH_BUDGET_MB']} is over half "
+              f"the memory limit {limit}")
+
+
+def check_repository(root, version):
+    """The image, compose.yaml and the same-host example: one of each, outside the overlays."""
     dockerfile = (root / "deploy" / "Dockerfile").read_text()
     m = re.search(r"^ARG VERSION=(\S+)", dockerfile, re.M)
     check(m and m.group(1) == version, "Dockerfile: ARG VERSION default != project version")
@@ -184,10 +292,36 @@ def main(root):
     check(load["depends_on"]["server"]["condition"] == "service_healthy",
           "compose.yaml: load does not wait for a healthy server")
     check_same_host_compose(compose)
+    base_maps = {d["metadata"]["name"] for d in
+                 yaml.safe_load_all((root / "deploy" / "k8s" / "base" / "configmap.yaml").read_text())
+                 if d and d["kind"] == "ConfigMap"}
     for path in sorted((root / "deploy" / "k8s" / "same-host").glob("*.yaml")):
         for doc in yaml.safe_load_all(path.read_text()):
             if doc and doc["kind"] == "Deployment":
-                check_same_host_pod(path.name, doc, version)
+                check_same_host_pod(path.name, doc, version, base_maps)
+    check_path_mentions(root)
+
+
+# Where the repository names files of deploy/k8s (documentation, comments, scripts).
+MENTION_DIRS = ("docs", "deploy", "scripts", "tests", ".ci")
+MENTION = re.compile(r"deploy/k8s/[A-Za-z0-9_./-]*[A-Za-z0-9_-]")
+
+
+def check_path_mentions(root):
+    """Every deploy/k8s/... path the repository mentions exists (moved files leave none
+    behind in the docs)."""
+    files = [root / "README.md"]
+    for d in MENTION_DIRS:
+        files += [f for f in (root / d).rglob("*") if f.is_file() and f.suffix in
+                  (".md", ".yaml", ".yml", ".sh", ".py", ".txt", "") and "results" not in f.parts]
+    for f in files:
+        try:
+            text = f.read_text()
+        except (UnicodeDecodeError, OSError):
+            continue
+        for m in MENTION.finditer(text):
+            check((root / m.group(0)).exists(),
+                  f"{f.relative_to(root)}: names {m.group(0)}, which does not exist")
 
 
 def effective_env(container, config_maps):
@@ -385,7 +519,7 @@ def check_same_host_compose(compose):
                            shm_dir)
 
 
-def check_same_host_pod(name, dep, version):
+def check_same_host_pod(name, dep, version, base_maps):
     """A pod with skinserve and a client sharing a memory-backed emptyDir."""
     pod = dep["spec"]["template"]["spec"]
     containers = {c["name"]: c for c in pod["containers"]}
@@ -396,6 +530,10 @@ def check_same_host_pod(name, dep, version):
     for c in pod["containers"]:
         check(c["image"].endswith(":" + version), f"{name}: {c['name']} image not {version}")
     check_pod_hardening(name, pod)
+    for source in server.get("envFrom", []):
+        ref = source.get("configMapRef", {}).get("name")
+        check(ref in base_maps, f"{name}: envFrom ConfigMap {ref} is not in base/configmap.yaml")
+    check_sizing(name, server, {e["name"]: e.get("value") for e in server.get("env", [])})
     tcp, sockets = listen_addresses(
         next((e.get("value") for e in server.get("env", []) if e["name"] == "SKINSERVE_LISTEN"),
              ""))

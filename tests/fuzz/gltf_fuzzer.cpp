@@ -8,6 +8,7 @@
 #include <span>
 
 #include "skinserve/character/animation.h"
+#include "skinserve/character/character_mesh.h"
 #include "skinserve/character/gltf_import.h"
 #include "skinserve/model/mesh.h"
 
@@ -20,6 +21,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (const SkinnedPrimitive& primitive : character->primitives) {
     (void)Mesh::Create(primitive.arrays, MeshOptions{});
   }
+  // The whole character as it travels: skinned primitives and rigid parts grouped.
+  const auto meshes = CharacterMeshes(*character);
   std::vector<const AnimationClip*> clips{nullptr};  // nullptr: the rest pose
   for (const AnimationClip& clip : character->clips) clips.push_back(&clip);
   for (const AnimationClip* clip : clips) {
@@ -29,6 +32,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       for (int skin = 0; skin < static_cast<int>(character->skins.size()); ++skin) {
         (void)SkinPalette(*character, pose, skin);
       }
+      if (meshes.ok()) (void)MeshPalettes(*character, pose, *meshes);
     }
   }
   return 0;

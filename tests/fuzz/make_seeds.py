@@ -156,6 +156,57 @@ def gltf_seed():
     write("gltf_fuzzer", "skinned_triangle.gltf", json.dumps(doc).encode())
 
 
+def gltf_rigid_quantized_seed():
+    # A rigid part (a mesh node without a skin) under an animated node, stored as
+    # KHR_mesh_quantization writes it: int16 positions dequantized by the node's scale, one
+    # vertex substituted through a sparse accessor (uint8 index), int8 normalized normals.
+    positions = struct.pack("<12h", 0, 0, 0, 0, 7, 7, 7, 0, 0, 100, 0, 0)  # 3 x (xyz + pad)
+    normals = struct.pack("<12b", 0, 0, 127, 0, 0, 0, 127, 0, 0, 0, 127, 0)
+    sparse_index = bytes([1, 0, 0, 0])
+    sparse_value = struct.pack("<3h", 100, 0, 0) + b"\0\0"
+    times = floats([0, 1])
+    rotations = struct.pack("<8h", 0, 0, 0, 32767, 0, 0, 23170, 23170)  # normalized short
+    indices = struct.pack("<3H", 0, 1, 2) + b"\0\0"
+    parts = [positions, normals, sparse_index, sparse_value, times, rotations, indices]
+    views, offset = [], 0
+    for p in parts:
+        views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(p)})
+        offset += len(p)
+    views[0]["byteStride"] = 8
+    views[1]["byteStride"] = 4
+    blob = b"".join(parts)
+    acc = [
+        {"bufferView": 0, "componentType": 5122, "count": 3, "type": "VEC3",
+         "min": [0, 0, 0], "max": [100, 100, 0],
+         "sparse": {"count": 1, "indices": {"bufferView": 2, "componentType": 5121},
+                    "values": {"bufferView": 3}}},
+        {"bufferView": 1, "componentType": 5120, "normalized": True, "count": 3, "type": "VEC3"},
+        {"bufferView": 4, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]},
+        {"bufferView": 5, "componentType": 5122, "normalized": True, "count": 2, "type": "VEC4"},
+        {"bufferView": 6, "componentType": 5123, "count": 3, "type": "SCALAR"},
+    ]
+    doc = {
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_mesh_quantization"],
+        "extensionsRequired": ["KHR_mesh_quantization"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"name": "arm", "children": [1]},
+                  {"name": "prop", "mesh": 0, "translation": [0.5, 0, 0],
+                   "scale": [0.01, 0.01, 0.01]}],
+        "meshes": [{"name": "plate", "primitives": [{"attributes": {
+            "POSITION": 0, "NORMAL": 1}, "indices": 4}]}],
+        "animations": [{"name": "swing", "samplers": [
+            {"input": 2, "output": 3, "interpolation": "LINEAR"}],
+            "channels": [{"sampler": 0, "target": {"node": 0, "path": "rotation"}}]}],
+        "accessors": acc,
+        "bufferViews": views,
+        "buffers": [{"byteLength": len(blob),
+                     "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],
+    }
+    write("gltf_fuzzer", "rigid_quantized_sparse.gltf", json.dumps(doc).encode())
+
+
 def response_seeds():
     # RawPart's inputs: a first byte choosing the slice length, then a SkinResponse.
     def part(slice_byte, text):
@@ -187,4 +238,5 @@ if __name__ == "__main__":
     upload_seeds()
     request_seeds()
     gltf_seed()
+    gltf_rigid_quantized_seed()
     response_seeds()

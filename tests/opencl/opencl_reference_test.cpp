@@ -1,5 +1,6 @@
 // Both OpenCL backends against the float64 reference where the OpenCL code has its own
-// cases: every kernel (B = 1..8, with and without normals), vertex counts around a
+// cases: every kernel (B = 1..8, with and without normals, linear blending and dual
+// quaternions, each against its own reference), vertex counts around a
 // work-item's 4 vertices and a work-group's 256 (the last item clamps, items past the end
 // return), palettes of 1 to 1024 joints (48 KB), and outputs and palettes that are not
 // 64-byte aligned (the zero-copy backend wraps them in place).
@@ -39,6 +40,10 @@ TEST_P(OpenClReferenceTest, MatchesTheFloat64Reference) {
   const auto palette = MakeSyntheticPalette(c.joints, CaseSeed(c), 3);
   ExpectFrameMatchesReference(backend, **prepared, *mesh, palette, c, SkinningMethod::kLinear,
                               "frame 3");
+  // The same prepared mesh in dual quaternions (dqs_* kernels), on a rigid palette.
+  const auto rigid = MakeRigidPalette(c.joints, CaseSeed(c), 3);
+  ExpectFrameMatchesReference(backend, **prepared, *mesh, rigid, c, SkinningMethod::kDualQuaternion,
+                              "rigid frame 3");
 }
 
 INSTANTIATE_TEST_SUITE_P(OpenCl, OpenClReferenceTest,

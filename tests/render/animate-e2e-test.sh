@@ -9,6 +9,10 @@
 #                                                  primitive, every vertex, one image
 #     skinserve-cli animate --primitive 1          that primitive alone
 #     skinserve-load --mesh                        the whole character, answers checked
+#   a hand-made character with rigid parts (skinserve-test-scene rigid-parts):
+#     skinserve-cli upload                         the rigid parts in the skin's meshes
+#     skinserve-cli animate --render               every vertex of every part, one image
+#     skinserve-load --mesh                        the whole character, answers checked
 # The characters are the repository's (tests/assets/gltf); a missing one fails the test.
 # usage: animate-e2e-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD ASSETS-DIR TEST-SCENE
 set -euo pipefail
@@ -138,6 +142,37 @@ say "skinserve-load --mesh two-skins.glb"
 timeout 120 "$load" --target "$target" --mesh "$two" --backends sse --duration 1 --warmup 0 \
   --check-every 3 --json "$work/two-load.json" || fail "skinserve-load --mesh two-skins exited $?"
 python3 - "$work/two-load.json" "$total" <<'PY' || fail "two-skins load report"
+import json, sys
+results = json.load(open(sys.argv[1]))["results"]
+for r in results:
+    assert r["vertices"] == int(sys.argv[2]) and r["frames"] > 0 and r["checked"] > 0, r
+    assert r["mismatches"] == 0 and not r["errors"], r
+PY
+# ---- a character with rigid parts (meshes on nodes without a skin) ----------------------
+rigid=$work/rigid-parts.glb
+facts=$("$scene" rigid-parts "$rigid") || fail "skinserve-test-scene exited $?"
+say "rigid-parts.glb: $facts"
+total=${facts%% vertices*}
+names=${facts#*primitives: }
+"$cli" --target "$target" upload "$rigid" >"$work/rigid-upload.txt" || fail "upload exited $?"
+uploaded=$(grep -c '^  .*: vertices' "$work/rigid-upload.txt" || true)
+[ "$uploaded" -eq "$(echo "$names" | wc -w)" ] ||
+  fail "upload listed $uploaded primitives, the file has $names: $(cat "$work/rigid-upload.txt")"
+
+say "skinserve-cli animate rigid-parts.glb --render"
+timeout 120 "$cli" --target "$target" animate "$rigid" --fps 10 --seconds 0.5 --backend sse \
+  --render --width 160 --height 160 --out "$work/rigid" || fail "animate exited $?"
+[ -s "$work/rigid/frame_0004.png" ] || fail "rigid-parts frame_0004.png missing or empty"
+vertices=$(grep -c '^v ' "$work/rigid/frame_0004.obj")
+[ "$vertices" -eq "$total" ] || fail "frame_0004.obj has $vertices vertices, the character $total"
+groups=$(grep '^g ' "$work/rigid/frame_0004.obj" | cut -d' ' -f2- | sort | tr '\n' ' ' | sed 's/ $//')
+expected=$(echo "$names" | tr ' ' '\n' | sort | tr '\n' ' ' | sed 's/ $//')
+[ "$groups" = "$expected" ] || fail "frame_0004.obj groups '$groups', primitives '$expected'"
+
+say "skinserve-load --mesh rigid-parts.glb"
+timeout 120 "$load" --target "$target" --mesh "$rigid" --backends sse --duration 1 --warmup 0 \
+  --check-every 3 --json "$work/rigid-load.json" || fail "skinserve-load --mesh rigid-parts exited $?"
+python3 - "$work/rigid-load.json" "$total" <<'PY' || fail "rigid-parts load report"
 import json, sys
 results = json.load(open(sys.argv[1]))["results"]
 for r in results:

@@ -1,5 +1,6 @@
 """TLS, mutual TLS, the authorization policy and the call limits through the Python
-client, against a real server with certificates made here (scripts/make-dev-certs.sh)."""
+clients (blocking and asyncio), against a real server with certificates made here (scripts/make-dev-certs.sh)."""
+import asyncio
 import os
 import signal
 import subprocess
@@ -76,6 +77,31 @@ def test_the_right_certificate_works(tls_server, certs, rng):
         for got, palette in zip(client.stream(mesh_id, palettes, backend="sse", window=4),
                                 palettes):
             assert max_error(got, skin(*mesh, palette)[0]) <= POSITION_TOLERANCE
+
+
+def test_the_async_client_speaks_mutual_tls(tls_server, certs, rng):
+    mesh = random_mesh(rng, 2001, 2, JOINTS)
+    palettes = [random_palette(rng, JOINTS) for _ in range(6)]
+
+    async def main():
+        async with skinserve.AsyncClient(tls_server, timeout=5, tls_ca=str(certs / "ca.pem"),
+                                         tls_cert=str(certs / "renderer.pem"),
+                                         tls_key=str(certs / "renderer.key")) as client:
+            mesh_id = await client.upload(*mesh)
+            single = await client.skin(mesh_id, palettes[0], backend="sse")
+            return [single] + [f async for f in client.stream(mesh_id, palettes[1:],
+                                                              backend="sse", window=2)]
+    frames = asyncio.run(asyncio.wait_for(main(), timeout=60))
+    assert len(frames) == len(palettes)
+    for got, palette in zip(frames, palettes):
+        assert max_error(got, skin(*mesh, palette)[0]) <= POSITION_TOLERANCE
+
+    async def plaintext():
+        async with skinserve.AsyncClient(tls_server, timeout=5) as client:
+            await client.backends()
+    with pytest.raises(skinserve.SkinserveError) as refused:
+        asyncio.run(plaintext())
+    assert refused.value.code == grpc.StatusCode.UNAVAILABLE, refused.value
 
 
 def test_a_plaintext_client_is_refused(tls_server):
@@ -157,6 +183,40 @@ def test_a_frozen_server_ends_calls_and_streams_in_time(binary, rng, tmp_path):
                 client.backends()
             assert late.value.code == grpc.StatusCode.DEADLINE_EXCEEDED
             assert time.monotonic() - started < 3
+    finally:
+        process.send_signal(signal.SIGCONT)
+        process.kill()
+        process.wait()
+
+
+def test_a_frozen_server_ends_async_calls_and_streams_in_time(binary, rng, tmp_path):
+    """The same for AsyncClient: its stream's idle limit is its read loop's, not a thread."""
+    process, target = start(binary, tmp_path)
+
+    async def main():
+        async with skinserve.AsyncClient(target, timeout=1, stream_idle_timeout=1,
+                                         keepalive=None, max_reconnects=0) as client:
+            mesh = random_mesh(rng, 1001, 2, JOINTS)
+            mesh_id = await client.upload(*mesh)
+            palettes = [random_palette(rng, JOINTS) for _ in range(400)]
+            frames = client.stream(mesh_id, palettes, backend="sse", window=4)
+            first = await frames.__anext__()
+            assert max_error(first, skin(*mesh, palettes[0])[0]) <= POSITION_TOLERANCE
+            freeze(process)
+            started = time.monotonic()
+            with pytest.raises(skinserve.SkinserveError) as idle:
+                async for _ in frames:
+                    pass
+            took = time.monotonic() - started
+            assert idle.value.code == grpc.StatusCode.DEADLINE_EXCEEDED, idle.value
+            assert took < 3, took
+            started = time.monotonic()
+            with pytest.raises(skinserve.SkinserveError) as late:
+                await client.backends()
+            assert late.value.code == grpc.StatusCode.DEADLINE_EXCEEDED
+            assert time.monotonic() - started < 3
+    try:
+        asyncio.run(asyncio.wait_for(main(), timeout=60))
     finally:
         process.send_signal(signal.SIGCONT)
         process.kill()

@@ -18,7 +18,7 @@ Result<Camera> CharacterCamera(const Character& character, std::span<const Chara
   glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
   for (const Pose& pose : poses) {
     for (const CharacterMesh& mesh : meshes) {
-      auto palette = SkinPalette(character, pose, mesh.skin);
+      auto palette = MeshPalette(character, pose, mesh);
       if (!palette.ok()) return palette.status();
       const MeshArrays& a = mesh.arrays;
       const std::size_t b = a.influences;

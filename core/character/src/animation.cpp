@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <string>
 
 #include <glm/gtc/quaternion.hpp>
 #include <glm/mat4x4.hpp>
@@ -147,22 +148,19 @@ Pose SampleClip(const Character& character, const AnimationClip& clip, double se
   return pose;
 }
 
-Result<std::vector<float>> SkinPalette(const Character& character, const Pose& pose, int skin) {
-  if (skin < 0 || static_cast<std::size_t>(skin) >= character.skins.size()) {
-    return InvalidArgument(fmt::format("skin {} is not a skin of the character (it has {})", skin,
-                                       character.skins.size()));
-  }
+namespace {
+
+// palette[k] = model(nodes[k]) * inverse_bind[k] (identity when `inverse_bind` is null).
+// `what` and `field` name the node list in errors ("skins[0]", "joints").
+Result<std::vector<float>> NodeMatrices(const Character& character, const Pose& pose,
+                                        const std::vector<int>& nodes,
+                                        const std::vector<glm::mat4>* inverse_bind,
+                                        const std::string& what, const char* field) {
   const std::size_t node_count = character.nodes.size();
   if (pose.size() != node_count) {
     return InvalidArgument(
         fmt::format("pose has {} nodes; the character has {}", pose.size(), node_count));
   }
-  const CharacterSkin& s = character.skins[static_cast<std::size_t>(skin)];
-  if (s.inverse_bind.size() != s.joints.size()) {
-    return InvalidArgument(fmt::format("skins[{}] has {} inverse bind matrices for {} joints", skin,
-                                       s.inverse_bind.size(), s.joints.size()));
-  }
-
   // Model matrices on demand, root down, whatever the order of nodes in the array:
   // 0 = not yet, 1 = on the current walk up (seen again: a cycle), 2 = done.
   std::vector<glm::dmat4> model(node_count);
@@ -194,25 +192,47 @@ Result<std::vector<float>> SkinPalette(const Character& character, const Pose& p
     return Status::Ok();
   };
 
-  std::vector<float> palette(kFloatsPerJoint * s.joints.size());
-  for (std::size_t j = 0; j < s.joints.size(); ++j) {
-    const int node = s.joints[j];
+  std::vector<float> palette(kFloatsPerJoint * nodes.size());
+  for (std::size_t j = 0; j < nodes.size(); ++j) {
+    const int node = nodes[j];
     if (node < 0 || static_cast<std::size_t>(node) >= node_count) {
-      return InvalidArgument(fmt::format("skins[{}].joints[{}] = {} is not a node (there are {})",
-                                         skin, j, node, node_count));
+      return InvalidArgument(fmt::format("{}.{}[{}] = {} is not a node (there are {})", what, field,
+                                         j, node, node_count));
     }
     if (Status st = compute(static_cast<std::size_t>(node)); !st.ok()) return st;
-    const glm::dmat4 m = model[static_cast<std::size_t>(node)] * glm::dmat4(s.inverse_bind[j]);
+    glm::dmat4 m = model[static_cast<std::size_t>(node)];
+    if (inverse_bind != nullptr) m = m * glm::dmat4((*inverse_bind)[j]);
     // glm is column-major; the palette is row-major 3x4 (palette.h).
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 4; ++c)
         palette[kFloatsPerJoint * j + 4 * r + c] = static_cast<float>(m[c][r]);
     }
   }
-  if (Status st = ValidatePalette(palette, static_cast<uint32_t>(s.joints.size())); !st.ok()) {
-    return InvalidArgument(fmt::format("skins[{}]: {}", skin, st.message()));
+  if (Status st = ValidatePalette(palette, static_cast<uint32_t>(nodes.size())); !st.ok()) {
+    return InvalidArgument(fmt::format("{}: {}", what, st.message()));
   }
   return palette;
+}
+
+}  // namespace
+
+Result<std::vector<float>> SkinPalette(const Character& character, const Pose& pose, int skin) {
+  if (skin < 0 || static_cast<std::size_t>(skin) >= character.skins.size()) {
+    return InvalidArgument(fmt::format("skin {} is not a skin of the character (it has {})", skin,
+                                       character.skins.size()));
+  }
+  const CharacterSkin& s = character.skins[static_cast<std::size_t>(skin)];
+  if (s.inverse_bind.size() != s.joints.size()) {
+    return InvalidArgument(fmt::format("skins[{}] has {} inverse bind matrices for {} joints", skin,
+                                       s.inverse_bind.size(), s.joints.size()));
+  }
+  return NodeMatrices(character, pose, s.joints, &s.inverse_bind, fmt::format("skins[{}]", skin),
+                      "joints");
+}
+
+Result<std::vector<float>> NodePalette(const Character& character, const Pose& pose,
+                                       const std::vector<int>& nodes) {
+  return NodeMatrices(character, pose, nodes, nullptr, "rigid parts", "nodes");
 }
 
 }  // namespace skinserve

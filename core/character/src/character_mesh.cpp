@@ -10,8 +10,9 @@
 namespace skinserve {
 namespace {
 
-// Appends `p` to `mesh`, padding its influences to the mesh's.
-void Append(const SkinnedPrimitive& p, int index, CharacterMesh* mesh) {
+// Appends `p` to `mesh`, padding its influences to the mesh's. A rigid part's vertices get
+// joint `rigid_joint` (its node's palette entry), weight 1.
+void Append(const SkinnedPrimitive& p, int index, uint16_t rigid_joint, CharacterMesh* mesh) {
   MeshArrays& a = mesh->arrays;
   const uint32_t first = a.vertex_count;
   const uint32_t b = a.influences;
@@ -21,7 +22,8 @@ void Append(const SkinnedPrimitive& p, int index, CharacterMesh* mesh) {
   for (uint32_t v = 0; v < p.arrays.vertex_count; ++v) {
     for (uint32_t i = 0; i < b; ++i) {
       const bool real = i < pb;
-      a.joints.push_back(real ? p.arrays.joints[std::size_t{v} * pb + i] : 0);
+      const uint16_t joint = p.rigid() ? rigid_joint : p.arrays.joints[std::size_t{v} * pb + i];
+      a.joints.push_back(real ? joint : 0);
       a.weights.push_back(real ? p.arrays.weights[std::size_t{v} * pb + i] : 0.0f);
     }
   }
@@ -36,13 +38,24 @@ void Append(const SkinnedPrimitive& p, int index, CharacterMesh* mesh) {
                          .index_count = p.indices.size()});
 }
 
+std::size_t SkinJoints(const Character& character, int skin) {
+  if (skin < 0 || static_cast<std::size_t>(skin) >= character.skins.size()) return 0;
+  return character.skins[static_cast<std::size_t>(skin)].joints.size();
+}
+
 }  // namespace
 
 Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, int only) {
   const auto& primitives = character.primitives;
   if (only >= 0 && static_cast<std::size_t>(only) >= primitives.size()) {
-    return InvalidArgument(fmt::format("primitive {} is not below the {} skinned primitive(s)",
-                                       only, primitives.size()));
+    return InvalidArgument(
+        fmt::format("primitive {} is not below the {} primitive(s)", only, primitives.size()));
+  }
+  auto taken = [&](std::size_t i) { return only < 0 || static_cast<std::size_t>(only) == i; };
+  // Rigid parts go with the first skin taken (-1: none).
+  int rigid_skin = -1;
+  for (std::size_t i = 0; i < primitives.size() && rigid_skin < 0; ++i) {
+    if (taken(i) && !primitives[i].rigid()) rigid_skin = primitives[i].skin;
   }
   // Which primitives go together: same skin, same presence of normals; meshes in order of
   // their first primitive.
@@ -50,8 +63,9 @@ Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, i
   std::map<std::pair<int, bool>, std::vector<int>> groups;
   bool split_on_normals = false;
   for (std::size_t i = 0; i < primitives.size(); ++i) {
-    if (only >= 0 && static_cast<std::size_t>(only) != i) continue;
-    const std::pair<int, bool> key{primitives[i].skin, !primitives[i].arrays.normals.empty()};
+    if (!taken(i)) continue;
+    const int skin = primitives[i].rigid() ? rigid_skin : primitives[i].skin;
+    const std::pair<int, bool> key{skin, !primitives[i].arrays.normals.empty()};
     if (groups.find(key) == groups.end()) keys.push_back(key);
     groups[key].push_back(static_cast<int>(i));
     split_on_normals |= groups.count({key.first, !key.second}) > 0;
@@ -62,21 +76,26 @@ Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, i
     const std::vector<int>& members = groups[key];
     CharacterMesh mesh;
     mesh.skin = key.first;
-    const std::string skin_name =
-        mesh.skin >= 0 && static_cast<std::size_t>(mesh.skin) < character.skins.size() &&
-                !character.skins[static_cast<std::size_t>(mesh.skin)].name.empty()
-            ? character.skins[static_cast<std::size_t>(mesh.skin)].name
-            : fmt::format("skins[{}]", mesh.skin);
-    mesh.name = skin_name;
+    if (mesh.skin < 0) {
+      mesh.name = "rigid parts";
+    } else if (static_cast<std::size_t>(mesh.skin) < character.skins.size() &&
+               !character.skins[static_cast<std::size_t>(mesh.skin)].name.empty()) {
+      mesh.name = character.skins[static_cast<std::size_t>(mesh.skin)].name;
+    } else {
+      mesh.name = fmt::format("skins[{}]", mesh.skin);
+    }
     if (split_on_normals && groups.count({key.first, !key.second}) > 0) {
       mesh.name += key.second ? " (normals)" : " (no normals)";
     }
     uint64_t vertices = 0;
     for (int i : members) {
-      const MeshArrays& a = primitives[static_cast<std::size_t>(i)].arrays;
-      vertices += a.vertex_count;
-      mesh.arrays.influences = std::max(mesh.arrays.influences, a.influences);
-      mesh.arrays.joint_count = std::max(mesh.arrays.joint_count, a.joint_count);
+      const SkinnedPrimitive& p = primitives[static_cast<std::size_t>(i)];
+      vertices += p.arrays.vertex_count;
+      mesh.arrays.influences = std::max(mesh.arrays.influences, p.arrays.influences);
+      if (p.rigid() && std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) ==
+                           mesh.rigid_nodes.end()) {
+        mesh.rigid_nodes.push_back(p.node);
+      }
     }
     if (vertices > std::numeric_limits<uint32_t>::max()) {
       return InvalidArgument(
@@ -84,25 +103,50 @@ Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, i
                       "most {}",
                       mesh.name, vertices, std::numeric_limits<uint32_t>::max()));
     }
-    for (int i : members) Append(primitives[static_cast<std::size_t>(i)], i, &mesh);
+    const std::size_t skin_joints = SkinJoints(character, mesh.skin);
+    const std::size_t joints = skin_joints + mesh.rigid_nodes.size();
+    if (joints > kMaxJointsLimit) {
+      return InvalidArgument(fmt::format(
+          "{}: its skin's {} joints and {} rigid part nodes make {} palette entries; at most {}",
+          mesh.name, skin_joints, mesh.rigid_nodes.size(), joints, kMaxJointsLimit));
+    }
+    mesh.arrays.joint_count = static_cast<uint32_t>(joints);
+    for (int i : members) {
+      const SkinnedPrimitive& p = primitives[static_cast<std::size_t>(i)];
+      const auto place = static_cast<std::size_t>(
+          std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) -
+          mesh.rigid_nodes.begin());
+      Append(p, i, static_cast<uint16_t>(skin_joints + place), &mesh);
+    }
     meshes.push_back(std::move(mesh));
   }
   return meshes;
 }
 
+Result<std::vector<float>> MeshPalette(const Character& character, const Pose& pose,
+                                       const CharacterMesh& mesh) {
+  std::vector<float> palette;
+  if (mesh.skin >= 0) {
+    auto skin = SkinPalette(character, pose, mesh.skin);
+    if (!skin.ok()) return skin.status();
+    palette = std::move(*skin);
+  }
+  if (!mesh.rigid_nodes.empty()) {
+    auto nodes = NodePalette(character, pose, mesh.rigid_nodes);
+    if (!nodes.ok()) return nodes.status();
+    palette.insert(palette.end(), nodes->begin(), nodes->end());
+  }
+  return palette;
+}
+
 Result<std::vector<std::vector<float>>> MeshPalettes(const Character& character, const Pose& pose,
                                                      const std::vector<CharacterMesh>& meshes) {
-  std::map<int, std::vector<float>> by_skin;
   std::vector<std::vector<float>> palettes;
   palettes.reserve(meshes.size());
   for (const CharacterMesh& mesh : meshes) {
-    auto known = by_skin.find(mesh.skin);
-    if (known == by_skin.end()) {
-      auto palette = SkinPalette(character, pose, mesh.skin);
-      if (!palette.ok()) return palette.status();
-      known = by_skin.emplace(mesh.skin, std::move(*palette)).first;
-    }
-    palettes.push_back(known->second);
+    auto palette = MeshPalette(character, pose, mesh);
+    if (!palette.ok()) return palette.status();
+    palettes.push_back(std::move(*palette));
   }
   return palettes;
 }

@@ -97,6 +97,67 @@ const char* ComponentTypeName(int component_type) {
   }
 }
 
+namespace {
+
+// The bytes of bufferView `view_index` from `byte_offset` that hold `count` elements of
+// `element_size` bytes, `stride` apart, after checking that the view lies inside its
+// buffer and the elements inside the view. `label` names the reader in messages
+// ("accessor 3", "accessor 3 sparse.indices").
+Result<const uint8_t*> ViewBytes(const tinygltf::Model& model, int view_index,
+                                 std::size_t byte_offset, std::size_t element_size,
+                                 std::size_t stride, std::size_t count, const std::string& what,
+                                 const std::string& label) {
+  if (view_index < 0 || static_cast<std::size_t>(view_index) >= model.bufferViews.size()) {
+    return InvalidArgument(
+        fmt::format("{}: {} refers to bufferView {}, which does not exist (the file has {})", what,
+                    label, view_index, model.bufferViews.size()));
+  }
+  const tinygltf::BufferView& view = model.bufferViews[static_cast<std::size_t>(view_index)];
+  if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model.buffers.size()) {
+    return InvalidArgument(
+        fmt::format("{}: bufferView {} refers to buffer {}, which does not "
+                    "exist (the file has {})",
+                    what, view_index, view.buffer, model.buffers.size()));
+  }
+  const std::vector<unsigned char>& buffer =
+      model.buffers[static_cast<std::size_t>(view.buffer)].data;
+  if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset) {
+    return InvalidArgument(fmt::format(
+        "{}: bufferView {} (byteOffset {}, byteLength {}) reaches past buffer {} of {} bytes", what,
+        view_index, view.byteOffset, view.byteLength, view.buffer, buffer.size()));
+  }
+  // (count - 1) * stride <= room, written as a division so that no product can overflow.
+  const bool fits = byte_offset <= view.byteLength &&
+                    element_size <= view.byteLength - byte_offset &&
+                    count - 1 <= (view.byteLength - byte_offset - element_size) / stride;
+  if (!fits) {
+    return InvalidArgument(fmt::format(
+        "{}: {} reads past bufferView {}: byteOffset {} + stride {} * (count {} - 1) + "
+        "element size {} exceeds byteLength {}",
+        what, label, view_index, byte_offset, stride, count, element_size, view.byteLength));
+  }
+  return buffer.data() + view.byteOffset + byte_offset;
+}
+
+uint32_t ReadIndex(const uint8_t* p, int component_type) {
+  switch (component_type) {
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return *p;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      uint16_t v;
+      std::memcpy(&v, p, sizeof v);
+      return v;
+    }
+    default: {
+      uint32_t v;
+      std::memcpy(&v, p, sizeof v);
+      return v;
+    }
+  }
+}
+
+}  // namespace
+
 Result<AccessorReader> AccessorReader::Open(const tinygltf::Model& model, int index,
                                             const std::string& what, int type,
                                             std::initializer_list<int> component_types) {
@@ -115,12 +176,6 @@ Result<AccessorReader> AccessorReader::Open(const tinygltf::Model& model, int in
         "{}: accessor {} has componentType {} ({}); allowed: {}", what, index, a.componentType,
         ComponentTypeName(a.componentType), AllowedNames(component_types)));
   }
-  // Sparse substitution is rare in skinned characters; refusing it is better than reading
-  // the base values and skinning the wrong shape.
-  if (a.sparse.isSparse) {
-    return InvalidArgument(
-        fmt::format("{}: accessor {} is sparse; sparse accessors are not supported", what, index));
-  }
   if (a.count == 0) {
     return InvalidArgument(
         fmt::format("{}: accessor {} has count 0; the minimum is 1", what, index));
@@ -132,57 +187,93 @@ Result<AccessorReader> AccessorReader::Open(const tinygltf::Model& model, int in
   r.components_ = ComponentCount(type);
   r.component_type_ = a.componentType;
   r.component_size_ = ComponentSize(a.componentType);
-  const std::size_t element_size = r.component_size_ * static_cast<std::size_t>(r.components_);
-  if (a.bufferView < 0) return r;  // the spec's all-zero accessor: data_ stays null
+  r.normalized_ = a.normalized && a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT;
+  r.element_size_ = r.component_size_ * static_cast<std::size_t>(r.components_);
+  const std::string label = fmt::format("accessor {}", index);
 
-  if (static_cast<std::size_t>(a.bufferView) >= model.bufferViews.size()) {
+  if (a.bufferView >= 0) {  // else the spec's all-zero base: data_ stays null
+    const std::size_t view_stride =
+        static_cast<std::size_t>(a.bufferView) < model.bufferViews.size()
+            ? model.bufferViews[static_cast<std::size_t>(a.bufferView)].byteStride
+            : 0;
+    r.stride_ = view_stride == 0 ? r.element_size_ : view_stride;
+    if (r.stride_ < r.element_size_) {
+      return InvalidArgument(fmt::format(
+          "{}: bufferView {} has byteStride {}, smaller than accessor {}'s element of {} bytes",
+          what, a.bufferView, view_stride, index, r.element_size_));
+    }
+    auto data = ViewBytes(model, a.bufferView, a.byteOffset, r.element_size_, r.stride_, a.count,
+                          what, label);
+    if (!data.ok()) return data.status();
+    r.data_ = *data;
+  }
+
+  if (!a.sparse.isSparse) return r;
+  // Sparse substitution (glTF 2.0 3.6.2.3): `count` strictly increasing indices, each
+  // below the accessor's count, and as many tightly packed values of the accessor's type.
+  const auto& sparse = a.sparse;
+  if (sparse.count < 1 || static_cast<std::size_t>(sparse.count) > a.count) {
+    return InvalidArgument(fmt::format("{}: accessor {} sparse.count is {}; must be 1..{}", what,
+                                       index, sparse.count, a.count));
+  }
+  const int index_type = sparse.indices.componentType;
+  if (index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT) {
+    return InvalidArgument(fmt::format(
+        "{}: accessor {} sparse.indices.componentType is {} ({}); allowed: UNSIGNED_BYTE, "
+        "UNSIGNED_SHORT, UNSIGNED_INT",
+        what, index, index_type, ComponentTypeName(index_type)));
+  }
+  if (sparse.indices.byteOffset < 0 || sparse.values.byteOffset < 0) {
     return InvalidArgument(
-        fmt::format("{}: accessor {} refers to bufferView {}, which does not "
-                    "exist (the file has {})",
-                    what, index, a.bufferView, model.bufferViews.size()));
+        fmt::format("{}: accessor {} sparse byteOffset is negative", what, index));
   }
-  const tinygltf::BufferView& view = model.bufferViews[static_cast<std::size_t>(a.bufferView)];
-  if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model.buffers.size()) {
-    return InvalidArgument(
-        fmt::format("{}: bufferView {} refers to buffer {}, which does not "
-                    "exist (the file has {})",
-                    what, a.bufferView, view.buffer, model.buffers.size()));
+  const auto n = static_cast<std::size_t>(sparse.count);
+  const std::size_t index_size = ComponentSize(index_type);
+  auto indices = ViewBytes(model, sparse.indices.bufferView,
+                           static_cast<std::size_t>(sparse.indices.byteOffset), index_size,
+                           index_size, n, what, label + " sparse.indices");
+  if (!indices.ok()) return indices.status();
+  auto values =
+      ViewBytes(model, sparse.values.bufferView, static_cast<std::size_t>(sparse.values.byteOffset),
+                r.element_size_, r.element_size_, n, what, label + " sparse.values");
+  if (!values.ok()) return values.status();
+  r.sparse_indices_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const uint32_t e = ReadIndex(*indices + k * index_size, index_type);
+    if (e >= a.count) {
+      return InvalidArgument(
+          fmt::format("{}: accessor {} sparse.indices[{}] = {} is not below its count {}", what,
+                      index, k, e, a.count));
+    }
+    if (k > 0 && e <= r.sparse_indices_[k - 1]) {
+      return InvalidArgument(fmt::format(
+          "{}: accessor {} sparse.indices[{}] = {} does not increase (the one before is {})", what,
+          index, k, e, r.sparse_indices_[k - 1]));
+    }
+    r.sparse_indices_[k] = e;
   }
-  const std::vector<unsigned char>& buffer =
-      model.buffers[static_cast<std::size_t>(view.buffer)].data;
-  if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset) {
-    return InvalidArgument(fmt::format(
-        "{}: bufferView {} (byteOffset {}, byteLength {}) reaches past buffer {} of {} bytes", what,
-        a.bufferView, view.byteOffset, view.byteLength, view.buffer, buffer.size()));
-  }
-  r.stride_ = view.byteStride == 0 ? element_size : view.byteStride;
-  if (r.stride_ < element_size) {
-    return InvalidArgument(fmt::format(
-        "{}: bufferView {} has byteStride {}, smaller than accessor {}'s element of {} bytes", what,
-        a.bufferView, view.byteStride, index, element_size));
-  }
-  // (count - 1) * stride <= room, written as a division so that no product can overflow.
-  const bool fits = a.byteOffset <= view.byteLength &&
-                    element_size <= view.byteLength - a.byteOffset &&
-                    a.count - 1 <= (view.byteLength - a.byteOffset - element_size) / r.stride_;
-  if (!fits) {
-    return InvalidArgument(fmt::format(
-        "{}: accessor {} reads past bufferView {}: byteOffset {} + stride {} * (count {} - 1) + "
-        "element size {} exceeds byteLength {}",
-        what, index, a.bufferView, a.byteOffset, r.stride_, a.count, element_size,
-        view.byteLength));
-  }
-  r.data_ = buffer.data() + view.byteOffset + a.byteOffset;
+  r.sparse_values_ = *values;
   return r;
 }
 
 const uint8_t* AccessorReader::Address(std::size_t e, int c) const {
-  return data_ + e * stride_ + static_cast<std::size_t>(c) * component_size_;
+  const std::size_t offset = static_cast<std::size_t>(c) * component_size_;
+  if (!sparse_indices_.empty()) {
+    const auto it = std::lower_bound(sparse_indices_.begin(), sparse_indices_.end(), e);
+    if (it != sparse_indices_.end() && *it == e) {
+      return sparse_values_ +
+             static_cast<std::size_t>(it - sparse_indices_.begin()) * element_size_ + offset;
+    }
+  }
+  if (data_ == nullptr) return nullptr;
+  return data_ + e * stride_ + offset;
 }
 
 uint32_t AccessorReader::Uint(std::size_t e, int c) const {
-  if (data_ == nullptr) return 0;
   const uint8_t* p = Address(e, c);
+  if (p == nullptr) return 0;
   switch (component_type_) {
     case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
       return *p;
@@ -202,8 +293,8 @@ uint32_t AccessorReader::Uint(std::size_t e, int c) const {
 }
 
 float AccessorReader::Normalized(std::size_t e, int c) const {
-  if (data_ == nullptr) return 0.0f;
   const uint8_t* p = Address(e, c);
+  if (p == nullptr) return 0.0f;
   switch (component_type_) {
     case TINYGLTF_COMPONENT_TYPE_FLOAT: {
       float v;
@@ -229,6 +320,26 @@ float AccessorReader::Normalized(std::size_t e, int c) const {
     }
     default:
       return 0.0f;  // Open() admits only the types its caller reads
+  }
+}
+
+float AccessorReader::Value(std::size_t e, int c) const {
+  if (component_type_ == TINYGLTF_COMPONENT_TYPE_FLOAT || normalized_) return Normalized(e, c);
+  const uint8_t* p = Address(e, c);
+  if (p == nullptr) return 0.0f;
+  switch (component_type_) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      int8_t v;
+      std::memcpy(&v, p, sizeof v);
+      return v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      int16_t v;
+      std::memcpy(&v, p, sizeof v);
+      return v;
+    }
+    default:
+      return static_cast<float>(Uint(e, c));
   }
 }
 

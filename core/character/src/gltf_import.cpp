@@ -25,13 +25,14 @@ bool SkipImage(tinygltf::Image*, const int, std::string*, std::string*, int, int
 }
 
 // Required extensions that only change materials, textures or lights leave the geometry,
-// skins and animations this importer reads as the core spec states them. Any other
-// (e.g. KHR_draco_mesh_compression, KHR_mesh_quantization) changes what the accessors mean.
-bool ExtensionIsHarmless(const std::string& name) {
-  static const char* const kHarmless[] = {"KHR_texture_transform", "KHR_texture_basisu",
-                                          "EXT_texture_webp",      "EXT_texture_avif",
-                                          "KHR_lights_punctual",   "KHR_materials_"};
-  for (const char* h : kHarmless) {
+// skins and animations this importer reads as the core spec states them;
+// KHR_mesh_quantization's integer attributes are read (gltf_primitives.cpp). Any other
+// (e.g. KHR_draco_mesh_compression, EXT_meshopt_compression) changes what the accessors mean.
+bool ExtensionIsSupported(const std::string& name) {
+  static const char* const kSupported[] = {
+      "KHR_texture_transform", "KHR_texture_basisu",    "EXT_texture_webp", "EXT_texture_avif",
+      "KHR_lights_punctual",   "KHR_mesh_quantization", "KHR_materials_"};
+  for (const char* h : kSupported) {
     if (name.rfind(h, 0) == 0) return true;  // "KHR_materials_" covers the whole family
   }
   return false;
@@ -74,9 +75,12 @@ Result<tinygltf::Model> Parse(std::span<const uint8_t> bytes, const std::string&
     return InvalidArgument(fmt::format("{} ({} bytes): {}", kind, bytes.size(), TrimEnd(err)));
   }
   for (const std::string& extension : model.extensionsRequired) {
-    if (!ExtensionIsHarmless(extension)) {
+    if (!ExtensionIsSupported(extension)) {
       return InvalidArgument(
-          fmt::format("extensionsRequired: {} is not supported by this importer", extension));
+          fmt::format("extensionsRequired: {} is not supported by this importer (supported: "
+                      "KHR_mesh_quantization, KHR_texture_transform, KHR_texture_basisu, "
+                      "EXT_texture_webp, EXT_texture_avif, KHR_lights_punctual, KHR_materials_*)",
+                      extension));
     }
   }
   return model;

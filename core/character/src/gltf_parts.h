@@ -19,7 +19,9 @@ Result<std::vector<CharacterNode>> ImportNodes(const tinygltf::Model& model);
 // Every skin: joints (valid node indices) and inverse bind matrices (identity when absent).
 Result<std::vector<CharacterSkin>> ImportSkins(const tinygltf::Model& model);
 
-// Every skinned primitive of every node that has both a mesh and a skin.
+// Every primitive of every node with a mesh: skinned when the node has a skin (the
+// primitives with JOINTS_0/WEIGHTS_0), else a rigid part following the node (skin -1, one
+// influence: joint 0, weight 1).
 Result<std::vector<SkinnedPrimitive>> ImportSkinnedPrimitives(
     const tinygltf::Model& model, const std::vector<CharacterSkin>& skins);
 

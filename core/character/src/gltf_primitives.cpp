@@ -1,4 +1,6 @@
-// Skinned primitives: vertex attributes, joint indices and weights, triangle indices.
+// Primitives: vertex attributes, joint indices and weights, triangle indices. Skinned ones
+// (a mesh node with a skin) and rigid parts (a mesh node without one: every vertex follows
+// that node, one influence of weight 1).
 #include <fmt/format.h>
 #include <cmath>
 #include <cstddef>
@@ -75,8 +77,13 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
   }
   const std::optional<int> position = Attribute(p, "POSITION");
   if (!position) return InvalidArgument(what + ".attributes has no POSITION");
-  auto positions = AccessorReader::Open(model, *position, what + ".attributes.POSITION",
-                                        TINYGLTF_TYPE_VEC3, {TINYGLTF_COMPONENT_TYPE_FLOAT});
+  // KHR_mesh_quantization: integer positions, normalized or not (a node transform or the
+  // inverse bind matrices then scale them back); Value() reads them as the flag says.
+  auto positions =
+      AccessorReader::Open(model, *position, what + ".attributes.POSITION", TINYGLTF_TYPE_VEC3,
+                           {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
+                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT,
+                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
   if (!positions.ok()) return positions.status();
   const std::size_t v_count = positions->count();
   if (v_count > std::numeric_limits<uint32_t>::max()) {
@@ -89,18 +96,33 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
   a.joint_count = joint_count;
   a.positions.resize(3 * v_count);
   for (std::size_t v = 0; v < v_count; ++v) {
-    for (int c = 0; c < 3; ++c) a.positions[3 * v + c] = positions->Normalized(v, c);
+    for (int c = 0; c < 3; ++c) a.positions[3 * v + c] = positions->Value(v, c);
   }
   if (const std::optional<int> normal = Attribute(p, "NORMAL")) {
+    // KHR_mesh_quantization: signed normalized bytes or shorts besides floats.
     auto normals = OpenAttribute(model, *normal, what + ".attributes.NORMAL", TINYGLTF_TYPE_VEC3,
-                                 {TINYGLTF_COMPONENT_TYPE_FLOAT}, v_count);
+                                 {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
+                                  TINYGLTF_COMPONENT_TYPE_SHORT},
+                                 v_count);
     if (!normals.ok()) return normals.status();
+    if (normals->component_type() != TINYGLTF_COMPONENT_TYPE_FLOAT && !normals->normalized()) {
+      return InvalidArgument(fmt::format(
+          "{}.attributes.NORMAL: accessor {} has componentType {} without normalized: true; "
+          "integer normals must be normalized (KHR_mesh_quantization)",
+          what, *normal, ComponentTypeName(normals->component_type())));
+    }
     a.normals.resize(3 * v_count);
     for (std::size_t v = 0; v < v_count; ++v) {
       for (int c = 0; c < 3; ++c) a.normals[3 * v + c] = normals->Normalized(v, c);
     }
   }
 
+  // A rigid part (no skin): one influence, joint 0 (the node it follows), weight 1.
+  if (sets == 0) {
+    a.influences = 1;
+    a.joints.assign(v_count, 0);
+    a.weights.assign(v_count, 1.0f);
+  }
   const std::size_t b = a.influences;
   a.joints.resize(b * v_count);
   a.weights.resize(b * v_count);
@@ -144,7 +166,7 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
   // Mesh::Create's kWeightSumTolerance (1e-3), which it rejects by default; dividing here
   // makes the importer's output pass that validator, and leaves a weight sum of exactly 1
   // up to float rounding, so skinning never scales a vertex.
-  for (std::size_t v = 0; v < v_count; ++v) {
+  for (std::size_t v = 0; sets > 0 && v < v_count; ++v) {
     double sum = 0;
     for (std::size_t i = 0; i < b; ++i) sum += a.weights[v * b + i];
     if (!(sum > 0)) {
@@ -199,32 +221,39 @@ Result<std::vector<SkinnedPrimitive>> ImportSkinnedPrimitives(
   std::vector<SkinnedPrimitive> primitives;
   for (std::size_t n = 0; n < model.nodes.size(); ++n) {
     const tinygltf::Node& node = model.nodes[n];
-    if (node.mesh < 0 || node.skin < 0) continue;  // not a skinned mesh node
+    if (node.mesh < 0) continue;
     if (static_cast<std::size_t>(node.mesh) >= model.meshes.size()) {
       return InvalidArgument(fmt::format("nodes[{}].mesh = {} is not a mesh (the file has {})", n,
                                          node.mesh, model.meshes.size()));
     }
-    if (static_cast<std::size_t>(node.skin) >= skins.size()) {
+    // A mesh node without a skin is a rigid part: its vertices follow the node (a glTF
+    // viewer draws it so, with JOINTS_n/WEIGHTS_n, if any, unused).
+    const bool rigid = node.skin < 0;
+    if (!rigid && static_cast<std::size_t>(node.skin) >= skins.size()) {
       return InvalidArgument(fmt::format("nodes[{}].skin = {} is not a skin (the file has {})", n,
                                          node.skin, skins.size()));
     }
     const tinygltf::Mesh& mesh = model.meshes[static_cast<std::size_t>(node.mesh)];
     const uint32_t joint_count =
-        static_cast<uint32_t>(skins[static_cast<std::size_t>(node.skin)].joints.size());
+        rigid ? 1u
+              : static_cast<uint32_t>(skins[static_cast<std::size_t>(node.skin)].joints.size());
     for (std::size_t p = 0; p < mesh.primitives.size(); ++p) {
       const std::string what = fmt::format("meshes[{}].primitives[{}]", node.mesh, p);
-      auto sets = CountInfluenceSets(mesh.primitives[p], what);
-      if (!sets.ok()) return sets.status();
-      // A primitive without joints and weights is not skinned (e.g. a rigid prop in the
-      // same mesh): it is not part of what this importer returns.
-      if (*sets == 0) continue;
+      int sets = 0;
+      if (!rigid) {
+        auto counted = CountInfluenceSets(mesh.primitives[p], what);
+        if (!counted.ok()) return counted.status();
+        // A primitive of a skinned mesh without joints and weights is not skinned, and
+        // breaks the spec's rule for skinned meshes: it is left out.
+        if (*counted == 0) continue;
+        sets = *counted;
+      }
       SkinnedPrimitive out;
       out.name = fmt::format(
           "{}/{}", mesh.name.empty() ? fmt::format("meshes[{}]", node.mesh) : mesh.name, p);
       out.node = static_cast<int>(n);
-      out.skin = node.skin;
-      if (Status s =
-              ReadSkinnedPrimitive(model, mesh.primitives[p], what, *sets, joint_count, &out);
+      out.skin = rigid ? -1 : node.skin;
+      if (Status s = ReadSkinnedPrimitive(model, mesh.primitives[p], what, sets, joint_count, &out);
           !s.ok()) {
         return s;
       }
@@ -233,8 +262,8 @@ Result<std::vector<SkinnedPrimitive>> ImportSkinnedPrimitives(
   }
   if (primitives.empty()) {
     return InvalidArgument(
-        "the file has no skinned primitive (a node with both mesh and skin whose primitive has "
-        "JOINTS_0 and WEIGHTS_0)");
+        "the file has no primitive to skin (a node with a mesh: with a skin and JOINTS_0 and "
+        "WEIGHTS_0, or without a skin as a rigid part)");
   }
   return primitives;
 }

@@ -5,10 +5,12 @@
 //   skinserve-bench --paper-tables     the grid (positions only), medians of 3, then the
 //                                      paper's tables 2 and 3 layout
 // Filters: --backends=a,b  --vertices=25000,100000  --bones=1,2  --normals (paper tables
-// with normals too). --opencl-device=gpu (cpu, gpu or part of a platform or device name,
-// as skinserve's option). --streams=N: the OpenCL backends also with N threads skinning
-// at once (BM_SkinStreams), frames of several streams in flight on the device.
-// Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
+// with normals too). --methods=linear,dual-quaternion: the skinning methods to time
+// (default linear; dual quaternions on rigid palettes, rows BM_SkinDualQuaternion and
+// BM_SkinNormalsDualQuaternion beside BM_Skin and BM_SkinNormals). --opencl-device=gpu (cpu, gpu or
+// part of a platform or device name, as skinserve's option). --streams=N: the OpenCL backends also
+// with N threads skinning at once (BM_SkinStreams), frames of several streams in flight on the
+// device. Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
 // transfer_ns and kernel_vertices_per_second (kernel only); and the device's bounds are
@@ -25,14 +27,15 @@
 #include <cstring>
 #include <exception>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <thread>
 
 #include "backends/opencl_runtime.h"
 #include "paper_tables.h"
-#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/engine/backend_registry.h"
+#include "skinserve/model/aligned_buffer.h"
 #include "workload_cache.h"
 
 namespace skinserve::bench {
@@ -46,6 +49,7 @@ struct Options {
   std::vector<uint32_t> bones = {1, 2, 3, 4};
   std::string opencl_device;
   int streams = 1;
+  std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};
 };
 
 template <typename T>
@@ -85,6 +89,13 @@ Options ParseOptions(int* argc, char** argv) {
       options.opencl_device = device;
     } else if (const char* streams = value("--streams=")) {
       options.streams = static_cast<int>(std::stoul(streams));
+    } else if (const char* methods = value("--methods=")) {
+      options.methods.clear();
+      for (const std::string& name : ParseList<std::string>(methods)) {
+        const auto method = ParseMethod(name);
+        if (!method) throw std::invalid_argument("--methods=: unknown method " + name);
+        options.methods.push_back(*method);
+      }
     } else {
       argv[kept++] = argv[i];
     }
@@ -99,17 +110,20 @@ WorkloadCache& Cache() {
 }
 
 void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
-                   bool normals) {
+                   bool normals, SkinningMethod method) {
   const Workload& workload = Cache().Get(vertices, bones);
+  const auto& palettes =
+      method == SkinningMethod::kDualQuaternion ? workload.rigid_palettes : workload.palettes;
   const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones);
   AlignedBuffer<float> positions(3ull * vertices), out_normals(normals ? 3ull * vertices : 0);
   std::size_t frame = state.thread_index();
   DeviceTiming device, total;
   for (auto _ : state) {
-    const SkinFrame skin{.palette = workload.palettes[frame++ % workload.palettes.size()],
+    const SkinFrame skin{.palette = palettes[frame++ % palettes.size()],
                          .positions = positions.span(),
                          .normals = out_normals.span(),
-                         .device_timing = &device};
+                         .device_timing = &device,
+                         .method = method};
     if (Status s = backend->Skin(prepared, skin); !s.ok()) {
       state.SkipWithError(s.ToString().c_str());
       break;
@@ -220,7 +234,13 @@ int main(int argc, char** argv) {
   Options options;
   try {
     options = ParseOptions(&argc, argv);
-  } catch (const std::exception&) {  // std::stoul on a malformed list
+  } catch (const std::invalid_argument& e) {  // std::stoul on a malformed list, or a method
+    fmt::print(stderr,
+               "skinserve-bench: --vertices= and --bones= take comma-separated counts, "
+               "--methods= linear and dual-quaternion ({})\n",
+               e.what());
+    return 2;
+  } catch (const std::exception&) {  // std::stoul out of range
     fmt::print(stderr, "skinserve-bench: --vertices= and --bones= take comma-separated counts\n");
     return 2;
   }
@@ -266,11 +286,17 @@ int main(int argc, char** argv) {
       for (uint32_t b : options.bones) {
         for (const auto& backend : backends) {
           if (std::count(measured.begin(), measured.end(), backend->info().id) == 0) continue;
-          const std::string name = fmt::format(
-              "{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", backend->info().id, v, b);
-          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals)
-              ->UseRealTime()
-              ->Unit(benchmark::kMicrosecond);
+          for (SkinningMethod method : options.methods) {
+            if (!backend->info().Supports(method)) continue;
+            const bool dqs = method == SkinningMethod::kDualQuaternion;
+            const std::string name =
+                fmt::format("{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin",
+                            dqs ? "DualQuaternion" : "", backend->info().id, v, b);
+            benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
+                                         method)
+                ->UseRealTime()
+                ->Unit(benchmark::kMicrosecond);
+          }
         }
       }
     }
@@ -286,7 +312,8 @@ int main(int argc, char** argv) {
           if (id.rfind("opencl", 0) != 0 || std::count(measured.begin(), measured.end(), id) == 0)
             continue;
           const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
-          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, false)
+          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, false,
+                                       SkinningMethod::kLinear)
               ->Threads(options.streams)
               ->UseRealTime()
               ->Unit(benchmark::kMicrosecond);

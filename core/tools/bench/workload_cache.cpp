@@ -19,6 +19,7 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones) {
     it->second.mesh = *mesh;
     for (int frame = 0; frame < kPalettesPerWorkload; ++frame) {
       it->second.palettes.push_back(MakeSyntheticPalette(kPaperJoints, 42, frame));
+      it->second.rigid_palettes.push_back(MakeRigidPalette(kPaperJoints, 42, frame));
     }
   }
   return it->second;

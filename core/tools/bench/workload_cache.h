@@ -18,6 +18,8 @@ inline constexpr int kPalettesPerWorkload = 8;
 struct Workload {
   std::shared_ptr<const Mesh> mesh;  // with normals: positions-only frames ignore them
   std::vector<std::vector<float>> palettes;
+  // Rigid ones (rotations and translations only), which dual quaternions need.
+  std::vector<std::vector<float>> rigid_palettes;
 };
 
 class WorkloadCache {

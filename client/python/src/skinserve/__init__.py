@@ -1,4 +1,5 @@
-"""skinserve: a Python client for the gRPC skinning service.
+"""skinserve: a Python client for the gRPC skinning service, blocking (Client) and
+asyncio (AsyncClient), with the same methods.
 
     import numpy as np, skinserve
     client = skinserve.Client("127.0.0.1:50051")
@@ -11,9 +12,16 @@
     with skinserve.SharedMemoryRegion(64 << 20) as region:
         client.register_region(region)
         vertices = client.skin(mesh_id, palette, region=region)
+
+    async with skinserve.AsyncClient("127.0.0.1:50051") as client:
+        vertices = await client.skin(mesh_id, palette)
+        async for vertices in client.stream(mesh_id, palettes):
+            ...
 """
-from ._client import Client, SkinserveError
+from ._aio_client import AsyncClient
+from ._client import Client
 from ._encoding import decode_values
+from ._errors import SkinserveError
 from ._shared_memory import SharedMemoryRegion
 
-__all__ = ["Client", "SkinserveError", "SharedMemoryRegion", "decode_values"]
+__all__ = ["AsyncClient", "Client", "SkinserveError", "SharedMemoryRegion", "decode_values"]

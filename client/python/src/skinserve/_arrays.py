@@ -1,12 +1,15 @@
 """Checks of the caller's arrays, before anything is sent: a ValueError names the array,
 what it is and what it must be. No silent conversion: a float64 array is refused rather
 than rounded behind the caller's back."""
+from typing import Any, Optional
+
 import numpy as np
+import numpy.typing as npt
 
 MAX_INFLUENCES = 8
 
 
-def _check(name, array, dtype, ndim):
+def _check(name: str, array: Any, dtype: Any, ndim: int) -> None:
     if not isinstance(array, np.ndarray):
         raise ValueError(f"{name}: expected a numpy.ndarray of {np.dtype(dtype).name}, "
                          f"got {type(array).__name__}")
@@ -17,7 +20,7 @@ def _check(name, array, dtype, ndim):
         raise ValueError(f"{name}: shape {array.shape}, expected {ndim} dimensions")
 
 
-def check_mesh(positions, joints, weights, normals):
+def check_mesh(positions: Any, joints: Any, weights: Any, normals: Any) -> None:
     _check("positions", positions, np.float32, 2)
     if positions.shape[1] != 3 or positions.shape[0] == 0:
         raise ValueError(f"positions: shape {positions.shape}, expected (V, 3) with V >= 1")
@@ -37,7 +40,7 @@ def check_mesh(positions, joints, weights, normals):
                              "(the shape of positions)")
 
 
-def check_palette(name, palette, joint_count=None):
+def check_palette(name: str, palette: Any, joint_count: Optional[int] = None) -> Optional[int]:
     """A (J, 3, 4) or (J, 12) float32 palette: J row-major 3x4 affine matrices; or a crowd
     of K >= 1 instances of the mesh, (K, J, 3, 4) or (K, J, 12): one palette per instance.
     Returns K for a crowd, None for a single palette."""
@@ -55,13 +58,13 @@ def check_palette(name, palette, joint_count=None):
                          "(K, J, 3, 4) or (K, J, 12)")
     if crowd and shape[0] == 0:
         raise ValueError(f"{name}: shape {shape}, a crowd of 0 instances (K >= 1)")
-    joints = shape[1] if crowd else shape[0]
+    joints = int(shape[1] if crowd else shape[0])
     if joints == 0:
         raise ValueError(f"{name}: shape {shape}, 0 matrices")
     if joint_count is not None and joints != joint_count:
         raise ValueError(f"{name}: {joints} matrices, the mesh has {joint_count} joints")
-    return shape[0] if crowd else None
+    return int(shape[0]) if crowd else None
 
 
-def little_endian_bytes(array, dtype):
+def little_endian_bytes(array: npt.NDArray[Any], dtype: str) -> bytes:
     return np.ascontiguousarray(array, dtype=np.dtype(dtype).newbyteorder("<")).tobytes()

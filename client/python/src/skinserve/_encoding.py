@@ -2,16 +2,22 @@
 float32 as is, float16 widened, snorm16 positions mapped back into the part's Bounds
 (x' = c + q * h / 32767 with c = (min + max) / 2, h = (max - min) / 2) and snorm16
 normals as q / 32767."""
+from typing import Any, Optional, Sequence, Union
+
 import numpy as np
+import numpy.typing as npt
 
 FLOAT32, FLOAT16, SNORM16 = 0, 1, 2  # skinserve.v1.Encoding values
 
 
-def decode_values(data, encoding, count, bounds=None, normals=False):
+def decode_values(data: Union[bytes, memoryview], encoding: int, count: int,
+                  bounds: Optional[Sequence[float]] = None,
+                  normals: bool = False) -> npt.NDArray[np.float32]:
     """`count` xyz triples from `data` as a (count, 3) float32 array.
 
     bounds: (min_x, min_y, min_z, max_x, max_y, max_z), needed for snorm16 positions.
     """
+    values: npt.NDArray[Any]
     if encoding == FLOAT32:
         values = np.frombuffer(data, dtype="<f4")
     elif encoding == FLOAT16:

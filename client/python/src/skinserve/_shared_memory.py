@@ -8,17 +8,18 @@ server skins straight into it, and answers are NumPy arrays that view it (no cop
 import mmap
 import os
 import threading
+from typing import Any, Optional
 
 _ALIGNMENT = 64  # offsets in a region are multiples of this (the wire contract)
 _counter = iter(range(1 << 62))
 _counter_lock = threading.Lock()
 
 
-def round_up(n):
+def round_up(n: int) -> int:
     return (n + _ALIGNMENT - 1) // _ALIGNMENT * _ALIGNMENT
 
 
-def frame_bytes(vertices, instances, bytes_per_value, normals):
+def frame_bytes(vertices: int, instances: int, bytes_per_value: int, normals: bool) -> int:
     """Bytes one frame takes in a region: every instance's positions, then (from the next
     multiple of 64) their normals; rounded up so that frames can follow each other."""
     array = vertices * 3 * bytes_per_value * max(instances, 1)
@@ -33,7 +34,8 @@ class SharedMemoryRegion:
     Client.register_region to the name the server knows it by.
     """
 
-    def __init__(self, byte_size, key=None, directory="/dev/shm"):
+    def __init__(self, byte_size: int, key: Optional[str] = None,
+                 directory: str = "/dev/shm") -> None:
         if byte_size <= 0:
             raise ValueError(f"byte_size: {byte_size}, expected > 0")
         if key is None:
@@ -44,7 +46,7 @@ class SharedMemoryRegion:
         self.key = key.lstrip("/")
         self.path = os.path.join(directory, self.key)
         self.byte_size = byte_size
-        self.name = None
+        self.name: Optional[str] = None
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o660)
         try:
             os.ftruncate(fd, byte_size)
@@ -54,9 +56,9 @@ class SharedMemoryRegion:
             raise
         finally:
             os.close(fd)
-        self.buffer = memoryview(self._map)
+        self.buffer: Optional[memoryview] = memoryview(self._map)
 
-    def close(self):
+    def close(self) -> None:
         """Unmaps and removes the file. Arrays that still view the region keep it mapped
         until they are gone (NumPy holds the buffer)."""
         if self.buffer is None:
@@ -72,8 +74,8 @@ class SharedMemoryRegion:
         except FileNotFoundError:
             pass
 
-    def __enter__(self):
+    def __enter__(self) -> "SharedMemoryRegion":
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: Any) -> None:
         self.close()

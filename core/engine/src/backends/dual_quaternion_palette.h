@@ -1,8 +1,8 @@
-// The frame's palette as unit dual quaternions, for the dual-quaternion kernels (scalar
-// and SSE): each rigid joint matrix [R | t] converted once per frame, J conversions, so
-// no vertex converts a matrix. Per joint 8 floats, 32-byte aligned: the rotation
-// q = (x, y, z, w), then the dual part d = 0.5 * (t, 0) * q, also (x, y, z, w).
-// The palette must have passed ValidateRigidPalette (SkinFrame::Validate does it).
+// The frame's palette as unit dual quaternions, for the dual-quaternion kernels (scalar,
+// SSE, Highway and OpenCL): each rigid joint matrix [R | t] converted once per frame, J
+// conversions, so no vertex converts a matrix. Per joint 8 floats, 32-byte aligned: the rotation q
+// = (x, y, z, w), then the dual part d = 0.5 * (t, 0) * q, also (x, y, z, w). The palette must have
+// passed ValidateRigidPalette (SkinFrame::Validate does it).
 #pragma once
 
 #include <cmath>
@@ -26,6 +26,7 @@ class DualQuaternionPalette {
       buffer = AlignedBuffer<float>(joints * kFloatsPerJoint);
     }
     quaternions_ = buffer.data();
+    joints_ = joints;
     for (std::size_t j = 0; j < joints; ++j) {
       Convert(palette.data() + 12 * j, quaternions_ + kFloatsPerJoint * j);
     }
@@ -35,6 +36,8 @@ class DualQuaternionPalette {
 
   // Joint j's real part (x, y, z, w) followed by its dual part, 32-byte aligned.
   const float* joint(std::size_t j) const { return quaternions_ + kFloatsPerJoint * j; }
+  // Every joint's 8 floats, for a device to copy or wrap.
+  std::span<const float> floats() const { return {quaternions_, kFloatsPerJoint * joints_}; }
 
  private:
   // One row-major 3x4 matrix m to a unit dual quaternion, in double: the rotation by
@@ -71,6 +74,7 @@ class DualQuaternionPalette {
   }
 
   float* quaternions_ = nullptr;
+  std::size_t joints_ = 0;
 };
 
 }  // namespace skinserve

@@ -35,6 +35,8 @@ BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, cons
   info.device = runtime.device_name();
   info.simd_width = runtime.vector_width();
   info.threads = threads;
+  // linear_blend_skinning.cl and dual_quaternion_skinning.cl.
+  info.methods = {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion};
   return info;
 }
 

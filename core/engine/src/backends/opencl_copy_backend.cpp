@@ -20,6 +20,7 @@
 #include <cstring>
 #include <vector>
 
+#include "dual_quaternion_palette.h"
 #include "opencl_backends.h"
 #include "skinserve/model/palette.h"
 
@@ -90,6 +91,20 @@ class OpenClCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    if (frame.method == SkinningMethod::kDualQuaternion) {
+      // The kernels take the palette as unit dual quaternions, converted here once per
+      // frame (J conversions): from here on the frame is the same as a linear one.
+      const DualQuaternionPalette quaternions(frame.palette);
+      SkinFrame converted = frame;
+      converted.palette = quaternions.floats();
+      return SkinPalette(base, converted);
+    }
+    return SkinPalette(base, frame);
+  }
+
+ private:
+  // Skin() with frame.palette in the layout of frame.method's kernels.
+  Status SkinPalette(const PreparedMesh& base, const SkinFrame& frame) {
     const auto& prepared = static_cast<const OpenClPreparedMesh&>(base);
     const bool with_normals = !frame.normals.empty();
     if (with_normals && prepared.normals.get() == nullptr) {
@@ -118,7 +133,6 @@ class OpenClCopyBackend final : public Backend {
     return Status::Ok();
   }
 
- private:
   // The lane's device buffers (and pinned staging) large enough for `frame`.
   Status Reserve(OpenClLane& lane, const SkinFrame& frame) {
     const std::size_t out_bytes = frame.positions.size_bytes();
@@ -157,8 +171,9 @@ class OpenClCopyBackend final : public Backend {
   }
 
   SkinKernelArgs Args(const OpenClLane& lane, const OpenClPreparedMesh& prepared,
-                      bool with_normals) const {
-    SkinKernelArgs args{.palette = lane.palette.get(),
+                      SkinningMethod method, bool with_normals) const {
+    SkinKernelArgs args{.method = method,
+                        .palette = lane.palette.get(),
                         .joints = prepared.joints.get(),
                         .weights = prepared.weights.get(),
                         .positions = prepared.positions.get(),
@@ -182,8 +197,9 @@ class OpenClCopyBackend final : public Backend {
       return ClError("clEnqueueWriteBuffer(palette)", err);
     }
     const Mesh& mesh = prepared.mesh();
-    if (Status s = runtime_->EnqueueSkin(lane, mesh, Args(lane, prepared, with_normals), 0,
-                                         mesh.vertex_count(), kernels.Next());
+    if (Status s =
+            runtime_->EnqueueSkin(lane, mesh, Args(lane, prepared, frame.method, with_normals), 0,
+                                  mesh.vertex_count(), kernels.Next());
         !s.ok()) {
       return s;
     }
@@ -227,7 +243,7 @@ class OpenClCopyBackend final : public Backend {
       std::vector<cl_event> reads;
     };
     std::vector<Chunk> chunks;
-    const SkinKernelArgs args = Args(lane, prepared, with_normals);
+    const SkinKernelArgs args = Args(lane, prepared, frame.method, with_normals);
     for (uint32_t first = 0; first < vertices; first += per_chunk) {
       Chunk chunk{first, std::min(vertices, first + per_chunk), {}};
       cl_event* kernel = kernels.Next();

@@ -321,10 +321,13 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
 }
 
 Status OpenClRuntime::Build(const std::string& options) {
-  const char* source = kernels::kLinearBlendSkinningSource.data();
-  const std::size_t length = kernels::kLinearBlendSkinningSource.size();
+  // One program: the dual-quaternion kernels use the linear file's work-item macros.
+  const char* sources[] = {kernels::kLinearBlendSkinningSource.data(),
+                           kernels::kDualQuaternionSkinningSource.data()};
+  const std::size_t lengths[] = {kernels::kLinearBlendSkinningSource.size(),
+                                 kernels::kDualQuaternionSkinningSource.size()};
   cl_int err = CL_SUCCESS;
-  program_ = clCreateProgramWithSource(context_, 1, &source, &length, &err);
+  program_ = clCreateProgramWithSource(context_, 2, sources, lengths, &err);
   if (err != CL_SUCCESS) return ClError("clCreateProgramWithSource", err);
   err = clBuildProgram(program_, 1, &device_, options.c_str(), nullptr, nullptr);
   if (err != CL_SUCCESS) {
@@ -362,12 +365,20 @@ Status OpenClRuntime::CreateLanes(int count) {
       lane->transfer = lane->compute;
       clRetainCommandQueue(lane->transfer);
     }
-    for (std::size_t normals = 0; normals < 2; ++normals) {
-      for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
-        const std::string name = fmt::format("{}{}", normals ? "skin_normals_b" : "skin_b", b);
-        cl_kernel kernel = clCreateKernel(program_, name.c_str(), &err);
-        if (err != CL_SUCCESS) return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
-        lane->kernels[normals][b - 1] = kernel;
+    // Linear blending (linear_blend_skinning.cl), then dual quaternions
+    // (dual_quaternion_skinning.cl).
+    constexpr const char* kPrefixes[2][2] = {{"skin_b", "skin_normals_b"},
+                                             {"dqs_b", "dqs_normals_b"}};
+    for (std::size_t method = 0; method < 2; ++method) {
+      for (std::size_t normals = 0; normals < 2; ++normals) {
+        for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
+          const std::string name = fmt::format("{}{}", kPrefixes[method][normals], b);
+          cl_kernel kernel = clCreateKernel(program_, name.c_str(), &err);
+          if (err != CL_SUCCESS) {
+            return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
+          }
+          lane->kernels[method][normals][b - 1] = kernel;
+        }
       }
     }
     free_lanes_.push_back(lane.get());
@@ -378,9 +389,11 @@ Status OpenClRuntime::CreateLanes(int count) {
 
 OpenClRuntime::~OpenClRuntime() {
   for (auto& lane : lanes_) {
-    for (auto& row : lane->kernels) {
-      for (cl_kernel kernel : row) {
-        if (kernel != nullptr) clReleaseKernel(kernel);
+    for (auto& method : lane->kernels) {
+      for (auto& row : method) {
+        for (cl_kernel kernel : row) {
+          if (kernel != nullptr) clReleaseKernel(kernel);
+        }
       }
     }
     // Unmapped before release: the buffers' destructors release them afterwards.
@@ -484,8 +497,10 @@ Status OpenClRuntime::EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const Skin
   if (with_normals && args.normals == nullptr) {
     return Internal("output normals without input normals: the mesh has none");
   }
-  cl_kernel kernel = lane.kernels[with_normals ? 1 : 0][influences - 1];
-  // Argument order: see SKIN_ARGS in kernels/linear_blend_skinning.cl. The kernel's
+  const bool dual_quaternion = args.method == SkinningMethod::kDualQuaternion;
+  cl_kernel kernel = lane.kernels[dual_quaternion ? 1 : 0][with_normals ? 1 : 0][influences - 1];
+  // Argument order: see SKIN_ARGS in kernels/linear_blend_skinning.cl (the
+  // dual-quaternion kernels take the same). The kernel's
   // vertex_count is the range's end: it clamps to end - 1, and never reads past it.
   const cl_mem buffers[] = {args.palette, args.joints, args.weights, args.positions,
                             args.out_positions};
@@ -551,11 +566,19 @@ Status OpenClRuntime::Warm() {
       arrays.weights.assign(b, 1.0f / static_cast<float>(b));
       auto mesh = Mesh::Create(arrays);
       if (!mesh.ok()) return mesh.status();
-      SkinKernelArgs args{pal->get(), jnt->get(), wgt->get(), pos->get(), out->get()};
-      if (Status s = EnqueueSkin(*lane, **mesh, args, 0, 1, nullptr); !s.ok()) return s;
-      args.normals = nrm->get();
-      args.out_normals = out_n->get();
-      if (Status s = EnqueueSkin(*lane, **mesh, args, 0, 1, nullptr); !s.ok()) return s;
+      // (The identity's first 8 floats read as a unit dual quaternion too.)
+      for (SkinningMethod method : {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion}) {
+        SkinKernelArgs args{.method = method,
+                            .palette = pal->get(),
+                            .joints = jnt->get(),
+                            .weights = wgt->get(),
+                            .positions = pos->get(),
+                            .out_positions = out->get()};
+        if (Status s = EnqueueSkin(*lane, **mesh, args, 0, 1, nullptr); !s.ok()) return s;
+        args.normals = nrm->get();
+        args.out_normals = out_n->get();
+        if (Status s = EnqueueSkin(*lane, **mesh, args, 0, 1, nullptr); !s.ok()) return s;
+      }
     }
     if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS) {
       return ClError("clFinish(warm-up)", err);

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "skinserve/model/mesh.h"
+#include "skinserve/model/skinning_method.h"
 #include "skinserve/model/status.h"
 
 namespace skinserve {
@@ -70,9 +71,11 @@ class ClEvents {
 // Device time of the commands in `events` (CL_PROFILING_COMMAND_END - _START, summed).
 Result<int64_t> ProfiledNs(const std::vector<cl_event>& events);
 
-// The device-side arrays of one frame. `normals` and `out_normals` are null when the
-// frame skips normals.
+// The device-side arrays of one frame and its method. `normals` and `out_normals` are null
+// when the frame skips normals. `palette` holds 12 floats per joint (the 3x4 matrices) for
+// linear blending, 8 (the frame's DualQuaternionPalette) for dual quaternions.
 struct SkinKernelArgs {
+  SkinningMethod method = SkinningMethod::kLinear;
   cl_mem palette = nullptr;
   cl_mem joints = nullptr;
   cl_mem weights = nullptr;
@@ -97,8 +100,8 @@ class OpenClRuntime;
 struct OpenClLane {
   cl_command_queue compute = nullptr;   // kernels (and, on a CPU device, every command)
   cl_command_queue transfer = nullptr;  // read-backs, so they overlap the next kernel
-  // [with normals][influences - 1]
-  std::array<std::array<cl_kernel, kMaxInfluences>, 2> kernels = {};
+  // [dual quaternion][with normals][influences - 1]
+  std::array<std::array<std::array<cl_kernel, kMaxInfluences>, 2>, 2> kernels = {};
   // The copy backend's per-frame buffers, grown to the largest frame this lane has run.
   ClBuffer palette, out_positions, out_normals;
   std::size_t palette_bytes = 0, positions_bytes = 0, normals_bytes = 0;
@@ -161,9 +164,9 @@ class OpenClRuntime {
   };
   Lease AcquireLane();
 
-  // Sets the arguments of `lane`'s kernel for `mesh`'s influence count (with normals when
-  // args.out_normals is set) and enqueues it on the lane's compute queue over vertices
-  // [first, end) (first a multiple of kChunkAlignment). `event`: null or where to put the
+  // Sets the arguments of `lane`'s kernel for args.method and `mesh`'s influence count
+  // (with normals when args.out_normals is set) and enqueues it on the lane's compute queue over
+  // vertices [first, end) (first a multiple of kChunkAlignment). `event`: null or where to put the
   // kernel's event.
   Status EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args, uint32_t first,
                      uint32_t end, cl_event* event);

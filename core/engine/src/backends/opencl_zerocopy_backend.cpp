@@ -14,6 +14,7 @@
 // uses it (the mesh: once, then cached, as the buffers are read-only) and copies the
 // outputs back at the map, from the device into the caller's pageable memory. The map is
 // profiled as this frame's transfer time. docs/backends/opencl.md ("Figure 5") says when that wins.
+#include "dual_quaternion_palette.h"
 #include "opencl_backends.h"
 
 namespace skinserve {
@@ -53,6 +54,20 @@ class OpenClZeroCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    if (frame.method == SkinningMethod::kDualQuaternion) {
+      // The kernels take the palette as unit dual quaternions, converted here once per
+      // frame into this thread's buffer, which the kernel then reads in place.
+      const DualQuaternionPalette quaternions(frame.palette);
+      SkinFrame converted = frame;
+      converted.palette = quaternions.floats();
+      return SkinPalette(base, converted);
+    }
+    return SkinPalette(base, frame);
+  }
+
+ private:
+  // Skin() with frame.palette in the layout of frame.method's kernels.
+  Status SkinPalette(const PreparedMesh& base, const SkinFrame& frame) {
     const auto& prepared = static_cast<const ZeroCopyPreparedMesh&>(base);
     const bool with_normals = !frame.normals.empty();
     if (with_normals && prepared.normals.get() == nullptr) {
@@ -75,7 +90,8 @@ class OpenClZeroCopyBackend final : public Backend {
       if (!created.ok()) return created.status();
       out_normals = std::move(created).value();
     }
-    SkinKernelArgs args{.palette = palette->get(),
+    SkinKernelArgs args{.method = frame.method,
+                        .palette = palette->get(),
                         .joints = prepared.joints.get(),
                         .weights = prepared.weights.get(),
                         .positions = prepared.positions.get(),
@@ -109,7 +125,6 @@ class OpenClZeroCopyBackend final : public Backend {
     return status;
   }
 
- private:
   // Enqueues a map and an unmap: they make the kernel's writes visible in the host memory
   // the buffer wraps. Non-blocking: the in-order queue orders them after the kernel, and
   // the caller's clFinish is the one wait (a blocking map would be a second one).

@@ -6,10 +6,11 @@
 
 #include "backend_factories.h"
 #include "cpu_model.h"
+#include "dual_quaternion_palette.h"
 #include "parallel_range.h"
 #include "simd_stream.h"
-#include "skinserve/model/aligned_buffer.h"
 #include "skinserve/engine/simd_targets.h"
+#include "skinserve/model/aligned_buffer.h"
 #include "unavailable_backend.h"
 
 namespace skinserve {
@@ -70,9 +71,33 @@ const float* ColumnPalette(std::span<const float> palette) {
   return buffer.data();
 }
 
+// The frame's quaternion sign table (simd::DualQuaternionFrame::signs), in this thread's
+// buffer like ColumnPalette: J x J dot products, built only where they are fewer than the
+// vertices' own (a vertex compares each of its B - 1 other influences with its first) and
+// the joints stream as 8 bits (J <= 256, 256 KB at most). Null otherwise.
+const float* SignTable(const DualQuaternionPalette& quaternions, const Mesh& mesh,
+                       const simd::VertexStream& stream) {
+  const std::size_t joints = mesh.joint_count();
+  const std::size_t dots = std::size_t{mesh.vertex_count()} * (mesh.influences() - 1);
+  if (stream.joints8 == nullptr || joints * joints > dots) return nullptr;
+  thread_local AlignedBuffer<float> buffer;
+  if (buffer.size() < joints * joints) buffer = AlignedBuffer<float>(joints * joints);
+  for (std::size_t i = 0; i < joints; ++i) {
+    const float* a = quaternions.joint(i);
+    for (std::size_t j = 0; j < joints; ++j) {
+      const float* b = quaternions.joint(j);
+      const float dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+      buffer[i * joints + j] = dot < 0 ? -1.0f : 1.0f;
+    }
+  }
+  return buffer.data();
+}
+
 class SimdBackend final : public Backend {
  public:
-  SimdBackend(BackendInfo info, simd::Kernel kernel) : info_(std::move(info)), kernel_(kernel) {}
+  SimdBackend(BackendInfo info, simd::Kernel kernel) : info_(std::move(info)), kernel_(kernel) {
+    info_.methods = {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion};
+  }
   const BackendInfo& info() const override { return info_; }
   Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
     try {
@@ -86,14 +111,16 @@ class SimdBackend final : public Backend {
     const std::size_t count = prepared.mesh().vertex_count();
     float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
     try {
-      const float* columns = ColumnPalette(frame.palette);
-      const int threads = FrameThreads(frame.threads, info_.threads);
-      if (threads <= 1) {
-        kernel_.skin_range(stream, columns, frame.positions.data(), out_n, 0, count);
+      if (frame.method == SkinningMethod::kDualQuaternion) {
+        const DualQuaternionPalette quaternions(frame.palette);
+        const simd::DualQuaternionFrame palette{
+            .quaternions = quaternions.joint(0),
+            .signs = SignTable(quaternions, prepared.mesh(), stream),
+            .joint_count = prepared.mesh().joint_count()};
+        Run(kernel_.skin_dual_quaternion_range, stream, palette, frame, out_n, count);
       } else {
-        ParallelOverVertices(count, threads, [&](std::size_t first, std::size_t last) {
-          kernel_.skin_range(stream, columns, frame.positions.data(), out_n, first, last);
-        });
+        const float* columns = ColumnPalette(frame.palette);
+        Run(kernel_.skin_range, stream, columns, frame, out_n, count);
       }
     } catch (const std::bad_alloc&) {  // a palette larger than any seen so far
       return ResourceExhausted(info_.id + ": out of memory for the frame's palette");
@@ -102,6 +129,21 @@ class SimdBackend final : public Backend {
   }
 
  private:
+  // Runs `range` (a linear or dual-quaternion kernel) over the frame's vertices, on the
+  // calling thread or split across the frame's threads.
+  template <typename RangeFn, typename Palette>
+  void Run(RangeFn range, const simd::VertexStream& stream, const Palette& palette,
+           const SkinFrame& frame, float* out_n, std::size_t count) {
+    const int threads = FrameThreads(frame.threads, info_.threads);
+    if (threads <= 1) {
+      range(stream, palette, frame.positions.data(), out_n, 0, count);
+    } else {
+      ParallelOverVertices(count, threads, [&](std::size_t first, std::size_t last) {
+        range(stream, palette, frame.positions.data(), out_n, first, last);
+      });
+    }
+  }
+
   BackendInfo info_;
   simd::Kernel kernel_;
 };

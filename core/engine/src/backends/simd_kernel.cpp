@@ -281,8 +281,13 @@ void SkinRange(const VertexStream& stream, const float* columns, float* out_p, f
   });
 }
 
+// simd_dual_quaternion_kernel.cpp, compiled for the same targets.
+void SkinDualQuaternionRange(const VertexStream& stream, const DualQuaternionFrame& palette,
+                             float* out_p, float* out_n, std::size_t first, std::size_t last);
+
 Kernel GetKernel() {
   return Kernel{.skin_range = &SkinRange,
+                .skin_dual_quaternion_range = &SkinDualQuaternionRange,
                 .target = hwy::TargetName(HWY_TARGET),
                 .lanes = static_cast<int>(kLanes)};
 }

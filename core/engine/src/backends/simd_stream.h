@@ -30,8 +30,24 @@ struct VertexStream {
 using SkinRangeFn = void (*)(const VertexStream& stream, const float* columns, float* out_positions,
                              float* out_normals, std::size_t first, std::size_t last);
 
+// A frame's palette for the dual-quaternion kernel.
+struct DualQuaternionFrame {
+  const float* quaternions = nullptr;  // DualQuaternionPalette: 8 floats per joint
+  // Null, or (8-bit joint streams only) J x J floats: signs[i * J + j] = -1 when joint j's
+  // rotation lies in the other hemisphere from joint i's (q_i . q_j < 0), else 1. Built
+  // once per frame when that is cheaper than a dot product per vertex and influence.
+  const float* signs = nullptr;
+  uint32_t joint_count = 0;
+};
+
+// The same for dual-quaternion skinning.
+using SkinDualQuaternionRangeFn = void (*)(const VertexStream& stream,
+                                           const DualQuaternionFrame& palette, float* out_positions,
+                                           float* out_normals, std::size_t first, std::size_t last);
+
 struct Kernel {
   SkinRangeFn skin_range = nullptr;
+  SkinDualQuaternionRangeFn skin_dual_quaternion_range = nullptr;
   const char* target = "";  // Highway's name of the target, e.g. "AVX3", "AVX2", "NEON"
   int lanes = 0;            // float lanes per vector the kernel uses
 };

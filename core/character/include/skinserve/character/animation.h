@@ -27,4 +27,10 @@ Pose SampleClip(const Character& character, const AnimationClip& clip, double se
 // spec requires. INVALID_ARGUMENT if `skin` is out of range or the pose has the wrong size.
 Result<std::vector<float>> SkinPalette(const Character& character, const Pose& pose, int skin);
 
+// palette[k] = model(nodes[k]): the world matrices of the nodes rigid parts follow (their
+// vertices are in the node's space, so their "inverse bind" is the identity).
+// INVALID_ARGUMENT if a node is out of range or the pose has the wrong size.
+Result<std::vector<float>> NodePalette(const Character& character, const Pose& pose,
+                                       const std::vector<int>& nodes);
+
 }  // namespace skinserve

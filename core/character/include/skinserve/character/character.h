@@ -1,6 +1,6 @@
-// Character: a skinned character imported from glTF 2.0 — the paper's stage 1 (parse the
-// character) — and the data its stage 2 (joint matrices per frame) needs. Plain data; the
-// importer (gltf_import.h) fills it, animation.h samples it, Mesh::Create validates the
+// Character: a character (skinned meshes and rigid parts) imported from glTF 2.0 — the paper's
+// stage 1 (parse the character) — and the data its stage 2 (joint matrices per frame) needs. Plain
+// data; the importer (gltf_import.h) fills it, animation.h samples it, Mesh::Create validates the
 // primitives' arrays before anything is skinned.
 #pragma once
 
@@ -33,14 +33,18 @@ struct CharacterSkin {
   std::vector<glm::mat4> inverse_bind;  // one per joint (identity when the file omits them)
 };
 
-// One skinned primitive of one skinned mesh node, ready for Mesh::Create.
+// One primitive of one mesh node, ready for Mesh::Create: skinned (the node has a skin) or
+// a rigid part (skin -1: a mesh node without a skin, whose vertices all follow the node).
 //  - arrays: positions, normals (when present), joints/weights with `influences` = 4 per
-//    JOINTS_n/WEIGHTS_n set present (4 or 8), joint indices into the skin's joints.
+//    JOINTS_n/WEIGHTS_n set present (4 or 8), joint indices into the skin's joints; a
+//    rigid part has 1 influence, joint 0 weight 1, joint_count 1 (palette: the node's
+//    world matrix), and its positions in the node's space.
 //  - indices: triangle list into the vertices (3 per triangle), for viewers and renders.
 struct SkinnedPrimitive {
   std::string name;  // "<mesh name>/<primitive index>"
   int node = -1;     // the mesh node that instantiates it
-  int skin = -1;     // index into Character::skins
+  int skin = -1;     // index into Character::skins; -1: a rigid part following `node`
+  bool rigid() const { return skin < 0; }
   MeshArrays arrays;
   std::vector<uint32_t> indices;
 };

@@ -1,0 +1,322 @@
+"""AsyncClient: the blocking Client's methods for asyncio, over grpc.aio. The requests,
+the frame assembly, the errors and the answers are the blocking client's own modules;
+only the waiting differs (coroutines and an async generator instead of threads)."""
+import asyncio
+import time
+from typing import (Any, AsyncGenerator, AsyncIterator, Dict, Iterable, List, Literal,
+                    Optional, Tuple, Union, overload)
+
+import grpc
+import grpc.aio
+import numpy as np
+import numpy.typing as npt
+
+from . import _answers, _arrays, _channel, _requests
+from ._errors import SkinserveError, rpc_error
+from ._frame import Answer, FloatArray, Frame
+from ._service import SkinningStub
+from ._shared_memory import SharedMemoryRegion
+from .v1 import skinning_pb2 as pb
+
+
+class AsyncClient:
+    """skinserve.Client for asyncio: the same constructor arguments (target, TLS,
+    timeouts, keepalive, max_reuploads, max_reconnects) and methods, as coroutines, and
+    `stream` as an async generator. Create it inside a running event loop:
+
+        async with skinserve.AsyncClient("127.0.0.1:50051") as client:
+            mesh_id = await client.upload(positions, joints, weights)
+            vertices = await client.skin(mesh_id, palette, encoding="float16")
+            async for vertices in client.stream(mesh_id, palettes):
+                ...
+
+    Its behaviour is the blocking client's: NOT_FOUND re-uploads and resends, a stream that
+    ends UNAVAILABLE or idle resumes on a new one, errors are SkinserveError.
+    """
+
+    def __init__(self, target: str, max_reuploads: int = 8, max_reconnects: int = 3,
+                 tls_ca: Optional[str] = None, tls_cert: Optional[str] = None,
+                 tls_key: Optional[str] = None, tls_server_name: Optional[str] = None,
+                 timeout: Optional[float] = 30.0, upload_timeout: Optional[float] = 300.0,
+                 stream_idle_timeout: Optional[float] = 30.0,
+                 keepalive: Optional[float] = 10.0, keepalive_timeout: float = 5.0) -> None:
+        self.target = target
+        self.max_reuploads, self.max_reconnects = max_reuploads, max_reconnects
+        self.timeout, self.upload_timeout = timeout, upload_timeout
+        self.stream_idle_timeout = stream_idle_timeout
+        credentials = _channel.credentials(tls_ca, tls_cert, tls_key, tls_server_name)
+        options = _channel.options(keepalive, keepalive_timeout, tls_server_name)
+        if credentials is None:
+            self._channel = grpc.aio.insecure_channel(target, options=options)
+        else:
+            self._channel = grpc.aio.secure_channel(target, credentials, options=options)
+        self._stub = SkinningStub(self._channel)
+        # mesh id -> (requests to upload it again, joint count, vertex count)
+        self._meshes: Dict[str, Tuple[List[pb.UploadMeshRequest], int, int]] = {}
+
+    async def close(self) -> None:
+        await self._channel.close()
+
+    async def __aenter__(self) -> "AsyncClient":
+        return self
+
+    async def __aexit__(self, *exc: Any) -> None:
+        await self.close()
+
+    # ---- meshes -----------------------------------------------------------------------
+    async def upload(self, positions: npt.NDArray[np.float32], joints: npt.NDArray[np.uint16],
+                     weights: npt.NDArray[np.float32],
+                     normals: Optional[npt.NDArray[np.float32]] = None,
+                     normalize_weights: bool = False, joint_count: Optional[int] = None) -> str:
+        """Client.upload: stores a mesh and returns its id."""
+        requests = _requests.upload_requests(positions, joints, weights, normals,
+                                             normalize_weights, joint_count)
+        info = await self._upload(requests)
+        self._meshes[info.mesh_id] = (requests, requests[0].header.joint_count,
+                                      requests[0].header.vertex_count)
+        return str(info.mesh_id)
+
+    async def _upload(self, requests: List[pb.UploadMeshRequest]) -> pb.MeshInfo:
+        try:
+            info: pb.MeshInfo = await self._stub.UploadMesh(iter(requests),
+                                                            timeout=self.upload_timeout)
+            return info
+        except grpc.RpcError as e:
+            raise rpc_error(e) from None
+
+    async def _reupload(self, mesh_id: str, error: SkinserveError) -> None:
+        if mesh_id not in self._meshes:
+            raise error  # not uploaded through this client: nothing to send again
+        await self._upload(self._meshes[mesh_id][0])
+
+    def _joint_count(self, mesh_id: str) -> Optional[int]:
+        known = self._meshes.get(mesh_id)
+        return known[1] if known else None
+
+    async def _vertex_count(self, mesh_id: str) -> int:
+        if mesh_id in self._meshes:
+            return self._meshes[mesh_id][2]
+        return int((await self._unary(self._stub.GetMesh,
+                                      pb.GetMeshRequest(mesh_id=mesh_id))).vertex_count)
+
+    async def _unary(self, method: Any, request: Any) -> Any:
+        try:
+            return await method(request, timeout=self.timeout)
+        except grpc.RpcError as e:
+            raise rpc_error(e) from None
+
+    # ---- shared memory (same host) ------------------------------------------------------
+    async def register_region(self, region: SharedMemoryRegion,
+                              name: Optional[str] = None) -> pb.RegionInfo:
+        """Client.register_region."""
+        name = name or region.key
+        info: pb.RegionInfo = await self._unary(self._stub.RegisterRegion,
+                                                pb.RegisterRegionRequest(
+                                                    name=name, key=region.key,
+                                                    byte_size=region.byte_size))
+        region.name = name
+        return info
+
+    async def unregister_region(self, region_or_name: Union[SharedMemoryRegion, str]) -> None:
+        """Client.unregister_region: returns once the server has unmapped the region."""
+        region: Optional[SharedMemoryRegion] = None
+        if isinstance(region_or_name, SharedMemoryRegion):
+            region, name = region_or_name, region_or_name.name
+        else:
+            name = region_or_name
+        await self._unary(self._stub.UnregisterRegion, pb.UnregisterRegionRequest(name=name))
+        if region is not None:
+            region.name = None
+
+    async def regions(self) -> List[Dict[str, Any]]:
+        """Client.regions."""
+        return _answers.regions(await self._unary(self._stub.ListRegions,
+                                                  pb.ListRegionsRequest()))
+
+    # ---- frames -------------------------------------------------------------------------
+    @overload
+    async def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
+                   backend: Optional[str] = ..., want_normals: Literal[False] = ...,
+                   encoding: str = ..., frame: int = ...,
+                   region: Optional[SharedMemoryRegion] = ..., offset: int = ...
+                   ) -> FloatArray: ...
+
+    @overload
+    async def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
+                   backend: Optional[str] = ..., *, want_normals: Literal[True],
+                   encoding: str = ..., frame: int = ...,
+                   region: Optional[SharedMemoryRegion] = ..., offset: int = ...
+                   ) -> Tuple[FloatArray, FloatArray]: ...
+
+    async def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
+                   backend: Optional[str] = None, want_normals: bool = False,
+                   encoding: str = "float32", frame: int = 0,
+                   region: Optional[SharedMemoryRegion] = None, offset: int = 0) -> Answer:
+        """Client.skin: one frame, a single palette (J, 3, 4) or a crowd (K, J, 3, 4)."""
+        crowd = _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
+        request = _requests.skin_request(mesh_id, palette, crowd, frame, backend, want_normals,
+                                         encoding, region, offset)
+        for attempt in range(self.max_reuploads + 1):
+            result = Frame(crowd)
+            try:
+                async for part in self._stub.Skin(request, timeout=self.timeout):
+                    result.add_part(part, want_normals, region)
+                return result.result(want_normals)
+            except grpc.RpcError as e:
+                error = rpc_error(e, frame)
+                if e.code() != grpc.StatusCode.NOT_FOUND or attempt == self.max_reuploads:
+                    raise error from None
+                await self._reupload(mesh_id, error)
+        raise AssertionError("unreachable")
+
+    @overload
+    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+               backend: Optional[str] = ..., want_normals: Literal[False] = ...,
+               encoding: str = ..., window: int = ...,
+               region: Optional[SharedMemoryRegion] = ...) -> AsyncIterator[FloatArray]: ...
+
+    @overload
+    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+               backend: Optional[str] = ..., *, want_normals: Literal[True],
+               encoding: str = ..., window: int = ...,
+               region: Optional[SharedMemoryRegion] = ...
+               ) -> AsyncIterator[Tuple[FloatArray, FloatArray]]: ...
+
+    async def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+                     backend: Optional[str] = None, want_normals: bool = False,
+                     encoding: str = "float32", window: int = 8,
+                     region: Optional[SharedMemoryRegion] = None) -> AsyncIterator[Answer]:
+        """Client.stream as an async generator: frame after frame over one StreamSkin call,
+        at most `window` unanswered, yielded in order. To stop early, close it
+        (`async with contextlib.aclosing(client.stream(...)) as frames:`): that cancels the
+        call at once, rather than when the generator is collected."""
+        palettes = list(palettes)
+        joints = self._joint_count(mesh_id)
+        crowds = [_arrays.check_palette(f"palettes[{i}]", palette, joints)
+                  for i, palette in enumerate(palettes)]
+        _requests.check_window(window)
+        _requests.check_encoding(encoding)
+        stride = 0
+        if region is not None:
+            stride = _requests.region_stride(await self._vertex_count(mesh_id), crowds,
+                                             want_normals, encoding, window, region)
+        requests = [_requests.skin_request(mesh_id, p, k, i, backend, want_normals, encoding,
+                                           region, (i % window) * stride)
+                    for i, (p, k) in enumerate(zip(palettes, crowds))]
+        next_frame, reuploads, reconnects = 0, 0, 0
+        while next_frame < len(requests):
+            restart: Optional[SkinserveError] = None
+            ended: List[Tuple[Any, str]] = []
+            answers = self._one_stream(requests, next_frame, window, want_normals, region,
+                                       ended)
+            try:
+                async for index, frame in answers:
+                    if frame.error is None:
+                        next_frame = index + 1
+                        yield frame.result(want_normals)
+                        continue
+                    code, message = frame.error
+                    error = SkinserveError(code, message, index)
+                    if code != grpc.StatusCode.NOT_FOUND or reuploads >= self.max_reuploads:
+                        raise error
+                    restart = error
+                    break
+            finally:
+                await answers.aclose()
+            if restart is not None:  # resume from the frame that was NOT_FOUND
+                reuploads += 1
+                await self._reupload(mesh_id, restart)
+            elif next_frame < len(requests):  # the stream ended UNAVAILABLE or idle early
+                reconnects += 1
+                if reconnects > self.max_reconnects:
+                    code, message = ended[0] if ended else (grpc.StatusCode.UNAVAILABLE, "")
+                    raise SkinserveError(code, f"stream ended {reconnects} times, the last: "
+                                         f"{message}", next_frame)
+
+    async def _one_stream(self, requests: List[pb.SkinRequest], first: int, window: int,
+                          want_normals: bool, region: Optional[SharedMemoryRegion],
+                          ended: List[Tuple[Any, str]]) -> AsyncGenerator[Tuple[int, Frame], None]:
+        """Client._one_stream with a writer task instead of a thread: sends requests[first:]
+        with at most `window` unanswered and yields (index, Frame) in order; ends early
+        (the reason appended to `ended`) on UNAVAILABLE or after stream_idle_timeout
+        seconds without an answer while frames are in flight."""
+        credits = asyncio.Semaphore(window)
+        call = self._stub.StreamSkin()
+        in_flight = 0
+        waiting_since = time.monotonic()  # the last answer, or when frames went in flight
+
+        async def send() -> None:
+            nonlocal in_flight, waiting_since
+            for request in requests[first:]:
+                await credits.acquire()
+                if in_flight == 0:
+                    waiting_since = time.monotonic()
+                in_flight += 1
+                await call.write(request)
+            await call.done_writing()
+
+        async def read() -> Any:
+            """The next part, grpc.aio.EOF at the end, or None when the stream was idle too
+            long with frames in flight (then the call is cancelled)."""
+            limit = self.stream_idle_timeout
+            reading = asyncio.ensure_future(call.read())
+            while limit:
+                done, _ = await asyncio.wait({reading}, timeout=limit)
+                if done:
+                    break
+                if in_flight > 0 and time.monotonic() - waiting_since >= limit:
+                    reading.cancel()
+                    call.cancel()
+                    return None
+            return await reading
+
+        def new_frame(i: int) -> Frame:  # the frame answering requests[i]; past the end, one never filled
+            return Frame((requests[i].instances or None) if i < len(requests) else None)
+
+        sender = asyncio.ensure_future(send())
+        frame, index = new_frame(first), first
+        try:
+            while True:
+                part = await read()
+                if part is None:
+                    ended.append((grpc.StatusCode.DEADLINE_EXCEEDED,
+                                  f"no answer for {self.stream_idle_timeout} s with frames "
+                                  "in flight (stream_idle_timeout)"))
+                    return
+                if part is grpc.aio.EOF:
+                    return
+                waiting_since = time.monotonic()
+                frame.add_part(part, want_normals, region)
+                if part.last:
+                    in_flight -= 1
+                    if region is None:
+                        credits.release()
+                    yield index, frame
+                    waiting_since = time.monotonic()  # the caller's time is not the server's
+                    if region is not None:  # the caller is done with the frame's slot
+                        credits.release()
+                    index += 1
+                    frame = new_frame(index)
+        except grpc.RpcError as e:
+            if e.code() == grpc.StatusCode.UNAVAILABLE:
+                ended.append((e.code(), e.details()))
+            else:
+                raise rpc_error(e, index) from None
+        finally:
+            call.cancel()
+            sender.cancel()
+            try:
+                await sender
+            except (asyncio.CancelledError, grpc.RpcError, asyncio.InvalidStateError):
+                pass  # the call ended first: its status is what counts, handled above
+
+    # ---- the server ----------------------------------------------------------------------
+    async def backends(self) -> List[Dict[str, Any]]:
+        """Client.backends."""
+        return _answers.backends(await self._unary(self._stub.ListBackends,
+                                                   pb.ListBackendsRequest()))
+
+    async def stats(self) -> Dict[str, Any]:
+        """Client.stats."""
+        return _answers.stats(await self._unary(self._stub.GetServerStats,
+                                                pb.GetServerStatsRequest()))

@@ -1,0 +1,87 @@
+"""The requests both clients send: a mesh's upload messages and a frame's SkinRequest,
+built from checked arrays."""
+from typing import List, Optional
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _arrays, _shared_memory
+from ._shared_memory import SharedMemoryRegion
+from .v1 import skinning_pb2 as pb
+
+CHUNK_BYTES = 1 << 20
+ENCODINGS = {"float32": pb.ENCODING_FLOAT32, "float16": pb.ENCODING_FLOAT16,
+             "snorm16": pb.ENCODING_SNORM16}
+
+
+def upload_requests(positions: npt.NDArray[np.float32], joints: npt.NDArray[np.uint16],
+                    weights: npt.NDArray[np.float32],
+                    normals: Optional[npt.NDArray[np.float32]], normalize_weights: bool,
+                    joint_count: Optional[int]) -> List[pb.UploadMeshRequest]:
+    """The header, then each array in chunks of at most 1 MiB."""
+    _arrays.check_mesh(positions, joints, weights, normals)
+    used = int(joints.max()) + 1
+    if joint_count is None:
+        joint_count = used
+    elif not isinstance(joint_count, int) or joint_count < used:
+        raise ValueError(f"joint_count: {joint_count!r}, expected an int >= {used} "
+                         f"(joints refers to joint {used - 1})")
+    header = pb.MeshHeader(
+        vertex_count=positions.shape[0], influences=joints.shape[1],
+        joint_count=joint_count, has_normals=normals is not None,
+        weight_policy=(pb.WEIGHT_POLICY_NORMALIZE if normalize_weights
+                       else pb.WEIGHT_POLICY_REJECT))
+    requests = [pb.UploadMeshRequest(header=header)]
+    arrays = [(pb.MESH_ARRAY_POSITIONS, positions, "f4"),
+              (pb.MESH_ARRAY_NORMALS, normals, "f4"),
+              (pb.MESH_ARRAY_JOINTS, joints, "u2"),
+              (pb.MESH_ARRAY_WEIGHTS, weights, "f4")]
+    for kind, array, dtype in arrays:
+        if array is None:
+            continue
+        data = _arrays.little_endian_bytes(array, dtype)
+        itemsize = np.dtype(dtype).itemsize
+        for offset in range(0, len(data), CHUNK_BYTES):
+            requests.append(pb.UploadMeshRequest(chunk=pb.MeshChunk(
+                array=kind, offset=offset // itemsize, data=data[offset:offset + CHUNK_BYTES])))
+    return requests
+
+
+def check_encoding(encoding: str) -> None:
+    if encoding not in ENCODINGS:
+        raise ValueError(f"encoding: '{encoding}', expected one of {sorted(ENCODINGS)}")
+
+
+def skin_request(mesh_id: str, palette: npt.NDArray[np.float32], crowd: Optional[int],
+                 frame: int, backend: Optional[str], want_normals: bool, encoding: str,
+                 region: Optional[SharedMemoryRegion] = None, offset: int = 0) -> pb.SkinRequest:
+    check_encoding(encoding)
+    request = pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
+                             palette=_arrays.little_endian_bytes(palette, "f4"),
+                             want_normals=want_normals, encoding=ENCODINGS[encoding],
+                             instances=crowd or 0, pack_instances=True)
+    if region is not None:
+        if region.name is None:
+            raise ValueError("region: not registered (Client.register_region)")
+        request.output.region = region.name
+        request.output.offset = offset
+    return request
+
+
+def check_window(window: int) -> None:
+    if window < 1:
+        raise ValueError(f"window: {window}, expected >= 1")
+
+
+def region_stride(vertices: int, crowds: List[Optional[int]], want_normals: bool,
+                  encoding: str, window: int, region: SharedMemoryRegion) -> int:
+    """Bytes between a stream's frames in `region`: the largest frame, rounded up; the
+    region must hold `window` of them."""
+    check_encoding(encoding)
+    size = 4 if encoding == "float32" else 2
+    stride = max((_shared_memory.frame_bytes(vertices, k or 1, size, want_normals)
+                  for k in set(crowds)), default=0)
+    if window * stride > region.byte_size:
+        raise ValueError(f"region: {region.byte_size} bytes, fewer than {window} frames "
+                         f"in flight of {stride} bytes")
+    return stride

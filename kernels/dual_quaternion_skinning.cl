@@ -1,0 +1,87 @@
+/* Dual-quaternion skinning (docs/backends/dual-quaternion.md), with the semantics of the
+ * CPU loops (core/engine/src/backends/scalar_dual_quaternion_skinning.h): per vertex the B
+ * unit dual quaternions are blended, each one's sign chosen against the first influence
+ * (q and -q are the same rotation), normalised by the real part's length and applied to
+ * the position; the normal is rotated by the blended rotation (a unit quaternion: no
+ * renormalisation).
+ * The palette is the frame's DualQuaternionPalette, converted on the host once per frame:
+ * 8 floats per joint, the rotation (x, y, z, w) then the dual part (x, y, z, w).
+ *
+ * Built in one program after linear_blend_skinning.cl, whose work-item shape it shares
+ * (SKIN_VERTEX, SKIN_KEEP, SKIN_ARGS: 4 vertices per item, the last item clamping to the
+ * last vertex), so the host enqueues dqs_b* and dqs_normals_b* exactly as skin_b* and
+ * skin_normals_b*. Full precision maths only (sqrt and a true division, never native_ or
+ * half_), to match a float64 reference to 1e-5.
+ */
+
+/* The normalised blend of vertex v's B dual quaternions: rotation r, dual part e. */
+static inline void BlendDualQuaternions(const __global float* restrict quaternions,
+                                        const __global ushort* restrict joints,
+                                        const __global float* restrict weights, const uint v,
+                                        const int influences, float4* r, float4* e) {
+  const float8 first = vload8(0, quaternions + 8 * (uint)joints[v * influences]);
+  float8 b = weights[v * influences] * first;
+#pragma unroll
+  for (int i = 1; i < influences; ++i) {
+    const float8 q = vload8(0, quaternions + 8 * (uint)joints[v * influences + i]);
+    const float dot = fma(first.s0, q.s0, fma(first.s1, q.s1, fma(first.s2, q.s2, first.s3 * q.s3)));
+    const float w = dot < 0.0f ? -weights[v * influences + i] : weights[v * influences + i];
+    b = fma((float8)(w), q, b);
+  }
+  const float inverse =
+      1.0f / sqrt(fma(b.s0, b.s0, fma(b.s1, b.s1, fma(b.s2, b.s2, b.s3 * b.s3))));
+  *r = b.lo * inverse;
+  *e = b.hi * inverse;
+}
+
+/* p + 2 r x (r x p + rw p): p rotated by the unit quaternion r. */
+static inline float3 RotateByQuaternion(const float4 r, const float3 p) {
+  const float3 c = cross(r.xyz, p) + r.w * p;
+  return p + 2.0f * cross(r.xyz, c);
+}
+
+static inline void StoreDualQuaternionPosition(const float4 r, const float4 e,
+                                               const __global float* restrict positions,
+                                               __global float* restrict out_positions,
+                                               const uint v) {
+  /* Translation t = 2 (rw e - ew r + r x e), vector parts. */
+  const float3 t = 2.0f * (r.w * e.xyz - e.w * r.xyz + cross(r.xyz, e.xyz));
+  vstore3(RotateByQuaternion(r, vload3(v, positions)) + t, v, out_positions);
+}
+
+#define DEFINE_DUAL_QUATERNION_KERNELS(B)                                                 \
+  __kernel void dqs_b##B(SKIN_ARGS) {                                                     \
+    if (SKIN_VERTEX(0) >= vertex_count) return;                                           \
+    const uint last = vertex_count - 1;                                                   \
+    _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                 \
+      const uint raw = SKIN_VERTEX(k), v = min(raw, last);                                \
+      float4 r, e;                                                                        \
+      BlendDualQuaternions(palette, joints, weights, v, B, &r, &e);                       \
+      if (SKIN_KEEP(raw, vertex_count)) {                                                 \
+        StoreDualQuaternionPosition(r, e, positions, out_positions, v);                   \
+      }                                                                                   \
+    }                                                                                     \
+  }                                                                                       \
+  __kernel void dqs_normals_b##B(SKIN_ARGS, const __global float* restrict normals,       \
+                                 __global float* restrict out_normals) {                  \
+    if (SKIN_VERTEX(0) >= vertex_count) return;                                           \
+    const uint last = vertex_count - 1;                                                   \
+    _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                 \
+      const uint raw = SKIN_VERTEX(k), v = min(raw, last);                                \
+      float4 r, e;                                                                        \
+      BlendDualQuaternions(palette, joints, weights, v, B, &r, &e);                       \
+      if (SKIN_KEEP(raw, vertex_count)) {                                                 \
+        StoreDualQuaternionPosition(r, e, positions, out_positions, v);                   \
+        vstore3(RotateByQuaternion(r, vload3(v, normals)), v, out_normals);               \
+      }                                                                                   \
+    }                                                                                     \
+  }
+
+DEFINE_DUAL_QUATERNION_KERNELS(1)
+DEFINE_DUAL_QUATERNION_KERNELS(2)
+DEFINE_DUAL_QUATERNION_KERNELS(3)
+DEFINE_DUAL_QUATERNION_KERNELS(4)
+DEFINE_DUAL_QUATERNION_KERNELS(5)
+DEFINE_DUAL_QUATERNION_KERNELS(6)
+DEFINE_DUAL_QUATERNION_KERNELS(7)
+DEFINE_DUAL_QUATERNION_KERNELS(8)
