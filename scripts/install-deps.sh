@@ -48,6 +48,9 @@ TEST_PACKAGES+=(openssl clinfo)
 BUILD_PACKAGES+=(libcpp-httplib-dev)
 RUNTIME_PACKAGES+=(libcpp-httplib0.11)
 TEST_PACKAGES+=(prometheus curl python3-venv python3-pip python3-setuptools python3-pytest)
+# Conventions (issue 30): man pages generated from --help at build time (help2man);
+# script(1) (bsdutils, essential) gives the progress-line test its terminal.
+BUILD_PACKAGES+=(help2man)
 # The Python client's wheel (issue 30): built with pip, setuptools and wheel, its messages
 # from protobuf-compiler's protoc, run on Debian's protobuf; mypy --strict on it, packaging
 # to compare its pinned ranges with what is installed.

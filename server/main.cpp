@@ -13,6 +13,8 @@
 
 #include "server_options.h"
 #include "skin_server.h"
+#include "skinserve/cli/config_file.h"
+#include "skinserve/cli/version.h"
 
 namespace {
 
@@ -55,8 +57,9 @@ int main(int argc, char** argv) {
   ServerOptions options;
   CLI::App app{"skinserve: remote linear blend skinning over gRPC (skinserve.v1.Skinning)"};
   AddServerOptions(app, options);
-  app.set_version_flag("--version", "skinserve " SKINSERVE_VERSION);
-  CLI11_PARSE(app, argc, argv);
+  skinserve::cli::AddVersionFlag(app, "skinserve");
+  skinserve::cli::AddConfigFile(app, "SKINSERVE_CONFIG");
+  if (const auto exit_code = skinserve::cli::ParseCommandLine(app, argc, argv)) return *exit_code;
   TuneMalloc();
 
   if (pipe(signal_pipe) != 0) {

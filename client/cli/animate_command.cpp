@@ -18,6 +18,7 @@
 
 #include "character_input.h"
 #include "commands.h"
+#include "progress_line.h"
 #include "skinserve/character/animation.h"
 #include "skinserve/character/character_mesh.h"
 #include "skinserve/client/channel.h"
@@ -190,6 +191,8 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
   Status first_error;
   std::atomic<uint64_t> written_obj{0}, written_png{0};
   std::atomic<int64_t> compute_ns{0};
+  std::atomic<uint64_t> frames_done{0};
+  ProgressLine progress("animate", frames);
   FrameGather gather(meshes.size(), 2 * static_cast<uint64_t>(o.window), &stop);
   auto fail = [&](Status s) {
     {
@@ -263,12 +266,16 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
             }
             compute_ns += static_cast<int64_t>(result.timing.compute_ns());
             auto whole = gather.Add(m, std::move(result));
-            if (whole && !stop) write_frame(*whole);
+            if (whole && !stop) {
+              write_frame(*whole);
+              progress.Update(++frames_done);
+            }
           },
           &summaries[m]);
     });
   }
   for (std::thread& t : threads) t.join();
+  progress.Finish();
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   for (std::size_t m = 0; m < meshes.size(); ++m) {

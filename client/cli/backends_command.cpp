@@ -7,7 +7,10 @@ namespace skinserve::cli {
 
 void AddBackendsCommand(CLI::App& app, CommonOptions& common) {
   auto* command = app.add_subcommand("backends", "list the server's backends");
-  command->callback([&common] {
+  auto json = std::make_shared<bool>(false);
+  command->add_flag("--json", *json,
+                    "print ListBackends' answer as one JSON object (the .proto's field names)");
+  command->callback([&common, json] {
     auto channel = common.Channel();
     if (!channel.ok()) {
       common.exit_code = Report(channel.status());
@@ -17,6 +20,10 @@ void AddBackendsCommand(CLI::App& app, CommonOptions& common) {
     auto list = client.ListBackends();
     if (!list.ok()) {
       common.exit_code = Report(list.status());
+      return;
+    }
+    if (*json) {
+      common.exit_code = PrintJson(*list);
       return;
     }
     fmt::print("{:<16} {:<9} {:>4} {:>7}  {:<23}  {}\n", "id", "available", "simd", "threads",

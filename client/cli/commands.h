@@ -2,6 +2,7 @@
 // through the callback it sets; `exit_code` carries the result back to main.
 #pragma once
 
+#include <google/protobuf/message.h>
 #include <CLI/CLI.hpp>
 
 #include <string>
@@ -54,5 +55,9 @@ void AddMethodOption(CLI::App* command, SkinningMethod* method);
 
 // Prints `status` to stderr and returns its exit code (0 for OK).
 int Report(const Status& status);
+
+// Prints `message` on stdout as one JSON object (protobuf's JSON mapping: the .proto's
+// field names, every field even when 0; 64-bit integers as strings) for --json.
+int PrintJson(const google::protobuf::Message& message);
 
 }  // namespace skinserve::cli

@@ -1,4 +1,5 @@
 #include <fmt/format.h>
+#include <google/protobuf/util/json_util.h>
 
 #include <map>
 
@@ -71,6 +72,19 @@ int Report(const Status& status) {
     fmt::print(stderr, "hint: {}\n", hint);
   }
   return 1;
+}
+
+int PrintJson(const google::protobuf::Message& message) {
+  google::protobuf::util::JsonPrintOptions options;
+  options.always_print_primitive_fields = true;
+  options.preserve_proto_field_names = true;
+  std::string text;
+  if (const auto status = google::protobuf::util::MessageToJsonString(message, &text, options);
+      !status.ok()) {
+    return Report(Internal(fmt::format("--json: {}", status.ToString())));
+  }
+  fmt::print("{}\n", text);
+  return 0;
 }
 
 }  // namespace skinserve::cli

@@ -2,12 +2,14 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
+#include "skinserve/cli/version.h"
 
 int main(int argc, char** argv) {
   using namespace skinserve::cli;
   CLI::App app{"skinserve-cli: upload meshes, skin frames and check a skinserve server"};
   CommonOptions common;
   AddCommonOptions(app, common);
+  AddVersionFlag(app, "skinserve-cli");
   app.require_subcommand(1);
   AddHealthCommand(app, common);
   AddBackendsCommand(app, common);

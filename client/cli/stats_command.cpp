@@ -7,9 +7,15 @@ namespace skinserve::cli {
 
 void AddStatsCommand(CLI::App& app, CommonOptions& common) {
   auto* command = app.add_subcommand("stats", "the server's counters per backend");
+  auto frames_only = std::make_shared<bool>(false);
   auto json = std::make_shared<bool>(false);
-  command->add_flag("--frames-only", *json, "print only the total frames served (for scripts)");
-  command->callback([&common, json] {
+  auto* frames_flag = command->add_flag("--frames-only", *frames_only,
+                                        "print only the total frames served (for scripts)");
+  command
+      ->add_flag("--json", *json,
+                 "print GetServerStats' answer as one JSON object (the .proto's field names)")
+      ->excludes(frames_flag);
+  command->callback([&common, frames_only, json] {
     auto channel = common.Channel();
     if (!channel.ok()) {
       common.exit_code = Report(channel.status());
@@ -21,9 +27,13 @@ void AddStatsCommand(CLI::App& app, CommonOptions& common) {
       common.exit_code = Report(stats.status());
       return;
     }
+    if (*json) {
+      common.exit_code = PrintJson(*stats);
+      return;
+    }
     uint64_t total = 0;
     for (const auto& b : stats->backends()) total += b.frames();
-    if (*json) {
+    if (*frames_only) {
       fmt::print("{}\n", total);
       return;
     }

@@ -17,6 +17,8 @@
 #include "load_report.h"
 #include "load_runner.h"
 #include "measurement_flags.h"
+#include "skinserve/cli/config_file.h"
+#include "skinserve/cli/version.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/malloc_tuning.h"
 #include "skinserve/client/skin_client.h"
@@ -425,7 +427,9 @@ int main(int argc, char** argv) {
   app.add_option("--json", o.json, "write results as JSON");
   app.add_option("--csv", o.csv, "write results as CSV");
   app.add_option("--plot", o.plot, "write a PNG chart (gnuplot)");
-  CLI11_PARSE(app, argc, argv);
+  skinserve::cli::AddVersionFlag(app, "skinserve-load");
+  skinserve::cli::AddConfigFile(app, "SKINSERVE_LOAD_CONFIG");
+  if (const auto exit_code = skinserve::cli::ParseCommandLine(app, argc, argv)) return *exit_code;
   // Frames arrive all the time: keep their buffers mapped (client/malloc_tuning.h).
   if (!skinserve::client::TuneMallocForStreaming()) {
     fmt::print(stderr, "warning: glibc refused the malloc settings for streaming\n");

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "alloc_counter.h"
+#include "skinserve/cli/version.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/client/malloc_tuning.h"
@@ -278,6 +279,7 @@ int main(int argc, char** argv) {
                  "skinserve-load) or glibc's 'default'")
       ->check(CLI::IsMember({"tuned", "default"}))
       ->capture_default_str();
+  skinserve::cli::AddVersionFlag(app, "skinserve-frame-profile");
   CLI11_PARSE(app, argc, argv);
   if (o.malloc == "tuned" && !client::TuneMallocForStreaming()) {
     fmt::print(stderr, "error: glibc refused the malloc settings\n");

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <thread>
 
+#include "skinserve/cli/version.h"
 #include "upload_attack.h"
 
 int main(int argc, char** argv) {
@@ -44,6 +45,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--settle-seconds", settle_seconds, "pause after each round")
       ->capture_default_str();
+  skinserve::cli::AddVersionFlag(app, "skinserve-upload-attack");
   CLI11_PARSE(app, argc, argv);
   const auto ms = [](double s) { return std::chrono::milliseconds(static_cast<int64_t>(s * 1e3)); };
   o.hold = ms(hold_seconds);
