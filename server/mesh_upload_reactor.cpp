@@ -53,7 +53,7 @@ void MeshUploadReactor::OnCancel() {
 
 void MeshUploadReactor::OnDone() {
   if (registered_) uploads_->Remove(this);  // only if it never finished (not expected)
-  assembly_.Discard();  // now, not when the last Hold lets go
+  assembly_.Discard();                      // now, not when the last Hold lets go
   Unref();
 }
 
