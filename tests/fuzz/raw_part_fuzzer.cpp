@@ -11,8 +11,8 @@
 #include <cstring>
 #include <vector>
 
-#include "skinserve/wire/raw_part.h"
 #include "skinserve/encoding/vertex_encoding.h"
+#include "skinserve/wire/raw_part.h"
 
 namespace {
 

@@ -3,8 +3,8 @@
 #include <gtest/gtest.h>
 
 #include "skinserve/client/frame_stream.h"
-#include "skinserve/reference/reference.h"
 #include "skinserve/engine/simd_targets.h"
+#include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 #include "test_server.h"
 

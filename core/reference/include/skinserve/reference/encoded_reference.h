@@ -5,9 +5,9 @@
 
 #include <span>
 
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/model/mesh.h"
 #include "skinserve/model/skinning_method.h"
-#include "skinserve/encoding/vertex_encoding.h"
 
 namespace skinserve {
 
