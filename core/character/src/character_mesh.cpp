@@ -45,8 +45,11 @@ void Append(const SkinnedPrimitive& p, int index, uint16_t rigid_joint, bool mor
   for (uint32_t v = 0; v < p.arrays.vertex_count; ++v) {
     for (uint32_t i = 0; i < b; ++i) {
       const bool real = i < pb;
-      const uint16_t joint = p.rigid() ? rigid_joint : p.arrays.joints[std::size_t{v} * pb + i];
-      a.joints.push_back(real ? joint : 0);
+      // Padding reads nothing of the part (its arrays hold pb influences a vertex).
+      const uint16_t joint = !real       ? 0
+                             : p.rigid() ? rigid_joint
+                                         : p.arrays.joints[std::size_t{v} * pb + i];
+      a.joints.push_back(joint);
       a.weights.push_back(real ? p.arrays.weights[std::size_t{v} * pb + i] : 0.0f);
     }
   }
