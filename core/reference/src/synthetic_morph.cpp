@@ -3,25 +3,12 @@
 #include <algorithm>
 #include <numeric>
 
+#include "splitmix_random.h"
+
 namespace skinserve {
 namespace {
 
-// splitmix64, as in synthetic.cpp: identical on every platform.
-class Random {
- public:
-  explicit Random(uint64_t seed) : state_(seed) {}
-  uint64_t Next() {
-    uint64_t z = (state_ += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  }
-  double Uniform() { return static_cast<double>(Next() >> 11) * 0x1.0p-53; }  // [0, 1)
-  float Uniform(double lo, double hi) { return static_cast<float>(lo + (hi - lo) * Uniform()); }
-
- private:
-  uint64_t state_;
-};
+using synthetic::Random;
 
 }  // namespace
 
@@ -39,10 +26,10 @@ void AddSyntheticMorphTargets(const SyntheticMorphSpec& spec, MeshArrays* arrays
       ++size;
       arrays->morph_indices.push_back(v);
       for (int a = 0; a < 3; ++a)
-        arrays->morph_position_deltas.push_back(random.Uniform(-0.1, 0.1));
+        arrays->morph_position_deltas.push_back(static_cast<float>(random.Uniform(-0.1, 0.1)));
       if (normals) {
         for (int a = 0; a < 3; ++a)
-          arrays->morph_normal_deltas.push_back(random.Uniform(-0.3, 0.3));
+          arrays->morph_normal_deltas.push_back(static_cast<float>(random.Uniform(-0.3, 0.3)));
       }
     }
     arrays->morph_target_sizes.push_back(size);
@@ -62,7 +49,7 @@ std::vector<MorphWeight> MakeMorphWeights(uint32_t target_count, uint32_t active
   }
   std::vector<MorphWeight> weights;
   for (uint32_t i = 0; i < active; ++i) {
-    float w = random.Uniform(-1.5, 1.5);
+    float w = static_cast<float>(random.Uniform(-1.5, 1.5));
     if (w == 0.0f) w = 0.5f;
     weights.push_back({order[i], w});
   }

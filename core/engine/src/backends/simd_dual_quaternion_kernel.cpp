@@ -21,16 +21,8 @@
 // padded local copies: nothing outside the range is written.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_dual_quaternion_kernel.cpp"
-// The same targets as simd_kernel.cpp, which calls into each of them.
-#ifndef HWY_DISABLED_TARGETS
-// Sanitizer builds: AVX2 and the fallback alone (core/engine/CMakeLists.txt says why).
-#ifdef SKINSERVE_SIMD_SANITIZER_TARGETS
-#define HWY_DISABLED_TARGETS (HWY_SSSE3 | HWY_SSE4 | HWY_AVX3 | HWY_AVX3_DL)
-#else
-#define HWY_DISABLED_TARGETS HWY_SSSE3
-#endif
-#endif
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include "simd_kernel_targets.h"
 // Order matters: foreach_target.h first, then highway.h.
 #include <hwy/highway.h>
 

@@ -12,16 +12,8 @@
 // time, four vertices per step, while the chunk is still in L1.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_kernel.cpp"
-// SSSE3 would add compile time and nothing over SSE4 on any CPU we run on.
-#ifndef HWY_DISABLED_TARGETS
-// Sanitizer builds: AVX2 and the fallback alone (core/engine/CMakeLists.txt says why).
-#ifdef SKINSERVE_SIMD_SANITIZER_TARGETS
-#define HWY_DISABLED_TARGETS (HWY_SSSE3 | HWY_SSE4 | HWY_AVX3 | HWY_AVX3_DL)
-#else
-#define HWY_DISABLED_TARGETS HWY_SSSE3
-#endif
-#endif
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include "simd_kernel_targets.h"
 // Order matters: foreach_target.h first, then highway.h.
 #include <hwy/highway.h>
 
