@@ -147,8 +147,12 @@ def test_asyncio_client_uploads_targets_and_sends_weights(server, rng, morph_mes
 def test_bad_targets_and_weights_are_refused_naming_them(client, rng, morph_mesh):
     mesh, targets = morph_mesh
     with pytest.raises(ValueError, match=r"morph_targets\[1\].positions: shape"):
-        bad = [targets[0], skinserve.MorphTarget(targets[1].indices, targets[1].positions[1:])]
+        bad = [targets[0], skinserve.MorphTarget(targets[1].indices, targets[1].positions[1:],
+                                                 targets[1].normals)]
         client.upload(*mesh[:3], normals=mesh[3], morph_targets=bad)
+    with pytest.raises(ValueError, match="some targets have normal deltas and some not"):
+        client.upload(*mesh[:3], normals=mesh[3],
+                      morph_targets=[targets[0], targets[1]._replace(normals=None)])
     with pytest.raises(ValueError, match="normal deltas, but the mesh has no normals"):
         client.upload(*mesh[:3], morph_targets=targets)
     mesh_id = client.upload(*mesh[:3], normals=mesh[3], morph_targets=targets)
