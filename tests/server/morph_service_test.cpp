@@ -3,10 +3,10 @@
 // matching the float64 reference (which morphs in double before skinning) on every backend
 // that applies them (all but passthrough; OpenCL on the device), unary, streamed and as a
 // crowd (whose instances share the request's weights), in float32 and snorm16, linear and
-// dual quaternions on OpenCL, morphed frames alternating with plain ones; bad weights are
-// INVALID_ARGUMENT naming the field and the entry, a backend without morph targets is
-// FAILED_PRECONDITION naming it, and neither ends the stream. Bad targets on upload are refused
-// naming the field; their bytes are charged to
+// dual quaternions on OpenCL, morphed frames alternating with plain ones. Bad weights (on
+// any backend, OpenCL included) are INVALID_ARGUMENT naming the field and the entry, a
+// backend without morph targets is FAILED_PRECONDITION naming it, and neither ends the
+// stream. Bad targets on upload are refused naming the field; their bytes are charged to
 // --upload-budget-mb. Tolerance: CompareWithReference's with morphs (float32), plus the
 // snorm16 step for the encoded frame.
 #include <gtest/gtest.h>
@@ -185,6 +185,20 @@ TEST(MorphServiceTest, OpenClStreamsMorphedAndPlainFramesInBothMethods) {
       EXPECT_TRUE(streamed.ok()) << what << ": " << streamed.ToString();
       EXPECT_EQ(checked, 12u) << what;
     }
+    // Bad weights get the engine's errors, as on every backend.
+    client::FrameResult result;
+    client::SkinOptions options{.backend = id};
+    const std::vector<MorphWeight> unknown = {{1, 0.5f}, {kTargets, 1.0f}};
+    options.morph_weights = unknown;
+    ExpectStatus(
+        t.client->Skin(info->mesh_id(), MakeSyntheticPalette(kJoints, 12, 0), 0, options, &result),
+        StatusCode::kInvalidArgument,
+        "morph_weights[1]: target 16 is not below the mesh's morph_target_count 16");
+    const std::vector<MorphWeight> nan = {{3, std::numeric_limits<float>::quiet_NaN()}};
+    options.morph_weights = nan;
+    ExpectStatus(
+        t.client->Skin(info->mesh_id(), MakeSyntheticPalette(kJoints, 12, 0), 0, options, &result),
+        StatusCode::kInvalidArgument, "morph_weights[0]: weight nan of target 3 must be finite");
   }
 }
 

@@ -17,7 +17,7 @@
 //
 // Morph targets: the mesh's targets are wrapped in place too, and so are a frame's active
 // weights; a frame with an active target runs the morph kernel into the lane's morphed
-// buffers (device memory: on PoCL host memory the runtime allocates once per lane), which
+// buffers (device memory, grown like the copy backend's per-lane buffers), which
 // the skinning kernel then reads (opencl_morph.h).
 #include "dual_quaternion_palette.h"
 #include "opencl_backends.h"
