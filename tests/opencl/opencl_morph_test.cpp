@@ -120,6 +120,50 @@ TEST_P(OpenClMorphTest, TargetsThatMoveNoVertexLeaveTheRestShape) {
             "");
 }
 
+// Targets that each move one region (a face rig's): spans that start and end inside a
+// work-item's 256 vertices, straddle items, cover the first or the last vertex alone, or
+// two neighbours across an item boundary; the kernel skips the items a span misses.
+TEST_P(OpenClMorphTest, TargetsThatMoveOneRegionMatchTheReference) {
+  Backend& backend = OpenClBackend(GetParam());
+  SKIP_IF_OPENCL_UNAVAILABLE(backend);
+  constexpr uint32_t kVertices = 2049;
+  MeshArrays arrays = MakeSyntheticMesh({.vertex_count = kVertices,
+                                         .influences = 4,
+                                         .joint_count = kJoints,
+                                         .normals = true,
+                                         .seed = 9});
+  const std::vector<std::pair<uint32_t, uint32_t>> spans = {
+      {0, 1}, {0, 10}, {300, 700}, {255, 257}, {511, 1537}, {kVertices - 1, kVertices}, {0, 2049}};
+  for (std::size_t t = 0; t < spans.size(); ++t) {
+    const auto [first, end] = spans[t];
+    arrays.morph_target_sizes.push_back(end - first);
+    for (uint32_t v = first; v < end; ++v) {
+      arrays.morph_indices.push_back(v);
+      for (int a = 0; a < 3; ++a) {
+        // Distinct per target, vertex and axis, small against the unit normals.
+        const float x = static_cast<float>((v * 7 + t * 13 + a * 5) % 17) / 17.0f - 0.5f;
+        arrays.morph_position_deltas.push_back(0.2f * x);
+        arrays.morph_normal_deltas.push_back(0.1f * x);
+      }
+    }
+  }
+  auto mesh = Mesh::Create(arrays);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  auto prepared = backend.Prepare(*mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  for (uint32_t t = 0; t < spans.size(); ++t) {  // each target alone, then all but the last
+    const std::vector<MorphWeight> alone = {{t, 1.5f}};
+    EXPECT_EQ(MorphedFrameMismatch(backend, **prepared, SkinningMethod::kLinear, true, alone, 9, t),
+              "")
+        << "target " << t << " alone";
+  }
+  std::vector<MorphWeight> together;
+  for (uint32_t t = 0; t + 1 < spans.size(); ++t) together.push_back({t, 0.5f - 0.25f * t});
+  for (SkinningMethod method : {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion}) {
+    EXPECT_EQ(MorphedFrameMismatch(backend, **prepared, method, true, together, 9, 20), "");
+  }
+}
+
 // Threads each with their own weights (and every other frame none) on one prepared mesh:
 // on the staged runtime frames run on four lanes at once, each lane with its own buffers.
 TEST_P(OpenClMorphTest, ConcurrentFramesWithTheirOwnWeightsAreAllCorrect) {

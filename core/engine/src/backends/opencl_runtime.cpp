@@ -19,12 +19,12 @@ constexpr std::size_t kVerticesPerItem = 4;
 // a GPU, two warps.
 constexpr std::size_t kItemsPerGroup = 64;
 static_assert(kVerticesPerItem * kItemsPerGroup == OpenClRuntime::kChunkAlignment);
-// The morph kernels (morph_targets.cl): vertices per work-item (each item copies its range
-// and searches each active target once: 64 keeps the searches a small part of the work
-// and still gives 25k vertices ~400 items), and items per work-group, one fixed size so
+// The morph kernels (morph_targets.cl): vertices per work-item (each item searches each
+// active target once: 256 keeps the searches a small part of the work, see the kernel, and
+// still gives 25k vertices 13 work-groups), and items per work-group, one fixed size so
 // that PoCL compiles the kernel once, at warm-up.
-constexpr uint32_t kMorphVerticesPerItem = 64;
-constexpr std::size_t kMorphItemsPerGroup = 16;
+constexpr uint32_t kMorphVerticesPerItem = 256;
+constexpr std::size_t kMorphItemsPerGroup = 8;
 // What the ICD loader returns when it finds no platform at all (cl_khr_icd).
 constexpr cl_int kPlatformNotFoundKhr = -1001;
 
