@@ -19,9 +19,9 @@
  * items write one vertex, so no atomics (OpenCL 1.2 has no float atomics) and the sums are
  * deterministic. Work: the copy, the active deltas, and per item and active target one
  * search - which is what the item size trades: on PoCL (2 threads, 25k vertices, 4 of 64
- * targets active, each moving 10%) the kernel took ~190 us at 64 vertices an item and
- * ~50 us at 256, where a frame's skinning kernel takes ~250 us. A one-target-per-launch
- * scatter would need no search but pay a launch per active target.
+ * targets active, each moving 10%) the kernel alone took ~190 us at 64 vertices an item
+ * and ~50 us at 256. A one-target-per-launch scatter would need no search but pay a launch
+ * per active target.
  */
 
 #if !defined(MORPH_VERTICES_PER_ITEM)
