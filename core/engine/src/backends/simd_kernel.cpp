@@ -10,6 +10,8 @@
 // overwritten by the next vertex, and the last vertex of a range goes through a local
 // copy so nothing outside the range is touched. Normals are renormalised a chunk at a
 // time, four vertices per step, while the chunk is still in L1.
+// One loop serves both rest streams (FloatRest, QuantizedRest): a quantized vertex's
+// integers become floats in registers and then take the float vertex's path.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_kernel.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -21,6 +23,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 #include "backends/influence_dispatch.h"
 #include "backends/simd_stream.h"
@@ -224,33 +227,77 @@ HWY_INLINE void Renormalise(float* HWY_RESTRICT normals, std::size_t first, std:
   }
 }
 
+// The float rest stream: SkinVertex reads the arrays in place.
 template <int B, bool Normals, typename Joint>
-void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
-                const float* HWY_RESTRICT columns, float* HWY_RESTRICT out_p,
+struct FloatRest {
+  const float* HWY_RESTRICT positions;
+  const float* HWY_RESTRICT normals;
+  const Joint* HWY_RESTRICT joints;
+  const float* HWY_RESTRICT weights;
+
+  HWY_INLINE void Skin(const float* HWY_RESTRICT columns, const Spread& s, std::size_t v,
+                       float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n) const {
+    SkinVertex<B, Normals>(columns, s, positions + 3 * v, Normals ? normals + 3 * v : nullptr,
+                           joints + B * v, weights + (B - 1) * v, out_p, out_n);
+  }
+  // The range's last vertex: through local copies, as SkinVertex reads 4 floats of each.
+  HWY_INLINE void SkinLast(const float* HWY_RESTRICT columns, const Spread& s, std::size_t v,
+                           float* HWY_RESTRICT res_p, float* HWY_RESTRICT res_n) const {
+    float in_p[4] = {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2], 0};
+    float in_n[4] = {};
+    if constexpr (Normals) std::copy_n(normals + 3 * v, 3, in_n);
+    SkinVertex<B, Normals>(columns, s, in_p, in_n, joints + B * v, weights + (B - 1) * v, res_p,
+                           res_n);
+  }
+};
+
+// The quantized rest stream (QuantizedStream): integers to floats in registers, then the
+// float vertex; the palette's columns carry the box (simd_stream.h).
+template <int B, bool Normals, typename Joint, typename Weight>
+struct QuantizedRest {
+  const uint16_t* HWY_RESTRICT positions;
+  const int16_t* HWY_RESTRICT normals;
+  const Joint* HWY_RESTRICT joints;
+  const Weight* HWY_RESTRICT weights;
+  float normal_scale[3];
+
+  HWY_INLINE void Skin(const float* HWY_RESTRICT columns, const Spread& s, std::size_t v,
+                       float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n) const {
+    constexpr float kStep = 1.0f / static_cast<float>(hwy::LimitsMax<Weight>());
+    const uint16_t* q = positions + 3 * v;
+    alignas(16) const float p[4] = {static_cast<float>(q[0]), static_cast<float>(q[1]),
+                                    static_cast<float>(q[2]), 0.0f};
+    alignas(16) float n[4] = {};
+    if constexpr (Normals) {
+      const int16_t* m = normals + 3 * v;
+      for (int a = 0; a < 3; ++a) n[a] = static_cast<float>(m[a]) * normal_scale[a];
+    }
+    float w[B];
+    for (int i = 0; i < B - 1; ++i) w[i] = static_cast<float>(weights[(B - 1) * v + i]) * kStep;
+    SkinVertex<B, Normals>(columns, s, p, n, joints + B * v, w, out_p, out_n);
+  }
+  HWY_INLINE void SkinLast(const float* HWY_RESTRICT columns, const Spread& s, std::size_t v,
+                           float* HWY_RESTRICT res_p, float* HWY_RESTRICT res_n) const {
+    Skin(columns, s, v, res_p, res_n);  // reads nothing past the vertex
+  }
+};
+
+template <bool Normals, typename Rest>
+void SkinRangeT(const Rest& rest, const float* HWY_RESTRICT columns, float* HWY_RESTRICT out_p,
                 float* HWY_RESTRICT out_n, std::size_t first, std::size_t last) {
-  constexpr std::size_t kWeights = B - 1;
   constexpr std::size_t kChunk = 256;  // vertices whose normals are renormalised at once
   const Spread s;
-  const float* HWY_RESTRICT positions = stream.positions;
-  const float* HWY_RESTRICT normals = stream.normals;
-  const float* HWY_RESTRICT weights = stream.weights;
   for (std::size_t chunk = first; chunk < last; chunk += kChunk) {
     const std::size_t chunk_end = std::min(last, chunk + kChunk);
     // Every vertex but the range's last stores straight into the outputs.
     const std::size_t direct_end = std::min(chunk_end, last - 1);
     for (std::size_t v = chunk; v < direct_end; ++v) {
-      SkinVertex<B, Normals>(columns, s, positions + 3 * v, Normals ? normals + 3 * v : nullptr,
-                             joints + B * v, weights + kWeights * v, out_p + 3 * v,
-                             Normals ? out_n + 3 * v : nullptr);
+      rest.Skin(columns, s, v, out_p + 3 * v, Normals ? out_n + 3 * v : nullptr);
     }
-    if (chunk_end == last) {  // the last vertex: local copies in and out
+    if (chunk_end == last) {  // the last vertex: a local copy out
       const std::size_t v = last - 1;
-      float in_p[4] = {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2], 0};
-      float in_n[4] = {};
-      if constexpr (Normals) std::copy_n(normals + 3 * v, 3, in_n);
       float res_p[4], res_n[4];
-      SkinVertex<B, Normals>(columns, s, in_p, in_n, joints + B * v, weights + kWeights * v, res_p,
-                             res_n);
+      rest.SkinLast(columns, s, v, res_p, res_n);
       std::copy_n(res_p, 3, out_p + 3 * v);
       if constexpr (Normals) std::copy_n(res_n, 3, out_n + 3 * v);
     }
@@ -264,16 +311,54 @@ void SkinRange(const VertexStream& stream, const float* columns, float* out_p, f
   WithInfluences(stream.influences, [&](auto b) {
     constexpr int kB = decltype(b)::value;
     const auto run = [&](const auto* joints) {
+      using Joint = std::remove_cv_t<std::remove_pointer_t<decltype(joints)>>;
       if (out_n == nullptr) {
-        SkinRangeT<kB, false>(stream, joints, columns, out_p, out_n, first, last);
+        const FloatRest<kB, false, Joint> rest{stream.positions, nullptr, joints, stream.weights};
+        SkinRangeT<false>(rest, columns, out_p, out_n, first, last);
       } else {
-        SkinRangeT<kB, true>(stream, joints, columns, out_p, out_n, first, last);
+        const FloatRest<kB, true, Joint> rest{stream.positions, stream.normals, joints,
+                                              stream.weights};
+        SkinRangeT<true>(rest, columns, out_p, out_n, first, last);
       }
     };
     if (stream.joints8 != nullptr) {
       run(stream.joints8);
     } else {
       run(stream.joints16);
+    }
+  });
+}
+
+void SkinQuantizedRange(const QuantizedStream& stream, const float* columns, float* out_p,
+                        float* out_n, std::size_t first, std::size_t last) {
+  if (first >= last) return;
+  WithInfluences(stream.influences, [&](auto b) {
+    constexpr int kB = decltype(b)::value;
+    const auto run = [&](const auto* joints, const auto* weights) {
+      using Joint = std::remove_cv_t<std::remove_pointer_t<decltype(joints)>>;
+      using Weight = std::remove_cv_t<std::remove_pointer_t<decltype(weights)>>;
+      const float* scale = stream.normal_scale;
+      if (out_n == nullptr) {
+        const QuantizedRest<kB, false, Joint, Weight> rest{
+            stream.positions, nullptr, joints, weights, {scale[0], scale[1], scale[2]}};
+        SkinRangeT<false>(rest, columns, out_p, out_n, first, last);
+      } else {
+        const QuantizedRest<kB, true, Joint, Weight> rest{
+            stream.positions, stream.normals, joints, weights, {scale[0], scale[1], scale[2]}};
+        SkinRangeT<true>(rest, columns, out_p, out_n, first, last);
+      }
+    };
+    const auto with_weights = [&](const auto* joints) {
+      if (stream.weights8 != nullptr) {
+        run(joints, stream.weights8);
+      } else {
+        run(joints, stream.weights16);  // null for B = 1: never read
+      }
+    };
+    if (stream.joints8 != nullptr) {
+      with_weights(stream.joints8);
+    } else {
+      with_weights(stream.joints16);
     }
   });
 }
@@ -285,6 +370,7 @@ void SkinDualQuaternionRange(const VertexStream& stream, const DualQuaternionFra
 Kernel GetKernel() {
   return Kernel{.skin_range = &SkinRange,
                 .skin_dual_quaternion_range = &SkinDualQuaternionRange,
+                .skin_quantized_range = &SkinQuantizedRange,
                 .target = hwy::TargetName(HWY_TARGET),
                 .lanes = static_cast<int>(kLanes)};
 }
