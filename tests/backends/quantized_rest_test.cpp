@@ -233,11 +233,12 @@ INSTANTIATE_TEST_SUITE_P(RunnableHere, QuantizedRestTargetTest,
                            return param_info.param;
                          });
 
-// The stated figure: with rigid joint matrices the worst position error is at most
-// sqrt(3) * extent / 131070 (half a step per axis through a rotation) plus the weights'
-// term and float32 rounding. Measured here on a 100k-vertex mesh, 16-bit weights.
+// The stated figure: through a rigid joint matrix (a rotation and a translation) the
+// position term is at most sqrt(3) * extent / 131070 (half a step per axis, rotated), plus
+// float32 rounding. One influence, so that no weight error adds to it (the weights' term
+// is checked per vertex above); 100k vertices, any rotation angle.
 TEST(QuantizedRestTest, WorstErrorRelativeToExtentOnRigidPalettes) {
-  const Case c{100'000, 4, 77, false, RestEncoding::kQuantized16};
+  const Case c{100'000, 1, 77, false, RestEncoding::kQuantized16};
   const MeshArrays original = RandomMesh(c, 99);
   auto mesh = Mesh::Create(original, {.rest_encoding = c.encoding});
   ASSERT_TRUE(mesh.ok());
@@ -249,12 +250,14 @@ TEST(QuantizedRestTest, WorstErrorRelativeToExtentOnRigidPalettes) {
   const Output out = SkinOnce(backend, **prepared, palette, false);
   const Errors e = Check(**mesh, original, palette, out.positions, {});
   EXPECT_LE(e.over_bound, 1.0);
-  // Rigid palettes: the position term is <= sqrt(3) / 131070 of the extent (1.3e-5); the
-  // weights' and float32's terms come on top, so the figure checked is 1e-4 of the extent.
-  EXPECT_LE(e.relative_to_extent, 1e-4) << "worst error / extent";
-  EXPECT_GT(e.relative_to_extent, 0.0) << "quantization must show somewhere";
-  std::printf("worst position error / extent (rigid palette, 100k x 4, unorm16): %.3g\n",
-              e.relative_to_extent);
+  const QuantizedRest& q = *(*mesh)->quantized_rest();
+  double extent = 0;
+  for (int a = 0; a < 3; ++a) extent = std::max(extent, double{q.scale[a]} * kPositionSteps);
+  const double stated = std::sqrt(3.0) / 131070 + FloatTolerance(palette, original) / extent;
+  EXPECT_LE(e.relative_to_extent, stated) << "worst error / extent";
+  EXPECT_GT(e.relative_to_extent, 1e-7) << "quantization must show somewhere";
+  std::printf("worst position error / extent (rigid palette, 100k x 1): %.3g (stated <= %.3g)\n",
+              e.relative_to_extent, stated);
 }
 
 TEST(QuantizedRestTest, OtherBackendsSkinTheDecodedFloats) {
@@ -317,7 +320,7 @@ TEST(QuantizedRestTest, IdsAndBytesSayWhatIsStored) {
   // 77 joints: 8-bit joints. Stored beside the floats: 6 + 4 + 3 * 2 = 16 bytes a vertex.
   EXPECT_EQ(q16->byte_size(), plain->byte_size() + 1000 * 16);
   EXPECT_EQ(q8->byte_size(), plain->byte_size() + 1000 * 13);
-  EXPECT_LE(q16->quantized_rest()->byte_size(), 1000 * 16 + 64);
+  EXPECT_EQ(q16->quantized_rest()->byte_size(), 1000u * 16);
   // What a frame streams per vertex (positions only, B = 4): 40 float, 28 and 25 quantized.
   EXPECT_EQ(StreamedBytesPerVertex(RestEncoding::kFloat32, 4, 77, false), 40.0);
   EXPECT_EQ(StreamedBytesPerVertex(RestEncoding::kQuantized16, 4, 77, false), 28.0);

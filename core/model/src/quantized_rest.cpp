@@ -107,7 +107,7 @@ QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t in
     rest.offset[a] = lo[a];
     rest.scale[a] = std::max(scale, kSmallestScale);
   }
-  rest.positions = AlignedBuffer<uint16_t>(3 * v_count + 4);
+  rest.positions = AlignedBuffer<uint16_t>(3 * v_count);
   for (std::size_t i = 0; i < 3 * v_count; ++i) {
     const int a = static_cast<int>(i % 3);
     const double q = std::round((double{positions[i]} - rest.offset[a]) / rest.scale[a]);
@@ -117,7 +117,7 @@ QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t in
 
   // Normals: the unit direction in snorm16 (skinning renormalises, so only it matters).
   if (!normals.empty()) {
-    rest.normals = AlignedBuffer<int16_t>(3 * v_count + 4);
+    rest.normals = AlignedBuffer<int16_t>(3 * v_count);
     for (std::size_t v = 0; v < v_count; ++v) {
       float* n = &normals[3 * v];
       const double length =

@@ -125,8 +125,7 @@ WorkloadCache& Cache() {
 }
 
 void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
-                   bool normals, SkinningMethod method,
-                   RestEncoding rest = RestEncoding::kFloat32) {
+                   bool normals, SkinningMethod method, RestEncoding rest) {
   const Workload& workload = Cache().Get(vertices, bones, false, rest);
   const auto& palettes =
       method == SkinningMethod::kDualQuaternion ? workload.rigid_palettes : workload.palettes;
@@ -341,7 +340,7 @@ int main(int argc, char** argv) {
                 fmt::format("{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin",
                             dqs ? "DualQuaternion" : "", backend->info().id, v, b);
             benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
-                                         method)
+                                         method, RestEncoding::kFloat32)
                 ->UseRealTime()
                 ->Unit(benchmark::kMicrosecond);
           }
@@ -403,7 +402,7 @@ int main(int argc, char** argv) {
             continue;
           const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
           benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, false,
-                                       SkinningMethod::kLinear)
+                                       SkinningMethod::kLinear, RestEncoding::kFloat32)
               ->Threads(options.streams)
               ->UseRealTime()
               ->Unit(benchmark::kMicrosecond);

@@ -10,8 +10,8 @@
 // overwritten by the next vertex, and the last vertex of a range goes through a local
 // copy so nothing outside the range is touched. Normals are renormalised a chunk at a
 // time, four vertices per step, while the chunk is still in L1.
-// One loop serves both rest streams (FloatRest, QuantizedRest): a quantized vertex's
-// integers become floats in registers and then take the float vertex's path.
+// The quantized rest stream takes the same loop, a 256-vertex chunk at a time decoded into
+// an L1 scratch (SkinQuantizedRangeT).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_kernel.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -191,6 +191,7 @@ HWY_INLINE void Transform(const Blended& m, const Spread& s, const float* HWY_RE
                           float* HWY_RESTRICT out) {
   hn::StoreU(TransformQuad<Point>(D(), m.v, s, p), D4(), out);
 }
+
 #endif  // HWY_TARGET == HWY_SCALAR
 
 // One vertex: 4 floats stored at each output (the fourth is scratch, see the top).
@@ -251,37 +252,6 @@ struct FloatRest {
   }
 };
 
-// The quantized rest stream (QuantizedStream): integers to floats in registers, then the
-// float vertex; the palette's columns carry the box (simd_stream.h).
-template <int B, bool Normals, typename Joint, typename Weight>
-struct QuantizedRest {
-  const uint16_t* HWY_RESTRICT positions;
-  const int16_t* HWY_RESTRICT normals;
-  const Joint* HWY_RESTRICT joints;
-  const Weight* HWY_RESTRICT weights;
-  float normal_scale[3];
-
-  HWY_INLINE void Skin(const float* HWY_RESTRICT columns, const Spread& s, std::size_t v,
-                       float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n) const {
-    constexpr float kStep = 1.0f / static_cast<float>(hwy::LimitsMax<Weight>());
-    const uint16_t* q = positions + 3 * v;
-    alignas(16) const float p[4] = {static_cast<float>(q[0]), static_cast<float>(q[1]),
-                                    static_cast<float>(q[2]), 0.0f};
-    alignas(16) float n[4] = {};
-    if constexpr (Normals) {
-      const int16_t* m = normals + 3 * v;
-      for (int a = 0; a < 3; ++a) n[a] = static_cast<float>(m[a]) * normal_scale[a];
-    }
-    float w[B];
-    for (int i = 0; i < B - 1; ++i) w[i] = static_cast<float>(weights[(B - 1) * v + i]) * kStep;
-    SkinVertex<B, Normals>(columns, s, p, n, joints + B * v, w, out_p, out_n);
-  }
-  HWY_INLINE void SkinLast(const float* HWY_RESTRICT columns, const Spread& s, std::size_t v,
-                           float* HWY_RESTRICT res_p, float* HWY_RESTRICT res_n) const {
-    Skin(columns, s, v, res_p, res_n);  // reads nothing past the vertex
-  }
-};
-
 template <bool Normals, typename Rest>
 void SkinRangeT(const Rest& rest, const float* HWY_RESTRICT columns, float* HWY_RESTRICT out_p,
                 float* HWY_RESTRICT out_n, std::size_t first, std::size_t last) {
@@ -329,6 +299,42 @@ void SkinRange(const VertexStream& stream, const float* columns, float* out_p, f
   });
 }
 
+// The quantized rest stream (QuantizedStream), a chunk at a time: its integers become
+// floats in a 256-vertex scratch on the stack (about 13 KB at most, in L1), by plain loops
+// the compiler vectorises for this target, and the chunk takes the float loop above. The
+// weights then reach the blend as broadcasts from L1, as in the float stream, instead of
+// a conversion and a register broadcast each per vertex (on x86 both of those compete
+// with the transform's lane permutes). Memory sees only the integers.
+template <int B, bool Normals, typename Joint, typename Weight>
+void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRICT joints,
+                         const Weight* HWY_RESTRICT weights, const float* HWY_RESTRICT columns,
+                         float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n, std::size_t first,
+                         std::size_t last) {
+  constexpr std::size_t kChunk = 256;
+  constexpr float kStep = 1.0f / static_cast<float>(hwy::LimitsMax<Weight>());
+  // 4 floats past each chunk's positions and normals: SkinVertex reads 4 of each.
+  alignas(64) float p[3 * kChunk + 4];
+  alignas(64) float n[Normals ? 3 * kChunk + 4 : 1];
+  alignas(64) float w[(B - 1) * kChunk + 1];
+  const float scale[3] = {stream.normal_scale[0], stream.normal_scale[1], stream.normal_scale[2]};
+  for (std::size_t chunk = first; chunk < last; chunk += kChunk) {
+    const std::size_t count = std::min(kChunk, last - chunk);
+    const uint16_t* HWY_RESTRICT qp = stream.positions + 3 * chunk;
+    for (std::size_t i = 0; i < 3 * count; ++i) p[i] = static_cast<float>(qp[i]);
+    if constexpr (Normals) {
+      const int16_t* HWY_RESTRICT qn = stream.normals + 3 * chunk;
+      for (std::size_t v = 0; v < count; ++v) {
+        for (int a = 0; a < 3; ++a) n[3 * v + a] = static_cast<float>(qn[3 * v + a]) * scale[a];
+      }
+    }
+    const Weight* HWY_RESTRICT qw = weights + (B - 1) * chunk;
+    for (std::size_t i = 0; i < (B - 1) * count; ++i) w[i] = static_cast<float>(qw[i]) * kStep;
+    const FloatRest<B, Normals, Joint> rest{p, n, joints + B * chunk, w};
+    SkinRangeT<Normals>(rest, columns, out_p + 3 * chunk, Normals ? out_n + 3 * chunk : nullptr, 0,
+                        count);
+  }
+}
+
 void SkinQuantizedRange(const QuantizedStream& stream, const float* columns, float* out_p,
                         float* out_n, std::size_t first, std::size_t last) {
   if (first >= last) return;
@@ -337,15 +343,12 @@ void SkinQuantizedRange(const QuantizedStream& stream, const float* columns, flo
     const auto run = [&](const auto* joints, const auto* weights) {
       using Joint = std::remove_cv_t<std::remove_pointer_t<decltype(joints)>>;
       using Weight = std::remove_cv_t<std::remove_pointer_t<decltype(weights)>>;
-      const float* scale = stream.normal_scale;
       if (out_n == nullptr) {
-        const QuantizedRest<kB, false, Joint, Weight> rest{
-            stream.positions, nullptr, joints, weights, {scale[0], scale[1], scale[2]}};
-        SkinRangeT<false>(rest, columns, out_p, out_n, first, last);
+        SkinQuantizedRangeT<kB, false, Joint, Weight>(stream, joints, weights, columns, out_p,
+                                                      out_n, first, last);
       } else {
-        const QuantizedRest<kB, true, Joint, Weight> rest{
-            stream.positions, stream.normals, joints, weights, {scale[0], scale[1], scale[2]}};
-        SkinRangeT<true>(rest, columns, out_p, out_n, first, last);
+        SkinQuantizedRangeT<kB, true, Joint, Weight>(stream, joints, weights, columns, out_p, out_n,
+                                                     first, last);
       }
     };
     const auto with_weights = [&](const auto* joints) {

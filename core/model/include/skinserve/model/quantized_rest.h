@@ -45,11 +45,10 @@ inline constexpr uint32_t kPositionSteps = 65535;
 struct QuantizedRest {
   RestEncoding encoding = RestEncoding::kQuantized16;
   uint32_t influences = 0;
-  float offset[3] = {};  // the box's low corner
-  float scale[3] = {};   // one step per axis
-  // 3 per vertex, and 4 readable values past the last (a loop may load 4 at a time).
-  AlignedBuffer<uint16_t> positions;
-  AlignedBuffer<int16_t> normals;     // 3 per vertex (+4), or empty
+  float offset[3] = {};               // the box's low corner
+  float scale[3] = {};                // one step per axis
+  AlignedBuffer<uint16_t> positions;  // 3 per vertex
+  AlignedBuffer<int16_t> normals;     // 3 per vertex, or empty
   AlignedBuffer<uint8_t> joints8;     // B per vertex when joint_count <= 256, else empty
   AlignedBuffer<uint16_t> joints16;   // B per vertex otherwise
   AlignedBuffer<uint8_t> weights8;    // B - 1 per vertex (kQuantized8Weights)
