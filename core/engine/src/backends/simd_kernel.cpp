@@ -191,7 +191,6 @@ HWY_INLINE void Transform(const Blended& m, const Spread& s, const float* HWY_RE
                           float* HWY_RESTRICT out) {
   hn::StoreU(TransformQuad<Point>(D(), m.v, s, p), D4(), out);
 }
-
 #endif  // HWY_TARGET == HWY_SCALAR
 
 // One vertex: 4 floats stored at each output (the fourth is scratch, see the top).
@@ -228,46 +227,33 @@ HWY_INLINE void Renormalise(float* HWY_RESTRICT normals, std::size_t first, std:
   }
 }
 
-// The float rest stream: SkinVertex reads the arrays in place.
 template <int B, bool Normals, typename Joint>
-struct FloatRest {
-  const float* HWY_RESTRICT positions;
-  const float* HWY_RESTRICT normals;
-  const Joint* HWY_RESTRICT joints;
-  const float* HWY_RESTRICT weights;
-
-  HWY_INLINE void Skin(const float* HWY_RESTRICT columns, const Spread& s, std::size_t v,
-                       float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n) const {
-    SkinVertex<B, Normals>(columns, s, positions + 3 * v, Normals ? normals + 3 * v : nullptr,
-                           joints + B * v, weights + (B - 1) * v, out_p, out_n);
-  }
-  // The range's last vertex: through local copies, as SkinVertex reads 4 floats of each.
-  HWY_INLINE void SkinLast(const float* HWY_RESTRICT columns, const Spread& s, std::size_t v,
-                           float* HWY_RESTRICT res_p, float* HWY_RESTRICT res_n) const {
-    float in_p[4] = {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2], 0};
-    float in_n[4] = {};
-    if constexpr (Normals) std::copy_n(normals + 3 * v, 3, in_n);
-    SkinVertex<B, Normals>(columns, s, in_p, in_n, joints + B * v, weights + (B - 1) * v, res_p,
-                           res_n);
-  }
-};
-
-template <bool Normals, typename Rest>
-void SkinRangeT(const Rest& rest, const float* HWY_RESTRICT columns, float* HWY_RESTRICT out_p,
+void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
+                const float* HWY_RESTRICT columns, float* HWY_RESTRICT out_p,
                 float* HWY_RESTRICT out_n, std::size_t first, std::size_t last) {
+  constexpr std::size_t kWeights = B - 1;
   constexpr std::size_t kChunk = 256;  // vertices whose normals are renormalised at once
   const Spread s;
+  const float* HWY_RESTRICT positions = stream.positions;
+  const float* HWY_RESTRICT normals = stream.normals;
+  const float* HWY_RESTRICT weights = stream.weights;
   for (std::size_t chunk = first; chunk < last; chunk += kChunk) {
     const std::size_t chunk_end = std::min(last, chunk + kChunk);
     // Every vertex but the range's last stores straight into the outputs.
     const std::size_t direct_end = std::min(chunk_end, last - 1);
     for (std::size_t v = chunk; v < direct_end; ++v) {
-      rest.Skin(columns, s, v, out_p + 3 * v, Normals ? out_n + 3 * v : nullptr);
+      SkinVertex<B, Normals>(columns, s, positions + 3 * v, Normals ? normals + 3 * v : nullptr,
+                             joints + B * v, weights + kWeights * v, out_p + 3 * v,
+                             Normals ? out_n + 3 * v : nullptr);
     }
-    if (chunk_end == last) {  // the last vertex: a local copy out
+    if (chunk_end == last) {  // the last vertex: local copies in and out
       const std::size_t v = last - 1;
+      float in_p[4] = {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2], 0};
+      float in_n[4] = {};
+      if constexpr (Normals) std::copy_n(normals + 3 * v, 3, in_n);
       float res_p[4], res_n[4];
-      rest.SkinLast(columns, s, v, res_p, res_n);
+      SkinVertex<B, Normals>(columns, s, in_p, in_n, joints + B * v, weights + kWeights * v, res_p,
+                             res_n);
       std::copy_n(res_p, 3, out_p + 3 * v);
       if constexpr (Normals) std::copy_n(res_n, 3, out_n + 3 * v);
     }
@@ -281,14 +267,10 @@ void SkinRange(const VertexStream& stream, const float* columns, float* out_p, f
   WithInfluences(stream.influences, [&](auto b) {
     constexpr int kB = decltype(b)::value;
     const auto run = [&](const auto* joints) {
-      using Joint = std::remove_cv_t<std::remove_pointer_t<decltype(joints)>>;
       if (out_n == nullptr) {
-        const FloatRest<kB, false, Joint> rest{stream.positions, nullptr, joints, stream.weights};
-        SkinRangeT<false>(rest, columns, out_p, out_n, first, last);
+        SkinRangeT<kB, false>(stream, joints, columns, out_p, out_n, first, last);
       } else {
-        const FloatRest<kB, true, Joint> rest{stream.positions, stream.normals, joints,
-                                              stream.weights};
-        SkinRangeT<true>(rest, columns, out_p, out_n, first, last);
+        SkinRangeT<kB, true>(stream, joints, columns, out_p, out_n, first, last);
       }
     };
     if (stream.joints8 != nullptr) {
@@ -329,9 +311,13 @@ void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRIC
     }
     const Weight* HWY_RESTRICT qw = weights + (B - 1) * chunk;
     for (std::size_t i = 0; i < (B - 1) * count; ++i) w[i] = static_cast<float>(qw[i]) * kStep;
-    const FloatRest<B, Normals, Joint> rest{p, n, joints + B * chunk, w};
-    SkinRangeT<Normals>(rest, columns, out_p + 3 * chunk, Normals ? out_n + 3 * chunk : nullptr, 0,
-                        count);
+    VertexStream decoded;
+    decoded.influences = B;
+    decoded.positions = p;
+    decoded.normals = n;
+    decoded.weights = w;
+    SkinRangeT<B, Normals>(decoded, joints + B * chunk, columns, out_p + 3 * chunk,
+                           Normals ? out_n + 3 * chunk : nullptr, 0, count);
   }
 }
 
