@@ -115,14 +115,23 @@ fi
 if [ "${SKINSERVE_SMOKE_NO_BUILD:-0}" = 1 ] && podman image exists "$image"; then
   say "SKINSERVE_SMOKE_NO_BUILD=1: using the existing $image"
 else
-  say "building $image from deploy/Dockerfile (compiles the three binaries; ~10 min on 2 cores)"
+  say "building $image from deploy/Dockerfile (compiles the three binaries, from the host build's compiler cache when there is one)"
   start=$(date +%s)
   # The Dockerfile pins Docker Hub's image by digest; here the local one, by its own digest.
   base_digest=$(podman image inspect --format '{{.Digest}}' docker.io/library/debian:bookworm-slim)
   say "base image docker.io/library/debian@$base_digest (the local bookworm-slim)"
+  # The host build's compiler cache (scripts/build.sh ran just before, in test.sh): the
+  # image's build reuses its objects instead of compiling the project a second time.
+  cache_mount=()
+  if command -v ccache >/dev/null 2>&1; then
+    cache_dir=$(ccache --get-config cache_dir)
+    mkdir -p "$cache_dir"
+    cache_mount=(--volume "$cache_dir:/ccache")
+    say "compiler cache $cache_dir mounted at /ccache"
+  fi
   if ! podman build --pull=never --isolation chroot --network host --format docker \
       --build-arg VERSION="$version" --build-arg BASE_IMAGE="docker.io/library/debian@$base_digest" \
-      -f "$root/deploy/Dockerfile" -t "$image" "$root" \
+      "${cache_mount[@]}" -f "$root/deploy/Dockerfile" -t "$image" "$root" \
       >"$work/build.log" 2>&1; then
     tail -60 "$work/build.log"
     fail "podman build failed (last lines above)"

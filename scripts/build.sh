@@ -5,10 +5,13 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build="${SKINSERVE_BUILD_DIR:-$root/build}"
 bash "$root/scripts/install-deps.sh"
-# ccache, when a developer has it, makes rebuilds in several worktrees cheap; CI needs none.
+# ccache makes rebuilds in several worktrees cheap, and lets the container image's build
+# (deploy/smoke-test.sh mounts this cache into it) reuse what this build just compiled
+# (scripts/ccache-launch.sh says how).
 launcher=()
 if command -v ccache >/dev/null 2>&1; then
-  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER="$root/scripts/ccache-launch.sh"
+            -DCMAKE_CXX_COMPILER_LAUNCHER="$root/scripts/ccache-launch.sh")
 fi
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release "${launcher[@]}" >/dev/null
 cmake --build "$build" -j "$(nproc)"

@@ -7,7 +7,7 @@
 set -euo pipefail
 
 BUILD_PACKAGES=(
-  build-essential cmake ninja-build pkg-config git ca-certificates
+  build-essential cmake ninja-build pkg-config git ca-certificates ccache
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers
   libglm-dev libcli11-dev libspdlog-dev libfmt-dev

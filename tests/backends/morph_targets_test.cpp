@@ -7,6 +7,10 @@
 // Tolerance: CompareWithReference's with morphs (1e-5 relative to the frame's scale,
 // with the morphed terms counted in it; normals 1e-5 times how much the deltas shorten
 // them). A backend that does not apply morph targets refuses them: FAILED_PRECONDITION.
+// Every computing backend applies them, the OpenCL ones on the device (morph_targets.cl);
+// beyond the grid: frames after a morphed frame that have no active target come back
+// unmorphed (no morphed rest arrays left behind, on the device or in a thread's scratch),
+// targets that all move every vertex, and hundreds of targets with hundreds active.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -129,13 +133,106 @@ INSTANTIATE_TEST_SUITE_P(AllBackends, MorphTargetsTest,
                                             ::testing::ValuesIn(Cases())),
                          Name);
 
-// The CPU backends apply morph targets: none may regress to refusing them.
-TEST(MorphTargetsSupportTest, CpuBackendsListMorphTargets) {
-  for (const char* id : {"serial", "openmp", "sse", "sse-openmp", "simd", "simd-openmp"}) {
+// Every computing backend applies morph targets (the OpenCL ones where OpenCL runs): none
+// may regress to refusing them.
+TEST(MorphTargetsSupportTest, ComputingBackendsListMorphTargets) {
+  for (const char* id : {"serial", "openmp", "sse", "sse-openmp", "simd", "simd-openmp", "opencl",
+                         "opencl-zerocopy"}) {
     if (!kSseBackendsRunHere && IsSseBackend(id)) continue;
-    EXPECT_TRUE(BackendById(id).info().morph_targets) << id;
+    const Backend& backend = BackendById(id);
+    if (!backend.info().available) continue;  // listed unavailable, with the reason
+    EXPECT_TRUE(backend.info().morph_targets) << id;
+  }
+  EXPECT_FALSE(BackendById("passthrough").info().morph_targets);
+}
+
+std::string BackendName(const ::testing::TestParamInfo<std::string>& info) {
+  std::string name = info.param;
+  for (char& ch : name) {
+    if (ch == '-') ch = '_';
+  }
+  return name;
+}
+
+// One frame of `weights` into NaN-filled outputs, checked against the reference; with
+// `unmorphed_differs`, also checked to differ from the unmorphed reference (the morph shows).
+void ExpectMorphedFrame(Backend& backend, const PreparedMesh& prepared, SkinningMethod method,
+                        bool normals, std::span<const MorphWeight> weights, uint64_t frame,
+                        bool unmorphed_differs, const std::string& what) {
+  const Mesh& mesh = prepared.mesh();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> positions(3ull * mesh.vertex_count(), nan);
+  std::vector<float> out_normals(normals ? 3ull * mesh.vertex_count() : 0, nan);
+  const auto palette = method == SkinningMethod::kDualQuaternion
+                           ? MakeRigidPalette(mesh.joint_count(), 17, frame)
+                           : MakeSyntheticPalette(mesh.joint_count(), 17, frame);
+  SkinFrame skin{.palette = palette, .positions = positions, .normals = out_normals};
+  skin.method = method;
+  skin.morph_weights = weights;
+  ASSERT_TRUE(skin.Validate(mesh).ok());
+  const std::string where = backend.info().id + " " + std::string(MethodName(method)) + " " + what;
+  const Status s = backend.Skin(prepared, skin);
+  ASSERT_TRUE(s.ok()) << where << ": " << s.ToString();
+  const Deviation d = CompareWithReference(mesh, palette, positions, out_normals, method, weights);
+  EXPECT_TRUE(d.within_tolerance())
+      << where << ": position error " << d.max_position_error << " (tolerance "
+      << d.position_tolerance << "), normal error " << d.max_normal_error << " (tolerance "
+      << d.normal_tolerance << "), worst vertex " << d.worst_vertex;
+  if (unmorphed_differs) {
+    EXPECT_FALSE(
+        CompareWithReference(mesh, palette, positions, out_normals, method, {}).within_tolerance())
+        << where << " matches the unmorphed reference";
   }
 }
+
+class MorphFrameSequenceTest : public ::testing::TestWithParam<std::string> {};
+
+// Frames on one prepared mesh whose 12 targets each move every vertex (so every vertex sums
+// many targets' deltas): morphed frames alternate with frames that have no weights or only
+// zero weights, with and without normals, in both methods. Each frame must match its own
+// reference: a frame without an active target skins the rest arrays, whatever the frame
+// before it left in the backend's morphed buffers.
+TEST_P(MorphFrameSequenceTest, FramesWithoutActiveTargetsAfterMorphedOnesAreUnmorphed) {
+  Backend& backend = BackendById(GetParam());
+  SKIP_IF_UNAVAILABLE(backend);
+  constexpr uint32_t kTargets = 12;
+  auto mesh =
+      MorphMesh({.vertices = 5003, .influences = 4, .normals = true, .fraction = 1.0}, kTargets);
+  ASSERT_NE(mesh, nullptr);
+  auto prepared = backend.Prepare(mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  const std::vector<MorphWeight> zeros = {{1, 0.0f}, {7, 0.0f}};
+  for (SkinningMethod method : backend.info().methods) {
+    for (uint64_t frame = 0; frame < 8; ++frame) {
+      const bool normals = frame % 4 != 3;  // one frame of each kind without normals
+      std::vector<MorphWeight> weights;
+      if (frame % 2 == 0) weights = MakeMorphWeights(kTargets, frame == 4 ? 1 : kTargets, 3, frame);
+      if (frame == 5) weights = zeros;
+      ExpectMorphedFrame(backend, **prepared, method, normals, weights, frame,
+                         /*unmorphed_differs=*/frame % 2 == 0,
+                         "frame " + std::to_string(frame) + (normals ? " with normals" : ""));
+    }
+  }
+}
+
+// A face rig's scale: 300 targets, each moving 5% of the vertices, 250 of them active.
+TEST_P(MorphFrameSequenceTest, HundredsOfActiveTargetsMatchTheReference) {
+  Backend& backend = BackendById(GetParam());
+  SKIP_IF_UNAVAILABLE(backend);
+  constexpr uint32_t kTargets = 300;
+  auto mesh =
+      MorphMesh({.vertices = 4099, .influences = 3, .normals = true, .fraction = 0.05}, kTargets);
+  ASSERT_NE(mesh, nullptr);
+  auto prepared = backend.Prepare(mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  const auto weights = MakeMorphWeights(kTargets, 250, 9, 0);
+  for (SkinningMethod method : backend.info().methods) {
+    ExpectMorphedFrame(backend, **prepared, method, true, weights, 0, true, "250 active");
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllBackends, MorphFrameSequenceTest,
+                         ::testing::ValuesIn(ComputingBackendIds()), BackendName);
 
 // The reference's morph on a case worked by hand: 0.5 * (0.2, 0, 0) - 2 * (0, 0.1, 0).
 TEST(MorphReferenceTest, AddsWeightedDeltasInDouble) {

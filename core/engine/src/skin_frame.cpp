@@ -15,8 +15,9 @@ bool BackendInfo::Supports(SkinningMethod method) const {
 Status CheckMorphSupport(const BackendInfo& info, std::span<const MorphWeight> weights) {
   if (info.morph_targets || !HasActiveMorph(weights)) return Status::Ok();
   return FailedPrecondition(fmt::format(
-      "backend '{}' does not apply morph targets yet; send the frame without morph weights or "
-      "choose a backend that does (serial, openmp, sse, sse-openmp, simd, simd-openmp)",
+      "backend '{}' does not apply morph targets; send the frame without morph weights or "
+      "choose a backend that does (serial, openmp, sse, sse-openmp, simd, simd-openmp, opencl, "
+      "opencl-zerocopy)",
       info.id));
 }
 

@@ -37,6 +37,7 @@ BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, cons
   info.threads = threads;
   // linear_blend_skinning.cl and dual_quaternion_skinning.cl.
   info.methods = {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion};
+  info.morph_targets = true;  // morph_targets.cl, before either method's kernels
   return info;
 }
 

@@ -1,5 +1,7 @@
-// `opencl`: the paper's plain OpenCL path. The mesh is copied into device buffers once;
-// each frame writes the palette to the device and reads the result back.
+// `opencl`: the paper's plain OpenCL path. The mesh is copied into device buffers once (its
+// morph targets too); each frame writes the palette (and its active morph weights) to the
+// device and reads the result back. A frame with an active target runs the morph kernel
+// first, and the skinning kernels read its morphed rest arrays (opencl_morph.h).
 //
 // On a device with memory of its own (a discrete GPU) every frame crosses PCIe, so:
 //  - the palette and the results travel through page-locked (pinned) host memory of the
@@ -22,6 +24,7 @@
 
 #include "dual_quaternion_palette.h"
 #include "opencl_backends.h"
+#include "opencl_morph.h"
 #include "skinserve/model/palette.h"
 
 namespace skinserve {
@@ -30,6 +33,7 @@ namespace {
 struct OpenClPreparedMesh final : PreparedMesh {
   using PreparedMesh::PreparedMesh;
   ClBuffer positions, normals, joints, weights;
+  OpenClMorphTargets morph;
 };
 
 // Copies `bytes` with up to `threads` threads (large copies only).
@@ -87,11 +91,13 @@ class OpenClCopyBackend final : public Backend {
       if (!buffer.ok()) return buffer.status();
       *p.buffer = std::move(buffer).value();
     }
+    auto morph = CreateMorphTargets(*runtime_, *mesh, CL_MEM_COPY_HOST_PTR);
+    if (!morph.ok()) return morph.status();
+    prepared->morph = std::move(morph).value();
     return std::unique_ptr<PreparedMesh>(std::move(prepared));
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
-    if (Status s = CheckMorphSupport(info(), frame.morph_weights); !s.ok()) return s;
     if (frame.method == SkinningMethod::kDualQuaternion) {
       // The kernels take the palette as unit dual quaternions, converted here once per
       // frame (J conversions): from here on the frame is the same as a linear one.
@@ -114,9 +120,13 @@ class OpenClCopyBackend final : public Backend {
     auto lane = runtime_->AcquireLane();
     if (Status s = Reserve(*lane, frame); !s.ok()) return s;
     ClEvents kernels, transfers;
-    Status status = runtime_->staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame,
-                                                     kernels, transfers)
-                                        : SkinDirect(*lane, prepared, frame, kernels, transfers);
+    SkinKernelArgs args = Args(*lane, prepared, frame.method, with_normals);
+    Status status = Morph(*lane, prepared, frame, &args, kernels, transfers);
+    if (status.ok()) {
+      status = runtime_->staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame, args,
+                                                kernels, transfers)
+                                   : SkinDirect(*lane, prepared, frame, args, kernels, transfers);
+    }
     if (!status.ok()) {
       // Enqueued commands may still use the lane's buffers (and, direct, the caller's
       // memory): the lane is idle before it is handed on.
@@ -186,10 +196,34 @@ class OpenClCopyBackend final : public Backend {
     return args;
   }
 
+  // A frame with an active target: its weights written to the lane and the morph kernel
+  // enqueued, both on the compute queue ahead of the skinning, which then reads the lane's
+  // morphed rest arrays (`args` points at them). Other frames: nothing.
+  Status Morph(OpenClLane& lane, const OpenClPreparedMesh& prepared, const SkinFrame& frame,
+               SkinKernelArgs* args, ClEvents& kernels, ClEvents& transfers) {
+    if (!MorphsOnDevice(frame, prepared.morph)) return Status::Ok();
+    const std::size_t bytes = frame.morph_weights.size_bytes();
+    if (Status s = runtime_->GrowBuffer("morph weights", CL_MEM_READ_ONLY, bytes,
+                                        &lane.morph_weights, &lane.morph_weights_bytes);
+        !s.ok()) {
+      return s;
+    }
+    // Non-blocking: the frame's weights, like its palette, are in use only within Skin(),
+    // which waits for the whole frame (or, after an error, for the lane's queues).
+    if (cl_int err =
+            clEnqueueWriteBuffer(lane.compute, lane.morph_weights.get(), CL_FALSE, 0, bytes,
+                                 frame.morph_weights.data(), 0, nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueWriteBuffer(morph weights)", err);
+    }
+    return EnqueueFrameMorph(*runtime_, lane, prepared.mesh(), prepared.morph,
+                             lane.morph_weights.get(), frame, args, kernels);
+  }
+
   // One in-order queue: write, run, read in sequence; the last read blocks, so the
   // caller's palette and outputs are in use only within this call.
   Status SkinDirect(OpenClLane& lane, const OpenClPreparedMesh& prepared, const SkinFrame& frame,
-                    ClEvents& kernels, ClEvents& transfers) {
+                    const SkinKernelArgs& args, ClEvents& kernels, ClEvents& transfers) {
     const bool with_normals = !frame.normals.empty();
     if (cl_int err = clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
                                           frame.palette.size_bytes(), frame.palette.data(), 0,
@@ -198,9 +232,7 @@ class OpenClCopyBackend final : public Backend {
       return ClError("clEnqueueWriteBuffer(palette)", err);
     }
     const Mesh& mesh = prepared.mesh();
-    if (Status s =
-            runtime_->EnqueueSkin(lane, mesh, Args(lane, prepared, frame.method, with_normals), 0,
-                                  mesh.vertex_count(), kernels.Next());
+    if (Status s = runtime_->EnqueueSkin(lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
         !s.ok()) {
       return s;
     }
@@ -223,7 +255,8 @@ class OpenClCopyBackend final : public Backend {
 
   // Pinned staging, chunks, two queues: see the top of this file.
   Status SkinStaged(OpenClLane& lane, int copy_threads, const OpenClPreparedMesh& prepared,
-                    const SkinFrame& frame, ClEvents& kernels, ClEvents& transfers) {
+                    const SkinFrame& frame, const SkinKernelArgs& args, ClEvents& kernels,
+                    ClEvents& transfers) {
     const bool with_normals = !frame.normals.empty();
     const Mesh& mesh = prepared.mesh();
     const uint32_t vertices = mesh.vertex_count();
@@ -244,7 +277,6 @@ class OpenClCopyBackend final : public Backend {
       std::vector<cl_event> reads;
     };
     std::vector<Chunk> chunks;
-    const SkinKernelArgs args = Args(lane, prepared, frame.method, with_normals);
     for (uint32_t first = 0; first < vertices; first += per_chunk) {
       Chunk chunk{first, std::min(vertices, first + per_chunk), {}};
       cl_event* kernel = kernels.Next();

@@ -19,6 +19,12 @@ constexpr std::size_t kVerticesPerItem = 4;
 // a GPU, two warps.
 constexpr std::size_t kItemsPerGroup = 64;
 static_assert(kVerticesPerItem * kItemsPerGroup == OpenClRuntime::kChunkAlignment);
+// The morph kernels (morph_targets.cl): vertices per work-item (each item searches each
+// active target once: 256 keeps the searches a small part of the work, see the kernel, and
+// still gives 25k vertices 13 work-groups), and items per work-group, one fixed size so
+// that PoCL compiles the kernel once, at warm-up.
+constexpr uint32_t kMorphVerticesPerItem = 256;
+constexpr std::size_t kMorphItemsPerGroup = 8;
 // What the ICD loader returns when it finds no platform at all (cl_khr_icd).
 constexpr cl_int kPlatformNotFoundKhr = -1001;
 
@@ -301,8 +307,8 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
   // stores); on a CPU, each work-item takes four consecutive ones (see the kernel).
   const std::string build_options = fmt::format(
       "-cl-std=CL1.2 -DSKIN_VERTICES_PER_ITEM={} -DSKIN_ITEMS_PER_GROUP={} "
-      "-DSKIN_COALESCED={}",
-      kVerticesPerItem, kItemsPerGroup, runtime->is_cpu_ ? 0 : 1);
+      "-DSKIN_COALESCED={} -DMORPH_VERTICES_PER_ITEM={}",
+      kVerticesPerItem, kItemsPerGroup, runtime->is_cpu_ ? 0 : 1, kMorphVerticesPerItem);
   if (Status s = runtime->Build(build_options); !s.ok()) return s;
   const int lanes = options.lanes > 0 ? options.lanes : (runtime->staging_ ? 4 : 1);
   runtime->threads_ = threads;
@@ -323,11 +329,13 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
 Status OpenClRuntime::Build(const std::string& options) {
   // One program: the dual-quaternion kernels use the linear file's work-item macros.
   const char* sources[] = {kernels::kLinearBlendSkinningSource.data(),
-                           kernels::kDualQuaternionSkinningSource.data()};
+                           kernels::kDualQuaternionSkinningSource.data(),
+                           kernels::kMorphTargetsSource.data()};
   const std::size_t lengths[] = {kernels::kLinearBlendSkinningSource.size(),
-                                 kernels::kDualQuaternionSkinningSource.size()};
+                                 kernels::kDualQuaternionSkinningSource.size(),
+                                 kernels::kMorphTargetsSource.size()};
   cl_int err = CL_SUCCESS;
-  program_ = clCreateProgramWithSource(context_, 2, sources, lengths, &err);
+  program_ = clCreateProgramWithSource(context_, 3, sources, lengths, &err);
   if (err != CL_SUCCESS) return ClError("clCreateProgramWithSource", err);
   err = clBuildProgram(program_, 1, &device_, options.c_str(), nullptr, nullptr);
   if (err != CL_SUCCESS) {
@@ -381,6 +389,14 @@ Status OpenClRuntime::CreateLanes(int count) {
         }
       }
     }
+    // Morph targets (morph_targets.cl).
+    constexpr const char* kMorphNames[2] = {"morph_positions", "morph_positions_normals"};
+    for (std::size_t normals = 0; normals < 2; ++normals) {
+      lane->morph_kernels[normals] = clCreateKernel(program_, kMorphNames[normals], &err);
+      if (err != CL_SUCCESS) {
+        return ClError(fmt::format("clCreateKernel({})", kMorphNames[normals]).c_str(), err);
+      }
+    }
     free_lanes_.push_back(lane.get());
     lanes_.push_back(std::move(lane));
   }
@@ -395,6 +411,9 @@ OpenClRuntime::~OpenClRuntime() {
           if (kernel != nullptr) clReleaseKernel(kernel);
         }
       }
+    }
+    for (cl_kernel kernel : lane->morph_kernels) {
+      if (kernel != nullptr) clReleaseKernel(kernel);
     }
     // Unmapped before release: the buffers' destructors release them afterwards.
     for (PinnedBuffer* pinned :
@@ -533,6 +552,44 @@ Status OpenClRuntime::EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const Skin
   return Status::Ok();
 }
 
+Status OpenClRuntime::EnqueueMorph(OpenClLane& lane, uint32_t vertex_count,
+                                   const MorphKernelArgs& args, cl_event* event) {
+  const bool with_normals = args.morphed_normals != nullptr;
+  if (with_normals && (args.normals == nullptr || args.normal_deltas == nullptr)) {
+    return Internal("morphed normals without the mesh's normals or normal deltas");
+  }
+  cl_kernel kernel = lane.morph_kernels[with_normals ? 1 : 0];
+  // Argument order: see MORPH_ARGS in kernels/morph_targets.cl.
+  cl_uint index = 0;
+  auto set = [&](std::size_t size, const void* value) {
+    return clSetKernelArg(kernel, index++, size, value);
+  };
+  cl_int err = CL_SUCCESS;
+  for (const cl_mem* buffer :
+       {&args.positions, &args.offsets, &args.indices, &args.position_deltas, &args.weights}) {
+    if (err == CL_SUCCESS) err = set(sizeof(cl_mem), buffer);
+  }
+  if (err == CL_SUCCESS) err = set(sizeof(cl_uint), &args.weight_count);
+  if (err == CL_SUCCESS) err = set(sizeof(cl_mem), &args.morphed_positions);
+  const cl_uint count = vertex_count;
+  if (err == CL_SUCCESS) err = set(sizeof(cl_uint), &count);
+  if (with_normals) {
+    for (const cl_mem* buffer : {&args.normals, &args.normal_deltas, &args.morphed_normals}) {
+      if (err == CL_SUCCESS) err = set(sizeof(cl_mem), buffer);
+    }
+  }
+  if (err != CL_SUCCESS) return ClError("clSetKernelArg(morph)", err);
+  const std::size_t items = (vertex_count + kMorphVerticesPerItem - 1) / kMorphVerticesPerItem;
+  const std::size_t local = kMorphItemsPerGroup;
+  const std::size_t global = (items + local - 1) / local * local;
+  if (err = clEnqueueNDRangeKernel(lane.compute, kernel, 1, nullptr, &global, &local, 0, nullptr,
+                                   event);
+      err != CL_SUCCESS) {
+    return ClError("clEnqueueNDRangeKernel(morph)", err);
+  }
+  return Status::Ok();
+}
+
 // PoCL compiles a kernel's work-group function on its first launch (per work-group
 // size), other drivers finish their own work on first use: do that now, for every kernel
 // on every lane, so no client's first frame pays for it.
@@ -555,7 +612,18 @@ Status OpenClRuntime::Warm() {
       CreateBuffer("warm weights", kIn, kMaxInfluences * sizeof(float), arrays.weights.data());
   auto out = CreateBuffer("warm output", CL_MEM_WRITE_ONLY, 3 * sizeof(float), nullptr);
   auto out_n = CreateBuffer("warm output", CL_MEM_WRITE_ONLY, 3 * sizeof(float), nullptr);
-  for (const auto* r : {&pal, &pos, &nrm, &jnt, &wgt, &out, &out_n}) {
+  // One target moving the vertex by zero, active with weight 1.
+  const uint32_t morph_offsets[] = {0, 1}, morph_indices[] = {0};
+  const float zero_delta[] = {0, 0, 0};
+  const MorphWeight morph_weight[] = {{0, 1.0f}};
+  auto offs = CreateBuffer("warm morph offsets", kIn, sizeof(morph_offsets), morph_offsets);
+  auto idx = CreateBuffer("warm morph indices", kIn, sizeof(morph_indices), morph_indices);
+  auto dlt = CreateBuffer("warm morph deltas", kIn, sizeof(zero_delta), zero_delta);
+  auto mw = CreateBuffer("warm morph weights", kIn, sizeof(morph_weight), morph_weight);
+  auto morphed = CreateBuffer("warm morphed", CL_MEM_READ_WRITE, 3 * sizeof(float), nullptr);
+  auto morphed_n = CreateBuffer("warm morphed", CL_MEM_READ_WRITE, 3 * sizeof(float), nullptr);
+  for (const auto* r :
+       {&pal, &pos, &nrm, &jnt, &wgt, &out, &out_n, &offs, &idx, &dlt, &mw, &morphed, &morphed_n}) {
     if (!r->ok()) return r->status();
   }
   for (auto& lane : lanes_) {
@@ -580,6 +648,18 @@ Status OpenClRuntime::Warm() {
         if (Status s = EnqueueSkin(*lane, **mesh, args, 0, 1, nullptr); !s.ok()) return s;
       }
     }
+    MorphKernelArgs morph{.positions = pos->get(),
+                          .offsets = offs->get(),
+                          .indices = idx->get(),
+                          .position_deltas = dlt->get(),
+                          .weights = mw->get(),
+                          .weight_count = 1,
+                          .morphed_positions = morphed->get()};
+    if (Status s = EnqueueMorph(*lane, 1, morph, nullptr); !s.ok()) return s;
+    morph.normals = nrm->get();
+    morph.normal_deltas = dlt->get();
+    morph.morphed_normals = morphed_n->get();
+    if (Status s = EnqueueMorph(*lane, 1, morph, nullptr); !s.ok()) return s;
     if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS) {
       return ClError("clFinish(warm-up)", err);
     }

@@ -85,6 +85,23 @@ struct SkinKernelArgs {
   cl_mem out_normals = nullptr;
 };
 
+// The device-side arrays of one frame's morph (kernels/morph_targets.cl): the mesh's rest
+// arrays and targets (on the device once per mesh, OpenClMorphTargets), the frame's active
+// weights (`weights`: `weight_count` MorphWeight entries) and where the morphed rest arrays
+// go. The normals' three are all set (the frame's normals are morphed) or all null.
+struct MorphKernelArgs {
+  cl_mem positions = nullptr;
+  cl_mem offsets = nullptr;
+  cl_mem indices = nullptr;
+  cl_mem position_deltas = nullptr;
+  cl_mem weights = nullptr;
+  cl_uint weight_count = 0;
+  cl_mem morphed_positions = nullptr;
+  cl_mem normals = nullptr;
+  cl_mem normal_deltas = nullptr;
+  cl_mem morphed_normals = nullptr;
+};
+
 // Page-locked host memory (CL_MEM_ALLOC_HOST_PTR, mapped for the buffer's lifetime), for
 // transfers the DMA engine does at the link's speed without the driver's own staging.
 struct PinnedBuffer {
@@ -102,9 +119,15 @@ struct OpenClLane {
   cl_command_queue transfer = nullptr;  // read-backs, so they overlap the next kernel
   // [dual quaternion][with normals][influences - 1]
   std::array<std::array<std::array<cl_kernel, kMaxInfluences>, 2>, 2> kernels = {};
+  // [with normals]: morph_positions, morph_positions_normals.
+  std::array<cl_kernel, 2> morph_kernels = {};
   // The copy backend's per-frame buffers, grown to the largest frame this lane has run.
   ClBuffer palette, out_positions, out_normals;
   std::size_t palette_bytes = 0, positions_bytes = 0, normals_bytes = 0;
+  // Both backends' morph buffers: the frame's morphed rest arrays (and, for the copy
+  // backend, its active weights), grown like the above; untouched by frames without morphs.
+  ClBuffer morph_weights, morphed_positions, morphed_normals;
+  std::size_t morph_weights_bytes = 0, morphed_positions_bytes = 0, morphed_normals_bytes = 0;
   PinnedBuffer pinned_palette, pinned_positions, pinned_normals;
 };
 
@@ -170,6 +193,11 @@ class OpenClRuntime {
   // kernel's event.
   Status EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args, uint32_t first,
                      uint32_t end, cl_event* event);
+  // Enqueues `lane`'s morph kernel (with normals when args.morphed_normals is set) over all
+  // `vertex_count` vertices on the lane's compute queue: the skinning kernels enqueued after
+  // it on that queue read its output. `event`: null or where to put the kernel's event.
+  Status EnqueueMorph(OpenClLane& lane, uint32_t vertex_count, const MorphKernelArgs& args,
+                      cl_event* event);
   // A buffer: device memory (host == nullptr), a copy of `host`, or `host` used in place
   // (CL_MEM_USE_HOST_PTR). `what` names the buffer in errors.
   Result<ClBuffer> CreateBuffer(const char* what, cl_mem_flags flags, std::size_t bytes,

@@ -14,8 +14,14 @@
 // uses it (the mesh: once, then cached, as the buffers are read-only) and copies the
 // outputs back at the map, from the device into the caller's pageable memory. The map is
 // profiled as this frame's transfer time. docs/backends/opencl.md ("Figure 5") says when that wins.
+//
+// Morph targets: the mesh's targets are wrapped in place too, and so are a frame's active
+// weights; a frame with an active target runs the morph kernel into the lane's morphed
+// buffers (device memory, grown like the copy backend's per-lane buffers), which
+// the skinning kernel then reads (opencl_morph.h).
 #include "dual_quaternion_palette.h"
 #include "opencl_backends.h"
+#include "opencl_morph.h"
 
 namespace skinserve {
 namespace {
@@ -23,6 +29,7 @@ namespace {
 struct ZeroCopyPreparedMesh final : PreparedMesh {
   using PreparedMesh::PreparedMesh;
   ClBuffer positions, normals, joints, weights;
+  OpenClMorphTargets morph;
 };
 
 class OpenClZeroCopyBackend final : public Backend {
@@ -50,11 +57,13 @@ class OpenClZeroCopyBackend final : public Backend {
     if (mesh->has_normals()) {
       if (Status s = wrap("normals", &prepared->normals, mesh->normals()); !s.ok()) return s;
     }
+    auto morph = CreateMorphTargets(*runtime_, *mesh, CL_MEM_USE_HOST_PTR);
+    if (!morph.ok()) return morph.status();
+    prepared->morph = std::move(morph).value();
     return std::unique_ptr<PreparedMesh>(std::move(prepared));
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
-    if (Status s = CheckMorphSupport(info(), frame.morph_weights); !s.ok()) return s;
     if (frame.method == SkinningMethod::kDualQuaternion) {
       // The kernels take the palette as unit dual quaternions, converted here once per
       // frame into this thread's buffer, which the kernel then reads in place.
@@ -101,10 +110,23 @@ class OpenClZeroCopyBackend final : public Backend {
       args.normals = prepared.normals.get();
       args.out_normals = out_normals.get();
     }
+    ClBuffer morph_weights;
+    if (MorphsOnDevice(frame, prepared.morph)) {
+      auto wrapped =
+          runtime_->CreateBuffer("morph weights", CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
+                                 frame.morph_weights.size_bytes(), frame.morph_weights.data());
+      if (!wrapped.ok()) return wrapped.status();
+      morph_weights = std::move(wrapped).value();
+    }
     auto lane = runtime_->AcquireLane();
     ClEvents kernels, transfers;
-    Status status = runtime_->EnqueueSkin(*lane, prepared.mesh(), args, 0,
-                                          prepared.mesh().vertex_count(), kernels.Next());
+    // In order on the compute queue: the morph (a frame with an active target), then the skin.
+    Status status = EnqueueFrameMorph(*runtime_, *lane, prepared.mesh(), prepared.morph,
+                                      morph_weights.get(), frame, &args, kernels);
+    if (status.ok()) {
+      status = runtime_->EnqueueSkin(*lane, prepared.mesh(), args, 0,
+                                     prepared.mesh().vertex_count(), kernels.Next());
+    }
     if (status.ok()) {
       status = SyncToHost(*lane, out_positions->get(), frame.positions.size_bytes(), transfers);
     }
