@@ -10,6 +10,7 @@ namespace skinserve::server {
 
 using wire::DecodeFloats;
 using wire::FromWire;
+using wire::InstanceMorphWeightsFromWire;
 using wire::MorphWeightsFromWire;
 using wire::ToGrpc;
 using wire::ToWire;

@@ -84,6 +84,11 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
   request.instances = std::max<uint32_t>(wire.instances(), 1);
   if (Status s = MorphWeightsFromWire(wire, &morph_); !s.ok()) return s;
   request.morph_weights = morph_;  // checked against the mesh by Engine::Submit
+  if (Status s = InstanceMorphWeightsFromWire(wire, &instance_morph_, &instance_morph_views_);
+      !s.ok()) {
+    return s;
+  }
+  request.instance_morph_weights = instance_morph_views_;
   if (Status s = engine.Plan(this); !s.ok()) return s;
   vertices_ = plan().vertex_count;
   want_normals_ = wire.want_normals();

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "inflight_budget.h"
@@ -120,6 +121,9 @@ class FrameJob final : public SkinJob {
   bool boxed_ = false;  // each instance's box travels with it (snorm16)
   std::vector<float> palette_;
   std::vector<MorphWeight> morph_;  // the frame's morph weights, capacity reused
+  // A crowd's per-instance morph weights, back to back, and one view per instance.
+  std::vector<MorphWeight> instance_morph_;
+  std::vector<std::span<const MorphWeight>> instance_morph_views_;
   // Skinned floats for encodings other than float32, for instances too large for the
   // compute thread's scratch (SkinRequest::skin_into_scratch).
   std::vector<float> positions_;

@@ -45,6 +45,22 @@ class FramePalette {
   std::vector<float> buffer_;
 };
 
+// Frame f's morph weights per instance of a crowd: instance k takes the workload's frame
+// f + k, as its palette does. The buffer keeps its capacity from frame to frame.
+class FrameMorph {
+ public:
+  FrameMorph(const Workload& workload, uint32_t instances)
+      : workload_(workload), buffer_(std::max(instances, 1u)) {}
+  std::span<const std::vector<MorphWeight>> operator()(uint64_t frame) {
+    for (std::size_t k = 0; k < buffer_.size(); ++k) buffer_[k] = workload_.MorphVector(frame + k);
+    return buffer_;
+  }
+
+ private:
+  const Workload& workload_;
+  std::vector<std::vector<MorphWeight>> buffer_;
+};
+
 // A stream's shared-memory region (RunConfig::shared_memory): one slot per frame in flight,
 // registered under its own name for the stream's life. Off: output() is disabled.
 class StreamRegion {
@@ -194,7 +210,8 @@ class Recorder {
       const std::span<const float> palette =
           passthrough ? std::span<const float>(identity_) : workload_.Palette(frame.frame + k);
       if (!CompareEncodedWithReference(*workload_.mesh, palette, frame.encoding, frame.bounds[k],
-                                       positions, normals, workload_.method)
+                                       positions, normals, workload_.method,
+                                       workload_.Morph(frame.frame + k))
                .within_tolerance()) {
         return false;
       }
@@ -268,6 +285,13 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
                                 .frames = UINT64_MAX / 2,
                                 .window = config.window,
                                 .stop = &stop};
+  // Morph weights: a single instance's straight from the workload, a crowd's per instance.
+  FrameMorph morph(workload, config.instances);
+  if (!workload.morph_weights.empty() && config.instances <= 1) {
+    options.morph_weights = [&](uint64_t f) { return workload.Morph(f); };
+  } else if (!workload.morph_weights.empty()) {
+    options.instance_morph_weights = [&](uint64_t f) { return morph(f); };
+  }
   const auto run = [&](bool measured_phase, uint64_t* sent) {
     const bool count_by_time = config.frames == 0;
     uint64_t measured_sent = 0;
@@ -414,6 +438,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     }
   });
   FramePalette palette(workload, config.instances);
+  FrameMorph morph(workload, config.instances);
   v1::SkinRequest request;  // reused: only the frame number and the palette change
   request.set_mesh_id(mesh_id);
   request.set_backend(config.backend);
@@ -447,6 +472,11 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     }
     request.set_frame(k);
     wire::EncodeFloats(palette(k), request.mutable_palette());
+    if (!workload.morph_weights.empty() && config.instances <= 1) {
+      wire::MorphWeightsToWire(workload.Morph(k), &request);
+    } else if (!workload.morph_weights.empty()) {
+      wire::InstanceMorphWeightsToWire(morph(k), &request);
+    }
     if (counted) {
       ++sent;
       late_sends += sent_at - due > std::chrono::duration<double, std::milli>(kLateSendMs);

@@ -36,8 +36,9 @@ struct Options {
   bool normals = false;
   std::string method = "linear";
   uint64_t seed = 1;
-  std::string mesh;    // a glTF file instead of the synthetic mesh
-  int primitive = -1;  // --mesh: -1 is the whole character
+  MorphWorkload morph;  // synthetic mesh: morph targets and active weights per frame
+  std::string mesh;     // a glTF file instead of the synthetic mesh
+  int primitive = -1;   // --mesh: -1 is the whole character
   std::string sweep;
   bool capacity = false;
   int capacity_max_streams = 64;
@@ -100,9 +101,11 @@ std::vector<std::string> SplitList(const std::string& text) {
   return items;
 }
 
-// 'all': every available backend that implements `method`; else the listed ids.
+// 'all': every available backend that implements `method` (and morph targets, when the
+// frames carry morph weights); else the listed ids.
 Result<std::vector<std::string>> ResolveBackends(client::SkinClient& client,
-                                                 const std::string& wanted, SkinningMethod method) {
+                                                 const std::string& wanted, SkinningMethod method,
+                                                 bool morph) {
   auto list = client.ListBackends();
   if (!list.ok()) return list.status();
   std::vector<std::string> ids;
@@ -110,8 +113,10 @@ Result<std::vector<std::string>> ResolveBackends(client::SkinClient& client,
     for (const auto& b : list->backends()) {
       const bool has_method = std::find(b.methods().begin(), b.methods().end(),
                                         wire::ToWire(method)) != b.methods().end();
-      if (b.available() && has_method) {
+      if (b.available() && has_method && (!morph || b.morph_targets())) {
         ids.push_back(b.id());
+      } else if (b.available() && has_method) {
+        fmt::print(stderr, "note: skipping {}: no morph targets\n", b.id());
       } else if (b.available()) {
         fmt::print(stderr, "note: skipping {}: no {} skinning\n", b.id(), MethodName(method));
       } else {
@@ -139,7 +144,7 @@ Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bone
     if (workload.ok()) workload->method = method;
     return workload;
   }
-  return MakeWorkload(vertices, bones, o.joints, o.normals, seed, method);
+  return MakeWorkload(vertices, bones, o.joints, o.normals, seed, method, o.morph);
 }
 
 int RunMain(const Options& o) {
@@ -151,7 +156,15 @@ int RunMain(const Options& o) {
     }
     return 1;
   }
-  auto backends = ResolveBackends(client, o.backends, *ParseMethod(o.method));
+  // Whether frames carry morph weights: a glTF character's are known once it is loaded.
+  bool morph = o.morph.targets > 0 && o.morph.active > 0;
+  if (!o.mesh.empty()) {
+    auto probe = LoadWorkload(o, o.vertices, o.bones, o.seed);
+    if (!probe.ok()) return fmt::print(stderr, "error: {}\n", probe.status().ToString()), 1;
+    morph = std::any_of(probe->morph_weights.begin(), probe->morph_weights.end(),
+                        [](const std::vector<MorphWeight>& w) { return HasActiveMorph(w); });
+  }
+  auto backends = ResolveBackends(client, o.backends, *ParseMethod(o.method), morph);
   if (!backends.ok()) {
     fmt::print(stderr, "error: {}\n", backends.status().ToString());
     return 1;
@@ -354,6 +367,18 @@ int main(int argc, char** argv) {
                  "rigid; 'all' backends means those that implement it)")
       ->check(CLI::IsMember({"linear", "dual-quaternion"}))
       ->capture_default_str();
+  app.add_option("--morph-targets", o.morph.targets,
+                 "synthetic mesh: this many random morph targets (0: none)")
+      ->check(CLI::Range(0u, skinserve::kMaxMorphTargets))
+      ->capture_default_str();
+  app.add_option("--morph-coverage", o.morph.coverage,
+                 "--morph-targets: the fraction of the vertices each target moves")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  app.add_option("--morph-active", o.morph.active,
+                 "--morph-targets: targets with a non-zero weight per frame (random weights in "
+                 "[-1.5, 1.5]; 0: frames carry none); crowd instances each get their own")
+      ->capture_default_str();
   app.add_option("--seed", o.seed, "synthetic mesh and palettes seed; Poisson arrivals' too")
       ->capture_default_str();
   app.add_option("--streams", o.run.streams, "concurrent streams")->capture_default_str();
@@ -390,9 +415,9 @@ int main(int argc, char** argv) {
                  "float32,snorm16x16 (default: --encoding with --instances)");
   app.add_option("--sweep", o.sweep, "'paper': 25k..1600k vertices x 1..4 bones, every backend");
   app.add_option("--mesh", o.mesh,
-                 "a glTF 2.0 character (.glb/.gltf) as the mesh; palettes sample its first clip, "
-                 "a new time each frame")
-      ->excludes("--vertices", "--bones", "--joints", "--sweep");
+                 "a glTF 2.0 character (.glb/.gltf) as the mesh; palettes (and morph target "
+                 "weights) sample its first clip, a new time each frame")
+      ->excludes("--vertices", "--bones", "--joints", "--sweep", "--morph-targets");
   app.add_option("--primitive", o.primitive,
                  "--mesh: only this primitive, skinned or rigid (default: the whole character)");
   app.add_flag("--capacity", o.capacity,

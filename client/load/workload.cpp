@@ -10,22 +10,32 @@
 #include "skinserve/character/character_mesh.h"
 #include "skinserve/character/gltf_import.h"
 #include "skinserve/reference/synthetic.h"
+#include "skinserve/reference/synthetic_morph.h"
 
 namespace skinserve::load {
 
 Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool normals,
-                      uint64_t seed, SkinningMethod method) {
+                      uint64_t seed, SkinningMethod method, const MorphWorkload& morph) {
   Workload w;
   w.vertices = vertices;
   w.bones = bones;
   w.joints = joints;
   w.normals = normals;
   w.method = method;
-  w.arrays = std::make_shared<const MeshArrays>(MakeSyntheticMesh({.vertex_count = vertices,
-                                                                   .influences = bones,
-                                                                   .joint_count = joints,
-                                                                   .normals = normals,
-                                                                   .seed = seed}));
+  MeshArrays arrays = MakeSyntheticMesh({.vertex_count = vertices,
+                                         .influences = bones,
+                                         .joint_count = joints,
+                                         .normals = normals,
+                                         .seed = seed});
+  if (morph.targets > 0) {
+    AddSyntheticMorphTargets(
+        {.targets = morph.targets, .fraction = morph.coverage, .normals = normals, .seed = seed},
+        &arrays);
+    for (int f = 0; morph.active > 0 && f < kDistinctPalettes; ++f) {
+      w.morph_weights.push_back(MakeMorphWeights(morph.targets, morph.active, seed, f));
+    }
+  }
+  w.arrays = std::make_shared<const MeshArrays>(std::move(arrays));
   auto mesh = Mesh::Create(*w.arrays);
   if (!mesh.ok()) throw std::runtime_error(mesh.status().ToString());
   w.mesh = *mesh;
@@ -42,15 +52,39 @@ namespace {
 // The character's meshes as one: vertices one after another, each mesh's joint indices
 // shifted past the joints of the meshes before it, so that one palette (the meshes'
 // palettes one after another) skins them all in one request per frame. Normals only when
-// every mesh has them.
+// every mesh has them. Morph targets follow too: each mesh's after the meshes' before it,
+// their vertex indices shifted likewise (normal deltas 0 for a mesh whose targets have none,
+// when another's have them).
 MeshArrays MergeMeshes(const std::vector<CharacterMesh>& meshes) {
   if (meshes.size() == 1) return meshes.front().arrays;
   MeshArrays merged;
-  bool normals = true;
+  bool normals = true, morph_normals = false;
   for (const CharacterMesh& m : meshes) {
     merged.influences = std::max(merged.influences, m.arrays.influences);
     normals = normals && !m.arrays.normals.empty();
+    morph_normals = morph_normals || !m.arrays.morph_normal_deltas.empty();
   }
+  morph_normals = morph_normals && normals;
+  for (const CharacterMesh& m : meshes) {
+    const MeshArrays& a = m.arrays;
+    const auto base = static_cast<uint32_t>(merged.vertex_count);
+    merged.vertex_count += a.vertex_count;
+    merged.morph_target_sizes.insert(merged.morph_target_sizes.end(), a.morph_target_sizes.begin(),
+                                     a.morph_target_sizes.end());
+    for (uint32_t index : a.morph_indices) merged.morph_indices.push_back(base + index);
+    merged.morph_position_deltas.insert(merged.morph_position_deltas.end(),
+                                        a.morph_position_deltas.begin(),
+                                        a.morph_position_deltas.end());
+    if (!morph_normals) continue;
+    if (a.morph_normal_deltas.empty()) {
+      merged.morph_normal_deltas.resize(
+          merged.morph_normal_deltas.size() + a.morph_position_deltas.size(), 0.0f);
+    } else {
+      merged.morph_normal_deltas.insert(merged.morph_normal_deltas.end(),
+                                        a.morph_normal_deltas.begin(), a.morph_normal_deltas.end());
+    }
+  }
+  merged.vertex_count = 0;
   for (const CharacterMesh& m : meshes) {
     const MeshArrays& a = m.arrays;
     merged.positions.insert(merged.positions.end(), a.positions.begin(), a.positions.end());
@@ -113,16 +147,27 @@ Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool n
     return Status(mesh.status().code(), fmt::format("{}: {}", path, mesh.status().message()));
   }
   w.mesh = *mesh;
-  // One palette per 1/30 s of the clip; frame f % size wraps around its duration.
+  // One palette (and one set of morph weights) per 1/30 s of the clip; frame f % size wraps
+  // around its duration.
   const auto count =
       static_cast<int>(std::clamp(std::ceil(clip->duration * kGltfWorkloadFps), 1.0, 3600.0));
+  std::vector<MorphWeight> mesh_weights;
   for (int f = 0; f < count; ++f) {
-    auto palettes =
-        MeshPalettes(*character, SampleClip(*character, *clip, f / kGltfWorkloadFps), *meshes);
+    const Pose pose = SampleClip(*character, *clip, f / kGltfWorkloadFps);
+    auto palettes = MeshPalettes(*character, pose, *meshes);
     if (!palettes.ok()) return palettes.status();
     std::vector<float> palette;
     for (const std::vector<float>& p : *palettes) palette.insert(palette.end(), p.begin(), p.end());
     w.palettes.push_back(std::move(palette));
+    if (w.mesh->morph_target_count() == 0) continue;
+    std::vector<MorphWeight> weights;
+    uint32_t target_base = 0;
+    for (const CharacterMesh& m : *meshes) {
+      MeshMorphWeights(m, pose, &mesh_weights);
+      for (MorphWeight mw : mesh_weights) weights.push_back({target_base + mw.target, mw.weight});
+      target_base += static_cast<uint32_t>(m.morph_sources.size());
+    }
+    w.morph_weights.push_back(std::move(weights));
   }
   return w;
 }

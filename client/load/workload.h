@@ -4,10 +4,12 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "skinserve/model/mesh.h"
+#include "skinserve/model/morph_targets.h"
 #include "skinserve/model/skinning_method.h"
 #include "skinserve/model/status.h"
 
@@ -24,16 +26,37 @@ struct Workload {
   std::shared_ptr<const MeshArrays> arrays;         // shared by every stream's client
   std::shared_ptr<const Mesh> mesh;                 // for the float64 reference checks
   std::vector<std::vector<float>> palettes;         // frame f uses palettes[f % size]
+  // Frame f's sparse morph target weights: morph_weights[f % size]; empty: the frames carry
+  // none (a mesh without targets, or --morph-active 0).
+  std::vector<std::vector<MorphWeight>> morph_weights;
 
   const std::vector<float>& Palette(uint64_t frame) const {
     return palettes[frame % palettes.size()];
   }
+  std::span<const MorphWeight> Morph(uint64_t frame) const {
+    if (morph_weights.empty()) return {};
+    return morph_weights[frame % morph_weights.size()];
+  }
+  const std::vector<MorphWeight>& MorphVector(uint64_t frame) const {
+    return morph_weights[frame % morph_weights.size()];
+  }
+};
+
+// Synthetic morph targets of a load run (--morph-targets, --morph-coverage, --morph-active):
+// `targets` random targets (AddSyntheticMorphTargets) each moving about `coverage` of the
+// vertices (normals too when the mesh has them), and per frame `active` of them with
+// random weights (MakeMorphWeights). targets = 0: no morph targets.
+struct MorphWorkload {
+  uint32_t targets = 0;
+  double coverage = 0.1;
+  uint32_t active = 4;
 };
 
 // Dual-quaternion workloads get rigid palettes (MakeRigidPalette): the method refuses the
 // synthetic palettes' scale.
 Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool normals,
-                      uint64_t seed, SkinningMethod method = SkinningMethod::kLinear);
+                      uint64_t seed, SkinningMethod method = SkinningMethod::kLinear,
+                      const MorphWorkload& morph = {});
 
 // Frames of clip time per second in a glTF workload's palettes.
 inline constexpr double kGltfWorkloadFps = 30.0;
@@ -46,7 +69,9 @@ inline constexpr double kGltfWorkloadFps = 30.0;
 // first clip every 1 / kGltfWorkloadFps s over its duration, so frame f shows time f / 30 s wrapped
 // around the clip. INVALID_ARGUMENT (naming the file) when it does not import, has no such
 // primitive or no clip, its meshes have more than 65535 palette entries together, or `normals` is
-// asked of a mesh without them.
+// asked of a mesh without them. Morph targets of the meshes are kept (concatenated like the
+// vertices); each frame carries their weights at its clip time (the clip's `weights`
+// channels, else the file's default weights), as `animate` sends them.
 Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool normals);
 
 }  // namespace skinserve::load

@@ -117,6 +117,9 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         request.set_frame(frame);
         wire::EncodeFloats(palette(frame), request.mutable_palette());
         if (options.morph_weights) wire::MorphWeightsToWire(options.morph_weights(frame), &request);
+        if (options.instance_morph_weights) {
+          wire::InstanceMorphWeightsToWire(options.instance_morph_weights(frame), &request);
+        }
         const std::size_t slot = in_flight.push_back({frame, Clock::now(), reuploads});
         if (options.output.enabled()) {
           request.mutable_output()->set_offset(options.output.offset +

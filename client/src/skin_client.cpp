@@ -478,6 +478,7 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   request.set_pack_instances(true);  // FrameAssembler takes packed parts
   request.set_early_parts(options.early_parts);
   wire::MorphWeightsToWire(options.morph_weights, &request);
+  wire::InstanceMorphWeightsToWire(options.instance_morph_weights, &request);
   if (options.output.enabled()) {
     request.mutable_output()->set_region(options.output.name);
     request.mutable_output()->set_offset(options.output.offset);

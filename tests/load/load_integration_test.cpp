@@ -117,6 +117,48 @@ TEST(LoadIntegrationTest, ClosedLoopCountsEqualWhatTheServerServed) {
   }
 }
 
+// --morph-targets: the synthetic mesh's targets are uploaded and every frame carries its
+// active weights (a crowd's per instance), every answer checked against the float64
+// reference of the morphed mesh. 'all' leaves out the backends without morph targets; one
+// named anyway is refused the frames with weights (so they are on the wire), and frames
+// without active weights (--morph-active 0) are the rest shape on any backend.
+TEST(LoadIntegrationTest, MorphTargetsAreSentPerFrameAndCheckedAgainstTheReference) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  const std::string morph = " --target " + server.target() +
+                            " --vertices 6000 --bones 3 --normals --morph-targets 16"
+                            " --morph-coverage 0.2 --warmup 0 --check-every 1";
+  int code = 0;
+  const nlohmann::json closed =
+      RunLoad(morph + " --backends all --morph-active 4 --streams 2 --frames 30", &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_GE(closed["results"].size(), 4u);  // serial, openmp, simd, simd-openmp at least
+  for (const auto& r : closed["results"]) {
+    EXPECT_NE(r["backend"], "passthrough");
+    EXPECT_EQ(r["checked"], 60) << r.dump();  // 2 streams x 30 frames, every one checked
+  }
+  const auto served = server.FramesServed();
+  for (const auto& [backend, frames] : FramesReported(closed)) {
+    EXPECT_EQ(frames, served.at(backend)) << backend;
+  }
+  const nlohmann::json crowd = RunLoad(
+      morph + " --backends simd --morph-active 3 --instances 4 --rate 40 --duration 1", &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(crowd["results"].size(), 1u);
+  FramesReported(crowd);  // no errors, no mismatches
+  EXPECT_GT(crowd["results"][0]["checked"], 10) << crowd.dump();
+  const nlohmann::json refused =
+      RunLoad(morph + " --backends passthrough --morph-active 4 --frames 10", &code);
+  ASSERT_EQ(refused["results"].size(), 1u);
+  EXPECT_EQ(refused["results"][0]["errors"].value("FAILED_PRECONDITION", 0), 20) << refused.dump();
+  const nlohmann::json idle =
+      RunLoad(morph + " --backends passthrough,serial --morph-active 0 --frames 10", &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(idle["results"].size(), 2u);
+  FramesReported(idle);
+  for (const auto& r : idle["results"]) EXPECT_EQ(r["checked"], 20) << r.dump();
+}
+
 TEST(LoadIntegrationTest, OpenLoopSendsOnScheduleAndCountsMatch) {
   ServerProcess server;
   ASSERT_TRUE(server.ready());

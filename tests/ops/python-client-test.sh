@@ -41,7 +41,7 @@ echo "== mypy --strict on the wheel's files and the examples"
 mkdir "$work/unpacked" && (cd "$work/unpacked" && "$python" -m zipfile -e "$wheel" .)
 (cd "$work/unpacked" && cp "$work/src/examples"/*.py . &&
   "$python" -m mypy --strict --no-incremental --config-file "$work/src/pyproject.toml" \
-    skinserve blocking_client.py asyncio_client.py)
+    skinserve blocking_client.py asyncio_client.py morph_client.py)
 echo "== pytest against a real server, skinserve imported from the virtual environment"
 # From the tests' folder, not the source tree: `import skinserve` must find the installed
 # package (with its generated skinserve/v1 stubs).

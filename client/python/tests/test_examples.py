@@ -15,9 +15,10 @@ from test_crowds_and_encodings import POSITION_TOLERANCE, check_instance
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 NAMES = ["blocking_client.py", "asyncio_client.py"]
+SHOWN = NAMES + ["morph_client.py"]
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", SHOWN)
 def test_example_runs_as_a_script(server, name):
     done = subprocess.run([sys.executable, str(EXAMPLES / name), server.target],
                           capture_output=True, text=True, timeout=120)
@@ -49,7 +50,29 @@ def test_example_answers_match_float64(server, name, monkeypatch):
         check(got, palette, "float32")
 
 
-@pytest.mark.parametrize("name", NAMES)
+def test_morph_example_answers_match_float64(server, monkeypatch):
+    """Morphed in float64 here (rest + sum of weight x delta), then skinned in float64."""
+    monkeypatch.syspath_prepend(str(EXAMPLES))  # morph_client imports blocking_client
+    out = runpy.run_path(str(EXAMPLES / "morph_client.py"))["main"](server.target)
+
+    def check(got, palette, weights):
+        positions = out["positions"].astype(np.float64)
+        for target, weight in weights.items():
+            t = out["targets"][target]
+            positions[t.indices] += weight * t.positions.astype(np.float64)
+        want = skin(positions, out["joints"], out["weights"], None, palette)[0]
+        check_instance(got, want, "float32", POSITION_TOLERANCE)
+
+    check(out["single"], out["single_palette"], out["single_weights"])
+    for k, palette in enumerate(out["crowd_palettes"]):
+        check(out["crowd"][k], palette, out["crowd_weights"][k])
+    assert len(out["frames"]) == 5
+    for got, palette, weights in zip(out["frames"], out["stream_palettes"],
+                                     out["stream_weights"]):
+        check(got, palette, weights)
+
+
+@pytest.mark.parametrize("name", SHOWN)
 def test_documentation_shows_the_example_verbatim(name):
     source = os.environ.get("SKINSERVE_SOURCE_DIR")
     assert source, "set SKINSERVE_SOURCE_DIR to the repository"

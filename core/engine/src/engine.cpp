@@ -152,13 +152,34 @@ class Engine::Impl {
     return Status::Ok();
   }
 
-  // The frame's morph weights, once for all its instances.
-  static Status CheckMorph(const SkinRequest& request, const Mesh& mesh, const BackendInfo& info) {
-    if (Status s = ValidateMorphWeights(request.morph_weights, mesh.morph_target_count());
-        !s.ok()) {
-      return s;
+  // The frame's morph weights, once for all its instances, or each instance's own.
+  static Status CheckMorph(const SkinRequest& request, const Mesh& mesh, const BackendInfo& info,
+                           uint32_t instances) {
+    if (request.instance_morph_weights.empty()) {
+      if (Status s = ValidateMorphWeights(request.morph_weights, mesh.morph_target_count());
+          !s.ok()) {
+        return s;
+      }
+      return CheckMorphSupport(info, request.morph_weights);
     }
-    return CheckMorphSupport(info, request.morph_weights);
+    if (request.instance_morph_weights.size() != instances || instances < 2) {
+      return InvalidArgument(fmt::format(
+          "instance_morph_weights holds {} entries; a crowd batch needs exactly one per "
+          "instance ({}, at least 2)",
+          request.instance_morph_weights.size(), instances));
+    }
+    if (!request.morph_weights.empty()) {
+      return InvalidArgument(
+          "instance_morph_weights and morph_weights are both set; give the weights either per "
+          "instance or for the whole frame");
+    }
+    for (uint32_t i = 0; i < instances; ++i) {
+      const std::span<const MorphWeight> weights = request.instance_morph_weights[i];
+      Status s = ValidateMorphWeights(weights, mesh.morph_target_count());
+      if (s.ok()) s = CheckMorphSupport(info, weights);
+      if (!s.ok()) return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
+    }
+    return Status::Ok();
   }
 
   // Check() for skin_into_scratch: no output arrays; the instance fits the scratch.
@@ -206,7 +227,9 @@ class Engine::Impl {
       if (!request.normals.empty()) frame.normals = request.normals.subspan(i * outputs, outputs);
     }
     frame.method = request.method;
-    frame.morph_weights = request.morph_weights;
+    frame.morph_weights = request.instance_morph_weights.empty()
+                              ? request.morph_weights
+                              : request.instance_morph_weights[i];
     if (request.instances > 1) frame.palette = frame.palette.first(palette);  // sizes checked
     return frame;
   }
@@ -256,7 +279,7 @@ class Engine::Impl {
     const Mesh& mesh = *entry.mesh();
     const uint32_t instances = std::max<uint32_t>(request.instances, 1);
     const BackendInfo& info = backends_[job->backend_index_]->info();
-    if (Status s = CheckMorph(request, mesh, info); !s.ok()) return s;
+    if (Status s = CheckMorph(request, mesh, info, instances); !s.ok()) return s;
     if (Status s = Check(request, mesh, instances); !s.ok()) return s;
 
     job->engine_ = this;

@@ -10,14 +10,14 @@ namespace skinserve {
 EncodedDeviation CompareEncodedWithReference(const Mesh& mesh, std::span<const float> palette,
                                              VertexEncoding encoding, const Bounds& bounds,
                                              std::span<const float> positions,
-                                             std::span<const float> normals,
-                                             SkinningMethod method) {
+                                             std::span<const float> normals, SkinningMethod method,
+                                             std::span<const MorphWeight> morph) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   // The float32 tolerances of this mesh and pose (the comparison itself is redone below).
-  const Deviation float32 = CompareWithReference(mesh, palette, positions, normals, method);
+  const Deviation float32 = CompareWithReference(mesh, palette, positions, normals, method, morph);
   const ReferenceFrame ref = method == SkinningMethod::kDualQuaternion
-                                 ? ReferenceSkinDualQuaternion(mesh, palette)
-                                 : ReferenceSkin(mesh, palette);
+                                 ? ReferenceSkinDualQuaternion(mesh, palette, morph)
+                                 : ReferenceSkin(mesh, palette, morph);
   EncodedDeviation d;
   double worst = -1;
   // The encoding rounds the float32 result, which lies within the tolerance of the

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 
@@ -151,6 +152,63 @@ Status MorphWeightsFromWire(const v1::SkinRequest& request, std::vector<MorphWei
     (*out)[i] = {request.morph_targets(i), request.morph_weights(i)};
   }
   return Status::Ok();
+}
+
+Status InstanceMorphWeightsFromWire(const v1::SkinRequest& request, std::vector<MorphWeight>* flat,
+                                    std::vector<std::span<const MorphWeight>>* instances) {
+  instances->clear();
+  const int entries = request.instance_morph_weights_size();
+  if (entries == 0) return Status::Ok();
+  const uint32_t expected = std::max<uint32_t>(request.instances(), 1);
+  if (expected < 2 || static_cast<uint32_t>(entries) != expected) {
+    return InvalidArgument(fmt::format(
+        "instance_morph_weights holds {} entries; a crowd batch needs exactly one per instance "
+        "(instances = {}, at least 2)",
+        entries, request.instances()));
+  }
+  if (request.morph_targets_size() > 0 || request.morph_weights_size() > 0) {
+    return InvalidArgument(
+        "instance_morph_weights and morph_targets/morph_weights are both set; send the "
+        "weights either per instance or for the whole frame");
+  }
+  std::size_t total = 0;
+  for (int k = 0; k < entries; ++k) {
+    const v1::MorphWeights& w = request.instance_morph_weights(k);
+    if (w.targets_size() != w.weights_size()) {
+      return InvalidArgument(fmt::format(
+          "instance_morph_weights[{}]: targets holds {} entries but weights {}; they pair up one "
+          "to one",
+          k, w.targets_size(), w.weights_size()));
+    }
+    if (static_cast<uint32_t>(w.targets_size()) > kMaxMorphTargets) {
+      return InvalidArgument(
+          fmt::format("instance_morph_weights[{}]: targets holds {} entries; at most {} (one per "
+                      "target)",
+                      k, w.targets_size(), kMaxMorphTargets));
+    }
+    total += static_cast<std::size_t>(w.targets_size());
+  }
+  flat->resize(total);  // sized once: the spans below point into it
+  std::size_t at = 0;
+  for (int k = 0; k < entries; ++k) {
+    const v1::MorphWeights& w = request.instance_morph_weights(k);
+    const std::size_t begin = at;
+    for (int i = 0; i < w.targets_size(); ++i) (*flat)[at++] = {w.targets(i), w.weights(i)};
+    instances->push_back(std::span<const MorphWeight>(*flat).subspan(begin, at - begin));
+  }
+  return Status::Ok();
+}
+
+void InstanceMorphWeightsToWire(std::span<const std::vector<MorphWeight>> instances,
+                                v1::SkinRequest* request) {
+  request->clear_instance_morph_weights();
+  for (const std::vector<MorphWeight>& weights : instances) {
+    v1::MorphWeights* wire = request->add_instance_morph_weights();
+    for (const MorphWeight& w : weights) {
+      wire->add_targets(w.target);
+      wire->add_weights(w.weight);
+    }
+  }
 }
 
 void MorphWeightsToWire(std::span<const MorphWeight> weights, v1::SkinRequest* request) {

@@ -47,6 +47,9 @@ struct StreamOptions {
   // Frame f's morph target weights (sparse; valid until the next call), sent with its
   // palette; empty function: no weights. A crowd's instances share them.
   std::function<std::span<const MorphWeight>(uint64_t frame)> morph_weights;
+  // Crowds: frame f's weights per instance, one entry per instance (valid until the next
+  // call), instead of morph_weights; empty function: none.
+  std::function<std::span<const std::vector<MorphWeight>>(uint64_t frame)> instance_morph_weights;
 };
 
 // Gives frame f's palette (12 * joints * instances floats). Best without waste: a callable

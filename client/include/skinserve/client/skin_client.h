@@ -136,6 +136,9 @@ struct SkinOptions {
   // The frame's morph target weights, sparse (SkinRequest.morph_targets/morph_weights);
   // caller-owned, read during the call. Empty: none.
   std::span<const MorphWeight> morph_weights;
+  // Crowds: each instance's own weights (SkinRequest.instance_morph_weights), one entry per
+  // instance, instead of morph_weights; caller-owned, read during the call. Empty: none.
+  std::span<const std::vector<MorphWeight>> instance_morph_weights;
 };
 
 // How long this client waits. Every call has a deadline; a stream (StreamFrames) has an

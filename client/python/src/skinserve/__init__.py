@@ -8,6 +8,11 @@ asyncio (AsyncClient), with the same methods.
     crowd = client.skin(mesh_id, palettes, encoding="snorm16")  # (K,J,3,4) -> (K,V,3)
     for vertices in client.stream(mesh_id, palettes, backend="sse"):
         ...
+    # Morph targets: sparse deltas on upload, sparse weights {target: weight} per frame.
+    mesh_id = client.upload(positions, joints, weights,
+                            morph_targets=[skinserve.MorphTarget(indices, deltas)])
+    vertices = client.skin(mesh_id, palette, morph_weights={0: 0.5})
+    crowd = client.skin(mesh_id, palettes, morph_weights=[{0: 1.0}, {}])  # one per instance
     # On the server's host: the server skins into shared memory, the answer views it.
     with skinserve.SharedMemoryRegion(64 << 20) as region:
         client.register_region(region)
@@ -22,6 +27,8 @@ from ._aio_client import AsyncClient
 from ._client import Client
 from ._encoding import decode_values
 from ._errors import SkinserveError
+from ._morph import FrameWeights, MorphTarget, Weights
 from ._shared_memory import SharedMemoryRegion
 
-__all__ = ["AsyncClient", "Client", "SkinserveError", "SharedMemoryRegion", "decode_values"]
+__all__ = ["AsyncClient", "Client", "FrameWeights", "MorphTarget", "SkinserveError",
+           "SharedMemoryRegion", "Weights", "decode_values"]

@@ -4,7 +4,7 @@ only the waiting differs (coroutines and an async generator instead of threads).
 import asyncio
 import time
 from typing import (Any, AsyncGenerator, AsyncIterator, Dict, Iterable, List, Literal,
-                    Optional, Tuple, Union, overload)
+                    Optional, Sequence, Tuple, Union, overload)
 
 import grpc
 import grpc.aio
@@ -14,6 +14,7 @@ import numpy.typing as npt
 from . import _answers, _arrays, _channel, _requests
 from ._errors import SkinserveError, rpc_error
 from ._frame import Answer, FloatArray, Frame
+from ._morph import FrameWeights, MorphTarget
 from ._service import SkinningStub
 from ._shared_memory import SharedMemoryRegion
 from .v1 import skinning_pb2 as pb
@@ -67,10 +68,11 @@ class AsyncClient:
     async def upload(self, positions: npt.NDArray[np.float32], joints: npt.NDArray[np.uint16],
                      weights: npt.NDArray[np.float32],
                      normals: Optional[npt.NDArray[np.float32]] = None,
-                     normalize_weights: bool = False, joint_count: Optional[int] = None) -> str:
-        """Client.upload: stores a mesh and returns its id."""
+                     normalize_weights: bool = False, joint_count: Optional[int] = None,
+                     morph_targets: Optional[Sequence[MorphTarget]] = None) -> str:
+        """Client.upload: stores a mesh (with its morph targets) and returns its id."""
         requests = _requests.upload_requests(positions, joints, weights, normals,
-                                             normalize_weights, joint_count)
+                                             normalize_weights, joint_count, morph_targets)
         info = await self._upload(requests)
         self._meshes[info.mesh_id] = (requests, requests[0].header.joint_count,
                                       requests[0].header.vertex_count)
@@ -138,24 +140,27 @@ class AsyncClient:
     async def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
                    backend: Optional[str] = ..., want_normals: Literal[False] = ...,
                    encoding: str = ..., frame: int = ...,
-                   region: Optional[SharedMemoryRegion] = ..., offset: int = ...
-                   ) -> FloatArray: ...
+                   region: Optional[SharedMemoryRegion] = ..., offset: int = ...,
+                   morph_weights: Optional[FrameWeights] = ...) -> FloatArray: ...
 
     @overload
     async def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
                    backend: Optional[str] = ..., *, want_normals: Literal[True],
                    encoding: str = ..., frame: int = ...,
-                   region: Optional[SharedMemoryRegion] = ..., offset: int = ...
+                   region: Optional[SharedMemoryRegion] = ..., offset: int = ...,
+                   morph_weights: Optional[FrameWeights] = ...
                    ) -> Tuple[FloatArray, FloatArray]: ...
 
     async def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
                    backend: Optional[str] = None, want_normals: bool = False,
                    encoding: str = "float32", frame: int = 0,
-                   region: Optional[SharedMemoryRegion] = None, offset: int = 0) -> Answer:
-        """Client.skin: one frame, a single palette (J, 3, 4) or a crowd (K, J, 3, 4)."""
+                   region: Optional[SharedMemoryRegion] = None, offset: int = 0,
+                   morph_weights: Optional[FrameWeights] = None) -> Answer:
+        """Client.skin: one frame, a single palette (J, 3, 4) or a crowd (K, J, 3, 4),
+        with its morph weights ({target: weight}, or one such per crowd instance)."""
         crowd = _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
         request = _requests.skin_request(mesh_id, palette, crowd, frame, backend, want_normals,
-                                         encoding, region, offset)
+                                         encoding, region, offset, morph_weights)
         for attempt in range(self.max_reuploads + 1):
             result = Frame(crowd)
             try:
@@ -173,19 +178,24 @@ class AsyncClient:
     def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
                backend: Optional[str] = ..., want_normals: Literal[False] = ...,
                encoding: str = ..., window: int = ...,
-               region: Optional[SharedMemoryRegion] = ...) -> AsyncIterator[FloatArray]: ...
+               region: Optional[SharedMemoryRegion] = ...,
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...
+               ) -> AsyncIterator[FloatArray]: ...
 
     @overload
     def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
                backend: Optional[str] = ..., *, want_normals: Literal[True],
                encoding: str = ..., window: int = ...,
-               region: Optional[SharedMemoryRegion] = ...
+               region: Optional[SharedMemoryRegion] = ...,
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...
                ) -> AsyncIterator[Tuple[FloatArray, FloatArray]]: ...
 
     async def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
                      backend: Optional[str] = None, want_normals: bool = False,
                      encoding: str = "float32", window: int = 8,
-                     region: Optional[SharedMemoryRegion] = None) -> AsyncIterator[Answer]:
+                     region: Optional[SharedMemoryRegion] = None,
+                     morph_weights: Optional[Iterable[Optional[FrameWeights]]] = None
+                     ) -> AsyncIterator[Answer]:
         """Client.stream as an async generator: frame after frame over one StreamSkin call,
         at most `window` unanswered, yielded in order. To stop early, close it
         (`async with contextlib.aclosing(client.stream(...)) as frames:`): that cancels the
@@ -196,13 +206,14 @@ class AsyncClient:
                   for i, palette in enumerate(palettes)]
         _requests.check_window(window)
         _requests.check_encoding(encoding)
+        weights = _requests.stream_weights(morph_weights, len(palettes))
         stride = 0
         if region is not None:
             stride = _requests.region_stride(await self._vertex_count(mesh_id), crowds,
                                              want_normals, encoding, window, region)
         requests = [_requests.skin_request(mesh_id, p, k, i, backend, want_normals, encoding,
-                                           region, (i % window) * stride)
-                    for i, (p, k) in enumerate(zip(palettes, crowds))]
+                                           region, (i % window) * stride, w)
+                    for i, (p, k, w) in enumerate(zip(palettes, crowds, weights))]
         next_frame, reuploads, reconnects = 0, 0, 0
         while next_frame < len(requests):
             restart: Optional[SkinserveError] = None

@@ -20,6 +20,11 @@ def _check(name: str, array: Any, dtype: Any, ndim: int) -> None:
         raise ValueError(f"{name}: shape {array.shape}, expected {ndim} dimensions")
 
 
+def check_array(name: str, array: Any, dtype: Any, ndim: int) -> None:
+    """ValueError naming `name` unless `array` is an ndarray of `dtype` with `ndim` axes."""
+    _check(name, array, dtype, ndim)
+
+
 def check_mesh(positions: Any, joints: Any, weights: Any, normals: Any) -> None:
     _check("positions", positions, np.float32, 2)
     if positions.shape[1] != 3 or positions.shape[0] == 0:

@@ -3,8 +3,8 @@ import contextlib
 import queue
 import threading
 import time
-from typing import (Any, Dict, Generator, Iterable, Iterator, List, Literal, Optional, Tuple,
-                    Union, overload)
+from typing import (Any, Dict, Generator, Iterable, Iterator, List, Literal, Optional,
+                    Sequence, Tuple, Union, overload)
 
 import grpc
 import numpy as np
@@ -13,6 +13,7 @@ import numpy.typing as npt
 from . import _answers, _arrays, _channel, _requests
 from ._errors import SkinserveError, rpc_error
 from ._frame import Answer, FloatArray, Frame
+from ._morph import FrameWeights, MorphTarget
 from ._shared_memory import SharedMemoryRegion
 from ._service import SkinningStub
 from .v1 import skinning_pb2 as pb
@@ -108,15 +109,20 @@ class Client:
     def upload(self, positions: npt.NDArray[np.float32], joints: npt.NDArray[np.uint16],
                weights: npt.NDArray[np.float32],
                normals: Optional[npt.NDArray[np.float32]] = None,
-               normalize_weights: bool = False, joint_count: Optional[int] = None) -> str:
+               normalize_weights: bool = False, joint_count: Optional[int] = None,
+               morph_targets: Optional[Sequence[MorphTarget]] = None) -> str:
         """Stores a mesh and returns its id (the SHA-256 of its content).
 
         positions, normals: float32 (V, 3); joints: uint16 (V, B); weights: float32 (V, B),
         1 <= B <= 8. Weights must sum to 1 per vertex unless normalize_weights is set.
         joint_count: the palettes' length (default: the largest joint id + 1).
+        morph_targets: skinserve.MorphTarget(indices, positions, normals=None) each, sparse:
+        the vertices a target moves (uint32, ascending) and their deltas (float32 (D, 3));
+        frames then name their active targets' weights (skin's morph_weights).
         """
         requests = _requests.upload_requests(positions, joints, weights, normals,
-                                             normalize_weights, joint_count)
+                                             normalize_weights, joint_count,
+                                             morph_targets)
         info = self._upload(requests)
         self._meshes[info.mesh_id] = (requests, requests[0].header.joint_count,
                                       requests[0].header.vertex_count)
@@ -191,18 +197,21 @@ class Client:
     def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
              backend: Optional[str] = ..., want_normals: Literal[False] = ...,
              encoding: str = ..., frame: int = ..., region: Optional[SharedMemoryRegion] = ...,
-             offset: int = ...) -> FloatArray: ...
+             offset: int = ...,
+             morph_weights: Optional[FrameWeights] = ...) -> FloatArray: ...
 
     @overload
     def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
              backend: Optional[str] = ..., *, want_normals: Literal[True],
              encoding: str = ..., frame: int = ..., region: Optional[SharedMemoryRegion] = ...,
-             offset: int = ...) -> Tuple[FloatArray, FloatArray]: ...
+             offset: int = ...,
+             morph_weights: Optional[FrameWeights] = ...) -> Tuple[FloatArray, FloatArray]: ...
 
     def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
              backend: Optional[str] = None, want_normals: bool = False,
              encoding: str = "float32", frame: int = 0,
-             region: Optional[SharedMemoryRegion] = None, offset: int = 0) -> Answer:
+             region: Optional[SharedMemoryRegion] = None, offset: int = 0,
+             morph_weights: Optional[FrameWeights] = None) -> Answer:
         """One frame: palette float32 (J, 3, 4) -> positions (V, 3) float32, or
         (positions, normals) with want_normals. A crowd, palettes (K, J, 3, 4) of K
         instances of the mesh, is one request and answers (K, V, 3) arrays.
@@ -213,10 +222,14 @@ class Client:
         region: a registered SharedMemoryRegion: the server writes the frame into it from
         `offset` (a multiple of 64) and the answer views it: float32 arrays (float16 ones
         with encoding="float16"; snorm16 is decoded into new arrays), valid until the
-        region's bytes are written again."""
+        region's bytes are written again.
+
+        morph_weights: the frame's morph target weights, sparse: {target: weight} (targets
+        left out weigh 0), for every instance of a crowd; or a sequence of K such mappings,
+        one per instance of a crowd of K >= 2."""
         crowd = _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
         request = _requests.skin_request(mesh_id, palette, crowd, frame, backend, want_normals,
-                                         encoding, region, offset)
+                                         encoding, region, offset, morph_weights)
         for attempt in range(self.max_reuploads + 1):
             result = Frame(crowd)
             try:
@@ -234,19 +247,24 @@ class Client:
     def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
                backend: Optional[str] = ..., want_normals: Literal[False] = ...,
                encoding: str = ..., window: int = ...,
-               region: Optional[SharedMemoryRegion] = ...) -> Iterator[FloatArray]: ...
+               region: Optional[SharedMemoryRegion] = ...,
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...
+               ) -> Iterator[FloatArray]: ...
 
     @overload
     def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
                backend: Optional[str] = ..., *, want_normals: Literal[True],
                encoding: str = ..., window: int = ...,
-               region: Optional[SharedMemoryRegion] = ...
+               region: Optional[SharedMemoryRegion] = ...,
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...
                ) -> Iterator[Tuple[FloatArray, FloatArray]]: ...
 
     def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
                backend: Optional[str] = None, want_normals: bool = False,
                encoding: str = "float32", window: int = 8,
-               region: Optional[SharedMemoryRegion] = None) -> Iterator[Answer]:
+               region: Optional[SharedMemoryRegion] = None,
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = None
+               ) -> Iterator[Answer]:
         """Frame after frame over one StreamSkin call: yields each frame's positions (or
         (positions, normals)) in order. `palettes`: a sequence of float32 (J, 3, 4)
         palettes (or an array (F, J, 3, 4)), all checked before the first is sent. A crowd
@@ -260,6 +278,8 @@ class Client:
         region: a registered SharedMemoryRegion large enough for `window` frames: frame i is
         written into slot i % window and yielded as arrays that view it, valid until the
         next frame is taken (copy what you keep).
+
+        morph_weights: one entry per palette, as skin's morph_weights (None: no weights).
         """
         palettes = list(palettes)
         joints = self._joint_count(mesh_id)
@@ -267,13 +287,14 @@ class Client:
                   for i, palette in enumerate(palettes)]
         _requests.check_window(window)
         _requests.check_encoding(encoding)
+        weights = _requests.stream_weights(morph_weights, len(palettes))
         stride = 0
         if region is not None:
             stride = _requests.region_stride(self._vertex_count(mesh_id), crowds,
                                              want_normals, encoding, window, region)
         requests = [_requests.skin_request(mesh_id, p, k, i, backend, want_normals, encoding,
-                                           region, (i % window) * stride)
-                    for i, (p, k) in enumerate(zip(palettes, crowds))]
+                                           region, (i % window) * stride, w)
+                    for i, (p, k, w) in enumerate(zip(palettes, crowds, weights))]
         next_frame, reuploads, reconnects = 0, 0, 0
         while next_frame < len(requests):
             restart: Optional[SkinserveError] = None

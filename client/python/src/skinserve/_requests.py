@@ -1,11 +1,12 @@
 """The requests both clients send: a mesh's upload messages and a frame's SkinRequest,
 built from checked arrays."""
-from typing import List, Optional
+from typing import Any, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
 
-from . import _arrays, _shared_memory
+from . import _arrays, _morph, _shared_memory
+from ._morph import FrameWeights, MorphTarget
 from ._shared_memory import SharedMemoryRegion
 from .v1 import skinning_pb2 as pb
 
@@ -17,9 +18,13 @@ ENCODINGS = {"float32": pb.ENCODING_FLOAT32, "float16": pb.ENCODING_FLOAT16,
 def upload_requests(positions: npt.NDArray[np.float32], joints: npt.NDArray[np.uint16],
                     weights: npt.NDArray[np.float32],
                     normals: Optional[npt.NDArray[np.float32]], normalize_weights: bool,
-                    joint_count: Optional[int]) -> List[pb.UploadMeshRequest]:
+                    joint_count: Optional[int],
+                    morph_targets: Optional[Sequence[MorphTarget]] = None
+                    ) -> List[pb.UploadMeshRequest]:
     """The header, then each array in chunks of at most 1 MiB."""
     _arrays.check_mesh(positions, joints, weights, normals)
+    targets = list(morph_targets or [])
+    sizes, morph_normals = _morph.check_targets(targets, positions.shape[0], normals is not None)
     used = int(joints.max()) + 1
     if joint_count is None:
         joint_count = used
@@ -30,12 +35,15 @@ def upload_requests(positions: npt.NDArray[np.float32], joints: npt.NDArray[np.u
         vertex_count=positions.shape[0], influences=joints.shape[1],
         joint_count=joint_count, has_normals=normals is not None,
         weight_policy=(pb.WEIGHT_POLICY_NORMALIZE if normalize_weights
-                       else pb.WEIGHT_POLICY_REJECT))
+                       else pb.WEIGHT_POLICY_REJECT),
+        morph_target_sizes=sizes, morph_normals=morph_normals)
     requests = [pb.UploadMeshRequest(header=header)]
-    arrays = [(pb.MESH_ARRAY_POSITIONS, positions, "f4"),
-              (pb.MESH_ARRAY_NORMALS, normals, "f4"),
-              (pb.MESH_ARRAY_JOINTS, joints, "u2"),
-              (pb.MESH_ARRAY_WEIGHTS, weights, "f4")]
+    arrays: List[Tuple[pb.MeshArray, Optional[npt.NDArray[Any]], str]] = [
+        (pb.MESH_ARRAY_POSITIONS, positions, "f4"),
+        (pb.MESH_ARRAY_NORMALS, normals, "f4"),
+        (pb.MESH_ARRAY_JOINTS, joints, "u2"),
+        (pb.MESH_ARRAY_WEIGHTS, weights, "f4")]
+    arrays += _morph.target_arrays(targets)
     for kind, array, dtype in arrays:
         if array is None:
             continue
@@ -54,18 +62,32 @@ def check_encoding(encoding: str) -> None:
 
 def skin_request(mesh_id: str, palette: npt.NDArray[np.float32], crowd: Optional[int],
                  frame: int, backend: Optional[str], want_normals: bool, encoding: str,
-                 region: Optional[SharedMemoryRegion] = None, offset: int = 0) -> pb.SkinRequest:
+                 region: Optional[SharedMemoryRegion] = None, offset: int = 0,
+                 morph_weights: Optional[FrameWeights] = None) -> pb.SkinRequest:
     check_encoding(encoding)
     request = pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
                              palette=_arrays.little_endian_bytes(palette, "f4"),
                              want_normals=want_normals, encoding=ENCODINGS[encoding],
                              instances=crowd or 0, pack_instances=True)
+    _morph.set_weights(request, morph_weights, crowd)
     if region is not None:
         if region.name is None:
             raise ValueError("region: not registered (Client.register_region)")
         request.output.region = region.name
         request.output.offset = offset
     return request
+
+
+def stream_weights(morph_weights: Optional[Iterable[Optional[FrameWeights]]],
+                   frames: int) -> List[Optional[FrameWeights]]:
+    """A stream's weights, one entry (or None) per palette; None: no frame has any."""
+    if morph_weights is None:
+        return [None] * frames
+    weights = list(morph_weights)
+    if len(weights) != frames:
+        raise ValueError(f"morph_weights: {len(weights)} entries, expected one per palette "
+                         f"({frames})")
+    return weights
 
 
 def check_window(window: int) -> None:

@@ -73,6 +73,9 @@ struct SkinRequest {
   // of a crowd; the backend must support morph targets (BackendInfo::morph_targets) when a
   // weight is non-zero.
   std::span<const MorphWeight> morph_weights;
+  // Crowds with weights per instance: instance k takes instance_morph_weights[k] (checked
+  // as morph_weights). Set: exactly `instances` entries, and morph_weights empty.
+  std::span<const std::span<const MorphWeight>> instance_morph_weights;
   // Jobs only (Engine::Submit(SkinJob*)): skin each instance into scratch memory of the
   // compute thread that runs it and hand it to SkinJob::OnInstanceSkinned, which must use
   // it up (e.g. encode it) before returning; positions and normals then stay empty. Keeps a

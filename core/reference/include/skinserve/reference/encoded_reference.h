@@ -7,6 +7,7 @@
 
 #include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/model/mesh.h"
+#include "skinserve/model/morph_targets.h"
 #include "skinserve/model/skinning_method.h"
 
 namespace skinserve {
@@ -24,11 +25,12 @@ struct EncodedDeviation {
 
 // One instance's decoded positions (and normals, may be empty to skip them) in `encoding`,
 // quantised to `bounds` for snorm16 (as the response carried it), against the reference of
-// `method`.
+// `method`, of the rest arrays morphed by `morph` (none: as they are).
 EncodedDeviation CompareEncodedWithReference(const Mesh& mesh, std::span<const float> palette,
                                              VertexEncoding encoding, const Bounds& bounds,
                                              std::span<const float> positions,
                                              std::span<const float> normals,
-                                             SkinningMethod method = SkinningMethod::kLinear);
+                                             SkinningMethod method = SkinningMethod::kLinear,
+                                             std::span<const MorphWeight> morph = {});
 
 }  // namespace skinserve

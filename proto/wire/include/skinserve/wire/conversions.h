@@ -44,6 +44,16 @@ v1::Encoding ToWire(VertexEncoding encoding);
 Status MorphWeightsFromWire(const v1::SkinRequest& request, std::vector<MorphWeight>* out);
 // Sets the request's morph fields to `weights` (all of them: zeros are sent as given).
 void MorphWeightsToWire(std::span<const MorphWeight> weights, v1::SkinRequest* request);
+// A crowd's per-instance weights (SkinRequest.instance_morph_weights): all instances' entries
+// back to back in `flat` (its capacity reused) and one view per instance in `instances`;
+// both empty when the field is. INVALID_ARGUMENT naming the field when the entry count is
+// not `instances` (at least 2), when morph_targets/morph_weights are set too, or when an
+// entry's lengths differ or exceed kMaxMorphTargets; the values are the engine's to check.
+Status InstanceMorphWeightsFromWire(const v1::SkinRequest& request, std::vector<MorphWeight>* flat,
+                                    std::vector<std::span<const MorphWeight>>* instances);
+// Sets SkinRequest.instance_morph_weights to one entry per element of `instances`.
+void InstanceMorphWeightsToWire(std::span<const std::vector<MorphWeight>> instances,
+                                v1::SkinRequest* request);
 
 Bounds FromWire(const v1::Bounds& bounds);
 void ToWire(const Bounds& bounds, v1::Bounds* wire);
