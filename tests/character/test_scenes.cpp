@@ -1,5 +1,6 @@
 #include "test_scenes.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -313,6 +314,128 @@ Scene MorphFace(const std::string& interpolation) {
   }
   s.weights_channels.push_back(ch);
   s.clip.channels.push_back(Rotation(2, {0, 2}, {Quat(0, 0, 1, 0), Quat(1, 0, 1, 50)}));
+  Finish(&s);
+  return s;
+}
+
+namespace {
+
+// Appends `part` to `to`: its vertices renumbered after `to`'s; when `lower` >= 0 skinned
+// to joints `lower` (at y <= y0) and `upper` (at y >= y1), blended linearly between.
+void AppendPart(ScenePrimitive* to, const ScenePrimitive& part, int lower = -1, int upper = -1,
+                double y0 = 0, double y1 = 1) {
+  const auto first = static_cast<uint16_t>(to->positions.size() / 3);
+  to->positions.insert(to->positions.end(), part.positions.begin(), part.positions.end());
+  to->normals.insert(to->normals.end(), part.normals.begin(), part.normals.end());
+  for (uint16_t i : part.indices) to->indices.push_back(static_cast<uint16_t>(first + i));
+  if (lower < 0) return;
+  for (std::size_t v = 0; v < part.positions.size() / 3; ++v) {
+    const double u = std::clamp((part.positions[3 * v + 1] - y0) / (y1 - y0), 0.0, 1.0);
+    to->joints.insert(to->joints.end(),
+                      {static_cast<uint8_t>(lower), static_cast<uint8_t>(upper), 0, 0});
+    to->weights.insert(to->weights.end(),
+                       {static_cast<float>(1 - u), static_cast<float>(u), 0.0f, 0.0f});
+  }
+}
+
+std::vector<std::vector<double>> RotationsAboutX(const std::vector<double>& degrees) {
+  std::vector<std::vector<double>> keys;
+  for (double d : degrees) keys.push_back(Quat(1, 0, 0, d));
+  return keys;
+}
+
+}  // namespace
+
+Scene WalkingFace() {
+  Scene s;
+  // 0 Hips -> 1 LeftHip -> 2 LeftKnee, 3 RightHip -> 4 RightKnee, 5 Chest -> 6 LeftShoulder,
+  // 7 RightShoulder, 8 Head (mesh 1, rigid, morph targets); 9 BodyNode (mesh 0, skin 0).
+  // Facing +z, y up, about 1.8 tall; the clip is two strides in place.
+  s.nodes.resize(10);
+  s.nodes[0] = {.name = "Hips", .children = {1, 3, 5, 9}};
+  s.nodes[0].t[1] = 0.95;
+  s.nodes[1] = {.name = "LeftHip", .children = {2}};
+  s.nodes[1].t[0] = 0.12, s.nodes[1].t[1] = -0.05;
+  s.nodes[2] = {.name = "LeftKnee"};
+  s.nodes[2].t[1] = -0.42;
+  s.nodes[3] = {.name = "RightHip", .children = {4}};
+  s.nodes[3].t[0] = -0.12, s.nodes[3].t[1] = -0.05;
+  s.nodes[4] = {.name = "RightKnee"};
+  s.nodes[4].t[1] = -0.42;
+  s.nodes[5] = {.name = "Chest", .children = {6, 7, 8}};
+  s.nodes[5].t[1] = 0.45;
+  s.nodes[6] = {.name = "LeftShoulder"};
+  s.nodes[6].t[0] = 0.25, s.nodes[6].t[1] = 0.05;
+  s.nodes[7] = {.name = "RightShoulder"};
+  s.nodes[7].t[0] = -0.25, s.nodes[7].t[1] = 0.05;
+  s.nodes[8] = {.name = "Head", .mesh = 1};
+  s.nodes[8].t[1] = 0.12;
+  s.nodes[9] = {.name = "BodyNode", .mesh = 0, .skin = 0};
+  s.skins.push_back({.joints = {0, 1, 2, 3, 4, 5, 6, 7}, .inverse_bind = {}});
+
+  // The body in rest world space: torso bending between Hips and Chest, thighs, shins with
+  // feet and arms each on one joint.
+  ScenePrimitive body;
+  auto box = [](double cx, double cy, double cz, double hx, double hy, double hz) {
+    const double c[3] = {cx, cy, cz}, h[3] = {hx, hy, hz};
+    return Box(c, h, true);
+  };
+  AppendPart(&body, box(0, 1.2, 0, 0.2, 0.3, 0.11), 0, 5, 1.0, 1.4);
+  for (int side = 0; side < 2; ++side) {
+    const double x = side == 0 ? 0.12 : -0.12;
+    const int hip = side == 0 ? 1 : 3, knee = hip + 1, shoulder = side == 0 ? 6 : 7;
+    AppendPart(&body, box(x, 0.69, 0, 0.07, 0.21, 0.07), hip, hip);
+    AppendPart(&body, box(x, 0.26, 0, 0.06, 0.22, 0.06), knee, knee);
+    AppendPart(&body, box(x, 0.025, 0.05, 0.065, 0.025, 0.11), knee, knee);
+    AppendPart(&body, box(2.4 * x, 1.15, 0, 0.05, 0.3, 0.05), shoulder, shoulder);
+  }
+  // The head in its node's space: a block, two eyes and a mouth standing out of its front.
+  // Target 0 opens the mouth (its lower half and the chin drop), target 1 shuts the eyes
+  // (each eye's top and bottom meet); positions only, as the boxes keep their normals.
+  ScenePrimitive head;
+  AppendPart(&head, box(0, 0.17, 0, 0.16, 0.17, 0.14));
+  const std::size_t eyes_from = head.positions.size() / 3;
+  AppendPart(&head, box(0.075, 0.23, 0.16, 0.045, 0.045, 0.04));
+  AppendPart(&head, box(-0.075, 0.23, 0.16, 0.045, 0.045, 0.04));
+  const std::size_t mouth_from = head.positions.size() / 3;
+  AppendPart(&head, box(0, 0.085, 0.16, 0.08, 0.02, 0.04));
+  const std::size_t n = head.positions.size() / 3;
+  std::vector<float> open(3 * n, 0.0f), shut(3 * n, 0.0f);
+  for (std::size_t v = 0; v < n; ++v) {
+    const float y = head.positions[3 * v + 1];
+    if (v < eyes_from && y < 0.01f) open[3 * v + 1] = -0.04f;  // the chin
+    if (v >= mouth_from && y < 0.085f) open[3 * v + 1] = -0.08f;
+    if (v >= eyes_from && v < mouth_from) shut[3 * v + 1] = y > 0.23f ? -0.04f : 0.04f;
+  }
+  head.target_positions = {open, shut};
+  head.target_normals = {{}, {}};
+  s.meshes.push_back({"Body", {body}});
+  s.meshes.push_back({"Head", {head}, {0.0, 0.0}});
+
+  // Two strides: legs swing +-25 degrees (forward is negative about x), knees bend as a leg
+  // swings forward, arms swing against the legs, hips bob, the head turns left and right.
+  const std::vector<double> quarter = {0, 0.25, 0.5, 0.75, 1, 1.25, 1.5, 1.75, 2};
+  const std::vector<double> half = {0, 0.5, 1, 1.5, 2};
+  s.clip.channels.push_back(Rotation(1, half, RotationsAboutX({-25, 25, -25, 25, -25})));
+  s.clip.channels.push_back(Rotation(3, half, RotationsAboutX({25, -25, 25, -25, 25})));
+  s.clip.channels.push_back(
+      Rotation(2, quarter, RotationsAboutX({5, 15, 10, 55, 5, 15, 10, 55, 5})));
+  s.clip.channels.push_back(
+      Rotation(4, quarter, RotationsAboutX({10, 55, 5, 15, 10, 55, 5, 15, 10})));
+  s.clip.channels.push_back(Rotation(6, half, RotationsAboutX({20, -20, 20, -20, 20})));
+  s.clip.channels.push_back(Rotation(7, half, RotationsAboutX({-20, 20, -20, 20, -20})));
+  std::vector<double> bob;
+  for (std::size_t k = 0; k < quarter.size(); ++k)
+    bob.insert(bob.end(), {0, k % 2 ? 0.97 : 0.93, 0});
+  s.clip.channels.push_back(Translation(0, quarter, bob));
+  s.clip.channels.push_back(Rotation(8, half,
+                                     {Quat(0, 1, 0, 0), Quat(0, 1, 0, 15), Quat(0, 1, 0, 0),
+                                      Quat(0, 1, 0, -15), Quat(0, 1, 0, 0)}));
+  // The face: the mouth opens, closes as the eyes shut, then the eyes open again.
+  s.weights_channels.push_back({.node = 8,
+                                .interpolation = "LINEAR",
+                                .times = {0, 0.4, 0.8, 1.1, 1.6, 2},
+                                .values = {0, 0, 1, 0, 1, 0, 0, 1, 0, 1, 0, 0}});
   Finish(&s);
   return s;
 }
@@ -759,10 +882,29 @@ std::vector<ScenePrimitiveRef> SkinnedPrimitives(const Scene& scene) {
 
 namespace {
 
+// Primitive `p`'s positions with its morph targets applied in double, with the node's
+// weights at `t` (its weights channel, else the mesh's default weights).
+std::vector<double> MorphedPositions(const Scene& scene, const ScenePrimitiveRef& p, double t) {
+  const ScenePrimitive& sp = scene.meshes[static_cast<std::size_t>(p.mesh)]
+                                 .primitives[static_cast<std::size_t>(p.primitive)];
+  std::vector<double> positions(sp.positions.begin(), sp.positions.end());
+  std::vector<double> weights = scene.meshes[static_cast<std::size_t>(p.mesh)].weights;
+  for (const SceneWeightsChannel& ch : scene.weights_channels) {
+    if (ch.node == p.node) weights = SampleWeights(ch, sp.target_positions.size(), t);
+  }
+  for (std::size_t k = 0; k < weights.size() && k < sp.target_positions.size(); ++k) {
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+      positions[i] += weights[k] * sp.target_positions[k][i];
+    }
+  }
+  return positions;
+}
+
 RefFrame RigidFrame(const Scene& scene, const ScenePrimitiveRef& p, double t) {
   const ScenePrimitive& sp = scene.meshes[static_cast<std::size_t>(p.mesh)]
                                  .primitives[static_cast<std::size_t>(p.primitive)];
   const Mat4 m = WorldMatrix(scene, p.node, t);
+  const std::vector<double> positions = MorphedPositions(scene, p, t);
   // Normals go by the inverse transpose of the upper 3x3: cofactor(A) / det(A).
   auto at = [&](int r, int c) { return m[4 * c + r]; };
   double cof[3][3];
@@ -775,7 +917,7 @@ RefFrame RigidFrame(const Scene& scene, const ScenePrimitiveRef& p, double t) {
   const double det = at(0, 0) * cof[0][0] + at(0, 1) * cof[0][1] + at(0, 2) * cof[0][2];
   RefFrame f;
   for (std::size_t v = 0; v < sp.positions.size() / 3; ++v) {
-    const float* x = &sp.positions[3 * v];
+    const double* x = &positions[3 * v];
     for (int r = 0; r < 3; ++r) {
       f.positions.push_back(at(r, 0) * x[0] + at(r, 1) * x[1] + at(r, 2) * x[2] + at(r, 3));
     }

@@ -19,6 +19,10 @@
 //                             with the dequantization in the rigid mesh node's transform or
 //                             the skin's inverse bind matrices, normalized uint16 positions,
 //                             int8/int16 normals, uint8/uint16 weights, padded strides
+//   WalkingFace               a box figure walking in place (skinned body, 8 joints) with a
+//                             rigid head on an animated node whose 2 morph targets (mouth
+//                             open, eyes shut) follow a weights channel; kept as
+//                             tests/assets/gltf/WalkingFace.glb for the docs' picture
 //   Sparse                    sparse accessors: positions over a base, normals and rigid
 //                             positions with no base (zeros), weights with uint32 indices
 #pragma once
@@ -97,6 +101,7 @@ Scene MorphFace(const std::string& interpolation);
 Scene RigidParts();
 Scene Quantized();
 Scene Sparse();
+Scene WalkingFace();
 
 std::vector<uint8_t> WriteGlb(const Scene& scene);
 
@@ -109,10 +114,11 @@ struct ScenePrimitiveRef {
 std::vector<ScenePrimitiveRef> SkinnedPrimitives(const Scene& scene);
 
 // Morph targets are applied first, with the node's weights at `t` (its weights channel
-// sampled in float64 by the test's own formulas, else the mesh's default weights).
-// Primitive `p` at time `t` of the clip in float64: skinned (the mesh node's own transform
-// plays no part, as glTF requires), or for a rigid part its node's world matrix applied to
-// the positions and its inverse transpose to the normals (renormalised).
+// sampled in float64 by the test's own formulas, else the mesh's default weights; a rigid
+// part's position deltas only). Primitive `p` at time `t` of the clip in float64: skinned
+// (the mesh node's own transform plays no part, as glTF requires), or for a rigid part its
+// node's world matrix applied to the positions and its inverse transpose to the normals
+// (renormalised).
 RefFrame SceneFrame(const Scene& scene, const ScenePrimitiveRef& p, double t);
 
 // The world matrix of node `node` at time `t` (column-major).

@@ -2,7 +2,7 @@
 // GLB, for the command-line end-to-end tests (tests/render/animate-e2e-test.sh), and prints
 // its primitives (skinned and rigid): "<vertices> vertices in <n> primitives: <name> ...".
 // usage: skinserve-test-scene several-primitives|two-skins|moving-parent|rigid-parts|
-//        quantized|sparse OUT.glb
+//        quantized|sparse|walking-face OUT.glb
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -14,8 +14,8 @@ int main(int argc, char** argv) {
   using namespace skinserve::testing;
   if (argc != 3) {
     std::cerr << "usage: " << argv[0]
-              << " several-primitives|two-skins|moving-parent|rigid-parts|quantized|sparse "
-                 "OUT.glb\n";
+              << " several-primitives|two-skins|moving-parent|rigid-parts|quantized|sparse|"
+                 "walking-face OUT.glb\n";
     return 2;
   }
   const std::string kind = argv[1];
@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
     scene = Quantized();
   } else if (kind == "sparse") {
     scene = Sparse();
+  } else if (kind == "walking-face") {
+    scene = WalkingFace();
   } else {
     std::cerr << "unknown scene '" << kind << "'\n";
     return 2;
