@@ -7,10 +7,9 @@
 
 namespace skinserve::bench {
 
-const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph,
-                                   RestEncoding rest) {
+const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph) {
   std::lock_guard lock(mutex_);
-  auto [it, inserted] = workloads_.try_emplace({vertices, bones, morph, rest});
+  auto [it, inserted] = workloads_.try_emplace({vertices, bones, morph});
   if (inserted) {
     MeshArrays arrays = MakeSyntheticMesh({.vertex_count = vertices,
                                            .influences = bones,
@@ -22,7 +21,7 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph
           {.targets = kMorphTargets, .fraction = kMorphFraction, .seed = vertices * 10ull + bones},
           &arrays);
     }
-    auto mesh = Mesh::Create(arrays, {.rest_encoding = rest});
+    auto mesh = Mesh::Create(arrays);
     if (!mesh.ok()) throw std::runtime_error(mesh.status().ToString());
     it->second.mesh = *mesh;
     for (int frame = 0; frame < kPalettesPerWorkload; ++frame) {
@@ -34,10 +33,10 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph
 }
 
 const PreparedMesh& WorkloadCache::Prepared(Backend& backend, uint32_t vertices, uint32_t bones,
-                                            bool morph, RestEncoding rest) {
-  const Workload& workload = Get(vertices, bones, morph, rest);
+                                            bool morph) {
+  const Workload& workload = Get(vertices, bones, morph);
   std::lock_guard lock(mutex_);
-  auto& slot = prepared_[{&backend, vertices, bones, morph, rest}];
+  auto& slot = prepared_[{&backend, vertices, bones, morph}];
   if (!slot) {
     auto prepared = backend.Prepare(workload.mesh);
     if (!prepared.ok()) throw std::runtime_error(prepared.status().ToString());
