@@ -1,7 +1,7 @@
 // Every computing backend against the independent float64 reference, on random valid
 // meshes whose vertex counts are multiples of no SIMD width or work-group size, with
-// 1..8 influences, 1..1024 joints, with and without normals. Tolerance: see
-// CompareWithReference (1e-5 relative to the frame's scale for positions, 1e-5 for
+// 1..8 influences, 1..1024 joints, without normals, with normals, with normals and tangents.
+// Tolerance: see CompareWithReference (1e-5 relative to the frame's scale for positions, 1e-5 for
 // normals).
 #include <gtest/gtest.h>
 
@@ -17,7 +17,7 @@ namespace {
 std::vector<MeshCase> Cases() {
   std::vector<MeshCase> cases = MeshCases({1, 7, 1001}, {1, 77, 1024});
   // Large, odd-sized meshes for the common influence counts.
-  for (uint32_t b : {1u, 4u, 8u}) cases.push_back({LargeCaseVertices(), b, 77, b == 4});
+  for (uint32_t b : {1u, 4u, 8u}) cases.push_back({LargeCaseVertices(), b, 77, b == 4, b == 4});
   return cases;
 }
 

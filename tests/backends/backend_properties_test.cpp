@@ -151,6 +151,65 @@ TEST(PassthroughBackendTest, ReturnsTheRestPoseWhateverThePalette) {
   EXPECT_TRUE(std::equal(out.normals.begin(), out.normals.end(), mesh->normals().begin()));
 }
 
+// A frame's tangents: only from a mesh that has them, with normals, 4 floats a vertex.
+TEST(SkinFrameTest, TangentsNeedTheMeshsTangentsNormalsAndFourFloatsAVertex) {
+  auto with = Mesh::Create(MakeSyntheticMesh(
+                               {.vertex_count = 5, .normals = true, .tangents = true, .seed = 3}))
+                  .value();
+  auto without =
+      Mesh::Create(MakeSyntheticMesh({.vertex_count = 5, .normals = true, .seed = 3})).value();
+  const auto palette = MakeSyntheticPalette(77, 1, 1);
+  std::vector<float> positions(15), normals(15), tangents(20), short_tangents(19);
+  SkinFrame frame{
+      .palette = palette, .positions = positions, .normals = normals, .tangents = tangents};
+  EXPECT_TRUE(frame.Validate(*with).ok());
+  Status s = frame.Validate(*without);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "tangents were requested but the mesh has none");
+  frame.normals = {};
+  s = frame.Validate(*with);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("tangents were requested without normals"), std::string::npos);
+  frame.normals = normals;
+  frame.tangents = short_tangents;
+  s = frame.Validate(*with);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "tangents output holds 19 floats; expected 4 * vertex_count = 20");
+}
+
+// Every CPU backend and passthrough skin tangents; the OpenCL ones refuse them, naming the
+// backends that do.
+TEST(BackendListTest, CpuBackendsSkinTangentsOthersRefuseThem) {
+  for (const auto& backend : AllBackends()) {
+    const std::string& id = backend->info().id;
+    const bool opencl = id.rfind("opencl", 0) == 0;
+    EXPECT_EQ(backend->info().tangents, !opencl) << id;
+    const Status s = CheckTangentSupport(backend->info(), true);
+    if (opencl) {
+      EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << id;
+      EXPECT_NE(s.message().find("backend '" + id + "' does not skin tangents"), std::string::npos)
+          << s.message();
+    } else {
+      EXPECT_TRUE(s.ok()) << id << ": " << s.ToString();
+    }
+    EXPECT_TRUE(CheckTangentSupport(backend->info(), false).ok()) << id;
+  }
+}
+
+TEST(PassthroughBackendTest, ReturnsTheRestTangents) {
+  Backend& backend = BackendById("passthrough");
+  auto mesh =
+      Mesh::Create(MakeSyntheticMesh({.vertex_count = 9, .normals = true, .tangents = true}))
+          .value();
+  auto prepared = backend.Prepare(mesh).value();
+  std::vector<float> positions(27), normals(27), tangents(36, std::nanf(""));
+  const auto palette = MakeSyntheticPalette(77, 1, 1);
+  const SkinFrame frame{
+      .palette = palette, .positions = positions, .normals = normals, .tangents = tangents};
+  ASSERT_TRUE(backend.Skin(*prepared, frame).ok());
+  EXPECT_TRUE(std::equal(tangents.begin(), tangents.end(), mesh->tangents().begin()));
+}
+
 TEST(BackendListTest, HasEveryPaperBackendInTheDesignOrder) {
   std::vector<std::string> ids;
   for (const auto& backend : AllBackends()) ids.push_back(backend->info().id);

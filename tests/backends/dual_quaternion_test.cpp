@@ -24,7 +24,7 @@ namespace {
 
 std::vector<MeshCase> Cases() {
   std::vector<MeshCase> cases = MeshCases({1, 7, 1001}, {1, 77, 300});
-  cases.push_back({LargeCaseVertices(), 4, 77, true});
+  cases.push_back({LargeCaseVertices(), 4, 77, true, true});
   return cases;
 }
 

@@ -1,12 +1,13 @@
 // Morph targets on every backend: random sparse targets (each vertex in each target with
-// probability 0.1 or 0.5, position and normal deltas), random frame weights (negative and
+// probability 0.1 or 0.5, position, normal and tangent deltas), random frame weights (negative and
 // beyond 1 included, listed in random order), frames with no active target and with only
 // zero weights, for both methods each backend implements, B = 1..8 and vertex counts that
 // leave vector and thread tails, against the float64 reference that morphs in double
 // before skinning (ReferenceMorph, written apart from the engine's morph stage).
 // Tolerance: CompareWithReference's with morphs (1e-5 relative to the frame's scale,
 // with the morphed terms counted in it; normals 1e-5 times how much the deltas shorten
-// them). A backend that does not apply morph targets refuses them: FAILED_PRECONDITION.
+// them; tangents' xyz the same, their w exact). A backend that does not apply morph targets
+// refuses them, one that does not skin tangents refuses those: FAILED_PRECONDITION.
 // Every computing backend applies them, the OpenCL ones on the device (morph_targets.cl);
 // beyond the grid: frames after a morphed frame that have no active target come back
 // unmorphed (no morphed rest arrays left behind, on the device or in a thread's scratch),
@@ -32,6 +33,7 @@ struct MorphCase {
   uint32_t influences;
   bool normals;
   double fraction;
+  bool tangents = false;  // with normals only
 };
 
 using MorphBackendCase = std::tuple<std::string, MorphCase>;
@@ -40,10 +42,12 @@ std::vector<MorphCase> Cases() {
   std::vector<MorphCase> cases;
   for (uint32_t v : {1u, 7u, 1001u}) {
     for (uint32_t b : {1u, 3u, 4u, 8u}) {
-      for (bool n : {false, true}) cases.push_back({v, b, n, 0.1});
+      cases.push_back({v, b, false, 0.1});
+      cases.push_back({v, b, true, 0.1});
+      cases.push_back({v, b, true, 0.1, true});
     }
   }
-  cases.push_back({LargeCaseVertices(), 4, true, 0.1});
+  cases.push_back({LargeCaseVertices(), 4, true, 0.1, true});
   cases.push_back({LargeCaseVertices(), 2, true, 0.5});
   cases.push_back({5003, 4, true, 0.5});
   return cases;
@@ -53,7 +57,8 @@ std::string Name(const ::testing::TestParamInfo<MorphBackendCase>& info) {
   const auto& [id, c] = info.param;
   std::string name = id + "_V" + std::to_string(c.vertices) + "_B" + std::to_string(c.influences) +
                      (c.normals ? "_normals" : "") + "_F" +
-                     std::to_string(static_cast<int>(c.fraction * 100));
+                     std::to_string(static_cast<int>(c.fraction * 100)) +
+                     (c.tangents ? "_tangents" : "");
   for (char& ch : name) {
     if (ch == '-') ch = '_';
   }
@@ -66,6 +71,7 @@ std::shared_ptr<const Mesh> MorphMesh(const MorphCase& c, uint32_t targets) {
                                          .influences = c.influences,
                                          .joint_count = 33,
                                          .normals = c.normals,
+                                         .tangents = c.tangents,
                                          .seed = seed});
   AddSyntheticMorphTargets({.targets = targets, .fraction = c.fraction, .seed = seed}, &arrays);
   auto mesh = Mesh::Create(arrays);
@@ -86,6 +92,7 @@ TEST_P(MorphTargetsTest, MatchesTheFloat64ReferenceOrRefuses) {
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
   const float nan = std::numeric_limits<float>::quiet_NaN();
   std::vector<float> positions(3ull * c.vertices), normals(c.normals ? 3ull * c.vertices : 0);
+  std::vector<float> tangents(c.tangents ? 4ull * c.vertices : 0);
   const std::vector<MorphWeight> zeros = {{3, 0.0f}, {5, -0.0f}};
   for (SkinningMethod method : backend.info().methods) {
     for (uint64_t frame = 0; frame < 5; ++frame) {
@@ -100,12 +107,21 @@ TEST_P(MorphTargetsTest, MatchesTheFloat64ReferenceOrRefuses) {
                                : MakeSyntheticPalette(33, c.vertices, frame);
       std::fill(positions.begin(), positions.end(), nan);
       std::fill(normals.begin(), normals.end(), nan);
-      SkinFrame skin{.palette = palette, .positions = positions, .normals = normals};
+      std::fill(tangents.begin(), tangents.end(), nan);
+      SkinFrame skin{
+          .palette = palette, .positions = positions, .normals = normals, .tangents = tangents};
       skin.method = method;
       skin.morph_weights = weights;
       ASSERT_TRUE(skin.Validate(*mesh).ok());
       const Status s = backend.Skin(**prepared, skin);
       const std::string what = std::string(MethodName(method)) + " frame " + std::to_string(frame);
+      if (c.tangents && !backend.info().tangents) {
+        EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << what << ": " << s.ToString();
+        EXPECT_NE(s.message().find("backend '" + id + "' does not skin tangents"),
+                  std::string::npos)
+            << s.message();
+        continue;
+      }
       if (!backend.info().morph_targets && HasActiveMorph(weights)) {
         EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << what << ": " << s.ToString();
         EXPECT_NE(s.message().find("backend '" + id + "' does not apply morph targets"),
@@ -114,11 +130,13 @@ TEST_P(MorphTargetsTest, MatchesTheFloat64ReferenceOrRefuses) {
         continue;
       }
       ASSERT_TRUE(s.ok()) << id << " " << what << ": " << s.ToString();
-      const Deviation d = CompareWithReference(*mesh, palette, positions, normals, method, weights);
+      const Deviation d =
+          CompareWithReference(*mesh, palette, positions, normals, method, weights, tangents);
       EXPECT_TRUE(d.within_tolerance())
           << id << " " << what << ": position error " << d.max_position_error << " (tolerance "
           << d.position_tolerance << "), normal error " << d.max_normal_error << " (tolerance "
-          << d.normal_tolerance << "), worst vertex " << d.worst_vertex;
+          << d.normal_tolerance << "), tangent error " << d.max_tangent_error << " (tolerance "
+          << d.tangent_tolerance << "), worst vertex " << d.worst_vertex;
       if (frame == 3 && c.vertices > 1) {  // the morphs show: without them it is another shape
         EXPECT_FALSE(
             CompareWithReference(*mesh, palette, positions, normals, method, {}).within_tolerance())
@@ -163,21 +181,27 @@ void ExpectMorphedFrame(Backend& backend, const PreparedMesh& prepared, Skinning
   const float nan = std::numeric_limits<float>::quiet_NaN();
   std::vector<float> positions(3ull * mesh.vertex_count(), nan);
   std::vector<float> out_normals(normals ? 3ull * mesh.vertex_count() : 0, nan);
+  // Tangents with the normals wherever the mesh has them and the backend skins them.
+  const bool tangents = normals && mesh.has_tangents() && backend.info().tangents;
+  std::vector<float> out_tangents(tangents ? 4ull * mesh.vertex_count() : 0, nan);
   const auto palette = method == SkinningMethod::kDualQuaternion
                            ? MakeRigidPalette(mesh.joint_count(), 17, frame)
                            : MakeSyntheticPalette(mesh.joint_count(), 17, frame);
-  SkinFrame skin{.palette = palette, .positions = positions, .normals = out_normals};
+  SkinFrame skin{
+      .palette = palette, .positions = positions, .normals = out_normals, .tangents = out_tangents};
   skin.method = method;
   skin.morph_weights = weights;
   ASSERT_TRUE(skin.Validate(mesh).ok());
   const std::string where = backend.info().id + " " + std::string(MethodName(method)) + " " + what;
   const Status s = backend.Skin(prepared, skin);
   ASSERT_TRUE(s.ok()) << where << ": " << s.ToString();
-  const Deviation d = CompareWithReference(mesh, palette, positions, out_normals, method, weights);
+  const Deviation d =
+      CompareWithReference(mesh, palette, positions, out_normals, method, weights, out_tangents);
   EXPECT_TRUE(d.within_tolerance())
       << where << ": position error " << d.max_position_error << " (tolerance "
       << d.position_tolerance << "), normal error " << d.max_normal_error << " (tolerance "
-      << d.normal_tolerance << "), worst vertex " << d.worst_vertex;
+      << d.normal_tolerance << "), tangent error " << d.max_tangent_error << " (tolerance "
+      << d.tangent_tolerance << "), worst vertex " << d.worst_vertex;
   if (unmorphed_differs) {
     EXPECT_FALSE(
         CompareWithReference(mesh, palette, positions, out_normals, method, {}).within_tolerance())
@@ -196,8 +220,9 @@ TEST_P(MorphFrameSequenceTest, FramesWithoutActiveTargetsAfterMorphedOnesAreUnmo
   Backend& backend = BackendById(GetParam());
   SKIP_IF_UNAVAILABLE(backend);
   constexpr uint32_t kTargets = 12;
-  auto mesh =
-      MorphMesh({.vertices = 5003, .influences = 4, .normals = true, .fraction = 1.0}, kTargets);
+  auto mesh = MorphMesh(
+      {.vertices = 5003, .influences = 4, .normals = true, .fraction = 1.0, .tangents = true},
+      kTargets);
   ASSERT_NE(mesh, nullptr);
   auto prepared = backend.Prepare(mesh);
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
@@ -241,12 +266,14 @@ TEST(MorphReferenceTest, AddsWeightedDeltasInDouble) {
                     .joint_count = 1,
                     .positions = {1, 2, 3, 4, 5, 6},
                     .normals = {0, 0, 1, 0, 1, 0},
+                    .tangents = {1, 0, 0, -1, 0, 0, 1, 1},
                     .joints = {0, 0},
                     .weights = {1, 1},
                     .morph_target_sizes = {1, 2},
                     .morph_indices = {1, 0, 1},
                     .morph_position_deltas = {0.2f, 0, 0, 0, 0, 1, 0, 0.1f, 0},
-                    .morph_normal_deltas = {0, 0, 0, 1, 0, 0, 0, 0, 0}};
+                    .morph_normal_deltas = {0, 0, 0, 1, 0, 0, 0, 0, 0},
+                    .morph_tangent_deltas = {0, 0, 0, 0, 0.5f, 0, 0, 0, 0}};
   auto mesh = Mesh::Create(arrays);
   ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
   const MorphWeight weights[] = {{0, 0.5f}, {1, -2.0f}};
@@ -256,12 +283,19 @@ TEST(MorphReferenceTest, AddsWeightedDeltasInDouble) {
   EXPECT_NEAR(rest.positions[3], 4 + 0.5 * double{0.2f}, 1e-12);
   EXPECT_NEAR(rest.positions[4], 5 - 2 * double{0.1f}, 1e-12);
   EXPECT_NEAR(rest.normals[0], -2, 1e-12);
+  EXPECT_NEAR(rest.tangents[1], -2 * 0.5,
+              1e-12);               // vertex 0's tangent (1, 0, 0, -1) + -2 (0, 0.5, 0)
+  EXPECT_EQ(rest.tangents[3], -1);  // w is never morphed
   // Skinned with the identity, the positions are the morphed rest.
   const std::vector<float> identity = MakeIdentityPalette(1);
   const ReferenceFrame skinned = ReferenceSkin(**mesh, identity, weights);
   EXPECT_NEAR(skinned.positions[4], 5 - 2 * double{0.1f}, 1e-12);
   const double length = std::sqrt(4.0 + 1.0);  // normal (-2, 0, 1) renormalised
   EXPECT_NEAR(skinned.normals[0], -2 / length, 1e-12);
+  const double tangent_length = std::sqrt(1.0 + 1.0);  // tangent (1, -1, 0) renormalised
+  EXPECT_NEAR(skinned.tangents[0], 1 / tangent_length, 1e-12);
+  EXPECT_NEAR(skinned.tangents[1], -1 / tangent_length, 1e-12);
+  EXPECT_EQ(skinned.tangents[3], -1);
 }
 
 }  // namespace

@@ -17,7 +17,9 @@ std::vector<MeshCase> MeshCases(std::initializer_list<uint32_t> vertices,
   for (uint32_t v : vertices) {
     for (uint32_t b = 1; b <= max_influences; ++b) {
       for (uint32_t j : joints) {
-        for (bool n : {false, true}) cases.push_back({v, b, j, n});
+        cases.push_back({v, b, j, false});
+        cases.push_back({v, b, j, true});
+        cases.push_back({v, b, j, true, true});
       }
     }
   }
@@ -50,6 +52,7 @@ std::shared_ptr<const Mesh> CaseMesh(const MeshCase& c) {
                                               .influences = c.influences,
                                               .joint_count = c.joints,
                                               .normals = c.normals,
+                                              .tangents = c.tangents,
                                               .seed = CaseSeed(c)}));
   EXPECT_TRUE(mesh.ok()) << mesh.status().ToString();
   return mesh.ok() ? *mesh : nullptr;
@@ -58,7 +61,8 @@ std::shared_ptr<const Mesh> CaseMesh(const MeshCase& c) {
 std::string CaseName(const ::testing::TestParamInfo<BackendCase>& info) {
   const auto& [id, c] = info.param;
   std::string name = id + "_V" + std::to_string(c.vertices) + "_B" + std::to_string(c.influences) +
-                     "_J" + std::to_string(c.joints) + (c.normals ? "_normals" : "");
+                     "_J" + std::to_string(c.joints) + (c.normals ? "_normals" : "") +
+                     (c.tangents ? "_tangents" : "");
   std::replace(name.begin(), name.end(), '-', '_');
   return name;
 }
@@ -69,19 +73,28 @@ void ExpectFrameMatchesReference(Backend& backend, const PreparedMesh& prepared,
   const float nan = std::numeric_limits<float>::quiet_NaN();
   std::vector<float> positions(3ull * c.vertices, nan);
   std::vector<float> normals(c.normals ? 3ull * c.vertices : 0, nan);
+  std::vector<float> tangents(c.tangents ? 4ull * c.vertices : 0, nan);
   SkinFrame frame;
   frame.palette = palette;
   frame.positions = positions;
   frame.normals = normals;
+  frame.tangents = tangents;
   frame.method = method;
   const Status s = backend.Skin(prepared, frame);
+  if (c.tangents && !backend.info().tangents) {
+    EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << s.ToString();
+    EXPECT_NE(s.message().find(backend.info().id), std::string::npos) << s.ToString();
+    EXPECT_NE(s.message().find("simd"), std::string::npos) << s.ToString();
+    return;
+  }
   ASSERT_TRUE(s.ok()) << backend.info().id << " " << what << ": " << s.ToString();
-  const Deviation d = CompareWithReference(mesh, palette, positions, normals, method);
+  const Deviation d = CompareWithReference(mesh, palette, positions, normals, method, {}, tangents);
   EXPECT_TRUE(d.within_tolerance())
       << backend.info().id << " V=" << c.vertices << " B=" << c.influences << " J=" << c.joints
       << " normals=" << c.normals << " " << what << ": position error " << d.max_position_error
       << " (tolerance " << d.position_tolerance << "), normal error " << d.max_normal_error
-      << " (tolerance " << d.normal_tolerance << "), worst vertex " << d.worst_vertex;
+      << " (tolerance " << d.normal_tolerance << "), tangent error " << d.max_tangent_error
+      << " (tolerance " << d.tangent_tolerance << "), worst vertex " << d.worst_vertex;
 }
 
 }  // namespace skinserve::testing

@@ -24,10 +24,11 @@ struct MeshCase {
   uint32_t influences;
   uint32_t joints;
   bool normals;
+  bool tangents = false;  // with normals only
 };
 
-// Every combination of the vertex counts, 1..max_influences, the joint counts and with and
-// without normals.
+// Every combination of the vertex counts, 1..max_influences, the joint counts and without
+// normals, with normals, and with normals and tangents.
 std::vector<MeshCase> MeshCases(std::initializer_list<uint32_t> vertices,
                                 std::initializer_list<uint32_t> joints,
                                 uint32_t max_influences = kMaxInfluences);
@@ -42,13 +43,14 @@ uint32_t LargeCaseVertices();
 std::shared_ptr<const Mesh> CaseMesh(const MeshCase& c);
 uint64_t CaseSeed(const MeshCase& c);
 
-// "<backend>_V<vertices>_B<influences>_J<joints>[_normals]", '-' as '_'.
+// "<backend>_V<vertices>_B<influences>_J<joints>[_normals][_tangents]", '-' as '_'.
 using BackendCase = std::tuple<std::string, MeshCase>;
 std::string CaseName(const ::testing::TestParamInfo<BackendCase>& info);
 
 // Skins `palette` with `backend` into outputs pre-filled with NaN (an element the backend
 // skips shows up) and expects them within CompareWithReference's tolerance, naming the
-// backend, the case and `what` otherwise.
+// backend, the case and `what` otherwise. A backend that does not skin tangents
+// (BackendInfo::tangents) must refuse a case with tangents with FAILED_PRECONDITION.
 void ExpectFrameMatchesReference(Backend& backend, const PreparedMesh& prepared, const Mesh& mesh,
                                  std::span<const float> palette, const MeshCase& c,
                                  SkinningMethod method, const std::string& what);

@@ -2,9 +2,9 @@
 // SSE4 and the scalar fallback on an AVX-512 machine; NEON and SVE under qemu-aarch64),
 // each capped at it the way SKINSERVE_SIMD_MAX_TARGET caps it, against the float64
 // reference, in both skinning methods (linear blending on scaled palettes, dual
-// quaternions on rigid ones): every influence count 1..8, with and without normals, 8-bit
-// and 16-bit joint streams (and the dual-quaternion sign table, built or not), and every
-// tail length (1..33 vertices, and around the 256-vertex
+// quaternions on rigid ones): every influence count 1..8, without normals, with normals,
+// with normals and tangents, 8-bit and 16-bit joint streams (and the dual-quaternion sign
+// table, built or not), and every tail length (1..33 vertices, and around the 256-vertex
 // chunks the normals are renormalised in). Writing outside the frame is caught by guard
 // floats on both sides of each output.
 #include <gtest/gtest.h>
@@ -50,12 +50,13 @@ std::vector<uint32_t> VertexCounts() {
 // Skins into outputs with guard floats before and after; checks both the reference and
 // the guards.
 void ExpectMatchesReference(Backend& backend, uint32_t vertices, uint32_t influences,
-                            uint32_t joints, bool normals, SkinningMethod method) {
+                            uint32_t joints, bool normals, bool tangents, SkinningMethod method) {
   const uint64_t seed = vertices * 131 + influences * 17 + joints + (normals ? 1 : 0);
   auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
                                               .influences = influences,
                                               .joint_count = joints,
                                               .normals = normals,
+                                              .tangents = tangents,
                                               .seed = seed}));
   ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
   auto prepared = backend.Prepare(*mesh);
@@ -71,20 +72,27 @@ void ExpectMatchesReference(Backend& backend, uint32_t vertices, uint32_t influe
       normals ? std::span<float>(normal_out.data() + kGuardFloats, n) : std::span<float>();
   std::fill(p.begin(), p.end(), std::numeric_limits<float>::quiet_NaN());
   std::fill(nn.begin(), nn.end(), std::numeric_limits<float>::quiet_NaN());
-  const SkinFrame frame{.palette = palette, .positions = p, .normals = nn, .method = method};
+  std::vector<float> tangent_out(tangents ? 4ull * vertices + 2 * kGuardFloats : 0, kGuard);
+  const std::span<float> t =
+      tangents ? std::span<float>(tangent_out.data() + kGuardFloats, 4ull * vertices)
+               : std::span<float>();
+  std::fill(t.begin(), t.end(), std::numeric_limits<float>::quiet_NaN());
+  const SkinFrame frame{
+      .palette = palette, .positions = p, .normals = nn, .tangents = t, .method = method};
   ASSERT_TRUE(frame.Validate(**mesh).ok());
   const Status skinned = backend.Skin(**prepared, frame);
   ASSERT_TRUE(skinned.ok()) << skinned.ToString();
   const std::string what = backend.info().id + " at " + backend.info().simd_target + " " +
                            std::string(MethodName(method)) + " V=" + std::to_string(vertices) +
                            " B=" + std::to_string(influences) + " J=" + std::to_string(joints) +
-                           (normals ? " normals" : "");
-  const Deviation d = CompareWithReference(**mesh, palette, p, nn, method);
+                           (normals ? " normals" : "") + (tangents ? " tangents" : "");
+  const Deviation d = CompareWithReference(**mesh, palette, p, nn, method, {}, t);
   EXPECT_TRUE(d.within_tolerance())
       << what << ": position error " << d.max_position_error << " (tolerance "
       << d.position_tolerance << "), normal error " << d.max_normal_error << " (tolerance "
-      << d.normal_tolerance << "), worst vertex " << d.worst_vertex;
-  for (const std::vector<float>* out : {&positions, &normal_out}) {
+      << d.normal_tolerance << "), tangent error " << d.max_tangent_error << " (tolerance "
+      << d.tangent_tolerance << "), worst vertex " << d.worst_vertex;
+  for (const std::vector<float>* out : {&positions, &normal_out, &tangent_out}) {
     if (out->empty()) continue;
     for (std::size_t i = 0; i < kGuardFloats; ++i) {
       EXPECT_EQ((*out)[i], kGuard) << what << ": wrote before the output";
@@ -105,9 +113,9 @@ void ExpectBothBackendsMatchAt(const std::string& target, SkinningMethod method)
       // 8-bit joints up to 256, 16-bit above; with 20 joints the dual-quaternion kernel
       // takes its per-frame sign table from 400 / (B - 1) vertices on, per-vertex signs below.
       for (uint32_t j : {1u, 20u, 256u, 300u}) {
-        for (bool normals : {false, true}) {
+        for (int outputs = 0; outputs < 3; ++outputs) {  // positions, + normals, + tangents
           for (uint32_t v : VertexCounts()) {
-            ExpectMatchesReference(*backend, v, b, j, normals, method);
+            ExpectMatchesReference(*backend, v, b, j, outputs >= 1, outputs == 2, method);
             if (::testing::Test::HasFatalFailure()) return;
           }
         }

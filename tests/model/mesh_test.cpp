@@ -125,6 +125,79 @@ TEST(MeshTest, RejectsNonFinitePositionsAndNormals) {
   ExpectError(m, StatusCode::kInvalidArgument, "normals[vertex 3] is the zero vector");
 }
 
+MeshArrays TangentMesh() {
+  return MakeSyntheticMesh({.vertex_count = 10,
+                            .influences = 3,
+                            .joint_count = 5,
+                            .normals = true,
+                            .tangents = true,
+                            .seed = 7});
+}
+
+TEST(MeshTest, KeepsTangentsAndCountsThemInTheIdAndSize) {
+  const MeshArrays arrays = TangentMesh();
+  auto mesh = Mesh::Create(arrays);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  EXPECT_TRUE((*mesh)->has_tangents());
+  EXPECT_EQ(std::vector<float>((*mesh)->tangents().begin(), (*mesh)->tangents().end()),
+            arrays.tangents);
+  EXPECT_EQ((*mesh)->byte_size(), 10u * (24 + 16 + 3 * 6));
+  auto without = Mesh::Create(SmallMesh());  // the same mesh without tangents
+  ASSERT_TRUE(without.ok());
+  EXPECT_NE((*mesh)->id(), (*without)->id());
+  MeshArrays flipped = arrays;
+  flipped.tangents[3] = -flipped.tangents[3];  // the handedness is content too
+  auto other = Mesh::Create(flipped);
+  ASSERT_TRUE(other.ok()) << other.status().ToString();
+  EXPECT_NE((*mesh)->id(), (*other)->id());
+}
+
+TEST(MeshTest, RejectsBadTangentsNamingTheFieldAndTheLimit) {
+  MeshArrays arrays = TangentMesh();
+  arrays.tangents.pop_back();
+  ExpectError(arrays, StatusCode::kInvalidArgument,
+              "tangents holds 39 values; expected 40 = 4 * vertex_count");
+  arrays = TangentMesh();
+  arrays.tangents[4 * 2 + 1] = std::numeric_limits<float>::quiet_NaN();
+  ExpectError(arrays, StatusCode::kInvalidArgument, "tangents[vertex 2].y = nan is not finite");
+  arrays = TangentMesh();
+  for (int a = 0; a < 3; ++a) arrays.tangents[4 * 3 + a] *= 1.1f;
+  ExpectError(arrays, StatusCode::kInvalidArgument, "tangents[vertex 3].xyz has length 1.1");
+  ExpectError(arrays, StatusCode::kInvalidArgument, "must be a unit vector within 0.01");
+  arrays = TangentMesh();
+  arrays.tangents[4 * 4 + 3] = 0.5f;
+  ExpectError(arrays, StatusCode::kInvalidArgument,
+              "tangents[vertex 4].w = 0.5; it must be exactly +1 or -1");
+  arrays = TangentMesh();
+  arrays.normals.clear();
+  ExpectError(arrays, StatusCode::kInvalidArgument, "tangents need normals");
+  // Rounding within the tolerance (an 8-bit exporter's) is accepted.
+  arrays = TangentMesh();
+  for (int a = 0; a < 3; ++a) arrays.tangents[4 * 5 + a] *= 1.005f;
+  EXPECT_TRUE(Mesh::Create(arrays).ok());
+}
+
+TEST(MeshTest, RejectsTangentDeltasWithoutTangentsOrOutOfRange) {
+  MeshArrays arrays = TangentMesh();
+  arrays.morph_target_sizes = {2};
+  arrays.morph_indices = {1, 4};
+  arrays.morph_position_deltas = {0, 0, 0, 0, 0.1f, 0};
+  arrays.morph_tangent_deltas = {0, 0, 0, 0, 0.5f, 0};
+  ASSERT_TRUE(Mesh::Create(arrays).ok());
+  EXPECT_TRUE((*Mesh::Create(arrays))->has_morph_tangents());
+  MeshArrays bad = arrays;
+  bad.morph_tangent_deltas[4] = 5.0f;
+  ExpectError(bad, StatusCode::kInvalidArgument,
+              "morph_tangent_deltas[target 0, delta 1].y = 5 must be finite and within +-4");
+  bad = arrays;
+  bad.morph_tangent_deltas.pop_back();
+  ExpectError(bad, StatusCode::kInvalidArgument, "morph_tangent_deltas holds 5 values");
+  bad = arrays;
+  bad.tangents.clear();
+  ExpectError(bad, StatusCode::kInvalidArgument,
+              "morph tangent deltas were declared but the mesh has no tangents");
+}
+
 TEST(MeshTest, RejectsNegativeNonFiniteOrAllZeroWeights) {
   MeshArrays m = SmallMesh();
   m.weights[3 * 1 + 1] = -0.25f;

@@ -31,6 +31,7 @@ MeshInfo DescribeMesh(const Mesh& mesh) {
   info.influences = mesh.influences();
   info.joint_count = mesh.joint_count();
   info.has_normals = mesh.has_normals();
+  info.has_tangents = mesh.has_tangents();
   info.bytes = mesh.byte_size();
   info.normalized_vertices = mesh.normalized_vertices();
   info.morph_target_count = mesh.morph_target_count();
@@ -143,6 +144,12 @@ class Engine::Impl {
           fmt::format("normals output holds {} floats; expected 3 * vertex_count * instances = {}",
                       request.normals.size(), outputs * instances));
     }
+    if (!request.tangents.empty() &&
+        request.tangents.size() != 4ull * mesh.vertex_count() * instances) {
+      return InvalidArgument(
+          fmt::format("tangents output holds {} floats; expected 4 * vertex_count * instances = {}",
+                      request.tangents.size(), 4ull * mesh.vertex_count() * instances));
+    }
     for (uint32_t i = 0; i < instances; ++i) {
       if (Status s = InstanceFrame(request, mesh, i).Validate(mesh); !s.ok()) {
         if (instances == 1) return s;
@@ -184,6 +191,10 @@ class Engine::Impl {
 
   // Check() for skin_into_scratch: no output arrays; the instance fits the scratch.
   static Status CheckScratch(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
+    if (!request.tangents.empty()) {
+      return InvalidArgument(
+          "skin_into_scratch: tangents are not skinned into scratch; ask for them with outputs");
+    }
     if (!request.positions.empty() || !request.normals.empty()) {
       return InvalidArgument(
           "skin_into_scratch: positions and normals must be empty (each instance is skinned "
@@ -221,10 +232,14 @@ class Engine::Impl {
     const std::size_t palette = 12ull * mesh.joint_count();
     const std::size_t outputs = 3ull * mesh.vertex_count();
     SkinFrame frame{request.palette.subspan(std::min(request.palette.size(), i * palette)),
-                    std::span<float>(), std::span<float>(), threads};
+                    std::span<float>(), std::span<float>(), std::span<float>(), threads};
     if (!request.skin_into_scratch) {
       frame.positions = request.positions.subspan(i * outputs, outputs);
       if (!request.normals.empty()) frame.normals = request.normals.subspan(i * outputs, outputs);
+      const std::size_t tangents = 4ull * mesh.vertex_count();
+      if (!request.tangents.empty()) {
+        frame.tangents = request.tangents.subspan(i * tangents, tangents);
+      }
     }
     frame.method = request.method;
     frame.morph_weights = request.instance_morph_weights.empty()
@@ -255,6 +270,7 @@ class Engine::Impl {
                   .vertex_count = mesh.vertex_count(),
                   .joint_count = mesh.joint_count(),
                   .has_normals = mesh.has_normals(),
+                  .has_tangents = mesh.has_tangents(),
                   .morph_target_count = mesh.morph_target_count()};
     return Status::Ok();
   }
@@ -280,6 +296,7 @@ class Engine::Impl {
     const uint32_t instances = std::max<uint32_t>(request.instances, 1);
     const BackendInfo& info = backends_[job->backend_index_]->info();
     if (Status s = CheckMorph(request, mesh, info, instances); !s.ok()) return s;
+    if (Status s = CheckTangentSupport(info, !request.tangents.empty()); !s.ok()) return s;
     if (Status s = Check(request, mesh, instances); !s.ok()) return s;
 
     job->engine_ = this;
@@ -396,27 +413,29 @@ std::vector<BackendInfo> Engine::Backends() const {
 
 Status Engine::CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
                               bool has_normals, std::span<const uint32_t> morph_target_sizes,
-                              bool morph_normals) const {
+                              bool morph_normals, bool has_tangents, bool morph_tangents) const {
   const MeshLimits& limits = impl_->options_.mesh.limits;
   if (Status s = CheckMeshHeader(vertex_count, influences, joint_count, limits); !s.ok()) {
     return s;
   }
-  if (Status s =
-          CheckMorphHeader(morph_target_sizes, vertex_count, has_normals, morph_normals, limits);
+  if (Status s = CheckMorphHeader(morph_target_sizes, vertex_count, has_normals, morph_normals,
+                                  limits, has_tangents, morph_tangents);
       !s.ok()) {
     return s;
   }
   uint64_t deltas = 0;
   for (uint32_t size : morph_target_sizes) deltas += size;
   return impl_->store_.CheckFits(MeshByteSize(vertex_count, influences, has_normals,
-                                              morph_target_sizes.size(), deltas, morph_normals));
+                                              morph_target_sizes.size(), deltas, morph_normals,
+                                              has_tangents, morph_tangents));
 }
 
 Result<MeshInfo> Engine::AddMesh(const MeshArrays& arrays,
                                  std::optional<WeightPolicy> weight_policy) {
   if (Status s = CheckMeshShape(arrays.vertex_count, arrays.influences, arrays.joint_count,
                                 !arrays.normals.empty(), arrays.morph_target_sizes,
-                                !arrays.morph_normal_deltas.empty());
+                                !arrays.morph_normal_deltas.empty(), !arrays.tangents.empty(),
+                                !arrays.morph_tangent_deltas.empty());
       !s.ok()) {
     return s;
   }
@@ -452,6 +471,7 @@ Status Engine::GetMesh(const std::string& id, MeshInfo* info) const {
   info->influences = mesh.influences();
   info->joint_count = mesh.joint_count();
   info->has_normals = mesh.has_normals();
+  info->has_tangents = mesh.has_tangents();
   info->bytes = mesh.byte_size();
   info->normalized_vertices = mesh.normalized_vertices();
   info->morph_target_count = mesh.morph_target_count();

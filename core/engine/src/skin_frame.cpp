@@ -21,6 +21,14 @@ Status CheckMorphSupport(const BackendInfo& info, std::span<const MorphWeight> w
       info.id));
 }
 
+Status CheckTangentSupport(const BackendInfo& info, bool tangents_requested) {
+  if (info.tangents || !tangents_requested) return Status::Ok();
+  return FailedPrecondition(fmt::format(
+      "backend '{}' does not skin tangents; ask for the frame without tangents or choose a "
+      "backend that does (passthrough, serial, openmp, sse, sse-openmp, simd, simd-openmp)",
+      info.id));
+}
+
 Status SkinFrame::Validate(const Mesh& mesh) const {
   if (Status s = ValidatePalette(palette, mesh.joint_count()); !s.ok()) return s;
   if (method == SkinningMethod::kDualQuaternion) {
@@ -41,6 +49,19 @@ Status SkinFrame::Validate(const Mesh& mesh) const {
       return InvalidArgument(
           fmt::format("normals output holds {} floats; expected 3 * vertex_count = {}",
                       normals.size(), expected));
+    }
+  }
+  if (!tangents.empty()) {
+    if (!mesh.has_tangents()) {
+      return InvalidArgument("tangents were requested but the mesh has none");
+    }
+    if (normals.empty()) {
+      return InvalidArgument("tangents were requested without normals; ask for normals too");
+    }
+    if (tangents.size() != 4ull * mesh.vertex_count()) {
+      return InvalidArgument(
+          fmt::format("tangents output holds {} floats; expected 4 * vertex_count = {}",
+                      tangents.size(), 4ull * mesh.vertex_count()));
     }
   }
   return Status::Ok();

@@ -31,6 +31,31 @@ Status CheckFinite3(const char* field, std::span<const float> values) {
   return Status::Ok();
 }
 
+// Each tangent finite, its xyz of unit length within kTangentLengthTolerance, its w +1 or -1.
+Status CheckTangents(std::span<const float> tangents) {
+  for (std::size_t v = 0; v < tangents.size() / 4; ++v) {
+    const float* t = &tangents[4 * v];
+    for (int a = 0; a < 4; ++a) {
+      if (!std::isfinite(t[a])) {
+        return InvalidArgument(
+            fmt::format("tangents[vertex {}].{} = {} is not finite", v, "xyzw"[a], t[a]));
+      }
+    }
+    const double length =
+        std::sqrt(double{t[0]} * t[0] + double{t[1]} * t[1] + double{t[2]} * t[2]);
+    if (std::fabs(length - 1.0) > kTangentLengthTolerance) {
+      return InvalidArgument(fmt::format(
+          "tangents[vertex {}].xyz has length {:.6g}; it must be a unit vector within {}", v,
+          length, kTangentLengthTolerance));
+    }
+    if (t[3] != 1.0f && t[3] != -1.0f) {
+      return InvalidArgument(fmt::format(
+          "tangents[vertex {}].w = {}; it must be exactly +1 or -1 (the handedness)", v, t[3]));
+    }
+  }
+  return Status::Ok();
+}
+
 // SHA-256 over a fixed header and the arrays' little-endian bytes, as lowercase hex.
 std::string ContentId(const Mesh& mesh) {
   EVP_MD_CTX* ctx = EVP_MD_CTX_new();
@@ -45,6 +70,11 @@ std::string ContentId(const Mesh& mesh) {
   add(mesh.normals());
   add(mesh.joints());
   add(mesh.weights());
+  if (mesh.has_tangents()) {  // meshes without tangents keep their ids
+    const char kTangentTag[] = "tangents";
+    EVP_DigestUpdate(ctx, kTangentTag, sizeof(kTangentTag));
+    add(mesh.tangents());
+  }
   if (mesh.morph_target_count() > 0) {  // meshes without targets keep their ids
     const uint32_t morph_header[2] = {mesh.morph_target_count(),
                                       mesh.has_morph_normals() ? 1u : 0u};
@@ -53,6 +83,11 @@ std::string ContentId(const Mesh& mesh) {
     add(mesh.morph_indices());
     add(mesh.morph_position_deltas());
     add(mesh.morph_normal_deltas());
+    if (mesh.has_morph_tangents()) {
+      const char kTangentTag[] = "morph_tangent_deltas";
+      EVP_DigestUpdate(ctx, kTangentTag, sizeof(kTangentTag));
+      add(mesh.morph_tangent_deltas());
+    }
   }
   unsigned char digest[EVP_MAX_MD_SIZE];
   unsigned int length = 0;
@@ -78,6 +113,13 @@ Status CheckMorphArrays(const MeshArrays& arrays, uint64_t deltas) {
   }
   if (!arrays.morph_normal_deltas.empty()) {
     if (Status s = CheckArraySize("morph_normal_deltas", arrays.morph_normal_deltas.size(),
+                                  3 * deltas, "3 * the sum of morph_target_sizes (or none)");
+        !s.ok()) {
+      return s;
+    }
+  }
+  if (!arrays.morph_tangent_deltas.empty()) {
+    if (Status s = CheckArraySize("morph_tangent_deltas", arrays.morph_tangent_deltas.size(),
                                   3 * deltas, "3 * the sum of morph_target_sizes (or none)");
         !s.ok()) {
       return s;
@@ -127,6 +169,15 @@ Status CheckMorphArrays(const MeshArrays& arrays, uint64_t deltas) {
                           t, k - first, "xyz"[a], n, kMaxMorphNormalDelta));
         }
       }
+      for (int a = 0; a < 3 && !arrays.morph_tangent_deltas.empty(); ++a) {
+        const float d = arrays.morph_tangent_deltas[3 * k + a];
+        if (!std::isfinite(d) || std::fabs(d) > kMaxMorphNormalDelta) {
+          return InvalidArgument(
+              fmt::format("morph_tangent_deltas[target {}, delta {}].{} = {} must be finite and "
+                          "within +-{}",
+                          t, k - first, "xyz"[a], d, kMaxMorphNormalDelta));
+        }
+      }
     }
     first = last;
   }
@@ -136,7 +187,8 @@ Status CheckMorphArrays(const MeshArrays& arrays, uint64_t deltas) {
 }  // namespace
 
 Status CheckMorphHeader(std::span<const uint32_t> target_sizes, uint64_t vertex_count,
-                        bool has_normals, bool morph_normals, const MeshLimits& limits) {
+                        bool has_normals, bool morph_normals, const MeshLimits& limits,
+                        bool has_tangents, bool morph_tangents) {
   const uint32_t max_targets = std::min(limits.max_morph_targets, kMaxMorphTargets);
   if (target_sizes.size() > max_targets) {
     return ResourceExhausted(
@@ -148,6 +200,12 @@ Status CheckMorphHeader(std::span<const uint32_t> target_sizes, uint64_t vertex_
   }
   if (morph_normals && !has_normals) {
     return InvalidArgument("morph normal deltas were declared but the mesh has no normals");
+  }
+  if (morph_tangents && target_sizes.empty()) {
+    return InvalidArgument("morph tangent deltas were declared but the mesh has no morph targets");
+  }
+  if (morph_tangents && !has_tangents) {
+    return InvalidArgument("morph tangent deltas were declared but the mesh has no tangents");
   }
   uint64_t deltas = 0;
   for (std::size_t t = 0; t < target_sizes.size(); ++t) {
@@ -193,17 +251,21 @@ Status CheckMeshHeader(uint64_t vertex_count, uint64_t influences, uint64_t join
 }
 
 uint64_t MeshByteSize(uint64_t vertex_count, uint64_t influences, bool has_normals,
-                      uint64_t morph_targets, uint64_t morph_deltas, bool morph_normals) {
-  const uint64_t per_vertex =
-      3 * sizeof(float) * (has_normals ? 2 : 1) + influences * (sizeof(uint16_t) + sizeof(float));
-  const uint64_t per_delta = sizeof(uint32_t) + 3 * sizeof(float) * (morph_normals ? 2 : 1);
+                      uint64_t morph_targets, uint64_t morph_deltas, bool morph_normals,
+                      bool has_tangents, bool morph_tangents) {
+  const uint64_t per_vertex = 3 * sizeof(float) * (has_normals ? 2 : 1) +
+                              (has_tangents ? 4 * sizeof(float) : 0) +
+                              influences * (sizeof(uint16_t) + sizeof(float));
+  const uint64_t per_delta = sizeof(uint32_t) + 3 * sizeof(float) * (morph_normals ? 2 : 1) +
+                             (morph_tangents ? 3 * sizeof(float) : 0);
   const uint64_t offsets = morph_targets > 0 ? (morph_targets + 1) * sizeof(uint32_t) : 0;
   return vertex_count * per_vertex + morph_deltas * per_delta + offsets;
 }
 
 uint64_t Mesh::byte_size() const {
   return MeshByteSize(vertex_count_, influences_, has_normals(), morph_target_count_,
-                      morph_indices_.size(), has_morph_normals());
+                      morph_indices_.size(), has_morph_normals(), has_tangents(),
+                      has_morph_tangents());
 }
 
 Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
@@ -223,6 +285,17 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
       return s;
     }
   }
+  if (!arrays.tangents.empty()) {
+    if (arrays.normals.empty()) {
+      return InvalidArgument(
+          "tangents were given but normals were not; tangents need normals (as in glTF)");
+    }
+    if (Status s =
+            CheckArraySize("tangents", arrays.tangents.size(), 4 * v, "4 * vertex_count (or none)");
+        !s.ok()) {
+      return s;
+    }
+  }
   if (Status s = CheckArraySize("joints", arrays.joints.size(), b * v, "influences * vertex_count");
       !s.ok()) {
     return s;
@@ -233,7 +306,8 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
     return s;
   }
   if (Status s = CheckMorphHeader(arrays.morph_target_sizes, v, !arrays.normals.empty(),
-                                  !arrays.morph_normal_deltas.empty(), options.limits);
+                                  !arrays.morph_normal_deltas.empty(), options.limits,
+                                  !arrays.tangents.empty(), !arrays.morph_tangent_deltas.empty());
       !s.ok()) {
     return s;
   }
@@ -245,6 +319,7 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
       return InvalidArgument(fmt::format("normals[vertex {}] is the zero vector", i));
     }
   }
+  if (Status s = CheckTangents(arrays.tangents); !s.ok()) return s;
   for (uint64_t k = 0; k < arrays.joints.size(); ++k) {
     if (arrays.joints[k] >= j) {
       return InvalidArgument(
@@ -292,6 +367,7 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
   }
   mesh->positions_ = AlignedBuffer<float>(std::span<const float>(arrays.positions));
   mesh->normals_ = AlignedBuffer<float>(std::span<const float>(arrays.normals));
+  mesh->tangents_ = AlignedBuffer<float>(std::span<const float>(arrays.tangents));
   mesh->joints_ = AlignedBuffer<uint16_t>(std::span<const uint16_t>(arrays.joints));
   if (!arrays.morph_target_sizes.empty()) {
     mesh->morph_target_count_ = static_cast<uint32_t>(arrays.morph_target_sizes.size());
@@ -307,6 +383,8 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
         AlignedBuffer<float>(std::span<const float>(arrays.morph_position_deltas));
     mesh->morph_normal_deltas_ =
         AlignedBuffer<float>(std::span<const float>(arrays.morph_normal_deltas));
+    mesh->morph_tangent_deltas_ =
+        AlignedBuffer<float>(std::span<const float>(arrays.morph_tangent_deltas));
   }
   mesh->id_ = ContentId(*mesh);
   return std::shared_ptr<const Mesh>(std::move(mesh));

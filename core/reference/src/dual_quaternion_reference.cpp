@@ -33,6 +33,7 @@ ReferenceFrame ReferenceSkinDualQuaternion(const Mesh& mesh, std::span<const flo
   ReferenceFrame out;
   out.positions.resize(3 * v_count);
   if (mesh.has_normals()) out.normals.resize(3 * v_count);
+  if (mesh.has_tangents()) out.tangents.resize(4 * v_count);
   for (std::size_t v = 0; v < v_count; ++v) {
     const glm::tdualquat<double>& first = joints[mesh.joints()[v * b]];
     glm::tdualquat<double> blend(glm::dquat(0, 0, 0, 0), glm::dquat(0, 0, 0, 0));
@@ -50,6 +51,12 @@ ReferenceFrame ReferenceSkinDualQuaternion(const Mesh& mesh, std::span<const flo
       const double* n = &rest.normals[3 * v];
       const glm::dvec3 turned = blend.real * glm::dvec3(n[0], n[1], n[2]);
       for (int k = 0; k < 3; ++k) out.normals[3 * v + k] = turned[k];
+    }
+    if (mesh.has_tangents()) {
+      const double* t = &rest.tangents[4 * v];
+      const glm::dvec3 turned = blend.real * glm::dvec3(t[0], t[1], t[2]);
+      for (int k = 0; k < 3; ++k) out.tangents[4 * v + k] = turned[k];
+      out.tangents[4 * v + 3] = t[3];
     }
   }
   return out;

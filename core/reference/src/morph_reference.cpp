@@ -12,6 +12,7 @@ ReferenceFrame ReferenceMorph(const Mesh& mesh, std::span<const MorphWeight> mor
   ReferenceFrame rest;
   rest.positions.assign(mesh.positions().begin(), mesh.positions().end());
   rest.normals.assign(mesh.normals().begin(), mesh.normals().end());
+  rest.tangents.assign(mesh.tangents().begin(), mesh.tangents().end());
   for (const MorphWeight& w : morph) {
     const uint32_t first = mesh.morph_offsets()[w.target];
     const uint32_t last = mesh.morph_offsets()[w.target + 1];
@@ -21,6 +22,9 @@ ReferenceFrame ReferenceMorph(const Mesh& mesh, std::span<const MorphWeight> mor
         rest.positions[3 * v + a] += double{w.weight} * mesh.morph_position_deltas()[3 * k + a];
         if (mesh.has_morph_normals() && !rest.normals.empty()) {
           rest.normals[3 * v + a] += double{w.weight} * mesh.morph_normal_deltas()[3 * k + a];
+        }
+        if (mesh.has_morph_tangents()) {  // xyz only: w is the handedness
+          rest.tangents[4 * v + a] += double{w.weight} * mesh.morph_tangent_deltas()[3 * k + a];
         }
       }
     }
@@ -35,6 +39,7 @@ MorphMagnitudes ReferenceMorphMagnitudes(const Mesh& mesh, std::span<const Morph
     m.positions[i] = std::fabs(double{mesh.positions()[i]});
   }
   std::vector<double> normal_terms(mesh.vertex_count(), 0.0);
+  std::vector<double> tangent_terms(mesh.vertex_count(), 0.0);
   for (const MorphWeight& w : morph) {
     const uint32_t first = mesh.morph_offsets()[w.target];
     const uint32_t last = mesh.morph_offsets()[w.target + 1];
@@ -50,6 +55,12 @@ MorphMagnitudes ReferenceMorphMagnitudes(const Mesh& mesh, std::span<const Morph
             std::fabs(double{w.weight}) *
             std::sqrt(double{dn[0]} * dn[0] + double{dn[1]} * dn[1] + double{dn[2]} * dn[2]);
       }
+      if (mesh.has_morph_tangents()) {
+        const float* dt = &mesh.morph_tangent_deltas()[3 * k];
+        tangent_terms[v] +=
+            std::fabs(double{w.weight}) *
+            std::sqrt(double{dt[0]} * dt[0] + double{dt[1]} * dt[1] + double{dt[2]} * dt[2]);
+      }
     }
   }
   if (mesh.has_normals()) {
@@ -62,6 +73,18 @@ MorphMagnitudes ReferenceMorphMagnitudes(const Mesh& mesh, std::span<const Morph
       const double morphed = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
       m.normal_magnification =
           std::max(m.normal_magnification, (length + normal_terms[v]) / morphed);
+    }
+  }
+  if (mesh.has_tangents()) {
+    const ReferenceFrame rest = ReferenceMorph(mesh, morph);
+    for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+      const float* t = &mesh.tangents()[4 * v];
+      const double* r = &rest.tangents[4 * v];
+      const double length =
+          std::sqrt(double{t[0]} * t[0] + double{t[1]} * t[1] + double{t[2]} * t[2]);
+      const double morphed = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+      m.tangent_magnification =
+          std::max(m.tangent_magnification, (length + tangent_terms[v]) / morphed);
     }
   }
   return m;

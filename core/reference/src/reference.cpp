@@ -16,6 +16,7 @@ ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette,
   ReferenceFrame out;
   out.positions.resize(3 * v_count);
   if (mesh.has_normals()) out.normals.resize(3 * v_count);
+  if (mesh.has_tangents()) out.tangents.resize(4 * v_count);
   for (std::size_t v = 0; v < v_count; ++v) {
     // Equation 3: blend the B joint matrices with the vertex's weights.
     double m[12] = {};
@@ -38,13 +39,24 @@ ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette,
       const double length = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
       for (int r = 0; r < 3; ++r) out.normals[3 * v + r] = t[r] / length;
     }
+    if (mesh.has_tangents()) {  // as the normal; w, the handedness, as it is
+      const double* rest_t = &rest.tangents[4 * v];
+      double t[3];
+      for (int r = 0; r < 3; ++r) {
+        t[r] = m[4 * r] * rest_t[0] + m[4 * r + 1] * rest_t[1] + m[4 * r + 2] * rest_t[2];
+      }
+      const double length = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+      for (int r = 0; r < 3; ++r) out.tangents[4 * v + r] = t[r] / length;
+      out.tangents[4 * v + 3] = rest_t[3];
+    }
   }
   return out;
 }
 
 Deviation CompareWithReference(const Mesh& mesh, std::span<const float> palette,
                                std::span<const float> positions, std::span<const float> normals,
-                               SkinningMethod method, std::span<const MorphWeight> morph) {
+                               SkinningMethod method, std::span<const MorphWeight> morph,
+                               std::span<const float> tangents) {
   const ReferenceFrame ref = method == SkinningMethod::kDualQuaternion
                                  ? ReferenceSkinDualQuaternion(mesh, palette, morph)
                                  : ReferenceSkin(mesh, palette, morph);
@@ -64,6 +76,7 @@ Deviation CompareWithReference(const Mesh& mesh, std::span<const float> palette,
   }
   d.position_tolerance = 1e-5 * (1 + max_p * max_row + max_t);
   d.normal_tolerance = 1e-5 * terms.normal_magnification;
+  d.tangent_tolerance = 1e-5 * terms.tangent_magnification;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   auto error = [](double a, double b) { return std::isnan(a) ? kInf : std::fabs(a - b); };
   double worst = -1;
@@ -81,6 +94,15 @@ Deviation CompareWithReference(const Mesh& mesh, std::span<const float> palette,
       const double e = error(normals[i], ref.normals[i]);
       if (e > d.max_normal_error) d.max_normal_error = e;
       if (e / d.normal_tolerance > worst) worst = e / d.normal_tolerance, d.worst_vertex = i / 3;
+    }
+  }
+  if (!tangents.empty()) {
+    if (tangents.size() != ref.tangents.size()) d.max_tangent_error = kInf;
+    const std::size_t n = std::min(tangents.size(), ref.tangents.size());
+    for (std::size_t i = 0; i < n; ++i) {
+      const double e = error(tangents[i], ref.tangents[i]);
+      if (e > d.max_tangent_error) d.max_tangent_error = e;
+      if (e / d.tangent_tolerance > worst) worst = e / d.tangent_tolerance, d.worst_vertex = i / 4;
     }
   }
   return d;

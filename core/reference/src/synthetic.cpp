@@ -42,6 +42,8 @@ MeshArrays MakeSyntheticMesh(const SyntheticMeshSpec& spec) {
   mesh.joint_count = j_count;
   mesh.positions.resize(3ull * v_count);
   if (spec.normals) mesh.normals.resize(3ull * v_count);
+  const bool tangents = spec.normals && spec.tangents;
+  if (tangents) mesh.tangents.resize(4ull * v_count);
   mesh.joints.resize(static_cast<std::size_t>(b) * v_count);
   mesh.weights.resize(static_cast<std::size_t>(b) * v_count);
 
@@ -60,6 +62,15 @@ MeshArrays MakeSyntheticMesh(const SyntheticMeshSpec& spec) {
       p[k] = parent[k] + t * (child[k] - parent[k]) + radius * radial[k];
       mesh.positions[3ull * v + k] = static_cast<float>(p[k]);
       if (spec.normals) mesh.normals[3ull * v + k] = static_cast<float>(radial[k]);
+    }
+    if (tangents) {  // radial x axis, the axis least aligned with the normal
+      const Vec3 axis = std::fabs(radial[2]) < 0.9 ? Vec3{0, 0, 1} : Vec3{1, 0, 0};
+      const Vec3 c = {radial[1] * axis[2] - radial[2] * axis[1],
+                      radial[2] * axis[0] - radial[0] * axis[2],
+                      radial[0] * axis[1] - radial[1] * axis[0]};
+      const double length = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+      for (int k = 0; k < 3; ++k) mesh.tangents[4ull * v + k] = static_cast<float>(c[k] / length);
+      mesh.tangents[4ull * v + 3] = v % 3 == 0 ? -1.0f : 1.0f;
     }
     // Smooth weights: a Gaussian falloff over the B nearest joints.
     for (uint32_t k = 0; k < j_count; ++k) {

@@ -15,6 +15,9 @@ using synthetic::Random;
 void AddSyntheticMorphTargets(const SyntheticMorphSpec& spec, MeshArrays* arrays) {
   Random random(spec.seed * 0x2545f4914f6cdd1dull + 7);
   const bool normals = spec.normals && !arrays->normals.empty();
+  const bool tangents = spec.tangents && !arrays->tangents.empty();
+  Random tangent_random(spec.seed * 0x9e3779b97f4a7c15ull + 11);
+  arrays->morph_tangent_deltas.clear();
   arrays->morph_target_sizes.clear();
   arrays->morph_indices.clear();
   arrays->morph_position_deltas.clear();
@@ -30,6 +33,12 @@ void AddSyntheticMorphTargets(const SyntheticMorphSpec& spec, MeshArrays* arrays
       if (normals) {
         for (int a = 0; a < 3; ++a)
           arrays->morph_normal_deltas.push_back(static_cast<float>(random.Uniform(-0.3, 0.3)));
+      }
+      if (tangents) {
+        for (int a = 0; a < 3; ++a) {
+          arrays->morph_tangent_deltas.push_back(
+              static_cast<float>(tangent_random.Uniform(-0.3, 0.3)));
+        }
       }
     }
     arrays->morph_target_sizes.push_back(size);

@@ -13,6 +13,8 @@
 // device. --morph: also BM_SkinMorph[Normals]/<backend>/<vertices>/<bones>/active:0 and
 // active:4, the same mesh with 64 morph targets each moving 10% of the vertices, frames with
 // no and with 4 active targets, beside the skin-only rows (issue 28's 1.3x target).
+// --tangents: also BM_SkinTangents[DualQuaternion]/<backend>/<vertices>/<bones>, normals and
+// tangents (4 floats a vertex) skinned together, beside BM_SkinNormals.
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
@@ -55,6 +57,7 @@ struct Options {
   int streams = 1;
   std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};
   bool morph = false;
+  bool tangents = false;
 };
 
 template <typename T>
@@ -84,6 +87,8 @@ Options ParseOptions(int* argc, char** argv) {
       options.paper_tables = true;
     } else if (arg == "--morph") {
       options.morph = true;
+    } else if (arg == "--tangents") {
+      options.tangents = true;
     } else if (arg == "--normals") {
       options.normals_in_tables = true;
     } else if (const char* list = value("--backends=")) {
@@ -117,18 +122,20 @@ WorkloadCache& Cache() {
 }
 
 void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
-                   bool normals, SkinningMethod method) {
+                   bool normals, SkinningMethod method, bool tangents) {
   const Workload& workload = Cache().Get(vertices, bones);
   const auto& palettes =
       method == SkinningMethod::kDualQuaternion ? workload.rigid_palettes : workload.palettes;
   const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones);
   AlignedBuffer<float> positions(3ull * vertices), out_normals(normals ? 3ull * vertices : 0);
+  AlignedBuffer<float> out_tangents(tangents ? 4ull * vertices : 0);
   std::size_t frame = state.thread_index();
   DeviceTiming device, total;
   for (auto _ : state) {
     const SkinFrame skin{.palette = palettes[frame++ % palettes.size()],
                          .positions = positions.span(),
                          .normals = out_normals.span(),
+                         .tangents = out_tangents.span(),
                          .device_timing = &device,
                          .method = method};
     if (Status s = backend->Skin(prepared, skin); !s.ok()) {
@@ -323,20 +330,24 @@ int main(int argc, char** argv) {
     }
     measured.push_back(info.id);
   }
-  for (bool normals : {false, true}) {
+  for (int outputs = 0; outputs < 3; ++outputs) {  // positions, + normals, + tangents
+    const bool normals = outputs >= 1, tangents = outputs == 2;
     if (options.paper_tables && normals && !options.normals_in_tables) continue;
+    if (tangents && !options.tangents) continue;
     for (uint32_t v : options.vertices) {
       for (uint32_t b : options.bones) {
         for (const auto& backend : backends) {
           if (std::count(measured.begin(), measured.end(), backend->info().id) == 0) continue;
+          if (tangents && !backend->info().tangents) continue;
           for (SkinningMethod method : options.methods) {
             if (!backend->info().Supports(method)) continue;
             const bool dqs = method == SkinningMethod::kDualQuaternion;
             const std::string name =
-                fmt::format("{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin",
+                fmt::format("{}{}/{}/{}/{}",
+                            tangents ? "BM_SkinTangents" : (normals ? "BM_SkinNormals" : "BM_Skin"),
                             dqs ? "DualQuaternion" : "", backend->info().id, v, b);
             benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
-                                         method)
+                                         method, tangents)
                 ->UseRealTime()
                 ->Unit(benchmark::kMicrosecond);
           }
@@ -376,7 +387,7 @@ int main(int argc, char** argv) {
             continue;
           const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
           benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, false,
-                                       SkinningMethod::kLinear)
+                                       SkinningMethod::kLinear, false)
               ->Threads(options.streams)
               ->UseRealTime()
               ->Unit(benchmark::kMicrosecond);

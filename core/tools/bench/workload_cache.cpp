@@ -15,6 +15,7 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph
                                            .influences = bones,
                                            .joint_count = kPaperJoints,
                                            .normals = true,
+                                           .tangents = true,  // (read only by BM_SkinTangents)
                                            .seed = vertices * 10ull + bones});
     if (morph) {
       AddSyntheticMorphTargets(

@@ -29,6 +29,7 @@ class CpuBackend final : public Backend {
   explicit CpuBackend(BackendInfo info) : info_(std::move(info)) {
     info_.min_threads = 1;       // a parallel loop runs on as few threads as it is given
     info_.morph_targets = true;  // the morph stage feeds every kernel (morph_stage.h)
+    info_.tangents = true;       // every kernel skins tangents with the normals
     info_.methods = {SkinningMethod::kLinear};
     if constexpr (!std::is_void_v<DualQuaternionKernel>) {
       info_.methods.push_back(SkinningMethod::kDualQuaternion);
@@ -58,14 +59,15 @@ class CpuBackend final : public Backend {
       const int threads = FrameThreads(frame.threads, info_.threads);
       // The kernel skins each range from the rest arrays the morph stage hands it.
       const auto skin_range = [&](std::size_t first, std::size_t last) {
-        ForEachMorphedRange(
-            mesh, frame, first, last,
-            [&](const float* rest_p, const float* rest_n, std::size_t from, std::size_t to) {
-              SkinFrame morphed = frame;
-              morphed.rest_positions = rest_p;
-              morphed.rest_normals = rest_n;
-              K::SkinRange(mesh, palette, morphed, from, to);
-            });
+        ForEachMorphedRange(mesh, frame, first, last,
+                            [&](const float* rest_p, const float* rest_n, const float* rest_t,
+                                std::size_t from, std::size_t to) {
+                              SkinFrame morphed = frame;
+                              morphed.rest_positions = rest_p;
+                              morphed.rest_normals = rest_n;
+                              morphed.rest_tangents = rest_t;
+                              K::SkinRange(mesh, palette, morphed, from, to);
+                            });
       };
       if (threads <= 1) {
         skin_range(0, mesh.vertex_count());

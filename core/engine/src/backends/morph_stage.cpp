@@ -8,7 +8,8 @@
 namespace skinserve {
 namespace {
 
-// Per thread: the morphed rest arrays, 3 floats per vertex each, indexed like the mesh's.
+// Per thread: the morphed rest arrays, 3 floats per vertex each (4 for tangents), indexed
+// like the mesh's.
 // Grown to the largest mesh the thread morphed, never shrunk; only the chunks a walk
 // applies are written.
 float* ThreadMorphScratch(std::size_t floats) {
@@ -29,8 +30,17 @@ MorphWalk::MorphWalk(const Mesh& mesh, const SkinFrame& frame, std::size_t first
   const std::size_t outputs = 3ull * mesh.vertex_count();
   const bool normals = !frame.normals.empty();
   morph_normals_ = normals && mesh.has_morph_normals();
-  float* scratch = ThreadMorphScratch(morph_normals_ ? 2 * outputs : outputs);
+  const bool tangents = !frame.tangents.empty();
+  morph_tangents_ = tangents && mesh.has_morph_tangents();
+  float* scratch = ThreadMorphScratch((morph_normals_ ? 2 * outputs : outputs) +
+                                      (morph_tangents_ ? 4ull * mesh.vertex_count() : 0));
   positions_ = scratch;
+  if (morph_tangents_) {
+    scratch_tangents_ = scratch + (morph_normals_ ? 2 * outputs : outputs);
+    tangents_ = scratch_tangents_;
+  } else {
+    tangents_ = tangents ? mesh.tangents().data() : nullptr;
+  }
   if (morph_normals_) {
     scratch_normals_ = scratch + outputs;
     normals_ = scratch_normals_;
@@ -64,8 +74,13 @@ void MorphWalk::Apply(std::size_t first, std::size_t last) {
     std::memcpy(scratch_normals_ + 3 * first, mesh_.normals().data() + 3 * first,
                 count * sizeof(float));
   }
+  if (morph_tangents_) {
+    std::memcpy(scratch_tangents_ + 4 * first, mesh_.tangents().data() + 4 * first,
+                4 * (last - first) * sizeof(float));
+  }
   const float* dp = mesh_.morph_position_deltas().data();
   const float* dn = mesh_.morph_normal_deltas().data();
+  const float* dt = mesh_.morph_tangent_deltas().data();
   // Targets in the frame's order, each vertex's deltas summed in that order.
   for (Target& t : *targets_) {
     const float w = t.weight;
@@ -73,6 +88,7 @@ void MorphWalk::Apply(std::size_t first, std::size_t last) {
     const std::size_t first_delta = t.first_delta + static_cast<std::size_t>(k - t.begin);
     const float* d = dp + 3 * first_delta;
     const float* n = morph_normals_ ? dn + 3 * first_delta : nullptr;
+    const float* tangent = morph_tangents_ ? dt + 3 * first_delta : nullptr;
     for (; k != t.end && *k < last; ++k, d += 3) {
       float* p = positions_ + 3ull * *k;
       p[0] += w * d[0];
@@ -84,6 +100,13 @@ void MorphWalk::Apply(std::size_t first, std::size_t last) {
         out[1] += w * n[1];
         out[2] += w * n[2];
         n += 3;
+      }
+      if (tangent != nullptr) {
+        float* out = scratch_tangents_ + 4ull * *k;
+        out[0] += w * tangent[0];
+        out[1] += w * tangent[1];
+        out[2] += w * tangent[2];
+        tangent += 3;
       }
     }
     t.next = k;

@@ -1,9 +1,9 @@
-// The morph stage: a frame's active morph targets added to the rest positions and normals
-// before skinning, the same for every CPU loop and method. The vertices go chunk by chunk:
-// a chunk that an active target moves is copied into the calling thread's scratch, the
-// targets' sparse deltas are scatter-added to it, and the loop skins the chunk from there
-// while it is still in the core's cache; chunks no active target moves, and whole frames
-// without an active target, are skinned from the mesh's own arrays at no extra cost.
+// The morph stage: a frame's active morph targets added to the rest positions, normals and
+// tangents (xyz; w is never morphed) before skinning, the same for every CPU loop and method. The
+// vertices go chunk by chunk: a chunk that an active target moves is copied into the calling
+// thread's scratch, the targets' sparse deltas are scatter-added to it, and the loop skins the
+// chunk from there while it is still in the core's cache; chunks no active target moves, and whole
+// frames without an active target, are skinned from the mesh's own arrays at no extra cost.
 #pragma once
 
 #include <cstddef>
@@ -14,7 +14,8 @@
 
 namespace skinserve {
 
-// Vertices per chunk: a chunk's positions and normals (12 KiB) stay in L1.
+// Vertices per chunk: a chunk's positions and normals (12 KiB; 20 KiB with tangents) stay
+// in L1.
 inline constexpr std::size_t kMorphChunkVertices = 512;
 
 // One thread's walk over the vertices [first, last) of a frame with an active target.
@@ -32,6 +33,8 @@ class MorphWalk {
   const float* positions() const { return positions_; }
   // The scratch's normals when targets move normals, else the mesh's; null without normals.
   const float* normals() const { return normals_; }
+  // The scratch's tangents when targets move tangents, else the mesh's; null without them.
+  const float* tangents() const { return tangents_; }
 
   struct Target {
     const uint32_t* next;  // its next delta's vertex index, ascending
@@ -43,23 +46,27 @@ class MorphWalk {
 
  private:
   const Mesh& mesh_;
-  bool morph_normals_ = false;  // normals asked for, and the targets move them
+  bool morph_normals_ = false;   // normals asked for, and the targets move them
+  bool morph_tangents_ = false;  // tangents asked for, and the targets move them
   std::vector<Target>* targets_;
   float* positions_ = nullptr;
   const float* normals_ = nullptr;
   float* scratch_normals_ = nullptr;
+  const float* tangents_ = nullptr;
+  float* scratch_tangents_ = nullptr;
 };
 
-// Calls skin(rest_positions, rest_normals, first, last) over [first, last) of `frame` in
-// runs of chunks: the mesh's arrays for runs no active target moves, the morphed scratch
+// Calls skin(rest_positions, rest_normals, rest_tangents, first, last) over [first, last) of
+// `frame` in runs of chunks: the mesh's arrays for runs no active target moves, the morphed scratch
 // for each chunk one does.
 template <typename Skin>
 void ForEachMorphedRange(const Mesh& mesh, const SkinFrame& frame, std::size_t first,
                          std::size_t last, const Skin& skin) {
   const float* rest_p = mesh.positions().data();
   const float* rest_n = frame.normals.empty() ? nullptr : mesh.normals().data();
+  const float* rest_t = frame.tangents.empty() ? nullptr : mesh.tangents().data();
   if (!HasActiveMorph(frame.morph_weights)) {
-    skin(rest_p, rest_n, first, last);
+    skin(rest_p, rest_n, rest_t, first, last);
     return;
   }
   MorphWalk walk(mesh, frame, first);
@@ -67,12 +74,13 @@ void ForEachMorphedRange(const Mesh& mesh, const SkinFrame& frame, std::size_t f
   for (std::size_t chunk = first; chunk < last; chunk += kMorphChunkVertices) {
     const std::size_t end = std::min(last, chunk + kMorphChunkVertices);
     if (!walk.Touches(end)) continue;
-    if (plain < chunk) skin(rest_p, rest_n, plain, chunk);
+    if (plain < chunk) skin(rest_p, rest_n, rest_t, plain, chunk);
     walk.Apply(chunk, end);
-    skin(walk.positions(), rest_n == nullptr ? nullptr : walk.normals(), chunk, end);
+    skin(walk.positions(), rest_n == nullptr ? nullptr : walk.normals(),
+         rest_t == nullptr ? nullptr : walk.tangents(), chunk, end);
     plain = end;
   }
-  if (plain < last) skin(rest_p, rest_n, plain, last);
+  if (plain < last) skin(rest_p, rest_n, rest_t, plain, last);
 }
 
 }  // namespace skinserve

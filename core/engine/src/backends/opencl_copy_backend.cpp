@@ -98,6 +98,7 @@ class OpenClCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    if (Status s = CheckTangentSupport(info(), !frame.tangents.empty()); !s.ok()) return s;
     if (frame.method == SkinningMethod::kDualQuaternion) {
       // The kernels take the palette as unit dual quaternions, converted here once per
       // frame (J conversions): from here on the frame is the same as a linear one.

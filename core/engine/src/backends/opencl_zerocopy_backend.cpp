@@ -64,6 +64,7 @@ class OpenClZeroCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    if (Status s = CheckTangentSupport(info(), !frame.tangents.empty()); !s.ok()) return s;
     if (frame.method == SkinningMethod::kDualQuaternion) {
       // The kernels take the palette as unit dual quaternions, converted here once per
       // frame into this thread's buffer, which the kernel then reads in place.

@@ -13,6 +13,7 @@ class PassthroughBackend final : public Backend {
     info_.id = "passthrough";
     info_.description = "no compute: returns the rest pose (transport ceiling)";
     info_.device = "none";
+    info_.tangents = true;  // the rest tangents, like the rest normals
   }
   const BackendInfo& info() const override { return info_; }
   Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
@@ -24,6 +25,9 @@ class PassthroughBackend final : public Backend {
     std::copy(mesh.positions().begin(), mesh.positions().end(), frame.positions.begin());
     if (!frame.normals.empty()) {
       std::copy(mesh.normals().begin(), mesh.normals().end(), frame.normals.begin());
+    }
+    if (!frame.tangents.empty()) {
+      std::copy(mesh.tangents().begin(), mesh.tangents().end(), frame.tangents.begin());
     }
     return Status::Ok();
   }

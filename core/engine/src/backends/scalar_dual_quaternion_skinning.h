@@ -3,7 +3,7 @@
 // B unit dual quaternions of the frame's DualQuaternionPalette, each one's sign chosen
 // against the first influence (q and -q are the same rotation; blending across the two
 // hemispheres would take the long way round), normalise, transform the position; the
-// normal is rotated by the blended rotation.
+// normal and the tangent's xyz are rotated by the blended rotation (the tangent's w kept).
 #pragma once
 
 #include <cmath>
@@ -23,10 +23,12 @@ void SkinDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& pale
   const float* quaternions = palette.joint(0);
   const float* positions = RestPositions(mesh, frame);
   const float* normals = RestNormals(mesh, frame);
+  const float* tangents = RestTangents(mesh, frame);
   const uint16_t* joints = mesh.joints().data();
   const float* weights = mesh.weights().data();
   float* out_p = frame.positions.data();
   float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
+  float* out_t = frame.tangents.empty() ? nullptr : frame.tangents.data();
   constexpr std::size_t kStride = DualQuaternionPalette::kFloatsPerJoint;
   for (std::size_t v = first; v < last; ++v) {
     const float* q0 = quaternions + kStride * joints[v * B];
@@ -63,6 +65,15 @@ void SkinDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& pale
       out_n[3 * v] = x + 2 * (ry * cz - rz * cy);
       out_n[3 * v + 1] = y + 2 * (rz * cx - rx * cz);
       out_n[3 * v + 2] = z + 2 * (rx * cy - ry * cx);
+    }
+    if (out_t != nullptr) {
+      const float x = tangents[4 * v], y = tangents[4 * v + 1], z = tangents[4 * v + 2];
+      const float cx = ry * z - rz * y + rw * x, cy = rz * x - rx * z + rw * y,
+                  cz = rx * y - ry * x + rw * z;
+      out_t[4 * v] = x + 2 * (ry * cz - rz * cy);
+      out_t[4 * v + 1] = y + 2 * (rz * cx - rx * cz);
+      out_t[4 * v + 2] = z + 2 * (rx * cy - ry * cx);
+      out_t[4 * v + 3] = tangents[4 * v + 3];
     }
   }
 }

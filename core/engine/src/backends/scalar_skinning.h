@@ -18,10 +18,12 @@ void SkinScalarRange(const Mesh& mesh, const float* palette, const SkinFrame& fr
                      std::size_t first, std::size_t last) {
   const float* positions = RestPositions(mesh, frame);
   const float* normals = RestNormals(mesh, frame);
+  const float* tangents = RestTangents(mesh, frame);
   const uint16_t* joints = mesh.joints().data();
   const float* weights = mesh.weights().data();
   float* out_p = frame.positions.data();
   float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
+  float* out_t = frame.tangents.empty() ? nullptr : frame.tangents.data();
   for (std::size_t v = first; v < last; ++v) {
     // Equation 3: m = sum_i w_i * palette[d_i].
     float m[12];
@@ -49,6 +51,17 @@ void SkinScalarRange(const Mesh& mesh, const float* palette, const SkinFrame& fr
       out_n[3 * v] = tx * inv;
       out_n[3 * v + 1] = ty * inv;
       out_n[3 * v + 2] = tz * inv;
+    }
+    if (out_t != nullptr) {  // the tangent's xyz as the normal, its w as it is
+      const float* t = tangents + 4 * v;
+      const float sx = m[0] * t[0] + m[1] * t[1] + m[2] * t[2];
+      const float sy = m[4] * t[0] + m[5] * t[1] + m[6] * t[2];
+      const float sz = m[8] * t[0] + m[9] * t[1] + m[10] * t[2];
+      const float inv = 1.0f / std::sqrt(sx * sx + sy * sy + sz * sz);
+      out_t[4 * v] = sx * inv;
+      out_t[4 * v + 1] = sy * inv;
+      out_t[4 * v + 2] = sz * inv;
+      out_t[4 * v + 3] = t[3];
     }
   }
 }

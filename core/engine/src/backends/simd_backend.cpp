@@ -17,7 +17,8 @@
 namespace skinserve {
 namespace {
 
-// The mesh in the kernel's stream (simd_stream.h): positions and normals are the mesh's
+// The mesh in the kernel's stream (simd_stream.h): positions, normals and tangents are the
+// mesh's
 // own arrays; joints (8-bit when they fit) and the first B - 1 weights are copies.
 class SimdPreparedMesh final : public PreparedMesh {
  public:
@@ -27,6 +28,7 @@ class SimdPreparedMesh final : public PreparedMesh {
     stream_.influences = b;
     stream_.positions = m.positions().data();
     stream_.normals = m.has_normals() ? m.normals().data() : nullptr;
+    stream_.tangents = m.has_tangents() ? m.tangents().data() : nullptr;
     if (m.joint_count() <= 256) {
       joints8_ = AlignedBuffer<uint8_t>(m.joints().size());
       for (std::size_t i = 0; i < m.joints().size(); ++i) {
@@ -109,7 +111,8 @@ class SimdBackend final : public Backend {
   }
   Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) override {
     const auto& stream = static_cast<const SimdPreparedMesh&>(prepared).stream();
-    float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
+    const Outputs out{.normals = frame.normals.empty() ? nullptr : frame.normals.data(),
+                      .tangents = frame.tangents.empty() ? nullptr : frame.tangents.data()};
     try {
       if (frame.method == SkinningMethod::kDualQuaternion) {
         const DualQuaternionPalette quaternions(frame.palette);
@@ -117,10 +120,10 @@ class SimdBackend final : public Backend {
             .quaternions = quaternions.joint(0),
             .signs = SignTable(quaternions, prepared.mesh(), stream),
             .joint_count = prepared.mesh().joint_count()};
-        Run(kernel_.skin_dual_quaternion_range, prepared.mesh(), stream, palette, frame, out_n);
+        Run(kernel_.skin_dual_quaternion_range, prepared.mesh(), stream, palette, frame, out);
       } else {
         const float* columns = ColumnPalette(frame.palette);
-        Run(kernel_.skin_range, prepared.mesh(), stream, columns, frame, out_n);
+        Run(kernel_.skin_range, prepared.mesh(), stream, columns, frame, out);
       }
     } catch (const std::bad_alloc&) {  // a palette or morph scratch larger than any seen so far
       return ResourceExhausted(info_.id +
@@ -130,22 +133,29 @@ class SimdBackend final : public Backend {
   }
 
  private:
+  struct Outputs {
+    float* normals = nullptr;   // null: no normals
+    float* tangents = nullptr;  // null: no tangents
+  };
+
   // Runs `range` (a linear or dual-quaternion kernel) over the frame's vertices, on the
   // calling thread or split across the frame's threads, each range from the rest arrays
   // the morph stage hands it (morph_stage.h).
   template <typename RangeFn, typename Palette>
   void Run(RangeFn range, const Mesh& mesh, const simd::VertexStream& stream,
-           const Palette& palette, const SkinFrame& frame, float* out_n) {
+           const Palette& palette, const SkinFrame& frame, const Outputs& out) {
     const std::size_t count = mesh.vertex_count();
     const auto skin_range = [&](std::size_t first, std::size_t last) {
-      ForEachMorphedRange(
-          mesh, frame, first, last,
-          [&](const float* rest_p, const float* rest_n, std::size_t from, std::size_t to) {
-            simd::VertexStream morphed = stream;
-            morphed.positions = rest_p;
-            if (rest_n != nullptr) morphed.normals = rest_n;
-            range(morphed, palette, frame.positions.data(), out_n, from, to);
-          });
+      ForEachMorphedRange(mesh, frame, first, last,
+                          [&](const float* rest_p, const float* rest_n, const float* rest_t,
+                              std::size_t from, std::size_t to) {
+                            simd::VertexStream morphed = stream;
+                            morphed.positions = rest_p;
+                            if (rest_n != nullptr) morphed.normals = rest_n;
+                            if (rest_t != nullptr) morphed.tangents = rest_t;
+                            range(morphed, palette, frame.positions.data(), out.normals,
+                                  out.tangents, from, to);
+                          });
     };
     const int threads = FrameThreads(frame.threads, info_.threads);
     if (threads <= 1) {
@@ -176,8 +186,9 @@ std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_t
                                       : "the Highway loop across threads with OpenMP",
                    .device = CpuModelName(),
                    .threads = std::max(threads, 1),
-                   .min_threads = 1,        // a parallel loop runs on as few threads as given
-                   .morph_targets = true};  // the morph stage feeds the kernel
+                   .min_threads = 1,       // a parallel loop runs on as few threads as given
+                   .morph_targets = true,  // the morph stage feeds the kernel
+                   .tangents = true};
   simd::Kernel kernel;
   std::string error;
   if (!simd::SelectKernel(max_target, &kernel, &error)) {

@@ -3,7 +3,7 @@
 // semantics are the scalar loop's (scalar_dual_quaternion_skinning.h): blend the B unit
 // dual quaternions of the frame's DualQuaternionPalette, each one's sign chosen against
 // the first influence, normalise by the real part's length, move the position; the normal
-// is rotated by the blended rotation.
+// and the tangent's xyz are rotated by the blended rotation (the tangent's w is kept).
 //
 // Two passes per chunk of 256 vertices, so each part runs where it is cheap:
 //  1. the blend, one vertex at a time: a joint's record is one aligned 256-bit load on
@@ -14,7 +14,8 @@
 //     transposed in registers;
 //  2. normalisation and the transform, one vertex per lane at the full vector width: the
 //     blends come back with LoadInterleaved4, positions and normals with
-//     LoadInterleaved3, so this part is plain lane-wise arithmetic.
+//     LoadInterleaved3 (tangents with LoadInterleaved4), so this part is plain lane-wise
+//     arithmetic.
 // (Gathering each component of each influence instead - 8 gathers an influence - measured
 // 3.2x the linear loop at 400k x 4 on AVX-512; these two passes, 1.5x.) No vector lives in a struct
 // or an array, so SVE's sizeless vectors work as well. The chunk's last partial vector runs on
@@ -161,12 +162,13 @@ HWY_INLINE void Rotate(V rx, V ry, V rz, V rw, V& x, V& y, V& z) {
 }
 
 // Pass 2 for Lanes(D) vertices: their blends (4 floats each in `real` and `dual`)
-// normalised and applied to 3 floats per vertex of positions (and normals).
-template <bool Normals>
+// normalised and applied to 3 floats per vertex of positions (and normals; 4 of tangents).
+template <bool Normals, bool Tangents>
 HWY_INLINE void TransformStep(const float* HWY_RESTRICT real, const float* HWY_RESTRICT dual,
                               const float* HWY_RESTRICT positions,
-                              const float* HWY_RESTRICT normals, float* HWY_RESTRICT out_p,
-                              float* HWY_RESTRICT out_n) {
+                              const float* HWY_RESTRICT normals, const float* HWY_RESTRICT tangents,
+                              float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n,
+                              float* HWY_RESTRICT out_t) {
   const D d;
   V bx, by, bz, bw, ex, ey, ez, ew;
   hn::LoadInterleaved4(d, real, bx, by, bz, bw);
@@ -197,17 +199,26 @@ HWY_INLINE void TransformStep(const float* HWY_RESTRICT real, const float* HWY_R
     Rotate(rx, ry, rz, rw, x, y, z);
     hn::StoreInterleaved3(x, y, z, d, out_n);
   }
+  if constexpr (Tangents) {
+    V w;
+    hn::LoadInterleaved4(d, tangents, x, y, z, w);
+    Rotate(rx, ry, rz, rw, x, y, z);
+    hn::StoreInterleaved4(x, y, z, w, d, out_t);
+  }
 }
 
-template <int B, bool Normals, bool Table, typename Joint>
+template <int B, bool Normals, bool Tangents, bool Table, typename Joint>
 void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
                 const DualQuaternionFrame& palette, float* HWY_RESTRICT out_p,
-                float* HWY_RESTRICT out_n, std::size_t first, std::size_t last) {
+                float* HWY_RESTRICT out_n, float* HWY_RESTRICT out_t, std::size_t first,
+                std::size_t last) {
+  static_assert(Normals || !Tangents, "tangents come with normals");
   const float* HWY_RESTRICT quaternions = palette.quaternions;
   constexpr std::size_t kWeights = B - 1;
   const std::size_t lanes = hn::Lanes(D());
   const float* HWY_RESTRICT positions = stream.positions;
   const float* HWY_RESTRICT normals = stream.normals;
+  const float* HWY_RESTRICT tangents = stream.tangents;
   const float* HWY_RESTRICT weights = stream.weights;
   // The chunk's blends, with room for a padded last vector.
   HWY_ALIGN float real[4 * (kChunk + kMaxLanes)], dual[4 * (kChunk + kMaxLanes)];
@@ -221,14 +232,15 @@ void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
     std::size_t k = 0;
     for (; k + lanes <= count; k += lanes) {
       const std::size_t v = chunk + k;
-      TransformStep<Normals>(real + 4 * k, dual + 4 * k, positions + 3 * v,
-                             Normals ? normals + 3 * v : nullptr, out_p + 3 * v,
-                             Normals ? out_n + 3 * v : nullptr);
+      TransformStep<Normals, Tangents>(
+          real + 4 * k, dual + 4 * k, positions + 3 * v, Normals ? normals + 3 * v : nullptr,
+          Tangents ? tangents + 4 * v : nullptr, out_p + 3 * v, Normals ? out_n + 3 * v : nullptr,
+          Tangents ? out_t + 4 * v : nullptr);
     }
     if (k == count) continue;
     // The last partial vector: copies of the chunk's last vertex fill the lanes past it.
     HWY_ALIGN float in_p[3 * kMaxLanes], in_n[3 * kMaxLanes], res_p[3 * kMaxLanes],
-        res_n[3 * kMaxLanes];
+        res_n[3 * kMaxLanes], in_t[4 * kMaxLanes], res_t[4 * kMaxLanes];
     for (std::size_t lane = 0; lane < lanes; ++lane) {
       const std::size_t from = std::min(k + lane, count - 1);
       if (k + lane > from) {
@@ -237,38 +249,45 @@ void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
       }
       std::copy_n(positions + 3 * (chunk + from), 3, in_p + 3 * lane);
       if constexpr (Normals) std::copy_n(normals + 3 * (chunk + from), 3, in_n + 3 * lane);
+      if constexpr (Tangents) std::copy_n(tangents + 4 * (chunk + from), 4, in_t + 4 * lane);
     }
-    TransformStep<Normals>(real + 4 * k, dual + 4 * k, in_p, in_n, res_p, res_n);
+    TransformStep<Normals, Tangents>(real + 4 * k, dual + 4 * k, in_p, in_n, in_t, res_p, res_n,
+                                     res_t);
     const std::size_t v = chunk + k;
     std::copy_n(res_p, 3 * (count - k), out_p + 3 * v);
     if constexpr (Normals) std::copy_n(res_n, 3 * (count - k), out_n + 3 * v);
+    if constexpr (Tangents) std::copy_n(res_t, 4 * (count - k), out_t + 4 * v);
   }
 }
 
 }  // namespace dq
 
 void SkinDualQuaternionRange(const VertexStream& stream, const DualQuaternionFrame& palette,
-                             float* out_p, float* out_n, std::size_t first, std::size_t last) {
+                             float* out_p, float* out_n, float* out_t, std::size_t first,
+                             std::size_t last) {
   if (first >= last) return;
   WithInfluences(stream.influences, [&](auto b) {
     constexpr int kB = decltype(b)::value;
-    const auto run = [&](auto normals, auto table, const auto* joints) {
-      dq::SkinRangeT<kB, decltype(normals)::value, decltype(table)::value>(
-          stream, joints, palette, out_p, out_n, first, last);
+    const auto run = [&](auto normals, auto tangents, auto table, const auto* joints) {
+      dq::SkinRangeT<kB, decltype(normals)::value, decltype(tangents)::value,
+                     decltype(table)::value>(stream, joints, palette, out_p, out_n, out_t, first,
+                                             last);
     };
-    const auto with_joints = [&](auto normals) {
+    const auto with_joints = [&](auto normals, auto tangents) {
       if (stream.joints8 == nullptr) {
-        run(normals, std::false_type{}, stream.joints16);
+        run(normals, tangents, std::false_type{}, stream.joints16);
       } else if (palette.signs != nullptr) {  // (signs come with 8-bit joints only)
-        run(normals, std::true_type{}, stream.joints8);
+        run(normals, tangents, std::true_type{}, stream.joints8);
       } else {
-        run(normals, std::false_type{}, stream.joints8);
+        run(normals, tangents, std::false_type{}, stream.joints8);
       }
     };
     if (out_n == nullptr) {
-      with_joints(std::false_type{});
+      with_joints(std::false_type{}, std::false_type{});
+    } else if (out_t == nullptr) {
+      with_joints(std::true_type{}, std::false_type{});
     } else {
-      with_joints(std::true_type{});
+      with_joints(std::true_type{}, std::true_type{});
     }
   });
 }

@@ -9,7 +9,9 @@
 // Results are stored 4 floats at a time at 3-float steps: each store's fourth float is
 // overwritten by the next vertex, and the last vertex of a range goes through a local
 // copy so nothing outside the range is touched. Normals are renormalised a chunk at a
-// time, four vertices per step, while the chunk is still in L1.
+// time, four vertices per step, while the chunk is still in L1. Tangents (4 floats per
+// vertex) take the normals' path in the same loop: their stores of (x', y', z', 0) fill
+// exactly one vertex, and the renormalising step puts back the rest tangents' w.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_kernel.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -70,11 +72,12 @@ HWY_INLINE V BlendColumn(const float* HWY_RESTRICT columns, const Joint* HWY_RES
 }
 
 // One vertex: 4 floats stored at each output (the fourth is scratch, see the top).
-template <int B, bool Normals, typename Joint>
+template <int B, bool Normals, bool Tangents, typename Joint>
 HWY_INLINE void SkinVertex(const float* HWY_RESTRICT columns, const Spread&,
                            const float* HWY_RESTRICT p, const float* HWY_RESTRICT n,
-                           const Joint* HWY_RESTRICT joints, const float* HWY_RESTRICT weights,
-                           float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n) {
+                           const float* HWY_RESTRICT t, const Joint* HWY_RESTRICT joints,
+                           const float* HWY_RESTRICT weights, float* HWY_RESTRICT out_p,
+                           float* HWY_RESTRICT out_n, float* HWY_RESTRICT out_t) {
   const D d;
   const V c0 = BlendColumn<B>(columns, joints, weights, 0);
   const V c1 = BlendColumn<B>(columns, joints, weights, 1);
@@ -85,6 +88,10 @@ HWY_INLINE void SkinVertex(const float* HWY_RESTRICT columns, const Spread&,
   if constexpr (Normals) {
     const V nx = hn::Mul(c0, hn::Set(d, n[0]));
     hn::StoreU(hn::MulAdd(c2, hn::Set(d, n[2]), hn::MulAdd(c1, hn::Set(d, n[1]), nx)), d, out_n);
+  }
+  if constexpr (Tangents) {
+    const V tx = hn::Mul(c0, hn::Set(d, t[0]));
+    hn::StoreU(hn::MulAdd(c2, hn::Set(d, t[2]), hn::MulAdd(c1, hn::Set(d, t[1]), tx)), d, out_t);
   }
 }
 #else
@@ -191,14 +198,16 @@ HWY_INLINE void Transform(const Blended& m, const Spread& s, const float* HWY_RE
 #endif  // HWY_TARGET == HWY_SCALAR
 
 // One vertex: 4 floats stored at each output (the fourth is scratch, see the top).
-template <int B, bool Normals, typename Joint>
+template <int B, bool Normals, bool Tangents, typename Joint>
 HWY_INLINE void SkinVertex(const float* HWY_RESTRICT columns, const Spread& s,
                            const float* HWY_RESTRICT p, const float* HWY_RESTRICT n,
-                           const Joint* HWY_RESTRICT joints, const float* HWY_RESTRICT weights,
-                           float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n) {
+                           const float* HWY_RESTRICT t, const Joint* HWY_RESTRICT joints,
+                           const float* HWY_RESTRICT weights, float* HWY_RESTRICT out_p,
+                           float* HWY_RESTRICT out_n, float* HWY_RESTRICT out_t) {
   const Blended m = Blend<B>(columns, joints, weights);
   Transform<true>(m, s, p, out_p);
   if constexpr (Normals) Transform<false>(m, s, n, out_n);
+  if constexpr (Tangents) Transform<false>(m, s, t, out_t);
 }
 #endif  // SKINSERVE_SIMD_SIZELESS
 
@@ -224,24 +233,53 @@ HWY_INLINE void Renormalise(float* HWY_RESTRICT normals, std::size_t first, std:
   }
 }
 
-template <int B, bool Normals, typename Joint>
+// Scales the xyz of tangents [first, last) to unit length and copies each rest tangent's w,
+// four vertices per step like Renormalise.
+HWY_INLINE void RenormaliseTangents(float* HWY_RESTRICT tangents, const float* HWY_RESTRICT rest,
+                                    std::size_t first, std::size_t last) {
+  std::size_t v = first;
+#if HWY_TARGET != HWY_SCALAR
+  const D4 d4;
+  for (; v + 4 <= last; v += 4) {
+    V4 x, y, z, w;
+    hn::LoadInterleaved4(d4, tangents + 4 * v, x, y, z, w);
+    const V4 length = hn::Sqrt(hn::MulAdd(x, x, hn::MulAdd(y, y, hn::Mul(z, z))));
+    const V4 inverse = hn::Div(hn::Set(d4, 1.0f), length);
+    V4 rx, ry, rz, rw;
+    hn::LoadInterleaved4(d4, rest + 4 * v, rx, ry, rz, rw);
+    hn::StoreInterleaved4(hn::Mul(x, inverse), hn::Mul(y, inverse), hn::Mul(z, inverse), rw, d4,
+                          tangents + 4 * v);
+  }
+#endif
+  for (; v < last; ++v) {
+    float* t = tangents + 4 * v;
+    const float inverse = 1.0f / std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    t[0] *= inverse, t[1] *= inverse, t[2] *= inverse, t[3] = rest[4 * v + 3];
+  }
+}
+
+template <int B, bool Normals, bool Tangents, typename Joint>
 void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
                 const float* HWY_RESTRICT columns, float* HWY_RESTRICT out_p,
-                float* HWY_RESTRICT out_n, std::size_t first, std::size_t last) {
+                float* HWY_RESTRICT out_n, float* HWY_RESTRICT out_t, std::size_t first,
+                std::size_t last) {
+  static_assert(Normals || !Tangents, "tangents come with normals");
   constexpr std::size_t kWeights = B - 1;
   constexpr std::size_t kChunk = 256;  // vertices whose normals are renormalised at once
   const Spread s;
   const float* HWY_RESTRICT positions = stream.positions;
   const float* HWY_RESTRICT normals = stream.normals;
+  const float* HWY_RESTRICT tangents = stream.tangents;
   const float* HWY_RESTRICT weights = stream.weights;
   for (std::size_t chunk = first; chunk < last; chunk += kChunk) {
     const std::size_t chunk_end = std::min(last, chunk + kChunk);
     // Every vertex but the range's last stores straight into the outputs.
     const std::size_t direct_end = std::min(chunk_end, last - 1);
     for (std::size_t v = chunk; v < direct_end; ++v) {
-      SkinVertex<B, Normals>(columns, s, positions + 3 * v, Normals ? normals + 3 * v : nullptr,
-                             joints + B * v, weights + kWeights * v, out_p + 3 * v,
-                             Normals ? out_n + 3 * v : nullptr);
+      SkinVertex<B, Normals, Tangents>(
+          columns, s, positions + 3 * v, Normals ? normals + 3 * v : nullptr,
+          Tangents ? tangents + 4 * v : nullptr, joints + B * v, weights + kWeights * v,
+          out_p + 3 * v, Normals ? out_n + 3 * v : nullptr, Tangents ? out_t + 4 * v : nullptr);
     }
     if (chunk_end == last) {  // the last vertex: local copies in and out
       const std::size_t v = last - 1;
@@ -249,25 +287,30 @@ void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
       float in_n[4] = {};
       if constexpr (Normals) std::copy_n(normals + 3 * v, 3, in_n);
       float res_p[4], res_n[4];
-      SkinVertex<B, Normals>(columns, s, in_p, in_n, joints + B * v, weights + kWeights * v, res_p,
-                             res_n);
+      // (A tangent's 4-float store fills exactly its own vertex: no copy needed.)
+      SkinVertex<B, Normals, Tangents>(
+          columns, s, in_p, in_n, Tangents ? tangents + 4 * v : nullptr, joints + B * v,
+          weights + kWeights * v, res_p, res_n, Tangents ? out_t + 4 * v : nullptr);
       std::copy_n(res_p, 3, out_p + 3 * v);
       if constexpr (Normals) std::copy_n(res_n, 3, out_n + 3 * v);
     }
     if constexpr (Normals) Renormalise(out_n, chunk, chunk_end);
+    if constexpr (Tangents) RenormaliseTangents(out_t, tangents, chunk, chunk_end);
   }
 }
 
 void SkinRange(const VertexStream& stream, const float* columns, float* out_p, float* out_n,
-               std::size_t first, std::size_t last) {
+               float* out_t, std::size_t first, std::size_t last) {
   if (first >= last) return;
   WithInfluences(stream.influences, [&](auto b) {
     constexpr int kB = decltype(b)::value;
     const auto run = [&](const auto* joints) {
       if (out_n == nullptr) {
-        SkinRangeT<kB, false>(stream, joints, columns, out_p, out_n, first, last);
+        SkinRangeT<kB, false, false>(stream, joints, columns, out_p, out_n, out_t, first, last);
+      } else if (out_t == nullptr) {
+        SkinRangeT<kB, true, false>(stream, joints, columns, out_p, out_n, out_t, first, last);
       } else {
-        SkinRangeT<kB, true>(stream, joints, columns, out_p, out_n, first, last);
+        SkinRangeT<kB, true, true>(stream, joints, columns, out_p, out_n, out_t, first, last);
       }
     };
     if (stream.joints8 != nullptr) {
@@ -280,7 +323,8 @@ void SkinRange(const VertexStream& stream, const float* columns, float* out_p, f
 
 // simd_dual_quaternion_kernel.cpp, compiled for the same targets.
 void SkinDualQuaternionRange(const VertexStream& stream, const DualQuaternionFrame& palette,
-                             float* out_p, float* out_n, std::size_t first, std::size_t last);
+                             float* out_p, float* out_n, float* out_t, std::size_t first,
+                             std::size_t last);
 
 Kernel GetKernel() {
   return Kernel{.skin_range = &SkinRange,

@@ -1,5 +1,5 @@
 // The leaner vertex stream the `simd` backends read, and the kernel Highway picks for
-// this CPU. Positions and normals are the mesh's own arrays; joint indices shrink to
+// this CPU. Positions, normals and tangents are the mesh's own arrays; joint indices shrink to
 // 8 bits when the mesh has at most 256 joints, and of each vertex's B weights only the
 // first B - 1 are stored: the mesh's weights sum to 1, so the kernel derives the last
 // one (no weights at all for B = 1). At B = 4 a vertex streams 40 bytes instead of 48.
@@ -20,15 +20,18 @@ struct VertexStream {
   uint32_t influences = 0;             // B, 1..8
   const float* positions = nullptr;    // 3 per vertex
   const float* normals = nullptr;      // 3 per vertex, or null
+  const float* tangents = nullptr;     // 4 per vertex (x y z w), or null
   const uint8_t* joints8 = nullptr;    // B per vertex when joint_count <= 256, else null
   const uint16_t* joints16 = nullptr;  // B per vertex otherwise
   const float* weights = nullptr;      // B - 1 per vertex (null for B = 1)
 };
 
 // Skins vertices [first, last): positions always, normals when out_normals is not null
-// (the stream must have normals then). Writes exactly those vertices' outputs.
+// (the stream must have normals then), tangents (4 floats per vertex, w copied) when
+// out_tangents is not null (normals too then). Writes exactly those vertices' outputs.
 using SkinRangeFn = void (*)(const VertexStream& stream, const float* columns, float* out_positions,
-                             float* out_normals, std::size_t first, std::size_t last);
+                             float* out_normals, float* out_tangents, std::size_t first,
+                             std::size_t last);
 
 // A frame's palette for the dual-quaternion kernel.
 struct DualQuaternionFrame {
@@ -43,7 +46,8 @@ struct DualQuaternionFrame {
 // The same for dual-quaternion skinning.
 using SkinDualQuaternionRangeFn = void (*)(const VertexStream& stream,
                                            const DualQuaternionFrame& palette, float* out_positions,
-                                           float* out_normals, std::size_t first, std::size_t last);
+                                           float* out_normals, float* out_tangents,
+                                           std::size_t first, std::size_t last);
 
 struct Kernel {
   SkinRangeFn skin_range = nullptr;

@@ -13,36 +13,45 @@
 
 namespace skinserve::sse {
 
-// skin_four(positions, normals, joints, weights, out_positions, out_normals) skins four
-// vertices of `mesh` into `frame`'s outputs; normals and out_normals are null when !Normals.
-template <int B, bool Normals, typename SkinFour>
+// skin_four(positions, normals, tangents, joints, weights, out_positions, out_normals,
+// out_tangents) skins four vertices of `mesh` into `frame`'s outputs; normals and
+// out_normals are null when !Normals, tangents and out_tangents when !Tangents (tangents
+// come with normals only).
+template <int B, bool Normals, bool Tangents, typename SkinFour>
 inline void ForEachBlockOfFour(const Mesh& mesh, const SkinFrame& frame, std::size_t first,
                                std::size_t last, const SkinFour& skin_four) {
   const float* positions = RestPositions(mesh, frame);
+  static_assert(Normals || !Tangents, "tangents come with normals");
   const float* normals = Normals ? RestNormals(mesh, frame) : nullptr;
+  const float* tangents = Tangents ? RestTangents(mesh, frame) : nullptr;
   const uint16_t* joints = mesh.joints().data();
   const float* weights = mesh.weights().data();
   float* out_p = frame.positions.data();
   float* out_n = Normals ? frame.normals.data() : nullptr;
+  float* out_t = Tangents ? frame.tangents.data() : nullptr;
   std::size_t v = first;
   for (; v + 4 <= last; v += 4) {
-    skin_four(positions + 3 * v, Normals ? normals + 3 * v : nullptr, joints + B * v,
-              weights + B * v, out_p + 3 * v, Normals ? out_n + 3 * v : nullptr);
+    skin_four(positions + 3 * v, Normals ? normals + 3 * v : nullptr,
+              Tangents ? tangents + 4 * v : nullptr, joints + B * v, weights + B * v, out_p + 3 * v,
+              Normals ? out_n + 3 * v : nullptr, Tangents ? out_t + 4 * v : nullptr);
   }
   if (v == last) return;
   float in_p[12], in_n[12] = {}, res_p[12], res_n[12], in_w[4 * B];
+  float in_t[16] = {}, res_t[16];
   uint16_t in_j[4 * B];
   const std::size_t count = last - v;
   for (std::size_t k = 0; k < 4; ++k) {
     const std::size_t src = v + std::min(k, count - 1);
     std::copy_n(positions + 3 * src, 3, in_p + 3 * k);
     if constexpr (Normals) std::copy_n(normals + 3 * src, 3, in_n + 3 * k);
+    if constexpr (Tangents) std::copy_n(tangents + 4 * src, 4, in_t + 4 * k);
     std::copy_n(joints + B * src, B, in_j + B * k);
     std::copy_n(weights + B * src, B, in_w + B * k);
   }
-  skin_four(in_p, in_n, in_j, in_w, res_p, res_n);
+  skin_four(in_p, in_n, in_t, in_j, in_w, res_p, res_n, res_t);
   std::copy_n(res_p, 3 * count, out_p + 3 * v);
   if constexpr (Normals) std::copy_n(res_n, 3 * count, out_n + 3 * v);
+  if constexpr (Tangents) std::copy_n(res_t, 4 * count, out_t + 4 * v);
 }
 
 }  // namespace skinserve::sse

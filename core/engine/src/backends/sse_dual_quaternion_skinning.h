@@ -83,12 +83,14 @@ SKINSERVE_FORCE_INLINE Lanes3 Rotate(const Lanes8& q, const Lanes3& p) {
           _mm_add_ps(p.z, _mm_mul_ps(two, _mm_sub_ps(_mm_mul_ps(q.rx, cy), _mm_mul_ps(q.ry, cx))))};
 }
 
-// Skins one block of four vertices: 12 floats of positions (and normals) in and out.
-template <int B, bool Normals>
+// Skins one block of four vertices: 12 floats of positions (and normals; 16 of tangents,
+// transposed to lanes and back, w untouched) in and out.
+template <int B, bool Normals, bool Tangents>
 SKINSERVE_FORCE_INLINE void SkinFourDualQuaternion(const float* quaternions, const float* positions,
-                                                   const float* normals, const uint16_t* joints,
-                                                   const float* weights, float* out_positions,
-                                                   float* out_normals) {
+                                                   const float* normals, const float* tangents,
+                                                   const uint16_t* joints, const float* weights,
+                                                   float* out_positions, float* out_normals,
+                                                   float* out_tangents) {
   // Blend: b = sum_i +-w_i q_i, the sign of each against the first influence.
   const Lanes8 first = LoadInfluence<B>(quaternions, joints, 0);
   Lanes8 b;
@@ -144,18 +146,28 @@ SKINSERVE_FORCE_INLINE void SkinFourDualQuaternion(const float* quaternions, con
                                             _mm_loadu_ps(normals + 8))),
                      out_normals);
   }
+  if constexpr (Tangents) {
+    __m128 x = _mm_loadu_ps(tangents), y = _mm_loadu_ps(tangents + 4);
+    __m128 z = _mm_loadu_ps(tangents + 8), w = _mm_loadu_ps(tangents + 12);
+    _MM_TRANSPOSE4_PS(x, y, z, w);
+    const Lanes3 turned = Rotate(q, {x, y, z});
+    x = turned.x, y = turned.y, z = turned.z;
+    _MM_TRANSPOSE4_PS(x, y, z, w);
+    _mm_storeu_ps(out_tangents, x), _mm_storeu_ps(out_tangents + 4, y);
+    _mm_storeu_ps(out_tangents + 8, z), _mm_storeu_ps(out_tangents + 12, w);
+  }
 }
 
-template <int B, bool Normals>
+template <int B, bool Normals, bool Tangents>
 void SkinSseDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& palette,
                                 const SkinFrame& frame, std::size_t first, std::size_t last) {
   const float* quaternions = palette.joint(0);
-  ForEachBlockOfFour<B, Normals>(
+  ForEachBlockOfFour<B, Normals, Tangents>(
       mesh, frame, first, last,
-      [&](const float* p, const float* n, const uint16_t* j, const float* w, float* rp, float* rn)
-          __attribute__((always_inline)) {
-            SkinFourDualQuaternion<B, Normals>(quaternions, p, n, j, w, rp, rn);
-          });
+      [&](const float* p, const float* n, const float* t, const uint16_t* j, const float* w,
+          float* rp, float* rn, float* rt) __attribute__((always_inline)) {
+        SkinFourDualQuaternion<B, Normals, Tangents>(quaternions, p, n, t, j, w, rp, rn, rt);
+      });
 }
 
 // The dual-quaternion kernel of CpuBackend (cpu_backend.h).
@@ -166,9 +178,11 @@ struct SseDualQuaternionKernel {
     WithInfluences(mesh.influences(), [&](auto b) {
       constexpr int kB = decltype(b)::value;
       if (frame.normals.empty()) {
-        SkinSseDualQuaternionRange<kB, false>(mesh, palette, frame, first, last);
+        SkinSseDualQuaternionRange<kB, false, false>(mesh, palette, frame, first, last);
+      } else if (frame.tangents.empty()) {
+        SkinSseDualQuaternionRange<kB, true, false>(mesh, palette, frame, first, last);
       } else {
-        SkinSseDualQuaternionRange<kB, true>(mesh, palette, frame, first, last);
+        SkinSseDualQuaternionRange<kB, true, true>(mesh, palette, frame, first, last);
       }
     });
   }

@@ -30,6 +30,7 @@ struct BackendInfo {
   int min_threads = 0;
   std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};  // what Skin() implements
   bool morph_targets = false;  // Skin() applies SkinFrame::morph_weights (else refuses them)
+  bool tangents = false;       // Skin() writes SkinFrame::tangents (else refuses them)
 
   bool Supports(SkinningMethod method) const;
 };
@@ -57,26 +58,34 @@ struct DeviceTiming {
 //  - positions: 3 * vertex_count floats written by the backend, x y z per vertex.
 //  - normals:   empty to skip normals; else 3 * vertex_count floats, unit length, and
 //               the mesh must have normals.
+//  - tangents:  empty to skip tangents; else 4 * vertex_count floats, x y z w per vertex:
+//               xyz skinned like the normal (the same upper 3x3, renormalised; for dual
+//               quaternions rotated by the blended rotation), w the mesh's, copied. The
+//               mesh must have tangents, and normals must be asked for too.
 //  - threads:   the threads this frame may use, between info.min_threads and
 //               info.threads (the engine's scheduler decides); 0: info.threads.
 //  - device_timing: null, or where a device backend writes the frame's device time.
 //  - method:    dual-quaternion also needs every joint matrix rigid (ValidateRigidPalette).
 //  - morph_weights: the frame's active morph targets (ValidateMorphWeights); their deltas
-//               are added to the rest positions and normals before skinning, whatever the
-//               method. Empty (or all zero): the rest arrays as they are.
-//  - rest_positions, rest_normals: set by a backend's morph stage only (morph_stage.h), for
-//               the loops: the rest arrays to skin, indexed by vertex like the mesh's (only
-//               the range being skinned is meaningful); null: the mesh's own.
+//               are added to the rest positions, normals and tangents' xyz before
+//               skinning, whatever the method. Empty (or all zero): the rest arrays as
+//               they are.
+//  - rest_positions, rest_normals, rest_tangents: set by a backend's morph stage only
+//               (morph_stage.h), for the loops: the rest arrays to skin, indexed by vertex
+//               like the mesh's (only the range being skinned is meaningful); null: the
+//               mesh's own.
 struct SkinFrame {
   std::span<const float> palette;
   std::span<float> positions;
   std::span<float> normals;
+  std::span<float> tangents;
   int threads = 0;
   DeviceTiming* device_timing = nullptr;
   SkinningMethod method = SkinningMethod::kLinear;
   std::span<const MorphWeight> morph_weights;
   const float* rest_positions = nullptr;
   const float* rest_normals = nullptr;
+  const float* rest_tangents = nullptr;  // 4 floats per vertex like the mesh's
 
   Status Validate(const Mesh& mesh) const;
 };
@@ -93,6 +102,13 @@ inline const float* RestPositions(const Mesh& mesh, const SkinFrame& frame) {
 inline const float* RestNormals(const Mesh& mesh, const SkinFrame& frame) {
   return frame.rest_normals != nullptr ? frame.rest_normals : mesh.normals().data();
 }
+inline const float* RestTangents(const Mesh& mesh, const SkinFrame& frame) {
+  return frame.rest_tangents != nullptr ? frame.rest_tangents : mesh.tangents().data();
+}
+
+// OK unless tangents are asked for and the backend does not skin them: then
+// FAILED_PRECONDITION naming the backend and those that do.
+Status CheckTangentSupport(const BackendInfo& info, bool tangents_requested);
 
 class Backend {
  public:

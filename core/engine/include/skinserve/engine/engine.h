@@ -41,6 +41,7 @@ struct MeshInfo {
   uint32_t influences = 0;
   uint32_t joint_count = 0;
   bool has_normals = false;
+  bool has_tangents = false;
   uint64_t bytes = 0;
   uint32_t normalized_vertices = 0;
   bool already_stored = false;  // the same content was stored before (dedupe)
@@ -68,6 +69,7 @@ struct SkinRequest {
   uint32_t instances = 1;          // K; 0 means 1; at most EngineOptions::max_instances
   std::span<float> positions;      // 3 * vertex_count * K
   std::span<float> normals;        // empty: no normals; else 3 * vertex_count * K
+  std::span<float> tangents;       // empty: no tangents; else 4 * vertex_count * K (needs normals)
   SkinningMethod method = SkinningMethod::kLinear;  // the backend must list it
   // The frame's active morph targets (sparse, morph_targets.h), the same for every instance
   // of a crowd; the backend must support morph targets (BackendInfo::morph_targets) when a
@@ -103,6 +105,7 @@ struct FramePlan {
   uint32_t vertex_count = 0;
   uint32_t joint_count = 0;
   bool has_normals = false;
+  bool has_tangents = false;
   uint32_t morph_target_count = 0;
 };
 
@@ -194,7 +197,8 @@ class Engine {
   // targets' sizes count towards the budget.
   Status CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
                         bool has_normals, std::span<const uint32_t> morph_target_sizes = {},
-                        bool morph_normals = false) const;
+                        bool morph_normals = false, bool has_tangents = false,
+                        bool morph_tangents = false) const;
   // Validates and stores a mesh (dedupe by content id; LRU eviction beyond the budget).
   // `weight_policy` overrides the engine's (options().mesh) for this mesh.
   Result<MeshInfo> AddMesh(const MeshArrays& arrays,

@@ -16,6 +16,9 @@ namespace skinserve {
 inline constexpr uint32_t kMaxInfluences = 8;       // B: influences per vertex, 1..8
 inline constexpr uint32_t kMaxJointsLimit = 65535;  // joint indices are uint16
 inline constexpr float kWeightSumTolerance = 1e-3f;
+// A tangent's xyz is a unit vector within this (|length - 1|): loose enough for tangents an
+// exporter quantised to 8 bits, tight enough to catch a missing normalisation.
+inline constexpr float kTangentLengthTolerance = 1e-2f;
 
 // Limits an operator sets; checked before anything is allocated.
 struct MeshLimits {
@@ -39,6 +42,10 @@ struct MeshOptions {
 // A mesh as plain arrays, before validation. Field names match the wire contract.
 //  - positions: 3 * vertex_count floats, x y z per vertex, finite.
 //  - normals:   empty, or 3 * vertex_count finite floats (renormalised after skinning).
+//  - tangents:  empty, or 4 * vertex_count finite floats, x y z w per vertex as glTF's
+//               TANGENT: xyz a unit vector (within kTangentLengthTolerance), skinned like
+//               the normal; w the bitangent's handedness, exactly +1 or -1, kept as is.
+//               Tangents need normals (glTF ignores tangents without them).
 //  - joints:    influences * vertex_count indices, vertex-major (joints[v * B + i]), each
 //               < joint_count. Unused influences are padding: weight 0, any valid index.
 //  - weights:   influences * vertex_count floats, vertex-major, each >= 0, summing to 1
@@ -54,18 +61,22 @@ struct MeshOptions {
 //  - morph_normal_deltas:   empty, or 3 * D finite floats within +-kMaxMorphNormalDelta
 //                           (the mesh must have normals); a target that moves no normal has
 //                           zeros there.
+//  - morph_tangent_deltas:  empty, or 3 * D finite floats (xyz only; w is never morphed)
+//                           within +-kMaxMorphNormalDelta (the mesh must have tangents).
 struct MeshArrays {
   uint32_t vertex_count = 0;
   uint32_t influences = 0;
   uint32_t joint_count = 0;
   std::vector<float> positions;
   std::vector<float> normals;
+  std::vector<float> tangents;
   std::vector<uint16_t> joints;
   std::vector<float> weights;
   std::vector<uint32_t> morph_target_sizes;
   std::vector<uint32_t> morph_indices;
   std::vector<float> morph_position_deltas;
   std::vector<float> morph_normal_deltas;
+  std::vector<float> morph_tangent_deltas;
 };
 
 // Checks the sizes a mesh declares before its arrays arrive (an upload's header).
@@ -74,15 +85,17 @@ Status CheckMeshHeader(uint64_t vertex_count, uint64_t influences, uint64_t join
 
 // Checks the morph targets an upload declares before their arrays arrive: the target
 // count, each target's size (<= vertex_count) and their sum against the limits; normal
-// deltas need a mesh with normals.
+// deltas need a mesh with normals, tangent deltas one with tangents.
 Status CheckMorphHeader(std::span<const uint32_t> target_sizes, uint64_t vertex_count,
-                        bool has_normals, bool morph_normals, const MeshLimits& limits);
+                        bool has_normals, bool morph_normals, const MeshLimits& limits,
+                        bool has_tangents = false, bool morph_tangents = false);
 
 // Bytes a mesh of this shape occupies once stored (its morph deltas included: they count
 // against the mesh store's budget and, while uploading, the upload budget).
 uint64_t MeshByteSize(uint64_t vertex_count, uint64_t influences, bool has_normals,
                       uint64_t morph_targets = 0, uint64_t morph_deltas = 0,
-                      bool morph_normals = false);
+                      bool morph_normals = false, bool has_tangents = false,
+                      bool morph_tangents = false);
 
 class Mesh {
  public:
@@ -99,19 +112,24 @@ class Mesh {
   uint32_t influences() const { return influences_; }
   uint32_t joint_count() const { return joint_count_; }
   bool has_normals() const { return !normals_.empty(); }
+  bool has_tangents() const { return !tangents_.empty(); }
   std::span<const float> positions() const { return positions_.span(); }
   std::span<const float> normals() const { return normals_.span(); }
+  std::span<const float> tangents() const { return tangents_.span(); }  // 4 per vertex
   std::span<const uint16_t> joints() const { return joints_.span(); }
   std::span<const float> weights() const { return weights_.span(); }
   // Morph targets: target t's deltas are [morph_offsets()[t], morph_offsets()[t + 1]) of
   // morph_indices() (ascending vertex indices), morph_position_deltas() and, when
-  // has_morph_normals(), morph_normal_deltas() (3 floats per delta).
+  // has_morph_normals(), morph_normal_deltas() (3 floats per delta), and when
+  // has_morph_tangents(), morph_tangent_deltas() (3 floats per delta: xyz).
   uint32_t morph_target_count() const { return morph_target_count_; }
   bool has_morph_normals() const { return !morph_normal_deltas_.empty(); }
+  bool has_morph_tangents() const { return !morph_tangent_deltas_.empty(); }
   std::span<const uint32_t> morph_offsets() const { return morph_offsets_.span(); }
   std::span<const uint32_t> morph_indices() const { return morph_indices_.span(); }
   std::span<const float> morph_position_deltas() const { return morph_position_deltas_.span(); }
   std::span<const float> morph_normal_deltas() const { return morph_normal_deltas_.span(); }
+  std::span<const float> morph_tangent_deltas() const { return morph_tangent_deltas_.span(); }
   // Vertices whose weights were renormalised beyond rounding (WeightPolicy::kNormalize).
   uint32_t normalized_vertices() const { return normalized_vertices_; }
   uint64_t byte_size() const;
@@ -125,6 +143,7 @@ class Mesh {
   uint32_t normalized_vertices_ = 0;
   AlignedBuffer<float> positions_;
   AlignedBuffer<float> normals_;
+  AlignedBuffer<float> tangents_;
   AlignedBuffer<uint16_t> joints_;
   AlignedBuffer<float> weights_;
   uint32_t morph_target_count_ = 0;
@@ -132,6 +151,7 @@ class Mesh {
   AlignedBuffer<uint32_t> morph_indices_;
   AlignedBuffer<float> morph_position_deltas_;
   AlignedBuffer<float> morph_normal_deltas_;
+  AlignedBuffer<float> morph_tangent_deltas_;
 };
 
 }  // namespace skinserve

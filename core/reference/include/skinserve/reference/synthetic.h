@@ -14,6 +14,10 @@ struct SyntheticMeshSpec {
   uint32_t influences = 2;
   uint32_t joint_count = 77;
   bool normals = false;
+  // Tangents too (with normals only): each normal's cross product with a fixed axis, w -1
+  // on every third vertex, else +1. They draw nothing from the seed's stream, so a mesh
+  // keeps its positions, normals and weights with or without them.
+  bool tangents = false;
   uint64_t seed = 1;
 };
 

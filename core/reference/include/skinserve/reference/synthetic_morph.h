@@ -14,12 +14,14 @@ struct SyntheticMorphSpec {
   uint32_t targets = 64;
   double fraction = 0.1;  // each vertex is in each target with this probability
   bool normals = true;    // normal deltas too (when the mesh has normals)
+  bool tangents = true;   // tangent deltas too (when the mesh has tangents)
   uint64_t seed = 1;
 };
 
 // Replaces `arrays`' morph targets with `spec.targets` random ones: each moves about
 // fraction * vertex_count vertices spread over the whole mesh (no vertex order to exploit),
-// by up to 0.1 per position component and, with normals, up to 0.3 per normal component.
+// by up to 0.1 per position component and, with normals, up to 0.3 per normal component
+// (tangents: the same, drawn from a stream of their own so the other deltas stay the same).
 void AddSyntheticMorphTargets(const SyntheticMorphSpec& spec, MeshArrays* arrays);
 
 // `active` distinct targets of `target_count`, in random order, with weights in [-1.5, 1.5]
