@@ -15,6 +15,11 @@
 // no and with 4 active targets, beside the skin-only rows (issue 28's 1.3x target).
 // --tangents: also BM_SkinTangents[DualQuaternion]/<backend>/<vertices>/<bones>, normals and
 // tangents (4 floats a vertex) skinned together, beside BM_SkinNormals.
+// --quantized: also BM_SkinQuantized/<backend>/<vertices>/<bones> (and
+// BM_SkinQuantizedWeights8) for the backends that read a quantized rest stream
+// (RestEncoding quantized16, quantized8-weights), the same mesh stored quantized, beside the
+// float rows; after the run, each quantized row's bytes per vertex, its share of
+// BM_MemoryBandwidth's bound and its speed over the float row (issue 29).
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
@@ -58,6 +63,7 @@ struct Options {
   std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};
   bool morph = false;
   bool tangents = false;
+  bool quantized = false;
 };
 
 template <typename T>
@@ -89,6 +95,8 @@ Options ParseOptions(int* argc, char** argv) {
       options.morph = true;
     } else if (arg == "--tangents") {
       options.tangents = true;
+    } else if (arg == "--quantized") {
+      options.quantized = true;
     } else if (arg == "--normals") {
       options.normals_in_tables = true;
     } else if (const char* list = value("--backends=")) {
@@ -122,11 +130,11 @@ WorkloadCache& Cache() {
 }
 
 void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
-                   bool normals, SkinningMethod method, bool tangents) {
-  const Workload& workload = Cache().Get(vertices, bones);
+                   bool normals, SkinningMethod method, RestEncoding rest, bool tangents) {
+  const Workload& workload = Cache().Get(vertices, bones, false, rest);
   const auto& palettes =
       method == SkinningMethod::kDualQuaternion ? workload.rigid_palettes : workload.palettes;
-  const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones);
+  const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones, false, rest);
   AlignedBuffer<float> positions(3ull * vertices), out_normals(normals ? 3ull * vertices : 0);
   AlignedBuffer<float> out_tangents(tangents ? 4ull * vertices : 0);
   std::size_t frame = state.thread_index();
@@ -151,8 +159,12 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
   state.counters["vertices_per_second"] =
       benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
-  state.SetBytesProcessed(
-      static_cast<int64_t>(state.iterations() * vertices * BytesPerVertex(bones, normals)));
+  // Quantized rows: what the rest stream really moves (quantized_rest.h).
+  const double bytes = rest == RestEncoding::kFloat32
+                           ? BytesPerVertex(bones, normals)
+                           : StreamedBytesPerVertex(rest, bones, kPaperJoints, normals);
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * vertices * bytes));
+  state.counters["bytes_per_vertex"] = bytes;
   if (total.kernel_ns > 0 && state.iterations() > 0) {
     const double frames = static_cast<double>(state.iterations());
     state.counters["kernel_ns"] = benchmark::Counter(static_cast<double>(total.kernel_ns) / frames,
@@ -347,7 +359,29 @@ int main(int argc, char** argv) {
                             tangents ? "BM_SkinTangents" : (normals ? "BM_SkinNormals" : "BM_Skin"),
                             dqs ? "DualQuaternion" : "", backend->info().id, v, b);
             benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
-                                         method, tangents)
+                                         method, RestEncoding::kFloat32, tangents)
+                ->UseRealTime()
+                ->Unit(benchmark::kMicrosecond);
+          }
+        }
+      }
+    }
+  }
+  for (bool normals : {false, true}) {
+    if (!options.quantized) break;
+    for (uint32_t v : options.vertices) {
+      for (uint32_t b : options.bones) {
+        for (const auto& backend : backends) {
+          if (std::count(measured.begin(), measured.end(), backend->info().id) == 0) continue;
+          if (!backend->info().quantized_rest) continue;
+          for (auto [kind, rest] :
+               {std::pair{"Quantized", RestEncoding::kQuantized16},
+                std::pair{"QuantizedWeights8", RestEncoding::kQuantized8Weights}}) {
+            const std::string name =
+                fmt::format("{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", kind,
+                            backend->info().id, v, b);
+            benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
+                                         SkinningMethod::kLinear, rest, false)
                 ->UseRealTime()
                 ->Unit(benchmark::kMicrosecond);
           }
@@ -387,7 +421,7 @@ int main(int argc, char** argv) {
             continue;
           const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
           benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, false,
-                                       SkinningMethod::kLinear, false)
+                                       SkinningMethod::kLinear, RestEncoding::kFloat32, false)
               ->Threads(options.streams)
               ->UseRealTime()
               ->Unit(benchmark::kMicrosecond);
@@ -463,6 +497,7 @@ int main(int argc, char** argv) {
   benchmark::RunSpecifiedBenchmarks(&reporter);
   if (options.paper_tables) reporter.PrintTables(measured);
   reporter.PrintDeviceBounds();
+  if (options.quantized) reporter.PrintQuantizedShares();
   benchmark::Shutdown();
   return 0;
 }
