@@ -16,6 +16,7 @@ v1::MeshInfo ToWire(const MeshInfo& info) {
   wire.set_already_stored(info.already_stored);
   wire.set_morph_target_count(info.morph_target_count);
   wire.set_rest_encoding(ToWire(info.rest_encoding));
+  wire.set_has_tangents(info.has_tangents);
   return wire;
 }
 
@@ -32,6 +33,7 @@ v1::BackendInfo ToWire(const BackendInfo& info) {
   for (SkinningMethod method : info.methods) wire.add_methods(ToWire(method));
   wire.set_morph_targets(info.morph_targets);
   wire.set_quantized_rest(info.quantized_rest);
+  wire.set_tangents(info.tangents);
   return wire;
 }
 

@@ -26,9 +26,10 @@ Status MeshAssembly::AcceptHeader(const v1::MeshHeader& header) {
   if (!rest_encoding.ok()) return rest_encoding.status();
   const std::span<const uint32_t> morph_sizes(header.morph_target_sizes().data(),
                                               header.morph_target_sizes().size());
-  if (Status s = engine_->CheckMeshShape(header.vertex_count(), header.influences(),
-                                         header.joint_count(), header.has_normals(), morph_sizes,
-                                         header.morph_normals(), *rest_encoding);
+  if (Status s =
+          engine_->CheckMeshShape(header.vertex_count(), header.influences(), header.joint_count(),
+                                  header.has_normals(), morph_sizes, header.morph_normals(),
+                                  *rest_encoding, header.has_tangents(), header.morph_tangents());
       !s.ok()) {
     return s;
   }
@@ -42,6 +43,7 @@ Status MeshAssembly::AcceptHeader(const v1::MeshHeader& header) {
   // Only the sizes are noted: the arrays grow as their chunks arrive (see the header).
   declared_[v1::MESH_ARRAY_POSITIONS] = 3 * v;
   declared_[v1::MESH_ARRAY_NORMALS] = header.has_normals() ? 3 * v : 0;
+  declared_[v1::MESH_ARRAY_TANGENTS] = header.has_tangents() ? 4 * v : 0;
   declared_[v1::MESH_ARRAY_JOINTS] = b * v;
   declared_[v1::MESH_ARRAY_WEIGHTS] = b * v;
   // The sizes themselves are at most max_morph_targets numbers (checked above).
@@ -51,6 +53,7 @@ Status MeshAssembly::AcceptHeader(const v1::MeshHeader& header) {
   declared_[v1::MESH_ARRAY_MORPH_INDICES] = deltas;
   declared_[v1::MESH_ARRAY_MORPH_POSITION_DELTAS] = 3 * deltas;
   declared_[v1::MESH_ARRAY_MORPH_NORMAL_DELTAS] = header.morph_normals() ? 3 * deltas : 0;
+  declared_[v1::MESH_ARRAY_MORPH_TANGENT_DELTAS] = header.morph_tangents() ? 3 * deltas : 0;
   return Status::Ok();
 }
 
@@ -79,6 +82,18 @@ Status MeshAssembly::AcceptChunk(const v1::MeshChunk& chunk) {
             "morph targets)");
       }
       return Append(arrays_.morph_normal_deltas, "morph_normal_deltas", chunk);
+    case v1::MESH_ARRAY_TANGENTS:
+      if (declared_[v1::MESH_ARRAY_TANGENTS] == 0) {
+        return InvalidArgument("tangents chunk, but the header says has_tangents = false");
+      }
+      return Append(arrays_.tangents, "tangents", chunk);
+    case v1::MESH_ARRAY_MORPH_TANGENT_DELTAS:
+      if (declared_[v1::MESH_ARRAY_MORPH_TANGENT_DELTAS] == 0) {
+        return InvalidArgument(
+            "morph_tangent_deltas chunk, but the header says morph_tangents = false (or has no "
+            "morph targets)");
+      }
+      return Append(arrays_.morph_tangent_deltas, "morph_tangent_deltas", chunk);
     default:
       return InvalidArgument(fmt::format("chunk.array {} is not a mesh array", chunk.array()));
   }
@@ -143,13 +158,16 @@ Result<MeshInfo> MeshAssembly::Store() {
   const std::pair<const char*, std::pair<uint64_t, uint64_t>> arrays[] = {
       {"positions", {arrays_.positions.size(), declared_[v1::MESH_ARRAY_POSITIONS]}},
       {"normals", {arrays_.normals.size(), declared_[v1::MESH_ARRAY_NORMALS]}},
+      {"tangents", {arrays_.tangents.size(), declared_[v1::MESH_ARRAY_TANGENTS]}},
       {"joints", {arrays_.joints.size(), declared_[v1::MESH_ARRAY_JOINTS]}},
       {"weights", {arrays_.weights.size(), declared_[v1::MESH_ARRAY_WEIGHTS]}},
       {"morph_indices", {arrays_.morph_indices.size(), declared_[v1::MESH_ARRAY_MORPH_INDICES]}},
       {"morph_position_deltas",
        {arrays_.morph_position_deltas.size(), declared_[v1::MESH_ARRAY_MORPH_POSITION_DELTAS]}},
       {"morph_normal_deltas",
-       {arrays_.morph_normal_deltas.size(), declared_[v1::MESH_ARRAY_MORPH_NORMAL_DELTAS]}}};
+       {arrays_.morph_normal_deltas.size(), declared_[v1::MESH_ARRAY_MORPH_NORMAL_DELTAS]}},
+      {"morph_tangent_deltas",
+       {arrays_.morph_tangent_deltas.size(), declared_[v1::MESH_ARRAY_MORPH_TANGENT_DELTAS]}}};
   for (const auto& [name, counts] : arrays) {
     if (counts.first != counts.second) {
       return InvalidArgument(

@@ -57,9 +57,9 @@ class MeshAssembly {
   bool normalize_weights_ = false;
   RestEncoding rest_encoding_ = RestEncoding::kFloat32;
   MeshArrays arrays_;
-  static constexpr int kArrays = 8;  // MeshArray numbers, 0 unused
-  uint64_t declared_[kArrays] = {};  // values the header implies, by MeshArray number
-  uint64_t charged_[kArrays] = {};   // bytes charged for each array's block, by MeshArray number
+  static constexpr int kArrays = 10;  // MeshArray numbers, 0 unused
+  uint64_t declared_[kArrays] = {};   // values the header implies, by MeshArray number
+  uint64_t charged_[kArrays] = {};    // bytes charged for each array's block, by MeshArray number
   uint64_t charged_bytes_ = 0;
 };
 

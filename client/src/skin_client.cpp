@@ -351,6 +351,8 @@ Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays, WeightPoli
   header->mutable_morph_target_sizes()->Add(arrays.morph_target_sizes.begin(),
                                             arrays.morph_target_sizes.end());
   header->set_morph_normals(!arrays.morph_normal_deltas.empty());
+  header->set_has_tangents(!arrays.tangents.empty());
+  header->set_morph_tangents(!arrays.morph_tangent_deltas.empty());
   bool sending = writer->Write(request);
   auto send_array = [&](v1::MeshArray kind, const void* data, std::size_t count,
                         std::size_t value_size) {
@@ -375,6 +377,9 @@ Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays, WeightPoli
              arrays.morph_position_deltas.size(), 4);
   send_array(v1::MESH_ARRAY_MORPH_NORMAL_DELTAS, arrays.morph_normal_deltas.data(),
              arrays.morph_normal_deltas.size(), 4);
+  send_array(v1::MESH_ARRAY_TANGENTS, arrays.tangents.data(), arrays.tangents.size(), 4);
+  send_array(v1::MESH_ARRAY_MORPH_TANGENT_DELTAS, arrays.morph_tangent_deltas.data(),
+             arrays.morph_tangent_deltas.size(), 4);
   if (sending) writer->WritesDone();
   grpc::Status status = writer->Finish();
   if (!status.ok()) return wire::FromGrpc(status);

@@ -9,7 +9,7 @@ def backends(response: pb.ListBackendsResponse) -> List[Dict[str, Any]]:
     return [{"id": b.id, "description": b.description, "available": b.available,
              "unavailable_reason": b.unavailable_reason, "device": b.device,
              "simd_width": b.simd_width, "threads": b.threads,
-             "morph_targets": b.morph_targets,
+             "morph_targets": b.morph_targets, "tangents": b.tangents,
              "default": b.id == response.default_backend} for b in response.backends]
 
 

@@ -45,6 +45,17 @@ def check_mesh(positions: Any, joints: Any, weights: Any, normals: Any) -> None:
                              "(the shape of positions)")
 
 
+def check_tangents(tangents: Any, vertices: int, has_normals: bool) -> None:
+    """glTF TANGENT: float32 (V, 4), xyz a unit vector, w +1 or -1 (the server checks the
+    values); tangents need normals."""
+    _check("tangents", tangents, np.float32, 2)
+    if tangents.shape != (vertices, 4):
+        raise ValueError(f"tangents: shape {tangents.shape}, expected ({vertices}, 4) "
+                         "(x y z w per vertex of positions)")
+    if not has_normals:
+        raise ValueError("tangents: given without normals; tangents need normals (as in glTF)")
+
+
 def check_palette(name: str, palette: Any, joint_count: Optional[int] = None) -> Optional[int]:
     """A (J, 3, 4) or (J, 12) float32 palette: J row-major 3x4 affine matrices; or a crowd
     of K >= 1 instances of the mesh, (K, J, 3, 4) or (K, J, 12): one palette per instance.

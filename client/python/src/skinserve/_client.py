@@ -110,7 +110,8 @@ class Client:
                weights: npt.NDArray[np.float32],
                normals: Optional[npt.NDArray[np.float32]] = None,
                normalize_weights: bool = False, joint_count: Optional[int] = None,
-               morph_targets: Optional[Sequence[MorphTarget]] = None) -> str:
+               morph_targets: Optional[Sequence[MorphTarget]] = None,
+               tangents: Optional[npt.NDArray[np.float32]] = None) -> str:
         """Stores a mesh and returns its id (the SHA-256 of its content).
 
         positions, normals: float32 (V, 3); joints: uint16 (V, B); weights: float32 (V, B),
@@ -119,10 +120,11 @@ class Client:
         morph_targets: skinserve.MorphTarget(indices, positions, normals=None) each, sparse:
         the vertices a target moves (uint32, ascending) and their deltas (float32 (D, 3));
         frames then name their active targets' weights (skin's morph_weights).
+        tangents: float32 (V, 4), glTF TANGENT (xyz unit, w +1 or -1); needs normals.
         """
         requests = _requests.upload_requests(positions, joints, weights, normals,
                                              normalize_weights, joint_count,
-                                             morph_targets)
+                                             morph_targets, tangents)
         info = self._upload(requests)
         self._meshes[info.mesh_id] = (requests, requests[0].header.joint_count,
                                       requests[0].header.vertex_count)

@@ -19,10 +19,13 @@ def upload_requests(positions: npt.NDArray[np.float32], joints: npt.NDArray[np.u
                     weights: npt.NDArray[np.float32],
                     normals: Optional[npt.NDArray[np.float32]], normalize_weights: bool,
                     joint_count: Optional[int],
-                    morph_targets: Optional[Sequence[MorphTarget]] = None
+                    morph_targets: Optional[Sequence[MorphTarget]] = None,
+                    tangents: Optional[npt.NDArray[np.float32]] = None
                     ) -> List[pb.UploadMeshRequest]:
     """The header, then each array in chunks of at most 1 MiB."""
     _arrays.check_mesh(positions, joints, weights, normals)
+    if tangents is not None:
+        _arrays.check_tangents(tangents, positions.shape[0], normals is not None)
     targets = list(morph_targets or [])
     sizes, morph_normals = _morph.check_targets(targets, positions.shape[0], normals is not None)
     used = int(joints.max()) + 1
@@ -36,13 +39,15 @@ def upload_requests(positions: npt.NDArray[np.float32], joints: npt.NDArray[np.u
         joint_count=joint_count, has_normals=normals is not None,
         weight_policy=(pb.WEIGHT_POLICY_NORMALIZE if normalize_weights
                        else pb.WEIGHT_POLICY_REJECT),
-        morph_target_sizes=sizes, morph_normals=morph_normals)
+        morph_target_sizes=sizes, morph_normals=morph_normals,
+        has_tangents=tangents is not None)
     requests = [pb.UploadMeshRequest(header=header)]
     arrays: List[Tuple[pb.MeshArray, Optional[npt.NDArray[Any]], str]] = [
         (pb.MESH_ARRAY_POSITIONS, positions, "f4"),
         (pb.MESH_ARRAY_NORMALS, normals, "f4"),
         (pb.MESH_ARRAY_JOINTS, joints, "u2"),
-        (pb.MESH_ARRAY_WEIGHTS, weights, "f4")]
+        (pb.MESH_ARRAY_WEIGHTS, weights, "f4"),
+        (pb.MESH_ARRAY_TANGENTS, tangents, "f4")]
     arrays += _morph.target_arrays(targets)
     for kind, array, dtype in arrays:
         if array is None:
