@@ -49,8 +49,8 @@
  * from the global id, so the host's global offset (a multiple of a group) starts a chunk
  * of a frame. */
 #if SKIN_COALESCED
-#define SKIN_VERTEX(k)                                                              \
-  ((uint)(get_global_id(0) - get_local_id(0)) * SKIN_VERTICES_PER_ITEM +            \
+#define SKIN_VERTEX(k)                                                                     \
+  ((uint)(get_global_id(0) - get_local_id(0)) * SKIN_VERTICES_PER_ITEM +                   \
    (uint)(k) * SKIN_ITEMS_PER_GROUP + (uint)get_local_id(0))
 /* Several items may clamp to the last vertex: only the one that owns it stores it. */
 #define SKIN_KEEP(raw, count) ((raw) < (count))
@@ -68,19 +68,19 @@ typedef struct {
 
 /* The blend from a palette in either address space: __global (every kernel but the
  * *_local_* ones) or __local (those, after StagePalette). */
-#define DEFINE_BLEND_PALETTE(NAME, SPACE)                                                \
-  static inline Blended NAME(const SPACE float* restrict palette,                        \
-                             const __global ushort* restrict joints,                     \
-                             const __global float* restrict weights, const uint v,       \
-                             const int influences) {                                     \
-    Blended m = {(float8)(0.0f), (float4)(0.0f)};                                        \
-    _Pragma("unroll") for (int i = 0; i < influences; ++i) {                             \
-      const float w = weights[v * influences + i];                                       \
-      const SPACE float* joint = palette + 12 * (uint)joints[v * influences + i];        \
-      m.r01 = fma((float8)(w), vload8(0, joint), m.r01);                                 \
-      m.r2 = fma((float4)(w), vload4(2, joint), m.r2);                                   \
-    }                                                                                    \
-    return m;                                                                            \
+#define DEFINE_BLEND_PALETTE(NAME, SPACE)                                                  \
+  static inline Blended NAME(const SPACE float* restrict palette,                          \
+                             const __global ushort* restrict joints,                       \
+                             const __global float* restrict weights, const uint v,         \
+                             const int influences) {                                       \
+    Blended m = {(float8)(0.0f), (float4)(0.0f)};                                          \
+    _Pragma("unroll") for (int i = 0; i < influences; ++i) {                               \
+      const float w = weights[v * influences + i];                                         \
+      const SPACE float* joint = palette + 12 * (uint)joints[v * influences + i];          \
+      m.r01 = fma((float8)(w), vload8(0, joint), m.r01);                                   \
+      m.r2 = fma((float4)(w), vload4(2, joint), m.r2);                                     \
+    }                                                                                      \
+    return m;                                                                              \
   }
 DEFINE_BLEND_PALETTE(BlendPalette, __global)
 
@@ -103,58 +103,58 @@ static inline float3 TransformNormal(const Blended m, const __global float* rest
 
 static inline float SquaredLength(const float3 t) { return fma(t.x, t.x, fma(t.y, t.y, t.z * t.z)); }
 
-#define SKIN_ARGS                                                                            \
-  const __global float *restrict palette, const __global ushort *restrict joints,           \
-      const __global float *restrict weights, const __global float *restrict positions,     \
+#define SKIN_ARGS                                                                          \
+  const __global float *restrict palette, const __global ushort *restrict joints,          \
+      const __global float *restrict weights, const __global float *restrict positions,    \
       __global float *restrict out_positions, const uint vertex_count
 
 /* The bodies of skin_b* and skin_normals_b*: BLEND reads PALETTE, VERTEX(k) is the k-th
  * vertex of this work-item. */
-#define SKIN_POSITIONS_BODY(B, BLEND, PALETTE, VERTEX)                                       \
-  if (VERTEX(0) >= vertex_count) return;                                                     \
-  const uint last = vertex_count - 1;                                                        \
-  _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                      \
-    const uint raw = VERTEX(k), v = min(raw, last);                                          \
-    const Blended m = BLEND(PALETTE, joints, weights, v, B);                                 \
-    if (SKIN_KEEP(raw, vertex_count)) StorePosition(m, positions, out_positions, v);         \
+#define SKIN_POSITIONS_BODY(B, BLEND, PALETTE, VERTEX)                                     \
+  if (VERTEX(0) >= vertex_count) return;                                                   \
+  const uint last = vertex_count - 1;                                                      \
+  _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                    \
+    const uint raw = VERTEX(k), v = min(raw, last);                                        \
+    const Blended m = BLEND(PALETTE, joints, weights, v, B);                               \
+    if (SKIN_KEEP(raw, vertex_count)) StorePosition(m, positions, out_positions, v);       \
   }
 
-#define SKIN_NORMALS_BODY(B, BLEND, PALETTE, VERTEX)                                         \
-  const uint r0 = VERTEX(0), r1 = VERTEX(1), r2 = VERTEX(2), r3 = VERTEX(3);                 \
-  if (r0 >= vertex_count) return;                                                            \
-  const uint last = vertex_count - 1;                                                        \
-  const uint v0 = r0, v1 = min(r1, last), v2 = min(r2, last), v3 = min(r3, last);            \
-  const Blended m0 = BLEND(PALETTE, joints, weights, v0, B);                                 \
-  const Blended m1 = BLEND(PALETTE, joints, weights, v1, B);                                 \
-  const Blended m2 = BLEND(PALETTE, joints, weights, v2, B);                                 \
-  const Blended m3 = BLEND(PALETTE, joints, weights, v3, B);                                 \
-  const float3 t0 = TransformNormal(m0, normals, v0), t1 = TransformNormal(m1, normals, v1), \
-               t2 = TransformNormal(m2, normals, v2), t3 = TransformNormal(m3, normals, v3); \
-  const float4 inverse_length =                                                              \
-      rsqrt((float4)(SquaredLength(t0), SquaredLength(t1), SquaredLength(t2),                \
-                     SquaredLength(t3)));                                                    \
-  StorePosition(m0, positions, out_positions, v0);                                           \
-  vstore3(t0 * inverse_length.s0, v0, out_normals);                                          \
-  if (SKIN_KEEP(r1, vertex_count)) {                                                         \
-    StorePosition(m1, positions, out_positions, v1);                                         \
-    vstore3(t1 * inverse_length.s1, v1, out_normals);                                        \
-  }                                                                                          \
-  if (SKIN_KEEP(r2, vertex_count)) {                                                         \
-    StorePosition(m2, positions, out_positions, v2);                                         \
-    vstore3(t2 * inverse_length.s2, v2, out_normals);                                        \
-  }                                                                                          \
-  if (SKIN_KEEP(r3, vertex_count)) {                                                         \
-    StorePosition(m3, positions, out_positions, v3);                                         \
-    vstore3(t3 * inverse_length.s3, v3, out_normals);                                        \
+#define SKIN_NORMALS_BODY(B, BLEND, PALETTE, VERTEX)                                          \
+  const uint r0 = VERTEX(0), r1 = VERTEX(1), r2 = VERTEX(2), r3 = VERTEX(3);                  \
+  if (r0 >= vertex_count) return;                                                             \
+  const uint last = vertex_count - 1;                                                         \
+  const uint v0 = r0, v1 = min(r1, last), v2 = min(r2, last), v3 = min(r3, last);             \
+  const Blended m0 = BLEND(PALETTE, joints, weights, v0, B);                                  \
+  const Blended m1 = BLEND(PALETTE, joints, weights, v1, B);                                  \
+  const Blended m2 = BLEND(PALETTE, joints, weights, v2, B);                                  \
+  const Blended m3 = BLEND(PALETTE, joints, weights, v3, B);                                  \
+  const float3 t0 = TransformNormal(m0, normals, v0), t1 = TransformNormal(m1, normals, v1),  \
+               t2 = TransformNormal(m2, normals, v2), t3 = TransformNormal(m3, normals, v3);  \
+  const float4 inverse_length =                                                               \
+      rsqrt((float4)(SquaredLength(t0), SquaredLength(t1), SquaredLength(t2),                 \
+                     SquaredLength(t3)));                                                     \
+  StorePosition(m0, positions, out_positions, v0);                                            \
+  vstore3(t0 * inverse_length.s0, v0, out_normals);                                           \
+  if (SKIN_KEEP(r1, vertex_count)) {                                                          \
+    StorePosition(m1, positions, out_positions, v1);                                          \
+    vstore3(t1 * inverse_length.s1, v1, out_normals);                                         \
+  }                                                                                           \
+  if (SKIN_KEEP(r2, vertex_count)) {                                                          \
+    StorePosition(m2, positions, out_positions, v2);                                          \
+    vstore3(t2 * inverse_length.s2, v2, out_normals);                                         \
+  }                                                                                           \
+  if (SKIN_KEEP(r3, vertex_count)) {                                                          \
+    StorePosition(m3, positions, out_positions, v3);                                          \
+    vstore3(t3 * inverse_length.s3, v3, out_normals);                                         \
   }
 
-#define DEFINE_SKIN_KERNELS(B)                                                               \
-  __kernel void skin_b##B(SKIN_ARGS) {                                                       \
-    SKIN_POSITIONS_BODY(B, BlendPalette, palette, SKIN_VERTEX)                               \
-  }                                                                                          \
-  __kernel void skin_normals_b##B(SKIN_ARGS, const __global float* restrict normals,         \
-                                  __global float* restrict out_normals) {                    \
-    SKIN_NORMALS_BODY(B, BlendPalette, palette, SKIN_VERTEX)                                 \
+#define DEFINE_SKIN_KERNELS(B)                                                             \
+  __kernel void skin_b##B(SKIN_ARGS) {                                                     \
+    SKIN_POSITIONS_BODY(B, BlendPalette, palette, SKIN_VERTEX)                             \
+  }                                                                                        \
+  __kernel void skin_normals_b##B(SKIN_ARGS, const __global float* restrict normals,       \
+                                  __global float* restrict out_normals) {                  \
+    SKIN_NORMALS_BODY(B, BlendPalette, palette, SKIN_VERTEX)                               \
   }
 
 #if SKIN_LOCAL_PALETTE
@@ -180,31 +180,31 @@ static inline void StagePalette(const __global float* restrict palette,
 
 /* The first vertex of tile `tile` of this work-group; the global offset (a multiple of a
  * group, in items) starts a chunk of a frame, as for SKIN_VERTEX. */
-#define SKIN_TILE_BASE(tile)                                                                 \
-  (((uint)get_global_offset(0) + (uint)get_group_id(0) * SKIN_LOCAL_TILES *                  \
-                                     (uint)get_local_size(0)) * SKIN_VERTICES_PER_ITEM +     \
+#define SKIN_TILE_BASE(tile)                                                               \
+  (((uint)get_global_offset(0) + (uint)get_group_id(0) * SKIN_LOCAL_TILES *                \
+                                     (uint)get_local_size(0)) * SKIN_VERTICES_PER_ITEM +   \
    (uint)(tile) * (SKIN_VERTICES_PER_ITEM * SKIN_ITEMS_PER_GROUP))
 #define SKIN_TILE_VERTEX(k) (tile_base + (uint)(k) * SKIN_ITEMS_PER_GROUP + (uint)get_local_id(0))
 #define SKIN_LOCAL_ARGS __local float *restrict staged, const uint palette_floats
 
 /* Tiles ascend: an item whose first vertex of a tile is past the end returns (the body's
  * `return`), and so would it for every later tile. */
-#define DEFINE_LOCAL_SKIN_KERNELS(B)                                                         \
-  __kernel void skin_local_b##B(SKIN_ARGS, SKIN_LOCAL_ARGS) {                                \
-    StagePalette(palette, staged, palette_floats);                                           \
-    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                   \
-      const uint tile_base = SKIN_TILE_BASE(tile);                                           \
-      SKIN_POSITIONS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX)                    \
-    }                                                                                        \
-  }                                                                                          \
-  __kernel void skin_normals_local_b##B(SKIN_ARGS, const __global float* restrict normals,   \
-                                        __global float* restrict out_normals,                \
-                                        SKIN_LOCAL_ARGS) {                                   \
-    StagePalette(palette, staged, palette_floats);                                           \
-    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                   \
-      const uint tile_base = SKIN_TILE_BASE(tile);                                           \
-      SKIN_NORMALS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX)                      \
-    }                                                                                        \
+#define DEFINE_LOCAL_SKIN_KERNELS(B)                                                        \
+  __kernel void skin_local_b##B(SKIN_ARGS, SKIN_LOCAL_ARGS) {                               \
+    StagePalette(palette, staged, palette_floats);                                          \
+    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                  \
+      const uint tile_base = SKIN_TILE_BASE(tile);                                          \
+      SKIN_POSITIONS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX)                   \
+    }                                                                                       \
+  }                                                                                         \
+  __kernel void skin_normals_local_b##B(SKIN_ARGS, const __global float* restrict normals,  \
+                                        __global float* restrict out_normals,               \
+                                        SKIN_LOCAL_ARGS) {                                  \
+    StagePalette(palette, staged, palette_floats);                                          \
+    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                  \
+      const uint tile_base = SKIN_TILE_BASE(tile);                                          \
+      SKIN_NORMALS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX)                     \
+    }                                                                                       \
   }
 #else
 #define DEFINE_LOCAL_SKIN_KERNELS(B)

@@ -122,8 +122,7 @@ TEST(OpenClRuntimeTest, LocalPaletteWhereTheCoalescedPathsPaletteFits) {
   const OpenClRuntime& coalesced = **runtime;
   EXPECT_TRUE(coalesced.coalesced());
   ASSERT_TRUE(coalesced.local_palette());
-  EXPECT_EQ(coalesced.local_palette_bytes(), kCoalescedLocalPaletteBytes)
-      << "the kernels use no local memory of their own";
+  EXPECT_EQ(coalesced.local_palette_bytes(), kCoalescedLocalPaletteBytes);
   EXPECT_EQ(coalesced.local_tiles(), kCoalescedLocalTiles);
   EXPECT_NE(OpenClBackend("opencl-coalesced").info().description.find("staged in local memory"),
             std::string::npos);

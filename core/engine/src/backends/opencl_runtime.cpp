@@ -302,7 +302,8 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
   runtime->staging_ = !runtime->is_cpu_ || options.force_staging;
   runtime->coalesced_ = !runtime->is_cpu_ || options.force_coalesced;
   // The local-palette kernels: on the coalesced path, unless turned off, up to the
-  // device's local memory (or the caller's smaller limit); refined once the kernels exist.
+  // device's local memory, less what the kernels use themselves, and at most the caller's
+  // limit (both applied once the kernels exist).
   if (runtime->coalesced_ && options.local_palette == OpenClRuntimeOptions::LocalPalette::kAuto) {
     cl_ulong local_bytes = 0;
     if (Status s = DeviceUint(picked->device, CL_DEVICE_LOCAL_MEM_SIZE,
@@ -311,10 +312,6 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
       return s;
     }
     runtime->local_palette_bytes_ = static_cast<std::size_t>(local_bytes);
-    if (options.local_palette_max_bytes > 0) {
-      runtime->local_palette_bytes_ =
-          std::min(runtime->local_palette_bytes_, options.local_palette_max_bytes);
-    }
   }
   runtime->local_tiles_ = options.local_tiles;
   if (const char* tiles = std::getenv("SKINSERVE_OPENCL_LOCAL_TILES");
@@ -367,6 +364,10 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
       }
     }
     runtime->local_palette_bytes_ -= std::min<std::size_t>(runtime->local_palette_bytes_, own);
+    if (options.local_palette_max_bytes > 0) {
+      runtime->local_palette_bytes_ =
+          std::min(runtime->local_palette_bytes_, options.local_palette_max_bytes);
+    }
   }
   if (Status s = runtime->Warm(); !s.ok()) return s;
   return runtime;

@@ -162,10 +162,10 @@ struct OpenClRuntimeOptions {
   // coalesced) never stages: there local memory is ordinary memory.
   enum class LocalPalette { kAuto, kOff };
   LocalPalette local_palette = LocalPalette::kAuto;
-  // The most palette bytes a work-group stages: 0 is the device's CL_DEVICE_LOCAL_MEM_SIZE
-  // less what the kernels use themselves; tests set less, to take the global kernels with
-  // larger palettes. A frame whose palette (12 floats per joint linear, 8 dual quaternion)
-  // is larger runs the global kernels.
+  // The most palette bytes a work-group stages: the device's CL_DEVICE_LOCAL_MEM_SIZE less
+  // what the kernels use themselves, and at most this when it is not 0 (tests set less,
+  // to take the global kernels with larger palettes). A frame whose palette (12 floats per joint
+  // linear, 8 dual quaternion) is larger runs the global kernels.
   std::size_t local_palette_max_bytes = 0;
   // Tiles of 256 vertices a work-group skins after one copy of the palette (0:
   // SKINSERVE_OPENCL_LOCAL_TILES if set, else kDefaultLocalTiles).
