@@ -15,6 +15,7 @@ v1::MeshInfo ToWire(const MeshInfo& info) {
   wire.set_normalized_vertices(info.normalized_vertices);
   wire.set_already_stored(info.already_stored);
   wire.set_morph_target_count(info.morph_target_count);
+  wire.set_rest_encoding(ToWire(info.rest_encoding));
   return wire;
 }
 
@@ -30,6 +31,7 @@ v1::BackendInfo ToWire(const BackendInfo& info) {
   wire.set_threads(info.threads);
   for (SkinningMethod method : info.methods) wire.add_methods(ToWire(method));
   wire.set_morph_targets(info.morph_targets);
+  wire.set_quantized_rest(info.quantized_rest);
   return wire;
 }
 

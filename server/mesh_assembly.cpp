@@ -1,5 +1,7 @@
 #include "mesh_assembly.h"
 
+#include "skinserve/wire/conversions.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -20,16 +22,19 @@ Status MeshAssembly::Accept(const v1::UploadMeshRequest& message) {
 
 Status MeshAssembly::AcceptHeader(const v1::MeshHeader& header) {
   if (have_header_) return InvalidArgument("header sent twice; send it once, first");
+  const Result<RestEncoding> rest_encoding = wire::FromWire(header.rest_encoding());
+  if (!rest_encoding.ok()) return rest_encoding.status();
   const std::span<const uint32_t> morph_sizes(header.morph_target_sizes().data(),
                                               header.morph_target_sizes().size());
-  if (Status s =
-          engine_->CheckMeshShape(header.vertex_count(), header.influences(), header.joint_count(),
-                                  header.has_normals(), morph_sizes, header.morph_normals());
+  if (Status s = engine_->CheckMeshShape(header.vertex_count(), header.influences(),
+                                         header.joint_count(), header.has_normals(), morph_sizes,
+                                         header.morph_normals(), *rest_encoding);
       !s.ok()) {
     return s;
   }
   have_header_ = true;
   normalize_weights_ = header.weight_policy() == v1::WEIGHT_POLICY_NORMALIZE;
+  rest_encoding_ = *rest_encoding;
   const uint64_t v = header.vertex_count(), b = header.influences();
   arrays_.vertex_count = header.vertex_count();
   arrays_.influences = header.influences();
@@ -155,7 +160,8 @@ Result<MeshInfo> MeshAssembly::Store() {
   // The engine copies the arrays into the mesh store (its own budget); ours are freed
   // right after, so an upload's peak is its arrays plus the stored mesh, once.
   return engine_->AddMesh(arrays_,
-                          normalize_weights_ ? WeightPolicy::kNormalize : WeightPolicy::kReject);
+                          normalize_weights_ ? WeightPolicy::kNormalize : WeightPolicy::kReject,
+                          rest_encoding_);
 }
 
 void MeshAssembly::Discard() {

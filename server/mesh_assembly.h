@@ -55,6 +55,7 @@ class MeshAssembly {
   InflightBudget* budget_;
   bool have_header_ = false;
   bool normalize_weights_ = false;
+  RestEncoding rest_encoding_ = RestEncoding::kFloat32;
   MeshArrays arrays_;
   static constexpr int kArrays = 8;  // MeshArray numbers, 0 unused
   uint64_t declared_[kArrays] = {};  // values the header implies, by MeshArray number

@@ -34,6 +34,7 @@ MeshInfo DescribeMesh(const Mesh& mesh) {
   info.bytes = mesh.byte_size();
   info.normalized_vertices = mesh.normalized_vertices();
   info.morph_target_count = mesh.morph_target_count();
+  info.rest_encoding = mesh.rest_encoding();
   return info;
 }
 
@@ -396,7 +397,7 @@ std::vector<BackendInfo> Engine::Backends() const {
 
 Status Engine::CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
                               bool has_normals, std::span<const uint32_t> morph_target_sizes,
-                              bool morph_normals) const {
+                              bool morph_normals, RestEncoding rest_encoding) const {
   const MeshLimits& limits = impl_->options_.mesh.limits;
   if (Status s = CheckMeshHeader(vertex_count, influences, joint_count, limits); !s.ok()) {
     return s;
@@ -406,22 +407,26 @@ Status Engine::CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64
       !s.ok()) {
     return s;
   }
+  if (Status s = CheckRestEncoding(rest_encoding, morph_target_sizes.size()); !s.ok()) return s;
   uint64_t deltas = 0;
   for (uint32_t size : morph_target_sizes) deltas += size;
   return impl_->store_.CheckFits(MeshByteSize(vertex_count, influences, has_normals,
-                                              morph_target_sizes.size(), deltas, morph_normals));
+                                              morph_target_sizes.size(), deltas, morph_normals,
+                                              rest_encoding, joint_count));
 }
 
 Result<MeshInfo> Engine::AddMesh(const MeshArrays& arrays,
-                                 std::optional<WeightPolicy> weight_policy) {
+                                 std::optional<WeightPolicy> weight_policy,
+                                 RestEncoding rest_encoding) {
   if (Status s = CheckMeshShape(arrays.vertex_count, arrays.influences, arrays.joint_count,
                                 !arrays.normals.empty(), arrays.morph_target_sizes,
-                                !arrays.morph_normal_deltas.empty());
+                                !arrays.morph_normal_deltas.empty(), rest_encoding);
       !s.ok()) {
     return s;
   }
   MeshOptions mesh_options = impl_->options_.mesh;
   if (weight_policy) mesh_options.weight_policy = *weight_policy;
+  mesh_options.rest_encoding = rest_encoding;
   auto mesh = Mesh::Create(arrays, mesh_options);
   if (!mesh.ok()) return mesh.status();
   bool already_stored = false;
@@ -455,6 +460,7 @@ Status Engine::GetMesh(const std::string& id, MeshInfo* info) const {
   info->bytes = mesh.byte_size();
   info->normalized_vertices = mesh.normalized_vertices();
   info->morph_target_count = mesh.morph_target_count();
+  info->rest_encoding = mesh.rest_encoding();
   info->already_stored = true;
   return Status::Ok();
 }

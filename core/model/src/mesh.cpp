@@ -45,6 +45,10 @@ std::string ContentId(const Mesh& mesh) {
   add(mesh.normals());
   add(mesh.joints());
   add(mesh.weights());
+  if (mesh.rest_encoding() != RestEncoding::kFloat32) {  // float meshes keep their ids
+    const uint32_t encoding = static_cast<uint32_t>(mesh.rest_encoding());
+    EVP_DigestUpdate(ctx, &encoding, sizeof(encoding));
+  }
   if (mesh.morph_target_count() > 0) {  // meshes without targets keep their ids
     const uint32_t morph_header[2] = {mesh.morph_target_count(),
                                       mesh.has_morph_normals() ? 1u : 0u};
@@ -192,18 +196,31 @@ Status CheckMeshHeader(uint64_t vertex_count, uint64_t influences, uint64_t join
   return Status::Ok();
 }
 
+Status CheckRestEncoding(RestEncoding encoding, uint64_t morph_targets) {
+  if (encoding != RestEncoding::kFloat32 && morph_targets > 0) {
+    return InvalidArgument(fmt::format(
+        "rest_encoding {} with {} morph targets: a quantized rest stream carries no morph "
+        "targets (their deltas add to the float rest arrays); upload it as float32",
+        RestEncodingName(encoding), morph_targets));
+  }
+  return Status::Ok();
+}
+
 uint64_t MeshByteSize(uint64_t vertex_count, uint64_t influences, bool has_normals,
-                      uint64_t morph_targets, uint64_t morph_deltas, bool morph_normals) {
+                      uint64_t morph_targets, uint64_t morph_deltas, bool morph_normals,
+                      RestEncoding rest_encoding, uint64_t joint_count) {
   const uint64_t per_vertex =
       3 * sizeof(float) * (has_normals ? 2 : 1) + influences * (sizeof(uint16_t) + sizeof(float));
   const uint64_t per_delta = sizeof(uint32_t) + 3 * sizeof(float) * (morph_normals ? 2 : 1);
   const uint64_t offsets = morph_targets > 0 ? (morph_targets + 1) * sizeof(uint32_t) : 0;
-  return vertex_count * per_vertex + morph_deltas * per_delta + offsets;
+  const uint64_t quantized =
+      QuantizedRestBytesPerVertex(rest_encoding, influences, joint_count, has_normals);
+  return vertex_count * (per_vertex + quantized) + morph_deltas * per_delta + offsets;
 }
 
 uint64_t Mesh::byte_size() const {
   return MeshByteSize(vertex_count_, influences_, has_normals(), morph_target_count_,
-                      morph_indices_.size(), has_morph_normals());
+                      morph_indices_.size(), has_morph_normals(), rest_encoding(), joint_count_);
 }
 
 Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
@@ -253,6 +270,10 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
     }
   }
 
+  if (Status s = CheckRestEncoding(options.rest_encoding, arrays.morph_target_sizes.size());
+      !s.ok()) {
+    return s;
+  }
   uint64_t deltas = 0;
   for (uint32_t size : arrays.morph_target_sizes) deltas += size;
   if (Status s = CheckMorphArrays(arrays, deltas); !s.ok()) return s;
@@ -307,6 +328,11 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
         AlignedBuffer<float>(std::span<const float>(arrays.morph_position_deltas));
     mesh->morph_normal_deltas_ =
         AlignedBuffer<float>(std::span<const float>(arrays.morph_normal_deltas));
+  }
+  if (options.rest_encoding != RestEncoding::kFloat32) {
+    mesh->quantized_ = Quantize(options.rest_encoding, mesh->vertex_count_, mesh->influences_,
+                                mesh->joint_count_, mesh->positions_.span(), mesh->normals_.span(),
+                                mesh->joints_.span(), mesh->weights_.span());
   }
   mesh->id_ = ContentId(*mesh);
   return std::shared_ptr<const Mesh>(std::move(mesh));

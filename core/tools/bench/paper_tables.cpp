@@ -6,6 +6,7 @@
 #include <set>
 #include <sstream>
 
+#include "skinserve/model/quantized_rest.h"
 #include "workload_cache.h"
 
 namespace skinserve::bench {
@@ -154,6 +155,47 @@ void PaperTablesReporter::PrintDeviceBounds() const {
                rate / 1e6, 100 * rate * 12 / d2h, kernel_rate / 1e6,
                100 * kernel_rate * BytesPerVertex(b, false) / copy,
                kind == "BM_SkinStreams" ? "  (streams)" : "");
+  }
+}
+
+void PaperTablesReporter::PrintQuantizedShares() const {
+  const auto stream_of = [](const std::string& kind) {
+    if (kind.find("QuantizedWeights8") != std::string::npos)
+      return RestEncoding::kQuantized8Weights;
+    if (kind.find("Quantized") != std::string::npos) return RestEncoding::kQuantized16;
+    return RestEncoding::kFloat32;
+  };
+  bool header = false;
+  for (const auto& [key, rate] : rates_) {
+    const auto& [kind, backend, vertices, bones] = key;
+    const RestEncoding rest = stream_of(kind);
+    if (rest == RestEncoding::kFloat32) continue;
+    const bool normals = kind.rfind("BM_SkinNormals", 0) == 0;
+    if (!header) {
+      fmt::print(
+          "\nQuantized rest stream (medians when repeated; memory bound: BM_MemoryBandwidth's "
+          "best, {:.1f} GB/s; float rows at the simd float stream's bytes):\n{:<34} {:>16} {:>10} "
+          "{:>3} {:>10} {:>6} {:>7} {:>9}\n",
+          bandwidth_bytes_per_second_ / 1e9, "row", "backend", "vertices", "B", "M vert/s", "B/vtx",
+          "% bound", "x float");
+      header = true;
+    }
+    const auto row = [&](const std::string& name, RestEncoding encoding, double vertices_per_s,
+                         double over_float) {
+      const double bytes = StreamedBytesPerVertex(encoding, bones, kPaperJoints, normals);
+      const double share = bandwidth_bytes_per_second_ > 0
+                               ? 100 * vertices_per_s * bytes / bandwidth_bytes_per_second_
+                               : 0;
+      fmt::print("{:<34} {:>16} {:>10} {:>3} {:>10.1f} {:>6.0f} {:>6.0f}% {:>9}\n", name, backend,
+                 vertices, bones, vertices_per_s / 1e6, bytes, share,
+                 over_float > 0 ? fmt::format("{:.2f}x", over_float) : "");
+    };
+    const std::string float_kind = normals ? "BM_SkinNormals" : "BM_Skin";
+    const auto float_rate = rates_.find({float_kind, backend, vertices, bones});
+    if (float_rate != rates_.end() && rest == RestEncoding::kQuantized16) {
+      row(float_kind, RestEncoding::kFloat32, float_rate->second, 0);
+    }
+    row(kind, rest, rate, float_rate != rates_.end() ? rate / float_rate->second : 0);
   }
 }
 

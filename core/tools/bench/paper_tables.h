@@ -20,6 +20,9 @@ class PaperTablesReporter : public benchmark::ConsoleReporter {
   // The OpenCL rates (transfers included, and kernel only) as shares of the device's
   // bounds, when the device bandwidth benchmarks ran.
   void PrintDeviceBounds() const;
+  // BM_Skin[Normals]Quantized* rows: bytes per vertex streamed, share of the memory bound
+  // (BM_MemoryBandwidth's best repetition) and speed over the float row of the same backend.
+  void PrintQuantizedShares() const;
 
  private:
   // (kind "BM_Skin" or "BM_SkinNormals", backend, vertices, bones) -> vertices per second

@@ -16,11 +16,16 @@
 // --opencl-global-palette: `opencl` once more, from a second runtime whose kernels read the
 // palette from global memory (rows .../opencl-global/...), beside `opencl`'s own rows, which
 // on a GPU stage it in work-group local memory: the two kernels compared in one run.
+// --quantized: also BM_SkinQuantized/<backend>/<vertices>/<bones> (and
+// BM_SkinQuantizedWeights8) for the backends that read a quantized rest stream
+// (RestEncoding quantized16, quantized8-weights), the same mesh stored quantized, beside the
+// float rows; after the run, each quantized row's bytes per vertex, its share of
+// BM_MemoryBandwidth's bound and its speed over the float row (issue 29).
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
 // transfer_ns, kernel_vertices_per_second and kernel_bytes_per_second (kernel only,
-// BytesPerVertex each); and the device's bounds are measured in the same run:
+// bytes_per_vertex each); and the device's bounds are measured in the same run:
 // BM_PcieHostToDevice, BM_PcieDeviceToHost (pinned memory) and BM_DeviceMemoryCopy (device
 // to device, read + write). kernel_bytes_per_second over BM_DeviceMemoryCopy's
 // bytes_per_second is the kernel's share of the device copy bound, which the console output
@@ -63,6 +68,7 @@ struct Options {
   std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};
   bool morph = false;
   bool opencl_global_palette = false;
+  bool quantized = false;
 };
 
 template <typename T>
@@ -94,6 +100,8 @@ Options ParseOptions(int* argc, char** argv) {
       options.morph = true;
     } else if (arg == "--opencl-global-palette") {
       options.opencl_global_palette = true;
+    } else if (arg == "--quantized") {
+      options.quantized = true;
     } else if (arg == "--normals") {
       options.normals_in_tables = true;
     } else if (const char* list = value("--backends=")) {
@@ -127,11 +135,11 @@ WorkloadCache& Cache() {
 }
 
 void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
-                   bool normals, SkinningMethod method) {
-  const Workload& workload = Cache().Get(vertices, bones);
+                   bool normals, SkinningMethod method, RestEncoding rest) {
+  const Workload& workload = Cache().Get(vertices, bones, false, rest);
   const auto& palettes =
       method == SkinningMethod::kDualQuaternion ? workload.rigid_palettes : workload.palettes;
-  const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones);
+  const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones, false, rest);
   AlignedBuffer<float> positions(3ull * vertices), out_normals(normals ? 3ull * vertices : 0);
   std::size_t frame = state.thread_index();
   DeviceTiming device, total;
@@ -154,8 +162,12 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
   state.counters["vertices_per_second"] =
       benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
-  state.SetBytesProcessed(
-      static_cast<int64_t>(state.iterations() * vertices * BytesPerVertex(bones, normals)));
+  // Quantized rows: what the rest stream really moves (quantized_rest.h).
+  const double bytes = rest == RestEncoding::kFloat32
+                           ? BytesPerVertex(bones, normals)
+                           : StreamedBytesPerVertex(rest, bones, kPaperJoints, normals);
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * vertices * bytes));
+  state.counters["bytes_per_vertex"] = bytes;
   if (total.kernel_ns > 0 && state.iterations() > 0) {
     const double frames = static_cast<double>(state.iterations());
     state.counters["kernel_ns"] = benchmark::Counter(static_cast<double>(total.kernel_ns) / frames,
@@ -165,8 +177,8 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
     const double kernel_rate = vertices * frames * 1e9 / static_cast<double>(total.kernel_ns);
     state.counters["kernel_vertices_per_second"] =
         benchmark::Counter(kernel_rate, benchmark::Counter::kAvgThreads);
-    state.counters["kernel_bytes_per_second"] = benchmark::Counter(
-        kernel_rate * BytesPerVertex(bones, normals), benchmark::Counter::kAvgThreads);
+    state.counters["kernel_bytes_per_second"] =
+        benchmark::Counter(kernel_rate * bytes, benchmark::Counter::kAvgThreads);
   }
 }
 
@@ -370,7 +382,29 @@ int main(int argc, char** argv) {
                 fmt::format("{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin",
                             dqs ? "DualQuaternion" : "", id, v, b);
             benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend, v, b, normals,
-                                         method)
+                                         method, RestEncoding::kFloat32)
+                ->UseRealTime()
+                ->Unit(benchmark::kMicrosecond);
+          }
+        }
+      }
+    }
+  }
+  for (bool normals : {false, true}) {
+    if (!options.quantized) break;
+    for (uint32_t v : options.vertices) {
+      for (uint32_t b : options.bones) {
+        for (const auto& backend : backends) {
+          if (std::count(measured.begin(), measured.end(), backend->info().id) == 0) continue;
+          if (!backend->info().quantized_rest) continue;
+          for (auto [kind, rest] :
+               {std::pair{"Quantized", RestEncoding::kQuantized16},
+                std::pair{"QuantizedWeights8", RestEncoding::kQuantized8Weights}}) {
+            const std::string name =
+                fmt::format("{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", kind,
+                            backend->info().id, v, b);
+            benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
+                                         SkinningMethod::kLinear, rest)
                 ->UseRealTime()
                 ->Unit(benchmark::kMicrosecond);
           }
@@ -408,7 +442,7 @@ int main(int argc, char** argv) {
           if (id.rfind("opencl", 0) != 0) continue;
           const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
           benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend, v, b, false,
-                                       SkinningMethod::kLinear)
+                                       SkinningMethod::kLinear, RestEncoding::kFloat32)
               ->Threads(options.streams)
               ->UseRealTime()
               ->Unit(benchmark::kMicrosecond);
@@ -486,6 +520,7 @@ int main(int argc, char** argv) {
   for (const auto& row : rows) tabled.push_back(row.first);
   if (options.paper_tables) reporter.PrintTables(tabled);
   reporter.PrintDeviceBounds();
+  if (options.quantized) reporter.PrintQuantizedShares();
   benchmark::Shutdown();
   return 0;
 }

@@ -7,9 +7,10 @@
 
 namespace skinserve::bench {
 
-const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph) {
+const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph,
+                                   RestEncoding rest) {
   std::lock_guard lock(mutex_);
-  auto [it, inserted] = workloads_.try_emplace({vertices, bones, morph});
+  auto [it, inserted] = workloads_.try_emplace({vertices, bones, morph, rest});
   if (inserted) {
     MeshArrays arrays = MakeSyntheticMesh({.vertex_count = vertices,
                                            .influences = bones,
@@ -21,7 +22,7 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph
           {.targets = kMorphTargets, .fraction = kMorphFraction, .seed = vertices * 10ull + bones},
           &arrays);
     }
-    auto mesh = Mesh::Create(arrays);
+    auto mesh = Mesh::Create(arrays, {.rest_encoding = rest});
     if (!mesh.ok()) throw std::runtime_error(mesh.status().ToString());
     it->second.mesh = *mesh;
     for (int frame = 0; frame < kPalettesPerWorkload; ++frame) {
@@ -33,10 +34,10 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph
 }
 
 const PreparedMesh& WorkloadCache::Prepared(Backend& backend, uint32_t vertices, uint32_t bones,
-                                            bool morph) {
-  const Workload& workload = Get(vertices, bones, morph);
+                                            bool morph, RestEncoding rest) {
+  const Workload& workload = Get(vertices, bones, morph, rest);
   std::lock_guard lock(mutex_);
-  auto& slot = prepared_[{&backend, vertices, bones, morph}];
+  auto& slot = prepared_[{&backend, vertices, bones, morph, rest}];
   if (!slot) {
     auto prepared = backend.Prepare(workload.mesh);
     if (!prepared.ok()) throw std::runtime_error(prepared.status().ToString());

@@ -29,15 +29,19 @@ struct Workload {
 
 class WorkloadCache {
  public:
-  // `morph`: the same synthetic mesh with kMorphTargets targets.
-  const Workload& Get(uint32_t vertices, uint32_t bones, bool morph = false);
+  // `morph`: the same synthetic mesh with kMorphTargets targets; `rest`: stored with that
+  // rest encoding (quantized: BM_SkinQuantized).
+  const Workload& Get(uint32_t vertices, uint32_t bones, bool morph = false,
+                      RestEncoding rest = RestEncoding::kFloat32);
   const PreparedMesh& Prepared(Backend& backend, uint32_t vertices, uint32_t bones,
-                               bool morph = false);
+                               bool morph = false, RestEncoding rest = RestEncoding::kFloat32);
 
  private:
   std::mutex mutex_;
-  std::map<std::tuple<uint32_t, uint32_t, bool>, Workload> workloads_;
-  std::map<std::tuple<Backend*, uint32_t, uint32_t, bool>, std::unique_ptr<PreparedMesh>> prepared_;
+  std::map<std::tuple<uint32_t, uint32_t, bool, RestEncoding>, Workload> workloads_;
+  std::map<std::tuple<Backend*, uint32_t, uint32_t, bool, RestEncoding>,
+           std::unique_ptr<PreparedMesh>>
+      prepared_;
 };
 
 // Bytes one frame moves through memory: per influence a uint16 joint and a float weight,

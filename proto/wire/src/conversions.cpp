@@ -109,6 +109,34 @@ v1::SkinningMethod ToWire(SkinningMethod method) {
                                                    : v1::SKINNING_METHOD_LINEAR;
 }
 
+Result<RestEncoding> FromWire(v1::RestEncoding encoding) {
+  switch (encoding) {
+    case v1::REST_ENCODING_FLOAT32:
+      return RestEncoding::kFloat32;
+    case v1::REST_ENCODING_QUANTIZED16:
+      return RestEncoding::kQuantized16;
+    case v1::REST_ENCODING_QUANTIZED8_WEIGHTS:
+      return RestEncoding::kQuantized8Weights;
+    default:
+      return InvalidArgument(
+          fmt::format("header.rest_encoding = {} is unknown; known: 0 (float32), 1 (quantized16), "
+                      "2 (quantized8-weights)",
+                      static_cast<int>(encoding)));
+  }
+}
+
+v1::RestEncoding ToWire(RestEncoding encoding) {
+  switch (encoding) {
+    case RestEncoding::kQuantized16:
+      return v1::REST_ENCODING_QUANTIZED16;
+    case RestEncoding::kQuantized8Weights:
+      return v1::REST_ENCODING_QUANTIZED8_WEIGHTS;
+    case RestEncoding::kFloat32:
+      break;
+  }
+  return v1::REST_ENCODING_FLOAT32;
+}
+
 Result<VertexEncoding> FromWire(v1::Encoding encoding) {
   // The wire's values are the encodings' own (EncodingDescription, in their order).
   const auto value = static_cast<VertexEncoding>(encoding);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <new>
+#include <optional>
 
 #include "backend_factories.h"
 #include "cpu_model.h"
@@ -18,11 +19,24 @@ namespace skinserve {
 namespace {
 
 // The mesh in the kernel's stream (simd_stream.h): positions and normals are the mesh's
-// own arrays; joints (8-bit when they fit) and the first B - 1 weights are copies.
+// own arrays; joints (8-bit when they fit) and the first B - 1 weights are copies. A mesh
+// with a quantized rest stream is read in place, nothing copied.
 class SimdPreparedMesh final : public PreparedMesh {
  public:
   explicit SimdPreparedMesh(std::shared_ptr<const Mesh> mesh) : PreparedMesh(std::move(mesh)) {
     const Mesh& m = this->mesh();
+    if (const QuantizedRest* q = m.quantized_rest()) {
+      quantized_ = simd::QuantizedStream{
+          .influences = m.influences(),
+          .positions = q->positions.data(),
+          .normals = q->normals.empty() ? nullptr : q->normals.data(),
+          .joints8 = q->joints8.empty() ? nullptr : q->joints8.data(),
+          .joints16 = q->joints16.empty() ? nullptr : q->joints16.data(),
+          .weights8 = q->weights8.empty() ? nullptr : q->weights8.data(),
+          .weights16 = q->weights16.empty() ? nullptr : q->weights16.data(),
+          .normal_scale = {1.0f / q->scale[0], 1.0f / q->scale[1], 1.0f / q->scale[2]}};
+      return;
+    }
     const uint32_t b = m.influences();
     stream_.influences = b;
     stream_.positions = m.positions().data();
@@ -45,8 +59,11 @@ class SimdPreparedMesh final : public PreparedMesh {
     }
   }
   const simd::VertexStream& stream() const { return stream_; }
+  // Null for a float mesh.
+  const simd::QuantizedStream* quantized() const { return quantized_ ? &*quantized_ : nullptr; }
 
  private:
+  std::optional<simd::QuantizedStream> quantized_;
   AlignedBuffer<uint8_t> joints8_;
   AlignedBuffer<float> weights_;
   simd::VertexStream stream_;
@@ -68,6 +85,32 @@ const float* ColumnPalette(std::span<const float> palette) {
       out[4 * c] = rows[c], out[4 * c + 1] = rows[4 + c], out[4 * c + 2] = rows[8 + c];
       out[4 * c + 3] = 0.0f;
     }
+  }
+  return buffer.data();
+}
+
+// The same for a quantized rest stream: each joint's matrix times the box's decoding
+// (x = offset + scale * q per axis), so the loop multiplies the integers directly. In
+// float64, rounded once.
+const float* QuantizedColumnPalette(std::span<const float> palette, const QuantizedRest& rest) {
+  thread_local AlignedBuffer<float> buffer;
+  const std::size_t joints = palette.size() / 12;
+  if (buffer.size() < joints * simd::kFloatsPerJoint) {
+    buffer = AlignedBuffer<float>(joints * simd::kFloatsPerJoint);
+  }
+  for (std::size_t j = 0; j < joints; ++j) {
+    const float* rows = palette.data() + 12 * j;
+    float* out = buffer.data() + simd::kFloatsPerJoint * j;
+    for (int r = 0; r < 3; ++r) {
+      const float* row = rows + 4 * r;
+      double translation = row[3];
+      for (int c = 0; c < 3; ++c) {
+        out[4 * c + r] = static_cast<float>(double{row[c]} * rest.scale[c]);
+        translation += double{row[c]} * rest.offset[c];
+      }
+      out[12 + r] = static_cast<float>(translation);
+    }
+    out[3] = out[7] = out[11] = out[15] = 0.0f;
   }
   return buffer.data();
 }
@@ -108,10 +151,22 @@ class SimdBackend final : public Backend {
     }
   }
   Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) override {
-    const auto& stream = static_cast<const SimdPreparedMesh&>(prepared).stream();
+    const auto& simd_mesh = static_cast<const SimdPreparedMesh&>(prepared);
+    const auto& stream = simd_mesh.stream();
     float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
     try {
-      if (frame.method == SkinningMethod::kDualQuaternion) {
+      if (const simd::QuantizedStream* quantized = simd_mesh.quantized()) {
+        if (frame.method != SkinningMethod::kLinear) {
+          return FailedPrecondition(
+              info_.id + ": mesh " + prepared.mesh().id() +
+              " is stored with a quantized rest stream, which this backend skins with the "
+              "linear method only; skin it linear, or on a backend that reads the float values "
+              "it decodes to (serial, sse, ...), or upload it as float32");
+        }
+        const float* columns =
+            QuantizedColumnPalette(frame.palette, *prepared.mesh().quantized_rest());
+        RunQuantized(*quantized, prepared.mesh(), columns, frame, out_n);
+      } else if (frame.method == SkinningMethod::kDualQuaternion) {
         const DualQuaternionPalette quaternions(frame.palette);
         const simd::DualQuaternionFrame palette{
             .quaternions = quaternions.joint(0),
@@ -155,6 +210,20 @@ class SimdBackend final : public Backend {
     }
   }
 
+  // The same over a quantized rest stream (no morph targets: CheckRestEncoding).
+  void RunQuantized(const simd::QuantizedStream& stream, const Mesh& mesh, const float* columns,
+                    const SkinFrame& frame, float* out_n) {
+    const auto skin_range = [&](std::size_t first, std::size_t last) {
+      kernel_.skin_quantized_range(stream, columns, frame.positions.data(), out_n, first, last);
+    };
+    const int threads = FrameThreads(frame.threads, info_.threads);
+    if (threads <= 1) {
+      skin_range(0, mesh.vertex_count());
+    } else {
+      ParallelOverVertices(mesh.vertex_count(), threads, skin_range);
+    }
+  }
+
   BackendInfo info_;
   simd::Kernel kernel_;
 };
@@ -176,8 +245,9 @@ std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_t
                                       : "the Highway loop across threads with OpenMP",
                    .device = CpuModelName(),
                    .threads = std::max(threads, 1),
-                   .min_threads = 1,        // a parallel loop runs on as few threads as given
-                   .morph_targets = true};  // the morph stage feeds the kernel
+                   .min_threads = 1,       // a parallel loop runs on as few threads as given
+                   .morph_targets = true,  // the morph stage feeds the kernel
+                   .quantized_rest = true};
   simd::Kernel kernel;
   std::string error;
   if (!simd::SelectKernel(max_target, &kernel, &error)) {

@@ -10,6 +10,8 @@
 // overwritten by the next vertex, and the last vertex of a range goes through a local
 // copy so nothing outside the range is touched. Normals are renormalised a chunk at a
 // time, four vertices per step, while the chunk is still in L1.
+// The quantized rest stream takes the same loop, a 256-vertex chunk at a time decoded into
+// an L1 scratch (SkinQuantizedRangeT).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_kernel.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -21,6 +23,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 #include "backends/influence_dispatch.h"
 #include "backends/simd_stream.h"
@@ -278,6 +281,77 @@ void SkinRange(const VertexStream& stream, const float* columns, float* out_p, f
   });
 }
 
+// The quantized rest stream (QuantizedStream), a chunk at a time: its integers become
+// floats in a 256-vertex scratch on the stack (about 13 KB at most, in L1), by plain loops
+// the compiler vectorises for this target, and the chunk takes the float loop above. The
+// weights then reach the blend as broadcasts from L1, as in the float stream, instead of
+// a conversion and a register broadcast each per vertex (on x86 both of those compete
+// with the transform's lane permutes). Memory sees only the integers.
+template <int B, bool Normals, typename Joint, typename Weight>
+void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRICT joints,
+                         const Weight* HWY_RESTRICT weights, const float* HWY_RESTRICT columns,
+                         float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n, std::size_t first,
+                         std::size_t last) {
+  constexpr std::size_t kChunk = 256;
+  constexpr float kStep = 1.0f / static_cast<float>(hwy::LimitsMax<Weight>());
+  // 4 floats past each chunk's positions and normals: SkinVertex reads 4 of each.
+  alignas(64) float p[3 * kChunk + 4];
+  alignas(64) float n[Normals ? 3 * kChunk + 4 : 1];
+  alignas(64) float w[(B - 1) * kChunk + 1];
+  const float scale[3] = {stream.normal_scale[0], stream.normal_scale[1], stream.normal_scale[2]};
+  for (std::size_t chunk = first; chunk < last; chunk += kChunk) {
+    const std::size_t count = std::min(kChunk, last - chunk);
+    const uint16_t* HWY_RESTRICT qp = stream.positions + 3 * chunk;
+    for (std::size_t i = 0; i < 3 * count; ++i) p[i] = static_cast<float>(qp[i]);
+    if constexpr (Normals) {
+      const int16_t* HWY_RESTRICT qn = stream.normals + 3 * chunk;
+      for (std::size_t v = 0; v < count; ++v) {
+        for (int a = 0; a < 3; ++a) n[3 * v + a] = static_cast<float>(qn[3 * v + a]) * scale[a];
+      }
+    }
+    const Weight* HWY_RESTRICT qw = weights + (B - 1) * chunk;
+    for (std::size_t i = 0; i < (B - 1) * count; ++i) w[i] = static_cast<float>(qw[i]) * kStep;
+    VertexStream decoded;
+    decoded.influences = B;
+    decoded.positions = p;
+    decoded.normals = n;
+    decoded.weights = w;
+    SkinRangeT<B, Normals>(decoded, joints + B * chunk, columns, out_p + 3 * chunk,
+                           Normals ? out_n + 3 * chunk : nullptr, 0, count);
+  }
+}
+
+void SkinQuantizedRange(const QuantizedStream& stream, const float* columns, float* out_p,
+                        float* out_n, std::size_t first, std::size_t last) {
+  if (first >= last) return;
+  WithInfluences(stream.influences, [&](auto b) {
+    constexpr int kB = decltype(b)::value;
+    const auto run = [&](const auto* joints, const auto* weights) {
+      using Joint = std::remove_cv_t<std::remove_pointer_t<decltype(joints)>>;
+      using Weight = std::remove_cv_t<std::remove_pointer_t<decltype(weights)>>;
+      if (out_n == nullptr) {
+        SkinQuantizedRangeT<kB, false, Joint, Weight>(stream, joints, weights, columns, out_p,
+                                                      out_n, first, last);
+      } else {
+        SkinQuantizedRangeT<kB, true, Joint, Weight>(stream, joints, weights, columns, out_p, out_n,
+                                                     first, last);
+      }
+    };
+    const auto with_weights = [&](const auto* joints) {
+      if (stream.weights8 != nullptr) {
+        run(joints, stream.weights8);
+      } else {
+        run(joints, stream.weights16);  // null for B = 1: never read
+      }
+    };
+    if (stream.joints8 != nullptr) {
+      with_weights(stream.joints8);
+    } else {
+      with_weights(stream.joints16);
+    }
+  });
+}
+
 // simd_dual_quaternion_kernel.cpp, compiled for the same targets.
 void SkinDualQuaternionRange(const VertexStream& stream, const DualQuaternionFrame& palette,
                              float* out_p, float* out_n, std::size_t first, std::size_t last);
@@ -285,6 +359,7 @@ void SkinDualQuaternionRange(const VertexStream& stream, const DualQuaternionFra
 Kernel GetKernel() {
   return Kernel{.skin_range = &SkinRange,
                 .skin_dual_quaternion_range = &SkinDualQuaternionRange,
+                .skin_quantized_range = &SkinQuantizedRange,
                 .target = hwy::TargetName(HWY_TARGET),
                 .lanes = static_cast<int>(kLanes)};
 }

@@ -25,10 +25,32 @@ struct VertexStream {
   const float* weights = nullptr;      // B - 1 per vertex (null for B = 1)
 };
 
+// A mesh's quantized rest stream (skinserve/model/quantized_rest.h) as the kernel reads it.
+// The box's offset and scale are folded into the frame's palette (columns x, y, z times
+// the axis's scale; the fourth column plus the offset through the matrix), so a position
+// costs the loop three integer-to-float conversions and nothing else; normals, skinned by
+// the unscaled matrix, are divided by the scale per axis (normal_scale = 1 / scale) and
+// renormalised as usual, which absorbs snorm16's 1 / 32767.
+struct QuantizedStream {
+  uint32_t influences = 0;              // B, 1..8
+  const uint16_t* positions = nullptr;  // 3 per vertex
+  const int16_t* normals = nullptr;     // 3 per vertex, or null
+  const uint8_t* joints8 = nullptr;     // B per vertex when joint_count <= 256, else null
+  const uint16_t* joints16 = nullptr;   // B per vertex otherwise
+  const uint8_t* weights8 = nullptr;    // B - 1 unorm8 per vertex, or null
+  const uint16_t* weights16 = nullptr;  // B - 1 unorm16 per vertex, or null
+  float normal_scale[3] = {1, 1, 1};
+};
+
 // Skins vertices [first, last): positions always, normals when out_normals is not null
 // (the stream must have normals then). Writes exactly those vertices' outputs.
 using SkinRangeFn = void (*)(const VertexStream& stream, const float* columns, float* out_positions,
                              float* out_normals, std::size_t first, std::size_t last);
+
+// The same from a quantized stream, with the palette's columns folded with its box.
+using SkinQuantizedRangeFn = void (*)(const QuantizedStream& stream, const float* columns,
+                                      float* out_positions, float* out_normals, std::size_t first,
+                                      std::size_t last);
 
 // A frame's palette for the dual-quaternion kernel.
 struct DualQuaternionFrame {
@@ -48,6 +70,7 @@ using SkinDualQuaternionRangeFn = void (*)(const VertexStream& stream,
 struct Kernel {
   SkinRangeFn skin_range = nullptr;
   SkinDualQuaternionRangeFn skin_dual_quaternion_range = nullptr;
+  SkinQuantizedRangeFn skin_quantized_range = nullptr;
   const char* target = "";  // Highway's name of the target, e.g. "AVX3", "AVX2", "NEON"
   int lanes = 0;            // float lanes per vector the kernel uses
 };

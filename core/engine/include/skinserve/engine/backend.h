@@ -30,6 +30,9 @@ struct BackendInfo {
   int min_threads = 0;
   std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};  // what Skin() implements
   bool morph_targets = false;  // Skin() applies SkinFrame::morph_weights (else refuses them)
+  // Skin() reads a mesh's quantized rest stream itself (Mesh::quantized_rest()); other
+  // backends skin the float values it decodes to.
+  bool quantized_rest = false;
 
   bool Supports(SkinningMethod method) const;
 };

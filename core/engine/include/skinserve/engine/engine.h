@@ -45,6 +45,7 @@ struct MeshInfo {
   uint32_t normalized_vertices = 0;
   bool already_stored = false;  // the same content was stored before (dedupe)
   uint32_t morph_target_count = 0;
+  RestEncoding rest_encoding = RestEncoding::kFloat32;
 };
 
 // Server-side time of one frame, for the wire's timing breakdown.
@@ -194,11 +195,15 @@ class Engine {
   // targets' sizes count towards the budget.
   Status CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64_t joint_count,
                         bool has_normals, std::span<const uint32_t> morph_target_sizes = {},
-                        bool morph_normals = false) const;
+                        bool morph_normals = false,
+                        RestEncoding rest_encoding = RestEncoding::kFloat32) const;
   // Validates and stores a mesh (dedupe by content id; LRU eviction beyond the budget).
-  // `weight_policy` overrides the engine's (options().mesh) for this mesh.
+  // `weight_policy` overrides the engine's (options().mesh) for this mesh; `rest_encoding`
+  // other than kFloat32 also builds a quantized rest stream (quantized_rest.h), which the
+  // `simd` loops read; every other backend skins the float arrays it decodes to.
   Result<MeshInfo> AddMesh(const MeshArrays& arrays,
-                           std::optional<WeightPolicy> weight_policy = std::nullopt);
+                           std::optional<WeightPolicy> weight_policy = std::nullopt,
+                           RestEncoding rest_encoding = RestEncoding::kFloat32);
   Result<MeshInfo> GetMesh(const std::string& id) const;
   // The same into `info`, reusing its strings (no allocation once they have grown).
   Status GetMesh(const std::string& id, MeshInfo* info) const;

@@ -3,12 +3,14 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "skinserve/model/aligned_buffer.h"
 #include "skinserve/model/morph_targets.h"
+#include "skinserve/model/quantized_rest.h"
 #include "skinserve/model/status.h"
 
 namespace skinserve {
@@ -34,6 +36,9 @@ enum class WeightPolicy {
 struct MeshOptions {
   MeshLimits limits;
   WeightPolicy weight_policy = WeightPolicy::kReject;
+  // kFloat32, or a quantized rest stream built beside the float arrays, which then hold
+  // the values it decodes to (quantized_rest.h). Not with morph targets.
+  RestEncoding rest_encoding = RestEncoding::kFloat32;
 };
 
 // A mesh as plain arrays, before validation. Field names match the wire contract.
@@ -78,11 +83,17 @@ Status CheckMeshHeader(uint64_t vertex_count, uint64_t influences, uint64_t join
 Status CheckMorphHeader(std::span<const uint32_t> target_sizes, uint64_t vertex_count,
                         bool has_normals, bool morph_normals, const MeshLimits& limits);
 
+// Checks that a mesh may take `encoding`: a quantized rest stream carries no morph targets
+// (their float deltas are added to the float rest arrays, which the quantized loops skip).
+Status CheckRestEncoding(RestEncoding encoding, uint64_t morph_targets);
+
 // Bytes a mesh of this shape occupies once stored (its morph deltas included: they count
 // against the mesh store's budget and, while uploading, the upload budget).
 uint64_t MeshByteSize(uint64_t vertex_count, uint64_t influences, bool has_normals,
                       uint64_t morph_targets = 0, uint64_t morph_deltas = 0,
-                      bool morph_normals = false);
+                      bool morph_normals = false,
+                      RestEncoding rest_encoding = RestEncoding::kFloat32,
+                      uint64_t joint_count = 0);
 
 class Mesh {
  public:
@@ -114,6 +125,12 @@ class Mesh {
   std::span<const float> morph_normal_deltas() const { return morph_normal_deltas_.span(); }
   // Vertices whose weights were renormalised beyond rounding (WeightPolicy::kNormalize).
   uint32_t normalized_vertices() const { return normalized_vertices_; }
+  // The quantized rest stream, or null (RestEncoding::kFloat32). When present, positions(),
+  // normals() and weights() hold the values it decodes to.
+  const QuantizedRest* quantized_rest() const { return quantized_ ? &*quantized_ : nullptr; }
+  RestEncoding rest_encoding() const {
+    return quantized_ ? quantized_->encoding : RestEncoding::kFloat32;
+  }
   uint64_t byte_size() const;
 
  private:
@@ -132,6 +149,7 @@ class Mesh {
   AlignedBuffer<uint32_t> morph_indices_;
   AlignedBuffer<float> morph_position_deltas_;
   AlignedBuffer<float> morph_normal_deltas_;
+  std::optional<QuantizedRest> quantized_;
 };
 
 }  // namespace skinserve

@@ -11,6 +11,7 @@
 
 #include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/model/morph_targets.h"
+#include "skinserve/model/quantized_rest.h"
 #include "skinserve/model/skinning_method.h"
 #include "skinserve/model/status.h"
 #include "skinserve/v1/skinning.pb.h"
@@ -32,6 +33,11 @@ Status DecodeFloats(const std::string& bytes, const char* field, std::vector<flo
 // know (proto3 enums carry unknown numbers through).
 Result<SkinningMethod> FromWire(v1::SkinningMethod method);
 v1::SkinningMethod ToWire(SkinningMethod method);
+
+// An upload's rest encoding (MeshHeader.rest_encoding); INVALID_ARGUMENT naming the field
+// and the known values.
+Result<RestEncoding> FromWire(v1::RestEncoding encoding);
+v1::RestEncoding ToWire(RestEncoding encoding);
 
 // The request's encoding; INVALID_ARGUMENT naming the field and the known values.
 Result<VertexEncoding> FromWire(v1::Encoding encoding);

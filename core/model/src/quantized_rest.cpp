@@ -1,0 +1,171 @@
+#include "skinserve/model/quantized_rest.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace skinserve {
+namespace {
+
+// A step no smaller than this keeps 1 / scale (the normals' rescale in the loop) finite.
+constexpr float kSmallestScale = 0x1p-100f;
+
+uint32_t WeightSteps(RestEncoding encoding) {
+  return encoding == RestEncoding::kQuantized8Weights ? kWeightSteps8 : kWeightSteps16;
+}
+
+// The first B - 1 weights of a vertex as integers of `steps`, rounded to nearest, then the
+// ones rounded up the most lowered by one until their sum is at most `steps` (the last
+// weight, 1 - the sum, stays >= 0). Each ends within one step of its weight.
+void QuantizeWeights(const float* w, uint32_t b, uint32_t steps, uint32_t* q) {
+  uint32_t sum = 0;
+  for (uint32_t i = 0; i + 1 < b; ++i) {
+    q[i] = static_cast<uint32_t>(std::lround(double{w[i]} * steps));
+    sum += q[i];
+  }
+  while (sum > steps) {
+    uint32_t worst = 0;
+    double worst_error = -1;
+    for (uint32_t i = 0; i + 1 < b; ++i) {
+      const double error = q[i] - double{w[i]} * steps;
+      if (q[i] > 0 && error > worst_error) worst = i, worst_error = error;
+    }
+    --q[worst], --sum;
+  }
+}
+
+}  // namespace
+
+std::string_view RestEncodingName(RestEncoding encoding) {
+  switch (encoding) {
+    case RestEncoding::kFloat32:
+      return "float32";
+    case RestEncoding::kQuantized16:
+      return "quantized16";
+    case RestEncoding::kQuantized8Weights:
+      return "quantized8-weights";
+  }
+  return "unknown";
+}
+
+std::optional<RestEncoding> ParseRestEncoding(std::string_view name) {
+  for (RestEncoding e :
+       {RestEncoding::kFloat32, RestEncoding::kQuantized16, RestEncoding::kQuantized8Weights}) {
+    if (name == RestEncodingName(e)) return e;
+  }
+  return std::nullopt;
+}
+
+uint64_t QuantizedRestBytesPerVertex(RestEncoding encoding, uint64_t influences,
+                                     uint64_t joint_count, bool has_normals) {
+  if (encoding == RestEncoding::kFloat32) return 0;
+  const uint64_t weight = encoding == RestEncoding::kQuantized8Weights ? 1 : 2;
+  const uint64_t joint = joint_count <= 256 ? 1 : 2;
+  return 3 * 2 * (has_normals ? 2 : 1) + influences * joint + (influences - 1) * weight;
+}
+
+double StreamedBytesPerVertex(RestEncoding encoding, uint32_t influences, uint32_t joint_count,
+                              bool normals) {
+  const double out = normals ? 24.0 : 12.0;
+  if (encoding == RestEncoding::kFloat32) {
+    // The `simd` float stream (simd_stream.h): float32 rest, 8-bit joints where they fit,
+    // B - 1 float weights.
+    const double joint = joint_count <= 256 ? 1 : 2;
+    return out + (normals ? 24.0 : 12.0) + influences * joint + (influences - 1) * 4.0;
+  }
+  return out + static_cast<double>(
+                   QuantizedRestBytesPerVertex(encoding, influences, joint_count, normals));
+}
+
+uint64_t QuantizedRest::byte_size() const {
+  return positions.size() * 2 + normals.size() * 2 + joints8.size() + joints16.size() * 2 +
+         weights8.size() + weights16.size() * 2;
+}
+
+QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t influences,
+                       uint32_t joint_count, std::span<float> positions, std::span<float> normals,
+                       std::span<const uint16_t> joints, std::span<float> weights) {
+  QuantizedRest rest;
+  rest.encoding = encoding;
+  rest.influences = influences;
+  const std::size_t v_count = vertex_count;
+  const uint32_t b = influences;
+
+  // Positions: the box, then one step per axis rounded up so that 65535 steps cover it.
+  float lo[3] = {positions[0], positions[1], positions[2]};
+  float hi[3] = {lo[0], lo[1], lo[2]};
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    lo[i % 3] = std::min(lo[i % 3], positions[i]);
+    hi[i % 3] = std::max(hi[i % 3], positions[i]);
+  }
+  for (int a = 0; a < 3; ++a) {
+    const double extent = double{hi[a]} - lo[a];
+    float scale = static_cast<float>(extent / kPositionSteps);
+    if (double{scale} * kPositionSteps < extent) {
+      scale = std::nextafter(scale, std::numeric_limits<float>::infinity());
+    }
+    rest.offset[a] = lo[a];
+    rest.scale[a] = std::max(scale, kSmallestScale);
+  }
+  rest.positions = AlignedBuffer<uint16_t>(3 * v_count);
+  for (std::size_t i = 0; i < 3 * v_count; ++i) {
+    const int a = static_cast<int>(i % 3);
+    const double q = std::round((double{positions[i]} - rest.offset[a]) / rest.scale[a]);
+    rest.positions[i] = static_cast<uint16_t>(std::clamp(q, 0.0, double{kPositionSteps}));
+    positions[i] = static_cast<float>(rest.offset[a] + double{rest.scale[a]} * rest.positions[i]);
+  }
+
+  // Normals: the unit direction in snorm16 (skinning renormalises, so only it matters).
+  if (!normals.empty()) {
+    rest.normals = AlignedBuffer<int16_t>(3 * v_count);
+    for (std::size_t v = 0; v < v_count; ++v) {
+      float* n = &normals[3 * v];
+      const double length =
+          std::sqrt(double{n[0]} * n[0] + double{n[1]} * n[1] + double{n[2]} * n[2]);
+      for (int a = 0; a < 3; ++a) {
+        const auto q = static_cast<int16_t>(std::lround(n[a] / length * kNormalSteps));
+        rest.normals[3 * v + a] = q;
+        n[a] = static_cast<float>(q / double{kNormalSteps});
+      }
+    }
+  }
+
+  if (joint_count <= 256) {
+    rest.joints8 = AlignedBuffer<uint8_t>(joints.size());
+    for (std::size_t i = 0; i < joints.size(); ++i) {
+      rest.joints8[i] = static_cast<uint8_t>(joints[i]);
+    }
+  } else {
+    rest.joints16 = AlignedBuffer<uint16_t>(joints);
+  }
+
+  const uint32_t steps = WeightSteps(encoding);
+  const bool eight = encoding == RestEncoding::kQuantized8Weights;
+  if (b > 1) {
+    if (eight) {
+      rest.weights8 = AlignedBuffer<uint8_t>(v_count * (b - 1));
+    } else {
+      rest.weights16 = AlignedBuffer<uint16_t>(v_count * (b - 1));
+    }
+  }
+  for (std::size_t v = 0; v < v_count; ++v) {
+    float* w = &weights[v * b];
+    uint32_t q[8] = {};
+    QuantizeWeights(w, b, steps, q);
+    double sum = 0;
+    for (uint32_t i = 0; i + 1 < b; ++i) {
+      if (eight) {
+        rest.weights8[v * (b - 1) + i] = static_cast<uint8_t>(q[i]);
+      } else {
+        rest.weights16[v * (b - 1) + i] = static_cast<uint16_t>(q[i]);
+      }
+      const double decoded = double{static_cast<double>(q[i])} / steps;
+      w[i] = static_cast<float>(decoded);
+      sum += decoded;
+    }
+    w[b - 1] = static_cast<float>(1.0 - sum);
+  }
+  return rest;
+}
+
+}  // namespace skinserve

@@ -1,0 +1,149 @@
+// The quantized rest stream through a real server over loopback gRPC: an upload with
+// MeshHeader.rest_encoding is stored quantized (MeshInfo says so, its id and bytes are the
+// quantized mesh's), frames on `simd` and `simd-openmp` (which read the integers) and on
+// `serial` (which reads the decoded floats) match the float64 reference on the decoded
+// input, unary and streamed; an unknown encoding, quantizing a mesh with morph targets and
+// dual quaternions on the quantized `simd` stream are refused naming the reason.
+// Tolerance: CompareWithReference's (float32 rounding, 1e-5 * (1 + S)). The bound against
+// the original float input is tested per target in quantized_rest_test.cpp.
+#include <gtest/gtest.h>
+
+#include "skinserve/client/frame_stream.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
+#include "test_server.h"
+
+namespace skinserve::testing {
+namespace {
+
+constexpr uint32_t kJoints = 40;
+
+v1::UploadMeshRequest Chunk(v1::MeshArray array, const void* data, std::size_t bytes) {
+  v1::UploadMeshRequest m;
+  m.mutable_chunk()->set_array(array);
+  m.mutable_chunk()->set_offset(0);
+  m.mutable_chunk()->set_data(static_cast<const char*>(data), bytes);
+  return m;
+}
+
+// Uploads `arrays` (one chunk per array) with `encoding` as the raw wire has it.
+Result<v1::MeshInfo> Upload(client::SkinClient& c, const MeshArrays& arrays, int encoding,
+                            std::vector<uint32_t> morph_sizes = {}) {
+  std::vector<v1::UploadMeshRequest> messages(1);
+  v1::MeshHeader* h = messages[0].mutable_header();
+  h->set_vertex_count(arrays.vertex_count);
+  h->set_influences(arrays.influences);
+  h->set_joint_count(arrays.joint_count);
+  h->set_has_normals(!arrays.normals.empty());
+  h->set_rest_encoding(static_cast<v1::RestEncoding>(encoding));
+  for (uint32_t size : morph_sizes) h->add_morph_target_sizes(size);
+  messages.push_back(
+      Chunk(v1::MESH_ARRAY_POSITIONS, arrays.positions.data(), arrays.positions.size() * 4));
+  if (!arrays.normals.empty()) {
+    messages.push_back(
+        Chunk(v1::MESH_ARRAY_NORMALS, arrays.normals.data(), arrays.normals.size() * 4));
+  }
+  messages.push_back(Chunk(v1::MESH_ARRAY_JOINTS, arrays.joints.data(), arrays.joints.size() * 2));
+  messages.push_back(
+      Chunk(v1::MESH_ARRAY_WEIGHTS, arrays.weights.data(), arrays.weights.size() * 4));
+  grpc::ClientContext context;
+  v1::MeshInfo info;
+  auto writer = c.stub().UploadMesh(&context, &info);
+  for (const auto& m : messages) {
+    if (!writer->Write(m)) break;
+  }
+  writer->WritesDone();
+  if (Status s = wire::FromGrpc(writer->Finish()); !s.ok()) return s;
+  return info;
+}
+
+MeshArrays Arrays() {
+  return MakeSyntheticMesh(
+      {.vertex_count = 3001, .influences = 4, .joint_count = kJoints, .normals = true, .seed = 21});
+}
+
+void ExpectMatches(const Mesh& mesh, std::span<const float> palette,
+                   std::span<const float> positions, std::span<const float> normals,
+                   const std::string& what) {
+  const Deviation d = CompareWithReference(mesh, palette, positions, normals);
+  EXPECT_TRUE(d.within_tolerance())
+      << what << ": position error " << d.max_position_error << " (tolerance "
+      << d.position_tolerance << "), normal error " << d.max_normal_error << " (tolerance "
+      << d.normal_tolerance << ")";
+}
+
+TEST(QuantizedServiceTest, UploadedQuantizedSkinsOnSimdLikeTheDecodedReference) {
+  TestServer t;
+  const MeshArrays arrays = Arrays();
+  for (auto [wire, encoding] :
+       {std::pair{v1::REST_ENCODING_QUANTIZED16, RestEncoding::kQuantized16},
+        std::pair{v1::REST_ENCODING_QUANTIZED8_WEIGHTS, RestEncoding::kQuantized8Weights}}) {
+    auto info = Upload(*t.client, arrays, wire);
+    ASSERT_TRUE(info.ok()) << info.status().ToString();
+    const auto mesh = Mesh::Create(arrays, {.rest_encoding = encoding}).value();
+    EXPECT_EQ(info->rest_encoding(), wire);
+    EXPECT_EQ(info->mesh_id(), mesh->id());
+    EXPECT_EQ(info->bytes(), mesh->byte_size());
+    auto got = t.client->GetMesh(info->mesh_id());
+    ASSERT_TRUE(got.ok());
+    EXPECT_EQ(got->rest_encoding(), wire);
+    for (const char* backend : {"simd", "simd-openmp", "serial"}) {
+      for (uint64_t frame = 0; frame < 2; ++frame) {
+        const auto palette = MakeSyntheticPalette(kJoints, 8, frame);
+        client::FrameResult result;
+        Status s = t.client->Skin(info->mesh_id(), palette, frame,
+                                  {.backend = backend, .want_normals = frame == 1}, &result);
+        ASSERT_TRUE(s.ok()) << backend << ": " << s.ToString();
+        ExpectMatches(*mesh, palette, result.positions, result.normals,
+                      std::string(backend) + " " + std::string(RestEncodingName(encoding)) +
+                          " frame " + std::to_string(frame));
+      }
+    }
+    // Streamed frames on simd-openmp.
+    int seen = 0;
+    client::StreamOptions options{
+        .mesh_id = info->mesh_id(), .backend = "simd-openmp", .want_normals = true, .frames = 4};
+    Status streamed = client::StreamFrames(
+        *t.client, options, [](uint64_t f) { return MakeSyntheticPalette(kJoints, 9, f); },
+        [&](client::FrameResult& r, std::chrono::nanoseconds) {
+          ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+          ExpectMatches(*mesh, MakeSyntheticPalette(kJoints, 9, r.frame), r.positions, r.normals,
+                        "streamed frame " + std::to_string(r.frame));
+          ++seen;
+        });
+    ASSERT_TRUE(streamed.ok()) << streamed.ToString();
+    EXPECT_EQ(seen, 4);
+  }
+}
+
+TEST(QuantizedServiceTest, BadRequestsAreRefusedNamingTheReason) {
+  TestServer t;
+  const MeshArrays arrays = Arrays();
+  auto unknown = Upload(*t.client, arrays, 7);
+  EXPECT_EQ(unknown.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(unknown.status().message().find("header.rest_encoding = 7 is unknown"),
+            std::string::npos)
+      << unknown.status().message();
+  auto morph = Upload(*t.client, arrays, v1::REST_ENCODING_QUANTIZED16, {10, 20});
+  EXPECT_EQ(morph.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(morph.status().message().find("quantized rest stream carries no morph targets"),
+            std::string::npos)
+      << morph.status().message();
+  EXPECT_EQ(t.client->GetServerStats()->meshes(), 0u) << "nothing stored";
+
+  auto info = Upload(*t.client, arrays, v1::REST_ENCODING_QUANTIZED16);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  client::FrameResult result;
+  Status s =
+      t.client->Skin(info->mesh_id(), MakeRigidPalette(kJoints, 1, 1), 0,
+                     {.backend = "simd", .method = SkinningMethod::kDualQuaternion}, &result);
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << s.ToString();
+  EXPECT_NE(s.message().find("linear method only"), std::string::npos) << s.message();
+  // The float values it decodes to skin with dual quaternions elsewhere.
+  s = t.client->Skin(info->mesh_id(), MakeRigidPalette(kJoints, 1, 1), 0,
+                     {.backend = "serial", .method = SkinningMethod::kDualQuaternion}, &result);
+  EXPECT_TRUE(s.ok()) << s.ToString();
+}
+
+}  // namespace
+}  // namespace skinserve::testing
