@@ -14,25 +14,29 @@
  * half_), to match a float64 reference to 1e-5.
  */
 
-/* The normalised blend of vertex v's B dual quaternions: rotation r, dual part e. */
-static inline void BlendDualQuaternions(const __global float* restrict quaternions,
-                                        const __global ushort* restrict joints,
-                                        const __global float* restrict weights, const uint v,
-                                        const int influences, float4* r, float4* e) {
-  const float8 first = vload8(0, quaternions + 8 * (uint)joints[v * influences]);
-  float8 b = weights[v * influences] * first;
-#pragma unroll
-  for (int i = 1; i < influences; ++i) {
-    const float8 q = vload8(0, quaternions + 8 * (uint)joints[v * influences + i]);
-    const float dot = fma(first.s0, q.s0, fma(first.s1, q.s1, fma(first.s2, q.s2, first.s3 * q.s3)));
-    const float w = dot < 0.0f ? -weights[v * influences + i] : weights[v * influences + i];
-    b = fma((float8)(w), q, b);
+/* The normalised blend of vertex v's B dual quaternions: rotation r, dual part e, from a
+ * palette in either address space (__local: the *_local_* kernels, see
+ * linear_blend_skinning.cl's StagePalette). */
+#define DEFINE_BLEND_DUAL_QUATERNIONS(NAME, SPACE)                                              \
+  static inline void NAME(const SPACE float* restrict quaternions,                              \
+                          const __global ushort* restrict joints,                               \
+                          const __global float* restrict weights, const uint v,                 \
+                          const int influences, float4* r, float4* e) {                         \
+    const float8 first = vload8(0, quaternions + 8 * (uint)joints[v * influences]);             \
+    float8 b = weights[v * influences] * first;                                                 \
+    _Pragma("unroll") for (int i = 1; i < influences; ++i) {                                    \
+      const float8 q = vload8(0, quaternions + 8 * (uint)joints[v * influences + i]);           \
+      const float dot =                                                                         \
+          fma(first.s0, q.s0, fma(first.s1, q.s1, fma(first.s2, q.s2, first.s3 * q.s3)));       \
+      const float w = dot < 0.0f ? -weights[v * influences + i] : weights[v * influences + i];  \
+      b = fma((float8)(w), q, b);                                                               \
+    }                                                                                           \
+    const float inverse =                                                                       \
+        1.0f / sqrt(fma(b.s0, b.s0, fma(b.s1, b.s1, fma(b.s2, b.s2, b.s3 * b.s3))));            \
+    *r = b.lo * inverse;                                                                        \
+    *e = b.hi * inverse;                                                                        \
   }
-  const float inverse =
-      1.0f / sqrt(fma(b.s0, b.s0, fma(b.s1, b.s1, fma(b.s2, b.s2, b.s3 * b.s3))));
-  *r = b.lo * inverse;
-  *e = b.hi * inverse;
-}
+DEFINE_BLEND_DUAL_QUATERNIONS(BlendDualQuaternions, __global)
 
 /* p + 2 r x (r x p + rw p): p rotated by the unit quaternion r. */
 static inline float3 RotateByQuaternion(const float4 r, const float3 p) {
@@ -49,33 +53,57 @@ static inline void StoreDualQuaternionPosition(const float4 r, const float4 e,
   vstore3(RotateByQuaternion(r, vload3(v, positions)) + t, v, out_positions);
 }
 
-#define DEFINE_DUAL_QUATERNION_KERNELS(B)                                                 \
-  __kernel void dqs_b##B(SKIN_ARGS) {                                                     \
-    if (SKIN_VERTEX(0) >= vertex_count) return;                                           \
-    const uint last = vertex_count - 1;                                                   \
-    _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                 \
-      const uint raw = SKIN_VERTEX(k), v = min(raw, last);                                \
-      float4 r, e;                                                                        \
-      BlendDualQuaternions(palette, joints, weights, v, B, &r, &e);                       \
-      if (SKIN_KEEP(raw, vertex_count)) {                                                 \
-        StoreDualQuaternionPosition(r, e, positions, out_positions, v);                   \
-      }                                                                                   \
-    }                                                                                     \
-  }                                                                                       \
-  __kernel void dqs_normals_b##B(SKIN_ARGS, const __global float* restrict normals,       \
-                                 __global float* restrict out_normals) {                  \
-    if (SKIN_VERTEX(0) >= vertex_count) return;                                           \
-    const uint last = vertex_count - 1;                                                   \
-    _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                 \
-      const uint raw = SKIN_VERTEX(k), v = min(raw, last);                                \
-      float4 r, e;                                                                        \
-      BlendDualQuaternions(palette, joints, weights, v, B, &r, &e);                       \
-      if (SKIN_KEEP(raw, vertex_count)) {                                                 \
-        StoreDualQuaternionPosition(r, e, positions, out_positions, v);                   \
-        vstore3(RotateByQuaternion(r, vload3(v, normals)), v, out_normals);               \
-      }                                                                                   \
-    }                                                                                     \
+/* The bodies of dqs_b* and dqs_normals_b*: NORMALS(r, v) stores vertex v's rotated normal
+ * (DQS_NORMAL) or nothing (DQS_NO_NORMAL); BLEND reads PALETTE, VERTEX(k) is the k-th
+ * vertex of this work-item. */
+#define DQS_NORMAL(r, v) vstore3(RotateByQuaternion(r, vload3(v, normals)), v, out_normals)
+#define DQS_NO_NORMAL(r, v)
+#define DQS_BODY(B, NORMALS, BLEND, PALETTE, VERTEX)                                       \
+  if (VERTEX(0) >= vertex_count) return;                                                   \
+  const uint last = vertex_count - 1;                                                      \
+  _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                    \
+    const uint raw = VERTEX(k), v = min(raw, last);                                        \
+    float4 r, e;                                                                           \
+    BLEND(PALETTE, joints, weights, v, B, &r, &e);                                         \
+    if (SKIN_KEEP(raw, vertex_count)) {                                                    \
+      StoreDualQuaternionPosition(r, e, positions, out_positions, v);                      \
+      NORMALS(r, v);                                                                       \
+    }                                                                                      \
   }
+
+#define DEFINE_DUAL_QUATERNION_KERNELS(B)                                                  \
+  __kernel void dqs_b##B(SKIN_ARGS) {                                                      \
+    DQS_BODY(B, DQS_NO_NORMAL, BlendDualQuaternions, palette, SKIN_VERTEX)                 \
+  }                                                                                        \
+  __kernel void dqs_normals_b##B(SKIN_ARGS, const __global float* restrict normals,        \
+                                 __global float* restrict out_normals) {                   \
+    DQS_BODY(B, DQS_NORMAL, BlendDualQuaternions, palette, SKIN_VERTEX)                    \
+  }
+
+#if SKIN_LOCAL_PALETTE
+/* The palette staged in local memory: as skin_local_b* (linear_blend_skinning.cl). */
+DEFINE_BLEND_DUAL_QUATERNIONS(BlendLocalDualQuaternions, __local)
+
+#define DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(B)                                            \
+  __kernel void dqs_local_b##B(SKIN_ARGS, SKIN_LOCAL_ARGS) {                               \
+    StagePalette(palette, staged, palette_floats);                                         \
+    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                 \
+      const uint tile_base = SKIN_TILE_BASE(tile);                                         \
+      DQS_BODY(B, DQS_NO_NORMAL, BlendLocalDualQuaternions, staged, SKIN_TILE_VERTEX)      \
+    }                                                                                      \
+  }                                                                                        \
+  __kernel void dqs_normals_local_b##B(SKIN_ARGS, const __global float* restrict normals,  \
+                                       __global float* restrict out_normals,               \
+                                       SKIN_LOCAL_ARGS) {                                  \
+    StagePalette(palette, staged, palette_floats);                                         \
+    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                 \
+      const uint tile_base = SKIN_TILE_BASE(tile);                                         \
+      DQS_BODY(B, DQS_NORMAL, BlendLocalDualQuaternions, staged, SKIN_TILE_VERTEX)         \
+    }                                                                                      \
+  }
+#else
+#define DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(B)
+#endif
 
 DEFINE_DUAL_QUATERNION_KERNELS(1)
 DEFINE_DUAL_QUATERNION_KERNELS(2)
@@ -85,3 +113,11 @@ DEFINE_DUAL_QUATERNION_KERNELS(5)
 DEFINE_DUAL_QUATERNION_KERNELS(6)
 DEFINE_DUAL_QUATERNION_KERNELS(7)
 DEFINE_DUAL_QUATERNION_KERNELS(8)
+DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(1)
+DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(2)
+DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(3)
+DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(4)
+DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(5)
+DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(6)
+DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(7)
+DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(8)

@@ -21,18 +21,24 @@
  *    so measured 3x slower at B = 4.
  *  - The last work-item clamps its vertex indices to V - 1 (recomputing, within itself,
  *    the last vertex) instead of branching per vertex; items past the end return.
- * On a GPU the same kernels run with a coalesced vertex order (SKIN_VERTEX below).
+ * On a GPU the same kernels run with a coalesced vertex order (SKIN_VERTEX below), and
+ * with SKIN_LOCAL_PALETTE the *_local_* kernels stage the palette in local memory first
+ * (below).
  * Normals use rsqrt (a sqrt and a true division on this device): full precision, never
  * native_ or half_ maths, so they match a float64 reference to 1e-5.
  */
 
-/* The host passes -DSKIN_VERTICES_PER_ITEM, -DSKIN_ITEMS_PER_GROUP and -DSKIN_COALESCED;
- * skin_normals_b* is written out for four vertices per item. */
+/* The host passes -DSKIN_VERTICES_PER_ITEM, -DSKIN_ITEMS_PER_GROUP, -DSKIN_COALESCED and
+ * -DSKIN_LOCAL_PALETTE (0, or 1 with -DSKIN_LOCAL_TILES); skin_normals_b* is written out
+ * for four vertices per item. */
 #if !defined(SKIN_VERTICES_PER_ITEM) || SKIN_VERTICES_PER_ITEM != 4
 #error "SKIN_VERTICES_PER_ITEM must be 4 (kVerticesPerItem in core/src/backends/opencl_runtime.cpp)"
 #endif
-#if !defined(SKIN_ITEMS_PER_GROUP) || !defined(SKIN_COALESCED)
-#error "the host passes SKIN_ITEMS_PER_GROUP and SKIN_COALESCED"
+#if !defined(SKIN_ITEMS_PER_GROUP) || !defined(SKIN_COALESCED) || !defined(SKIN_LOCAL_PALETTE)
+#error "the host passes SKIN_ITEMS_PER_GROUP, SKIN_COALESCED and SKIN_LOCAL_PALETTE"
+#endif
+#if SKIN_LOCAL_PALETTE && (!SKIN_COALESCED || !defined(SKIN_LOCAL_TILES) || SKIN_LOCAL_TILES < 1)
+#error "SKIN_LOCAL_PALETTE needs SKIN_COALESCED 1 and SKIN_LOCAL_TILES >= 1"
 #endif
 
 /* The k-th vertex of this work-item. On a CPU (SKIN_COALESCED 0) an item takes four
@@ -43,8 +49,8 @@
  * from the global id, so the host's global offset (a multiple of a group) starts a chunk
  * of a frame. */
 #if SKIN_COALESCED
-#define SKIN_VERTEX(k)                                                              \
-  ((uint)(get_global_id(0) - get_local_id(0)) * SKIN_VERTICES_PER_ITEM +            \
+#define SKIN_VERTEX(k)                                                                     \
+  ((uint)(get_global_id(0) - get_local_id(0)) * SKIN_VERTICES_PER_ITEM +                   \
    (uint)(k) * SKIN_ITEMS_PER_GROUP + (uint)get_local_id(0))
 /* Several items may clamp to the last vertex: only the one that owns it stores it. */
 #define SKIN_KEEP(raw, count) ((raw) < (count))
@@ -60,20 +66,23 @@ typedef struct {
   float4 r2;
 } Blended;
 
-static inline Blended BlendPalette(const __global float* restrict palette,
-                                   const __global ushort* restrict joints,
-                                   const __global float* restrict weights, const uint v,
-                                   const int influences) {
-  Blended m = {(float8)(0.0f), (float4)(0.0f)};
-#pragma unroll
-  for (int i = 0; i < influences; ++i) {
-    const float w = weights[v * influences + i];
-    const __global float* joint = palette + 12 * (uint)joints[v * influences + i];
-    m.r01 = fma((float8)(w), vload8(0, joint), m.r01);
-    m.r2 = fma((float4)(w), vload4(2, joint), m.r2);
+/* The blend from a palette in either address space: __global (every kernel but the
+ * *_local_* ones) or __local (those, after StagePalette). */
+#define DEFINE_BLEND_PALETTE(NAME, SPACE)                                                  \
+  static inline Blended NAME(const SPACE float* restrict palette,                          \
+                             const __global ushort* restrict joints,                       \
+                             const __global float* restrict weights, const uint v,         \
+                             const int influences) {                                       \
+    Blended m = {(float8)(0.0f), (float4)(0.0f)};                                          \
+    _Pragma("unroll") for (int i = 0; i < influences; ++i) {                               \
+      const float w = weights[v * influences + i];                                         \
+      const SPACE float* joint = palette + 12 * (uint)joints[v * influences + i];          \
+      m.r01 = fma((float8)(w), vload8(0, joint), m.r01);                                   \
+      m.r2 = fma((float4)(w), vload4(2, joint), m.r2);                                     \
+    }                                                                                      \
+    return m;                                                                              \
   }
-  return m;
-}
+DEFINE_BLEND_PALETTE(BlendPalette, __global)
 
 static inline void StorePosition(const Blended m, const __global float* restrict positions,
                                  __global float* restrict out_positions, const uint v) {
@@ -94,52 +103,112 @@ static inline float3 TransformNormal(const Blended m, const __global float* rest
 
 static inline float SquaredLength(const float3 t) { return fma(t.x, t.x, fma(t.y, t.y, t.z * t.z)); }
 
-#define SKIN_ARGS                                                                            \
-  const __global float *restrict palette, const __global ushort *restrict joints,           \
-      const __global float *restrict weights, const __global float *restrict positions,     \
+#define SKIN_ARGS                                                                          \
+  const __global float *restrict palette, const __global ushort *restrict joints,          \
+      const __global float *restrict weights, const __global float *restrict positions,    \
       __global float *restrict out_positions, const uint vertex_count
 
-#define DEFINE_SKIN_KERNELS(B)                                                               \
-  __kernel void skin_b##B(SKIN_ARGS) {                                                       \
-    if (SKIN_VERTEX(0) >= vertex_count) return;                                              \
-    const uint last = vertex_count - 1;                                                      \
-    _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                    \
-      const uint raw = SKIN_VERTEX(k), v = min(raw, last);                                   \
-      const Blended m = BlendPalette(palette, joints, weights, v, B);                        \
-      if (SKIN_KEEP(raw, vertex_count)) StorePosition(m, positions, out_positions, v);       \
-    }                                                                                        \
-  }                                                                                          \
-  __kernel void skin_normals_b##B(SKIN_ARGS, const __global float* restrict normals,         \
-                                  __global float* restrict out_normals) {                    \
-    const uint r0 = SKIN_VERTEX(0), r1 = SKIN_VERTEX(1), r2 = SKIN_VERTEX(2),                \
-               r3 = SKIN_VERTEX(3);                                                          \
-    if (r0 >= vertex_count) return;                                                          \
-    const uint last = vertex_count - 1;                                                      \
-    const uint v0 = r0, v1 = min(r1, last), v2 = min(r2, last), v3 = min(r3, last);          \
-    const Blended m0 = BlendPalette(palette, joints, weights, v0, B);                        \
-    const Blended m1 = BlendPalette(palette, joints, weights, v1, B);                        \
-    const Blended m2 = BlendPalette(palette, joints, weights, v2, B);                        \
-    const Blended m3 = BlendPalette(palette, joints, weights, v3, B);                        \
-    const float3 t0 = TransformNormal(m0, normals, v0), t1 = TransformNormal(m1, normals, v1), \
-                 t2 = TransformNormal(m2, normals, v2), t3 = TransformNormal(m3, normals, v3); \
-    const float4 inverse_length =                                                            \
-        rsqrt((float4)(SquaredLength(t0), SquaredLength(t1), SquaredLength(t2),              \
-                       SquaredLength(t3)));                                                  \
-    StorePosition(m0, positions, out_positions, v0);                                         \
-    vstore3(t0 * inverse_length.s0, v0, out_normals);                                        \
-    if (SKIN_KEEP(r1, vertex_count)) {                                                       \
-      StorePosition(m1, positions, out_positions, v1);                                       \
-      vstore3(t1 * inverse_length.s1, v1, out_normals);                                      \
-    }                                                                                        \
-    if (SKIN_KEEP(r2, vertex_count)) {                                                       \
-      StorePosition(m2, positions, out_positions, v2);                                       \
-      vstore3(t2 * inverse_length.s2, v2, out_normals);                                      \
-    }                                                                                        \
-    if (SKIN_KEEP(r3, vertex_count)) {                                                       \
-      StorePosition(m3, positions, out_positions, v3);                                       \
-      vstore3(t3 * inverse_length.s3, v3, out_normals);                                      \
-    }                                                                                        \
+/* The bodies of skin_b* and skin_normals_b*: BLEND reads PALETTE, VERTEX(k) is the k-th
+ * vertex of this work-item. */
+#define SKIN_POSITIONS_BODY(B, BLEND, PALETTE, VERTEX)                                     \
+  if (VERTEX(0) >= vertex_count) return;                                                   \
+  const uint last = vertex_count - 1;                                                      \
+  _Pragma("unroll") for (uint k = 0; k < SKIN_VERTICES_PER_ITEM; ++k) {                    \
+    const uint raw = VERTEX(k), v = min(raw, last);                                        \
+    const Blended m = BLEND(PALETTE, joints, weights, v, B);                               \
+    if (SKIN_KEEP(raw, vertex_count)) StorePosition(m, positions, out_positions, v);       \
   }
+
+#define SKIN_NORMALS_BODY(B, BLEND, PALETTE, VERTEX)                                          \
+  const uint r0 = VERTEX(0), r1 = VERTEX(1), r2 = VERTEX(2), r3 = VERTEX(3);                  \
+  if (r0 >= vertex_count) return;                                                             \
+  const uint last = vertex_count - 1;                                                         \
+  const uint v0 = r0, v1 = min(r1, last), v2 = min(r2, last), v3 = min(r3, last);             \
+  const Blended m0 = BLEND(PALETTE, joints, weights, v0, B);                                  \
+  const Blended m1 = BLEND(PALETTE, joints, weights, v1, B);                                  \
+  const Blended m2 = BLEND(PALETTE, joints, weights, v2, B);                                  \
+  const Blended m3 = BLEND(PALETTE, joints, weights, v3, B);                                  \
+  const float3 t0 = TransformNormal(m0, normals, v0), t1 = TransformNormal(m1, normals, v1),  \
+               t2 = TransformNormal(m2, normals, v2), t3 = TransformNormal(m3, normals, v3);  \
+  const float4 inverse_length =                                                               \
+      rsqrt((float4)(SquaredLength(t0), SquaredLength(t1), SquaredLength(t2),                 \
+                     SquaredLength(t3)));                                                     \
+  StorePosition(m0, positions, out_positions, v0);                                            \
+  vstore3(t0 * inverse_length.s0, v0, out_normals);                                           \
+  if (SKIN_KEEP(r1, vertex_count)) {                                                          \
+    StorePosition(m1, positions, out_positions, v1);                                          \
+    vstore3(t1 * inverse_length.s1, v1, out_normals);                                         \
+  }                                                                                           \
+  if (SKIN_KEEP(r2, vertex_count)) {                                                          \
+    StorePosition(m2, positions, out_positions, v2);                                          \
+    vstore3(t2 * inverse_length.s2, v2, out_normals);                                         \
+  }                                                                                           \
+  if (SKIN_KEEP(r3, vertex_count)) {                                                          \
+    StorePosition(m3, positions, out_positions, v3);                                          \
+    vstore3(t3 * inverse_length.s3, v3, out_normals);                                         \
+  }
+
+#define DEFINE_SKIN_KERNELS(B)                                                             \
+  __kernel void skin_b##B(SKIN_ARGS) {                                                     \
+    SKIN_POSITIONS_BODY(B, BlendPalette, palette, SKIN_VERTEX)                             \
+  }                                                                                        \
+  __kernel void skin_normals_b##B(SKIN_ARGS, const __global float* restrict normals,       \
+                                  __global float* restrict out_normals) {                  \
+    SKIN_NORMALS_BODY(B, BlendPalette, palette, SKIN_VERTEX)                               \
+  }
+
+#if SKIN_LOCAL_PALETTE
+/* The palette in work-group local memory (a GPU's shared memory), for devices where the
+ * per-vertex gathers of 48-byte matrices from global memory cost more than one coalesced
+ * copy of the whole palette per work-group: the group's items copy the frame's
+ * `palette_floats` floats into `staged` (sized by the host to exactly that, which fits
+ * the device's CL_DEVICE_LOCAL_MEM_SIZE; else the host runs the global kernels above),
+ * wait at the barrier, and then blend from local memory. A group skins
+ * SKIN_LOCAL_TILES tiles of SKIN_VERTICES_PER_ITEM * SKIN_ITEMS_PER_GROUP consecutive
+ * vertices, each tile in the coalesced order of SKIN_VERTEX, so one copy serves
+ * SKIN_LOCAL_TILES tiles. Every item reaches the barrier before any returns. */
+DEFINE_BLEND_PALETTE(BlendLocalPalette, __local)
+
+static inline void StagePalette(const __global float* restrict palette,
+                                __local float* restrict staged, const uint palette_floats) {
+  /* palette_floats is a multiple of 4 (12 or 8 per joint). */
+  for (uint i = (uint)get_local_id(0); i < palette_floats / 4; i += (uint)get_local_size(0)) {
+    vstore4(vload4(i, palette), i, staged);
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+}
+
+/* The first vertex of tile `tile` of this work-group; the global offset (a multiple of a
+ * group, in items) starts a chunk of a frame, as for SKIN_VERTEX. */
+#define SKIN_TILE_BASE(tile)                                                               \
+  (((uint)get_global_offset(0) + (uint)get_group_id(0) * SKIN_LOCAL_TILES *                \
+                                     (uint)get_local_size(0)) * SKIN_VERTICES_PER_ITEM +   \
+   (uint)(tile) * (SKIN_VERTICES_PER_ITEM * SKIN_ITEMS_PER_GROUP))
+#define SKIN_TILE_VERTEX(k) (tile_base + (uint)(k) * SKIN_ITEMS_PER_GROUP + (uint)get_local_id(0))
+#define SKIN_LOCAL_ARGS __local float *restrict staged, const uint palette_floats
+
+/* Tiles ascend: an item whose first vertex of a tile is past the end returns (the body's
+ * `return`), and so would it for every later tile. */
+#define DEFINE_LOCAL_SKIN_KERNELS(B)                                                        \
+  __kernel void skin_local_b##B(SKIN_ARGS, SKIN_LOCAL_ARGS) {                               \
+    StagePalette(palette, staged, palette_floats);                                          \
+    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                  \
+      const uint tile_base = SKIN_TILE_BASE(tile);                                          \
+      SKIN_POSITIONS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX)                   \
+    }                                                                                       \
+  }                                                                                         \
+  __kernel void skin_normals_local_b##B(SKIN_ARGS, const __global float* restrict normals,  \
+                                        __global float* restrict out_normals,               \
+                                        SKIN_LOCAL_ARGS) {                                  \
+    StagePalette(palette, staged, palette_floats);                                          \
+    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                  \
+      const uint tile_base = SKIN_TILE_BASE(tile);                                          \
+      SKIN_NORMALS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX)                     \
+    }                                                                                       \
+  }
+#else
+#define DEFINE_LOCAL_SKIN_KERNELS(B)
+#endif
 
 DEFINE_SKIN_KERNELS(1)
 DEFINE_SKIN_KERNELS(2)
@@ -149,3 +218,11 @@ DEFINE_SKIN_KERNELS(5)
 DEFINE_SKIN_KERNELS(6)
 DEFINE_SKIN_KERNELS(7)
 DEFINE_SKIN_KERNELS(8)
+DEFINE_LOCAL_SKIN_KERNELS(1)
+DEFINE_LOCAL_SKIN_KERNELS(2)
+DEFINE_LOCAL_SKIN_KERNELS(3)
+DEFINE_LOCAL_SKIN_KERNELS(4)
+DEFINE_LOCAL_SKIN_KERNELS(5)
+DEFINE_LOCAL_SKIN_KERNELS(6)
+DEFINE_LOCAL_SKIN_KERNELS(7)
+DEFINE_LOCAL_SKIN_KERNELS(8)

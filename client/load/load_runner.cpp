@@ -123,6 +123,7 @@ class Recorder {
     result_.bones = workload.bones;
     result_.normals = workload.normals;
     result_.encoding = VertexEncodingName(config.encoding);
+    result_.rest_encoding = RestEncodingName(workload.rest_encoding);
     result_.instances = std::max(config.instances, 1u);
     result_.data_plane = config.shared_memory ? "shm" : "grpc";
     result_.streams = config.streams;
@@ -267,7 +268,8 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
                       Recorder& recorder) {
   client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
                             config.limits);
-  client.Remember(mesh_id, workload.arrays);  // re-uploads where a replica lacks the mesh
+  // Re-uploads where a replica lacks the mesh.
+  client.Remember(mesh_id, workload.arrays, {.rest_encoding = workload.rest_encoding});
   const StreamRegion region(config, workload, client);
   if (!region.status().ok()) {
     recorder.RecordStreamError(region.status());
@@ -342,7 +344,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
                     Clock::time_point start, Clock::time_point end, Recorder& recorder) {
   client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
                             config.limits);
-  client.Remember(mesh_id, workload.arrays);
+  client.Remember(mesh_id, workload.arrays, {.rest_encoding = workload.rest_encoding});
   const StreamRegion region(config, workload, client);
   if (!region.status().ok()) {
     recorder.RecordStreamError(region.status());

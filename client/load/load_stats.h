@@ -28,8 +28,9 @@ struct RunResult {
   uint32_t bones = 0;
   bool normals = false;
   std::string encoding = "float32";
-  uint32_t instances = 1;           // characters per frame (crowd batch)
-  std::string data_plane = "grpc";  // or "shm": vertices written into shared memory
+  std::string rest_encoding = "float32";  // the mesh as stored (--rest-encoding)
+  uint32_t instances = 1;                 // characters per frame (crowd batch)
+  std::string data_plane = "grpc";        // or "shm": vertices written into shared memory
   int streams = 0;
   double rate = 0;      // frames/s per stream (open loop); 0: closed loop
   uint64_t frames = 0;  // answered correctly within the measured window

@@ -43,8 +43,9 @@ struct Options {
   bool capacity = false;
   int capacity_max_streams = 64;
   std::string encoding = "float32";
-  std::string modes;                 // --capacity: ENCODING[xK] list, e.g. float32,snorm16x16
-  std::string data_planes = "grpc";  // grpc and/or shm, each run once per data plane
+  std::string rest_encoding = "float32";  // how the server stores the mesh
+  std::string modes;                      // --capacity: ENCODING[xK] list, e.g. float32,snorm16x16
+  std::string data_planes = "grpc";       // grpc and/or shm, each run once per data plane
   std::string json, csv, plot;
   MeasurementFlags measurement;  // rates, arrivals, percentile, stability, server metrics
 };
@@ -131,7 +132,7 @@ Result<std::vector<std::string>> ResolveBackends(client::SkinClient& client,
 }
 
 Result<std::string> Upload(client::SkinClient& client, const Workload& w) {
-  auto info = client.Upload(*w.arrays);
+  auto info = client.Upload(*w.arrays, {.rest_encoding = w.rest_encoding});
   if (!info.ok()) return info.status();
   return info->mesh_id();
 }
@@ -139,12 +140,19 @@ Result<std::string> Upload(client::SkinClient& client, const Workload& w) {
 // The glTF character when --mesh names one, else the synthetic mesh of this shape.
 Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bones, uint64_t seed) {
   const SkinningMethod method = *ParseMethod(o.method);
-  if (!o.mesh.empty()) {
-    auto workload = MakeGltfWorkload(o.mesh, o.primitive, o.normals);
-    if (workload.ok()) workload->method = method;
-    return workload;
+  Result<Workload> workload = o.mesh.empty()
+                                  ? Result<Workload>(MakeWorkload(vertices, bones, o.joints,
+                                                                  o.normals, seed, method, o.morph))
+                                  : MakeGltfWorkload(o.mesh, o.primitive, o.normals);
+  if (!workload.ok()) return workload;
+  workload->method = method;
+  const RestEncoding rest = *ParseRestEncoding(o.rest_encoding);
+  if (rest != RestEncoding::kFloat32) {
+    if (Status s = SetRestEncoding(&*workload, rest); !s.ok()) {
+      return Status(s.code(), fmt::format("--rest-encoding {}: {}", o.rest_encoding, s.message()));
+    }
   }
-  return MakeWorkload(vertices, bones, o.joints, o.normals, seed, method, o.morph);
+  return workload;
 }
 
 int RunMain(const Options& o) {
@@ -405,6 +413,12 @@ int main(int argc, char** argv) {
                  "answers in float32 (as computed), float16 or snorm16 (quantised to each "
                  "instance's box); checks allow the encoding's stated error")
       ->check(CLI::IsMember({"float32", "float16", "snorm16"}))
+      ->capture_default_str();
+  app.add_option("--rest-encoding", o.rest_encoding,
+                 "how the server stores the mesh: float32, or quantized16 / quantized8-weights "
+                 "(16-bit positions, normals and weights, or 8-bit weights; read directly by "
+                 "simd and simd-openmp); checks compare with the values it decodes to")
+      ->check(CLI::IsMember({"float32", "quantized16", "quantized8-weights"}))
       ->capture_default_str();
   app.add_option("--instances", o.run.instances,
                  "crowd batches: K palettes per request, K characters per stream")

@@ -35,6 +35,7 @@ std::vector<ReportColumn> MakeColumns() {
       {"bones", [](R r, All) { return json(r.bones); }},
       {"normals", [](R r, All) { return json(r.normals); }},
       {"encoding", [](R r, All) { return json(r.encoding); }},
+      {"rest_encoding", [](R r, All) { return json(r.rest_encoding); }},
       {"instances", [](R r, All) { return json(r.instances); }},
       {"data_plane", [](R r, All) { return json(r.data_plane); }},
       {"streams", [](R r, All) { return json(r.streams); }},

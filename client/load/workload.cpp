@@ -14,6 +14,14 @@
 
 namespace skinserve::load {
 
+Status SetRestEncoding(Workload* w, RestEncoding encoding) {
+  auto mesh = Mesh::Create(*w->arrays, {.rest_encoding = encoding});
+  if (!mesh.ok()) return mesh.status();
+  w->mesh = *mesh;
+  w->rest_encoding = encoding;
+  return Status::Ok();
+}
+
 Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool normals,
                       uint64_t seed, SkinningMethod method, const MorphWorkload& morph) {
   Workload w;

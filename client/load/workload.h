@@ -25,7 +25,10 @@ struct Workload {
   SkinningMethod method = SkinningMethod::kLinear;  // asked of the server, checked locally
   std::shared_ptr<const MeshArrays> arrays;         // shared by every stream's client
   std::shared_ptr<const Mesh> mesh;                 // for the float64 reference checks
-  std::vector<std::vector<float>> palettes;         // frame f uses palettes[f % size]
+  // Asked of the server at upload (--rest-encoding); `mesh` then holds the values the
+  // quantized stream decodes to, which is what the server skins.
+  RestEncoding rest_encoding = RestEncoding::kFloat32;
+  std::vector<std::vector<float>> palettes;  // frame f uses palettes[f % size]
   // Frame f's sparse morph target weights: morph_weights[f % size]; empty: the frames carry
   // none (a mesh without targets, or --morph-active 0).
   std::vector<std::vector<MorphWeight>> morph_weights;
@@ -51,6 +54,10 @@ struct MorphWorkload {
   double coverage = 0.1;
   uint32_t active = 4;
 };
+
+// Stores the workload's mesh as `encoding` (its reference mesh rebuilt from the arrays):
+// INVALID_ARGUMENT as the server would answer (e.g. a mesh with morph targets).
+Status SetRestEncoding(Workload* w, RestEncoding encoding);
 
 // Dual-quaternion workloads get rigid palettes (MakeRigidPalette): the method refuses the
 // synthetic palettes' scale.

@@ -296,26 +296,27 @@ std::unique_ptr<grpc::ClientReader<grpc::ByteBuffer>> SkinClient::SkinRaw(
                                                                     context, request));
 }
 
-Result<v1::MeshInfo> SkinClient::Upload(const MeshArrays& arrays, WeightPolicy weight_policy) {
+Result<v1::MeshInfo> SkinClient::Upload(const MeshArrays& arrays, const UploadOptions& options) {
   // Validate and hash locally: the id tells whether the server already has this content.
   auto mesh =
       Mesh::Create(arrays, {.limits = {.max_vertices = UINT32_MAX, .max_joints = kMaxJointsLimit},
-                            .weight_policy = weight_policy});
+                            .weight_policy = options.weight_policy,
+                            .rest_encoding = options.rest_encoding});
   if (!mesh.ok()) return mesh.status();
   {
     std::lock_guard lock(mutex_);
-    uploaded_[(*mesh)->id()] = {std::make_shared<MeshArrays>(arrays), weight_policy};
+    uploaded_[(*mesh)->id()] = {std::make_shared<MeshArrays>(arrays), options};
   }
   auto existing = GetMesh((*mesh)->id());
   if (existing.ok()) return existing;
   if (existing.status().code() != StatusCode::kNotFound) return existing.status();
-  return SendUpload(arrays, weight_policy);
+  return SendUpload(arrays, options);
 }
 
 void SkinClient::Remember(const std::string& mesh_id, std::shared_ptr<const MeshArrays> arrays,
-                          WeightPolicy weight_policy) {
+                          const UploadOptions& options) {
   std::lock_guard lock(mutex_);
-  uploaded_[mesh_id] = {std::move(arrays), weight_policy};
+  uploaded_[mesh_id] = {std::move(arrays), options};
 }
 
 Status SkinClient::Reupload(const std::string& mesh_id) {
@@ -331,11 +332,12 @@ Status SkinClient::Reupload(const std::string& mesh_id) {
     }
     uploaded = it->second;
   }
-  auto info = SendUpload(*uploaded.arrays, uploaded.weight_policy);
+  auto info = SendUpload(*uploaded.arrays, uploaded.options);
   return info.status();
 }
 
-Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays, WeightPolicy weight_policy) {
+Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays,
+                                            const UploadOptions& options) {
   grpc::ClientContext context;
   SetDeadline(&context, limits_.upload_deadline);
   v1::MeshInfo info;
@@ -346,8 +348,10 @@ Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays, WeightPoli
   header->set_influences(arrays.influences);
   header->set_joint_count(arrays.joint_count);
   header->set_has_normals(!arrays.normals.empty());
-  header->set_weight_policy(weight_policy == WeightPolicy::kNormalize ? v1::WEIGHT_POLICY_NORMALIZE
-                                                                      : v1::WEIGHT_POLICY_REJECT);
+  header->set_rest_encoding(wire::ToWire(options.rest_encoding));
+  header->set_weight_policy(options.weight_policy == WeightPolicy::kNormalize
+                                ? v1::WEIGHT_POLICY_NORMALIZE
+                                : v1::WEIGHT_POLICY_REJECT);
   header->mutable_morph_target_sizes()->Add(arrays.morph_target_sizes.begin(),
                                             arrays.morph_target_sizes.end());
   header->set_morph_normals(!arrays.morph_normal_deltas.empty());

@@ -1,5 +1,7 @@
 #include "reference_cases.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -41,6 +43,20 @@ uint32_t LargeCaseVertices() {
     std::exit(2);
   }
   return static_cast<uint32_t>(value);
+}
+
+uint32_t TargetCheckMaxVertices() {
+  const char* text = std::getenv("SKINSERVE_TEST_TARGET_MAX_VERTICES");
+  if (text == nullptr) return std::numeric_limits<uint32_t>::max();
+  char* end = nullptr;
+  const unsigned long value = std::strtoul(text, &end, 10);
+  if (end == text || *end != '\0' || value < 33) {
+    ADD_FAILURE() << "SKINSERVE_TEST_TARGET_MAX_VERTICES=" << text
+                  << ": expected a vertex count of at least 33";
+    return std::numeric_limits<uint32_t>::max();
+  }
+  return static_cast<uint32_t>(
+      std::min<unsigned long>(value, std::numeric_limits<uint32_t>::max()));
 }
 
 uint64_t CaseSeed(const MeshCase& c) {

@@ -39,6 +39,12 @@ std::vector<MeshCase> MeshCases(std::initializer_list<uint32_t> vertices,
 // number of at least 4097 vertices fails the suite rather than shrinking what it checks.
 uint32_t LargeCaseVertices();
 
+// The longest frame the per-SIMD-target checks skin: unlimited, or
+// SKINSERVE_TEST_TARGET_MAX_VERTICES where set (the arm64 suite under qemu sets 257: every
+// tail and the first chunk boundary; there each target costs minutes, and the x86 suite
+// checks the longer frames of the same loops). A value below 33 fails the calling test.
+uint32_t TargetCheckMaxVertices();
+
 // The case's synthetic mesh; its seed follows from its shape, so a failure reproduces.
 std::shared_ptr<const Mesh> CaseMesh(const MeshCase& c);
 uint64_t CaseSeed(const MeshCase& c);

@@ -14,6 +14,7 @@
 #include <limits>
 
 #include "backend_fixture.h"
+#include "reference_cases.h"
 #include "skinserve/engine/simd_targets.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
@@ -24,21 +25,9 @@ namespace {
 constexpr float kGuard = 12345.0f;
 constexpr std::size_t kGuardFloats = 4;
 
-// SKINSERVE_TEST_TARGET_MAX_VERTICES caps the list (the arm64 suite under qemu sets 257:
-// every tail and the first chunk boundary; there each target costs minutes, and the
-// x86 suite checks the longer frames of the same loops).
+// Every tail length, and around the 256-vertex chunks, up to TargetCheckMaxVertices().
 std::vector<uint32_t> VertexCounts() {
-  uint32_t limit = std::numeric_limits<uint32_t>::max();
-  if (const char* text = std::getenv("SKINSERVE_TEST_TARGET_MAX_VERTICES")) {
-    char* end = nullptr;
-    const unsigned long value = std::strtoul(text, &end, 10);
-    if (end == text || *end != '\0' || value < 33) {
-      ADD_FAILURE() << "SKINSERVE_TEST_TARGET_MAX_VERTICES=" << text
-                    << ": expected a vertex count of at least 33";
-    } else {
-      limit = static_cast<uint32_t>(std::min<unsigned long>(value, limit));
-    }
-  }
+  const uint32_t limit = TargetCheckMaxVertices();
   std::vector<uint32_t> counts;
   for (uint32_t v = 1; v <= 33; ++v) counts.push_back(v);
   for (uint32_t v : {255u, 256u, 257u, 511u, 513u, 1001u}) {

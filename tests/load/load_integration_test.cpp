@@ -159,6 +159,33 @@ TEST(LoadIntegrationTest, MorphTargetsAreSentPerFrameAndCheckedAgainstTheReferen
   for (const auto& r : idle["results"]) EXPECT_EQ(r["checked"], 20) << r.dump();
 }
 
+// --rest-encoding: the mesh is uploaded quantized and every answer is checked against the
+// float64 reference of the values the quantized stream decodes to (the service test checks
+// the stored encoding); a mesh the encoding cannot take is refused before any frame.
+TEST(LoadIntegrationTest, RestEncodingIsAskedAtUploadAndCheckedOnTheDecodedMesh) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  const std::string common =
+      " --target " + server.target() + " --vertices 5000 --bones 4 --normals --warmup 0";
+  int code = 0;
+  const nlohmann::json doc =
+      RunLoad(common +
+                  " --rest-encoding quantized8-weights --backends simd,simd-openmp,serial"
+                  " --streams 2 --frames 12 --check-every 1",
+              &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(doc["results"].size(), 3u) << doc.dump();
+  FramesReported(doc);  // no errors, no mismatches
+  for (const auto& r : doc["results"]) {
+    EXPECT_EQ(r["rest_encoding"], "quantized8-weights") << r.dump();
+    EXPECT_EQ(r["checked"], 24) << r.dump();  // 2 streams x 12 frames, every one checked
+  }
+  const nlohmann::json refused = RunLoad(
+      common + " --rest-encoding quantized16 --morph-targets 4 --backends simd --frames 2", &code);
+  EXPECT_NE(code, 0);
+  EXPECT_TRUE(refused.empty() || refused["results"].empty()) << refused.dump();
+}
+
 TEST(LoadIntegrationTest, OpenLoopSendsOnScheduleAndCountsMatch) {
   ServerProcess server;
   ASSERT_TRUE(server.ready());

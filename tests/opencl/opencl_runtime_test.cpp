@@ -111,6 +111,35 @@ TEST(OpenClRuntimeTest, FramesReportKernelAndTransferTime) {
   }
 }
 
+// Which kernels a frame takes: the CPU path (PoCL's own runtime) never stages the palette;
+// the coalesced runtime stages it exactly when its 12 (linear) or 8 (dual quaternion)
+// floats per joint fit the limit, so the reference cases of "opencl-coalesced" (1, 77 and
+// 1024 joints) run both the local and the global kernels.
+TEST(OpenClRuntimeTest, LocalPaletteWhereTheCoalescedPathsPaletteFits) {
+  SKIP_IF_OPENCL_UNAVAILABLE(*OpenClBackends()[0]);
+  auto runtime = CoalescedTestRuntime();
+  ASSERT_TRUE(runtime.ok()) << runtime.status().ToString();
+  const OpenClRuntime& coalesced = **runtime;
+  EXPECT_TRUE(coalesced.coalesced());
+  ASSERT_TRUE(coalesced.local_palette());
+  EXPECT_EQ(coalesced.local_palette_bytes(), kCoalescedLocalPaletteBytes);
+  EXPECT_EQ(coalesced.local_tiles(), kCoalescedLocalTiles);
+  EXPECT_NE(OpenClBackend("opencl-coalesced").info().description.find("staged in local memory"),
+            std::string::npos);
+  // 77 joints: 3696 bytes as matrices, the limit; 115 joints: 3680 as dual quaternions.
+  auto joints = [](uint32_t j) { return SyntheticMesh(5, 2, j, false, j); };
+  EXPECT_TRUE(coalesced.UsesLocalPalette(*joints(1), SkinningMethod::kLinear));
+  EXPECT_TRUE(coalesced.UsesLocalPalette(*joints(77), SkinningMethod::kLinear));
+  EXPECT_FALSE(coalesced.UsesLocalPalette(*joints(78), SkinningMethod::kLinear));
+  EXPECT_TRUE(coalesced.UsesLocalPalette(*joints(115), SkinningMethod::kDualQuaternion));
+  EXPECT_FALSE(coalesced.UsesLocalPalette(*joints(116), SkinningMethod::kDualQuaternion));
+  EXPECT_FALSE(coalesced.UsesLocalPalette(*joints(1024), SkinningMethod::kLinear));
+  if (OnPocl()) {
+    EXPECT_EQ(OpenClBackends()[0]->info().description.find("local memory"), std::string::npos)
+        << "PoCL's CPU path keeps reading the palette from global memory";
+  }
+}
+
 TEST(OpenClRuntimeTest, PoclRunsTheEnginesThreadCount) {
   SKIP_IF_OPENCL_UNAVAILABLE(*OpenClBackends()[0]);
   if (!OnPocl()) GTEST_SKIP() << "not PoCL: " << OpenClBackends()[0]->info().description;

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "backends/backend_factories.h"
+#include "backends/opencl_backends.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 
@@ -26,7 +27,7 @@ const std::vector<std::unique_ptr<Backend>>& OpenClBackends() {
 }
 
 std::vector<std::string> OpenClBackendIds() {
-  return {"opencl", "opencl-zerocopy", "opencl-staging"};
+  return {"opencl", "opencl-zerocopy", "opencl-staging", "opencl-coalesced"};
 }
 
 Backend& OpenClBackend(const std::string& id) {
@@ -35,11 +36,37 @@ Backend& OpenClBackend(const std::string& id) {
         MakeOpenClBackends(kOpenClTestThreads, OpenClTestDevice(), /*force_staging=*/true));
     return *staged->front();
   }
+  if (id == "opencl-coalesced") {
+    static Backend* coalesced = [] {
+      auto runtime = CoalescedTestRuntime();
+      auto* backends = new std::vector<std::unique_ptr<Backend>>(
+          runtime.ok() ? MakeOpenClBackendsOn(*runtime)
+                       : MakeUnavailableOpenClBackends(runtime.status().message()));
+      return backends->front().get();
+    }();
+    return *coalesced;
+  }
   for (const auto& backend : OpenClBackends()) {
     if (backend->info().id == id) return *backend;
   }
   ADD_FAILURE() << "MakeOpenClBackends returned no backend '" << id << "'";
   std::abort();
+}
+
+Result<std::shared_ptr<OpenClRuntime>> CoalescedTestRuntime() {
+  // The GPU's whole path on any device: staging in chunks of 1024+ vertices (chunks start
+  // at multiples of 256, not of a 2-tile group's 512), the coalesced order, and the local
+  // palette where it fits.
+  static const auto* runtime = new Result<std::shared_ptr<OpenClRuntime>>(
+      OpenClRuntime::Create({.threads = kOpenClTestThreads,
+                             .device = OpenClTestDevice(),
+                             .force_staging = true,
+                             .max_chunks = 8,
+                             .min_chunk_vertices = 1024,
+                             .force_coalesced = true,
+                             .local_palette_max_bytes = kCoalescedLocalPaletteBytes,
+                             .local_tiles = kCoalescedLocalTiles}));
+  return *runtime;
 }
 
 std::string BackendTestName(const ::testing::TestParamInfo<std::string>& param) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "backends/opencl_runtime.h"
 #include "skinserve/engine/backend.h"
 #include "skinserve/model/mesh.h"
 
@@ -27,10 +28,20 @@ std::string OpenClTestDevice();
 // {opencl, opencl-zerocopy} from MakeOpenClBackends(kOpenClTestThreads,
 // OpenClTestDevice()), created once.
 const std::vector<std::unique_ptr<Backend>>& OpenClBackends();
-// "opencl", "opencl-zerocopy", and "opencl-staging": the copy backend of a second runtime
-// forced onto the discrete-GPU path (pinned staging, chunks, lanes) even on PoCL.
+// "opencl", "opencl-zerocopy", "opencl-staging": the copy backend of a second runtime
+// forced onto the discrete-GPU path (pinned staging, chunks, lanes) even on PoCL, and
+// "opencl-coalesced": the copy backend of a third runtime with the GPU's kernels too
+// (staged and chunked as "opencl-staging", plus the coalesced vertex order and the palette
+// in local memory, kCoalescedLocalPaletteBytes at most, 2 tiles per work-group).
 std::vector<std::string> OpenClBackendIds();
+// The "opencl-coalesced" runtime's local-palette limit: 77 joints' matrices (the
+// synthetic meshes' usual count) are staged, 1024 joints' run the global kernels, so the
+// reference cases take both paths.
+inline constexpr std::size_t kCoalescedLocalPaletteBytes = 77 * 12 * sizeof(float);
+inline constexpr int kCoalescedLocalTiles = 2;
 Backend& OpenClBackend(const std::string& id);
+// The runtime of "opencl-coalesced", created once (or why it could not be).
+Result<std::shared_ptr<OpenClRuntime>> CoalescedTestRuntime();
 // A test name from a backend id ("opencl-zerocopy" -> "opencl_zerocopy").
 std::string BackendTestName(const ::testing::TestParamInfo<std::string>& param);
 

@@ -1,11 +1,11 @@
 // The quantized rest stream through a real server over loopback gRPC: an upload with
-// MeshHeader.rest_encoding is stored quantized (MeshInfo says so, its id and bytes are the
-// quantized mesh's), frames on `simd` and `simd-openmp` (which read the integers) and on
-// `serial` (which reads the decoded floats) match the float64 reference on the decoded
-// input, unary and streamed; an unknown encoding, quantizing a mesh with morph targets and
-// dual quaternions on the quantized `simd` stream are refused naming the reason.
-// Tolerance: CompareWithReference's (float32 rounding, 1e-5 * (1 + S)). The bound against
-// the original float input is tested per target in quantized_rest_test.cpp.
+// MeshHeader.rest_encoding (SkinClient::Upload's UploadOptions, or the raw field) is stored
+// quantized (MeshInfo says so, its id and bytes are the quantized mesh's), frames on `simd` and
+// `simd-openmp` (which read the integers) and on `serial` (which reads the decoded floats) match
+// the float64 reference on the decoded input, unary and streamed; an unknown encoding, quantizing a
+// mesh with morph targets and dual quaternions on the quantized `simd` stream are refused naming
+// the reason. Tolerance: CompareWithReference's (float32 rounding, 1e-5 * (1 + S)). The bound
+// against the original float input is tested per target in quantized_rest_test.cpp.
 #include <gtest/gtest.h>
 
 #include "skinserve/client/frame_stream.h"
@@ -78,7 +78,8 @@ TEST(QuantizedServiceTest, UploadedQuantizedSkinsOnSimdLikeTheDecodedReference) 
   for (auto [wire, encoding] :
        {std::pair{v1::REST_ENCODING_QUANTIZED16, RestEncoding::kQuantized16},
         std::pair{v1::REST_ENCODING_QUANTIZED8_WEIGHTS, RestEncoding::kQuantized8Weights}}) {
-    auto info = Upload(*t.client, arrays, wire);
+    // Through the client library, as users ask for it.
+    auto info = t.client->Upload(arrays, {.rest_encoding = encoding});
     ASSERT_TRUE(info.ok()) << info.status().ToString();
     const auto mesh = Mesh::Create(arrays, {.rest_encoding = encoding}).value();
     EXPECT_EQ(info->rest_encoding(), wire);
@@ -113,7 +114,18 @@ TEST(QuantizedServiceTest, UploadedQuantizedSkinsOnSimdLikeTheDecodedReference) 
         });
     ASSERT_TRUE(streamed.ok()) << streamed.ToString();
     EXPECT_EQ(seen, 4);
+    // A server that lost the mesh gets it again in the same encoding: the same id.
+    ASSERT_TRUE(t.client->DeleteMesh(info->mesh_id()).ok());
+    ASSERT_TRUE(t.client->Reupload(info->mesh_id()).ok());
+    got = t.client->GetMesh(info->mesh_id());
+    ASSERT_TRUE(got.ok()) << got.status().ToString();
+    EXPECT_EQ(got->rest_encoding(), wire);
   }
+  // The raw wire's field, as other clients set it.
+  auto raw = Upload(*t.client, arrays, v1::REST_ENCODING_QUANTIZED16);
+  ASSERT_TRUE(raw.ok()) << raw.status().ToString();
+  EXPECT_EQ(raw->mesh_id(),
+            Mesh::Create(arrays, {.rest_encoding = RestEncoding::kQuantized16}).value()->id());
 }
 
 TEST(QuantizedServiceTest, BadRequestsAreRefusedNamingTheReason) {

@@ -15,6 +15,9 @@
 // no and with 4 active targets, beside the skin-only rows (issue 28's 1.3x target).
 // --tangents: also BM_SkinTangents[DualQuaternion]/<backend>/<vertices>/<bones>, normals and
 // tangents (4 floats a vertex) skinned together, beside BM_SkinNormals.
+// --opencl-global-palette: `opencl` once more, from a second runtime whose kernels read the
+// palette from global memory (rows .../opencl-global/...), beside `opencl`'s own rows, which
+// on a GPU stage it in work-group local memory: the two kernels compared in one run.
 // --quantized: also BM_SkinQuantized/<backend>/<vertices>/<bones> (and
 // BM_SkinQuantizedWeights8) for the backends that read a quantized rest stream
 // (RestEncoding quantized16, quantized8-weights), the same mesh stored quantized, beside the
@@ -23,9 +26,12 @@
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
-// transfer_ns and kernel_vertices_per_second (kernel only); and the device's bounds are
-// measured in the same run: BM_PcieHostToDevice, BM_PcieDeviceToHost (pinned memory) and
-// BM_DeviceMemoryCopy (device to device, read + write).
+// transfer_ns, kernel_vertices_per_second and kernel_bytes_per_second (kernel only,
+// bytes_per_vertex each); and the device's bounds are measured in the same run:
+// BM_PcieHostToDevice, BM_PcieDeviceToHost (pinned memory) and BM_DeviceMemoryCopy (device
+// to device, read + write). kernel_bytes_per_second over BM_DeviceMemoryCopy's
+// bytes_per_second is the kernel's share of the device copy bound, which the console output
+// prints after the runs ("% mem", OpenCL device against its bounds).
 // Run it on an otherwise idle machine: with another process on a core, libgomp's default
 // spin-wait makes the OpenMP backends' frames wait for a 4 ms scheduler tick (wall time
 // twice the CPU time); OMP_WAIT_POLICY=passive limits that, at some cost on small frames.
@@ -42,6 +48,7 @@
 #include <string_view>
 #include <thread>
 
+#include "backends/opencl_backends.h"
 #include "backends/opencl_runtime.h"
 #include "paper_tables.h"
 #include "skinserve/engine/backend_registry.h"
@@ -63,6 +70,7 @@ struct Options {
   std::vector<SkinningMethod> methods = {SkinningMethod::kLinear};
   bool morph = false;
   bool tangents = false;
+  bool opencl_global_palette = false;
   bool quantized = false;
 };
 
@@ -95,6 +103,8 @@ Options ParseOptions(int* argc, char** argv) {
       options.morph = true;
     } else if (arg == "--tangents") {
       options.tangents = true;
+    } else if (arg == "--opencl-global-palette") {
+      options.opencl_global_palette = true;
     } else if (arg == "--quantized") {
       options.quantized = true;
     } else if (arg == "--normals") {
@@ -171,9 +181,11 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
                                                      benchmark::Counter::kAvgThreads);
     state.counters["transfer_ns"] = benchmark::Counter(
         static_cast<double>(total.transfer_ns) / frames, benchmark::Counter::kAvgThreads);
+    const double kernel_rate = vertices * frames * 1e9 / static_cast<double>(total.kernel_ns);
     state.counters["kernel_vertices_per_second"] =
-        benchmark::Counter(vertices * frames * 1e9 / static_cast<double>(total.kernel_ns),
-                           benchmark::Counter::kAvgThreads);
+        benchmark::Counter(kernel_rate, benchmark::Counter::kAvgThreads);
+    state.counters["kernel_bytes_per_second"] =
+        benchmark::Counter(kernel_rate * bytes, benchmark::Counter::kAvgThreads);
   }
 }
 
@@ -331,6 +343,8 @@ int main(int argc, char** argv) {
   }
 
   std::vector<std::string> measured;
+  // What the rows time: each measured backend under its id, and "opencl-global".
+  std::vector<std::pair<std::string, Backend*>> rows;
   for (const auto& backend : backends) {
     const BackendInfo& info = backend->info();
     const bool wanted = options.backends.empty() ||
@@ -341,6 +355,27 @@ int main(int argc, char** argv) {
       continue;
     }
     measured.push_back(info.id);
+    rows.emplace_back(info.id, backend.get());
+  }
+  static std::vector<std::unique_ptr<Backend>> global_palette;
+  if (options.opencl_global_palette &&
+      std::count(measured.begin(), measured.end(), "opencl") != 0) {
+    global_palette = MakeOpenClBackends(
+        OpenClRuntimeOptions{.threads = threads,
+                             .device = options.opencl_device,
+                             .local_palette = OpenClRuntimeOptions::LocalPalette::kOff});
+    Backend& global = *global_palette.front();  // its `opencl`
+    if (!global.info().available) {
+      fmt::print(stderr, "skinserve-bench: --opencl-global-palette: {}\n",
+                 global.info().unavailable_reason);
+      return 2;
+    }
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      if (rows[i].first == "opencl") {
+        rows.insert(rows.begin() + static_cast<std::ptrdiff_t>(i) + 1, {"opencl-global", &global});
+        break;
+      }
+    }
   }
   for (int outputs = 0; outputs < 3; ++outputs) {  // positions, + normals, + tangents
     const bool normals = outputs >= 1, tangents = outputs == 2;
@@ -348,8 +383,7 @@ int main(int argc, char** argv) {
     if (tangents && !options.tangents) continue;
     for (uint32_t v : options.vertices) {
       for (uint32_t b : options.bones) {
-        for (const auto& backend : backends) {
-          if (std::count(measured.begin(), measured.end(), backend->info().id) == 0) continue;
+        for (const auto& [id, backend] : rows) {
           if (tangents && !backend->info().tangents) continue;
           for (SkinningMethod method : options.methods) {
             if (!backend->info().Supports(method)) continue;
@@ -357,8 +391,8 @@ int main(int argc, char** argv) {
             const std::string name =
                 fmt::format("{}{}/{}/{}/{}",
                             tangents ? "BM_SkinTangents" : (normals ? "BM_SkinNormals" : "BM_Skin"),
-                            dqs ? "DualQuaternion" : "", backend->info().id, v, b);
-            benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
+                            dqs ? "DualQuaternion" : "", id, v, b);
+            benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend, v, b, normals,
                                          method, RestEncoding::kFloat32, tangents)
                 ->UseRealTime()
                 ->Unit(benchmark::kMicrosecond);
@@ -415,12 +449,10 @@ int main(int argc, char** argv) {
   if (opencl_measured && options.streams > 1) {
     for (uint32_t v : options.vertices) {
       for (uint32_t b : options.bones) {
-        for (const auto& backend : backends) {
-          const std::string& id = backend->info().id;
-          if (id.rfind("opencl", 0) != 0 || std::count(measured.begin(), measured.end(), id) == 0)
-            continue;
+        for (const auto& [id, backend] : rows) {
+          if (id.rfind("opencl", 0) != 0) continue;
           const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
-          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, false,
+          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend, v, b, false,
                                        SkinningMethod::kLinear, RestEncoding::kFloat32, false)
               ->Threads(options.streams)
               ->UseRealTime()
@@ -495,7 +527,9 @@ int main(int argc, char** argv) {
   }
   PaperTablesReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
-  if (options.paper_tables) reporter.PrintTables(measured);
+  std::vector<std::string> tabled;  // the measured backends and "opencl-global"
+  for (const auto& row : rows) tabled.push_back(row.first);
+  if (options.paper_tables) reporter.PrintTables(tabled);
   reporter.PrintDeviceBounds();
   if (options.quantized) reporter.PrintQuantizedShares();
   benchmark::Shutdown();

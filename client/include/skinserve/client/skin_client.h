@@ -153,6 +153,15 @@ struct CallLimits {
   std::chrono::milliseconds stream_idle{30'000};
 };
 
+// How the server is asked to store an upload.
+struct UploadOptions {
+  WeightPolicy weight_policy = WeightPolicy::kReject;
+  // The rest stream as stored (MeshHeader.rest_encoding): quantized16 and quantized8-weights
+  // cut the bytes a frame reads on `simd` and `simd-openmp` (docs/backends/quantized-rest.md).
+  // Part of the mesh's content id: the same arrays in two encodings are two meshes.
+  RestEncoding rest_encoding = RestEncoding::kFloat32;
+};
+
 class SkinClient {
  public:
   explicit SkinClient(std::shared_ptr<grpc::Channel> channel, const CallLimits& limits = {});
@@ -172,12 +181,11 @@ class SkinClient {
 
   // Uploads `arrays` unless the server already stores their content id (computed here:
   // the arrays are validated locally first, with the same errors the server would give).
-  Result<v1::MeshInfo> Upload(const MeshArrays& arrays,
-                              WeightPolicy weight_policy = WeightPolicy::kReject);
+  Result<v1::MeshInfo> Upload(const MeshArrays& arrays, const UploadOptions& options = {});
   // Lets this client re-upload `arrays` as `mesh_id` when a server answers NOT_FOUND,
   // without uploading now (e.g. another client of the same process uploaded it).
   void Remember(const std::string& mesh_id, std::shared_ptr<const MeshArrays> arrays,
-                WeightPolicy weight_policy = WeightPolicy::kReject);
+                const UploadOptions& options = {});
   // Uploads again the mesh that had `mesh_id`, if this client uploaded it.
   Status Reupload(const std::string& mesh_id);
   Result<v1::MeshInfo> GetMesh(const std::string& mesh_id);
@@ -204,7 +212,7 @@ class SkinClient {
  private:
   Status SkinOnce(const v1::SkinRequest& request, const RegionOutput& output, RawPart* part,
                   FrameResult* result);
-  Result<v1::MeshInfo> SendUpload(const MeshArrays& arrays, WeightPolicy weight_policy);
+  Result<v1::MeshInfo> SendUpload(const MeshArrays& arrays, const UploadOptions& options);
 
   std::shared_ptr<grpc::Channel> channel_;
   const CallLimits limits_;
@@ -215,7 +223,7 @@ class SkinClient {
   std::mutex mutex_;
   struct Uploaded {
     std::shared_ptr<const MeshArrays> arrays;
-    WeightPolicy weight_policy;
+    UploadOptions options;
   };
   std::map<std::string, Uploaded> uploaded_;  // by mesh id: for re-upload on NOT_FOUND
   // Skin's messages, reused by whichever call holds the lock (a concurrent call uses its own).

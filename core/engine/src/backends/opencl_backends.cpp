@@ -13,7 +13,9 @@ namespace {
 constexpr const char* kCopyId = "opencl";
 constexpr const char* kZeroCopyId = "opencl-zerocopy";
 
-std::vector<std::unique_ptr<Backend>> UnavailableBackends(const std::string& reason) {
+}  // namespace
+
+std::vector<std::unique_ptr<Backend>> MakeUnavailableOpenClBackends(const std::string& reason) {
   std::vector<std::unique_ptr<Backend>> backends;
   for (const char* id : {kCopyId, kZeroCopyId}) {
     BackendInfo info;
@@ -25,13 +27,22 @@ std::vector<std::unique_ptr<Backend>> UnavailableBackends(const std::string& rea
   return backends;
 }
 
-}  // namespace
+std::vector<std::unique_ptr<Backend>> MakeOpenClBackendsOn(std::shared_ptr<OpenClRuntime> runtime) {
+  std::vector<std::unique_ptr<Backend>> backends;
+  backends.push_back(MakeOpenClCopyBackend(runtime));
+  backends.push_back(MakeOpenClZeroCopyBackend(std::move(runtime)));
+  return backends;
+}
 
 BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, const char* description,
                               int threads) {
   BackendInfo info;
   info.id = id;
   info.description = fmt::format("{} ({})", description, runtime.platform_version());
+  if (runtime.local_palette()) {
+    info.description += fmt::format("; palettes of up to {} bytes staged in local memory",
+                                    runtime.local_palette_bytes());
+  }
   info.device = runtime.device_name();
   info.simd_width = runtime.vector_width();
   info.threads = threads;
@@ -43,23 +54,24 @@ BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, cons
 
 std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads, const std::string& device,
                                                          bool force_staging) {
+  OpenClRuntimeOptions options{.threads = threads, .device = device};
+  if (force_staging) {
+    // The tests' configuration: small frames run in several chunks too.
+    options.force_staging = true;
+    options.max_chunks = 8;
+    options.min_chunk_vertices = 1024;
+  }
+  return MakeOpenClBackends(options);
+}
+
+std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(const OpenClRuntimeOptions& options) {
   // Never throws: an engine without OpenCL still serves every other backend.
   try {
-    OpenClRuntimeOptions options{.threads = threads, .device = device};
-    if (force_staging) {
-      // The tests' configuration: small frames run in several chunks too.
-      options.force_staging = true;
-      options.max_chunks = 8;
-      options.min_chunk_vertices = 1024;
-    }
     auto runtime = OpenClRuntime::Create(options);
-    if (!runtime.ok()) return UnavailableBackends(runtime.status().message());
-    std::vector<std::unique_ptr<Backend>> backends;
-    backends.push_back(MakeOpenClCopyBackend(*runtime));
-    backends.push_back(MakeOpenClZeroCopyBackend(*runtime));
-    return backends;
+    if (!runtime.ok()) return MakeUnavailableOpenClBackends(runtime.status().message());
+    return MakeOpenClBackendsOn(*runtime);
   } catch (const std::exception& e) {
-    return UnavailableBackends(fmt::format("OpenCL start-up failed: {}", e.what()));
+    return MakeUnavailableOpenClBackends(fmt::format("OpenCL start-up failed: {}", e.what()));
   }
 }
 

@@ -56,7 +56,8 @@ Result<std::string> PlatformString(cl_platform_id platform, cl_platform_info wha
   return value;
 }
 
-Status DeviceUint(cl_device_id device, cl_device_info what, const char* name, cl_uint* value) {
+template <typename T>
+Status DeviceUint(cl_device_id device, cl_device_info what, const char* name, T* value) {
   if (cl_int err = clGetDeviceInfo(device, what, sizeof(*value), value, nullptr);
       err != CL_SUCCESS) {
     return ClError(name, err);
@@ -299,16 +300,38 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
   runtime->compute_units_ = static_cast<int>(units);
   runtime->vector_width_ = static_cast<int>(width);
   runtime->staging_ = !runtime->is_cpu_ || options.force_staging;
+  runtime->coalesced_ = !runtime->is_cpu_ || options.force_coalesced;
+  // The local-palette kernels: on the coalesced path, unless turned off, up to the
+  // device's local memory, less what the kernels use themselves, and at most the caller's
+  // limit (both applied once the kernels exist).
+  if (runtime->coalesced_ && options.local_palette == OpenClRuntimeOptions::LocalPalette::kAuto) {
+    cl_ulong local_bytes = 0;
+    if (Status s = DeviceUint(picked->device, CL_DEVICE_LOCAL_MEM_SIZE,
+                              "clGetDeviceInfo(CL_DEVICE_LOCAL_MEM_SIZE)", &local_bytes);
+        !s.ok()) {
+      return s;
+    }
+    runtime->local_palette_bytes_ = static_cast<std::size_t>(local_bytes);
+  }
+  runtime->local_tiles_ = options.local_tiles;
+  if (const char* tiles = std::getenv("SKINSERVE_OPENCL_LOCAL_TILES");
+      runtime->local_tiles_ <= 0 && tiles != nullptr) {
+    runtime->local_tiles_ = std::atoi(tiles);
+  }
+  if (runtime->local_tiles_ <= 0) runtime->local_tiles_ = kDefaultLocalTiles;
 
   cl_int err = CL_SUCCESS;
   runtime->context_ = clCreateContext(nullptr, 1, &runtime->device_, nullptr, nullptr, &err);
   if (err != CL_SUCCESS) return ClError("clCreateContext", err);
   // On a GPU, consecutive work-items take consecutive vertices (coalesced loads and
-  // stores); on a CPU, each work-item takes four consecutive ones (see the kernel).
+  // stores), and the *_local_* kernels stage the palette in local memory; on a CPU, each
+  // work-item takes four consecutive vertices (see the kernel).
   const std::string build_options = fmt::format(
       "-cl-std=CL1.2 -DSKIN_VERTICES_PER_ITEM={} -DSKIN_ITEMS_PER_GROUP={} "
-      "-DSKIN_COALESCED={} -DMORPH_VERTICES_PER_ITEM={}",
-      kVerticesPerItem, kItemsPerGroup, runtime->is_cpu_ ? 0 : 1, kMorphVerticesPerItem);
+      "-DSKIN_COALESCED={} -DSKIN_LOCAL_PALETTE={} -DSKIN_LOCAL_TILES={} "
+      "-DMORPH_VERTICES_PER_ITEM={}",
+      kVerticesPerItem, kItemsPerGroup, runtime->coalesced_ ? 1 : 0,
+      runtime->local_palette() ? 1 : 0, runtime->local_tiles_, kMorphVerticesPerItem);
   if (Status s = runtime->Build(build_options); !s.ok()) return s;
   const int lanes = options.lanes > 0 ? options.lanes : (runtime->staging_ ? 4 : 1);
   runtime->threads_ = threads;
@@ -322,6 +345,30 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
       std::max<uint32_t>(options.min_chunk_vertices, 1) + kChunkAlignment - 1;
   runtime->min_chunk_vertices_ -= runtime->min_chunk_vertices_ % kChunkAlignment;
   if (Status s = runtime->CreateLanes(lanes); !s.ok()) return s;
+  if (runtime->local_palette()) {
+    // What the local kernels use of local memory themselves (the staged palette, their
+    // one __local argument, counts as 0 until set) is not the palette's.
+    cl_ulong own = 0;
+    for (const auto& method : runtime->lanes_.front()->kernels[1]) {
+      for (const auto& row : method) {
+        for (cl_kernel kernel : row) {
+          cl_ulong bytes = 0;
+          if (cl_int info_err =
+                  clGetKernelWorkGroupInfo(kernel, runtime->device_, CL_KERNEL_LOCAL_MEM_SIZE,
+                                           sizeof(bytes), &bytes, nullptr);
+              info_err != CL_SUCCESS) {
+            return ClError("clGetKernelWorkGroupInfo(CL_KERNEL_LOCAL_MEM_SIZE)", info_err);
+          }
+          own = std::max(own, bytes);
+        }
+      }
+    }
+    runtime->local_palette_bytes_ -= std::min<std::size_t>(runtime->local_palette_bytes_, own);
+    if (options.local_palette_max_bytes > 0) {
+      runtime->local_palette_bytes_ =
+          std::min(runtime->local_palette_bytes_, options.local_palette_max_bytes);
+    }
+  }
   if (Status s = runtime->Warm(); !s.ok()) return s;
   return runtime;
 }
@@ -375,17 +422,21 @@ Status OpenClRuntime::CreateLanes(int count) {
     }
     // Linear blending (linear_blend_skinning.cl), then dual quaternions
     // (dual_quaternion_skinning.cl).
-    constexpr const char* kPrefixes[2][2] = {{"skin_b", "skin_normals_b"},
-                                             {"dqs_b", "dqs_normals_b"}};
-    for (std::size_t method = 0; method < 2; ++method) {
-      for (std::size_t normals = 0; normals < 2; ++normals) {
-        for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
-          const std::string name = fmt::format("{}{}", kPrefixes[method][normals], b);
-          cl_kernel kernel = clCreateKernel(program_, name.c_str(), &err);
-          if (err != CL_SUCCESS) {
-            return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
+    // With the local palette, their *_local_* variants too.
+    constexpr const char* kPrefixes[2][2][2] = {
+        {{"skin_b", "skin_normals_b"}, {"dqs_b", "dqs_normals_b"}},
+        {{"skin_local_b", "skin_normals_local_b"}, {"dqs_local_b", "dqs_normals_local_b"}}};
+    for (std::size_t local = 0; local < (local_palette() ? 2 : 1); ++local) {
+      for (std::size_t method = 0; method < 2; ++method) {
+        for (std::size_t normals = 0; normals < 2; ++normals) {
+          for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
+            const std::string name = fmt::format("{}{}", kPrefixes[local][method][normals], b);
+            cl_kernel kernel = clCreateKernel(program_, name.c_str(), &err);
+            if (err != CL_SUCCESS) {
+              return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
+            }
+            lane->kernels[local][method][normals][b - 1] = kernel;
           }
-          lane->kernels[method][normals][b - 1] = kernel;
         }
       }
     }
@@ -405,10 +456,12 @@ Status OpenClRuntime::CreateLanes(int count) {
 
 OpenClRuntime::~OpenClRuntime() {
   for (auto& lane : lanes_) {
-    for (auto& method : lane->kernels) {
-      for (auto& row : method) {
-        for (cl_kernel kernel : row) {
-          if (kernel != nullptr) clReleaseKernel(kernel);
+    for (auto& variant : lane->kernels) {
+      for (auto& method : variant) {
+        for (auto& row : method) {
+          for (cl_kernel kernel : row) {
+            if (kernel != nullptr) clReleaseKernel(kernel);
+          }
         }
       }
     }
@@ -501,8 +554,27 @@ Status OpenClRuntime::GrowPinned(cl_command_queue queue, const char* what, std::
   return Status::Ok();
 }
 
+namespace {
+// Floats per joint of the palette the kernels read: the 3x4 matrix, or the dual quaternion.
+std::size_t PaletteFloatsPerJoint(SkinningMethod method) {
+  return method == SkinningMethod::kDualQuaternion ? 8 : 12;
+}
+}  // namespace
+
+bool OpenClRuntime::UsesLocalPalette(const Mesh& mesh, SkinningMethod method) const {
+  const std::size_t bytes = mesh.joint_count() * PaletteFloatsPerJoint(method) * sizeof(float);
+  return local_palette() && bytes > 0 && bytes <= local_palette_bytes_;
+}
+
 Status OpenClRuntime::EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args,
                                   uint32_t first, uint32_t end, cl_event* event) {
+  return EnqueueSkinKernel(lane, mesh, args, first, end, UsesLocalPalette(mesh, args.method),
+                           event);
+}
+
+Status OpenClRuntime::EnqueueSkinKernel(OpenClLane& lane, const Mesh& mesh,
+                                        const SkinKernelArgs& args, uint32_t first, uint32_t end,
+                                        bool local, cl_event* event) {
   const uint32_t influences = mesh.influences();
   if (influences < 1 || influences > kMaxInfluences) {
     return Internal(fmt::format("no OpenCL kernel for {} influences", influences));
@@ -517,7 +589,9 @@ Status OpenClRuntime::EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const Skin
     return Internal("output normals without input normals: the mesh has none");
   }
   const bool dual_quaternion = args.method == SkinningMethod::kDualQuaternion;
-  cl_kernel kernel = lane.kernels[dual_quaternion ? 1 : 0][with_normals ? 1 : 0][influences - 1];
+  cl_kernel kernel =
+      lane.kernels[local ? 1 : 0][dual_quaternion ? 1 : 0][with_normals ? 1 : 0][influences - 1];
+  if (kernel == nullptr) return Internal("the local-palette kernels are not built");
   // Argument order: see SKIN_ARGS in kernels/linear_blend_skinning.cl (the
   // dual-quaternion kernels take the same). The kernel's
   // vertex_count is the range's end: it clamps to end - 1, and never reads past it.
@@ -540,11 +614,26 @@ Status OpenClRuntime::EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const Skin
       }
     }
   }
+  // The local kernels: the staged palette (its size is the argument's, no buffer) and its
+  // float count, after every other argument.
+  if (local) {
+    const cl_uint floats =
+        static_cast<cl_uint>(mesh.joint_count() * PaletteFloatsPerJoint(args.method));
+    if (cl_int err = clSetKernelArg(kernel, index++, floats * sizeof(float), nullptr);
+        err != CL_SUCCESS) {
+      return ClError("clSetKernelArg(staged palette)", err);
+    }
+    if (cl_int err = clSetKernelArg(kernel, index++, sizeof(cl_uint), &floats); err != CL_SUCCESS) {
+      return ClError("clSetKernelArg(palette_floats)", err);
+    }
+  }
   const std::size_t offset = first / kVerticesPerItem;
   const std::size_t items = (end - first + kVerticesPerItem - 1) / kVerticesPerItem;
-  const std::size_t local = kItemsPerGroup;
-  const std::size_t global = (items + local - 1) / local * local;
-  if (cl_int err = clEnqueueNDRangeKernel(lane.compute, kernel, 1, &offset, &global, &local, 0,
+  const std::size_t group = kItemsPerGroup;
+  // A local kernel's group skins local_tiles_ groups' worth of vertices.
+  const std::size_t per_group = local ? group * static_cast<std::size_t>(local_tiles_) : group;
+  const std::size_t global = (items + per_group - 1) / per_group * group;
+  if (cl_int err = clEnqueueNDRangeKernel(lane.compute, kernel, 1, &offset, &global, &group, 0,
                                           nullptr, event);
       err != CL_SUCCESS) {
     return ClError("clEnqueueNDRangeKernel", err);
@@ -642,10 +731,19 @@ Status OpenClRuntime::Warm() {
                             .weights = wgt->get(),
                             .positions = pos->get(),
                             .out_positions = out->get()};
-        if (Status s = EnqueueSkin(*lane, **mesh, args, 0, 1, nullptr); !s.ok()) return s;
-        args.normals = nrm->get();
-        args.out_normals = out_n->get();
-        if (Status s = EnqueueSkin(*lane, **mesh, args, 0, 1, nullptr); !s.ok()) return s;
+        // Both variants where the local ones are built: a frame may take either.
+        for (bool local : {false, true}) {
+          if (local && !local_palette()) continue;
+          args.normals = args.out_normals = nullptr;
+          if (Status s = EnqueueSkinKernel(*lane, **mesh, args, 0, 1, local, nullptr); !s.ok()) {
+            return s;
+          }
+          args.normals = nrm->get();
+          args.out_normals = out_n->get();
+          if (Status s = EnqueueSkinKernel(*lane, **mesh, args, 0, 1, local, nullptr); !s.ok()) {
+            return s;
+          }
+        }
       }
     }
     MorphKernelArgs morph{.positions = pos->get(),

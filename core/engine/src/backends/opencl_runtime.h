@@ -117,8 +117,10 @@ class OpenClRuntime;
 struct OpenClLane {
   cl_command_queue compute = nullptr;   // kernels (and, on a CPU device, every command)
   cl_command_queue transfer = nullptr;  // read-backs, so they overlap the next kernel
-  // [dual quaternion][with normals][influences - 1]
-  std::array<std::array<std::array<cl_kernel, kMaxInfluences>, 2>, 2> kernels = {};
+  // [palette in local memory][dual quaternion][with normals][influences - 1]: skin_b*,
+  // dqs_b* and their normals, then (only with OpenClRuntime::local_palette()) their
+  // *_local_* variants, which stage the palette in work-group local memory first.
+  std::array<std::array<std::array<std::array<cl_kernel, kMaxInfluences>, 2>, 2>, 2> kernels = {};
   // [with normals]: morph_positions, morph_positions_normals.
   std::array<cl_kernel, 2> morph_kernels = {};
   // The copy backend's per-frame buffers, grown to the largest frame this lane has run.
@@ -151,6 +153,23 @@ struct OpenClRuntimeOptions {
   // docs/backends/opencl.md, "Chunks").
   int max_chunks = 0;
   uint32_t min_chunk_vertices = 512 * 1024;
+  // The GPU's kernel shape (SKIN_COALESCED 1: neighbouring work-items take neighbouring
+  // vertices) even on a CPU device, so that tests run it on PoCL; a GPU always has it.
+  bool force_coalesced = false;
+  // On the coalesced path (a GPU, or force_coalesced), stage a frame's palette in
+  // work-group local memory (SKIN_LOCAL_PALETTE 1, the *_local_* kernels) whenever it
+  // fits: kAuto; kOff never (the benchmark's comparison rows). The CPU path (not
+  // coalesced) never stages: there local memory is ordinary memory.
+  enum class LocalPalette { kAuto, kOff };
+  LocalPalette local_palette = LocalPalette::kAuto;
+  // The most palette bytes a work-group stages: the device's CL_DEVICE_LOCAL_MEM_SIZE less
+  // what the kernels use themselves, and at most this when it is not 0 (tests set less,
+  // to take the global kernels with larger palettes). A frame whose palette (12 floats per joint
+  // linear, 8 dual quaternion) is larger runs the global kernels.
+  std::size_t local_palette_max_bytes = 0;
+  // Tiles of 256 vertices a work-group skins after one copy of the palette (0:
+  // SKINSERVE_OPENCL_LOCAL_TILES if set, else kDefaultLocalTiles).
+  int local_tiles = 0;
 };
 
 class OpenClRuntime {
@@ -229,11 +248,23 @@ class OpenClRuntime {
   int max_chunks() const { return max_chunks_; }
   uint32_t min_chunk_vertices() const { return min_chunk_vertices_; }
   static constexpr int kDefaultChunks = 2;
+  // Whether the kernels take the GPU's coalesced vertex order (SKIN_COALESCED 1).
+  bool coalesced() const { return coalesced_; }
+  // Whether the *_local_* kernels are built, and the most palette bytes they stage (0: not
+  // built). UsesLocalPalette: whether a frame of `mesh` with `method` runs them.
+  bool local_palette() const { return local_palette_bytes_ > 0; }
+  std::size_t local_palette_bytes() const { return local_palette_bytes_; }
+  bool UsesLocalPalette(const Mesh& mesh, SkinningMethod method) const;
+  int local_tiles() const { return local_tiles_; }
+  static constexpr int kDefaultLocalTiles = 1;
 
  private:
   OpenClRuntime() = default;
   Status Build(const std::string& options);
   Status CreateLanes(int count);
+  // Sets the kernel's arguments and enqueues it (the *_local_* kernel when `local`).
+  Status EnqueueSkinKernel(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args,
+                           uint32_t first, uint32_t end, bool local, cl_event* event);
   Status Warm();
   void Release(OpenClLane* lane);
 
@@ -250,6 +281,9 @@ class OpenClRuntime {
   int vector_width_ = 1;
   bool is_cpu_ = true;
   bool staging_ = false;
+  bool coalesced_ = false;
+  std::size_t local_palette_bytes_ = 0;
+  int local_tiles_ = kDefaultLocalTiles;
   int threads_ = 1;
   int max_chunks_ = kDefaultChunks;
   uint32_t min_chunk_vertices_ = 1;
