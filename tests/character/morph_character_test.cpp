@@ -11,18 +11,15 @@
 
 #include <cmath>
 
+#include "clip_stream_check.h"
 #include "gltf_test_support.h"
 #include "skinserve/character/character_mesh.h"
 #include "skinserve/character/gltf_import.h"
-#include "skinserve/client/frame_stream.h"
 #include "test_scenes.h"
 #include "test_server.h"
 
 namespace skinserve::testing {
 namespace {
-
-constexpr double kPositionTolerance = 1e-5;
-constexpr double kNormalTolerance = 1e-5;
 
 class MorphCharacterTest : public ::testing::TestWithParam<std::string> {};
 
@@ -50,7 +47,6 @@ TEST_P(MorphCharacterTest, EveryPrimitiveMatchesTheFloat64MorphThenSkin) {
   // Sparse: target 0 of each Face primitive moves every other vertex only.
   EXPECT_EQ(mesh.arrays.morph_target_sizes[0], (mesh.parts[0].vertex_count + 1) / 2);
 
-  const std::vector<ScenePrimitiveRef> prims = SkinnedPrimitives(scene);
   const std::vector<double> times = {0.0, 0.3, 0.75, 0.8, 1.37, 2.0, 2.5};
   TestServer t;
   auto info = t.client->Upload(mesh.arrays);
@@ -63,44 +59,8 @@ TEST_P(MorphCharacterTest, EveryPrimitiveMatchesTheFloat64MorphThenSkin) {
     if (!backend.morph_targets()) continue;
     SCOPED_TRACE(backend.id());
     ++backends_run;
-    client::StreamOptions options{.mesh_id = info->mesh_id(),
-                                  .backend = backend.id(),
-                                  .want_normals = true,
-                                  .frames = times.size()};
-    std::vector<MorphWeight> held;
-    options.morph_weights = [&](uint64_t f) {
-      MeshMorphWeights(mesh, SampleClip(*character, character->clips[0], times[f]), &held);
-      return std::span<const MorphWeight>(held);
-    };
-    uint64_t answered = 0;
-    Status s = client::StreamFrames(
-        *t.client, options,
-        [&](uint64_t f) {
-          auto palette = SkinPalette(
-              *character, SampleClip(*character, character->clips[0], times[f]), mesh.skin);
-          EXPECT_TRUE(palette.ok()) << palette.status().ToString();
-          return palette.ok() ? *palette : std::vector<float>();
-        },
-        [&](client::FrameResult& r, std::chrono::nanoseconds) {
-          ASSERT_TRUE(r.status.ok()) << r.status.ToString();
-          ++answered;
-          for (const PrimitiveSpan& part : mesh.parts) {
-            const RefFrame expected =
-                SceneFrame(scene, prims[static_cast<std::size_t>(part.primitive)], times[r.frame]);
-            double scale = 0;
-            for (double x : expected.positions) scale = std::max(scale, std::fabs(x));
-            const double tolerance = kPositionTolerance * (1 + scale);
-            for (std::size_t i = 0; i < expected.positions.size(); ++i) {
-              const std::size_t at = 3 * std::size_t{part.first_vertex} + i;
-              ASSERT_NEAR(r.positions[at], expected.positions[i], tolerance)
-                  << part.name << " vertex " << i / 3 << " t " << times[r.frame];
-              ASSERT_NEAR(r.normals[at], expected.normals[i], kNormalTolerance)
-                  << part.name << " vertex " << i / 3 << " t " << times[r.frame];
-            }
-          }
-        });
-    EXPECT_TRUE(s.ok()) << s.ToString();
-    EXPECT_EQ(answered, times.size());
+    StreamClipAndCompare(*t.client, info->mesh_id(), backend.id(), scene, *character,
+                         character->clips[0], mesh, times);
   }
   EXPECT_GE(backends_run, 4) << "serial, openmp, simd and simd-openmp at least";
 }

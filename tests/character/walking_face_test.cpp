@@ -14,18 +14,16 @@
 #include <cmath>
 #include <iterator>
 
+#include "clip_stream_check.h"
 #include "gltf_test_support.h"
 #include "skinserve/character/character_mesh.h"
 #include "skinserve/character/gltf_import.h"
-#include "skinserve/client/frame_stream.h"
 #include "test_scenes.h"
 #include "test_server.h"
 
 namespace skinserve::testing {
 namespace {
 
-constexpr double kPositionTolerance = 1e-5;
-constexpr double kNormalTolerance = 1e-5;
 constexpr char kAsset[] = "WalkingFace.glb";
 
 // The head's weights (mouth open, eyes shut) at `t`: the file's LINEAR keys interpolated
@@ -92,43 +90,8 @@ TEST(WalkingFaceTest, EveryVertexMatchesTheFloat64MorphThenSkin) {
     if (!backend.morph_targets()) continue;
     SCOPED_TRACE(backend.id());
     ++backends_run;
-    client::StreamOptions options{.mesh_id = info->mesh_id(),
-                                  .backend = backend.id(),
-                                  .want_normals = true,
-                                  .frames = times.size()};
-    std::vector<MorphWeight> held;
-    options.morph_weights = [&](uint64_t f) {
-      MeshMorphWeights(mesh, SampleClip(*character, clip, times[f]), &held);
-      return std::span<const MorphWeight>(held);
-    };
-    uint64_t answered = 0;
-    Status s = client::StreamFrames(
-        *server.client, options,
-        [&](uint64_t f) {
-          auto palette = MeshPalette(*character, SampleClip(*character, clip, times[f]), mesh);
-          EXPECT_TRUE(palette.ok()) << palette.status().ToString();
-          return palette.ok() ? *palette : std::vector<float>();
-        },
-        [&](client::FrameResult& r, std::chrono::nanoseconds) {
-          ASSERT_TRUE(r.status.ok()) << r.status.ToString();
-          ++answered;
-          for (const PrimitiveSpan& part : mesh.parts) {
-            const RefFrame expected =
-                SceneFrame(scene, prims[static_cast<std::size_t>(part.primitive)], times[r.frame]);
-            double scale = 0;
-            for (double x : expected.positions) scale = std::max(scale, std::fabs(x));
-            const double tolerance = kPositionTolerance * (1 + scale);
-            for (std::size_t i = 0; i < expected.positions.size(); ++i) {
-              const std::size_t at = 3 * std::size_t{part.first_vertex} + i;
-              ASSERT_NEAR(r.positions[at], expected.positions[i], tolerance)
-                  << part.name << " vertex " << i / 3 << " t " << times[r.frame];
-              ASSERT_NEAR(r.normals[at], expected.normals[i], kNormalTolerance)
-                  << part.name << " vertex " << i / 3 << " t " << times[r.frame];
-            }
-          }
-        });
-    EXPECT_TRUE(s.ok()) << s.ToString();
-    EXPECT_EQ(answered, times.size());
+    StreamClipAndCompare(*server.client, info->mesh_id(), backend.id(), scene, *character, clip,
+                         mesh, times);
   }
   EXPECT_GE(backends_run, 4) << "serial, openmp, simd and simd-openmp at least";
 }

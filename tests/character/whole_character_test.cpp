@@ -8,10 +8,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "clip_stream_check.h"
 #include "gltf_test_support.h"
 #include "skinserve/character/character_mesh.h"
 #include "skinserve/character/gltf_import.h"
-#include "skinserve/client/frame_stream.h"
 #include "test_scenes.h"
 #include "test_server.h"
 
@@ -21,8 +21,6 @@ namespace {
 // As in character_e2e_test.cpp: 1e-5 * (1 + S) with S bounding |M p| (here: the largest
 // |coordinate| of the expected frame plus one, which bounds it for these unit-scale scenes),
 // normals 1e-5.
-constexpr double kPositionTolerance = 1e-5;
-constexpr double kNormalTolerance = 1e-5;
 
 struct Imported {
   Character character;
@@ -55,7 +53,6 @@ void ExpectPrimitivesAreTheScenes(const Imported& c, const Scene& scene) {
 // of every answer against SceneFrame. Returns the number of backends run.
 int ExpectServerMatchesReference(const Imported& c, const Scene& scene,
                                  const std::vector<double>& times) {
-  const std::vector<ScenePrimitiveRef> prims = SkinnedPrimitives(scene);
   TestServer t;
   std::vector<std::string> ids;
   for (const CharacterMesh& mesh : c.meshes) {
@@ -76,44 +73,8 @@ int ExpectServerMatchesReference(const Imported& c, const Scene& scene,
     for (std::size_t m = 0; m < c.meshes.size(); ++m) {
       const CharacterMesh& mesh = c.meshes[m];
       SCOPED_TRACE(mesh.name);
-      uint64_t answered = 0;
-      Status s = client::StreamFrames(
-          *t.client,
-          {.mesh_id = ids[m],
-           .backend = backend.id(),
-           .want_normals = !mesh.arrays.normals.empty(),
-           .frames = times.size()},
-          [&](uint64_t frame) {
-            auto palette = MeshPalette(
-                c.character, SampleClip(c.character, c.character.clips[0], times[frame]), mesh);
-            EXPECT_TRUE(palette.ok()) << palette.status().ToString();
-            return palette.ok() ? *palette : std::vector<float>();
-          },
-          [&](client::FrameResult& r, std::chrono::nanoseconds) {
-            ASSERT_TRUE(r.status.ok()) << r.status.ToString();
-            ++answered;
-            ASSERT_EQ(r.positions.size(), 3u * mesh.arrays.vertex_count);
-            const bool normals = !mesh.arrays.normals.empty();
-            ASSERT_EQ(r.normals.size(), normals ? r.positions.size() : 0u);
-            for (const PrimitiveSpan& part : mesh.parts) {
-              const RefFrame expected = SceneFrame(
-                  scene, prims[static_cast<std::size_t>(part.primitive)], times[r.frame]);
-              ASSERT_EQ(expected.positions.size(), 3u * part.vertex_count) << part.name;
-              double scale = 0;
-              for (double x : expected.positions) scale = std::max(scale, std::fabs(x));
-              const double tolerance = kPositionTolerance * (1 + scale);
-              for (std::size_t i = 0; i < expected.positions.size(); ++i) {
-                const std::size_t at = 3 * std::size_t{part.first_vertex} + i;
-                ASSERT_NEAR(r.positions[at], expected.positions[i], tolerance)
-                    << part.name << " vertex " << i / 3 << " t " << times[r.frame];
-                if (!normals) continue;
-                ASSERT_NEAR(r.normals[at], expected.normals[i], kNormalTolerance)
-                    << part.name << " vertex " << i / 3 << " t " << times[r.frame];
-              }
-            }
-          });
-      EXPECT_TRUE(s.ok()) << s.ToString();
-      EXPECT_EQ(answered, times.size());
+      StreamClipAndCompare(*t.client, ids[m], backend.id(), scene, c.character,
+                           c.character.clips[0], mesh, times);
     }
   }
   return backends_run;
