@@ -70,11 +70,12 @@ class AsyncClient:
                      normals: Optional[npt.NDArray[np.float32]] = None,
                      normalize_weights: bool = False, joint_count: Optional[int] = None,
                      morph_targets: Optional[Sequence[MorphTarget]] = None,
-                     tangents: Optional[npt.NDArray[np.float32]] = None) -> str:
+                     tangents: Optional[npt.NDArray[np.float32]] = None,
+                     rest_encoding: str = "float32") -> str:
         """Client.upload: stores a mesh (with its morph targets) and returns its id."""
         requests = _requests.upload_requests(positions, joints, weights, normals,
                                              normalize_weights, joint_count, morph_targets,
-                                             tangents)
+                                             tangents, rest_encoding)
         info = await self._upload(requests)
         self._meshes[info.mesh_id] = (requests, requests[0].header.joint_count,
                                       requests[0].header.vertex_count)

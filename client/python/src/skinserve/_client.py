@@ -111,7 +111,8 @@ class Client:
                normals: Optional[npt.NDArray[np.float32]] = None,
                normalize_weights: bool = False, joint_count: Optional[int] = None,
                morph_targets: Optional[Sequence[MorphTarget]] = None,
-               tangents: Optional[npt.NDArray[np.float32]] = None) -> str:
+               tangents: Optional[npt.NDArray[np.float32]] = None,
+               rest_encoding: str = "float32") -> str:
         """Stores a mesh and returns its id (the SHA-256 of its content).
 
         positions, normals: float32 (V, 3); joints: uint16 (V, B); weights: float32 (V, B),
@@ -121,10 +122,14 @@ class Client:
         the vertices a target moves (uint32, ascending) and their deltas (float32 (D, 3));
         frames then name their active targets' weights (skin's morph_weights).
         tangents: float32 (V, 4), glTF TANGENT (xyz unit, w +1 or -1); needs normals.
+        rest_encoding: how the server stores the mesh: "float32", or "quantized16" /
+        "quantized8-weights" (16-bit positions, normals and weights, or 8-bit weights; fewer
+        bytes per frame on simd and simd-openmp, within the error bound of
+        docs/backends/quantized-rest.md). The encoding is part of the mesh's id.
         """
         requests = _requests.upload_requests(positions, joints, weights, normals,
                                              normalize_weights, joint_count,
-                                             morph_targets, tangents)
+                                             morph_targets, tangents, rest_encoding)
         info = self._upload(requests)
         self._meshes[info.mesh_id] = (requests, requests[0].header.joint_count,
                                       requests[0].header.vertex_count)

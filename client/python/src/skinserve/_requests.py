@@ -15,14 +15,23 @@ ENCODINGS = {"float32": pb.ENCODING_FLOAT32, "float16": pb.ENCODING_FLOAT16,
              "snorm16": pb.ENCODING_SNORM16}
 
 
+REST_ENCODINGS = {"float32": pb.REST_ENCODING_FLOAT32,
+                  "quantized16": pb.REST_ENCODING_QUANTIZED16,
+                  "quantized8-weights": pb.REST_ENCODING_QUANTIZED8_WEIGHTS}
+
+
 def upload_requests(positions: npt.NDArray[np.float32], joints: npt.NDArray[np.uint16],
                     weights: npt.NDArray[np.float32],
                     normals: Optional[npt.NDArray[np.float32]], normalize_weights: bool,
                     joint_count: Optional[int],
                     morph_targets: Optional[Sequence[MorphTarget]] = None,
-                    tangents: Optional[npt.NDArray[np.float32]] = None
+                    tangents: Optional[npt.NDArray[np.float32]] = None,
+                    rest_encoding: str = "float32"
                     ) -> List[pb.UploadMeshRequest]:
     """The header, then each array in chunks of at most 1 MiB."""
+    if rest_encoding not in REST_ENCODINGS:
+        raise ValueError(f"rest_encoding: {rest_encoding!r}, expected one of "
+                         f"{', '.join(REST_ENCODINGS)}")
     _arrays.check_mesh(positions, joints, weights, normals)
     if tangents is not None:
         _arrays.check_tangents(tangents, positions.shape[0], normals is not None)
@@ -40,7 +49,7 @@ def upload_requests(positions: npt.NDArray[np.float32], joints: npt.NDArray[np.u
         weight_policy=(pb.WEIGHT_POLICY_NORMALIZE if normalize_weights
                        else pb.WEIGHT_POLICY_REJECT),
         morph_target_sizes=sizes, morph_normals=morph_normals,
-        has_tangents=tangents is not None)
+        has_tangents=tangents is not None, rest_encoding=REST_ENCODINGS[rest_encoding])
     requests = [pb.UploadMeshRequest(header=header)]
     arrays: List[Tuple[pb.MeshArray, Optional[npt.NDArray[Any]], str]] = [
         (pb.MESH_ARRAY_POSITIONS, positions, "f4"),
