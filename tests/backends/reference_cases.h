@@ -27,8 +27,9 @@ struct MeshCase {
   bool tangents = false;  // with normals only
 };
 
-// Every combination of the vertex counts, 1..max_influences, the joint counts and without
-// normals, with normals, and with normals and tangents.
+// Every combination of the vertex counts (each at most TargetCheckMaxVertices()),
+// 1..max_influences, the joint counts and without normals, with normals, and with normals
+// and tangents.
 std::vector<MeshCase> MeshCases(std::initializer_list<uint32_t> vertices,
                                 std::initializer_list<uint32_t> joints,
                                 uint32_t max_influences = kMaxInfluences);
@@ -39,10 +40,10 @@ std::vector<MeshCase> MeshCases(std::initializer_list<uint32_t> vertices,
 // number of at least 4097 vertices fails the suite rather than shrinking what it checks.
 uint32_t LargeCaseVertices();
 
-// The longest frame the per-SIMD-target checks skin: unlimited, or
+// The longest frame the per-SIMD-target checks and MeshCases skin: unlimited, or
 // SKINSERVE_TEST_TARGET_MAX_VERTICES where set (the arm64 suite under qemu sets 257: every
 // tail and the first chunk boundary; there each target costs minutes, and the x86 suite
-// checks the longer frames of the same loops). A value below 33 fails the calling test.
+// checks the longer frames of the same loops). A value below 33 ends the run.
 uint32_t TargetCheckMaxVertices();
 
 // The case's synthetic mesh; its seed follows from its shape, so a failure reproduces.
