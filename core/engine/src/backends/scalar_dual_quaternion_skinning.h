@@ -50,29 +50,20 @@ void SkinDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& pale
     const float tx = 2 * (rw * dx - dw * rx + (ry * dz - rz * dy));
     const float ty = 2 * (rw * dy - dw * ry + (rz * dx - rx * dz));
     const float tz = 2 * (rw * dz - dw * rz + (rx * dy - ry * dx));
-    {
-      const float x = positions[3 * v], y = positions[3 * v + 1], z = positions[3 * v + 2];
+    // p + 2 r x (r x p + rw p): the rotation part, for positions, normals and tangents.
+    const auto rotate = [&](const float* in, float* out) {
+      const float x = in[0], y = in[1], z = in[2];
       const float cx = ry * z - rz * y + rw * x, cy = rz * x - rx * z + rw * y,
                   cz = rx * y - ry * x + rw * z;
-      out_p[3 * v] = x + 2 * (ry * cz - rz * cy) + tx;
-      out_p[3 * v + 1] = y + 2 * (rz * cx - rx * cz) + ty;
-      out_p[3 * v + 2] = z + 2 * (rx * cy - ry * cx) + tz;
-    }
-    if (out_n != nullptr) {
-      const float x = normals[3 * v], y = normals[3 * v + 1], z = normals[3 * v + 2];
-      const float cx = ry * z - rz * y + rw * x, cy = rz * x - rx * z + rw * y,
-                  cz = rx * y - ry * x + rw * z;
-      out_n[3 * v] = x + 2 * (ry * cz - rz * cy);
-      out_n[3 * v + 1] = y + 2 * (rz * cx - rx * cz);
-      out_n[3 * v + 2] = z + 2 * (rx * cy - ry * cx);
-    }
+      out[0] = x + 2 * (ry * cz - rz * cy);
+      out[1] = y + 2 * (rz * cx - rx * cz);
+      out[2] = z + 2 * (rx * cy - ry * cx);
+    };
+    rotate(positions + 3 * v, out_p + 3 * v);
+    out_p[3 * v] += tx, out_p[3 * v + 1] += ty, out_p[3 * v + 2] += tz;
+    if (out_n != nullptr) rotate(normals + 3 * v, out_n + 3 * v);
     if (out_t != nullptr) {
-      const float x = tangents[4 * v], y = tangents[4 * v + 1], z = tangents[4 * v + 2];
-      const float cx = ry * z - rz * y + rw * x, cy = rz * x - rx * z + rw * y,
-                  cz = rx * y - ry * x + rw * z;
-      out_t[4 * v] = x + 2 * (ry * cz - rz * cy);
-      out_t[4 * v + 1] = y + 2 * (rz * cx - rx * cz);
-      out_t[4 * v + 2] = z + 2 * (rx * cy - ry * cx);
+      rotate(tangents + 4 * v, out_t + 4 * v);
       out_t[4 * v + 3] = tangents[4 * v + 3];
     }
   }

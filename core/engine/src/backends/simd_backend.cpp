@@ -73,12 +73,18 @@ class SimdPreparedMesh final : public PreparedMesh {
 // The frame's palette as the kernel reads it: per joint the four columns of the 3x4
 // matrix, each padded with a zero (simd_stream.h). Built in this thread's buffer, grown
 // and never shrunk, like sse::ColumnPalette.
-const float* ColumnPalette(std::span<const float> palette) {
+// This thread's column buffer, at least `joints` records long: grown, never shrunk.
+AlignedBuffer<float>& ThreadColumnBuffer(std::size_t joints) {
   thread_local AlignedBuffer<float> buffer;
-  const std::size_t joints = palette.size() / 12;
   if (buffer.size() < joints * simd::kFloatsPerJoint) {
     buffer = AlignedBuffer<float>(joints * simd::kFloatsPerJoint);
   }
+  return buffer;
+}
+
+const float* ColumnPalette(std::span<const float> palette) {
+  const std::size_t joints = palette.size() / 12;
+  AlignedBuffer<float>& buffer = ThreadColumnBuffer(joints);
   for (std::size_t j = 0; j < joints; ++j) {
     const float* rows = palette.data() + 12 * j;
     float* out = buffer.data() + simd::kFloatsPerJoint * j;
@@ -94,11 +100,8 @@ const float* ColumnPalette(std::span<const float> palette) {
 // (x = offset + scale * q per axis), so the loop multiplies the integers directly. In
 // float64, rounded once.
 const float* QuantizedColumnPalette(std::span<const float> palette, const QuantizedRest& rest) {
-  thread_local AlignedBuffer<float> buffer;
   const std::size_t joints = palette.size() / 12;
-  if (buffer.size() < joints * simd::kFloatsPerJoint) {
-    buffer = AlignedBuffer<float>(joints * simd::kFloatsPerJoint);
-  }
+  AlignedBuffer<float>& buffer = ThreadColumnBuffer(joints);
   for (std::size_t j = 0; j < joints; ++j) {
     const float* rows = palette.data() + 12 * j;
     float* out = buffer.data() + simd::kFloatsPerJoint * j;
