@@ -18,14 +18,7 @@ void ExpectStatus(const Status& s, StatusCode code, const std::string& needle) {
 
 // Sends `messages` as one UploadMesh call; returns its status.
 Status RawUpload(client::SkinClient& c, const std::vector<v1::UploadMeshRequest>& messages) {
-  grpc::ClientContext context;
-  v1::MeshInfo info;
-  auto writer = c.stub().UploadMesh(&context, &info);
-  for (const auto& m : messages) {
-    if (!writer->Write(m)) break;
-  }
-  writer->WritesDone();
-  return wire::FromGrpc(writer->Finish());
+  return RawUploadMesh(c, messages).status();
 }
 
 // Sends `messages` as they are (valid protobuf or not) on `method`, half-closes, reads

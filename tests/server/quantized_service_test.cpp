@@ -46,15 +46,7 @@ Result<v1::MeshInfo> Upload(client::SkinClient& c, const MeshArrays& arrays, int
   messages.push_back(Chunk(v1::MESH_ARRAY_JOINTS, arrays.joints.data(), arrays.joints.size() * 2));
   messages.push_back(
       Chunk(v1::MESH_ARRAY_WEIGHTS, arrays.weights.data(), arrays.weights.size() * 4));
-  grpc::ClientContext context;
-  v1::MeshInfo info;
-  auto writer = c.stub().UploadMesh(&context, &info);
-  for (const auto& m : messages) {
-    if (!writer->Write(m)) break;
-  }
-  writer->WritesDone();
-  if (Status s = wire::FromGrpc(writer->Finish()); !s.ok()) return s;
-  return info;
+  return RawUploadMesh(c, messages);
 }
 
 MeshArrays Arrays() {

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "skin_server.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
@@ -24,5 +26,20 @@ struct TestServer {
     client = std::make_unique<client::SkinClient>(client::MakeChannel(target));
   }
 };
+
+// Sends `messages` as one UploadMesh call through the raw stub (for uploads the client
+// library would refuse or shape itself); the server's MeshInfo or its status.
+inline Result<v1::MeshInfo> RawUploadMesh(client::SkinClient& c,
+                                          const std::vector<v1::UploadMeshRequest>& messages) {
+  grpc::ClientContext context;
+  v1::MeshInfo info;
+  auto writer = c.stub().UploadMesh(&context, &info);
+  for (const auto& m : messages) {
+    if (!writer->Write(m)) break;
+  }
+  writer->WritesDone();
+  if (Status s = wire::FromGrpc(writer->Finish()); !s.ok()) return s;
+  return info;
+}
 
 }  // namespace skinserve::testing
