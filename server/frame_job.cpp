@@ -95,6 +95,22 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
   if (want_normals_ && !plan().has_normals) {
     return InvalidArgument("want_normals is set but mesh " + wire.mesh_id() + " has no normals");
   }
+  want_tangents_ = wire.want_tangents();
+  if (want_tangents_) {
+    if (!want_normals_) {
+      return InvalidArgument("want_tangents is set without want_normals; ask for normals too");
+    }
+    if (!plan().has_tangents) {
+      return InvalidArgument("want_tangents is set but mesh " + wire.mesh_id() +
+                             " has no tangents (MeshHeader.has_tangents)");
+    }
+    if (!plan().backend_tangents) {
+      return FailedPrecondition(fmt::format(
+          "want_tangents is set but backend '{}' does not skin tangents (BackendInfo.tangents); "
+          "ask without tangents or choose a backend whose BackendInfo.tangents is set",
+          request.backend));
+    }
+  }
   Result<VertexEncoding> encoding = FromWire(wire.encoding());
   if (!encoding.ok()) return encoding.status();
   encoding_ = *encoding;
@@ -103,8 +119,10 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
 
   const uint64_t values = 3ull * vertices_ * instances_;
   const uint64_t arrays = want_normals_ ? 2 : 1;
+  const uint64_t tangent_values = want_tangents_ ? kValuesPerTangent * vertices_ * instances_ : 0;
   const bool float32 = encoding_ == VertexEncoding::kFloat32;
-  const std::size_t vertex_bytes = arrays * 3 * EncodedBytesPerValue(encoding_);
+  const std::size_t vertex_bytes =
+      (arrays * 3 + (want_tangents_ ? kValuesPerTangent : 0)) * EncodedBytesPerValue(encoding_);
   vertices_per_part_ =
       static_cast<uint32_t>(std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes));
   parts_per_instance_ =
@@ -122,7 +140,9 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
       kHeaderRoom + (boxed_ && instances_per_part_ > 1 ? kBoundsRoom * instances_per_part_ : 0);
   const std::size_t payload = values * EncodedBytesPerValue(encoding_);
   normals_offset_ = RoundUp(payload);  // the positions start the buffer
-  headers_offset_ = normals_offset_ + (want_normals_ ? RoundUp(payload) : 0);
+  tangents_offset_ = normals_offset_ + (want_normals_ ? RoundUp(payload) : 0);
+  headers_offset_ = tangents_offset_ + RoundUp(static_cast<std::size_t>(tangent_values) *
+                                               EncodedBytesPerValue(encoding_));
   region_part_ = wire.has_output();
   if (region_part_) {  // the vertices go into the region: the wire carries one header
     if (Status s = PrepareRegion(wire.output(), regions); !s.ok()) return s;
@@ -130,7 +150,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
     instances_per_part_ = 1;
     header_room_ =
         kHeaderRoom + wire.output().region().size() + (boxed_ ? kBoundsRoom * instances_ : 0);
-    normals_offset_ = headers_offset_ = 0;
+    normals_offset_ = tangents_offset_ = headers_offset_ = 0;
   }
   wire_used_ = headers_offset_ + part_count_ * header_room_;
   early_ = wire.early_parts() && !region_part_ && part_count_ > 1 && instances_ > 1;
@@ -138,11 +158,14 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
 
   // Encoded instance by instance: skinned into the compute thread's scratch, kept in its
   // core's cache, unless an instance is too large for it.
-  const bool scratch = !float32 && ScratchFloatsPerInstance(vertices_, want_normals_) <=
-                                       kMaxScratchFloatsPerInstance;
+  // Tangents are never skinned into scratch (the engine's rule): such frames keep floats.
+  const bool scratch =
+      !float32 && !want_tangents_ &&
+      ScratchFloatsPerInstance(vertices_, want_normals_) <= kMaxScratchFloatsPerInstance;
   // What this frame holds while in flight; the job keeps its buffers, so only growth is
   // charged.
-  const uint64_t floats_kept = float32 || scratch ? 0 : arrays * values * sizeof(float);
+  const uint64_t floats_kept =
+      float32 || scratch ? 0 : (arrays * values + tangent_values) * sizeof(float);
   const uint64_t need = wire.palette().size() + floats_kept + std::max(wire_used_, wire_.size());
   if (need > charged_) {
     if (Status s = budget_->TryCharge(need - charged_); !s.ok()) return s;
@@ -162,12 +185,17 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
     };
     request.positions = floats(PositionsOut());
     request.normals = want_normals_ ? floats(NormalsOut()) : std::span<float>();
+    request.tangents =
+        want_tangents_ ? std::span<float>(reinterpret_cast<float*>(TangentsOut()), tangent_values)
+                       : std::span<float>();
   } else if (scratch) {
     request.positions = {};
     request.normals = {};
+    request.tangents = {};
   } else {
     request.positions = Reuse(positions_, values);
     request.normals = want_normals_ ? Reuse(normals_, values) : std::span<float>();
+    request.tangents = want_tangents_ ? Reuse(tangents_, tangent_values) : std::span<float>();
   }
   request.skin_into_scratch = scratch;
   request.scratch_normals = scratch && want_normals_;
@@ -190,9 +218,10 @@ Status FrameJob::PrepareRegion(const v1::OutputRegion& output, RegionRegistry* r
                                        offset, output.region(), wire::kRegionAlignment));
   }
   const wire::RegionLayout layout =
-      wire::LayoutInRegion(offset, vertices_, instances_, encoding_, want_normals_);
+      wire::LayoutInRegion(offset, vertices_, instances_, encoding_, want_normals_, want_tangents_);
   region_positions_ = layout.positions_offset;
   region_normals_ = layout.normals_offset;
+  region_tangents_ = layout.tangents_offset;
   region_end_ = layout.end_offset;
   const uint64_t limit =
       output.byte_size() == 0 ? size : std::min(size, offset + std::min(output.byte_size(), size));
@@ -200,7 +229,9 @@ Status FrameJob::PrepareRegion(const v1::OutputRegion& output, RegionRegistry* r
     return InvalidArgument(fmt::format(
         "frame {} needs bytes [{}, {}) of region '{}' ({} instance(s) of {} vertices{}), but {}",
         frame_, offset, region_end_, output.region(), instances_, vertices_,
-        want_normals_ ? " with normals" : "",
+        want_tangents_  ? " with normals and tangents"
+        : want_normals_ ? " with normals"
+                        : "",
         limit < size ? fmt::format("output.byte_size = {} allows {} from the offset",
                                    output.byte_size(), output.byte_size())
                      : fmt::format("the region holds {} bytes", size)));
@@ -215,6 +246,10 @@ std::byte* FrameJob::PositionsOut() {
 
 std::byte* FrameJob::NormalsOut() {
   return region_ ? region_->bytes().data() + region_normals_ : wire_.data() + normals_offset_;
+}
+
+std::byte* FrameJob::TangentsOut() {
+  return region_ ? region_->bytes().data() + region_tangents_ : wire_.data() + tangents_offset_;
 }
 
 void FrameJob::Fail(Status status) {
@@ -276,6 +311,12 @@ Status FrameJob::EncodeInstance(uint32_t i, std::span<const float> positions,
   if (s.ok() && want_normals_) {
     s = EncodeNormals(encoding_, normals, {NormalsOut() + i * instance_bytes, instance_bytes});
   }
+  if (s.ok() && want_tangents_) {  // never in scratch: the instance's part of tangents_
+    const std::size_t count = kValuesPerTangent * vertices_;
+    const std::size_t bytes = EncodedTangentBytes(encoding_, vertices_);
+    s = EncodeTangents(encoding_, request.tangents.subspan(i * count, count),
+                       {TangentsOut() + i * bytes, bytes});
+  }
   return s.ok() ? s : InstanceError(s, i, instances_);
 }
 
@@ -326,10 +367,12 @@ Status FrameJob::WritePartHeader(std::size_t p) {
   }
   const std::size_t payload = EncodedBytes(encoding_, r.count) * r.instances;
   std::byte* room = wire_.data() + headers_offset_ + p * header_room_;
+  const std::size_t tangent_payload =
+      want_tangents_ ? EncodedTangentBytes(encoding_, r.count) * r.instances : 0;
   auto framing = wire::WritePartFraming(header_, header_.ByteSizeLong(), payload, want_normals_,
-                                        {room, header_room_});
+                                        {room, header_room_}, tangent_payload);
   if (!framing.ok()) return framing.status();
-  headers_[p] = {framing->header_bytes, framing->normals_tag_bytes};
+  headers_[p] = {framing->header_bytes, framing->normals_tag_bytes, framing->tangents_tag_bytes};
   return Status::Ok();
 }
 
@@ -371,6 +414,13 @@ Status FrameJob::WriteRegionHeader() {
   write->set_normals_offset(region_normals_);
   write->set_instance_bytes(EncodedBytes(encoding_, vertices_));
   write->set_end_offset(region_end_);
+  if (want_tangents_) {
+    write->set_tangents_offset(region_tangents_);
+    write->set_tangent_instance_bytes(EncodedTangentBytes(encoding_, vertices_));
+  } else {
+    write->clear_tangents_offset();
+    write->clear_tangent_instance_bytes();
+  }
   const std::size_t size = header_.ByteSizeLong();
   if (size > header_room_) {
     return Internal(
@@ -440,12 +490,18 @@ const grpc::ByteBuffer* FrameJob::NextPart(bool* last) {
       (static_cast<std::size_t>(r.instance) * vertices_ + r.first) * bytes_per_vertex;
   const std::size_t header = headers_offset_ + p * header_room_;
   const PartHeader& h = headers_[p];
-  grpc::Slice slices[4] = {wire_slice_.sub(header, header + h.size),
+  grpc::Slice slices[6] = {wire_slice_.sub(header, header + h.size),
                            wire_slice_.sub(offset, offset + payload)};
   std::size_t n = 2;
   if (want_normals_) {
     slices[n++] = wire_slice_.sub(header + h.size, header + h.size + h.normals_tag_size);
     slices[n++] = wire_slice_.sub(normals_offset_ + offset, normals_offset_ + offset + payload);
+  }
+  if (want_tangents_) {  // 4 values a vertex where the others have 3
+    const std::size_t tag = header + h.size + h.normals_tag_size;
+    const std::size_t at = tangents_offset_ + offset / kValuesPerVertex * kValuesPerTangent;
+    slices[n++] = wire_slice_.sub(tag, tag + h.tangents_tag_size);
+    slices[n++] = wire_slice_.sub(at, at + payload / kValuesPerVertex * kValuesPerTangent);
   }
   out_.emplace(slices, n);
   if (*last) wire_slice_ = grpc::Slice();  // the parts' slices hold the buffer from here on

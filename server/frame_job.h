@@ -97,6 +97,7 @@ class FrameJob final : public SkinJob {
   // The frame's output: the wire buffer, or the region's bytes.
   std::byte* PositionsOut();
   std::byte* NormalsOut();
+  std::byte* TangentsOut();
   // Once every instance is in the wire buffer: each part's header, with the timings.
   Status WriteHeaders();
   Status WriteRegionHeader();  // the one part of a frame written into a region
@@ -117,6 +118,7 @@ class FrameJob final : public SkinJob {
   uint64_t frame_ = 0;
   uint32_t instances_ = 1;
   bool want_normals_ = false;
+  bool want_tangents_ = false;  // x y z w per vertex, after the normals
   VertexEncoding encoding_ = VertexEncoding::kFloat32;
   bool boxed_ = false;  // each instance's box travels with it (snorm16)
   std::vector<float> palette_;
@@ -128,19 +130,21 @@ class FrameJob final : public SkinJob {
   // compute thread's scratch (SkinRequest::skin_into_scratch).
   std::vector<float> positions_;
   std::vector<float> normals_;
-  std::vector<Bounds> bounds_;  // each instance's box, for boxed encodings
+  std::vector<float> tangents_;  // every encoding but float32 (never skinned into scratch)
+  std::vector<Bounds> bounds_;   // each instance's box, for boxed encodings
 
   // Frames into a shared-memory region: the region, pinned from Prepare until the frame
   // is done, and where in it positions and normals go.
   std::shared_ptr<MappedRegion> region_;
   bool region_part_ = false;  // the answer is one header-only part (RegionWrite)
-  uint64_t region_positions_ = 0, region_normals_ = 0, region_end_ = 0;
+  uint64_t region_positions_ = 0, region_normals_ = 0, region_tangents_ = 0, region_end_ = 0;
 
   // Part p's header sits at headers_offset_ + p * header_room_ in wire_: the serialized
   // header with the positions field's tag and length, then the normals field's.
   struct PartHeader {
-    std::size_t size = 0;              // up to and with the positions field's tag and length
-    std::size_t normals_tag_size = 0;  // 0 without normals
+    std::size_t size = 0;               // up to and with the positions field's tag and length
+    std::size_t normals_tag_size = 0;   // 0 without normals
+    std::size_t tangents_tag_size = 0;  // 0 without tangents
   };
   // Vertices [first, first + count) of instances [instance, instance + instances): one
   // instance's range, or several whole ones (packed).
@@ -150,8 +154,9 @@ class FrameJob final : public SkinJob {
   PartRange RangeOf(std::size_t part) const;
   std::vector<PartHeader> headers_;
   AlignedBuffer<std::byte> wire_;
-  // wire_: positions from 0, normals, then the headers.
-  std::size_t normals_offset_ = 0, headers_offset_ = 0, header_room_ = 0, wire_used_ = 0;
+  // wire_: positions from 0, normals, tangents, then the headers.
+  std::size_t normals_offset_ = 0, tangents_offset_ = 0, headers_offset_ = 0, header_room_ = 0,
+              wire_used_ = 0;
   v1::SkinResponse header_;              // reused to serialize each part's header
   std::atomic<int> wire_refs_{0};        // 1 while gRPC or the job holds slices of wire_
   grpc::Slice wire_slice_;               // over wire_[0, wire_used_), while parts are handed out

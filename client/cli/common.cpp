@@ -51,6 +51,9 @@ void MeshOptionsCli::Add(CLI::App* command) {
   command->add_option("--joints", spec.joint_count, "synthetic mesh: joint count")
       ->capture_default_str();
   command->add_flag("--normals", spec.normals, "synthetic mesh: with normals");
+  command->add_flag("--tangents", spec.tangents,
+                    "synthetic mesh: with tangents too (needs --normals), asked for back "
+                    "(want_tangents)");
   command->add_option("--seed", spec.seed, "synthetic mesh: seed")->capture_default_str();
 }
 

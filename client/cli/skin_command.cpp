@@ -43,15 +43,17 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common) {
                              ? MakeRigidPalette(arrays.joint_count, mesh->spec.seed, *frame)
                              : MakeSyntheticPalette(arrays.joint_count, mesh->spec.seed, *frame);
     client::FrameResult result;
-    client::SkinOptions options{
-        .backend = *backend, .want_normals = mesh->spec.normals, .method = *method};
+    client::SkinOptions options{.backend = *backend,
+                                .want_normals = mesh->spec.normals,
+                                .want_tangents = mesh->spec.tangents,
+                                .method = *method};
     std::unique_ptr<client::SharedMemoryRegion> region;
     const std::string region_name = client::SharedMemoryRegion::UniqueKey("cli");
     if (*shared_memory) {
       auto made = client::SharedMemoryRegion::Create(
           region_name,
           wire::RegionFrameBytes(arrays.vertex_count, 1, VertexEncoding::kFloat32,
-                                 mesh->spec.normals),
+                                 mesh->spec.normals, mesh->spec.tangents),
           *shm_dir);
       if (!made.ok()) {
         common.exit_code = Report(made.status());
@@ -68,7 +70,8 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common) {
     if (s.ok() && result.in_region()) {
       fmt::print("written into region {} ({}): {} bytes from offset 0, read in place\n",
                  region_name, region->path(),
-                 result.region_positions.size() + result.region_normals.size());
+                 result.region_positions.size() + result.region_normals.size() +
+                     result.region_tangents.size());
       s = client::DecodeRegionFrame(&result);
     }
     if (region != nullptr) {
@@ -79,8 +82,8 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common) {
       return;
     }
     auto local = Mesh::Create(arrays).value();
-    const Deviation d =
-        CompareWithReference(*local, palette, result.positions, result.normals, *method);
+    const Deviation d = CompareWithReference(*local, palette, result.positions, result.normals,
+                                             *method, {}, result.tangents);
     fmt::print("frame {}: {} vertices; queued {:.3f} ms, compute {:.3f} ms, encode {:.3f} ms\n",
                result.frame, result.positions.size() / 3, result.timing.queued_ns() / 1e6,
                result.timing.compute_ns() / 1e6, result.timing.encode_ns() / 1e6);
@@ -88,8 +91,11 @@ void AddSkinCommand(CLI::App& app, CommonOptions& common) {
                result.positions[2]);
     fmt::print(
         "max error vs float64 reference: positions {:.3g} (tolerance {:.3g}), normals "
-        "{:.3g}\n",
-        d.max_position_error, d.position_tolerance, d.max_normal_error);
+        "{:.3g}{}\n",
+        d.max_position_error, d.position_tolerance, d.max_normal_error,
+        result.tangents.empty() ? ""
+                                : fmt::format(", tangents {:.3g} (tolerance {:.3g})",
+                                              d.max_tangent_error, d.tangent_tolerance));
     common.exit_code = d.within_tolerance() ? 0 : 1;
   });
 }

@@ -36,6 +36,7 @@ void AddStreamCommand(CLI::App& app, CommonOptions& common) {
     }
     options->mesh_id = info->mesh_id();
     options->want_normals = mesh->spec.normals;
+    options->want_tangents = mesh->spec.tangents;
     std::vector<std::vector<float>> palettes;
     for (int i = 0; i < 16; ++i) {
       palettes.push_back(options->method == SkinningMethod::kDualQuaternion
@@ -54,7 +55,9 @@ void AddStreamCommand(CLI::App& app, CommonOptions& common) {
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     const double fps = summary.answered / seconds;
-    const double bytes_per_frame = 12.0 * arrays.vertex_count * (options->want_normals ? 2 : 1);
+    const double bytes_per_frame =
+        4.0 * arrays.vertex_count *
+        (3 + (options->want_normals ? 3 : 0) + (options->want_tangents ? 4 : 0));
     fmt::print(
         "{}: {} frames in {:.2f} s: {:.1f} frames/s, {:.1f} M vertices/s, {:.1f} MB/s "
         "out; {} failed\n",

@@ -32,10 +32,12 @@ void AddVerifyCommand(CLI::App& app, CommonOptions& common) {
     auto local = Mesh::Create(arrays).value();
     const bool normals = mesh->spec.normals;
     int failures = 0;
-    fmt::print("{:<16} {:>8} {:>14} {:>14}  {}\n", "backend", "frames", "max pos error",
-               "max nrm error", "verdict");
+    fmt::print("{:<16} {:>8} {:>14} {:>14} {:>14}  {}\n", "backend", "frames", "max pos error",
+               "max nrm error", "max tan error", "verdict");
     for (const auto& backend : list->backends()) {
       if (!backend.available() || backend.id() == "passthrough") continue;
+      // --tangents: asked for back from the backends that skin them (BackendInfo.tangents).
+      const bool tangents = mesh->spec.tangents && backend.tangents();
       Deviation worst;
       int frames = 0;
       Status error;
@@ -43,7 +45,11 @@ void AddVerifyCommand(CLI::App& app, CommonOptions& common) {
         const auto palette = MakeSyntheticPalette(arrays.joint_count, 7, result.frame);
         const Deviation d = CompareWithReference(
             *local, palette, result.positions,
-            normals ? std::span<const float>(result.normals) : std::span<const float>());
+            normals ? std::span<const float>(result.normals) : std::span<const float>(),
+            SkinningMethod::kLinear, {}, result.tangents);
+        if (tangents && result.tangents.size() != 4ull * arrays.vertex_count) {
+          error = Internal("tangents were asked for but did not come back");
+        }
         ++frames;
         if (!d.within_tolerance() || d.max_position_error > worst.max_position_error) {
           worst = d;
@@ -52,7 +58,9 @@ void AddVerifyCommand(CLI::App& app, CommonOptions& common) {
       };
       client::FrameResult one;
       const auto palette0 = MakeSyntheticPalette(arrays.joint_count, 7, 0);
-      if (Status s = client.Skin(info->mesh_id(), backend.id(), palette0, 0, normals, &one);
+      if (Status s = client.Skin(
+              info->mesh_id(), palette0, 0,
+              {.backend = backend.id(), .want_normals = normals, .want_tangents = tangents}, &one);
           s.ok()) {
         check(one);
       } else {
@@ -61,6 +69,7 @@ void AddVerifyCommand(CLI::App& app, CommonOptions& common) {
       client::StreamOptions options{.mesh_id = info->mesh_id(),
                                     .backend = backend.id(),
                                     .want_normals = normals,
+                                    .want_tangents = tangents,
                                     .first_frame = 1,
                                     .frames = 4};
       Status streamed = client::StreamFrames(
@@ -76,8 +85,9 @@ void AddVerifyCommand(CLI::App& app, CommonOptions& common) {
       if (!streamed.ok()) error = streamed;
       const bool ok = error.ok() && frames == 5 && worst.within_tolerance();
       failures += ok ? 0 : 1;
-      fmt::print("{:<16} {:>8} {:>14.3g} {:>14.3g}  {}\n", backend.id(), frames,
+      fmt::print("{:<16} {:>8} {:>14.3g} {:>14.3g} {:>14}  {}\n", backend.id(), frames,
                  worst.max_position_error, worst.max_normal_error,
+                 tangents ? fmt::format("{:.3g}", worst.max_tangent_error) : "-",
                  ok ? "ok" : "MISMATCH " + error.ToString());
     }
     common.exit_code = failures == 0 ? 0 : 1;

@@ -37,7 +37,7 @@ std::string BackendLabel(const RunResult& r) {
 double SerialFramesPerSecond(const std::vector<RunResult>& results, const RunResult& of) {
   for (const RunResult& r : results) {
     if (r.backend == "serial" && r.vertices == of.vertices && r.bones == of.bones &&
-        r.normals == of.normals) {
+        r.normals == of.normals && r.tangents == of.tangents) {
       return r.frames_per_second();
     }
   }

@@ -15,6 +15,7 @@
 #include "skinserve/client/shared_memory_region.h"
 #include "skinserve/model/palette.h"
 #include "skinserve/reference/encoded_reference.h"
+#include "skinserve/reference/reference.h"
 #include "skinserve/wire/region_layout.h"
 
 namespace skinserve::load {
@@ -69,8 +70,8 @@ class StreamRegion {
       : client_(client) {
     if (!config.shared_memory) return;
     const uint32_t instances = std::max(config.instances, 1u);
-    const uint64_t stride =
-        wire::RegionFrameBytes(workload.vertices, instances, config.encoding, workload.normals);
+    const uint64_t stride = wire::RegionFrameBytes(workload.vertices, instances, config.encoding,
+                                                   workload.normals, workload.tangents);
     const std::string name = client::SharedMemoryRegion::UniqueKey("load");
     auto region = client::SharedMemoryRegion::Create(
         name, stride * static_cast<uint64_t>(std::max(config.window, 1)), config.shm_dir);
@@ -122,6 +123,7 @@ class Recorder {
     result_.vertices = workload.vertices;
     result_.bones = workload.bones;
     result_.normals = workload.normals;
+    result_.tangents = workload.tangents;
     result_.encoding = VertexEncodingName(config.encoding);
     result_.rest_encoding = RestEncodingName(workload.rest_encoding);
     result_.instances = std::max(config.instances, 1u);
@@ -185,6 +187,38 @@ class Recorder {
   // run on the stream's reader: all K instances of a crowd (K float64 skinnings) would
   // delay the next answers past a frame's time, so the instance checked rotates with the
   // frame number and a run covers every instance.
+  // Instance k's tangents against the float64 reference: x y z within float32's rounding
+  // (1e-5, times the morph deltas' magnification) plus the encoding's bound for normals, w
+  // exactly the rest's. passthrough answers the rest tangents as uploaded.
+  bool TangentsMatch(const client::FrameResult& frame, uint32_t k,
+                     std::span<const float> tangents) const {
+    const Mesh& mesh = *workload_.mesh;
+    if (tangents.size() != 4ull * mesh.vertex_count()) return false;
+    const std::span<const MorphWeight> morph = workload_.Morph(frame.frame + k);
+    std::vector<double> want;
+    double magnification = 1;
+    if (config_.backend == "passthrough") {
+      want.assign(mesh.tangents().begin(), mesh.tangents().end());
+    } else {
+      const std::span<const float> palette = workload_.Palette(frame.frame + k);
+      want = (workload_.method == SkinningMethod::kLinear
+                  ? ReferenceSkin(mesh, palette, morph)
+                  : ReferenceSkinDualQuaternion(mesh, palette, morph))
+                 .tangents;
+      magnification = ReferenceMorphMagnitudes(mesh, morph).tangent_magnification;
+    }
+    if (want.size() != tangents.size()) return false;
+    for (std::size_t i = 0; i < want.size(); ++i) {
+      if (i % 4 == 3) {
+        if (tangents[i] != want[i]) return false;
+        continue;
+      }
+      const double bound = 1e-5 * magnification + NormalEncodingError(frame.encoding, want[i]);
+      if (!(std::fabs(tangents[i] - want[i]) <= bound)) return false;  // NaN fails
+    }
+    return true;
+  }
+
   bool Matches(const client::FrameResult& answer) const {
     client::FrameResult decoded;
     if (answer.in_region()) {  // decoded from the region for the check only
@@ -200,6 +234,9 @@ class Recorder {
       const std::span<const float> normals =
           workload_.normals ? frame.instance_normals(k) : std::span<const float>();
       if (workload_.normals && normals.empty()) return false;
+      const std::span<const float> tangents =
+          workload_.tangents ? frame.instance_tangents(k) : std::span<const float>();
+      if (workload_.tangents && !TangentsMatch(frame, k, tangents)) return false;
       const bool passthrough = config_.backend == "passthrough";
       if (passthrough && frame.encoding == VertexEncoding::kFloat32) {
         const auto rest = workload_.mesh->positions();
@@ -279,6 +316,7 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
   client::StreamOptions options{.mesh_id = mesh_id,
                                 .backend = config.backend,
                                 .want_normals = workload.normals,
+                                .want_tangents = workload.tangents,
                                 .method = workload.method,
                                 .encoding = config.encoding,
                                 .instances = config.instances,
@@ -445,6 +483,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   request.set_mesh_id(mesh_id);
   request.set_backend(config.backend);
   request.set_want_normals(workload.normals);
+  request.set_want_tangents(workload.tangents);
   request.set_encoding(static_cast<v1::Encoding>(config.encoding));
   request.set_instances(config.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts

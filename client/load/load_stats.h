@@ -27,6 +27,7 @@ struct RunResult {
   uint32_t vertices = 0;
   uint32_t bones = 0;
   bool normals = false;
+  bool tangents = false;
   std::string encoding = "float32";
   std::string rest_encoding = "float32";  // the mesh as stored (--rest-encoding)
   uint32_t instances = 1;                 // characters per frame (crowd batch)
@@ -72,10 +73,10 @@ struct RunResult {
   // Every instance's vertices.
   double vertices_per_second() const { return frames_per_second() * vertices * instances; }
   // Vertex payload returned, in MB/s (12 bytes per vertex in float32, 6 in float16 and
-  // snorm16; twice that with normals).
+  // snorm16; twice that with normals; tangents add 4 values a vertex).
   double megabytes_per_second() const {
-    const double per_vertex = encoding == "float32" ? 12.0 : 6.0;
-    return vertices_per_second() * per_vertex * (normals ? 2 : 1) / 1e6;
+    const double per_value = encoding == "float32" ? 4.0 : 2.0;
+    return vertices_per_second() * per_value * (3 + (normals ? 3 : 0) + (tangents ? 4 : 0)) / 1e6;
   }
   double mean(double sum) const { return frames > 0 ? sum / frames : 0; }
   uint64_t error_count() const;

@@ -34,6 +34,7 @@ std::vector<ReportColumn> MakeColumns() {
       {"vertices", [](R r, All) { return json(r.vertices); }},
       {"bones", [](R r, All) { return json(r.bones); }},
       {"normals", [](R r, All) { return json(r.normals); }},
+      {"tangents", [](R r, All) { return json(r.tangents); }},
       {"encoding", [](R r, All) { return json(r.encoding); }},
       {"rest_encoding", [](R r, All) { return json(r.rest_encoding); }},
       {"instances", [](R r, All) { return json(r.instances); }},

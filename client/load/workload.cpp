@@ -23,17 +23,20 @@ Status SetRestEncoding(Workload* w, RestEncoding encoding) {
 }
 
 Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool normals,
-                      uint64_t seed, SkinningMethod method, const MorphWorkload& morph) {
+                      uint64_t seed, SkinningMethod method, const MorphWorkload& morph,
+                      bool tangents) {
   Workload w;
   w.vertices = vertices;
   w.bones = bones;
   w.joints = joints;
   w.normals = normals;
+  w.tangents = tangents && normals;
   w.method = method;
   MeshArrays arrays = MakeSyntheticMesh({.vertex_count = vertices,
                                          .influences = bones,
                                          .joint_count = joints,
                                          .normals = normals,
+                                         .tangents = w.tangents,
                                          .seed = seed});
   if (morph.targets > 0) {
     AddSyntheticMorphTargets(

@@ -22,6 +22,7 @@ struct Workload {
   uint32_t bones = 0;
   uint32_t joints = 77;
   bool normals = false;
+  bool tangents = false;  // asked for back (want_tangents) and checked; synthetic meshes only
   SkinningMethod method = SkinningMethod::kLinear;  // asked of the server, checked locally
   std::shared_ptr<const MeshArrays> arrays;         // shared by every stream's client
   std::shared_ptr<const Mesh> mesh;                 // for the float64 reference checks
@@ -60,10 +61,11 @@ struct MorphWorkload {
 Status SetRestEncoding(Workload* w, RestEncoding encoding);
 
 // Dual-quaternion workloads get rigid palettes (MakeRigidPalette): the method refuses the
-// synthetic palettes' scale.
+// synthetic palettes' scale. `tangents` (with normals): the mesh has tangents (and its
+// morph targets tangent deltas), asked for back.
 Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool normals,
                       uint64_t seed, SkinningMethod method = SkinningMethod::kLinear,
-                      const MorphWorkload& morph = {});
+                      const MorphWorkload& morph = {}, bool tangents = false);
 
 // Frames of clip time per second in a glTF workload's palettes.
 inline constexpr double kGltfWorkloadFps = 30.0;

@@ -78,6 +78,7 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   request.set_mesh_id(options.mesh_id);
   request.set_backend(options.backend);
   request.set_want_normals(options.want_normals);
+  request.set_want_tangents(options.want_tangents);
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
   request.set_pack_instances(true);  // FrameAssembler takes packed parts

@@ -17,8 +17,9 @@ bool FrameAssembler::Fail(const v1::SkinResponse& part, FrameResult* result, Sta
   result->status = std::move(status);
   result->positions.clear();  // keeps the capacity for the next frame
   result->normals.clear();
+  result->tangents.clear();
   result->bounds.clear();
-  result->region_positions = result->region_normals = {};
+  result->region_positions = result->region_normals = result->region_tangents = {};
   return part.last();
 }
 
@@ -37,11 +38,14 @@ bool FrameAssembler::AddRegionPart(const v1::SkinResponse& part, FrameResult* re
       uint64_t{part.total_vertices()} * 3 * EncodedBytesPerValue(encoding);
   const uint64_t array_bytes = instance_bytes * instances;
   const bool normals = write.normals_offset() != write.positions_offset();
+  const bool tangents = write.tangent_instance_bytes() > 0;
   const wire::RegionLayout layout = wire::LayoutInRegion(
-      write.positions_offset(), part.total_vertices(), instances, encoding, normals);
+      write.positions_offset(), part.total_vertices(), instances, encoding, normals, tangents);
   const std::span<const std::byte> mapping = output_->region->bytes();
   if (!part.last() || write.instance_bytes() != instance_bytes ||
       write.normals_offset() != layout.normals_offset || write.end_offset() != layout.end_offset ||
+      (tangents && (write.tangents_offset() != layout.tangents_offset ||
+                    write.tangent_instance_bytes() != layout.tangent_instance_bytes)) ||
       layout.end_offset > mapping.size()) {
     return fail(fmt::format(
         "region '{}': the answer's ranges (positions at {}, normals at {}, {} bytes per "
@@ -59,6 +63,7 @@ bool FrameAssembler::AddRegionPart(const v1::SkinResponse& part, FrameResult* re
   result->encoding = encoding;
   result->positions.clear();
   result->normals.clear();
+  result->tangents.clear();
   result->bounds.assign(instances, Bounds{});
   for (uint32_t k = 0; QuantisedToBox(encoding) && k < instances; ++k) {
     result->bounds[k] = FromWire(part.instance_bounds(static_cast<int>(k)));
@@ -66,6 +71,9 @@ bool FrameAssembler::AddRegionPart(const v1::SkinResponse& part, FrameResult* re
   result->region_positions = mapping.subspan(layout.positions_offset, array_bytes);
   result->region_normals =
       normals ? mapping.subspan(layout.normals_offset, array_bytes) : std::span<const std::byte>();
+  result->region_tangents =
+      tangents ? mapping.subspan(layout.tangents_offset, layout.tangent_instance_bytes * instances)
+               : std::span<const std::byte>();
   return true;
 }
 
@@ -74,8 +82,12 @@ Status DecodeRegionFrame(FrameResult* result) {
   const std::size_t count = 3ull * result->vertices;
   const std::size_t instance_bytes = count * EncodedBytesPerValue(result->encoding);
   const bool normals = !result->region_normals.empty();
+  const std::size_t tangent_count = kValuesPerTangent * result->vertices;
+  const std::size_t tangent_bytes = EncodedTangentBytes(result->encoding, result->vertices);
+  const bool tangents = !result->region_tangents.empty();
   result->positions.resize(count * result->instances);
   result->normals.resize(normals ? count * result->instances : 0);
+  result->tangents.resize(tangents ? tangent_count * result->instances : 0);
   for (uint32_t k = 0; k < result->instances; ++k) {
     const Bounds& bounds = result->bounds[k];
     if (Status s = DecodePositions(
@@ -91,15 +103,22 @@ Status DecodeRegionFrame(FrameResult* result) {
         !s.ok()) {
       return s;
     }
+    if (!tangents) continue;
+    if (Status s = DecodeTangents(
+            result->encoding, result->region_tangents.subspan(k * tangent_bytes, tangent_bytes),
+            std::span<float>(result->tangents).subspan(k * tangent_count, tangent_count));
+        !s.ok()) {
+      return s;
+    }
   }
   return Status::Ok();
 }
 
-// `part` is the header; `positions_size` and `normals_size` the bytes of its vertex fields;
-// decode(normals, offset, encoding, bounds, out) decodes bytes of one of them into `out`.
+// `part` is the header; `sizes` the bytes of its vertex fields.
 template <typename Decode>
-bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions_size,
-                             std::size_t normals_size, const Decode& decode, FrameResult* result) {
+bool FrameAssembler::AddPart(const v1::SkinResponse& part, FieldSizes sizes, const Decode& decode,
+                             FrameResult* result) {
+  const std::size_t positions_size = sizes.positions, normals_size = sizes.normals;
   const uint32_t instances = std::max(part.instances(), 1u);  // 0: a server before crowds
   const auto encoding = static_cast<VertexEncoding>(part.encoding());
   if (!started_) {
@@ -107,7 +126,7 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
     result->frame = part.frame();
     result->status = Status::Ok();
     result->timing = part.timing();
-    result->region_positions = result->region_normals = {};
+    result->region_positions = result->region_normals = result->region_tangents = {};
     if (part.has_error()) {
       return Fail(part, result,
                   wire::FromGrpc(grpc::Status(static_cast<grpc::StatusCode>(part.error().code()),
@@ -131,8 +150,10 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
     result->instances = instances;
     result->encoding = encoding;
     normals_ = normals_size > 0;
+    tangents_ = sizes.tangents > 0;
     result->positions.resize(3 * vertices);  // same size as last frame: no work
     result->normals.resize(normals_ ? 3 * vertices : 0);
+    result->tangents.resize(tangents_ ? 4 * vertices : 0);
     result->bounds.assign(instances, Bounds{});
   }
   if (failed_) return part.last();
@@ -149,12 +170,12 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
   };
   if (part.frame() != result->frame || part.total_vertices() != result->vertices ||
       instances != result->instances || encoding != result->encoding ||
-      normals_ != (normals_size > 0)) {
+      normals_ != (normals_size > 0) || tangents_ != (sizes.tangents > 0)) {
     return Fail(part, result,
                 Internal(fmt::format("{}: the part does not match its frame's first part "
-                                     "(frame {}, {} x {} vertices, {}, normals {})",
+                                     "(frame {}, {} x {} vertices, {}, normals {}, tangents {})",
                                      where(), result->frame, result->instances, result->vertices,
-                                     VertexEncodingName(result->encoding), normals_)));
+                                     VertexEncodingName(result->encoding), normals_, tangents_)));
   }
   // A packed part holds `packed` whole instances; else one instance's vertex range.
   const uint32_t packed = std::max(part.instance_count(), 1u);
@@ -189,6 +210,15 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
             positions ? "positions" : "normals", positions ? positions_size : normals_size,
             expected, expected / EncodedBytesPerValue(encoding), VertexEncodingName(encoding))));
   }
+  const std::size_t tangent_count = kValuesPerTangent * part.vertex_count();
+  const std::size_t tangent_instance_bytes = tangent_count * EncodedBytesPerValue(encoding);
+  if (tangents_ && sizes.tangents != packed * tangent_instance_bytes) {
+    return Fail(
+        part, result,
+        Internal(fmt::format("{}: tangents: {} bytes, expected {} (4 values a vertex of {})",
+                             where(), sizes.tangents, packed * tangent_instance_bytes,
+                             VertexEncodingName(encoding))));
+  }
   for (uint32_t k = 0; k < packed; ++k) {
     const uint32_t instance = part.instance() + k;
     const Bounds bounds =
@@ -204,11 +234,16 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
                                        where())));
     }
     const std::size_t offset = 3 * (uint64_t{instance} * result->vertices + part.first_vertex());
-    Status decoded = decode(false, k * instance_bytes, encoding, bounds,
+    Status decoded = decode(0, k * instance_bytes, encoding, bounds,
                             std::span<float>(result->positions).subspan(offset, count));
     if (decoded.ok() && normals_) {
-      decoded = decode(true, k * instance_bytes, encoding, bounds,
+      decoded = decode(1, k * instance_bytes, encoding, bounds,
                        std::span<float>(result->normals).subspan(offset, count));
+    }
+    if (decoded.ok() && tangents_) {
+      decoded = decode(2, k * tangent_instance_bytes, encoding, bounds,
+                       std::span<float>(result->tangents)
+                           .subspan(offset / kValuesPerVertex * kValuesPerTangent, tangent_count));
     }
     if (!decoded.ok()) {
       return Fail(part, result, Internal(fmt::format("{}: {}", where(), decoded.message())));
@@ -236,16 +271,19 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, std::size_t positions
 }
 
 bool FrameAssembler::Add(const v1::SkinResponse& part, FrameResult* result) {
-  const auto decode = [&](bool normals, std::size_t offset, VertexEncoding encoding,
+  const auto decode = [&](int field, std::size_t offset, VertexEncoding encoding,
                           const Bounds& bounds, std::span<float> out) {
-    const std::string& field = normals ? part.normals() : part.positions();
-    const std::span<const std::byte> bytes(
-        reinterpret_cast<const std::byte*>(field.data()) + offset,
-        out.size() * EncodedBytesPerValue(encoding));
-    return normals ? DecodeNormals(encoding, bytes, out)
-                   : DecodePositions(encoding, bytes, bounds, out);
+    const std::string& data = field == 0   ? part.positions()
+                              : field == 1 ? part.normals()
+                                           : part.tangents();
+    const std::span<const std::byte> bytes(reinterpret_cast<const std::byte*>(data.data()) + offset,
+                                           out.size() * EncodedBytesPerValue(encoding));
+    return field == 0   ? DecodePositions(encoding, bytes, bounds, out)
+           : field == 1 ? DecodeNormals(encoding, bytes, out)
+                        : DecodeTangents(encoding, bytes, out);
   };
-  return AddPart(part, part.positions().size(), part.normals().size(), decode, result);
+  return AddPart(part, {part.positions().size(), part.normals().size(), part.tangents().size()},
+                 decode, result);
 }
 
 bool FrameAssembler::Add(const grpc::ByteBuffer& bytes, RawPart* reader, FrameResult* result) {
@@ -259,11 +297,13 @@ bool FrameAssembler::Add(const grpc::ByteBuffer& bytes, RawPart* reader, FrameRe
                                      bytes.Length())));
   }
   const RawPart& part = *reader;
-  const auto decode = [&](bool normals, std::size_t offset, VertexEncoding encoding,
+  const auto decode = [&](int field, std::size_t offset, VertexEncoding encoding,
                           const Bounds& bounds, std::span<float> out) {
-    return part.Decode(normals, offset, encoding, bounds, out);
+    return field == 2 ? part.DecodeTangents(offset, encoding, out)
+                      : part.Decode(field == 1, offset, encoding, bounds, out);
   };
-  return AddPart(part.header(), part.positions_size(), part.normals_size(), decode, result);
+  return AddPart(part.header(), {part.positions_size(), part.normals_size(), part.tangents_size()},
+                 decode, result);
 }
 
 SkinClient::SkinClient(std::shared_ptr<grpc::Channel> channel, const CallLimits& limits)
@@ -481,6 +521,7 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   request.set_frame(frame);
   wire::EncodeFloats(palette, request.mutable_palette());
   request.set_want_normals(options.want_normals);
+  request.set_want_tangents(options.want_tangents);
   request.set_method(wire::ToWire(options.method));
   request.set_encoding(static_cast<v1::Encoding>(options.encoding));
   request.set_instances(options.instances);
@@ -518,6 +559,7 @@ Status SkinClient::SkinOnce(const v1::SkinRequest& request, const RegionOutput& 
     result->status = wire::FromGrpc(status);
     result->positions.clear();
     result->normals.clear();
+    result->tangents.clear();
     return result->status;
   }
   if (!complete) return Internal("the server ended the frame without its last part");

@@ -386,6 +386,46 @@ Status DecodeNormals(VertexEncoding encoding, std::span<const std::byte> bytes,
   return Decode("normals", true, encoding, bytes, Bounds{}, out);
 }
 
+std::size_t EncodedTangentBytes(VertexEncoding encoding, std::size_t vertex_count) {
+  return vertex_count * kValuesPerTangent * EncodedBytesPerValue(encoding);
+}
+
+Status EncodeTangents(VertexEncoding encoding, std::span<const float> tangents,
+                      std::span<std::byte> out, std::size_t first_vertex) {
+  const EncodingDescription* e = Find(encoding);
+  if (e == nullptr) return Unknown(encoding);
+  if (tangents.size() % kValuesPerTangent != 0 ||
+      out.size() != tangents.size() * e->bytes_per_value) {
+    return InvalidArgument(fmt::format(
+        "tangents: {} values into {} bytes of {}; expected 4 values a vertex, {} bytes each",
+        tangents.size(), out.size(), e->name, e->bytes_per_value));
+  }
+  // The encoders' own errors count triples; a failing tangent is named here instead.
+  if (e->encode(tangents, /*normals=*/true, Bounds{}, out, 0).ok()) return Status::Ok();
+  const bool half = encoding == VertexEncoding::kFloat16;
+  constexpr char kTangentAxes[] = "xyzw";
+  for (std::size_t i = 0; i < tangents.size(); ++i) {
+    const float t = tangents[i];
+    // The encoders' limits: half's largest finite value; snorm16's [-1, 1] with rounding.
+    if (half ? std::fabs(t) <= kFloat16Max : std::fabs(t * kSnorm16Max) < 32767.5f) continue;
+    return InvalidArgument(fmt::format("tangents[vertex {}][{}] = {} is {}",
+                                       first_vertex + i / kValuesPerTangent,
+                                       kTangentAxes[i % kValuesPerTangent], t,
+                                       !std::isfinite(t) ? "not finite"
+                                       : half            ? "beyond float16's range +-65504"
+                                                         : "outside [-1, 1]"));
+  }
+  return Internal("EncodeTangents: a value failed but none is out of range");
+}
+
+Status DecodeTangents(VertexEncoding encoding, std::span<const std::byte> bytes,
+                      std::span<float> out) {
+  const EncodingDescription* e = Find(encoding);
+  if (e == nullptr) return Unknown(encoding);
+  if (Status s = CheckDecodeLength("tangents", encoding, bytes, out.size()); !s.ok()) return s;
+  return e->decode(bytes, /*normals=*/true, Bounds{}, out);
+}
+
 double PositionEncodingError(VertexEncoding encoding, const Bounds& bounds, int axis, double x) {
   const EncodingDescription* e = Find(encoding);
   return e != nullptr ? e->error(false, bounds, axis, x) : 0.0;

@@ -272,7 +272,8 @@ class Engine::Impl {
                   .joint_count = mesh.joint_count(),
                   .has_normals = mesh.has_normals(),
                   .has_tangents = mesh.has_tangents(),
-                  .morph_target_count = mesh.morph_target_count()};
+                  .morph_target_count = mesh.morph_target_count(),
+                  .backend_tangents = backends_[*backend_index]->info().tangents};
     return Status::Ok();
   }
 

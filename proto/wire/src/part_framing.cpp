@@ -24,13 +24,13 @@ std::size_t PutLengthDelimitedTag(int field, std::size_t length, std::byte* out)
 
 Result<PartFraming> WritePartFraming(const v1::SkinResponse& header, std::size_t header_size,
                                      std::size_t payload_bytes, bool normals,
-                                     std::span<std::byte> room) {
-  const std::size_t tags = (normals ? 2 : 1) * kMaxFieldTagBytes;
+                                     std::span<std::byte> room, std::size_t tangent_bytes) {
+  const std::size_t tags = ((normals ? 2 : 1) + (tangent_bytes > 0 ? 1 : 0)) * kMaxFieldTagBytes;
   if (header_size + tags > room.size()) {
     return Internal(fmt::format("a response header of {} bytes exceeds the {} reserved",
                                 header_size, room.size() - std::min(room.size(), tags)));
   }
-  if (payload_bytes >> 35 != 0) {
+  if (payload_bytes >> 35 != 0 || tangent_bytes >> 35 != 0) {
     return Internal(fmt::format("a part of {} bytes per vertex field is past the wire's framing",
                                 payload_bytes));
   }
@@ -43,6 +43,11 @@ Result<PartFraming> WritePartFraming(const v1::SkinResponse& header, std::size_t
   if (normals) {
     framing.normals_tag_bytes = PutLengthDelimitedTag(v1::SkinResponse::kNormalsFieldNumber,
                                                       payload_bytes, out + framing.header_bytes);
+  }
+  if (tangent_bytes > 0) {
+    framing.tangents_tag_bytes =
+        PutLengthDelimitedTag(v1::SkinResponse::kTangentsFieldNumber, tangent_bytes,
+                              out + framing.header_bytes + framing.normals_tag_bytes);
   }
   return framing;
 }

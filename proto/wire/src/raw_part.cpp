@@ -26,7 +26,7 @@ google::protobuf::ArenaOptions OverBlock(char* block, std::size_t size) {
 RawPart::RawPart() : arena_(OverBlock(arena_block_, sizeof arena_block_)) {}
 
 bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
-  positions_ = normals_ = {};
+  positions_ = normals_ = tangents_ = {};
   header_bytes_.clear();
   // The reader only reads (gRPC's ProtoBufferReader takes a non-const buffer).
   grpc::ProtoBufferReader reader(const_cast<grpc::ByteBuffer*>(&bytes));
@@ -58,9 +58,12 @@ bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
       }
       const int field = WireFormatLite::GetTagFieldNumber(tag);
       if (field == v1::SkinResponse::kPositionsFieldNumber ||
-          field == v1::SkinResponse::kNormalsFieldNumber) {
+          field == v1::SkinResponse::kNormalsFieldNumber ||
+          field == v1::SkinResponse::kTangentsFieldNumber) {
         // A repeated field: the last one counts, as when parsing.
-        Field& f = field == v1::SkinResponse::kPositionsFieldNumber ? positions_ : normals_;
+        Field& f = field == v1::SkinResponse::kPositionsFieldNumber ? positions_
+                   : field == v1::SkinResponse::kNormalsFieldNumber ? normals_
+                                                                    : tangents_;
         f = {static_cast<std::size_t>(input.CurrentPosition()), length};
         if (!input.Skip(static_cast<int>(length))) return false;
         continue;
@@ -91,26 +94,49 @@ bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
 
 Status RawPart::Decode(bool normals, std::size_t offset, VertexEncoding encoding,
                        const Bounds& bounds, std::span<float> out) const {
-  const Field& f = normals ? normals_ : positions_;
+  return DecodeField(normals ? Kind::kNormals : Kind::kPositions, offset, encoding, bounds, out);
+}
+
+Status RawPart::DecodeTangents(std::size_t offset, VertexEncoding encoding,
+                               std::span<float> out) const {
+  return DecodeField(Kind::kTangents, offset, encoding, Bounds{}, out);
+}
+
+Status RawPart::DecodeField(Kind kind, std::size_t offset, VertexEncoding encoding,
+                            const Bounds& bounds, std::span<float> out) const {
+  const Field& f = kind == Kind::kPositions ? positions_
+                   : kind == Kind::kNormals ? normals_
+                                            : tangents_;
+  const char* name = kind == Kind::kPositions ? "positions"
+                     : kind == Kind::kNormals ? "normals"
+                                              : "tangents";
+  const std::size_t group = kind == Kind::kTangents ? kValuesPerTangent : kValuesPerVertex;
   const std::size_t per_value = EncodedBytesPerValue(encoding);
-  const std::size_t per_triple = 3 * per_value;
+  const std::size_t per_triple = group * per_value;  // one vertex's values
   const std::size_t size = out.size() * per_value;
-  if (offset + size > f.size || offset % per_triple != 0 || out.size() % 3 != 0) {
+  if (offset + size > f.size || offset % per_triple != 0 || out.size() % group != 0) {
     return Internal(
         fmt::format("{}: bytes [{}, +{}) are not whole vertices inside the {} "
                     "received",
-                    normals ? "normals" : "positions", offset, size, f.size));
+                    name, offset, size, f.size));
   }
   if (size == 0) return Status::Ok();
   const auto decode = [&](const std::byte* bytes, std::size_t n, std::size_t first_value) {
     const std::span<const std::byte> in(bytes, n);
     const std::span<float> into = out.subspan(first_value, n / per_value);
-    return normals ? DecodeNormals(encoding, in, into)
-                   : DecodePositions(encoding, in, bounds, into);
+    switch (kind) {
+      case Kind::kPositions:
+        return DecodePositions(encoding, in, bounds, into);
+      case Kind::kNormals:
+        return DecodeNormals(encoding, in, into);
+      case Kind::kTangents:
+        break;
+    }
+    return skinserve::DecodeTangents(encoding, in, into);
   };
-  // The field's bytes slice by slice; a triple cut by a slice boundary goes through
+  // The field's bytes slice by slice; a vertex cut by a slice boundary goes through
   // `carry` (the decoders' per-axis pattern starts at x).
-  std::byte carry[12];
+  std::byte carry[16];
   std::size_t carried = 0, decoded = 0;  // values written to `out`
   std::size_t at = f.offset + offset;
   const std::size_t end = at + size;
@@ -128,7 +154,7 @@ Status RawPart::Decode(bool normals, std::size_t offset, VertexEncoding encoding
       n -= take;
       if (carried == per_triple) {
         if (Status s = decode(carry, per_triple, decoded); !s.ok()) return s;
-        decoded += 3;
+        decoded += group;
         carried = 0;
       }
     }
@@ -141,8 +167,8 @@ Status RawPart::Decode(bool normals, std::size_t offset, VertexEncoding encoding
     carried += n - whole;
   }
   if (decoded != out.size()) {
-    return Internal(fmt::format("{}: {} of {} values in the received bytes",
-                                normals ? "normals" : "positions", decoded, out.size()));
+    return Internal(
+        fmt::format("{}: {} of {} values in the received bytes", name, decoded, out.size()));
   }
   return Status::Ok();
 }

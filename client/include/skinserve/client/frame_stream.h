@@ -21,6 +21,7 @@ struct StreamOptions {
   std::string mesh_id;
   std::string backend;  // empty: the server's default
   bool want_normals = false;
+  bool want_tangents = false;  // needs want_normals (SkinOptions::want_tangents)
   SkinningMethod method = SkinningMethod::kLinear;
   VertexEncoding encoding = VertexEncoding::kFloat32;  // decoded to float32 for the sink
   // Crowd batches: each frame's palette holds this many instances' palettes back to back,

@@ -42,14 +42,18 @@ struct FrameResult {
   VertexEncoding encoding = VertexEncoding::kFloat32;  // how the server sent them
   std::vector<float> positions;  // x y z, instance after instance: 3 * vertices each
   std::vector<float> normals;    // as positions, or empty when not asked for
-  std::vector<Bounds> bounds;    // per instance: the box snorm16 positions were quantised to
+  // x y z w, instance after instance: 4 * vertices each (SkinOptions::want_tangents; w is
+  // exactly +1 or -1), or empty when not asked for.
+  std::vector<float> tangents;
+  std::vector<Bounds> bounds;  // per instance: the box snorm16 positions were quantised to
   v1::ServerTiming timing;
   // A frame written into a shared-memory region (SkinOptions::output): `positions` and
-  // `normals` stay empty and these view the region instead, every instance back to back,
-  // in `encoding` (no copy; valid until the region's bytes are written again).
-  // DecodeRegionFrame decodes them into `positions` and `normals`.
+  // `normals` (and `tangents`) stay empty and these view the region instead, every instance
+  // back to back, in `encoding` (no copy; valid until the region's bytes are written
+  // again). DecodeRegionFrame decodes them into `positions`, `normals` and `tangents`.
   std::span<const std::byte> region_positions;
   std::span<const std::byte> region_normals;
+  std::span<const std::byte> region_tangents;  // 4 values a vertex
 
   bool in_region() const { return !region_positions.empty(); }
   // float32 frames in a region: one instance's positions or normals, read in place.
@@ -69,6 +73,10 @@ struct FrameResult {
     if (normals.empty()) return {};
     return std::span<const float>(normals).subspan(3ull * vertices * instance, 3ull * vertices);
   }
+  std::span<const float> instance_tangents(uint32_t instance) const {
+    if (tangents.empty()) return {};
+    return std::span<const float>(tangents).subspan(4ull * vertices * instance, 4ull * vertices);
+  }
 };
 
 // Where the server writes a frame on the same host (the same-host data plane,
@@ -84,7 +92,8 @@ struct RegionOutput {
 };
 
 // Decodes a frame written into a region (FrameResult::in_region) into its `positions` and
-// `normals`, as a frame sent over gRPC arrives; other frames are left as they are.
+// `normals` (and `tangents`), as a frame sent over gRPC arrives; other frames are left as
+// they are.
 Status DecodeRegionFrame(FrameResult* result);
 
 // Gathers a frame's parts into a FrameResult, decoding each part's encoding; true once
@@ -104,9 +113,14 @@ class FrameAssembler {
   bool Add(const grpc::ByteBuffer& part, RawPart* reader, FrameResult* result);
 
  private:
+  // The bytes of each vertex field; decode(field, offset, encoding, bounds, out) decodes
+  // bytes of one of them (0 positions, 1 normals, 2 tangents) into `out`.
+  struct FieldSizes {
+    std::size_t positions = 0, normals = 0, tangents = 0;
+  };
   template <typename Decode>
-  bool AddPart(const v1::SkinResponse& part, std::size_t positions_size, std::size_t normals_size,
-               const Decode& decode, FrameResult* result);
+  bool AddPart(const v1::SkinResponse& part, FieldSizes sizes, const Decode& decode,
+               FrameResult* result);
   bool Fail(const v1::SkinResponse& part, FrameResult* result, Status status);
   // The frame's one part when it went into the region: checks its ranges against the
   // mapping and points the result at them.
@@ -116,6 +130,7 @@ class FrameAssembler {
   bool started_ = false;
   bool failed_ = false;
   bool normals_ = false;
+  bool tangents_ = false;
   uint32_t next_instance_ = 0;
   uint32_t next_vertex_ = 0;
 };
@@ -124,6 +139,9 @@ class FrameAssembler {
 struct SkinOptions {
   std::string backend;  // empty: the server's default
   bool want_normals = false;
+  // The skinned tangents too (SkinRequest.want_tangents): needs want_normals, a mesh with
+  // tangents and a backend that skins them (BackendInfo.tangents).
+  bool want_tangents = false;
   SkinningMethod method = SkinningMethod::kLinear;
   VertexEncoding encoding = VertexEncoding::kFloat32;
   // Crowd batch: palettes of this many instances back to back (1: a single instance).

@@ -144,32 +144,45 @@ class AsyncClient:
                    backend: Optional[str] = ..., want_normals: Literal[False] = ...,
                    encoding: str = ..., frame: int = ...,
                    region: Optional[SharedMemoryRegion] = ..., offset: int = ...,
-                   morph_weights: Optional[FrameWeights] = ...) -> FloatArray: ...
+                   morph_weights: Optional[FrameWeights] = ...,
+                   want_tangents: Literal[False] = ...) -> FloatArray: ...
 
     @overload
     async def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
                    backend: Optional[str] = ..., *, want_normals: Literal[True],
                    encoding: str = ..., frame: int = ...,
                    region: Optional[SharedMemoryRegion] = ..., offset: int = ...,
-                   morph_weights: Optional[FrameWeights] = ...
+                   morph_weights: Optional[FrameWeights] = ...,
+                   want_tangents: Literal[False] = ...
                    ) -> Tuple[FloatArray, FloatArray]: ...
+
+    @overload
+    async def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
+                   backend: Optional[str] = ..., *, want_normals: Literal[True],
+                   encoding: str = ..., frame: int = ...,
+                   region: Optional[SharedMemoryRegion] = ..., offset: int = ...,
+                   morph_weights: Optional[FrameWeights] = ...,
+                   want_tangents: Literal[True]
+                   ) -> Tuple[FloatArray, FloatArray, FloatArray]: ...
 
     async def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
                    backend: Optional[str] = None, want_normals: bool = False,
                    encoding: str = "float32", frame: int = 0,
                    region: Optional[SharedMemoryRegion] = None, offset: int = 0,
-                   morph_weights: Optional[FrameWeights] = None) -> Answer:
+                   morph_weights: Optional[FrameWeights] = None,
+                   want_tangents: bool = False) -> Answer:
         """Client.skin: one frame, a single palette (J, 3, 4) or a crowd (K, J, 3, 4),
-        with its morph weights ({target: weight}, or one such per crowd instance)."""
+        with its morph weights ({target: weight}, or one such per crowd instance);
+        want_tangents answers (positions, normals, tangents)."""
         crowd = _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
         request = _requests.skin_request(mesh_id, palette, crowd, frame, backend, want_normals,
-                                         encoding, region, offset, morph_weights)
+                                         encoding, region, offset, morph_weights, want_tangents)
         for attempt in range(self.max_reuploads + 1):
             result = Frame(crowd)
             try:
                 async for part in self._stub.Skin(request, timeout=self.timeout):
                     result.add_part(part, want_normals, region)
-                return result.result(want_normals)
+                return result.result(want_normals, want_tangents)
             except grpc.RpcError as e:
                 error = rpc_error(e, frame)
                 if e.code() != grpc.StatusCode.NOT_FOUND or attempt == self.max_reuploads:
@@ -182,7 +195,8 @@ class AsyncClient:
                backend: Optional[str] = ..., want_normals: Literal[False] = ...,
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
-               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...,
+               want_tangents: Literal[False] = ...
                ) -> AsyncIterator[FloatArray]: ...
 
     @overload
@@ -190,14 +204,25 @@ class AsyncClient:
                backend: Optional[str] = ..., *, want_normals: Literal[True],
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
-               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...,
+               want_tangents: Literal[False] = ...
                ) -> AsyncIterator[Tuple[FloatArray, FloatArray]]: ...
+
+    @overload
+    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+               backend: Optional[str] = ..., *, want_normals: Literal[True],
+               encoding: str = ..., window: int = ...,
+               region: Optional[SharedMemoryRegion] = ...,
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...,
+               want_tangents: Literal[True]
+               ) -> AsyncIterator[Tuple[FloatArray, FloatArray, FloatArray]]: ...
 
     async def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
                      backend: Optional[str] = None, want_normals: bool = False,
                      encoding: str = "float32", window: int = 8,
                      region: Optional[SharedMemoryRegion] = None,
-                     morph_weights: Optional[Iterable[Optional[FrameWeights]]] = None
+                     morph_weights: Optional[Iterable[Optional[FrameWeights]]] = None,
+                     want_tangents: bool = False
                      ) -> AsyncIterator[Answer]:
         """Client.stream as an async generator: frame after frame over one StreamSkin call,
         at most `window` unanswered, yielded in order. To stop early, close it
@@ -213,9 +238,10 @@ class AsyncClient:
         stride = 0
         if region is not None:
             stride = _requests.region_stride(await self._vertex_count(mesh_id), crowds,
-                                             want_normals, encoding, window, region)
+                                             want_normals, encoding, window, region,
+                                             want_tangents)
         requests = [_requests.skin_request(mesh_id, p, k, i, backend, want_normals, encoding,
-                                           region, (i % window) * stride, w)
+                                           region, (i % window) * stride, w, want_tangents)
                     for i, (p, k, w) in enumerate(zip(palettes, crowds, weights))]
         next_frame, reuploads, reconnects = 0, 0, 0
         while next_frame < len(requests):
@@ -227,7 +253,7 @@ class AsyncClient:
                 async for index, frame in answers:
                     if frame.error is None:
                         next_frame = index + 1
-                        yield frame.result(want_normals)
+                        yield frame.result(want_normals, want_tangents)
                         continue
                     code, message = frame.error
                     error = SkinserveError(code, message, index)

@@ -205,23 +205,38 @@ class Client:
              backend: Optional[str] = ..., want_normals: Literal[False] = ...,
              encoding: str = ..., frame: int = ..., region: Optional[SharedMemoryRegion] = ...,
              offset: int = ...,
-             morph_weights: Optional[FrameWeights] = ...) -> FloatArray: ...
+             morph_weights: Optional[FrameWeights] = ...,
+             want_tangents: Literal[False] = ...) -> FloatArray: ...
 
     @overload
     def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
              backend: Optional[str] = ..., *, want_normals: Literal[True],
              encoding: str = ..., frame: int = ..., region: Optional[SharedMemoryRegion] = ...,
              offset: int = ...,
-             morph_weights: Optional[FrameWeights] = ...) -> Tuple[FloatArray, FloatArray]: ...
+             morph_weights: Optional[FrameWeights] = ...,
+             want_tangents: Literal[False] = ...) -> Tuple[FloatArray, FloatArray]: ...
+
+    @overload
+    def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
+             backend: Optional[str] = ..., *, want_normals: Literal[True],
+             encoding: str = ..., frame: int = ..., region: Optional[SharedMemoryRegion] = ...,
+             offset: int = ...,
+             morph_weights: Optional[FrameWeights] = ...,
+             want_tangents: Literal[True]) -> Tuple[FloatArray, FloatArray, FloatArray]: ...
 
     def skin(self, mesh_id: str, palette: npt.NDArray[np.float32],
              backend: Optional[str] = None, want_normals: bool = False,
              encoding: str = "float32", frame: int = 0,
              region: Optional[SharedMemoryRegion] = None, offset: int = 0,
-             morph_weights: Optional[FrameWeights] = None) -> Answer:
+             morph_weights: Optional[FrameWeights] = None,
+             want_tangents: bool = False) -> Answer:
         """One frame: palette float32 (J, 3, 4) -> positions (V, 3) float32, or
         (positions, normals) with want_normals. A crowd, palettes (K, J, 3, 4) of K
         instances of the mesh, is one request and answers (K, V, 3) arrays.
+
+        want_tangents (with want_normals, for a mesh uploaded with tangents): answers
+        (positions, normals, tangents), tangents (V, 4) float32 x y z w ((K, V, 4) for a
+        crowd), w exactly +1 or -1.
 
         encoding: how the server sends the vertices ("float32", "float16" or "snorm16",
         see docs/serving/encodings.md); the answer is decoded to float32.
@@ -236,13 +251,13 @@ class Client:
         one per instance of a crowd of K >= 2."""
         crowd = _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
         request = _requests.skin_request(mesh_id, palette, crowd, frame, backend, want_normals,
-                                         encoding, region, offset, morph_weights)
+                                         encoding, region, offset, morph_weights, want_tangents)
         for attempt in range(self.max_reuploads + 1):
             result = Frame(crowd)
             try:
                 for part in self._stub.Skin(request, timeout=self.timeout):
                     result.add_part(part, want_normals, region)
-                return result.result(want_normals)
+                return result.result(want_normals, want_tangents)
             except grpc.RpcError as e:
                 error = rpc_error(e, frame)
                 if e.code() != grpc.StatusCode.NOT_FOUND or attempt == self.max_reuploads:
@@ -255,7 +270,8 @@ class Client:
                backend: Optional[str] = ..., want_normals: Literal[False] = ...,
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
-               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...,
+               want_tangents: Literal[False] = ...
                ) -> Iterator[FloatArray]: ...
 
     @overload
@@ -263,14 +279,25 @@ class Client:
                backend: Optional[str] = ..., *, want_normals: Literal[True],
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
-               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...,
+               want_tangents: Literal[False] = ...
                ) -> Iterator[Tuple[FloatArray, FloatArray]]: ...
+
+    @overload
+    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+               backend: Optional[str] = ..., *, want_normals: Literal[True],
+               encoding: str = ..., window: int = ...,
+               region: Optional[SharedMemoryRegion] = ...,
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = ...,
+               want_tangents: Literal[True]
+               ) -> Iterator[Tuple[FloatArray, FloatArray, FloatArray]]: ...
 
     def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
                backend: Optional[str] = None, want_normals: bool = False,
                encoding: str = "float32", window: int = 8,
                region: Optional[SharedMemoryRegion] = None,
-               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = None
+               morph_weights: Optional[Iterable[Optional[FrameWeights]]] = None,
+               want_tangents: bool = False
                ) -> Iterator[Answer]:
         """Frame after frame over one StreamSkin call: yields each frame's positions (or
         (positions, normals)) in order. `palettes`: a sequence of float32 (J, 3, 4)
@@ -287,6 +314,8 @@ class Client:
         next frame is taken (copy what you keep).
 
         morph_weights: one entry per palette, as skin's morph_weights (None: no weights).
+
+        want_tangents: yields (positions, normals, tangents), as skin.
         """
         palettes = list(palettes)
         joints = self._joint_count(mesh_id)
@@ -298,9 +327,10 @@ class Client:
         stride = 0
         if region is not None:
             stride = _requests.region_stride(self._vertex_count(mesh_id), crowds,
-                                             want_normals, encoding, window, region)
+                                             want_normals, encoding, window, region,
+                                             want_tangents)
         requests = [_requests.skin_request(mesh_id, p, k, i, backend, want_normals, encoding,
-                                           region, (i % window) * stride, w)
+                                           region, (i % window) * stride, w, want_tangents)
                     for i, (p, k, w) in enumerate(zip(palettes, crowds, weights))]
         next_frame, reuploads, reconnects = 0, 0, 0
         while next_frame < len(requests):
@@ -311,7 +341,7 @@ class Client:
                 for index, frame in answers:
                     if frame.error is None:
                         next_frame = index + 1
-                        yield frame.result(want_normals)
+                        yield frame.result(want_normals, want_tangents)
                         continue
                     code, message = frame.error
                     error = SkinserveError(code, message, index)

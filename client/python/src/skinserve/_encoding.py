@@ -12,8 +12,9 @@ FLOAT32, FLOAT16, SNORM16 = 0, 1, 2  # skinserve.v1.Encoding values
 
 def decode_values(data: Union[bytes, memoryview], encoding: int, count: int,
                   bounds: Optional[Sequence[float]] = None,
-                  normals: bool = False) -> npt.NDArray[np.float32]:
-    """`count` xyz triples from `data` as a (count, 3) float32 array.
+                  normals: bool = False, width: int = 3) -> npt.NDArray[np.float32]:
+    """`count` xyz triples from `data` as a (count, 3) float32 array; width=4: tangents,
+    x y z w decoded as normals into (count, 4).
 
     bounds: (min_x, min_y, min_z, max_x, max_y, max_z), needed for snorm16 positions.
     """
@@ -26,9 +27,9 @@ def decode_values(data: Union[bytes, memoryview], encoding: int, count: int,
         values = np.frombuffer(data, dtype="<i2")
     else:
         raise ValueError(f"unknown encoding {encoding}")
-    if values.size != 3 * count:
-        raise ValueError(f"response part holds {values.size} values, expected {3 * count}")
-    values = values.reshape(count, 3)
+    if values.size != width * count:
+        raise ValueError(f"response part holds {values.size} values, expected {width * count}")
+    values = values.reshape(count, width)
     if encoding != SNORM16:
         return values.astype(np.float32)
     q = values.astype(np.float64)

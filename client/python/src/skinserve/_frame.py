@@ -11,8 +11,10 @@ from ._shared_memory import SharedMemoryRegion
 from .v1 import skinning_pb2 as pb
 
 FloatArray = npt.NDArray[np.float32]
-# A frame's answer: positions, or (positions, normals) with want_normals.
-Answer = Union[FloatArray, Tuple[FloatArray, FloatArray]]
+# A frame's answer: positions, or (positions, normals) with want_normals, or (positions,
+# normals, tangents) with want_tangents too.
+Answer = Union[FloatArray, Tuple[FloatArray, FloatArray],
+               Tuple[FloatArray, FloatArray, FloatArray]]
 
 
 def _bounds(b: pb.Bounds) -> Tuple[float, float, float, float, float, float]:
@@ -29,6 +31,7 @@ class Frame:
         self.crowd = crowd
         self.positions: Optional[FloatArray] = None
         self.normals: Optional[FloatArray] = None
+        self.tangents: Optional[FloatArray] = None  # (K, V, 4) x y z w, when the parts carry them
         self.error: Optional[Tuple[Any, str]] = None  # (grpc.StatusCode, message)
         self._next = (0, 0)  # the (instance, first vertex) the next part must start at
 
@@ -54,6 +57,8 @@ class Frame:
             self.positions = np.empty(shape, dtype=np.float32)
             if want_normals:
                 self.normals = np.empty(shape, dtype=np.float32)
+            if part.tangents:
+                self.tangents = np.empty((instances, part.total_vertices, 4), dtype=np.float32)
         total = self.positions.shape[1]
         packed = max(part.instance_count, 1)  # whole instances in this part
         end = part.first_vertex + part.vertex_count
@@ -75,8 +80,12 @@ class Frame:
         if len(positions) % packed or len(normals) % packed:
             self._fail(part, f"{len(positions)} and {len(normals)} bytes of positions and "
                        f"normals for {packed} instances")
+        tangents = memoryview(part.tangents)
+        if (self.tangents is not None) != bool(len(tangents)) or len(tangents) % packed:
+            self._fail(part, f"{len(tangents)} bytes of tangents for {packed} instances")
         rows = slice(part.first_vertex, end)
         p_size, n_size = len(positions) // packed, len(normals) // packed
+        t_size = len(tangents) // packed
         for j in range(packed):
             k = part.instance + j
             b = part.instance_bounds[j] if packed > 1 and part.encoding == _encoding.SNORM16 \
@@ -88,6 +97,10 @@ class Frame:
                 self.normals[k, rows] = _encoding.decode_values(
                     normals[j * n_size:(j + 1) * n_size], part.encoding, part.vertex_count,
                     normals=True)
+            if self.tangents is not None:
+                self.tangents[k, rows] = _encoding.decode_values(
+                    tangents[j * t_size:(j + 1) * t_size], part.encoding, part.vertex_count,
+                    normals=True, width=4)
 
     def _add_region(self, part: pb.SkinResponse, want_normals: bool,
                     region: Optional[SharedMemoryRegion]) -> None:
@@ -108,23 +121,29 @@ class Frame:
                 or write.positions_offset + size > region.byte_size:
             self._fail(part, f"ranges of region '{write.region}' do not fit the frame")
 
-        def view(offset: int, normals: bool) -> Any:
-            values = np.frombuffer(buffer, dtype=dtype, count=count, offset=offset)
-            values = values.reshape(instances, vertices, 3)
+        def view(offset: int, normals: bool, width: int = 3) -> Any:
+            values = np.frombuffer(buffer, dtype=dtype, count=count // 3 * width, offset=offset)
+            values = values.reshape(instances, vertices, width)
             if part.encoding != _encoding.SNORM16:
                 return values  # float32, or float16 as the region holds it
             out = np.empty(values.shape, dtype=np.float32)
             for k in range(instances):
                 out[k] = _encoding.decode_values(
                     values[k].tobytes(), part.encoding, vertices,
-                    _bounds(part.instance_bounds[k]), normals=normals)
+                    _bounds(part.instance_bounds[k]), normals=normals, width=width)
             return out
 
         self.positions = view(write.positions_offset, False)
         if want_normals:
             self.normals = view(write.normals_offset, True)
+        if write.tangent_instance_bytes:  # x y z w, 4 values a vertex
+            tangent_size = size // 3 * 4
+            if write.tangent_instance_bytes * instances != tangent_size \
+                    or write.tangents_offset + tangent_size > region.byte_size:
+                self._fail(part, f"tangents of region '{write.region}' do not fit the frame")
+            self.tangents = view(write.tangents_offset, True, 4)
 
-    def result(self, want_normals: bool) -> Answer:
+    def result(self, want_normals: bool, want_tangents: bool = False) -> Answer:
         if self.positions is None:
             raise SkinserveError(grpc.StatusCode.INTERNAL, "malformed answer: no parts")
         single = self.crowd is None  # (V, 3) arrays, not (1, V, 3)
@@ -135,4 +154,9 @@ class Frame:
         if self.normals is None:
             raise SkinserveError(grpc.StatusCode.INTERNAL, "malformed answer: no normals")
         normals = self.normals[0] if single else self.normals
-        return positions, normals
+        if not want_tangents:
+            return positions, normals
+        if self.tangents is None:
+            raise SkinserveError(grpc.StatusCode.INTERNAL, "malformed answer: no tangents")
+        tangents: FloatArray = self.tangents[0] if single else self.tangents
+        return positions, normals, tangents

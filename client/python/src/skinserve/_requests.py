@@ -77,11 +77,13 @@ def check_encoding(encoding: str) -> None:
 def skin_request(mesh_id: str, palette: npt.NDArray[np.float32], crowd: Optional[int],
                  frame: int, backend: Optional[str], want_normals: bool, encoding: str,
                  region: Optional[SharedMemoryRegion] = None, offset: int = 0,
-                 morph_weights: Optional[FrameWeights] = None) -> pb.SkinRequest:
+                 morph_weights: Optional[FrameWeights] = None,
+                 want_tangents: bool = False) -> pb.SkinRequest:
     check_encoding(encoding)
     request = pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
                              palette=_arrays.little_endian_bytes(palette, "f4"),
-                             want_normals=want_normals, encoding=ENCODINGS[encoding],
+                             want_normals=want_normals, want_tangents=want_tangents,
+                             encoding=ENCODINGS[encoding],
                              instances=crowd or 0, pack_instances=True)
     _morph.set_weights(request, morph_weights, crowd)
     if region is not None:
@@ -110,12 +112,14 @@ def check_window(window: int) -> None:
 
 
 def region_stride(vertices: int, crowds: List[Optional[int]], want_normals: bool,
-                  encoding: str, window: int, region: SharedMemoryRegion) -> int:
+                  encoding: str, window: int, region: SharedMemoryRegion,
+                  want_tangents: bool = False) -> int:
     """Bytes between a stream's frames in `region`: the largest frame, rounded up; the
     region must hold `window` of them."""
     check_encoding(encoding)
     size = 4 if encoding == "float32" else 2
-    stride = max((_shared_memory.frame_bytes(vertices, k or 1, size, want_normals)
+    stride = max((_shared_memory.frame_bytes(vertices, k or 1, size, want_normals,
+                                             want_tangents)
                   for k in set(crowds)), default=0)
     if window * stride > region.byte_size:
         raise ValueError(f"region: {region.byte_size} bytes, fewer than {window} frames "

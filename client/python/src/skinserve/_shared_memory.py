@@ -19,11 +19,16 @@ def round_up(n: int) -> int:
     return (n + _ALIGNMENT - 1) // _ALIGNMENT * _ALIGNMENT
 
 
-def frame_bytes(vertices: int, instances: int, bytes_per_value: int, normals: bool) -> int:
+def frame_bytes(vertices: int, instances: int, bytes_per_value: int, normals: bool,
+                tangents: bool = False) -> int:
     """Bytes one frame takes in a region: every instance's positions, then (from the next
-    multiple of 64) their normals; rounded up so that frames can follow each other."""
+    multiple of 64) their normals, then (from the next one) their tangents, 4 values a
+    vertex; rounded up so that frames can follow each other."""
     array = vertices * 3 * bytes_per_value * max(instances, 1)
-    return round_up(round_up(array) + array if normals else array)
+    end = round_up(array) + array if normals else array
+    if tangents:
+        end = round_up(end) + vertices * 4 * bytes_per_value * max(instances, 1)
+    return round_up(end)
 
 
 class SharedMemoryRegion:

@@ -102,6 +102,16 @@ Status DecodePositions(VertexEncoding encoding, std::span<const std::byte> bytes
 Status DecodeNormals(VertexEncoding encoding, std::span<const std::byte> bytes,
                      std::span<float> out);
 
+// Tangents, x y z w per vertex (SkinRequest.want_tangents): every value encodes as a
+// normal's (x y z unit, w exactly +1 or -1, which float16 and snorm16 hold exactly);
+// errors name "tangents[vertex v][axis]". The byte count is EncodedTangentBytes.
+inline constexpr std::size_t kValuesPerTangent = 4;
+std::size_t EncodedTangentBytes(VertexEncoding encoding, std::size_t vertex_count);
+Status EncodeTangents(VertexEncoding encoding, std::span<const float> tangents,
+                      std::span<std::byte> out, std::size_t first_vertex = 0);
+Status DecodeTangents(VertexEncoding encoding, std::span<const std::byte> bytes,
+                      std::span<float> out);
+
 // What an encoding may add to the error of one decoded value, beyond the float32 result:
 //   float32: 0.
 //   float16: max(|x| * 2^-11, 2^-25) (half an ulp; 2^-25 below half's normal range).

@@ -108,6 +108,7 @@ struct FramePlan {
   bool has_normals = false;
   bool has_tangents = false;
   uint32_t morph_target_count = 0;
+  bool backend_tangents = false;  // the backend skins tangents (BackendInfo::tangents)
 };
 
 // A frame the caller owns and reuses frame after frame, so that the steady-state path

@@ -36,18 +36,24 @@ class RawPart {
   }
   std::size_t positions_size() const { return positions_.size; }
   std::size_t normals_size() const { return normals_.size; }
+  std::size_t tangents_size() const { return tangents_.size; }
 
   // Decodes bytes [offset, offset + EncodedBytesPerValue(encoding) * out.size()) of the
   // positions (or normals) field into `out`, as DecodePositions / DecodeNormals would;
   // the range must lie inside the field and `offset` start an x y z triple.
   Status Decode(bool normals, std::size_t offset, VertexEncoding encoding, const Bounds& bounds,
                 std::span<float> out) const;
+  // The same for the tangents field (x y z w: `offset` starts a vertex's 4 values).
+  Status DecodeTangents(std::size_t offset, VertexEncoding encoding, std::span<float> out) const;
 
  private:
   struct Field {
     std::size_t offset = 0;  // of its data in the part's bytes
     std::size_t size = 0;
   };
+  enum class Kind { kPositions, kNormals, kTangents };
+  Status DecodeField(Kind kind, std::size_t offset, VertexEncoding encoding, const Bounds& bounds,
+                     std::span<float> out) const;
   // The header lives in an arena over a block of this object, emptied at each Parse:
   // parsing into a reused message would free and allocate its sub-messages (timing,
   // bounds) every time.
@@ -58,7 +64,7 @@ class RawPart {
   std::string header_bytes_;            // the header fields, re-serialized for parsing
   std::vector<grpc::Slice> slices_;     // the part's bytes as gRPC holds them
   std::vector<std::size_t> starts_;     // each slice's offset in the part
-  Field positions_, normals_;
+  Field positions_, normals_, tangents_;
 };
 
 }  // namespace skinserve::wire
