@@ -4,6 +4,7 @@
 // written into a shared-memory region, each tangent against the float64 reference within
 // the float32 tolerance plus the bound its encoding states, w exactly the rest's +1 / -1.
 // Asking for tangents where they cannot come is refused naming want_tangents.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -2,9 +2,9 @@
 // tangents and morph tangent deltas, sent in chunks like every array, is stored with the
 // content id and size the model computes (tangents count in both) and reports
 // has_tangents; backends say which skin tangents; bad tangents are refused naming the
-// field, the vertex and the limit; a skin request for a mesh with tangents still answers
-// positions and normals (want_tangents is not on the wire yet) matching the float64
-// reference.
+// field, the vertex and the limit; a skin request for a mesh with tangents that does not
+// ask for them answers positions and normals matching the float64 reference (asking for
+// them: tangent_response_test.cpp).
 #include <gtest/gtest.h>
 
 #include "skinserve/reference/reference.h"

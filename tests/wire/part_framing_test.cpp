@@ -1,7 +1,7 @@
 // A part framed by WritePartFraming, with its vertex bytes beside it as the server sends
 // them, must be a SkinResponse to protobuf's own parser (the independent reference) and to
 // the clients' RawPart, field for field and byte for byte, at every varint length boundary
-// of the payload.
+// of the payload, with normals and with tangents (field 17: a two-byte tag).
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -38,14 +38,19 @@ std::string Bytes(std::size_t n, uint32_t seed) {
 }
 
 TEST(PartFramingTest, FramedPartsParseAsTheMessageTheyStandFor) {
-  for (bool normals : {false, true}) {
+  for (int fields = 1; fields <= 3; ++fields) {
+    const bool normals = fields >= 2, tangents = fields == 3;
     for (std::size_t payload : {0u, 1u, 127u, 128u, 16383u, 16384u, 2097151u, 2097152u}) {
-      SCOPED_TRACE(testing::Message() << "payload " << payload << ", normals " << normals);
+      SCOPED_TRACE(testing::Message() << "payload " << payload << ", normals " << normals
+                                      << ", tangents " << tangents);
       const v1::SkinResponse header = Header();
       std::vector<std::byte> room(256);
-      auto framing = WritePartFraming(header, header.ByteSizeLong(), payload, normals, room);
+      const std::size_t tangent_payload = tangents ? payload / 3 * 4 + 1 : 0;
+      auto framing =
+          WritePartFraming(header, header.ByteSizeLong(), payload, normals, room, tangent_payload);
       ASSERT_TRUE(framing.ok()) << framing.status().ToString();
       EXPECT_EQ(framing->normals_tag_bytes == 0, !normals);
+      EXPECT_EQ(framing->tangents_tag_bytes == 0, !tangents);
 
       const std::string positions = Bytes(payload, 1);
       const std::string normal_bytes = Bytes(payload, 2);
@@ -56,12 +61,20 @@ TEST(PartFramingTest, FramedPartsParseAsTheMessageTheyStandFor) {
                     framing->normals_tag_bytes);
         wire += normal_bytes;
       }
+      const std::string tangent_bytes = Bytes(tangent_payload, 3);
+      if (tangents) {
+        wire.append(reinterpret_cast<const char*>(room.data()) + framing->header_bytes +
+                        framing->normals_tag_bytes,
+                    framing->tangents_tag_bytes);
+        wire += tangent_bytes;
+      }
 
       v1::SkinResponse parsed;
       ASSERT_TRUE(parsed.ParseFromString(wire));
       v1::SkinResponse expected = header;
       expected.set_positions(positions);
       if (normals) expected.set_normals(normal_bytes);
+      if (tangents) expected.set_tangents(tangent_bytes);
       EXPECT_EQ(parsed.SerializeAsString(), expected.SerializeAsString());
 
       // The clients' reader: the same header, the same field sizes.
@@ -73,6 +86,7 @@ TEST(PartFramingTest, FramedPartsParseAsTheMessageTheyStandFor) {
       EXPECT_EQ(raw.header().bounds().max_z(), header.bounds().max_z());
       EXPECT_EQ(raw.positions_size(), payload);
       EXPECT_EQ(raw.normals_size(), normals ? payload : 0);
+      EXPECT_EQ(raw.tangents_size(), tangent_payload);
     }
   }
 }
@@ -81,7 +95,7 @@ TEST(PartFramingTest, AHeaderThatDoesNotFitIsAnErrorNamingTheSizes) {
   v1::SkinResponse header = Header();
   for (int i = 0; i < 20; ++i) header.add_instance_bounds()->set_min_x(1.0f);
   const std::size_t size = header.ByteSizeLong();
-  std::vector<std::byte> room(size + 11);  // one byte short of two tags' room
+  std::vector<std::byte> room(size + 2 * kMaxFieldTagBytes - 1);  // short of two tags' room
   auto framing = WritePartFraming(header, size, 1000, /*normals=*/true, room);
   ASSERT_FALSE(framing.ok());
   EXPECT_NE(framing.status().message().find(std::to_string(size) + " bytes"), std::string::npos)

@@ -11,7 +11,10 @@ namespace {
 // bytes written (at most kMaxFieldTagBytes).
 std::size_t PutLengthDelimitedTag(int field, std::size_t length, std::byte* out) {
   std::size_t n = 0;
-  out[n++] = static_cast<std::byte>(field << 3 | 2);
+  // The tag is a varint too: fields from 16 on (tangents, 17) take two bytes.
+  auto tag = static_cast<uint32_t>(field) << 3 | 2;
+  for (; tag >= 0x80; tag >>= 7) out[n++] = static_cast<std::byte>((tag & 0x7f) | 0x80);
+  out[n++] = static_cast<std::byte>(tag);
   do {
     const auto low = static_cast<uint8_t>(length & 0x7f);
     length >>= 7;

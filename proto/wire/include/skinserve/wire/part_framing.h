@@ -15,8 +15,9 @@
 
 namespace skinserve::wire {
 
-// A length-delimited field's tag and length take at most this many bytes (fields < 32 GiB).
-inline constexpr std::size_t kMaxFieldTagBytes = 6;
+// A length-delimited field's tag and length take at most this many bytes: a tag of up to
+// 2 bytes (field numbers < 2048; tangents are 17) and a length of up to 5 (fields < 32 GiB).
+inline constexpr std::size_t kMaxFieldTagBytes = 7;
 
 struct PartFraming {
   std::size_t header_bytes = 0;        // the header, then the positions field's tag and length
