@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "backends/morph_delta_kernel.h"
 #include "skinserve/model/aligned_buffer.h"
 
 namespace skinserve {
@@ -83,33 +84,17 @@ void MorphWalk::Apply(std::size_t first, std::size_t last) {
   const float* dt = mesh_.morph_tangent_deltas().data();
   // Targets in the frame's order, each vertex's deltas summed in that order.
   for (Target& t : *targets_) {
-    const float w = t.weight;
-    const uint32_t* k = t.next;
-    const std::size_t first_delta = t.first_delta + static_cast<std::size_t>(k - t.begin);
-    const float* d = dp + 3 * first_delta;
-    const float* n = morph_normals_ ? dn + 3 * first_delta : nullptr;
-    const float* tangent = morph_tangents_ ? dt + 3 * first_delta : nullptr;
-    for (; k != t.end && *k < last; ++k, d += 3) {
-      float* p = positions_ + 3ull * *k;
-      p[0] += w * d[0];
-      p[1] += w * d[1];
-      p[2] += w * d[2];
-      if (n != nullptr) {
-        float* out = scratch_normals_ + 3ull * *k;
-        out[0] += w * n[0];
-        out[1] += w * n[1];
-        out[2] += w * n[2];
-        n += 3;
-      }
-      if (tangent != nullptr) {
-        float* out = scratch_tangents_ + 4ull * *k;
-        out[0] += w * tangent[0];
-        out[1] += w * tangent[1];
-        out[2] += w * tangent[2];
-        tangent += 3;
-      }
-    }
-    t.next = k;
+    const std::size_t delta = t.first_delta + static_cast<std::size_t>(t.next - t.begin);
+    t.next = AddMorphDeltas({.next = t.next,
+                             .end = t.end,
+                             .last = last,
+                             .weight = t.weight,
+                             .position_deltas = dp + 3 * delta,
+                             .normal_deltas = morph_normals_ ? dn + 3 * delta : nullptr,
+                             .tangent_deltas = morph_tangents_ ? dt + 3 * delta : nullptr,
+                             .positions = positions_,
+                             .normals = scratch_normals_,
+                             .tangents = scratch_tangents_});
   }
 }
 
