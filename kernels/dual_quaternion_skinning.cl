@@ -2,15 +2,15 @@
  * CPU loops (core/engine/src/backends/scalar_dual_quaternion_skinning.h): per vertex the B
  * unit dual quaternions are blended, each one's sign chosen against the first influence
  * (q and -q are the same rotation), normalised by the real part's length and applied to
- * the position; the normal is rotated by the blended rotation (a unit quaternion: no
- * renormalisation).
+ * the position; the normal and the tangent's xyz are rotated by the blended rotation (a
+ * unit quaternion: no renormalisation), the tangent's w copied.
  * The palette is the frame's DualQuaternionPalette, converted on the host once per frame:
  * 8 floats per joint, the rotation (x, y, z, w) then the dual part (x, y, z, w).
  *
  * Built in one program after linear_blend_skinning.cl, whose work-item shape it shares
  * (SKIN_VERTEX, SKIN_KEEP, SKIN_ARGS: 4 vertices per item, the last item clamping to the
- * last vertex), so the host enqueues dqs_b* and dqs_normals_b* exactly as skin_b* and
- * skin_normals_b*. Full precision maths only (sqrt and a true division, never native_ or
+ * last vertex), so the host enqueues dqs_b*, dqs_normals_b* and dqs_tangents_b* exactly as
+ * skin_b*, skin_normals_b* and skin_tangents_b*. Full precision maths only (sqrt and a true division, never native_ or
  * half_), to match a float64 reference to 1e-5.
  */
 
@@ -53,10 +53,17 @@ static inline void StoreDualQuaternionPosition(const float4 r, const float4 e,
   vstore3(RotateByQuaternion(r, vload3(v, positions)) + t, v, out_positions);
 }
 
-/* The bodies of dqs_b* and dqs_normals_b*: NORMALS(r, v) stores vertex v's rotated normal
- * (DQS_NORMAL) or nothing (DQS_NO_NORMAL); BLEND reads PALETTE, VERTEX(k) is the k-th
- * vertex of this work-item. */
+/* The bodies of dqs_b*, dqs_normals_b* and dqs_tangents_b*: NORMALS(r, v) stores vertex
+ * v's rotated normal (DQS_NORMAL), its rotated normal and tangent (DQS_NORMAL_TANGENT: xyz
+ * rotated, w the rest tangent's) or nothing (DQS_NO_NORMAL); BLEND reads PALETTE, VERTEX(k)
+ * is the k-th vertex of this work-item. */
 #define DQS_NORMAL(r, v) vstore3(RotateByQuaternion(r, vload3(v, normals)), v, out_normals)
+#define DQS_NORMAL_TANGENT(r, v)                                                           \
+  DQS_NORMAL(r, v);                                                                        \
+  {                                                                                        \
+    const float4 tangent = vload4(v, tangents);                                            \
+    vstore4((float4)(RotateByQuaternion(r, tangent.xyz), tangent.w), v, out_tangents);     \
+  }
 #define DQS_NO_NORMAL(r, v)
 #define DQS_BODY(B, NORMALS, BLEND, PALETTE, VERTEX)                                       \
   if (VERTEX(0) >= vertex_count) return;                                                   \
@@ -75,9 +82,11 @@ static inline void StoreDualQuaternionPosition(const float4 r, const float4 e,
   __kernel void dqs_b##B(SKIN_ARGS) {                                                      \
     DQS_BODY(B, DQS_NO_NORMAL, BlendDualQuaternions, palette, SKIN_VERTEX)                 \
   }                                                                                        \
-  __kernel void dqs_normals_b##B(SKIN_ARGS, const __global float* restrict normals,        \
-                                 __global float* restrict out_normals) {                   \
+  __kernel void dqs_normals_b##B(SKIN_ARGS, SKIN_NORMAL_ARGS) {                            \
     DQS_BODY(B, DQS_NORMAL, BlendDualQuaternions, palette, SKIN_VERTEX)                    \
+  }                                                                                        \
+  __kernel void dqs_tangents_b##B(SKIN_ARGS, SKIN_TANGENT_ARGS) {                          \
+    DQS_BODY(B, DQS_NORMAL_TANGENT, BlendDualQuaternions, palette, SKIN_VERTEX)            \
   }
 
 #if SKIN_LOCAL_PALETTE
@@ -92,13 +101,18 @@ DEFINE_BLEND_DUAL_QUATERNIONS(BlendLocalDualQuaternions, __local)
       DQS_BODY(B, DQS_NO_NORMAL, BlendLocalDualQuaternions, staged, SKIN_TILE_VERTEX)      \
     }                                                                                      \
   }                                                                                        \
-  __kernel void dqs_normals_local_b##B(SKIN_ARGS, const __global float* restrict normals,  \
-                                       __global float* restrict out_normals,               \
-                                       SKIN_LOCAL_ARGS) {                                  \
+  __kernel void dqs_normals_local_b##B(SKIN_ARGS, SKIN_NORMAL_ARGS, SKIN_LOCAL_ARGS) {     \
     StagePalette(palette, staged, palette_floats);                                         \
     for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                 \
       const uint tile_base = SKIN_TILE_BASE(tile);                                         \
       DQS_BODY(B, DQS_NORMAL, BlendLocalDualQuaternions, staged, SKIN_TILE_VERTEX)         \
+    }                                                                                      \
+  }                                                                                        \
+  __kernel void dqs_tangents_local_b##B(SKIN_ARGS, SKIN_TANGENT_ARGS, SKIN_LOCAL_ARGS) {   \
+    StagePalette(palette, staged, palette_floats);                                         \
+    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                 \
+      const uint tile_base = SKIN_TILE_BASE(tile);                                         \
+      DQS_BODY(B, DQS_NORMAL_TANGENT, BlendLocalDualQuaternions, staged, SKIN_TILE_VERTEX) \
     }                                                                                      \
   }
 #else

@@ -1,14 +1,17 @@
 /* Linear blend skinning, the paper's equations 3 and 4:
  *   m = sum_i w_i * palette[joint_i]    (3x4 affine, row-major, 12 floats per joint)
  *   p' = m * (x, y, z, 1);  n' = normalize(upper 3x3 of m * n)
- * Layout: positions and normals xyz per vertex; joints (ushort) and weights vertex-major,
- * joints[v * B + i].
+ *   t'.xyz = normalize(upper 3x3 of m * t.xyz), t'.w = t.w  (tangents, as the CPU loops)
+ * Layout: positions and normals xyz per vertex, tangents xyzw; joints (ushort) and weights
+ * vertex-major, joints[v * B + i].
  *
  * Shape, chosen by measurement on PoCL 3.1's CPU device (LLVM 15):
- *  - One kernel per influence count B and per output set: skin_b1..skin_b8 and
- *    skin_normals_b1..skin_normals_b8. The blend loop has a constant trip count and is
- *    unrolled, and there is no branch on B or on normals per vertex (a uniform
- *    `if (with_normals)` alone cost ~10%).
+ *  - One kernel per influence count B and per output set: skin_b1..skin_b8,
+ *    skin_normals_b1..skin_normals_b8 and skin_tangents_b1..skin_tangents_b8 (normals and
+ *    tangents: a frame with tangents always has normals). The blend loop has a constant
+ *    trip count and is unrolled, and there is no branch on B, on normals or on tangents
+ *    per vertex (a uniform `if (with_normals)` alone cost ~10%): a frame without tangents
+ *    runs the very kernels it ran before tangents existed.
  *  - Each work-item skins SKIN_VERTICES_PER_ITEM (4) consecutive vertices: more
  *    independent work per iteration of PoCL's work-item loop, and the four normals share
  *    one vector sqrt and division (scalar sqrt + div per normal cost more than the blend).
@@ -29,8 +32,8 @@
  */
 
 /* The host passes -DSKIN_VERTICES_PER_ITEM, -DSKIN_ITEMS_PER_GROUP, -DSKIN_COALESCED and
- * -DSKIN_LOCAL_PALETTE (0, or 1 with -DSKIN_LOCAL_TILES); skin_normals_b* is written out
- * for four vertices per item. */
+ * -DSKIN_LOCAL_PALETTE (0, or 1 with -DSKIN_LOCAL_TILES); skin_normals_b* and
+ * skin_tangents_b* are written out for four vertices per item. */
 #if !defined(SKIN_VERTICES_PER_ITEM) || SKIN_VERTICES_PER_ITEM != 4
 #error "SKIN_VERTICES_PER_ITEM must be 4 (kVerticesPerItem in core/src/backends/opencl_runtime.cpp)"
 #endif
@@ -103,6 +106,21 @@ static inline float3 TransformNormal(const Blended m, const __global float* rest
 
 static inline float SquaredLength(const float3 t) { return fma(t.x, t.x, fma(t.y, t.y, t.z * t.z)); }
 
+/* The upper 3x3 of m times the tangent's xyz (4 floats per vertex), not yet renormalised. */
+static inline float3 TransformTangent(const Blended m, const __global float* restrict tangents,
+                                      const uint v) {
+  const float x = tangents[4 * v], y = tangents[4 * v + 1], z = tangents[4 * v + 2];
+  return (float3)(fma(m.r01.s0, x, fma(m.r01.s1, y, m.r01.s2 * z)),
+                  fma(m.r01.s4, x, fma(m.r01.s5, y, m.r01.s6 * z)),
+                  fma(m.r2.s0, x, fma(m.r2.s1, y, m.r2.s2 * z)));
+}
+
+/* The skinned tangent: xyz already renormalised, w the rest tangent's (never transformed). */
+static inline void StoreTangent(const float3 xyz, const __global float* restrict tangents,
+                                __global float* restrict out_tangents, const uint v) {
+  vstore4((float4)(xyz, tangents[4 * v + 3]), v, out_tangents);
+}
+
 #define SKIN_ARGS                                                                          \
   const __global float *restrict palette, const __global ushort *restrict joints,          \
       const __global float *restrict weights, const __global float *restrict positions,    \
@@ -119,7 +137,22 @@ static inline float SquaredLength(const float3 t) { return fma(t.x, t.x, fma(t.y
     if (SKIN_KEEP(raw, vertex_count)) StorePosition(m, positions, out_positions, v);       \
   }
 
-#define SKIN_NORMALS_BODY(B, BLEND, PALETTE, VERTEX)                                          \
+/* TANGENTS_PREPARE and TANGENT(k, v) (a statement with its own semicolon) add the tangents
+ * to skin_normals_b*'s body: the four tangents transformed and sharing one vector sqrt and
+ * division, as the normals do (SKIN_TANGENTS_*), or nothing at all (SKIN_NO_TANGENTS_*:
+ * skin_normals_b* preprocesses to the very text it had before tangents existed). */
+#define SKIN_NO_TANGENTS_PREPARE
+#define SKIN_NO_TANGENT(k, v)
+#define SKIN_TANGENTS_PREPARE                                                                 \
+  const float3 s0 = TransformTangent(m0, tangents, v0), s1 = TransformTangent(m1, tangents, v1), \
+               s2 = TransformTangent(m2, tangents, v2), s3 = TransformTangent(m3, tangents, v3); \
+  const float4 tangent_inverse_length =                                                       \
+      rsqrt((float4)(SquaredLength(s0), SquaredLength(s1), SquaredLength(s2),                 \
+                     SquaredLength(s3)));
+#define SKIN_TANGENT(k, v) \
+  StoreTangent(s##k * tangent_inverse_length.s##k, tangents, out_tangents, v);
+
+#define SKIN_NORMALS_BODY(B, BLEND, PALETTE, VERTEX, TANGENTS_PREPARE, TANGENT)               \
   const uint r0 = VERTEX(0), r1 = VERTEX(1), r2 = VERTEX(2), r3 = VERTEX(3);                  \
   if (r0 >= vertex_count) return;                                                             \
   const uint last = vertex_count - 1;                                                         \
@@ -133,28 +166,43 @@ static inline float SquaredLength(const float3 t) { return fma(t.x, t.x, fma(t.y
   const float4 inverse_length =                                                               \
       rsqrt((float4)(SquaredLength(t0), SquaredLength(t1), SquaredLength(t2),                 \
                      SquaredLength(t3)));                                                     \
+  TANGENTS_PREPARE                                                                            \
   StorePosition(m0, positions, out_positions, v0);                                            \
   vstore3(t0 * inverse_length.s0, v0, out_normals);                                           \
+  TANGENT(0, v0)                                                                              \
   if (SKIN_KEEP(r1, vertex_count)) {                                                          \
     StorePosition(m1, positions, out_positions, v1);                                          \
     vstore3(t1 * inverse_length.s1, v1, out_normals);                                         \
+    TANGENT(1, v1)                                                                            \
   }                                                                                           \
   if (SKIN_KEEP(r2, vertex_count)) {                                                          \
     StorePosition(m2, positions, out_positions, v2);                                          \
     vstore3(t2 * inverse_length.s2, v2, out_normals);                                         \
+    TANGENT(2, v2)                                                                            \
   }                                                                                           \
   if (SKIN_KEEP(r3, vertex_count)) {                                                          \
     StorePosition(m3, positions, out_positions, v3);                                          \
     vstore3(t3 * inverse_length.s3, v3, out_normals);                                         \
+    TANGENT(3, v3)                                                                            \
   }
+
+/* The normals' and the tangents' arguments, after SKIN_ARGS. */
+#define SKIN_NORMAL_ARGS \
+  const __global float *restrict normals, __global float *restrict out_normals
+#define SKIN_TANGENT_ARGS \
+  SKIN_NORMAL_ARGS, const __global float *restrict tangents, __global float *restrict out_tangents
 
 #define DEFINE_SKIN_KERNELS(B)                                                             \
   __kernel void skin_b##B(SKIN_ARGS) {                                                     \
     SKIN_POSITIONS_BODY(B, BlendPalette, palette, SKIN_VERTEX)                             \
   }                                                                                        \
-  __kernel void skin_normals_b##B(SKIN_ARGS, const __global float* restrict normals,       \
-                                  __global float* restrict out_normals) {                  \
-    SKIN_NORMALS_BODY(B, BlendPalette, palette, SKIN_VERTEX)                               \
+  __kernel void skin_normals_b##B(SKIN_ARGS, SKIN_NORMAL_ARGS) {                           \
+    SKIN_NORMALS_BODY(B, BlendPalette, palette, SKIN_VERTEX, SKIN_NO_TANGENTS_PREPARE,     \
+                      SKIN_NO_TANGENT)                                                     \
+  }                                                                                        \
+  __kernel void skin_tangents_b##B(SKIN_ARGS, SKIN_TANGENT_ARGS) {                         \
+    SKIN_NORMALS_BODY(B, BlendPalette, palette, SKIN_VERTEX, SKIN_TANGENTS_PREPARE,        \
+                      SKIN_TANGENT)                                                        \
   }
 
 #if SKIN_LOCAL_PALETTE
@@ -197,13 +245,20 @@ static inline void StagePalette(const __global float* restrict palette,
       SKIN_POSITIONS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX)                   \
     }                                                                                       \
   }                                                                                         \
-  __kernel void skin_normals_local_b##B(SKIN_ARGS, const __global float* restrict normals,  \
-                                        __global float* restrict out_normals,               \
-                                        SKIN_LOCAL_ARGS) {                                  \
+  __kernel void skin_normals_local_b##B(SKIN_ARGS, SKIN_NORMAL_ARGS, SKIN_LOCAL_ARGS) {     \
     StagePalette(palette, staged, palette_floats);                                          \
     for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                  \
       const uint tile_base = SKIN_TILE_BASE(tile);                                          \
-      SKIN_NORMALS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX)                     \
+      SKIN_NORMALS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX,                     \
+                        SKIN_NO_TANGENTS_PREPARE, SKIN_NO_TANGENT)                          \
+    }                                                                                       \
+  }                                                                                         \
+  __kernel void skin_tangents_local_b##B(SKIN_ARGS, SKIN_TANGENT_ARGS, SKIN_LOCAL_ARGS) {   \
+    StagePalette(palette, staged, palette_floats);                                          \
+    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                  \
+      const uint tile_base = SKIN_TILE_BASE(tile);                                          \
+      SKIN_NORMALS_BODY(B, BlendLocalPalette, staged, SKIN_TILE_VERTEX,                     \
+                        SKIN_TANGENTS_PREPARE, SKIN_TANGENT)                                \
     }                                                                                       \
   }
 #else

@@ -7,8 +7,9 @@
  *
  * The targets in the mesh's own layout (core/model/include/skinserve/model/mesh.h), on the
  * device once per mesh: target t's deltas are [offsets[t], offsets[t + 1]) of `indices`
- * (vertex indices, strictly ascending within a target), `position_deltas` and
- * `normal_deltas` (x y z per delta). Per frame only the active targets travel: `active`
+ * (vertex indices, strictly ascending within a target), `position_deltas`, `normal_deltas`
+ * and `tangent_deltas` (x y z per delta; tangents hold x y z w per vertex, and their w is
+ * never morphed). Per frame only the active targets travel: `active`
  * holds `active_count` (target, weight) pairs laid out as the host's MorphWeight (uint32
  * target, float32 weight bits), read as uints (the host array is only 4-byte aligned).
  *
@@ -42,7 +43,8 @@ static inline uint FirstDeltaFrom(const __global uint* restrict indices, uint fi
   return first;
 }
 
-/* Morphs this item's vertices; with_normals is a constant of each kernel below. */
+/* Morphs this item's vertices; with_normals and with_tangents are constants of each kernel
+ * below, so a frame without tangents runs the code it ran before tangents existed. */
 static inline void MorphRange(const __global float* restrict positions,
                               const __global uint* restrict offsets,
                               const __global uint* restrict indices,
@@ -51,13 +53,19 @@ static inline void MorphRange(const __global float* restrict positions,
                               __global float* restrict morphed_positions, const uint vertex_count,
                               const __global float* restrict normals,
                               const __global float* restrict normal_deltas,
-                              __global float* restrict morphed_normals, const int with_normals) {
+                              __global float* restrict morphed_normals, const int with_normals,
+                              const __global float* restrict tangents,
+                              const __global float* restrict tangent_deltas,
+                              __global float* restrict morphed_tangents, const int with_tangents) {
   const uint begin = (uint)get_global_id(0) * MORPH_VERTICES_PER_ITEM;
   if (begin >= vertex_count) return;
   const uint end = min(begin + MORPH_VERTICES_PER_ITEM, vertex_count);
   for (uint i = 3 * begin; i < 3 * end; ++i) morphed_positions[i] = positions[i];
   if (with_normals) {
     for (uint i = 3 * begin; i < 3 * end; ++i) morphed_normals[i] = normals[i];
+  }
+  if (with_tangents) {
+    for (uint i = 4 * begin; i < 4 * end; ++i) morphed_tangents[i] = tangents[i];
   }
   for (uint a = 0; a < active_count; ++a) {
     const float w = as_float(active[2 * a + 1]);
@@ -73,6 +81,11 @@ static inline void MorphRange(const __global float* restrict positions,
       if (with_normals) {
         vstore3(vload3(v, morphed_normals) + w * vload3(k, normal_deltas), v, morphed_normals);
       }
+      if (with_tangents) {
+        /* xyz only: the tangent's w stays where it is (4 floats per vertex, 3 per delta). */
+        __global float* tangent = morphed_tangents + 4 * v;
+        vstore3(vload3(0, tangent) + w * vload3(k, tangent_deltas), 0, tangent);
+      }
     }
   }
 }
@@ -82,15 +95,32 @@ static inline void MorphRange(const __global float* restrict positions,
       const __global uint *restrict indices, const __global float *restrict position_deltas, \
       const __global uint *restrict active, const uint active_count,                       \
       __global float *restrict morphed_positions, const uint vertex_count
+#define MORPH_NORMAL_ARGS                                                                   \
+  const __global float *restrict normals, const __global float *restrict normal_deltas,    \
+      __global float *restrict morphed_normals
+#define MORPH_TANGENT_ARGS                                                                  \
+  const __global float *restrict tangents, const __global float *restrict tangent_deltas,  \
+      __global float *restrict morphed_tangents
+#define MORPH_COMMON                                                                        \
+  positions, offsets, indices, position_deltas, active, active_count, morphed_positions,   \
+      vertex_count
 
+/* Normals and tangents each morph where the frame asks for them and the targets move them
+ * (tangent deltas come with or without normal deltas): one kernel per combination. */
 __kernel void morph_positions(MORPH_ARGS) {
-  MorphRange(positions, offsets, indices, position_deltas, active, active_count,
-             morphed_positions, vertex_count, 0, 0, 0, 0);
+  MorphRange(MORPH_COMMON, 0, 0, 0, 0, 0, 0, 0, 0);
 }
 
-__kernel void morph_positions_normals(MORPH_ARGS, const __global float* restrict normals,
-                                      const __global float* restrict normal_deltas,
-                                      __global float* restrict morphed_normals) {
-  MorphRange(positions, offsets, indices, position_deltas, active, active_count,
-             morphed_positions, vertex_count, normals, normal_deltas, morphed_normals, 1);
+__kernel void morph_positions_normals(MORPH_ARGS, MORPH_NORMAL_ARGS) {
+  MorphRange(MORPH_COMMON, normals, normal_deltas, morphed_normals, 1, 0, 0, 0, 0);
+}
+
+__kernel void morph_positions_tangents(MORPH_ARGS, MORPH_TANGENT_ARGS) {
+  MorphRange(MORPH_COMMON, 0, 0, 0, 0, tangents, tangent_deltas, morphed_tangents, 1);
+}
+
+__kernel void morph_positions_normals_tangents(MORPH_ARGS, MORPH_NORMAL_ARGS,
+                                               MORPH_TANGENT_ARGS) {
+  MorphRange(MORPH_COMMON, normals, normal_deltas, morphed_normals, 1, tangents, tangent_deltas,
+             morphed_tangents, 1);
 }

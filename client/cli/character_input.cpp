@@ -23,6 +23,7 @@ Result<Character> ImportCharacter(const std::string& path) {
     return Status(character.status().code(),
                   fmt::format("{}: {}", path, character.status().message()));
   }
+  if (character.ok()) PrintImportWarnings(*character, path);
   return character;
 }
 

@@ -15,6 +15,14 @@
 namespace skinserve::load {
 
 Status SetRestEncoding(Workload* w, RestEncoding encoding) {
+  // A quantized rest stream carries no tangents (Mesh::Create refuses them) and the load
+  // tool never asks for tangents back: a character's tangents stay behind.
+  if (encoding != RestEncoding::kFloat32 && !w->arrays->tangents.empty()) {
+    auto arrays = std::make_shared<MeshArrays>(*w->arrays);
+    arrays->tangents.clear();
+    arrays->morph_tangent_deltas.clear();
+    w->arrays = std::move(arrays);
+  }
   auto mesh = Mesh::Create(*w->arrays, {.rest_encoding = encoding});
   if (!mesh.ok()) return mesh.status();
   w->mesh = *mesh;
@@ -62,20 +70,33 @@ namespace {
 
 // The character's meshes as one: vertices one after another, each mesh's joint indices
 // shifted past the joints of the meshes before it, so that one palette (the meshes'
-// palettes one after another) skins them all in one request per frame. Normals only when
-// every mesh has them. Morph targets follow too: each mesh's after the meshes' before it,
-// their vertex indices shifted likewise (normal deltas 0 for a mesh whose targets have none,
-// when another's have them).
+// palettes one after another) skins them all in one request per frame. Normals (tangents)
+// only when every mesh has them. Morph targets follow too: each mesh's after the meshes'
+// before it, their vertex indices shifted likewise (normal or tangent deltas 0 for a mesh
+// whose targets have none, when another's have them).
 MeshArrays MergeMeshes(const std::vector<CharacterMesh>& meshes) {
   if (meshes.size() == 1) return meshes.front().arrays;
   MeshArrays merged;
-  bool normals = true, morph_normals = false;
+  bool normals = true, morph_normals = false, tangents = true, morph_tangents = false;
   for (const CharacterMesh& m : meshes) {
     merged.influences = std::max(merged.influences, m.arrays.influences);
     normals = normals && !m.arrays.normals.empty();
     morph_normals = morph_normals || !m.arrays.morph_normal_deltas.empty();
+    tangents = tangents && !m.arrays.tangents.empty();
+    morph_tangents = morph_tangents || !m.arrays.morph_tangent_deltas.empty();
   }
   morph_normals = morph_normals && normals;
+  tangents = tangents && normals;
+  morph_tangents = morph_tangents && tangents;
+  // `count` deltas of a mesh (empty: zeros) appended to the merged ones.
+  auto append_deltas = [](const std::vector<float>& part, std::size_t count,
+                          std::vector<float>* all) {
+    if (part.empty()) {
+      all->resize(all->size() + count, 0.0f);
+    } else {
+      all->insert(all->end(), part.begin(), part.end());
+    }
+  };
   for (const CharacterMesh& m : meshes) {
     const MeshArrays& a = m.arrays;
     const auto base = static_cast<uint32_t>(merged.vertex_count);
@@ -86,13 +107,13 @@ MeshArrays MergeMeshes(const std::vector<CharacterMesh>& meshes) {
     merged.morph_position_deltas.insert(merged.morph_position_deltas.end(),
                                         a.morph_position_deltas.begin(),
                                         a.morph_position_deltas.end());
-    if (!morph_normals) continue;
-    if (a.morph_normal_deltas.empty()) {
-      merged.morph_normal_deltas.resize(
-          merged.morph_normal_deltas.size() + a.morph_position_deltas.size(), 0.0f);
-    } else {
-      merged.morph_normal_deltas.insert(merged.morph_normal_deltas.end(),
-                                        a.morph_normal_deltas.begin(), a.morph_normal_deltas.end());
+    if (morph_normals) {
+      append_deltas(a.morph_normal_deltas, a.morph_position_deltas.size(),
+                    &merged.morph_normal_deltas);
+    }
+    if (morph_tangents) {
+      append_deltas(a.morph_tangent_deltas, a.morph_position_deltas.size(),
+                    &merged.morph_tangent_deltas);
     }
   }
   merged.vertex_count = 0;
@@ -100,6 +121,9 @@ MeshArrays MergeMeshes(const std::vector<CharacterMesh>& meshes) {
     const MeshArrays& a = m.arrays;
     merged.positions.insert(merged.positions.end(), a.positions.begin(), a.positions.end());
     if (normals) merged.normals.insert(merged.normals.end(), a.normals.begin(), a.normals.end());
+    if (tangents) {
+      merged.tangents.insert(merged.tangents.end(), a.tangents.begin(), a.tangents.end());
+    }
     for (std::size_t v = 0; v < a.vertex_count; ++v) {
       for (std::size_t i = 0; i < merged.influences; ++i) {
         const bool real = i < a.influences;
@@ -124,6 +148,7 @@ Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool n
     return Status(character.status().code(),
                   fmt::format("{}: {}", path, character.status().message()));
   }
+  PrintImportWarnings(*character, path);
   if (primitive >= static_cast<int>(character->primitives.size())) {
     return InvalidArgument(
         fmt::format("--primitive {} is not below the {} primitive(s) (skinned and rigid) of {}",

@@ -177,24 +177,31 @@ TEST(SkinFrameTest, TangentsNeedTheMeshsTangentsNormalsAndFourFloatsAVertex) {
   EXPECT_EQ(s.message(), "tangents output holds 19 floats; expected 4 * vertex_count = 20");
 }
 
-// Every CPU backend and passthrough skin tangents; the OpenCL ones refuse them, naming the
-// backends that do. Backends this build cannot run (sse on arm64) skin nothing.
-TEST(BackendListTest, CpuBackendsSkinTangentsOthersRefuseThem) {
+// Every backend that runs here skins tangents: the CPU ones, the OpenCL ones (their
+// *_tangents_* kernels) and passthrough (the rest tangents). Backends this build cannot run
+// (sse on arm64, OpenCL without a platform) skin nothing. A backend that does not skin
+// them (BackendInfo::tangents false, as a new backend starts) is refused naming the
+// backends that do.
+TEST(BackendListTest, EveryBackendSkinsTangentsOneThatDoesNotIsRefused) {
+  int skinning = 0;
   for (const auto& backend : AllBackends()) {
     const std::string& id = backend->info().id;
-    if (!backend->info().available && id.rfind("opencl", 0) != 0) continue;
-    const bool opencl = id.rfind("opencl", 0) == 0;
-    EXPECT_EQ(backend->info().tangents, !opencl) << id;
-    const Status s = CheckTangentSupport(backend->info(), true);
-    if (opencl) {
-      EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << id;
-      EXPECT_NE(s.message().find("backend '" + id + "' does not skin tangents"), std::string::npos)
-          << s.message();
-    } else {
-      EXPECT_TRUE(s.ok()) << id << ": " << s.ToString();
-    }
+    if (!backend->info().available) continue;
+    EXPECT_TRUE(backend->info().tangents) << id;
+    EXPECT_TRUE(CheckTangentSupport(backend->info(), true).ok()) << id;
     EXPECT_TRUE(CheckTangentSupport(backend->info(), false).ok()) << id;
+    ++skinning;
   }
+  EXPECT_GE(skinning, 4);  // serial, openmp, simd, simd-openmp run everywhere
+  BackendInfo without;
+  without.id = "no-tangents";
+  ASSERT_FALSE(without.tangents);  // the default: a backend must say it skins them
+  const Status s = CheckTangentSupport(without, true);
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(s.message().find("backend 'no-tangents' does not skin tangents"), std::string::npos)
+      << s.message();
+  EXPECT_NE(s.message().find("opencl, opencl-zerocopy)"), std::string::npos) << s.message();
+  EXPECT_TRUE(CheckTangentSupport(without, false).ok());
 }
 
 TEST(PassthroughBackendTest, ReturnsTheRestTangents) {

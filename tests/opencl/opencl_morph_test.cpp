@@ -3,10 +3,12 @@
 // prepared mesh (each lane has its own morphed buffers; a frame must never read another's),
 // frames without an active target after morphed ones (the skinning kernels read the mesh's
 // rest arrays again, not the lane's morphed buffers), a frame whose active list mixes zero
-// weights in, and targets that move no vertex. Every frame against the float64 morph
-// reference (ReferenceMorph, then ReferenceSkin or ReferenceSkinDualQuaternion) within
-// CompareWithReference's tolerance with morphs: 1e-5 relative to the frame's scale, the
-// morph terms |w d| counted in it; normals 1e-5 times how much the deltas shorten them.
+// weights in, and targets that move no vertex; tangents morphed with and without normal
+// deltas (each kernel of morph_targets.cl) and skinned by every skinning kernel path. Every
+// frame against the float64 morph reference (ReferenceMorph, then ReferenceSkin or
+// ReferenceSkinDualQuaternion) within CompareWithReference's tolerance with morphs: 1e-5
+// relative to the frame's scale, the morph terms |w d| counted in it; normals 1e-5 times how
+// much the deltas shorten them; tangents' xyz the same, their w exact.
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -24,53 +26,73 @@ namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr uint32_t kJoints = 77;
 
+// Which deltas a mesh's targets carry beside the positions'. With tangent deltas, or with
+// tangents, the mesh has tangents.
+struct Deltas {
+  bool normals = true;
+  bool tangents = false;       // tangent deltas (the mesh has tangents)
+  bool mesh_tangents = false;  // tangents on the mesh, with or without their deltas
+};
+
 std::shared_ptr<const Mesh> MorphMesh(uint32_t vertices, uint32_t targets, double fraction,
-                                      uint64_t seed) {
+                                      uint64_t seed, Deltas deltas = {}) {
   MeshArrays arrays = MakeSyntheticMesh({.vertex_count = vertices,
                                          .influences = 4,
                                          .joint_count = kJoints,
                                          .normals = true,
+                                         .tangents = deltas.tangents || deltas.mesh_tangents,
                                          .seed = seed});
-  AddSyntheticMorphTargets({.targets = targets, .fraction = fraction, .seed = seed}, &arrays);
+  AddSyntheticMorphTargets({.targets = targets,
+                            .fraction = fraction,
+                            .normals = deltas.normals,
+                            .tangents = deltas.tangents,
+                            .seed = seed},
+                           &arrays);
   auto mesh = Mesh::Create(arrays);
   EXPECT_TRUE(mesh.ok()) << mesh.status().ToString();
   return mesh.ok() ? *mesh : nullptr;
 }
 
 // "" when one frame of `weights` in `method` matches the reference; else what differs.
+// `tangents` (with `normals` only) asks for the frame's tangents too.
 std::string MorphedFrameMismatch(Backend& backend, const PreparedMesh& prepared,
                                  SkinningMethod method, bool normals,
                                  std::span<const MorphWeight> weights, uint64_t seed,
-                                 uint64_t frame) {
+                                 uint64_t frame, bool tangents = false) {
   const Mesh& mesh = prepared.mesh();
   std::vector<float> positions(3ull * mesh.vertex_count(), kNaN);
   std::vector<float> out_normals(normals ? 3ull * mesh.vertex_count() : 0, kNaN);
+  std::vector<float> out_tangents(tangents ? 4ull * mesh.vertex_count() : 0, kNaN);
   const auto palette = method == SkinningMethod::kDualQuaternion
                            ? MakeRigidPalette(kJoints, seed, frame)
                            : MakeSyntheticPalette(kJoints, seed, frame);
-  SkinFrame skin{.palette = palette, .positions = positions, .normals = out_normals};
+  SkinFrame skin{
+      .palette = palette, .positions = positions, .normals = out_normals, .tangents = out_tangents};
   skin.method = method;
   skin.morph_weights = weights;
   if (Status s = skin.Validate(mesh); !s.ok()) return "invalid frame: " + s.ToString();
   if (Status s = backend.Skin(prepared, skin); !s.ok()) return s.ToString();
-  const Deviation d = CompareWithReference(mesh, palette, positions, out_normals, method, weights);
+  const Deviation d =
+      CompareWithReference(mesh, palette, positions, out_normals, method, weights, out_tangents);
   if (d.within_tolerance()) return "";
-  return std::string(MethodName(method)) + ": position error " +
-         std::to_string(d.max_position_error) + " (tolerance " +
+  return std::string(MethodName(method)) + (tangents ? " with tangents" : "") +
+         ": position error " + std::to_string(d.max_position_error) + " (tolerance " +
          std::to_string(d.position_tolerance) + "), normal error " +
          std::to_string(d.max_normal_error) + " (tolerance " + std::to_string(d.normal_tolerance) +
-         "), worst vertex " + std::to_string(d.worst_vertex);
+         "), tangent error " + std::to_string(d.max_tangent_error) + " (tolerance " +
+         std::to_string(d.tangent_tolerance) + "), worst vertex " + std::to_string(d.worst_vertex);
 }
 
 class OpenClMorphTest : public ::testing::TestWithParam<std::string> {};
 
 // 20011 vertices: the staged runtime (chunks of at least 1024 vertices, at most 8) skins
-// them in 8 chunks after one morph of the whole frame.
+// them in 8 chunks after one morph of the whole frame. Frames 2 and 3 of every 4 ask for
+// tangents too (their deltas morphed, their chunks read back).
 TEST_P(OpenClMorphTest, MorphedAndPlainFramesAlternateOnOnePreparedMesh) {
   Backend& backend = OpenClBackend(GetParam());
   SKIP_IF_OPENCL_UNAVAILABLE(backend);
   constexpr uint32_t kTargets = 32;
-  auto mesh = MorphMesh(20011, kTargets, 0.3, 5);
+  auto mesh = MorphMesh(20011, kTargets, 0.3, 5, {.tangents = true});
   ASSERT_NE(mesh, nullptr);
   auto prepared = backend.Prepare(mesh);
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
@@ -82,8 +104,10 @@ TEST_P(OpenClMorphTest, MorphedAndPlainFramesAlternateOnOnePreparedMesh) {
         const uint32_t active = frame % 6 == 0 ? 1 : (frame % 6 == 2 ? 4 : kTargets);
         weights = MakeMorphWeights(kTargets, active, 5, frame);
       }
-      const bool normals = frame % 4 != 1;
-      EXPECT_EQ(MorphedFrameMismatch(backend, **prepared, method, normals, weights, 5, frame), "")
+      const bool normals = frame % 4 != 1, tangents = frame % 4 >= 2;
+      EXPECT_EQ(
+          MorphedFrameMismatch(backend, **prepared, method, normals, weights, 5, frame, tangents),
+          "")
           << GetParam() << " frame " << frame;
     }
   }
@@ -118,6 +142,31 @@ TEST_P(OpenClMorphTest, TargetsThatMoveNoVertexLeaveTheRestShape) {
   const std::vector<MorphWeight> weights = {{1, 0.5f}, {2, -1.0f}};
   EXPECT_EQ(MorphedFrameMismatch(backend, **prepared, SkinningMethod::kLinear, true, weights, 8, 0),
             "");
+}
+
+// Tangents whose targets move them but not the normals (morph_positions_tangents, then the
+// normals straight from the mesh), and tangents the targets do not move while they move the
+// normals (morph_positions_normals, then the tangents straight from the mesh), in both
+// methods; 3001 vertices (3 staged chunks, a tail of a work-group).
+TEST_P(OpenClMorphTest, TangentsWithAndWithoutTheirOwnDeltasMatchTheReference) {
+  Backend& backend = OpenClBackend(GetParam());
+  SKIP_IF_OPENCL_UNAVAILABLE(backend);
+  constexpr uint32_t kTargets = 8;
+  const Deltas kinds[] = {{.normals = false, .tangents = true},
+                          {.normals = true, .tangents = false, .mesh_tangents = true}};
+  for (const Deltas& deltas : kinds) {
+    auto mesh = MorphMesh(3001, kTargets, 0.5, 10, deltas);
+    ASSERT_NE(mesh, nullptr);
+    ASSERT_EQ(mesh->has_morph_tangents(), deltas.tangents);
+    ASSERT_EQ(mesh->has_morph_normals(), deltas.normals);
+    auto prepared = backend.Prepare(mesh);
+    ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+    const auto weights = MakeMorphWeights(kTargets, 5, 10, 0);
+    for (SkinningMethod method : {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion}) {
+      EXPECT_EQ(MorphedFrameMismatch(backend, **prepared, method, true, weights, 10, 1, true), "")
+          << "normal deltas " << deltas.normals << ", tangent deltas " << deltas.tangents;
+    }
+  }
 }
 
 // Targets that each move one region (a face rig's): spans that start and end inside a
@@ -171,7 +220,7 @@ TEST_P(OpenClMorphTest, ConcurrentFramesWithTheirOwnWeightsAreAllCorrect) {
   SKIP_IF_OPENCL_UNAVAILABLE(backend);
   constexpr uint32_t kTargets = 16;
   constexpr int kThreads = 4, kFramesPerThread = 8;
-  auto mesh = MorphMesh(12007, kTargets, 0.2, 7);
+  auto mesh = MorphMesh(12007, kTargets, 0.2, 7, {.tangents = true});
   ASSERT_NE(mesh, nullptr);
   auto prepared = backend.Prepare(mesh);
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
@@ -185,8 +234,10 @@ TEST_P(OpenClMorphTest, ConcurrentFramesWithTheirOwnWeightsAreAllCorrect) {
         const auto weights = (f + t) % 2 == 0 ? MakeMorphWeights(kTargets, 1 + t * 5, 7, frame)
                                               : std::vector<MorphWeight>();
         const auto method = f % 3 == 2 ? SkinningMethod::kDualQuaternion : SkinningMethod::kLinear;
-        std::string mismatch =
-            MorphedFrameMismatch(backend, **prepared, method, f % 4 != 3, weights, 7, frame);
+        // Every fourth frame without normals, every other one with tangents (each lane's
+        // own tangent buffers).
+        std::string mismatch = MorphedFrameMismatch(backend, **prepared, method, f % 4 != 3,
+                                                    weights, 7, frame, f % 2 == 0);
         if (!mismatch.empty()) {
           std::lock_guard lock(failures_mutex);
           failures.push_back("thread " + std::to_string(t) + " frame " + std::to_string(f) + ": " +

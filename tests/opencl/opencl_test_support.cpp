@@ -78,11 +78,12 @@ std::string BackendTestName(const ::testing::TestParamInfo<std::string>& param) 
 }
 
 std::shared_ptr<const Mesh> SyntheticMesh(uint32_t vertices, uint32_t influences, uint32_t joints,
-                                          bool normals, uint64_t seed) {
+                                          bool normals, uint64_t seed, bool tangents) {
   auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
                                               .influences = influences,
                                               .joint_count = joints,
-                                              .normals = normals,
+                                              .normals = normals || tangents,
+                                              .tangents = tangents,
                                               .seed = seed}));
   if (!mesh.ok()) {
     ADD_FAILURE() << "synthetic mesh: " << mesh.status().ToString();
@@ -92,12 +93,15 @@ std::shared_ptr<const Mesh> SyntheticMesh(uint32_t vertices, uint32_t influences
 }
 
 std::string ReferenceMismatch(const Mesh& mesh, std::span<const float> palette,
-                              std::span<const float> positions, std::span<const float> normals) {
-  const Deviation d = CompareWithReference(mesh, palette, positions, normals);
+                              std::span<const float> positions, std::span<const float> normals,
+                              std::span<const float> tangents) {
+  const Deviation d = CompareWithReference(mesh, palette, positions, normals,
+                                           SkinningMethod::kLinear, {}, tangents);
   if (d.within_tolerance()) return "";
   std::ostringstream out;
   out << "position error " << d.max_position_error << " (tolerance " << d.position_tolerance
       << "), normal error " << d.max_normal_error << " (tolerance " << d.normal_tolerance
+      << "), tangent error " << d.max_tangent_error << " (tolerance " << d.tangent_tolerance
       << "), worst vertex " << d.worst_vertex;
   return out.str();
 }

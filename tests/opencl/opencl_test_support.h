@@ -45,13 +45,15 @@ Result<std::shared_ptr<OpenClRuntime>> CoalescedTestRuntime();
 // A test name from a backend id ("opencl-zerocopy" -> "opencl_zerocopy").
 std::string BackendTestName(const ::testing::TestParamInfo<std::string>& param);
 
+// With `tangents`, the mesh has normals and tangents.
 std::shared_ptr<const Mesh> SyntheticMesh(uint32_t vertices, uint32_t influences, uint32_t joints,
-                                          bool normals, uint64_t seed);
+                                          bool normals, uint64_t seed, bool tangents = false);
 
-// "" when `positions` (and `normals`, unless empty) match the float64 reference for
-// `palette`; else what differs, by how much, and where.
+// "" when `positions` (and `normals` and `tangents`, unless empty) match the float64
+// reference for `palette`; else what differs, by how much, and where.
 std::string ReferenceMismatch(const Mesh& mesh, std::span<const float> palette,
-                              std::span<const float> positions, std::span<const float> normals);
+                              std::span<const float> positions, std::span<const float> normals,
+                              std::span<const float> tangents = {});
 
 // Skips the current test when the backend cannot run here, naming the reason.
 #define SKIP_IF_OPENCL_UNAVAILABLE(backend)                                  \

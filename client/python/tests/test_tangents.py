@@ -4,7 +4,9 @@ want_tangents answers them in every encoding, single and crowd, over gRPC and in
 shared-memory region, from the blocking and the asyncio client, x y z within float32's
 rounding plus the encoding's bound and w exactly +1 / -1; asking where tangents cannot
 come is refused naming want_tangents; bad tangents are refused on the client (shape,
-missing normals) or by the server naming the vertex and the limit."""
+missing normals) or by the server naming the vertex and the limit; the backend list says
+which backends skin tangents; morph targets' tangent deltas (MorphTarget.tangents) upload
+with their targets and are checked where they land."""
 import asyncio
 import shutil
 import tempfile
@@ -196,5 +198,53 @@ def test_bad_tangents_are_refused_naming_the_field(client, rng):
 def test_backends_say_which_skin_tangents(client):
     backends = {b["id"]: b for b in client.backends()}
     assert backends["simd"]["tangents"] and backends["serial"]["tangents"]
-    for opencl in ("opencl", "opencl-zerocopy"):
-        assert not backends[opencl]["tangents"]
+    # Every backend that runs here skins them, the OpenCL ones on the device too.
+    for backend in backends.values():
+        assert backend["tangents"] == backend["available"], backend["id"]
+
+
+def tangent_targets(rng, vertices, count, tangents=True):
+    """Targets moving every 4th vertex from a random start, with normal and tangent deltas."""
+    targets = []
+    for k in range(count):
+        indices = np.arange(k, vertices, 4, dtype=np.uint32)
+        deltas = [rng.uniform(-0.1, 0.1, size=(len(indices), 3)).astype(np.float32)
+                  for _ in range(3)]
+        targets.append(skinserve.MorphTarget(indices, deltas[0], deltas[1],
+                                             deltas[2] if tangents else None))
+    return targets
+
+
+def test_morph_tangent_deltas_are_uploaded_with_their_targets(client, rng):
+    positions, joint_ids, weights, normals = random_mesh(rng, 200, 2, 6)
+    tangents = random_tangents(rng, normals)
+    targets = tangent_targets(rng, 200, 3)
+    with_deltas = client.upload(positions, joint_ids, weights, normals=normals,
+                                tangents=tangents, morph_targets=targets)
+    without = client.upload(positions, joint_ids, weights, normals=normals, tangents=tangents,
+                            morph_targets=[t._replace(tangents=None) for t in targets])
+    assert with_deltas != without  # the deltas are content: they reached the server
+    # The server checks each delta where it lands: target 1's delta 4 (vertex 17), y.
+    targets[1].tangents[4, 1] = 5.0
+    with pytest.raises(skinserve.SkinserveError,
+                       match=r"morph_tangent_deltas\[target 1, delta 4\]\.y = 5 must be "
+                             r"finite and within \+-4"):
+        client.upload(positions, joint_ids, weights, normals=normals, tangents=tangents,
+                      morph_targets=targets)
+
+
+def test_bad_morph_tangent_deltas_are_refused_on_the_client(client, rng):
+    positions, joint_ids, weights, normals = random_mesh(rng, 40, 2, 4)
+    tangents = random_tangents(rng, normals)
+    targets = tangent_targets(rng, 40, 2)
+    with pytest.raises(ValueError, match="tangent deltas, but the mesh has no tangents"):
+        client.upload(positions, joint_ids, weights, normals=normals, morph_targets=targets)
+    mixed = [targets[0], targets[1]._replace(tangents=None)]
+    with pytest.raises(ValueError, match="some targets have tangent deltas and some not"):
+        client.upload(positions, joint_ids, weights, normals=normals, tangents=tangents,
+                      morph_targets=mixed)
+    short = [targets[0]._replace(tangents=targets[0].tangents[:3])]
+    with pytest.raises(ValueError, match=r"morph_targets\[0\]\.tangents: shape \(3, 3\), "
+                                         r"expected \(10, 3\)"):
+        client.upload(positions, joint_ids, weights, normals=normals, tangents=tangents,
+                      morph_targets=short)

@@ -5,15 +5,25 @@
 #include <algorithm>
 #include <limits>
 #include <map>
+#include <tuple>
 #include <utility>
 
 namespace skinserve {
 namespace {
 
+// `count` deltas of `part` (empty: zeros) appended to `all`.
+void AppendDeltas(const std::vector<float>& part, std::size_t count, std::vector<float>* all) {
+  if (part.empty()) {
+    all->resize(all->size() + 3 * count, 0.0f);
+  } else {
+    all->insert(all->end(), part.begin(), part.end());
+  }
+}
+
 // Appends `p`'s morph targets to `mesh`'s, renumbered to start at vertex `first`; with
-// `morph_normals`, normal deltas too (zeros where `p` has none).
+// `morph_normals` (`morph_tangents`), normal (tangent) deltas too (zeros where `p` has none).
 void AppendMorphTargets(const SkinnedPrimitive& p, uint32_t first, bool morph_normals,
-                        CharacterMesh* mesh) {
+                        bool morph_tangents, CharacterMesh* mesh) {
   MeshArrays& a = mesh->arrays;
   const MeshArrays& pa = p.arrays;
   for (std::size_t t = 0; t < pa.morph_target_sizes.size(); ++t) {
@@ -23,25 +33,25 @@ void AppendMorphTargets(const SkinnedPrimitive& p, uint32_t first, bool morph_no
   for (uint32_t v : pa.morph_indices) a.morph_indices.push_back(first + v);
   a.morph_position_deltas.insert(a.morph_position_deltas.end(), pa.morph_position_deltas.begin(),
                                  pa.morph_position_deltas.end());
-  if (!morph_normals) return;
-  if (pa.morph_normal_deltas.empty()) {
-    a.morph_normal_deltas.resize(a.morph_normal_deltas.size() + 3 * pa.morph_indices.size(), 0.0f);
-  } else {
-    a.morph_normal_deltas.insert(a.morph_normal_deltas.end(), pa.morph_normal_deltas.begin(),
-                                 pa.morph_normal_deltas.end());
+  if (morph_normals) {
+    AppendDeltas(pa.morph_normal_deltas, pa.morph_indices.size(), &a.morph_normal_deltas);
+  }
+  if (morph_tangents) {
+    AppendDeltas(pa.morph_tangent_deltas, pa.morph_indices.size(), &a.morph_tangent_deltas);
   }
 }
 
 // Appends `p` to `mesh`, padding its influences to the mesh's. A rigid part's vertices get
 // joint `rigid_joint` (its node's palette entry), weight 1.
 void Append(const SkinnedPrimitive& p, int index, uint16_t rigid_joint, bool morph_normals,
-            CharacterMesh* mesh) {
+            bool morph_tangents, CharacterMesh* mesh) {
   MeshArrays& a = mesh->arrays;
   const uint32_t first = a.vertex_count;
   const uint32_t b = a.influences;
   const uint32_t pb = p.arrays.influences;
   a.positions.insert(a.positions.end(), p.arrays.positions.begin(), p.arrays.positions.end());
   a.normals.insert(a.normals.end(), p.arrays.normals.begin(), p.arrays.normals.end());
+  a.tangents.insert(a.tangents.end(), p.arrays.tangents.begin(), p.arrays.tangents.end());
   for (uint32_t v = 0; v < p.arrays.vertex_count; ++v) {
     for (uint32_t i = 0; i < b; ++i) {
       const bool real = i < pb;
@@ -53,7 +63,7 @@ void Append(const SkinnedPrimitive& p, int index, uint16_t rigid_joint, bool mor
       a.weights.push_back(real ? p.arrays.weights[std::size_t{v} * pb + i] : 0.0f);
     }
   }
-  AppendMorphTargets(p, first, morph_normals, mesh);
+  AppendMorphTargets(p, first, morph_normals, morph_tangents, mesh);
   a.vertex_count += p.arrays.vertex_count;
   const std::size_t first_index = mesh->indices.size();
   for (uint32_t i : p.indices) mesh->indices.push_back(first + i);
@@ -84,25 +94,29 @@ Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, i
   for (std::size_t i = 0; i < primitives.size() && rigid_skin < 0; ++i) {
     if (taken(i) && !primitives[i].rigid()) rigid_skin = primitives[i].skin;
   }
-  // Which primitives go together: same skin, same presence of normals; meshes in order of
-  // their first primitive.
-  std::vector<std::pair<int, bool>> keys;
-  std::map<std::pair<int, bool>, std::vector<int>> groups;
-  bool split_on_normals = false;
+  // Which primitives go together: same skin, same presence of normals and of tangents
+  // (tangents come only with normals); meshes in order of their first primitive.
+  using Key = std::tuple<int, bool, bool>;  // skin, normals, tangents
+  std::vector<Key> keys;
+  std::map<Key, std::vector<int>> groups;
   for (std::size_t i = 0; i < primitives.size(); ++i) {
     if (!taken(i)) continue;
     const int skin = primitives[i].rigid() ? rigid_skin : primitives[i].skin;
-    const std::pair<int, bool> key{skin, !primitives[i].arrays.normals.empty()};
+    const Key key{skin, !primitives[i].arrays.normals.empty(),
+                  !primitives[i].arrays.tangents.empty()};
     if (groups.find(key) == groups.end()) keys.push_back(key);
     groups[key].push_back(static_cast<int>(i));
-    split_on_normals |= groups.count({key.first, !key.second}) > 0;
   }
+  auto has_group = [&](int skin, bool normals, bool tangents) {
+    return groups.count({skin, normals, tangents}) > 0;
+  };
 
   std::vector<CharacterMesh> meshes;
-  for (const auto& key : keys) {
+  for (const Key& key : keys) {
     const std::vector<int>& members = groups[key];
+    const auto [skin, normals, tangents] = key;
     CharacterMesh mesh;
-    mesh.skin = key.first;
+    mesh.skin = skin;
     if (mesh.skin < 0) {
       mesh.name = "rigid parts";
     } else if (static_cast<std::size_t>(mesh.skin) < character.skins.size() &&
@@ -111,15 +125,22 @@ Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, i
     } else {
       mesh.name = fmt::format("skins[{}]", mesh.skin);
     }
-    if (split_on_normals && groups.count({key.first, !key.second}) > 0) {
-      mesh.name += key.second ? " (normals)" : " (no normals)";
+    // The skin's parts split on normals: "(normals)" / "(no normals)"; those with normals
+    // split on tangents too: "(tangents)" / "(no tangents)".
+    if (has_group(skin, !normals, false) || has_group(skin, !normals, true)) {
+      mesh.name += normals ? " (normals)" : " (no normals)";
+    }
+    if (normals && has_group(skin, true, !tangents)) {
+      mesh.name += tangents ? " (tangents)" : " (no tangents)";
     }
     uint64_t vertices = 0;
-    bool morph_normals = false;  // a mesh's targets move normals for all or none of them
+    // A mesh's targets move normals (tangents) for all or none of them.
+    bool morph_normals = false, morph_tangents = false;
     for (int i : members) {
       const SkinnedPrimitive& p = primitives[static_cast<std::size_t>(i)];
       vertices += p.arrays.vertex_count;
       morph_normals |= !p.arrays.morph_normal_deltas.empty();
+      morph_tangents |= !p.arrays.morph_tangent_deltas.empty();
       mesh.arrays.influences = std::max(mesh.arrays.influences, p.arrays.influences);
       if (p.rigid() && std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) ==
                            mesh.rigid_nodes.end()) {
@@ -145,7 +166,8 @@ Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, i
       const auto place = static_cast<std::size_t>(
           std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) -
           mesh.rigid_nodes.begin());
-      Append(p, i, static_cast<uint16_t>(skin_joints + place), morph_normals, &mesh);
+      Append(p, i, static_cast<uint16_t>(skin_joints + place), morph_normals, morph_tangents,
+             &mesh);
     }
     meshes.push_back(std::move(mesh));
   }

@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <exception>
 #include <filesystem>
@@ -132,6 +133,14 @@ Result<Character> LoadGltfFile(const std::string& path) {
                   fmt::format("{}: {}", path, character.status().message()));
   }
   return character;
+}
+
+void PrintImportWarnings(const Character& character, const std::string& path) {
+  for (const SkinnedPrimitive& p : character.primitives) {
+    for (const std::string& warning : p.warnings) {
+      fmt::print(stderr, "{}: warning: {}\n", path, warning);
+    }
+  }
 }
 
 }  // namespace skinserve

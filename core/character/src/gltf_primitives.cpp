@@ -18,6 +18,9 @@ namespace {
 
 constexpr int kInfluencesPerSet = 4;  // JOINTS_n and WEIGHTS_n are VEC4
 constexpr int kMaxSets = static_cast<int>(kMaxInfluences) / kInfluencesPerSet;
+// How far a TANGENT's xyz length and |w| may be from 1 to be renormalised (snapped); see
+// ReadTangents.
+constexpr float kGltfTangentTolerance = kTangentLengthTolerance;
 
 // The accessor of attribute `name`, or nullopt when the primitive has none.
 std::optional<int> Attribute(const tinygltf::Primitive& p, const std::string& name) {
@@ -69,10 +72,27 @@ Result<int> CountInfluenceSets(const tinygltf::Primitive& p, const std::string& 
   return sets;
 }
 
-// The primitive's morph targets into `a` (which holds its positions and normals), dense
-// deltas made sparse: a vertex is listed in a target when one of its deltas is not zero.
-// NORMAL deltas are kept when the primitive has normals and a target moves them (zeros for
-// the targets that do not); TANGENT deltas are ignored (tangents are not served).
+// Component types a morph target's NORMAL and TANGENT deltas may have: floats, or
+// KHR_mesh_quantization's signed normalized bytes and shorts.
+constexpr std::initializer_list<int> kDirectionDeltaTypes = {
+    TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT};
+
+// An integer direction (NORMAL, TANGENT, or their deltas) must be flagged normalized:
+// KHR_mesh_quantization allows no other integer form for them.
+Status CheckNormalizedDirection(const AccessorReader& reader, const std::string& field) {
+  if (reader.component_type() == TINYGLTF_COMPONENT_TYPE_FLOAT || reader.normalized()) {
+    return Status::Ok();
+  }
+  return InvalidArgument(fmt::format(
+      "{}: accessor {} has componentType {} without normalized: true; integer directions must "
+      "be normalized (KHR_mesh_quantization)",
+      field, reader.index(), ComponentTypeName(reader.component_type())));
+}
+
+// The primitive's morph targets into `a` (which holds its positions, normals and tangents),
+// dense deltas made sparse: a vertex is listed in a target when one of its deltas is not
+// zero. NORMAL (TANGENT) deltas are kept when the primitive has normals (tangents) and a
+// target moves them (zeros for the targets that do not).
 Status ReadMorphTargets(const tinygltf::Model& model, const tinygltf::Primitive& p,
                         const std::string& what, MeshArrays* a) {
   if (p.targets.empty()) return Status::Ok();
@@ -81,21 +101,33 @@ Status ReadMorphTargets(const tinygltf::Model& model, const tinygltf::Primitive&
                                        kMaxMorphTargets));
   }
   const std::size_t v_count = a->vertex_count;
-  bool normals = false;
-  for (const auto& target : p.targets) normals |= target.count("NORMAL") > 0;
+  bool normals = false, tangents = false;
+  for (const auto& target : p.targets) {
+    normals |= target.count("NORMAL") > 0;
+    tangents |= target.count("TANGENT") > 0;
+  }
   normals &= !a->normals.empty();
-  std::vector<float> dp(3 * v_count), dn(normals ? 3 * v_count : 0);
+  tangents &= !a->tangents.empty();  // without TANGENT (or NORMAL) there is nothing to move
+  std::vector<float> dp(3 * v_count), dn(normals ? 3 * v_count : 0), dt(tangents ? 3 * v_count : 0);
   for (std::size_t t = 0; t < p.targets.size(); ++t) {
     const auto& target = p.targets[t];
     std::fill(dp.begin(), dp.end(), 0.0f);
     std::fill(dn.begin(), dn.end(), 0.0f);
+    std::fill(dt.begin(), dt.end(), 0.0f);
     for (const auto& [name, accessor] : target) {
-      std::vector<float>* deltas = name == "POSITION" ? &dp : name == "NORMAL" ? &dn : nullptr;
-      if (deltas == nullptr || deltas->empty()) continue;  // TANGENT, or normals unused
+      std::vector<float>* deltas = name == "POSITION"  ? &dp
+                                   : name == "NORMAL"  ? &dn
+                                   : name == "TANGENT" ? &dt
+                                                       : nullptr;
+      if (deltas == nullptr || deltas->empty()) continue;  // other attributes, or unused
       const std::string field = fmt::format("{}.targets[{}].{}", what, t, name);
-      auto reader = OpenAttribute(model, accessor, field, TINYGLTF_TYPE_VEC3,
-                                  {TINYGLTF_COMPONENT_TYPE_FLOAT}, v_count);
+      auto reader =
+          OpenAttribute(model, accessor, field, TINYGLTF_TYPE_VEC3,
+                        deltas == &dp ? std::initializer_list<int>{TINYGLTF_COMPONENT_TYPE_FLOAT}
+                                      : kDirectionDeltaTypes,
+                        v_count);
       if (!reader.ok()) return reader.status();
+      if (Status s = CheckNormalizedDirection(*reader, field); !s.ok()) return s;
       for (std::size_t v = 0; v < v_count; ++v) {
         for (int c = 0; c < 3; ++c) (*deltas)[3 * v + c] = reader->Normalized(v, c);
       }
@@ -104,7 +136,8 @@ Status ReadMorphTargets(const tinygltf::Model& model, const tinygltf::Primitive&
     for (std::size_t v = 0; v < v_count; ++v) {
       bool moves = false;
       for (int c = 0; c < 3; ++c) {
-        moves |= dp[3 * v + c] != 0.0f || (normals && dn[3 * v + c] != 0.0f);
+        moves |= dp[3 * v + c] != 0.0f || (normals && dn[3 * v + c] != 0.0f) ||
+                 (tangents && dt[3 * v + c] != 0.0f);
       }
       if (!moves) continue;
       ++size;
@@ -113,8 +146,50 @@ Status ReadMorphTargets(const tinygltf::Model& model, const tinygltf::Primitive&
       if (normals) {
         a->morph_normal_deltas.insert(a->morph_normal_deltas.end(), &dn[3 * v], &dn[3 * v] + 3);
       }
+      if (tangents) {
+        a->morph_tangent_deltas.insert(a->morph_tangent_deltas.end(), &dt[3 * v], &dt[3 * v] + 3);
+      }
     }
     a->morph_target_sizes.push_back(size);
+  }
+  return Status::Ok();
+}
+
+// TANGENT into a->tangents (a->normals already read). Exporters write tangents that are
+// unit only to their float (or 8/16-bit) precision, so xyz is renormalised when its length
+// is within kGltfTangentTolerance of 1 (the engine's own kTangentLengthTolerance: what it
+// would accept as is), and w is snapped to +-1 when within the same of it; anything farther
+// is not a tangent the exporter meant and is refused naming the accessor and the vertex.
+Status ReadTangents(const tinygltf::Model& model, int accessor, const std::string& what,
+                    MeshArrays* a) {
+  const std::string field = what + ".attributes.TANGENT";
+  const std::size_t v_count = a->vertex_count;
+  // KHR_mesh_quantization: signed normalized bytes or shorts besides floats.
+  auto reader = OpenAttribute(
+      model, accessor, field, TINYGLTF_TYPE_VEC4,
+      {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT},
+      v_count);
+  if (!reader.ok()) return reader.status();
+  if (Status s = CheckNormalizedDirection(*reader, field); !s.ok()) return s;
+  a->tangents.resize(4 * v_count);
+  for (std::size_t v = 0; v < v_count; ++v) {
+    double t[4];
+    for (int c = 0; c < 4; ++c) t[c] = reader->Normalized(v, c);
+    const double length = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    if (!(std::fabs(length - 1.0) <= kGltfTangentTolerance)) {
+      return InvalidArgument(
+          fmt::format("{}: accessor {} vertex {} xyz has length {:.6g}; a tangent must be a unit "
+                      "vector within {}",
+                      field, accessor, v, length, kGltfTangentTolerance));
+    }
+    if (!(std::fabs(std::fabs(t[3]) - 1.0) <= kGltfTangentTolerance)) {
+      return InvalidArgument(
+          fmt::format("{}: accessor {} vertex {} w = {:.6g}; the handedness must be +1 or -1 "
+                      "within {}",
+                      field, accessor, v, t[3], kGltfTangentTolerance));
+    }
+    for (int c = 0; c < 3; ++c) a->tangents[4 * v + c] = static_cast<float>(t[c] / length);
+    a->tangents[4 * v + 3] = t[3] > 0 ? 1.0f : -1.0f;
   }
   return Status::Ok();
 }
@@ -165,6 +240,17 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
     a.normals.resize(3 * v_count);
     for (std::size_t v = 0; v < v_count; ++v) {
       for (int c = 0; c < 3; ++c) a.normals[3 * v + c] = normals->Normalized(v, c);
+    }
+  }
+  if (const std::optional<int> tangent = Attribute(p, "TANGENT")) {
+    // The spec: without NORMAL, a client computes flat normals and MUST ignore TANGENT.
+    if (a.normals.empty()) {
+      out->warnings.push_back(
+          fmt::format("{}.attributes.TANGENT ignored: the primitive has no NORMAL, and glTF "
+                      "ignores tangents without normals",
+                      what));
+    } else if (Status s = ReadTangents(model, *tangent, what, &a); !s.ok()) {
+      return s;
     }
   }
 

@@ -25,7 +25,8 @@ Status CheckTangentSupport(const BackendInfo& info, bool tangents_requested) {
   if (info.tangents || !tangents_requested) return Status::Ok();
   return FailedPrecondition(fmt::format(
       "backend '{}' does not skin tangents; ask for the frame without tangents or choose a "
-      "backend that does (passthrough, serial, openmp, sse, sse-openmp, simd, simd-openmp)",
+      "backend that does (passthrough, serial, openmp, sse, sse-openmp, simd, simd-openmp, "
+      "opencl, opencl-zerocopy)",
       info.id));
 }
 

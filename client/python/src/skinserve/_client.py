@@ -118,9 +118,10 @@ class Client:
         positions, normals: float32 (V, 3); joints: uint16 (V, B); weights: float32 (V, B),
         1 <= B <= 8. Weights must sum to 1 per vertex unless normalize_weights is set.
         joint_count: the palettes' length (default: the largest joint id + 1).
-        morph_targets: skinserve.MorphTarget(indices, positions, normals=None) each, sparse:
-        the vertices a target moves (uint32, ascending) and their deltas (float32 (D, 3));
-        frames then name their active targets' weights (skin's morph_weights).
+        morph_targets: skinserve.MorphTarget(indices, positions, normals=None,
+        tangents=None) each, sparse: the vertices a target moves (uint32, ascending) and
+        their deltas (float32 (D, 3); tangent deltas move xyz and need `tangents`); frames
+        then name their active targets' weights (skin's morph_weights).
         tangents: float32 (V, 4), glTF TANGENT (xyz unit, w +1 or -1); needs normals.
         rest_encoding: how the server stores the mesh: "float32", or "quantized16" /
         "quantized8-weights" (16-bit positions, normals and weights, or 8-bit weights; fewer

@@ -1,6 +1,6 @@
 """Morph targets (blend shapes): a mesh's sparse targets for upload and a frame's sparse
 weights (docs/characters.md#morph-targets). A frame adds sum_t weight_t * delta_t to the rest
-positions (and normals) of the vertices each active target moves, before skinning."""
+positions (and normals, tangents) of the vertices each active target moves, before skinning."""
 import math
 from typing import Any, List, Mapping, NamedTuple, Optional, Sequence, Tuple, Union
 
@@ -14,10 +14,12 @@ from .v1 import skinning_pb2 as pb
 class MorphTarget(NamedTuple):
     """One target, sparse: the vertices it moves (uint32 (D,), ascending) and their deltas,
     float32 (D, 3) for positions and, optionally, for normals (then every target of the mesh
-    has normal deltas and the mesh has normals)."""
+    has normal deltas and the mesh has normals) and for tangents' xyz (then every target has
+    tangent deltas and the mesh has tangents; w is never morphed)."""
     indices: npt.NDArray[np.uint32]
     positions: npt.NDArray[np.float32]
     normals: Optional[npt.NDArray[np.float32]] = None
+    tangents: Optional[npt.NDArray[np.float32]] = None
 
 
 # A frame's weights, sparse: {target index: weight}; targets left out weigh 0.
@@ -27,10 +29,11 @@ Weights = Mapping[int, float]
 FrameWeights = Union[Weights, Sequence[Weights]]
 
 
-def check_targets(targets: Sequence[MorphTarget], vertices: int,
-                  has_normals: bool) -> Tuple[List[int], bool]:
-    """Each target's size, and whether they carry normal deltas. ValueError naming the
-    target and the array; the server checks the values (range, order)."""
+def check_targets(targets: Sequence[MorphTarget], vertices: int, has_normals: bool,
+                  has_tangents: bool = False) -> Tuple[List[int], bool, bool]:
+    """Each target's size, and whether they carry normal deltas and tangent deltas.
+    ValueError naming the target and the array; the server checks the values (range,
+    order)."""
     sizes: List[int] = []
     for i, target in enumerate(targets):
         if not isinstance(target, MorphTarget):
@@ -42,13 +45,20 @@ def check_targets(targets: Sequence[MorphTarget], vertices: int,
                          "every target normals or none")
     if any(with_normals) and not has_normals:
         raise ValueError("morph_targets: normal deltas, but the mesh has no normals")
+    with_tangents = [t.tangents is not None for t in targets]
+    if any(with_tangents) and not all(with_tangents):
+        raise ValueError("morph_targets: some targets have tangent deltas and some not; give "
+                         "every target tangents or none")
+    if any(with_tangents) and not has_tangents:
+        raise ValueError("morph_targets: tangent deltas, but the mesh has no tangents")
     for i, target in enumerate(targets):
         _arrays.check_array(f"morph_targets[{i}].indices", target.indices, np.uint32, 1)
         count = int(target.indices.shape[0])
         if count > vertices:
             raise ValueError(f"morph_targets[{i}].indices: {count} entries, more than the "
                              f"mesh's {vertices} vertices")
-        for name, deltas in (("positions", target.positions), ("normals", target.normals)):
+        for name, deltas in (("positions", target.positions), ("normals", target.normals),
+                             ("tangents", target.tangents)):
             if deltas is None:
                 continue
             _arrays.check_array(f"morph_targets[{i}].{name}", deltas, np.float32, 2)
@@ -56,7 +66,7 @@ def check_targets(targets: Sequence[MorphTarget], vertices: int,
                 raise ValueError(f"morph_targets[{i}].{name}: shape {deltas.shape}, expected "
                                  f"({count}, 3) (one delta per index)")
         sizes.append(count)
-    return sizes, any(with_normals)
+    return sizes, any(with_normals), any(with_tangents)
 
 
 def target_arrays(targets: Sequence[MorphTarget]
@@ -68,9 +78,13 @@ def target_arrays(targets: Sequence[MorphTarget]
     positions = np.concatenate([t.positions.reshape(-1) for t in targets])
     normals = (np.concatenate([t.normals.reshape(-1) for t in targets if t.normals is not None])
                if targets[0].normals is not None else None)
+    tangents = (np.concatenate([t.tangents.reshape(-1) for t in targets
+                                if t.tangents is not None])
+                if targets[0].tangents is not None else None)
     return [(pb.MESH_ARRAY_MORPH_INDICES, indices, "u4"),
             (pb.MESH_ARRAY_MORPH_POSITION_DELTAS, positions, "f4"),
-            (pb.MESH_ARRAY_MORPH_NORMAL_DELTAS, normals, "f4")]
+            (pb.MESH_ARRAY_MORPH_NORMAL_DELTAS, normals, "f4"),
+            (pb.MESH_ARRAY_MORPH_TANGENT_DELTAS, tangents, "f4")]
 
 
 def _pairs(name: str, weights: Any) -> Tuple[List[int], List[float]]:

@@ -36,7 +36,8 @@ def upload_requests(positions: npt.NDArray[np.float32], joints: npt.NDArray[np.u
     if tangents is not None:
         _arrays.check_tangents(tangents, positions.shape[0], normals is not None)
     targets = list(morph_targets or [])
-    sizes, morph_normals = _morph.check_targets(targets, positions.shape[0], normals is not None)
+    sizes, morph_normals, morph_tangents = _morph.check_targets(
+        targets, positions.shape[0], normals is not None, tangents is not None)
     used = int(joints.max()) + 1
     if joint_count is None:
         joint_count = used
@@ -49,7 +50,8 @@ def upload_requests(positions: npt.NDArray[np.float32], joints: npt.NDArray[np.u
         weight_policy=(pb.WEIGHT_POLICY_NORMALIZE if normalize_weights
                        else pb.WEIGHT_POLICY_REJECT),
         morph_target_sizes=sizes, morph_normals=morph_normals,
-        has_tangents=tangents is not None, rest_encoding=REST_ENCODINGS[rest_encoding])
+        has_tangents=tangents is not None, morph_tangents=morph_tangents,
+        rest_encoding=REST_ENCODINGS[rest_encoding])
     requests = [pb.UploadMeshRequest(header=header)]
     arrays: List[Tuple[pb.MeshArray, Optional[npt.NDArray[Any]], str]] = [
         (pb.MESH_ARRAY_POSITIONS, positions, "f4"),

@@ -60,12 +60,12 @@ class CpuBackend final : public Backend {
       // The kernel skins each range from the rest arrays the morph stage hands it.
       const auto skin_range = [&](std::size_t first, std::size_t last) {
         ForEachMorphedRange(mesh, frame, first, last,
-                            [&](const float* rest_p, const float* rest_n, const float* rest_t,
-                                std::size_t from, std::size_t to) {
+                            [&](const RestArrays& rest, std::size_t from, std::size_t to) {
                               SkinFrame morphed = frame;
-                              morphed.rest_positions = rest_p;
-                              morphed.rest_normals = rest_n;
-                              morphed.rest_tangents = rest_t;
+                              morphed.rest_positions = rest.positions;
+                              morphed.rest_normals = rest.normals;
+                              morphed.rest_tangents = rest.tangents;
+                              morphed.rest_first = rest.first;
                               K::SkinRange(mesh, palette, morphed, from, to);
                             });
       };

@@ -33,7 +33,7 @@ template <bool Normals, bool Tangents>
 const uint32_t* AddRun(const MorphDeltaRun& run) {
   const uint32_t* HWY_RESTRICT k = run.next;
   const uint32_t* const end = run.end;  // locals: the stores could alias `run`
-  const std::size_t last = run.last;
+  const std::size_t first = run.first, last = run.last;
   const float w = run.weight;
   const float* HWY_RESTRICT dp = run.position_deltas;
   const float* HWY_RESTRICT dn = run.normal_deltas;
@@ -42,7 +42,7 @@ const uint32_t* AddRun(const MorphDeltaRun& run) {
   float* HWY_RESTRICT n = run.normals;
   float* HWY_RESTRICT t = run.tangents;
   for (; k != end && *k < last; ++k) {
-    const std::size_t v = *k;
+    const std::size_t v = *k - first;
     AddScaled3(w, dp, p + 3 * v);
     dp += 3;
     if constexpr (Normals) {

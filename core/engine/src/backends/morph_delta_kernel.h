@@ -13,13 +13,14 @@ namespace skinserve {
 struct MorphDeltaRun {
   const uint32_t* next;  // the target's next vertex index at or above the chunk's first, ascending
   const uint32_t* end;   // the target's last index + 1
+  std::size_t first;     // the chunk's first vertex: index 0 of the arrays below
   std::size_t last;      // the chunk's end: indices from here on are left for the next chunk
   float weight;          // the target's weight this frame
   // The deltas of *next: 3 floats each; normals/tangents null when the walk does not morph them.
   const float* position_deltas;
   const float* normal_deltas;
   const float* tangent_deltas;
-  // The morphed rest arrays, indexed like the mesh's (3, 3 and 4 floats per vertex).
+  // The chunk's morphed rest arrays from its first vertex (3, 3 and 4 floats per vertex).
   float* positions;
   float* normals;
   float* tangents;

@@ -9,10 +9,8 @@
 namespace skinserve {
 namespace {
 
-// Per thread: the morphed rest arrays, 3 floats per vertex each (4 for tangents), indexed
-// like the mesh's.
-// Grown to the largest mesh the thread morphed, never shrunk; only the chunks a walk
-// applies are written.
+// Per thread: one chunk of the morphed rest arrays, 3 floats per vertex each (4 for
+// tangents). Grown to the largest seen, never shrunk.
 float* ThreadMorphScratch(std::size_t floats) {
   thread_local AlignedBuffer<float> scratch;
   if (scratch.size() < floats) scratch = AlignedBuffer<float>(floats);
@@ -28,26 +26,16 @@ std::vector<MorphWalk::Target>* ThreadTargets() {
 
 MorphWalk::MorphWalk(const Mesh& mesh, const SkinFrame& frame, std::size_t first)
     : mesh_(mesh), targets_(ThreadTargets()) {
-  const std::size_t outputs = 3ull * mesh.vertex_count();
-  const bool normals = !frame.normals.empty();
-  morph_normals_ = normals && mesh.has_morph_normals();
-  const bool tangents = !frame.tangents.empty();
-  morph_tangents_ = tangents && mesh.has_morph_tangents();
-  float* scratch = ThreadMorphScratch((morph_normals_ ? 2 * outputs : outputs) +
-                                      (morph_tangents_ ? 4ull * mesh.vertex_count() : 0));
-  positions_ = scratch;
-  if (morph_tangents_) {
-    scratch_tangents_ = scratch + (morph_normals_ ? 2 * outputs : outputs);
-    tangents_ = scratch_tangents_;
-  } else {
-    tangents_ = tangents ? mesh.tangents().data() : nullptr;
-  }
-  if (morph_normals_) {
-    scratch_normals_ = scratch + outputs;
-    normals_ = scratch_normals_;
-  } else {
-    normals_ = normals ? mesh.normals().data() : nullptr;
-  }
+  normals_ = !frame.normals.empty();
+  morph_normals_ = normals_ && mesh.has_morph_normals();
+  tangents_ = !frame.tangents.empty();
+  morph_tangents_ = tangents_ && mesh.has_morph_tangents();
+  constexpr std::size_t kVec3 = 3 * kMorphChunkVertices, kVec4 = 4 * kMorphChunkVertices;
+  float* scratch =
+      ThreadMorphScratch(kVec3 + (morph_normals_ ? kVec3 : 0) + (morph_tangents_ ? kVec4 : 0));
+  scratch_positions_ = scratch;
+  if (morph_normals_) scratch_normals_ = scratch + kVec3;
+  if (morph_tangents_) scratch_tangents_ = scratch + (morph_normals_ ? 2 * kVec3 : kVec3);
   targets_->clear();  // keeps its capacity
   const std::span<const uint32_t> offsets = mesh.morph_offsets();
   const uint32_t* indices = mesh.morph_indices().data();
@@ -68,16 +56,14 @@ bool MorphWalk::Touches(std::size_t last) const {
   return false;
 }
 
-void MorphWalk::Apply(std::size_t first, std::size_t last) {
-  const std::size_t count = 3 * (last - first);
-  std::memcpy(positions_ + 3 * first, mesh_.positions().data() + 3 * first, count * sizeof(float));
+RestArrays MorphWalk::Apply(std::size_t first, std::size_t last) {
+  const std::size_t count = last - first;
+  std::memcpy(scratch_positions_, mesh_.positions().data() + 3 * first, 3 * count * sizeof(float));
   if (morph_normals_) {
-    std::memcpy(scratch_normals_ + 3 * first, mesh_.normals().data() + 3 * first,
-                count * sizeof(float));
+    std::memcpy(scratch_normals_, mesh_.normals().data() + 3 * first, 3 * count * sizeof(float));
   }
   if (morph_tangents_) {
-    std::memcpy(scratch_tangents_ + 4 * first, mesh_.tangents().data() + 4 * first,
-                4 * (last - first) * sizeof(float));
+    std::memcpy(scratch_tangents_, mesh_.tangents().data() + 4 * first, 4 * count * sizeof(float));
   }
   const float* dp = mesh_.morph_position_deltas().data();
   const float* dn = mesh_.morph_normal_deltas().data();
@@ -87,15 +73,25 @@ void MorphWalk::Apply(std::size_t first, std::size_t last) {
     const std::size_t delta = t.first_delta + static_cast<std::size_t>(t.next - t.begin);
     t.next = AddMorphDeltas({.next = t.next,
                              .end = t.end,
+                             .first = first,
                              .last = last,
                              .weight = t.weight,
                              .position_deltas = dp + 3 * delta,
                              .normal_deltas = morph_normals_ ? dn + 3 * delta : nullptr,
                              .tangent_deltas = morph_tangents_ ? dt + 3 * delta : nullptr,
-                             .positions = positions_,
+                             .positions = scratch_positions_,
                              .normals = scratch_normals_,
                              .tangents = scratch_tangents_});
   }
+  RestArrays rest{
+      .positions = scratch_positions_, .normals = nullptr, .tangents = nullptr, .first = first};
+  if (normals_) {
+    rest.normals = morph_normals_ ? scratch_normals_ : mesh_.normals().data() + 3 * first;
+  }
+  if (tangents_) {
+    rest.tangents = morph_tangents_ ? scratch_tangents_ : mesh_.tangents().data() + 4 * first;
+  }
+  return rest;
 }
 
 }  // namespace skinserve

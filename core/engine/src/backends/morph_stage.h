@@ -1,9 +1,10 @@
 // The morph stage: a frame's active morph targets added to the rest positions, normals and
 // tangents (xyz; w is never morphed) before skinning, the same for every CPU loop and method. The
 // vertices go chunk by chunk: a chunk that an active target moves is copied into the calling
-// thread's scratch, the targets' sparse deltas are scatter-added to it, and the loop skins the
-// chunk from there while it is still in the core's cache; chunks no active target moves, and whole
-// frames without an active target, are skinned from the mesh's own arrays at no extra cost.
+// thread's scratch (one chunk long, so it stays in L1), the targets' sparse deltas are
+// scatter-added to it, and the loop skins the chunk from there; chunks no active target moves,
+// and whole frames without an active target, are skinned from the mesh's own arrays at no extra
+// cost.
 #pragma once
 
 #include <cstddef>
@@ -18,6 +19,16 @@ namespace skinserve {
 // in L1.
 inline constexpr std::size_t kMorphChunkVertices = 512;
 
+// The rest arrays a loop skins a range from: index 0 of each is vertex `first` (0 for the
+// mesh's own arrays, the chunk's first vertex for the morph scratch). normals / tangents are
+// null when the frame does not ask for them.
+struct RestArrays {
+  const float* positions;
+  const float* normals;
+  const float* tangents;
+  std::size_t first;
+};
+
 // One thread's walk over the vertices [first, last) of a frame with an active target.
 // Chunks must be asked for in ascending order. Allocates only when the thread meets a
 // larger mesh or more active targets than before.
@@ -27,14 +38,10 @@ class MorphWalk {
   // Whether an active target moves a vertex in [current, last) (the chunk that starts at
   // the end of the chunks already walked).
   bool Touches(std::size_t last) const;
-  // Writes the morphed rest arrays of [first, last) into the scratch (only those vertices;
-  // the arrays are indexed by vertex like the mesh's).
-  void Apply(std::size_t first, std::size_t last);
-  const float* positions() const { return positions_; }
-  // The scratch's normals when targets move normals, else the mesh's; null without normals.
-  const float* normals() const { return normals_; }
-  // The scratch's tangents when targets move tangents, else the mesh's; null without them.
-  const float* tangents() const { return tangents_; }
+  // Writes the morphed rest arrays of the chunk [first, last) (at most kMorphChunkVertices)
+  // into the scratch and returns them: the scratch's positions, and its normals / tangents
+  // where the targets move them, else the mesh's from `first` on.
+  RestArrays Apply(std::size_t first, std::size_t last);
 
   struct Target {
     const uint32_t* next;  // its next delta's vertex index, ascending
@@ -49,24 +56,24 @@ class MorphWalk {
   bool morph_normals_ = false;   // normals asked for, and the targets move them
   bool morph_tangents_ = false;  // tangents asked for, and the targets move them
   std::vector<Target>* targets_;
-  float* positions_ = nullptr;
-  const float* normals_ = nullptr;
+  bool normals_ = false;   // the frame asks for normals
+  bool tangents_ = false;  // the frame asks for tangents
+  float* scratch_positions_ = nullptr;
   float* scratch_normals_ = nullptr;
-  const float* tangents_ = nullptr;
   float* scratch_tangents_ = nullptr;
 };
 
-// Calls skin(rest_positions, rest_normals, rest_tangents, first, last) over [first, last) of
-// `frame` in runs of chunks: the mesh's arrays for runs no active target moves, the morphed scratch
-// for each chunk one does.
+// Calls skin(RestArrays, first, last) over [first, last) of `frame` in runs of chunks: the
+// mesh's arrays for runs no active target moves, the morphed scratch for each chunk one does.
 template <typename Skin>
 void ForEachMorphedRange(const Mesh& mesh, const SkinFrame& frame, std::size_t first,
                          std::size_t last, const Skin& skin) {
-  const float* rest_p = mesh.positions().data();
-  const float* rest_n = frame.normals.empty() ? nullptr : mesh.normals().data();
-  const float* rest_t = frame.tangents.empty() ? nullptr : mesh.tangents().data();
+  const RestArrays own{.positions = mesh.positions().data(),
+                       .normals = frame.normals.empty() ? nullptr : mesh.normals().data(),
+                       .tangents = frame.tangents.empty() ? nullptr : mesh.tangents().data(),
+                       .first = 0};
   if (!HasActiveMorph(frame.morph_weights)) {
-    skin(rest_p, rest_n, rest_t, first, last);
+    skin(own, first, last);
     return;
   }
   MorphWalk walk(mesh, frame, first);
@@ -74,13 +81,11 @@ void ForEachMorphedRange(const Mesh& mesh, const SkinFrame& frame, std::size_t f
   for (std::size_t chunk = first; chunk < last; chunk += kMorphChunkVertices) {
     const std::size_t end = std::min(last, chunk + kMorphChunkVertices);
     if (!walk.Touches(end)) continue;
-    if (plain < chunk) skin(rest_p, rest_n, rest_t, plain, chunk);
-    walk.Apply(chunk, end);
-    skin(walk.positions(), rest_n == nullptr ? nullptr : walk.normals(),
-         rest_t == nullptr ? nullptr : walk.tangents(), chunk, end);
+    if (plain < chunk) skin(own, plain, chunk);
+    skin(walk.Apply(chunk, end), chunk, end);
     plain = end;
   }
-  if (plain < last) skin(rest_p, rest_n, rest_t, plain, last);
+  if (plain < last) skin(own, plain, last);
 }
 
 }  // namespace skinserve

@@ -1,7 +1,7 @@
 // `opencl`: the paper's plain OpenCL path. The mesh is copied into device buffers once (its
-// morph targets too); each frame writes the palette (and its active morph weights) to the
-// device and reads the result back. A frame with an active target runs the morph kernel
-// first, and the skinning kernels read its morphed rest arrays (opencl_morph.h).
+// tangents and morph targets too); each frame writes the palette (and its active morph weights) to
+// the device and reads the result back. A frame with an active target runs the morph kernel first,
+// and the skinning kernels read its morphed rest arrays (opencl_morph.h).
 //
 // On a device with memory of its own (a discrete GPU) every frame crosses PCIe, so:
 //  - the palette and the results travel through page-locked (pinned) host memory of the
@@ -32,7 +32,7 @@ namespace {
 
 struct OpenClPreparedMesh final : PreparedMesh {
   using PreparedMesh::PreparedMesh;
-  ClBuffer positions, normals, joints, weights;
+  ClBuffer positions, normals, tangents, joints, weights;
   OpenClMorphTargets morph;
 };
 
@@ -86,6 +86,10 @@ class OpenClCopyBackend final : public Backend {
       plan.push_back(
           {"normals", &prepared->normals, mesh->normals().size_bytes(), mesh->normals().data()});
     }
+    if (mesh->has_tangents()) {
+      plan.push_back({"tangents", &prepared->tangents, mesh->tangents().size_bytes(),
+                      mesh->tangents().data()});
+    }
     for (const Plan& p : plan) {
       auto buffer = runtime_->CreateBuffer(p.what, kCopyIn, p.bytes, p.host);
       if (!buffer.ok()) return buffer.status();
@@ -98,7 +102,6 @@ class OpenClCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
-    if (Status s = CheckTangentSupport(info(), !frame.tangents.empty()); !s.ok()) return s;
     if (frame.method == SkinningMethod::kDualQuaternion) {
       // The kernels take the palette as unit dual quaternions, converted here once per
       // frame (J conversions): from here on the frame is the same as a linear one.
@@ -118,10 +121,15 @@ class OpenClCopyBackend final : public Backend {
     if (with_normals && prepared.normals.get() == nullptr) {
       return InvalidArgument("normals requested, but the mesh has none");
     }
+    const bool with_tangents = !frame.tangents.empty();
+    if (with_tangents && (prepared.tangents.get() == nullptr || !with_normals)) {
+      return InvalidArgument(
+          "tangents requested, but the mesh has none or normals are not asked for");
+    }
     auto lane = runtime_->AcquireLane();
     if (Status s = Reserve(*lane, frame); !s.ok()) return s;
     ClEvents kernels, transfers;
-    SkinKernelArgs args = Args(*lane, prepared, frame.method, with_normals);
+    SkinKernelArgs args = Args(*lane, prepared, frame.method, with_normals, with_tangents);
     Status status = Morph(*lane, prepared, frame, &args, kernels, transfers);
     if (status.ok()) {
       status = runtime_->staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame, args,
@@ -165,6 +173,14 @@ class OpenClCopyBackend final : public Backend {
         return s;
       }
     }
+    if (!frame.tangents.empty()) {
+      if (Status s = runtime_->GrowBuffer("output tangents", CL_MEM_WRITE_ONLY,
+                                          frame.tangents.size_bytes(), &lane.out_tangents,
+                                          &lane.tangents_bytes);
+          !s.ok()) {
+        return s;
+      }
+    }
     if (!runtime_->staging()) return Status::Ok();
     if (Status s = runtime_->GrowPinned(lane.compute, "pinned palette", frame.palette.size_bytes(),
                                         &lane.pinned_palette);
@@ -177,13 +193,21 @@ class OpenClCopyBackend final : public Backend {
       return s;
     }
     if (!frame.normals.empty()) {
-      return runtime_->GrowPinned(lane.compute, "pinned normals", out_bytes, &lane.pinned_normals);
+      if (Status s =
+              runtime_->GrowPinned(lane.compute, "pinned normals", out_bytes, &lane.pinned_normals);
+          !s.ok()) {
+        return s;
+      }
+    }
+    if (!frame.tangents.empty()) {
+      return runtime_->GrowPinned(lane.compute, "pinned tangents", frame.tangents.size_bytes(),
+                                  &lane.pinned_tangents);
     }
     return Status::Ok();
   }
 
   SkinKernelArgs Args(const OpenClLane& lane, const OpenClPreparedMesh& prepared,
-                      SkinningMethod method, bool with_normals) const {
+                      SkinningMethod method, bool with_normals, bool with_tangents) const {
     SkinKernelArgs args{.method = method,
                         .palette = lane.palette.get(),
                         .joints = prepared.joints.get(),
@@ -193,6 +217,10 @@ class OpenClCopyBackend final : public Backend {
     if (with_normals) {
       args.normals = prepared.normals.get();
       args.out_normals = lane.out_normals.get();
+    }
+    if (with_tangents) {
+      args.tangents = prepared.tangents.get();
+      args.out_tangents = lane.out_tangents.get();
     }
     return args;
   }
@@ -245,6 +273,14 @@ class OpenClCopyBackend final : public Backend {
         return ClError("clEnqueueReadBuffer(normals)", err);
       }
     }
+    if (!frame.tangents.empty()) {
+      if (cl_int err = clEnqueueReadBuffer(lane.compute, lane.out_tangents.get(), CL_FALSE, 0,
+                                           frame.tangents.size_bytes(), frame.tangents.data(), 0,
+                                           nullptr, transfers.Next());
+          err != CL_SUCCESS) {
+        return ClError("clEnqueueReadBuffer(tangents)", err);
+      }
+    }
     if (cl_int err = clEnqueueReadBuffer(lane.compute, lane.out_positions.get(), CL_TRUE, 0,
                                          frame.positions.size_bytes(), frame.positions.data(), 0,
                                          nullptr, transfers.Next());
@@ -258,7 +294,6 @@ class OpenClCopyBackend final : public Backend {
   Status SkinStaged(OpenClLane& lane, int copy_threads, const OpenClPreparedMesh& prepared,
                     const SkinFrame& frame, const SkinKernelArgs& args, ClEvents& kernels,
                     ClEvents& transfers) {
-    const bool with_normals = !frame.normals.empty();
     const Mesh& mesh = prepared.mesh();
     const uint32_t vertices = mesh.vertex_count();
     std::memcpy(lane.pinned_palette.host, frame.palette.data(), frame.palette.size_bytes());
@@ -267,6 +302,25 @@ class OpenClCopyBackend final : public Backend {
                                           nullptr, transfers.Next());
         err != CL_SUCCESS) {
       return ClError("clEnqueueWriteBuffer(palette)", err);
+    }
+    // The frame's outputs: each read back chunk by chunk into its pinned buffer, then copied
+    // out to the caller's array.
+    struct Output {
+      const char* what;
+      cl_mem from;
+      void* pinned;
+      float* to;
+      std::size_t floats_per_vertex;
+    };
+    std::vector<Output> outputs = {{"clEnqueueReadBuffer(positions)", lane.out_positions.get(),
+                                    lane.pinned_positions.host, frame.positions.data(), 3}};
+    if (!frame.normals.empty()) {
+      outputs.push_back({"clEnqueueReadBuffer(normals)", lane.out_normals.get(),
+                         lane.pinned_normals.host, frame.normals.data(), 3});
+    }
+    if (!frame.tangents.empty()) {
+      outputs.push_back({"clEnqueueReadBuffer(tangents)", lane.out_tangents.get(),
+                         lane.pinned_tangents.host, frame.tangents.data(), 4});
     }
     const uint32_t align = OpenClRuntime::kChunkAlignment;
     const uint32_t most = static_cast<uint32_t>(runtime_->max_chunks());
@@ -285,26 +339,15 @@ class OpenClCopyBackend final : public Backend {
           !s.ok()) {
         return s;
       }
-      const std::size_t offset = 3ull * chunk.first * sizeof(float),
-                        bytes = 3ull * (chunk.end - chunk.first) * sizeof(float);
-      struct Read {
-        const char* what;
-        cl_mem from;
-        void* to;
-      };
-      std::vector<Read> reads = {
-          {"clEnqueueReadBuffer(positions)", lane.out_positions.get(), lane.pinned_positions.host}};
-      if (with_normals) {
-        reads.push_back(
-            {"clEnqueueReadBuffer(normals)", lane.out_normals.get(), lane.pinned_normals.host});
-      }
-      for (const Read& read : reads) {
+      for (const Output& out : outputs) {
+        const std::size_t offset = out.floats_per_vertex * chunk.first * sizeof(float),
+                          bytes = out.floats_per_vertex * (chunk.end - chunk.first) * sizeof(float);
         cl_event* event = transfers.Next();
         if (cl_int err =
-                clEnqueueReadBuffer(lane.transfer, read.from, CL_FALSE, offset, bytes,
-                                    static_cast<char*>(read.to) + offset, 1, kernel, event);
+                clEnqueueReadBuffer(lane.transfer, out.from, CL_FALSE, offset, bytes,
+                                    static_cast<char*>(out.pinned) + offset, 1, kernel, event);
             err != CL_SUCCESS) {
-          return ClError(read.what, err);
+          return ClError(out.what, err);
         }
         chunk.reads.push_back(*event);
       }
@@ -319,14 +362,11 @@ class OpenClCopyBackend final : public Backend {
           err != CL_SUCCESS) {
         return ClError("clWaitForEvents(read-back)", err);
       }
-      const std::size_t offset = 3ull * chunk.first * sizeof(float),
-                        bytes = 3ull * (chunk.end - chunk.first) * sizeof(float);
-      const int threads = copy_threads;
-      ParallelCopy(reinterpret_cast<char*>(frame.positions.data()) + offset,
-                   static_cast<const char*>(lane.pinned_positions.host) + offset, bytes, threads);
-      if (with_normals) {
-        ParallelCopy(reinterpret_cast<char*>(frame.normals.data()) + offset,
-                     static_cast<const char*>(lane.pinned_normals.host) + offset, bytes, threads);
+      for (const Output& out : outputs) {
+        const std::size_t offset = out.floats_per_vertex * chunk.first * sizeof(float),
+                          bytes = out.floats_per_vertex * (chunk.end - chunk.first) * sizeof(float);
+        ParallelCopy(reinterpret_cast<char*>(out.to) + offset,
+                     static_cast<const char*>(out.pinned) + offset, bytes, copy_threads);
       }
     }
     return Status::Ok();

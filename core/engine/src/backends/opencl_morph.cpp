@@ -29,6 +29,13 @@ Result<OpenClMorphTargets> CreateMorphTargets(OpenClRuntime& runtime, const Mesh
       return s;
     }
   }
+  if (mesh.has_morph_tangents()) {
+    if (Status s =
+            create("morph tangent deltas", &targets.tangent_deltas, mesh.morph_tangent_deltas());
+        !s.ok()) {
+      return s;
+    }
+  }
   return targets;
 }
 
@@ -41,6 +48,8 @@ Status EnqueueFrameMorph(OpenClRuntime& runtime, OpenClLane& lane, const Mesh& m
                          SkinKernelArgs* args, ClEvents& kernels) {
   if (!MorphsOnDevice(frame, targets)) return Status::Ok();
   const bool morph_normals = args->out_normals != nullptr && targets.normal_deltas.get() != nullptr;
+  const bool morph_tangents =
+      args->out_tangents != nullptr && targets.tangent_deltas.get() != nullptr;
   const std::size_t bytes = frame.positions.size_bytes();
   if (Status s = runtime.GrowBuffer("morphed positions", CL_MEM_READ_WRITE, bytes,
                                     &lane.morphed_positions, &lane.morphed_positions_bytes);
@@ -50,6 +59,14 @@ Status EnqueueFrameMorph(OpenClRuntime& runtime, OpenClLane& lane, const Mesh& m
   if (morph_normals) {
     if (Status s = runtime.GrowBuffer("morphed normals", CL_MEM_READ_WRITE, bytes,
                                       &lane.morphed_normals, &lane.morphed_normals_bytes);
+        !s.ok()) {
+      return s;
+    }
+  }
+  if (morph_tangents) {
+    if (Status s =
+            runtime.GrowBuffer("morphed tangents", CL_MEM_READ_WRITE, frame.tangents.size_bytes(),
+                               &lane.morphed_tangents, &lane.morphed_tangents_bytes);
         !s.ok()) {
       return s;
     }
@@ -66,10 +83,16 @@ Status EnqueueFrameMorph(OpenClRuntime& runtime, OpenClLane& lane, const Mesh& m
     morph.normal_deltas = targets.normal_deltas.get();
     morph.morphed_normals = lane.morphed_normals.get();
   }
+  if (morph_tangents) {
+    morph.tangents = args->tangents;
+    morph.tangent_deltas = targets.tangent_deltas.get();
+    morph.morphed_tangents = lane.morphed_tangents.get();
+  }
   if (Status s = runtime.EnqueueMorph(lane, mesh.vertex_count(), morph, kernels.Next()); !s.ok())
     return s;
   args->positions = lane.morphed_positions.get();
   if (morph_normals) args->normals = lane.morphed_normals.get();
+  if (morph_tangents) args->tangents = lane.morphed_tangents.get();
   return Status::Ok();
 }
 

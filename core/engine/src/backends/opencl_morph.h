@@ -11,9 +11,9 @@
 namespace skinserve {
 
 // A mesh's targets on the device; empty buffers for a mesh without targets (or without
-// normal deltas).
+// normal or tangent deltas).
 struct OpenClMorphTargets {
-  ClBuffer offsets, indices, position_deltas, normal_deltas;
+  ClBuffer offsets, indices, position_deltas, normal_deltas, tangent_deltas;
 };
 
 // The mesh's targets as buffers created with `flags`: CL_MEM_COPY_HOST_PTR (the `opencl`
@@ -27,11 +27,12 @@ Result<OpenClMorphTargets> CreateMorphTargets(OpenClRuntime& runtime, const Mesh
 bool MorphsOnDevice(const SkinFrame& frame, const OpenClMorphTargets& targets);
 
 // For a frame that MorphsOnDevice: enqueues on `lane`'s compute queue the morph of the
-// mesh's rest arrays (`args`' positions and normals, as the prepared mesh holds them) by the
-// frame's weights, which `weights` holds (frame.morph_weights' entries, on the device or
-// wrapped in place), into the lane's morphed buffers, and points `args` at those. Normals are
-// morphed when the frame asks for them and the targets move them; otherwise `args` keeps the
-// mesh's normals. The kernel's event goes to `kernels`. Any other frame: nothing.
+// mesh's rest arrays (`args`' positions, normals and tangents, as the prepared mesh holds
+// them) by the frame's weights, which `weights` holds (frame.morph_weights' entries, on the
+// device or wrapped in place), into the lane's morphed buffers, and points `args` at those.
+// Normals and tangents are each morphed when the frame asks for them and the targets move
+// them; otherwise `args` keeps the mesh's. The kernel's event goes to `kernels`. Any other frame:
+// nothing.
 Status EnqueueFrameMorph(OpenClRuntime& runtime, OpenClLane& lane, const Mesh& mesh,
                          const OpenClMorphTargets& targets, cl_mem weights, const SkinFrame& frame,
                          SkinKernelArgs* args, ClEvents& kernels);

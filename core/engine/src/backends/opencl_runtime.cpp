@@ -421,31 +421,36 @@ Status OpenClRuntime::CreateLanes(int count) {
       clRetainCommandQueue(lane->transfer);
     }
     // Linear blending (linear_blend_skinning.cl), then dual quaternions
-    // (dual_quaternion_skinning.cl).
-    // With the local palette, their *_local_* variants too.
-    constexpr const char* kPrefixes[2][2][2] = {
-        {{"skin_b", "skin_normals_b"}, {"dqs_b", "dqs_normals_b"}},
-        {{"skin_local_b", "skin_normals_local_b"}, {"dqs_local_b", "dqs_normals_local_b"}}};
+    // (dual_quaternion_skinning.cl), each for positions, with normals, with normals and
+    // tangents. With the local palette, their *_local_* variants too.
+    constexpr const char* kPrefixes[2][2][3] = {
+        {{"skin_b", "skin_normals_b", "skin_tangents_b"},
+         {"dqs_b", "dqs_normals_b", "dqs_tangents_b"}},
+        {{"skin_local_b", "skin_normals_local_b", "skin_tangents_local_b"},
+         {"dqs_local_b", "dqs_normals_local_b", "dqs_tangents_local_b"}}};
     for (std::size_t local = 0; local < (local_palette() ? 2 : 1); ++local) {
       for (std::size_t method = 0; method < 2; ++method) {
-        for (std::size_t normals = 0; normals < 2; ++normals) {
+        for (std::size_t outputs = 0; outputs < 3; ++outputs) {
           for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
-            const std::string name = fmt::format("{}{}", kPrefixes[local][method][normals], b);
+            const std::string name = fmt::format("{}{}", kPrefixes[local][method][outputs], b);
             cl_kernel kernel = clCreateKernel(program_, name.c_str(), &err);
             if (err != CL_SUCCESS) {
               return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
             }
-            lane->kernels[local][method][normals][b - 1] = kernel;
+            lane->kernels[local][method][outputs][b - 1] = kernel;
           }
         }
       }
     }
-    // Morph targets (morph_targets.cl).
-    constexpr const char* kMorphNames[2] = {"morph_positions", "morph_positions_normals"};
+    // Morph targets (morph_targets.cl), [with normals][with tangents].
+    constexpr const char* kMorphNames[2][2] = {
+        {"morph_positions", "morph_positions_tangents"},
+        {"morph_positions_normals", "morph_positions_normals_tangents"}};
     for (std::size_t normals = 0; normals < 2; ++normals) {
-      lane->morph_kernels[normals] = clCreateKernel(program_, kMorphNames[normals], &err);
-      if (err != CL_SUCCESS) {
-        return ClError(fmt::format("clCreateKernel({})", kMorphNames[normals]).c_str(), err);
+      for (std::size_t tangents = 0; tangents < 2; ++tangents) {
+        const char* name = kMorphNames[normals][tangents];
+        lane->morph_kernels[normals][tangents] = clCreateKernel(program_, name, &err);
+        if (err != CL_SUCCESS) return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
       }
     }
     free_lanes_.push_back(lane.get());
@@ -465,12 +470,14 @@ OpenClRuntime::~OpenClRuntime() {
         }
       }
     }
-    for (cl_kernel kernel : lane->morph_kernels) {
-      if (kernel != nullptr) clReleaseKernel(kernel);
+    for (const auto& row : lane->morph_kernels) {
+      for (cl_kernel kernel : row) {
+        if (kernel != nullptr) clReleaseKernel(kernel);
+      }
     }
     // Unmapped before release: the buffers' destructors release them afterwards.
-    for (PinnedBuffer* pinned :
-         {&lane->pinned_palette, &lane->pinned_positions, &lane->pinned_normals}) {
+    for (PinnedBuffer* pinned : {&lane->pinned_palette, &lane->pinned_positions,
+                                 &lane->pinned_normals, &lane->pinned_tangents}) {
       if (pinned->host != nullptr) {
         clEnqueueUnmapMemObject(lane->compute, pinned->buffer.get(), pinned->host, 0, nullptr,
                                 nullptr);
@@ -588,9 +595,13 @@ Status OpenClRuntime::EnqueueSkinKernel(OpenClLane& lane, const Mesh& mesh,
   if (with_normals && args.normals == nullptr) {
     return Internal("output normals without input normals: the mesh has none");
   }
+  const bool with_tangents = args.out_tangents != nullptr;
+  if (with_tangents && (args.tangents == nullptr || !with_normals)) {
+    return Internal("output tangents without input tangents or without normals");
+  }
   const bool dual_quaternion = args.method == SkinningMethod::kDualQuaternion;
-  cl_kernel kernel =
-      lane.kernels[local ? 1 : 0][dual_quaternion ? 1 : 0][with_normals ? 1 : 0][influences - 1];
+  const int outputs = with_tangents ? 2 : (with_normals ? 1 : 0);
+  cl_kernel kernel = lane.kernels[local ? 1 : 0][dual_quaternion ? 1 : 0][outputs][influences - 1];
   if (kernel == nullptr) return Internal("the local-palette kernels are not built");
   // Argument order: see SKIN_ARGS in kernels/linear_blend_skinning.cl (the
   // dual-quaternion kernels take the same). The kernel's
@@ -611,6 +622,13 @@ Status OpenClRuntime::EnqueueSkinKernel(OpenClLane& lane, const Mesh& mesh,
     for (const cl_mem* buffer : {&args.normals, &args.out_normals}) {
       if (cl_int err = clSetKernelArg(kernel, index++, sizeof(cl_mem), buffer); err != CL_SUCCESS) {
         return ClError("clSetKernelArg(normals)", err);
+      }
+    }
+  }
+  if (with_tangents) {  // SKIN_TANGENT_ARGS: after the normals
+    for (const cl_mem* buffer : {&args.tangents, &args.out_tangents}) {
+      if (cl_int err = clSetKernelArg(kernel, index++, sizeof(cl_mem), buffer); err != CL_SUCCESS) {
+        return ClError("clSetKernelArg(tangents)", err);
       }
     }
   }
@@ -647,7 +665,11 @@ Status OpenClRuntime::EnqueueMorph(OpenClLane& lane, uint32_t vertex_count,
   if (with_normals && (args.normals == nullptr || args.normal_deltas == nullptr)) {
     return Internal("morphed normals without the mesh's normals or normal deltas");
   }
-  cl_kernel kernel = lane.morph_kernels[with_normals ? 1 : 0];
+  const bool with_tangents = args.morphed_tangents != nullptr;
+  if (with_tangents && (args.tangents == nullptr || args.tangent_deltas == nullptr)) {
+    return Internal("morphed tangents without the mesh's tangents or tangent deltas");
+  }
+  cl_kernel kernel = lane.morph_kernels[with_normals ? 1 : 0][with_tangents ? 1 : 0];
   // Argument order: see MORPH_ARGS in kernels/morph_targets.cl.
   cl_uint index = 0;
   auto set = [&](std::size_t size, const void* value) {
@@ -664,6 +686,11 @@ Status OpenClRuntime::EnqueueMorph(OpenClLane& lane, uint32_t vertex_count,
   if (err == CL_SUCCESS) err = set(sizeof(cl_uint), &count);
   if (with_normals) {
     for (const cl_mem* buffer : {&args.normals, &args.normal_deltas, &args.morphed_normals}) {
+      if (err == CL_SUCCESS) err = set(sizeof(cl_mem), buffer);
+    }
+  }
+  if (with_tangents) {  // MORPH_TANGENT_ARGS: after the normals' where they are
+    for (const cl_mem* buffer : {&args.tangents, &args.tangent_deltas, &args.morphed_tangents}) {
       if (err == CL_SUCCESS) err = set(sizeof(cl_mem), buffer);
     }
   }
@@ -701,6 +728,9 @@ Status OpenClRuntime::Warm() {
       CreateBuffer("warm weights", kIn, kMaxInfluences * sizeof(float), arrays.weights.data());
   auto out = CreateBuffer("warm output", CL_MEM_WRITE_ONLY, 3 * sizeof(float), nullptr);
   auto out_n = CreateBuffer("warm output", CL_MEM_WRITE_ONLY, 3 * sizeof(float), nullptr);
+  const float tangent[] = {1, 0, 0, 1};
+  auto tan = CreateBuffer("warm tangents", kIn, sizeof(tangent), tangent);
+  auto out_t = CreateBuffer("warm output", CL_MEM_WRITE_ONLY, sizeof(tangent), nullptr);
   // One target moving the vertex by zero, active with weight 1.
   const uint32_t morph_offsets[] = {0, 1}, morph_indices[] = {0};
   const float zero_delta[] = {0, 0, 0};
@@ -711,8 +741,9 @@ Status OpenClRuntime::Warm() {
   auto mw = CreateBuffer("warm morph weights", kIn, sizeof(morph_weight), morph_weight);
   auto morphed = CreateBuffer("warm morphed", CL_MEM_READ_WRITE, 3 * sizeof(float), nullptr);
   auto morphed_n = CreateBuffer("warm morphed", CL_MEM_READ_WRITE, 3 * sizeof(float), nullptr);
-  for (const auto* r :
-       {&pal, &pos, &nrm, &jnt, &wgt, &out, &out_n, &offs, &idx, &dlt, &mw, &morphed, &morphed_n}) {
+  auto morphed_t = CreateBuffer("warm morphed", CL_MEM_READ_WRITE, sizeof(tangent), nullptr);
+  for (const auto* r : {&pal, &pos, &nrm, &jnt, &wgt, &out, &out_n, &tan, &out_t, &offs, &idx, &dlt,
+                        &mw, &morphed, &morphed_n, &morphed_t}) {
     if (!r->ok()) return r->status();
   }
   for (auto& lane : lanes_) {
@@ -731,17 +762,18 @@ Status OpenClRuntime::Warm() {
                             .weights = wgt->get(),
                             .positions = pos->get(),
                             .out_positions = out->get()};
-        // Both variants where the local ones are built: a frame may take either.
+        // Both variants where the local ones are built: a frame may take either; each with
+        // positions alone, with normals, with normals and tangents.
         for (bool local : {false, true}) {
           if (local && !local_palette()) continue;
-          args.normals = args.out_normals = nullptr;
-          if (Status s = EnqueueSkinKernel(*lane, **mesh, args, 0, 1, local, nullptr); !s.ok()) {
-            return s;
-          }
-          args.normals = nrm->get();
-          args.out_normals = out_n->get();
-          if (Status s = EnqueueSkinKernel(*lane, **mesh, args, 0, 1, local, nullptr); !s.ok()) {
-            return s;
+          for (int outputs = 0; outputs < 3; ++outputs) {
+            args.normals = outputs >= 1 ? nrm->get() : nullptr;
+            args.out_normals = outputs >= 1 ? out_n->get() : nullptr;
+            args.tangents = outputs == 2 ? tan->get() : nullptr;
+            args.out_tangents = outputs == 2 ? out_t->get() : nullptr;
+            if (Status s = EnqueueSkinKernel(*lane, **mesh, args, 0, 1, local, nullptr); !s.ok()) {
+              return s;
+            }
           }
         }
       }
@@ -753,11 +785,17 @@ Status OpenClRuntime::Warm() {
                           .weights = mw->get(),
                           .weight_count = 1,
                           .morphed_positions = morphed->get()};
-    if (Status s = EnqueueMorph(*lane, 1, morph, nullptr); !s.ok()) return s;
-    morph.normals = nrm->get();
-    morph.normal_deltas = dlt->get();
-    morph.morphed_normals = morphed_n->get();
-    if (Status s = EnqueueMorph(*lane, 1, morph, nullptr); !s.ok()) return s;
+    for (bool normals : {false, true}) {
+      for (bool tangents : {false, true}) {
+        morph.normals = normals ? nrm->get() : nullptr;
+        morph.normal_deltas = normals ? dlt->get() : nullptr;
+        morph.morphed_normals = normals ? morphed_n->get() : nullptr;
+        morph.tangents = tangents ? tan->get() : nullptr;
+        morph.tangent_deltas = tangents ? dlt->get() : nullptr;
+        morph.morphed_tangents = tangents ? morphed_t->get() : nullptr;
+        if (Status s = EnqueueMorph(*lane, 1, morph, nullptr); !s.ok()) return s;
+      }
+    }
     if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS) {
       return ClError("clFinish(warm-up)", err);
     }

@@ -72,8 +72,9 @@ class ClEvents {
 Result<int64_t> ProfiledNs(const std::vector<cl_event>& events);
 
 // The device-side arrays of one frame and its method. `normals` and `out_normals` are null
-// when the frame skips normals. `palette` holds 12 floats per joint (the 3x4 matrices) for
-// linear blending, 8 (the frame's DualQuaternionPalette) for dual quaternions.
+// when the frame skips normals, `tangents` and `out_tangents` (4 floats per vertex) when it
+// skips tangents (a frame with tangents has normals too). `palette` holds 12 floats per joint (the
+// 3x4 matrices) for linear blending, 8 (the frame's DualQuaternionPalette) for dual quaternions.
 struct SkinKernelArgs {
   SkinningMethod method = SkinningMethod::kLinear;
   cl_mem palette = nullptr;
@@ -83,12 +84,15 @@ struct SkinKernelArgs {
   cl_mem out_positions = nullptr;
   cl_mem normals = nullptr;
   cl_mem out_normals = nullptr;
+  cl_mem tangents = nullptr;
+  cl_mem out_tangents = nullptr;
 };
 
 // The device-side arrays of one frame's morph (kernels/morph_targets.cl): the mesh's rest
 // arrays and targets (on the device once per mesh, OpenClMorphTargets), the frame's active
 // weights (`weights`: `weight_count` MorphWeight entries) and where the morphed rest arrays
-// go. The normals' three are all set (the frame's normals are morphed) or all null.
+// go. The normals' three are all set (the frame's normals are morphed) or all null; so are
+// the tangents' (4 floats per vertex, 3 per delta: their w is never morphed).
 struct MorphKernelArgs {
   cl_mem positions = nullptr;
   cl_mem offsets = nullptr;
@@ -100,6 +104,9 @@ struct MorphKernelArgs {
   cl_mem normals = nullptr;
   cl_mem normal_deltas = nullptr;
   cl_mem morphed_normals = nullptr;
+  cl_mem tangents = nullptr;
+  cl_mem tangent_deltas = nullptr;
+  cl_mem morphed_tangents = nullptr;
 };
 
 // Page-locked host memory (CL_MEM_ALLOC_HOST_PTR, mapped for the buffer's lifetime), for
@@ -117,20 +124,24 @@ class OpenClRuntime;
 struct OpenClLane {
   cl_command_queue compute = nullptr;   // kernels (and, on a CPU device, every command)
   cl_command_queue transfer = nullptr;  // read-backs, so they overlap the next kernel
-  // [palette in local memory][dual quaternion][with normals][influences - 1]: skin_b*,
-  // dqs_b* and their normals, then (only with OpenClRuntime::local_palette()) their
-  // *_local_* variants, which stage the palette in work-group local memory first.
-  std::array<std::array<std::array<std::array<cl_kernel, kMaxInfluences>, 2>, 2>, 2> kernels = {};
-  // [with normals]: morph_positions, morph_positions_normals.
-  std::array<cl_kernel, 2> morph_kernels = {};
+  // [palette in local memory][dual quaternion][outputs][influences - 1], outputs
+  // (SkinOutputs) 0 positions, 1 with normals, 2 with normals and tangents: skin_b*,
+  // skin_normals_b*, skin_tangents_b* and their dqs_* twins, then (only with
+  // OpenClRuntime::local_palette()) their *_local_* variants, which stage the palette in
+  // work-group local memory first.
+  std::array<std::array<std::array<std::array<cl_kernel, kMaxInfluences>, 3>, 2>, 2> kernels = {};
+  // [with normals][with tangents]: morph_positions, morph_positions_tangents,
+  // morph_positions_normals, morph_positions_normals_tangents.
+  std::array<std::array<cl_kernel, 2>, 2> morph_kernels = {};
   // The copy backend's per-frame buffers, grown to the largest frame this lane has run.
-  ClBuffer palette, out_positions, out_normals;
-  std::size_t palette_bytes = 0, positions_bytes = 0, normals_bytes = 0;
+  ClBuffer palette, out_positions, out_normals, out_tangents;
+  std::size_t palette_bytes = 0, positions_bytes = 0, normals_bytes = 0, tangents_bytes = 0;
   // Both backends' morph buffers: the frame's morphed rest arrays (and, for the copy
   // backend, its active weights), grown like the above; untouched by frames without morphs.
-  ClBuffer morph_weights, morphed_positions, morphed_normals;
-  std::size_t morph_weights_bytes = 0, morphed_positions_bytes = 0, morphed_normals_bytes = 0;
-  PinnedBuffer pinned_palette, pinned_positions, pinned_normals;
+  ClBuffer morph_weights, morphed_positions, morphed_normals, morphed_tangents;
+  std::size_t morph_weights_bytes = 0, morphed_positions_bytes = 0, morphed_normals_bytes = 0,
+              morphed_tangents_bytes = 0;
+  PinnedBuffer pinned_palette, pinned_positions, pinned_normals, pinned_tangents;
 };
 
 struct OpenClRuntimeOptions {
@@ -207,12 +218,14 @@ class OpenClRuntime {
   Lease AcquireLane();
 
   // Sets the arguments of `lane`'s kernel for args.method and `mesh`'s influence count
-  // (with normals when args.out_normals is set) and enqueues it on the lane's compute queue over
+  // (with normals when args.out_normals is set, and tangents when args.out_tangents is) and
+  // enqueues it on the lane's compute queue over
   // vertices [first, end) (first a multiple of kChunkAlignment). `event`: null or where to put the
   // kernel's event.
   Status EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args, uint32_t first,
                      uint32_t end, cl_event* event);
-  // Enqueues `lane`'s morph kernel (with normals when args.morphed_normals is set) over all
+  // Enqueues `lane`'s morph kernel (with normals when args.morphed_normals is set, tangents
+  // when args.morphed_tangents is) over all
   // `vertex_count` vertices on the lane's compute queue: the skinning kernels enqueued after
   // it on that queue read its output. `event`: null or where to put the kernel's event.
   Status EnqueueMorph(OpenClLane& lane, uint32_t vertex_count, const MorphKernelArgs& args,

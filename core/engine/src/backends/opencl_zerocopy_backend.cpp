@@ -1,10 +1,10 @@
 // `opencl-zerocopy`: stands for the paper's OpenCL-OpenGL interop, where the data never
 // leaves the buffers the renderer uses. Every buffer wraps host memory in place
-// (CL_MEM_USE_HOST_PTR): the mesh's own aligned arrays, the frame's palette and the
-// caller's output spans. PoCL's CPU device runs the kernel on that memory (its device
-// pointer is the host pointer), so there is no write before and no read after; mapping
-// the outputs is only the synchronisation the OpenCL memory model asks for, and a no-op
-// on PoCL. That holds for any float-aligned pointer, not only 64-byte aligned ones:
+// (CL_MEM_USE_HOST_PTR): the mesh's own aligned arrays (tangents included), the frame's
+// palette and the caller's output spans (positions, normals, tangents). PoCL's CPU device runs the
+// kernel on that memory (its device pointer is the host pointer), so there is no write before and
+// no read after; mapping the outputs is only the synchronisation the OpenCL memory model asks for,
+// and a no-op on PoCL. That holds for any float-aligned pointer, not only 64-byte aligned ones:
 // checked with POCL_DEBUG=memory on PoCL 3.1 ("Basic device ALLOC" at the host address,
 // kernel writes visible before the map).
 //
@@ -28,7 +28,7 @@ namespace {
 
 struct ZeroCopyPreparedMesh final : PreparedMesh {
   using PreparedMesh::PreparedMesh;
-  ClBuffer positions, normals, joints, weights;
+  ClBuffer positions, normals, tangents, joints, weights;
   OpenClMorphTargets morph;
 };
 
@@ -57,6 +57,9 @@ class OpenClZeroCopyBackend final : public Backend {
     if (mesh->has_normals()) {
       if (Status s = wrap("normals", &prepared->normals, mesh->normals()); !s.ok()) return s;
     }
+    if (mesh->has_tangents()) {
+      if (Status s = wrap("tangents", &prepared->tangents, mesh->tangents()); !s.ok()) return s;
+    }
     auto morph = CreateMorphTargets(*runtime_, *mesh, CL_MEM_USE_HOST_PTR);
     if (!morph.ok()) return morph.status();
     prepared->morph = std::move(morph).value();
@@ -64,7 +67,6 @@ class OpenClZeroCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
-    if (Status s = CheckTangentSupport(info(), !frame.tangents.empty()); !s.ok()) return s;
     if (frame.method == SkinningMethod::kDualQuaternion) {
       // The kernels take the palette as unit dual quaternions, converted here once per
       // frame into this thread's buffer, which the kernel then reads in place.
@@ -84,6 +86,11 @@ class OpenClZeroCopyBackend final : public Backend {
     if (with_normals && prepared.normals.get() == nullptr) {
       return InvalidArgument("normals requested, but the mesh has none");
     }
+    const bool with_tangents = !frame.tangents.empty();
+    if (with_tangents && (prepared.tangents.get() == nullptr || !with_normals)) {
+      return InvalidArgument(
+          "tangents requested, but the mesh has none or normals are not asked for");
+    }
     // Wrapping host memory is cheap (well under a microsecond on PoCL): per call, so
     // concurrent calls never share an output buffer.
     auto palette = runtime_->CreateBuffer("palette", CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
@@ -101,6 +108,14 @@ class OpenClZeroCopyBackend final : public Backend {
       if (!created.ok()) return created.status();
       out_normals = std::move(created).value();
     }
+    ClBuffer out_tangents;
+    if (with_tangents) {
+      auto created =
+          runtime_->CreateBuffer("output tangents", CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,
+                                 frame.tangents.size_bytes(), frame.tangents.data());
+      if (!created.ok()) return created.status();
+      out_tangents = std::move(created).value();
+    }
     SkinKernelArgs args{.method = frame.method,
                         .palette = palette->get(),
                         .joints = prepared.joints.get(),
@@ -110,6 +125,10 @@ class OpenClZeroCopyBackend final : public Backend {
     if (with_normals) {
       args.normals = prepared.normals.get();
       args.out_normals = out_normals.get();
+    }
+    if (with_tangents) {
+      args.tangents = prepared.tangents.get();
+      args.out_tangents = out_tangents.get();
     }
     ClBuffer morph_weights;
     if (MorphsOnDevice(frame, prepared.morph)) {
@@ -133,6 +152,9 @@ class OpenClZeroCopyBackend final : public Backend {
     }
     if (status.ok() && with_normals) {
       status = SyncToHost(*lane, out_normals.get(), frame.normals.size_bytes(), transfers);
+    }
+    if (status.ok() && with_tangents) {
+      status = SyncToHost(*lane, out_tangents.get(), frame.tangents.size_bytes(), transfers);
     }
     // One wait for the whole in-order sequence (kernel, maps, unmaps), also after an
     // error: the buffers wrap the caller's memory and must be idle when this returns.

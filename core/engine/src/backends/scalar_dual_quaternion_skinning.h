@@ -30,6 +30,7 @@ void SkinDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& pale
   float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
   float* out_t = frame.tangents.empty() ? nullptr : frame.tangents.data();
   constexpr std::size_t kStride = DualQuaternionPalette::kFloatsPerJoint;
+  const std::size_t r = frame.rest_first;  // the rest arrays' vertex 0
   for (std::size_t v = first; v < last; ++v) {
     const float* q0 = quaternions + kStride * joints[v * B];
     float b[8];
@@ -59,12 +60,12 @@ void SkinDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& pale
       out[1] = y + 2 * (rz * cx - rx * cz);
       out[2] = z + 2 * (rx * cy - ry * cx);
     };
-    rotate(positions + 3 * v, out_p + 3 * v);
+    rotate(positions + 3 * (v - r), out_p + 3 * v);
     out_p[3 * v] += tx, out_p[3 * v + 1] += ty, out_p[3 * v + 2] += tz;
-    if (out_n != nullptr) rotate(normals + 3 * v, out_n + 3 * v);
+    if (out_n != nullptr) rotate(normals + 3 * (v - r), out_n + 3 * v);
     if (out_t != nullptr) {
-      rotate(tangents + 4 * v, out_t + 4 * v);
-      out_t[4 * v + 3] = tangents[4 * v + 3];
+      rotate(tangents + 4 * (v - r), out_t + 4 * v);
+      out_t[4 * v + 3] = tangents[4 * (v - r) + 3];
     }
   }
 }

@@ -24,6 +24,7 @@ void SkinScalarRange(const Mesh& mesh, const float* palette, const SkinFrame& fr
   float* out_p = frame.positions.data();
   float* out_n = frame.normals.empty() ? nullptr : frame.normals.data();
   float* out_t = frame.tangents.empty() ? nullptr : frame.tangents.data();
+  const std::size_t r = frame.rest_first;  // the rest arrays' vertex 0
   for (std::size_t v = first; v < last; ++v) {
     // Equation 3: m = sum_i w_i * palette[d_i].
     float m[12];
@@ -38,12 +39,14 @@ void SkinScalarRange(const Mesh& mesh, const float* palette, const SkinFrame& fr
       for (int e = 0; e < 12; ++e) m[e] += w * j[e];
     }
     // Equation 4: p' = m (x, y, z, 1).
-    const float x = positions[3 * v], y = positions[3 * v + 1], z = positions[3 * v + 2];
+    const float* p = positions + 3 * (v - r);
+    const float x = p[0], y = p[1], z = p[2];
     out_p[3 * v] = m[0] * x + m[1] * y + m[2] * z + m[3];
     out_p[3 * v + 1] = m[4] * x + m[5] * y + m[6] * z + m[7];
     out_p[3 * v + 2] = m[8] * x + m[9] * y + m[10] * z + m[11];
     if (out_n != nullptr) {
-      const float nx = normals[3 * v], ny = normals[3 * v + 1], nz = normals[3 * v + 2];
+      const float* n = normals + 3 * (v - r);
+      const float nx = n[0], ny = n[1], nz = n[2];
       const float tx = m[0] * nx + m[1] * ny + m[2] * nz;
       const float ty = m[4] * nx + m[5] * ny + m[6] * nz;
       const float tz = m[8] * nx + m[9] * ny + m[10] * nz;
@@ -53,7 +56,7 @@ void SkinScalarRange(const Mesh& mesh, const float* palette, const SkinFrame& fr
       out_n[3 * v + 2] = tz * inv;
     }
     if (out_t != nullptr) {  // the tangent's xyz as the normal, its w as it is
-      const float* t = tangents + 4 * v;
+      const float* t = tangents + 4 * (v - r);
       const float sx = m[0] * t[0] + m[1] * t[1] + m[2] * t[2];
       const float sy = m[4] * t[0] + m[5] * t[1] + m[6] * t[2];
       const float sz = m[8] * t[0] + m[9] * t[1] + m[10] * t[2];

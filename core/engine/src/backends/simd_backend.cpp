@@ -203,16 +203,23 @@ class SimdBackend final : public Backend {
            const Palette& palette, const SkinFrame& frame, const Outputs& out) {
     const std::size_t count = mesh.vertex_count();
     const auto skin_range = [&](std::size_t first, std::size_t last) {
-      ForEachMorphedRange(mesh, frame, first, last,
-                          [&](const float* rest_p, const float* rest_n, const float* rest_t,
-                              std::size_t from, std::size_t to) {
-                            simd::VertexStream morphed = stream;
-                            morphed.positions = rest_p;
-                            if (rest_n != nullptr) morphed.normals = rest_n;
-                            if (rest_t != nullptr) morphed.tangents = rest_t;
-                            range(morphed, palette, frame.positions.data(), out.normals,
-                                  out.tangents, from, to);
-                          });
+      ForEachMorphedRange(
+          mesh, frame, first, last, [&](const RestArrays& rest, std::size_t from, std::size_t to) {
+            // Every array of the stream from `from` on, so the kernel
+            // reads a morphed chunk's scratch from its index 0.
+            const std::size_t skip = from - rest.first;
+            const std::size_t b = stream.influences;
+            simd::VertexStream chunk = stream;
+            chunk.positions = rest.positions + 3 * skip;
+            chunk.normals = rest.normals ? rest.normals + 3 * skip : nullptr;
+            chunk.tangents = rest.tangents ? rest.tangents + 4 * skip : nullptr;
+            if (chunk.joints8 != nullptr) chunk.joints8 += b * from;
+            if (chunk.joints16 != nullptr) chunk.joints16 += b * from;
+            if (chunk.weights != nullptr) chunk.weights += (b - 1) * from;
+            range(chunk, palette, frame.positions.data() + 3 * from,
+                  out.normals == nullptr ? nullptr : out.normals + 3 * from,
+                  out.tangents == nullptr ? nullptr : out.tangents + 4 * from, 0, to - from);
+          });
     };
     const int threads = FrameThreads(frame.threads, info_.threads);
     if (threads <= 1) {

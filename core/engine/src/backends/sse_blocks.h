@@ -29,11 +29,12 @@ inline void ForEachBlockOfFour(const Mesh& mesh, const SkinFrame& frame, std::si
   float* out_p = frame.positions.data();
   float* out_n = Normals ? frame.normals.data() : nullptr;
   float* out_t = Tangents ? frame.tangents.data() : nullptr;
+  const std::size_t r = frame.rest_first;  // the rest arrays' vertex 0
   std::size_t v = first;
   for (; v + 4 <= last; v += 4) {
-    skin_four(positions + 3 * v, Normals ? normals + 3 * v : nullptr,
-              Tangents ? tangents + 4 * v : nullptr, joints + B * v, weights + B * v, out_p + 3 * v,
-              Normals ? out_n + 3 * v : nullptr, Tangents ? out_t + 4 * v : nullptr);
+    skin_four(positions + 3 * (v - r), Normals ? normals + 3 * (v - r) : nullptr,
+              Tangents ? tangents + 4 * (v - r) : nullptr, joints + B * v, weights + B * v,
+              out_p + 3 * v, Normals ? out_n + 3 * v : nullptr, Tangents ? out_t + 4 * v : nullptr);
   }
   if (v == last) return;
   float in_p[12], in_n[12] = {}, res_p[12], res_n[12], in_w[4 * B];
@@ -42,9 +43,9 @@ inline void ForEachBlockOfFour(const Mesh& mesh, const SkinFrame& frame, std::si
   const std::size_t count = last - v;
   for (std::size_t k = 0; k < 4; ++k) {
     const std::size_t src = v + std::min(k, count - 1);
-    std::copy_n(positions + 3 * src, 3, in_p + 3 * k);
-    if constexpr (Normals) std::copy_n(normals + 3 * src, 3, in_n + 3 * k);
-    if constexpr (Tangents) std::copy_n(tangents + 4 * src, 4, in_t + 4 * k);
+    std::copy_n(positions + 3 * (src - r), 3, in_p + 3 * k);
+    if constexpr (Normals) std::copy_n(normals + 3 * (src - r), 3, in_n + 3 * k);
+    if constexpr (Tangents) std::copy_n(tangents + 4 * (src - r), 4, in_t + 4 * k);
     std::copy_n(joints + B * src, B, in_j + B * k);
     std::copy_n(weights + B * src, B, in_w + B * k);
   }

@@ -39,13 +39,15 @@ struct CharacterSkin {
 
 // One primitive of one mesh node, ready for Mesh::Create: skinned (the node has a skin) or
 // a rigid part (skin -1: a mesh node without a skin, whose vertices all follow the node).
-//  - arrays: positions, normals (when present), joints/weights with `influences` = 4 per
+//  - arrays: positions, normals (when present), tangents (TANGENT, when present with
+//    NORMAL: xyz renormalised, w snapped to +-1), joints/weights with `influences` = 4 per
 //    JOINTS_n/WEIGHTS_n set present (4 or 8), joint indices into the skin's joints; a
 //    rigid part has 1 influence, joint 0 weight 1, joint_count 1 (palette: the node's
 //    world matrix), and its positions in the node's space.
-//    Morph targets (the primitive's `targets`: POSITION and NORMAL deltas, TANGENT ignored)
-//    as sparse targets, in the file's order: a vertex whose deltas are all zero is left
-//    out. Target t takes weight t of `node` (CharacterNode::weights).
+//    Morph targets (the primitive's `targets`: POSITION, NORMAL and TANGENT deltas, the
+//    last two when the primitive has normals, tangents) as sparse targets, in the file's
+//    order: a vertex whose deltas are all zero is left out. Target t takes weight t of
+//    `node` (CharacterNode::weights).
 //  - indices: triangle list into the vertices (3 per triangle), for viewers and renders.
 struct SkinnedPrimitive {
   std::string name;  // "<mesh name>/<primitive index>"
@@ -54,6 +56,9 @@ struct SkinnedPrimitive {
   bool rigid() const { return skin < 0; }
   MeshArrays arrays;
   std::vector<uint32_t> indices;
+  // What of the primitive the spec says to ignore and the importer left out (e.g. TANGENT
+  // without NORMAL), one line each, naming the object: the tools print them.
+  std::vector<std::string> warnings;
 };
 
 enum class ChannelPath { kTranslation, kRotation, kScale, kWeights };

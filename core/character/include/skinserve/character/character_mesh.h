@@ -32,7 +32,8 @@ struct MorphTargetSource {
 };
 
 // Primitives of one skin, and the character's rigid parts, concatenated.
-//  - arrays: positions, normals (all or none of the parts have them), joints/weights padded
+//  - arrays: positions, normals and tangents (all or none of the parts have each; morph
+//    normal and tangent deltas zero for a part whose targets lack them), joints/weights padded
 //    to the largest influence count of the parts (weight 0, joint 0), joint_count = the
 //    skin's joints + rigid_nodes.
 //  - palette (MeshPalette): the skin's palette, then the world matrix of each rigid node;
@@ -44,7 +45,8 @@ struct MorphTargetSource {
 struct CharacterMesh {
   int skin = -1;     // -1: no skin (rigid parts only)
   std::string name;  // the skin's name, or "skins[N]", or "rigid parts"; with " (normals)" /
-                     // " (no normals)" when the parts are split on that
+                     // " (no normals)", " (tangents)" / " (no tangents)" when the parts
+                     // are split on that
   std::vector<int> rigid_nodes;  // nodes the rigid parts follow, in order of first part
   MeshArrays arrays;
   std::vector<uint32_t> indices;
@@ -55,10 +57,10 @@ struct CharacterMesh {
 // The character's meshes: one per skin, in order of the skins' first primitive. Rigid
 // parts join the mesh of the first skin (so a character with one skin is one mesh, one
 // palette, one request), or a mesh of their own (skin -1) when no skinned primitive is
-// taken. Parts that disagree on normals go into two meshes (with, without), since a mesh
-// has normals for all of its vertices or none. `only` >= 0 takes that primitive alone.
-// INVALID_ARGUMENT when `only` is not a primitive, a mesh's parts exceed 2^32 - 1 vertices,
-// or its skin's joints and rigid nodes exceed kMaxJointsLimit.
+// taken. Parts that disagree on normals (or tangents) go into two meshes (with, without),
+// since a mesh has normals (tangents) for all of its vertices or none. `only` >= 0 takes that
+// primitive alone. INVALID_ARGUMENT when `only` is not a primitive, a mesh's parts exceed 2^32 - 1
+// vertices, or its skin's joints and rigid nodes exceed kMaxJointsLimit.
 Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, int only = -1);
 
 // The mesh's non-zero morph target weights at `pose` (sparse, as a frame carries them),

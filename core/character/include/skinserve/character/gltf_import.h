@@ -23,4 +23,8 @@ Result<Character> LoadGltfFile(const std::string& path);
 // relative to `base_dir`.
 Result<Character> LoadGltfBytes(std::span<const uint8_t> bytes, const std::string& base_dir = "");
 
+// Writes each primitive's warnings (SkinnedPrimitive::warnings: what the importer left out
+// as the spec says) to stderr as "<path>: warning: ...", for the command-line tools.
+void PrintImportWarnings(const Character& character, const std::string& path);
+
 }  // namespace skinserve

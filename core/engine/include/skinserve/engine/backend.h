@@ -73,10 +73,10 @@ struct DeviceTiming {
 //               are added to the rest positions, normals and tangents' xyz before
 //               skinning, whatever the method. Empty (or all zero): the rest arrays as
 //               they are.
-//  - rest_positions, rest_normals, rest_tangents: set by a backend's morph stage only
-//               (morph_stage.h), for the loops: the rest arrays to skin, indexed by vertex
-//               like the mesh's (only the range being skinned is meaningful); null: the
-//               mesh's own.
+//  - rest_positions, rest_normals, rest_tangents, rest_first: set by a backend's morph
+//               stage only (morph_stage.h), for the loops: the rest arrays to skin, whose
+//               index 0 is vertex rest_first (the first of the range being skinned); null
+//               (and rest_first 0): the mesh's own.
 struct SkinFrame {
   std::span<const float> palette;
   std::span<float> positions;
@@ -89,6 +89,7 @@ struct SkinFrame {
   const float* rest_positions = nullptr;
   const float* rest_normals = nullptr;
   const float* rest_tangents = nullptr;  // 4 floats per vertex like the mesh's
+  std::size_t rest_first = 0;
 
   Status Validate(const Mesh& mesh) const;
 };
