@@ -171,7 +171,7 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
       benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
   // Quantized rows: what the rest stream really moves (quantized_rest.h).
   const double bytes = rest == RestEncoding::kFloat32
-                           ? BytesPerVertex(bones, normals)
+                           ? BytesPerVertex(bones, normals, tangents)
                            : StreamedBytesPerVertex(rest, bones, kPaperJoints, normals);
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * vertices * bytes));
   state.counters["bytes_per_vertex"] = bytes;

@@ -45,9 +45,10 @@ class WorkloadCache {
 };
 
 // Bytes one frame moves through memory: per influence a uint16 joint and a float weight,
-// 12 bytes of position in and out, and as much again for normals.
-inline double BytesPerVertex(uint32_t bones, bool normals) {
-  return bones * (2.0 + 4.0) + (normals ? 48.0 : 24.0);
+// 12 bytes of position in and out, as much again for normals, and 16 in and out for
+// tangents (x y z w).
+inline double BytesPerVertex(uint32_t bones, bool normals, bool tangents = false) {
+  return bones * (2.0 + 4.0) + (normals ? 48.0 : 24.0) + (tangents ? 32.0 : 0.0);
 }
 
 }  // namespace skinserve::bench
