@@ -2,8 +2,9 @@
  * CPU loops (core/engine/src/backends/scalar_dual_quaternion_skinning.h): per vertex the B
  * unit dual quaternions are blended, each one's sign chosen against the first influence
  * (q and -q are the same rotation), normalised by the real part's length and applied to
- * the position; the normal and the tangent's xyz are rotated by the blended rotation (a
- * unit quaternion: no renormalisation), the tangent's w copied.
+ * the position; the normal and the tangent's xyz are rotated by the blended rotation and
+ * renormalised (as linear blending's: the rotation keeps a morphed normal's length, not
+ * 1), the tangent's w copied.
  * The palette is the frame's DualQuaternionPalette, converted on the host once per frame:
  * 8 floats per joint, the rotation (x, y, z, w) then the dual part (x, y, z, w).
  *
@@ -57,12 +58,14 @@ static inline void StoreDualQuaternionPosition(const float4 r, const float4 e,
  * v's rotated normal (DQS_NORMAL), its rotated normal and tangent (DQS_NORMAL_TANGENT: xyz
  * rotated, w the rest tangent's) or nothing (DQS_NO_NORMAL); BLEND reads PALETTE, VERTEX(k)
  * is the k-th vertex of this work-item. */
-#define DQS_NORMAL(r, v) vstore3(RotateByQuaternion(r, vload3(v, normals)), v, out_normals)
+#define DQS_NORMAL(r, v) \
+  vstore3(normalize(RotateByQuaternion(r, vload3(v, normals))), v, out_normals)
 #define DQS_NORMAL_TANGENT(r, v)                                                           \
   DQS_NORMAL(r, v);                                                                        \
   {                                                                                        \
     const float4 tangent = vload4(v, tangents);                                            \
-    vstore4((float4)(RotateByQuaternion(r, tangent.xyz), tangent.w), v, out_tangents);     \
+    vstore4((float4)(normalize(RotateByQuaternion(r, tangent.xyz)), tangent.w), v,         \
+            out_tangents);                                                                 \
   }
 #define DQS_NO_NORMAL(r, v)
 #define DQS_BODY(B, NORMALS, BLEND, PALETTE, VERTEX)                                       \

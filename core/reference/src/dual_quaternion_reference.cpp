@@ -49,12 +49,13 @@ ReferenceFrame ReferenceSkinDualQuaternion(const Mesh& mesh, std::span<const flo
     for (int k = 0; k < 3; ++k) out.positions[3 * v + k] = moved[k];
     if (mesh.has_normals()) {
       const double* n = &rest.normals[3 * v];
-      const glm::dvec3 turned = blend.real * glm::dvec3(n[0], n[1], n[2]);
+      // Unit, as linear blending's: a morphed normal is not (the rotation keeps its length).
+      const glm::dvec3 turned = glm::normalize(blend.real * glm::dvec3(n[0], n[1], n[2]));
       for (int k = 0; k < 3; ++k) out.normals[3 * v + k] = turned[k];
     }
     if (mesh.has_tangents()) {
       const double* t = &rest.tangents[4 * v];
-      const glm::dvec3 turned = blend.real * glm::dvec3(t[0], t[1], t[2]);
+      const glm::dvec3 turned = glm::normalize(blend.real * glm::dvec3(t[0], t[1], t[2]));
       for (int k = 0; k < 3; ++k) out.tangents[4 * v + k] = turned[k];
       out.tangents[4 * v + 3] = t[3];
     }

@@ -62,9 +62,19 @@ void SkinDualQuaternionRange(const Mesh& mesh, const DualQuaternionPalette& pale
     };
     rotate(positions + 3 * (v - r), out_p + 3 * v);
     out_p[3 * v] += tx, out_p[3 * v + 1] += ty, out_p[3 * v + 2] += tz;
-    if (out_n != nullptr) rotate(normals + 3 * (v - r), out_n + 3 * v);
+    // Normals and tangents come out unit, as linear blending's: the rotation keeps a
+    // length, and a morphed normal's is not 1.
+    const auto normalize = [](float* out) {
+      const float inv = 1.0f / std::sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]);
+      out[0] *= inv, out[1] *= inv, out[2] *= inv;
+    };
+    if (out_n != nullptr) {
+      rotate(normals + 3 * (v - r), out_n + 3 * v);
+      normalize(out_n + 3 * v);
+    }
     if (out_t != nullptr) {
       rotate(tangents + 4 * (v - r), out_t + 4 * v);
+      normalize(out_t + 4 * v);
       out_t[4 * v + 3] = tangents[4 * (v - r) + 3];
     }
   }

@@ -208,15 +208,23 @@ HWY_INLINE void TransformStep(const float* HWY_RESTRICT real, const float* HWY_R
   hn::LoadInterleaved3(d, positions, x, y, z);
   Rotate(rx, ry, rz, rw, x, y, z);
   hn::StoreInterleaved3(hn::Add(x, tx), hn::Add(y, ty), hn::Add(z, tz), d, out_p);
+  // Normals and tangents come out unit, as linear blending's: the rotation keeps a length,
+  // and a morphed normal's is not 1.
+  const auto normalize = [](V& vx, V& vy, V& vz) {
+    const V inv = InverseLength(hn::MulAdd(vx, vx, hn::MulAdd(vy, vy, hn::Mul(vz, vz))));
+    vx = hn::Mul(vx, inv), vy = hn::Mul(vy, inv), vz = hn::Mul(vz, inv);
+  };
   if constexpr (Normals) {
     hn::LoadInterleaved3(d, normals, x, y, z);
     Rotate(rx, ry, rz, rw, x, y, z);
+    normalize(x, y, z);
     hn::StoreInterleaved3(x, y, z, d, out_n);
   }
   if constexpr (Tangents) {
     V w;
     hn::LoadInterleaved4(d, tangents, x, y, z, w);
     Rotate(rx, ry, rz, rw, x, y, z);
+    normalize(x, y, z);
     hn::StoreInterleaved4(x, y, z, w, d, out_t);
   }
 }

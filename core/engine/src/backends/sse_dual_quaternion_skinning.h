@@ -83,6 +83,16 @@ SKINSERVE_FORCE_INLINE Lanes3 Rotate(const Lanes8& q, const Lanes3& p) {
           _mm_add_ps(p.z, _mm_mul_ps(two, _mm_sub_ps(_mm_mul_ps(q.rx, cy), _mm_mul_ps(q.ry, cx))))};
 }
 
+// v / |v| lane-wise (a true square root and division, as the blend's): normals and tangents
+// come out unit as linear blending's; the rotation keeps a morphed normal's length.
+SKINSERVE_FORCE_INLINE Lanes3 Normalize(const Lanes3& v) {
+  const __m128 inverse =
+      _mm_div_ps(_mm_set1_ps(1.0f),
+                 _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(v.x, v.x), _mm_mul_ps(v.y, v.y)),
+                                        _mm_mul_ps(v.z, v.z))));
+  return {_mm_mul_ps(v.x, inverse), _mm_mul_ps(v.y, inverse), _mm_mul_ps(v.z, inverse)};
+}
+
 // Skins one block of four vertices: 12 floats of positions (and normals; 16 of tangents,
 // transposed to lanes and back, w untouched) in and out.
 template <int B, bool Normals, bool Tangents>
@@ -142,15 +152,16 @@ SKINSERVE_FORCE_INLINE void SkinFourDualQuaternion(const float* quaternions, con
                                           _mm_loadu_ps(positions + 8)));
   StoreInterleaved({_mm_add_ps(p.x, tx), _mm_add_ps(p.y, ty), _mm_add_ps(p.z, tz)}, out_positions);
   if constexpr (Normals) {
-    StoreInterleaved(Rotate(q, Deinterleave(_mm_loadu_ps(normals), _mm_loadu_ps(normals + 4),
-                                            _mm_loadu_ps(normals + 8))),
-                     out_normals);
+    StoreInterleaved(
+        Normalize(Rotate(q, Deinterleave(_mm_loadu_ps(normals), _mm_loadu_ps(normals + 4),
+                                         _mm_loadu_ps(normals + 8)))),
+        out_normals);
   }
   if constexpr (Tangents) {
     __m128 x = _mm_loadu_ps(tangents), y = _mm_loadu_ps(tangents + 4);
     __m128 z = _mm_loadu_ps(tangents + 8), w = _mm_loadu_ps(tangents + 12);
     _MM_TRANSPOSE4_PS(x, y, z, w);
-    const Lanes3 turned = Rotate(q, {x, y, z});
+    const Lanes3 turned = Normalize(Rotate(q, {x, y, z}));
     x = turned.x, y = turned.y, z = turned.z;
     _MM_TRANSPOSE4_PS(x, y, z, w);
     _mm_storeu_ps(out_tangents, x), _mm_storeu_ps(out_tangents + 4, y);
