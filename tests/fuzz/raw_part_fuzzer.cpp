@@ -43,12 +43,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (raw_ok != protobuf_ok) std::abort();
   if (!raw_ok) return 0;
   if (raw.positions_size() != parsed.positions().size() ||
-      raw.normals_size() != parsed.normals().size()) {
+      raw.normals_size() != parsed.normals().size() ||
+      raw.tangents_size() != parsed.tangents().size()) {
     std::abort();
   }
   skinserve::v1::SkinResponse header = parsed;
   header.clear_positions();
   header.clear_normals();
+  header.clear_tangents();  // a vertex field too: RawPart keeps it out of the header
   if (header.SerializeAsString() != raw.header().SerializeAsString()) std::abort();
   // Decode every whole vertex of each field both ways, in each encoding.
   const Bounds box{{-1, -2, -3}, {4, 5, 6}};
