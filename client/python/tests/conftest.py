@@ -1,8 +1,10 @@
 """A real skinserve server for the tests: $SKINSERVE_BINARY on a free loopback port."""
 import os
+import shutil
 import signal
 import socket
 import subprocess
+import tempfile
 import time
 
 import grpc
@@ -71,3 +73,11 @@ def client(server):
 @pytest.fixture
 def rng():
     return np.random.default_rng(15)
+
+
+@pytest.fixture(scope="module")
+def shm_dir():
+    """A folder in /dev/shm for one test module's servers' regions (--shm-dir)."""
+    path = tempfile.mkdtemp(prefix="skinserve-py-", dir="/dev/shm")
+    yield path
+    shutil.rmtree(path, ignore_errors=True)

@@ -2,8 +2,6 @@
 on this host (its --shm-dir a fresh folder under /dev/shm), frames written into them and
 answered as NumPy arrays that view the region, checked against the float64 reference."""
 import os
-import shutil
-import tempfile
 
 import grpc
 import numpy as np
@@ -15,13 +13,6 @@ from reference import random_mesh, random_palette, skin
 from test_crowds_and_encodings import NORMAL_TOLERANCE, POSITION_TOLERANCE, check_instance
 
 JOINTS = 30
-
-
-@pytest.fixture(scope="module")
-def shm_dir():
-    path = tempfile.mkdtemp(prefix="skinserve-py-", dir="/dev/shm")
-    yield path
-    shutil.rmtree(path, ignore_errors=True)
 
 
 @pytest.fixture(scope="module")

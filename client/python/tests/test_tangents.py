@@ -8,8 +8,6 @@ missing normals) or by the server naming the vertex and the limit; the backend l
 which backends skin tangents; morph targets' tangent deltas (MorphTarget.tangents) upload
 with their targets and are checked where they land."""
 import asyncio
-import shutil
-import tempfile
 
 import grpc
 import numpy as np
@@ -109,13 +107,6 @@ def test_the_asyncio_client_answers_tangents(server, rng):
 def as_float32(answer):
     """A region's float16 answer views the region as float16: widen it (exactly)."""
     return tuple(np.asarray(a, dtype=np.float32) for a in answer)
-
-
-@pytest.fixture(scope="module")
-def shm_dir():
-    path = tempfile.mkdtemp(prefix="skinserve-py-tangents-", dir="/dev/shm")
-    yield path
-    shutil.rmtree(path, ignore_errors=True)
 
 
 @pytest.fixture(scope="module")
