@@ -159,13 +159,17 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
   // Encoded instance by instance: skinned into the compute thread's scratch, kept in its
   // core's cache, unless an instance is too large for it.
   // Tangents are never skinned into scratch (the engine's rule): such frames keep floats.
+  // A backend that writes this encoding itself (on its device: only the encoded bytes come
+  // back) skins straight into the wire buffer or the region, and sends the boxes it found.
+  device_encoded_ = !float32 && plan().BackendWrites(encoding_);
   const bool scratch =
-      !float32 && !want_tangents_ &&
+      !float32 && !device_encoded_ && !want_tangents_ &&
       ScratchFloatsPerInstance(vertices_, want_normals_) <= kMaxScratchFloatsPerInstance;
   // What this frame holds while in flight; the job keeps its buffers, so only growth is
   // charged.
-  const uint64_t floats_kept =
-      float32 || scratch ? 0 : (arrays * values + tangent_values) * sizeof(float);
+  const uint64_t floats_kept = float32 || scratch || device_encoded_
+                                   ? 0
+                                   : (arrays * values + tangent_values) * sizeof(float);
   const uint64_t need = wire.palette().size() + floats_kept + std::max(wire_used_, wire_.size());
   if (need > charged_) {
     if (Status s = budget_->TryCharge(need - charged_); !s.ok()) return s;
@@ -179,7 +183,21 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
   if (bounds_.size() < instances_) bounds_.resize(instances_);
 
   if (wire_.size() < wire_used_) wire_ = AlignedBuffer<std::byte>(wire_used_);
-  if (float32) {  // skinned straight into the wire buffer or the region, aligned for SIMD
+  request.encoded = {};
+  if (device_encoded_) {
+    request.positions = {};
+    request.normals = {};
+    request.tangents = {};
+    const std::size_t tangent_bytes = tangent_values * EncodedBytesPerValue(encoding_);
+    request.encoded = {.encoding = encoding_,
+                       .positions = {PositionsOut(), payload},
+                       .normals = want_normals_ ? std::span<std::byte>(NormalsOut(), payload)
+                                                : std::span<std::byte>(),
+                       .tangents = want_tangents_
+                                       ? std::span<std::byte>(TangentsOut(), tangent_bytes)
+                                       : std::span<std::byte>(),
+                       .bounds = boxed_ ? bounds_.data() : nullptr};
+  } else if (float32) {  // skinned straight into the wire buffer or the region, aligned for SIMD
     const auto floats = [&](std::byte* out) {
       return std::span<float>(reinterpret_cast<float*>(out), values);
     };
@@ -285,7 +303,8 @@ void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
 
 Status FrameJob::OnInstanceSkinned(uint32_t instance, std::span<const float> positions,
                                    std::span<const float> normals) {
-  if (encoding_ != VertexEncoding::kFloat32) {  // float32 is skinned in place
+  // float32 is skinned in place, and a backend that encodes writes the bytes itself.
+  if (encoding_ != VertexEncoding::kFloat32 && !device_encoded_) {
     const auto started = std::chrono::steady_clock::now();
     Status s = EncodeInstance(instance, positions, normals);
     encode_ns_.fetch_add(std::chrono::duration_cast<std::chrono::nanoseconds>(

@@ -120,7 +120,8 @@ class FrameJob final : public SkinJob {
   bool want_normals_ = false;
   bool want_tangents_ = false;  // x y z w per vertex, after the normals
   VertexEncoding encoding_ = VertexEncoding::kFloat32;
-  bool boxed_ = false;  // each instance's box travels with it (snorm16)
+  bool boxed_ = false;           // each instance's box travels with it (snorm16)
+  bool device_encoded_ = false;  // the backend writes the encoding (BackendInfo.encoded_outputs)
   std::vector<float> palette_;
   std::vector<MorphWeight> morph_;  // the frame's morph weights, capacity reused
   // A crowd's per-instance morph weights, back to back, and one view per instance.

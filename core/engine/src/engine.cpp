@@ -135,6 +135,7 @@ class Engine::Impl {
     }
     const std::size_t outputs = 3ull * mesh.vertex_count();
     if (request.skin_into_scratch) return CheckScratch(request, mesh, instances);
+    if (request.encoded.active()) return CheckEncodedSizes(request, mesh, instances);
     if (request.positions.size() != outputs * instances) {
       return InvalidArgument(fmt::format(
           "positions output holds {} floats; expected 3 * vertex_count * instances = {}",
@@ -190,6 +191,21 @@ class Engine::Impl {
     return Status::Ok();
   }
 
+  // A frame with encoded output: a backend that writes that encoding, no scratch.
+  static Status CheckEncoded(const SkinRequest& request, const BackendInfo& info) {
+    if (!request.encoded.active()) return Status::Ok();
+    if (!info.WritesEncoding(request.encoded.encoding)) {
+      return FailedPrecondition(
+          fmt::format("backend '{}' does not write {} output itself (BackendInfo.encoded_outputs); "
+                      "ask for float32 and encode the result",
+                      info.id, VertexEncodingName(request.encoded.encoding)));
+    }
+    if (request.skin_into_scratch) {
+      return InvalidArgument("encoded output and skin_into_scratch exclude each other");
+    }
+    return Status::Ok();
+  }
+
   // Check() for skin_into_scratch: no output arrays; the instance fits the scratch.
   static Status CheckScratch(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
     if (!request.tangents.empty()) {
@@ -224,6 +240,31 @@ class Engine::Impl {
     return Status::Ok();
   }
 
+  // Check() for encoded output: K instances' bytes, K boxes; each instance's frame valid.
+  static Status CheckEncodedSizes(const SkinRequest& request, const Mesh& mesh,
+                                  uint32_t instances) {
+    const EncodedOutput& e = request.encoded;
+    const std::size_t bytes = EncodedBytes(e.encoding, mesh.vertex_count());
+    const std::size_t tangent_bytes = EncodedTangentBytes(e.encoding, mesh.vertex_count());
+    if (e.positions.size() != bytes * instances ||
+        (!e.normals.empty() && e.normals.size() != bytes * instances) ||
+        (!e.tangents.empty() && e.tangents.size() != tangent_bytes * instances)) {
+      return InvalidArgument(fmt::format(
+          "encoded output holds {} / {} / {} bytes of positions / normals / tangents; {} "
+          "instances of {} vertices in {} need {} / {} / {}",
+          e.positions.size(), e.normals.size(), e.tangents.size(), instances, mesh.vertex_count(),
+          VertexEncodingName(e.encoding), bytes * instances, bytes * instances,
+          tangent_bytes * instances));
+    }
+    for (uint32_t i = 0; i < instances; ++i) {
+      if (Status s = InstanceFrame(request, mesh, i).Validate(mesh); !s.ok()) {
+        if (instances == 1) return s;
+        return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
+      }
+    }
+    return Status::Ok();
+  }
+
   static std::size_t ScratchFloats(const SkinRequest& request, const Mesh& mesh) {
     return ScratchFloatsPerInstance(mesh.vertex_count(), request.scratch_normals);
   }
@@ -241,6 +282,20 @@ class Engine::Impl {
       if (!request.tangents.empty()) {
         frame.tangents = request.tangents.subspan(i * tangents, tangents);
       }
+    }
+    if (request.encoded.active()) {
+      const EncodedOutput& e = request.encoded;
+      const std::size_t bytes = EncodedBytes(e.encoding, mesh.vertex_count());
+      const std::size_t tangent_bytes = EncodedTangentBytes(e.encoding, mesh.vertex_count());
+      frame.encoded.encoding = e.encoding;
+      frame.encoded.positions = e.positions.subspan(std::min(e.positions.size(), i * bytes));
+      frame.encoded.positions = frame.encoded.positions.first(
+          std::min(frame.encoded.positions.size(), bytes));  // sizes checked
+      if (!e.normals.empty()) frame.encoded.normals = e.normals.subspan(i * bytes, bytes);
+      if (!e.tangents.empty()) {
+        frame.encoded.tangents = e.tangents.subspan(i * tangent_bytes, tangent_bytes);
+      }
+      if (e.bounds != nullptr) frame.encoded.bounds = e.bounds + i;
     }
     frame.method = request.method;
     frame.morph_weights = request.instance_morph_weights.empty()
@@ -273,7 +328,8 @@ class Engine::Impl {
                   .has_normals = mesh.has_normals(),
                   .has_tangents = mesh.has_tangents(),
                   .morph_target_count = mesh.morph_target_count(),
-                  .backend_tangents = backends_[*backend_index]->info().tangents};
+                  .backend_tangents = backends_[*backend_index]->info().tangents,
+                  .backend_encodings = EncodingMask(backends_[*backend_index]->info())};
     return Status::Ok();
   }
 
@@ -298,7 +354,12 @@ class Engine::Impl {
     const uint32_t instances = std::max<uint32_t>(request.instances, 1);
     const BackendInfo& info = backends_[job->backend_index_]->info();
     if (Status s = CheckMorph(request, mesh, info, instances); !s.ok()) return s;
-    if (Status s = CheckTangentSupport(info, !request.tangents.empty()); !s.ok()) return s;
+    if (Status s = CheckTangentSupport(
+            info, !request.tangents.empty() || !request.encoded.tangents.empty());
+        !s.ok()) {
+      return s;
+    }
+    if (Status s = CheckEncoded(request, info); !s.ok()) return s;
     if (Status s = Check(request, mesh, instances); !s.ok()) return s;
 
     job->engine_ = this;
@@ -506,6 +567,11 @@ void Engine::RunPart(void* context, uint32_t instance, int threads) {
   job.started_ns_.compare_exchange_strong(unset, NowNs());
   SkinFrame frame;
   Status status = impl.RunInstance(job, instance, threads, &frame);
+  if (!status.ok() && job.request.encoded.active() && job.request.instances > 1) {
+    // The backend encoded (and refused a value of) this instance: say which one, as the
+    // server does for what it encodes itself.
+    status = Status(status.code(), fmt::format("instance {}: {}", instance, status.message()));
+  }
   if (status.ok()) {
     try {
       status = job.OnInstanceSkinned(instance, frame.positions, frame.normals);

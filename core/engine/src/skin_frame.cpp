@@ -12,6 +12,13 @@ bool BackendInfo::Supports(SkinningMethod method) const {
   return false;
 }
 
+bool BackendInfo::WritesEncoding(VertexEncoding encoding) const {
+  for (VertexEncoding e : encoded_outputs) {
+    if (e == encoding) return true;
+  }
+  return false;
+}
+
 Status CheckMorphSupport(const BackendInfo& info, std::span<const MorphWeight> weights) {
   if (info.morph_targets || !HasActiveMorph(weights)) return Status::Ok();
   return FailedPrecondition(fmt::format(
@@ -36,6 +43,7 @@ Status SkinFrame::Validate(const Mesh& mesh) const {
     if (Status s = ValidateRigidPalette(palette); !s.ok()) return s;
   }
   if (Status s = ValidateMorphWeights(morph_weights, mesh.morph_target_count()); !s.ok()) return s;
+  if (encoded.active()) return ValidateEncoded(mesh);
   const std::size_t expected = 3ull * mesh.vertex_count();
   if (positions.size() != expected) {
     return InvalidArgument(
@@ -64,6 +72,49 @@ Status SkinFrame::Validate(const Mesh& mesh) const {
           fmt::format("tangents output holds {} floats; expected 4 * vertex_count = {}",
                       tangents.size(), 4ull * mesh.vertex_count()));
     }
+  }
+  return Status::Ok();
+}
+
+// Validate() for a frame with encoded output: no float outputs, the encoded ones sized.
+Status SkinFrame::ValidateEncoded(const Mesh& mesh) const {
+  if (!positions.empty() || !normals.empty() || !tangents.empty()) {
+    return InvalidArgument(
+        "a frame with encoded output has no float outputs (positions, normals, tangents empty)");
+  }
+  if (DescribeEncoding(encoded.encoding) == nullptr) {
+    return InvalidArgument(
+        fmt::format("encoded.encoding {} is unknown", static_cast<int>(encoded.encoding)));
+  }
+  const uint32_t v = mesh.vertex_count();
+  const std::size_t expected = EncodedBytes(encoded.encoding, v);
+  if (encoded.positions.size() != expected) {
+    return InvalidArgument(fmt::format("encoded positions hold {} bytes; expected {} ({} vertices)",
+                                       encoded.positions.size(), expected, v));
+  }
+  if (!encoded.normals.empty()) {
+    if (!mesh.has_normals()) return InvalidArgument("normals were requested but the mesh has none");
+    if (encoded.normals.size() != expected) {
+      return InvalidArgument(fmt::format("encoded normals hold {} bytes; expected {}",
+                                         encoded.normals.size(), expected));
+    }
+  }
+  if (!encoded.tangents.empty()) {
+    if (!mesh.has_tangents()) {
+      return InvalidArgument("tangents were requested but the mesh has none");
+    }
+    if (encoded.normals.empty()) {
+      return InvalidArgument("tangents were requested without normals; ask for normals too");
+    }
+    if (encoded.tangents.size() != EncodedTangentBytes(encoded.encoding, v)) {
+      return InvalidArgument(fmt::format("encoded tangents hold {} bytes; expected {}",
+                                         encoded.tangents.size(),
+                                         EncodedTangentBytes(encoded.encoding, v)));
+    }
+  }
+  if (QuantisedToBox(encoded.encoding) && encoded.bounds == nullptr) {
+    return InvalidArgument(fmt::format("encoded.bounds is null; {} needs the instance's box",
+                                       VertexEncodingName(encoded.encoding)));
   }
   return Status::Ok();
 }

@@ -1,5 +1,7 @@
 #include "opencl_backends.h"
 
+#include "opencl_encode.h"
+
 #include <fmt/format.h>
 
 #include <exception>
@@ -29,8 +31,9 @@ std::vector<std::unique_ptr<Backend>> MakeUnavailableOpenClBackends(const std::s
 
 std::vector<std::unique_ptr<Backend>> MakeOpenClBackendsOn(std::shared_ptr<OpenClRuntime> runtime) {
   std::vector<std::unique_ptr<Backend>> backends;
-  backends.push_back(MakeOpenClCopyBackend(runtime));
-  backends.push_back(MakeOpenClZeroCopyBackend(std::move(runtime)));
+  auto encoder = std::make_shared<OpenClEncoder>(runtime);
+  backends.push_back(MakeOpenClCopyBackend(runtime, encoder));
+  backends.push_back(MakeOpenClZeroCopyBackend(std::move(runtime), std::move(encoder)));
   return backends;
 }
 
@@ -50,6 +53,7 @@ BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, cons
   info.methods = {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion};
   info.morph_targets = true;  // morph_targets.cl, before either method's kernels
   info.tangents = true;       // the *_tangents_* kernels, and morphed on the device too
+  info.encoded_outputs = OpenClEncodedOutputs();  // encode_output.cl, after either method
   return info;
 }
 

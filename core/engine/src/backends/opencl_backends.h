@@ -13,8 +13,12 @@ namespace skinserve {
 // `threads`: host threads one frame occupies.
 BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, const char* description,
                               int threads);
-std::unique_ptr<Backend> MakeOpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime);
-std::unique_ptr<Backend> MakeOpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime);
+class OpenClEncoder;
+// Both backends of one runtime share its encoder (opencl_encode.h).
+std::unique_ptr<Backend> MakeOpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime,
+                                               std::shared_ptr<OpenClEncoder> encoder);
+std::unique_ptr<Backend> MakeOpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime,
+                                                   std::shared_ptr<OpenClEncoder> encoder);
 // {opencl, opencl-zerocopy} over one runtime created with `options` (MakeOpenClBackends of
 // backend_factories.h with every option: the tests' coalesced and local-palette paths on
 // PoCL, the benchmark's rows without the local palette); unavailable with the reason when

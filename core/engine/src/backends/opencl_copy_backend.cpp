@@ -24,6 +24,7 @@
 
 #include "dual_quaternion_palette.h"
 #include "opencl_backends.h"
+#include "opencl_encode.h"
 #include "opencl_morph.h"
 #include "skinserve/model/palette.h"
 
@@ -56,8 +57,9 @@ void ParallelCopy(void* to, const void* from, std::size_t bytes, int threads) {
 
 class OpenClCopyBackend final : public Backend {
  public:
-  explicit OpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime)
+  OpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime, std::shared_ptr<OpenClEncoder> encoder)
       : runtime_(std::move(runtime)),
+        encoder_(std::move(encoder)),
         info_(OpenClBackendInfo(
             *runtime_, "opencl",
             runtime_->staging() ? "OpenCL kernel; palette written and result read back per frame "
@@ -117,21 +119,23 @@ class OpenClCopyBackend final : public Backend {
   // Skin() with frame.palette in the layout of frame.method's kernels.
   Status SkinPalette(const PreparedMesh& base, const SkinFrame& frame) {
     const auto& prepared = static_cast<const OpenClPreparedMesh&>(base);
-    const bool with_normals = !frame.normals.empty();
+    const bool with_normals = frame.wants_normals();
     if (with_normals && prepared.normals.get() == nullptr) {
       return InvalidArgument("normals requested, but the mesh has none");
     }
-    const bool with_tangents = !frame.tangents.empty();
+    const bool with_tangents = frame.wants_tangents();
     if (with_tangents && (prepared.tangents.get() == nullptr || !with_normals)) {
       return InvalidArgument(
           "tangents requested, but the mesh has none or normals are not asked for");
     }
     auto lane = runtime_->AcquireLane();
-    if (Status s = Reserve(*lane, frame); !s.ok()) return s;
+    if (Status s = Reserve(*lane, frame, prepared.mesh().vertex_count()); !s.ok()) return s;
     ClEvents kernels, transfers;
     SkinKernelArgs args = Args(*lane, prepared, frame.method, with_normals, with_tangents);
     Status status = Morph(*lane, prepared, frame, &args, kernels, transfers);
-    if (status.ok()) {
+    if (status.ok() && frame.encoded.active()) {
+      status = SkinEncoded(*lane, prepared, frame, args, kernels, transfers);
+    } else if (status.ok()) {
       status = runtime_->staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame, args,
                                                 kernels, transfers)
                                    : SkinDirect(*lane, prepared, frame, args, kernels, transfers);
@@ -154,29 +158,29 @@ class OpenClCopyBackend final : public Backend {
   }
 
   // The lane's device buffers (and pinned staging) large enough for `frame`.
-  Status Reserve(OpenClLane& lane, const SkinFrame& frame) {
-    const std::size_t out_bytes = frame.positions.size_bytes();
+  Status Reserve(OpenClLane& lane, const SkinFrame& frame, uint32_t vertex_count) {
+    const std::size_t out_bytes = 3ull * vertex_count * sizeof(float);
+    const std::size_t tangent_bytes = 4ull * vertex_count * sizeof(float);
     if (Status s = runtime_->GrowBuffer("palette", CL_MEM_READ_ONLY, frame.palette.size_bytes(),
                                         &lane.palette, &lane.palette_bytes);
         !s.ok()) {
       return s;
     }
-    if (Status s = runtime_->GrowBuffer("output positions", CL_MEM_WRITE_ONLY, out_bytes,
+    if (Status s = runtime_->GrowBuffer("output positions", CL_MEM_READ_WRITE, out_bytes,
                                         &lane.out_positions, &lane.positions_bytes);
         !s.ok()) {
       return s;
     }
-    if (!frame.normals.empty()) {
-      if (Status s = runtime_->GrowBuffer("output normals", CL_MEM_WRITE_ONLY, out_bytes,
+    if (frame.wants_normals()) {
+      if (Status s = runtime_->GrowBuffer("output normals", CL_MEM_READ_WRITE, out_bytes,
                                           &lane.out_normals, &lane.normals_bytes);
           !s.ok()) {
         return s;
       }
     }
-    if (!frame.tangents.empty()) {
-      if (Status s = runtime_->GrowBuffer("output tangents", CL_MEM_WRITE_ONLY,
-                                          frame.tangents.size_bytes(), &lane.out_tangents,
-                                          &lane.tangents_bytes);
+    if (frame.wants_tangents()) {
+      if (Status s = runtime_->GrowBuffer("output tangents", CL_MEM_READ_WRITE, tangent_bytes,
+                                          &lane.out_tangents, &lane.tangents_bytes);
           !s.ok()) {
         return s;
       }
@@ -187,6 +191,8 @@ class OpenClCopyBackend final : public Backend {
         !s.ok()) {
       return s;
     }
+    // Encoded frames read back through the encoder's own pinned buffers.
+    if (frame.encoded.active()) return Status::Ok();
     if (Status s = runtime_->GrowPinned(lane.compute, "pinned positions", out_bytes,
                                         &lane.pinned_positions);
         !s.ok()) {
@@ -290,6 +296,30 @@ class OpenClCopyBackend final : public Backend {
     return Status::Ok();
   }
 
+  // Encoded output: the palette in, the whole frame's kernel, then the encoder's kernels
+  // on the same queue and only the encoded bytes back (opencl_encode.h).
+  Status SkinEncoded(OpenClLane& lane, const OpenClPreparedMesh& prepared, const SkinFrame& frame,
+                     const SkinKernelArgs& args, ClEvents& kernels, ClEvents& transfers) {
+    const void* palette = frame.palette.data();
+    if (runtime_->staging()) {
+      std::memcpy(lane.pinned_palette.host, frame.palette.data(), frame.palette.size_bytes());
+      palette = lane.pinned_palette.host;
+    }
+    if (cl_int err =
+            clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
+                                 frame.palette.size_bytes(), palette, 0, nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueWriteBuffer(palette)", err);
+    }
+    const Mesh& mesh = prepared.mesh();
+    if (Status s = runtime_->EnqueueSkin(lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
+        !s.ok()) {
+      return s;
+    }
+    return encoder_->Encode(lane, args, mesh.vertex_count(), frame, /*zero_copy=*/false, kernels,
+                            transfers);
+  }
+
   // Pinned staging, chunks, two queues: see the top of this file.
   Status SkinStaged(OpenClLane& lane, int copy_threads, const OpenClPreparedMesh& prepared,
                     const SkinFrame& frame, const SkinKernelArgs& args, ClEvents& kernels,
@@ -373,13 +403,15 @@ class OpenClCopyBackend final : public Backend {
   }
 
   std::shared_ptr<OpenClRuntime> runtime_;
+  std::shared_ptr<OpenClEncoder> encoder_;
   BackendInfo info_;
 };
 
 }  // namespace
 
-std::unique_ptr<Backend> MakeOpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime) {
-  return std::make_unique<OpenClCopyBackend>(std::move(runtime));
+std::unique_ptr<Backend> MakeOpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime,
+                                               std::shared_ptr<OpenClEncoder> encoder) {
+  return std::make_unique<OpenClCopyBackend>(std::move(runtime), std::move(encoder));
 }
 
 }  // namespace skinserve

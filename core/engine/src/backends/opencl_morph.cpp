@@ -50,7 +50,7 @@ Status EnqueueFrameMorph(OpenClRuntime& runtime, OpenClLane& lane, const Mesh& m
   const bool morph_normals = args->out_normals != nullptr && targets.normal_deltas.get() != nullptr;
   const bool morph_tangents =
       args->out_tangents != nullptr && targets.tangent_deltas.get() != nullptr;
-  const std::size_t bytes = frame.positions.size_bytes();
+  const std::size_t bytes = 3ull * mesh.vertex_count() * sizeof(float);  // encoded frames too
   if (Status s = runtime.GrowBuffer("morphed positions", CL_MEM_READ_WRITE, bytes,
                                     &lane.morphed_positions, &lane.morphed_positions_bytes);
       !s.ok()) {
@@ -64,9 +64,9 @@ Status EnqueueFrameMorph(OpenClRuntime& runtime, OpenClLane& lane, const Mesh& m
     }
   }
   if (morph_tangents) {
-    if (Status s =
-            runtime.GrowBuffer("morphed tangents", CL_MEM_READ_WRITE, frame.tangents.size_bytes(),
-                               &lane.morphed_tangents, &lane.morphed_tangents_bytes);
+    if (Status s = runtime.GrowBuffer("morphed tangents", CL_MEM_READ_WRITE,
+                                      4ull * mesh.vertex_count() * sizeof(float),
+                                      &lane.morphed_tangents, &lane.morphed_tangents_bytes);
         !s.ok()) {
       return s;
     }

@@ -21,6 +21,7 @@
 // the skinning kernel then reads (opencl_morph.h).
 #include "dual_quaternion_palette.h"
 #include "opencl_backends.h"
+#include "opencl_encode.h"
 #include "opencl_morph.h"
 
 namespace skinserve {
@@ -34,8 +35,10 @@ struct ZeroCopyPreparedMesh final : PreparedMesh {
 
 class OpenClZeroCopyBackend final : public Backend {
  public:
-  explicit OpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime)
+  OpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime,
+                        std::shared_ptr<OpenClEncoder> encoder)
       : runtime_(std::move(runtime)),
+        encoder_(std::move(encoder)),
         info_(OpenClBackendInfo(*runtime_, "opencl-zerocopy",
                                 "OpenCL kernel on host memory in place, no copies",
                                 runtime_->is_cpu() ? runtime_->compute_units() : 1)) {}
@@ -82,15 +85,16 @@ class OpenClZeroCopyBackend final : public Backend {
   // Skin() with frame.palette in the layout of frame.method's kernels.
   Status SkinPalette(const PreparedMesh& base, const SkinFrame& frame) {
     const auto& prepared = static_cast<const ZeroCopyPreparedMesh&>(base);
-    const bool with_normals = !frame.normals.empty();
+    const bool with_normals = frame.wants_normals();
     if (with_normals && prepared.normals.get() == nullptr) {
       return InvalidArgument("normals requested, but the mesh has none");
     }
-    const bool with_tangents = !frame.tangents.empty();
+    const bool with_tangents = frame.wants_tangents();
     if (with_tangents && (prepared.tangents.get() == nullptr || !with_normals)) {
       return InvalidArgument(
           "tangents requested, but the mesh has none or normals are not asked for");
     }
+    if (frame.encoded.active()) return SkinEncoded(prepared, frame, with_normals, with_tangents);
     // Wrapping host memory is cheap (well under a microsecond on PoCL): per call, so
     // concurrent calls never share an output buffer.
     auto palette = runtime_->CreateBuffer("palette", CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
@@ -171,6 +175,73 @@ class OpenClZeroCopyBackend final : public Backend {
     return status;
   }
 
+  // Encoded output: the floats go to the lane's device buffers, and the encoder's kernels
+  // write the caller's encoded arrays in place (opencl_encode.h).
+  Status SkinEncoded(const ZeroCopyPreparedMesh& prepared, const SkinFrame& frame,
+                     bool with_normals, bool with_tangents) {
+    auto palette = runtime_->CreateBuffer("palette", CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
+                                          frame.palette.size_bytes(), frame.palette.data());
+    if (!palette.ok()) return palette.status();
+    ClBuffer morph_weights;
+    if (MorphsOnDevice(frame, prepared.morph)) {
+      auto wrapped =
+          runtime_->CreateBuffer("morph weights", CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
+                                 frame.morph_weights.size_bytes(), frame.morph_weights.data());
+      if (!wrapped.ok()) return wrapped.status();
+      morph_weights = std::move(wrapped).value();
+    }
+    const Mesh& mesh = prepared.mesh();
+    const std::size_t floats = 3ull * mesh.vertex_count() * sizeof(float);
+    auto lane = runtime_->AcquireLane();
+    Status status = runtime_->GrowBuffer("output positions", CL_MEM_READ_WRITE, floats,
+                                         &lane->out_positions, &lane->positions_bytes);
+    if (status.ok() && with_normals) {
+      status = runtime_->GrowBuffer("output normals", CL_MEM_READ_WRITE, floats, &lane->out_normals,
+                                    &lane->normals_bytes);
+    }
+    if (status.ok() && with_tangents) {
+      status = runtime_->GrowBuffer("output tangents", CL_MEM_READ_WRITE, floats / 3 * 4,
+                                    &lane->out_tangents, &lane->tangents_bytes);
+    }
+    if (!status.ok()) return status;
+    SkinKernelArgs args{.method = frame.method,
+                        .palette = palette->get(),
+                        .joints = prepared.joints.get(),
+                        .weights = prepared.weights.get(),
+                        .positions = prepared.positions.get(),
+                        .out_positions = lane->out_positions.get()};
+    if (with_normals) {
+      args.normals = prepared.normals.get();
+      args.out_normals = lane->out_normals.get();
+    }
+    if (with_tangents) {
+      args.tangents = prepared.tangents.get();
+      args.out_tangents = lane->out_tangents.get();
+    }
+    ClEvents kernels, transfers;
+    status = EnqueueFrameMorph(*runtime_, *lane, mesh, prepared.morph, morph_weights.get(), frame,
+                               &args, kernels);
+    if (status.ok()) {
+      status = runtime_->EnqueueSkin(*lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
+    }
+    if (status.ok()) {
+      status = encoder_->Encode(*lane, args, mesh.vertex_count(), frame, /*zero_copy=*/true,
+                                kernels, transfers);
+    }
+    // Idle before return, also after an error: buffers wrap the caller's memory.
+    if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS && status.ok()) {
+      status = ClError("clFinish", err);
+    }
+    if (status.ok() && frame.device_timing != nullptr) {
+      auto kernel_ns = ProfiledNs(kernels.all());
+      if (!kernel_ns.ok()) return kernel_ns.status();
+      auto transfer_ns = ProfiledNs(transfers.all());
+      if (!transfer_ns.ok()) return transfer_ns.status();
+      *frame.device_timing = {.transfer_ns = *transfer_ns, .kernel_ns = *kernel_ns};
+    }
+    return status;
+  }
+
   // Enqueues a map and an unmap: they make the kernel's writes visible in the host memory
   // the buffer wraps. Non-blocking: the in-order queue orders them after the kernel, and
   // the caller's clFinish is the one wait (a blocking map would be a second one).
@@ -185,13 +256,15 @@ class OpenClZeroCopyBackend final : public Backend {
   }
 
   std::shared_ptr<OpenClRuntime> runtime_;
+  std::shared_ptr<OpenClEncoder> encoder_;
   BackendInfo info_;
 };
 
 }  // namespace
 
-std::unique_ptr<Backend> MakeOpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime) {
-  return std::make_unique<OpenClZeroCopyBackend>(std::move(runtime));
+std::unique_ptr<Backend> MakeOpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime,
+                                                   std::shared_ptr<OpenClEncoder> encoder) {
+  return std::make_unique<OpenClZeroCopyBackend>(std::move(runtime), std::move(encoder));
 }
 
 }  // namespace skinserve

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/model/mesh.h"
 #include "skinserve/model/morph_targets.h"
 #include "skinserve/model/skinning_method.h"
@@ -34,8 +35,12 @@ struct BackendInfo {
   // Skin() reads a mesh's quantized rest stream itself (Mesh::quantized_rest()); other
   // backends skin the float values it decodes to.
   bool quantized_rest = false;
+  // Encodings Skin() writes itself into SkinFrame::encoded (on the device, read back
+  // encoded); for the others the caller encodes the float output (core/encoding).
+  std::vector<VertexEncoding> encoded_outputs;
 
   bool Supports(SkinningMethod method) const;
+  bool WritesEncoding(VertexEncoding encoding) const;
 };
 
 // A backend's resident copy of one mesh. Backends derive from it to hold their layout.
@@ -54,6 +59,20 @@ class PreparedMesh {
 struct DeviceTiming {
   int64_t transfer_ns = 0;  // host<->device copies, summed (they may overlap the kernels)
   int64_t kernel_ns = 0;    // kernels, summed
+};
+
+// A frame's output written encoded by the backend (BackendInfo::encoded_outputs) instead of
+// as floats: exactly the bytes EncodePositions / EncodeNormals / EncodeTangents would make of
+// the skinned floats (vertex_encoding.h), and for snorm16 the box of the skinned positions
+// (ComputeBounds') in `bounds`. A value the encoding cannot hold fails the frame with the
+// host encoder's error (naming the vertex). encoding kFloat32: not used.
+struct EncodedOutput {
+  VertexEncoding encoding = VertexEncoding::kFloat32;
+  std::span<std::byte> positions;  // EncodedBytes(encoding, vertex_count)
+  std::span<std::byte> normals;    // empty: no normals; else as positions
+  std::span<std::byte> tangents;   // empty: no tangents; else EncodedTangentBytes
+  Bounds* bounds = nullptr;        // snorm16: where the box goes; else unused
+  bool active() const { return encoding != VertexEncoding::kFloat32; }
 };
 
 // One frame of work, in the manner of ozz's SkinningJob: plain spans, Validate() first.
@@ -90,8 +109,16 @@ struct SkinFrame {
   const float* rest_normals = nullptr;
   const float* rest_tangents = nullptr;  // 4 floats per vertex like the mesh's
   std::size_t rest_first = 0;
+  // Set: the backend writes these bytes instead of positions/normals/tangents, which are
+  // then empty (the backend's info() lists encoded.encoding).
+  EncodedOutput encoded;
 
+  bool wants_normals() const { return !normals.empty() || !encoded.normals.empty(); }
+  bool wants_tangents() const { return !tangents.empty() || !encoded.tangents.empty(); }
   Status Validate(const Mesh& mesh) const;
+
+ private:
+  Status ValidateEncoded(const Mesh& mesh) const;
 };
 
 // OK unless `weights` has a non-zero weight and the backend does not apply morph targets:

@@ -87,6 +87,11 @@ struct SkinRequest {
   // and normals together), so each compute thread keeps at most that much.
   bool skin_into_scratch = false;
   bool scratch_normals = false;  // with skin_into_scratch: skin normals too
+  // Set (encoding not float32): the backend writes each instance encoded here instead of
+  // into positions/normals/tangents, which stay empty (backend.h's EncodedOutput; the
+  // backend's BackendInfo::encoded_outputs must list the encoding). Instance i's bytes
+  // follow instance i-1's; `bounds` points at `instances` boxes (snorm16).
+  EncodedOutput encoded;
 };
 
 inline constexpr std::size_t kMaxScratchFloatsPerInstance = std::size_t{1} << 20;  // 4 MiB
@@ -109,7 +114,18 @@ struct FramePlan {
   bool has_tangents = false;
   uint32_t morph_target_count = 0;
   bool backend_tangents = false;  // the backend skins tangents (BackendInfo::tangents)
+  // Bit e set: the backend writes VertexEncoding e itself (BackendInfo::encoded_outputs).
+  uint32_t backend_encodings = 0;
+  bool BackendWrites(VertexEncoding e) const {
+    return (backend_encodings >> static_cast<unsigned>(e)) & 1u;
+  }
 };
+// FramePlan::backend_encodings of `info`.
+inline uint32_t EncodingMask(const BackendInfo& info) {
+  uint32_t mask = 0;
+  for (VertexEncoding e : info.encoded_outputs) mask |= 1u << static_cast<unsigned>(e);
+  return mask;
+}
 
 // A frame the caller owns and reuses frame after frame, so that the steady-state path
 // allocates nothing: fill `request`, Engine::Submit(job); OnInstanceSkinned runs once per
