@@ -23,6 +23,11 @@
 // (RestEncoding quantized16, quantized8-weights), the same mesh stored quantized, beside the
 // float rows; after the run, each quantized row's bytes per vertex, its share of
 // BM_MemoryBandwidth's bound and its speed over the float row (issue 29).
+// --encoding=float16,snorm16: also BM_Skin[Normals]Encoded<Encoding>/<backend>/<vertices>/<bones>
+// (and, with --streams=N, BM_SkinStreamsEncoded<Encoding>/...) for the backends that write
+// that encoding themselves (BackendInfo::encoded_outputs: the OpenCL ones encode on the
+// device and read back only the encoded bytes), beside the float rows (issue 29 item 2);
+// each row reports read_back_bytes_per_vertex (12 a float frame's positions, 6 encoded).
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
@@ -72,6 +77,7 @@ struct Options {
   bool tangents = false;
   bool opencl_global_palette = false;
   bool quantized = false;
+  std::vector<VertexEncoding> encodings;  // --encoding=: encoded-output rows
 };
 
 template <typename T>
@@ -119,6 +125,14 @@ Options ParseOptions(int* argc, char** argv) {
       options.opencl_device = device;
     } else if (const char* streams = value("--streams=")) {
       options.streams = static_cast<int>(std::stoul(streams));
+    } else if (const char* encodings = value("--encoding=")) {
+      for (const std::string& name : ParseList<std::string>(encodings)) {
+        const auto encoding = ParseVertexEncoding(name);
+        if (!encoding || *encoding == VertexEncoding::kFloat32) {
+          throw std::invalid_argument("--encoding=: float16 or snorm16, not " + name);
+        }
+        options.encodings.push_back(*encoding);
+      }
     } else if (const char* methods = value("--methods=")) {
       options.methods.clear();
       for (const std::string& name : ParseList<std::string>(methods)) {
@@ -186,6 +200,55 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
         benchmark::Counter(kernel_rate, benchmark::Counter::kAvgThreads);
     state.counters["kernel_bytes_per_second"] =
         benchmark::Counter(kernel_rate * bytes, benchmark::Counter::kAvgThreads);
+  }
+}
+
+// A frame whose output the backend writes encoded (SkinFrame::encoded): the OpenCL backends
+// read back only the encoded bytes.
+void SkinEncodedBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
+                          uint32_t bones, bool normals, VertexEncoding encoding) {
+  const Workload& workload = Cache().Get(vertices, bones, false);
+  const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones, false);
+  const std::size_t bytes = EncodedBytes(encoding, vertices);
+  AlignedBuffer<std::byte> positions(bytes), out_normals(normals ? bytes : 0);
+  Bounds box;
+  std::size_t frame = state.thread_index();
+  DeviceTiming device, total;
+  const auto skin_one = [&] {
+    SkinFrame skin{.palette = workload.palettes[frame++ % workload.palettes.size()],
+                   .device_timing = &device};
+    skin.encoded = {.encoding = encoding,
+                    .positions = positions.span(),
+                    .normals = out_normals.span(),
+                    .bounds = &box};
+    return backend->Skin(prepared, skin);
+  };
+  // Untimed: the first encoded frame builds the encoder's program and grows its buffers.
+  if (Status s = skin_one(); !s.ok()) {
+    state.SkipWithError(s.ToString().c_str());
+    return;
+  }
+  for (auto _ : state) {
+    if (Status s = skin_one(); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+      break;
+    }
+    total.kernel_ns += device.kernel_ns;
+    total.transfer_ns += device.transfer_ns;
+    benchmark::DoNotOptimize(positions.data());
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
+  state.counters["vertices_per_second"] =
+      benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["read_back_bytes_per_vertex"] =
+      static_cast<double>(EncodedBytes(encoding, 1) * (normals ? 2 : 1));
+  if (total.kernel_ns > 0 && state.iterations() > 0) {
+    const double frames = static_cast<double>(state.iterations());
+    state.counters["kernel_ns"] = benchmark::Counter(static_cast<double>(total.kernel_ns) / frames,
+                                                     benchmark::Counter::kAvgThreads);
+    state.counters["transfer_ns"] = benchmark::Counter(
+        static_cast<double>(total.transfer_ns) / frames, benchmark::Counter::kAvgThreads);
   }
 }
 
@@ -418,6 +481,33 @@ int main(int argc, char** argv) {
                                          SkinningMethod::kLinear, rest, false)
                 ->UseRealTime()
                 ->Unit(benchmark::kMicrosecond);
+          }
+        }
+      }
+    }
+  }
+  for (VertexEncoding encoding : options.encodings) {
+    for (bool normals : {false, true}) {
+      for (uint32_t v : options.vertices) {
+        for (uint32_t b : options.bones) {
+          for (const auto& [id, backend] : rows) {
+            if (!backend->info().WritesEncoding(encoding)) continue;
+            const std::string kind = std::string("Encoded") +
+                                     (encoding == VertexEncoding::kFloat16 ? "Float16" : "Snorm16");
+            const std::string name = fmt::format(
+                "{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", kind, id, v, b);
+            benchmark::RegisterBenchmark(name.c_str(), SkinEncodedBenchmark, backend, v, b, normals,
+                                         encoding)
+                ->UseRealTime()
+                ->Unit(benchmark::kMicrosecond);
+            if (options.streams > 1 && !normals) {
+              benchmark::RegisterBenchmark(
+                  fmt::format("BM_SkinStreams{}/{}/{}/{}", kind, id, v, b).c_str(),
+                  SkinEncodedBenchmark, backend, v, b, false, encoding)
+                  ->Threads(options.streams)
+                  ->UseRealTime()
+                  ->Unit(benchmark::kMicrosecond);
+            }
           }
         }
       }

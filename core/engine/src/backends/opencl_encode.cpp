@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <string_view>
 
 #include "skinserve/kernels/embedded_kernels.h"
 
@@ -74,7 +75,7 @@ Status OpenClEncoder::Build() {
   if (err != CL_SUCCESS) return ClError("clCreateProgramWithSource(encode_output)", err);
   cl_device_id device = runtime_->device();
   err = clBuildProgram(program_, 1, &device, "", nullptr, nullptr);
-  if (err == CL_SUCCESS) return Status::Ok();
+  if (err == CL_SUCCESS) return Warm();
   std::size_t log_size = 0;
   std::string log;
   if (clGetProgramBuildInfo(program_, device, CL_PROGRAM_BUILD_LOG, 0, nullptr, &log_size) ==
@@ -84,6 +85,56 @@ Status OpenClEncoder::Build() {
   }
   return FailedPrecondition(fmt::format(
       "clBuildProgram(encode_output.cl) failed: {} ({}); log:\n{}", ClErrorName(err), err, log));
+}
+
+// Runs every kernel once on one work-group of zeros: PoCL compiles a kernel for its
+// work-group size at its first launch (tens of ms to seconds under load), which would
+// otherwise land in the first frames that use each one.
+Status OpenClEncoder::Warm() {
+  cl_int err = CL_SUCCESS;
+  cl_command_queue queue = clCreateCommandQueue(runtime_->context(), runtime_->device(), 0, &err);
+  if (err != CL_SUCCESS) return ClError("clCreateCommandQueue(encode warm-up)", err);
+  std::vector<float> zeros(4 * kGroup, 0.0f);
+  auto in = runtime_->CreateBuffer("encode warm-up input", CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                   zeros.size() * sizeof(float), zeros.data());
+  auto out = runtime_->CreateBuffer("encode warm-up output", CL_MEM_READ_WRITE,
+                                    zeros.size() * sizeof(float), nullptr);
+  Status status = in.ok() ? out.status() : in.status();
+  const cl_uint count = kGroup;
+  const float zero = 0.0f;
+  for (const char* name :
+       {"bounds_partial", "encode_snorm16_positions", "encode_snorm16_unit", "encode_half"}) {
+    if (!status.ok()) break;
+    cl_kernel kernel = clCreateKernel(program_, name, &err);
+    if (err != CL_SUCCESS) {
+      status = ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
+      break;
+    }
+    cl_mem a = in->get(), b = out->get();
+    const bool positions = std::string_view(name) == "encode_snorm16_positions";
+    err = clSetKernelArg(kernel, 0, sizeof(cl_mem), &a);
+    err |= clSetKernelArg(kernel, 1, sizeof(cl_uint), &count);
+    if (positions) {
+      for (cl_uint i = 2; i < 8; ++i) err |= clSetKernelArg(kernel, i, sizeof(float), &zero);
+      err |= clSetKernelArg(kernel, 8, sizeof(cl_mem), &b);
+    } else {
+      err |= clSetKernelArg(kernel, 2, sizeof(cl_mem), &b);
+      if (std::string_view(name) != "bounds_partial") {
+        err |= clSetKernelArg(kernel, 3, sizeof(cl_mem), &b);  // the flag: any int of it
+      }
+    }
+    const std::size_t global = kGroup, local = kGroup;
+    if (err == CL_SUCCESS) {
+      err = clEnqueueNDRangeKernel(queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr);
+    }
+    clReleaseKernel(kernel);
+    if (err != CL_SUCCESS) status = ClError(fmt::format("encode warm-up ({})", name).c_str(), err);
+  }
+  if (cl_int finished = clFinish(queue); finished != CL_SUCCESS && status.ok()) {
+    status = ClError("clFinish(encode warm-up)", finished);
+  }
+  clReleaseCommandQueue(queue);
+  return status;
 }
 
 Result<OpenClEncoder::LaneState*> OpenClEncoder::StateOf(OpenClLane& lane) {

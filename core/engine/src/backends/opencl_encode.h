@@ -1,8 +1,8 @@
 // OpenClEncoder: a frame's encoded output (SkinFrame::encoded, float16 or snorm16) made on
 // the device from the skinned floats, so that only the encoded bytes (half of float32's)
 // cross back to the host (kernels/encode_output.cl). Shared by an engine's `opencl` and
-// `opencl-zerocopy` backends; its program is built on the first encoded frame, so runtimes
-// that never see one compile nothing more.
+// `opencl-zerocopy` backends; its program is built (and each kernel run once) on the first
+// encoded frame, so runtimes that never see one compile nothing more.
 #pragma once
 
 #include <memory>
@@ -40,6 +40,7 @@ class OpenClEncoder {
  private:
   struct LaneState;
   Status Build();
+  Status Warm();
   Result<LaneState*> StateOf(OpenClLane& lane);
 
   std::shared_ptr<OpenClRuntime> runtime_;
