@@ -170,6 +170,128 @@ TEST(TangentResponseTest, EveryEncodingMethodMorphCrowdAndTransportMatchesTheRef
   EXPECT_EQ(checked, 3 * 2 * 2 * 2 * 2);
 }
 
+// The OpenCL backends encode float16 and snorm16 on the device (BackendInfo.encoded_outputs)
+// and only the encoded bytes come back: every encoding x method x morph x crowd x transport
+// through both, against the float64 reference (positions, normals, tangents). As an extra,
+// the bytes are the host encoder's: the same frame asked in float32 from the same backend,
+// encoded on this side, decodes to the very same floats with the very same box. A value
+// float16 cannot hold fails the frame naming the instance and the vertex, as on the host.
+TEST(TangentResponseTest, OpenClEncodesOnTheDeviceAndMatchesTheReferenceAndTheHostEncoder) {
+  ShmDir dir;
+  server::ServerOptions server_options;
+  server_options.shm_dir = dir.path();
+  TestServer t(server_options);  // one OpenCL runtime for both backends: PoCL compiles once
+  const MeshArrays arrays = TangentMesh(301);
+  const auto mesh = Mesh::Create(arrays).value();
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  const uint32_t most = 3;
+  auto region = SharedMemoryRegion::Create(
+      SharedMemoryRegion::UniqueKey("device-encoded"),
+      64 + wire::RegionFrameBytes(301, most, VertexEncoding::kFloat32, true, true), dir.path());
+  ASSERT_TRUE(region.ok()) << region.status().ToString();
+  ASSERT_TRUE(t.client->RegisterRegion("device-encoded", **region).ok());
+  const RegionOutput output{.name = "device-encoded", .region = region->get(), .offset = 64};
+  const std::vector<MorphWeight> weights = MakeMorphWeights(kTargets, 3, 12, 1);
+  auto backends = t.client->ListBackends();
+  ASSERT_TRUE(backends.ok());
+  int checked = 0;
+  for (const char* backend : {"opencl", "opencl-zerocopy"}) {
+    bool available = false;
+    for (const auto& b : backends->backends()) available |= b.id() == backend && b.available();
+    ASSERT_TRUE(available) << backend << " (PoCL) must be available for this test";
+    for (VertexEncoding encoding : {VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
+      for (SkinningMethod method : {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion}) {
+        for (bool morph : {false, true}) {
+          for (uint32_t instances : {1u, most}) {
+            const auto palettes = Palettes(method, instances, checked);
+            const std::span<const MorphWeight> frame_weights =
+                morph ? std::span<const MorphWeight>(weights) : std::span<const MorphWeight>();
+            client::SkinOptions options{.backend = backend,
+                                        .want_normals = true,
+                                        .want_tangents = true,
+                                        .method = method,
+                                        .encoding = VertexEncoding::kFloat32,
+                                        .instances = instances,
+                                        .morph_weights = frame_weights};
+            FrameResult floats;  // the backend's float32 answer to the same frame
+            Status s = t.client->Skin(info->mesh_id(), palettes, checked, options, &floats);
+            ASSERT_TRUE(s.ok()) << s.ToString();
+            options.encoding = encoding;
+            for (bool shm : {false, true}) {
+              const std::string what =
+                  fmt::format("{} {} {} {} x{} {}", backend, VertexEncodingName(encoding),
+                              method == SkinningMethod::kLinear ? "linear" : "dual-quaternion",
+                              morph ? "morphed" : "rest", instances, shm ? "shm" : "grpc");
+              options.output = shm ? output : RegionOutput{};
+              FrameResult result;
+              s = t.client->Skin(info->mesh_id(), palettes, checked, options, &result);
+              ASSERT_TRUE(s.ok()) << what << ": " << s.ToString();
+              if (shm) {
+                ASSERT_TRUE(client::DecodeRegionFrame(&result).ok()) << what;
+              }
+              ExpectTangentsMatchReference(*mesh, palettes, result, method, frame_weights, what);
+              // Extra: the host encoder on the float32 answer gives the same values and box.
+              for (uint32_t k = 0; k < instances; ++k) {
+                const std::size_t n = 3ull * mesh->vertex_count();
+                const std::span<const float> p(floats.positions.data() + k * n, n);
+                Bounds box;
+                if (encoding == VertexEncoding::kSnorm16) box = ComputeBounds(p).value();
+                EXPECT_EQ(result.bounds[k], box) << what << " instance " << k;
+                const auto host_roundtrip = [&](std::span<const float> in, const char* field) {
+                  std::vector<std::byte> bytes(in.size() * 2);
+                  std::vector<float> back(in.size());
+                  const bool positions = std::string(field) == "positions";
+                  const bool tangents = std::string(field) == "tangents";
+                  Status e = positions  ? EncodePositions(encoding, in, box, bytes)
+                             : tangents ? EncodeTangents(encoding, in, bytes)
+                                        : EncodeNormals(encoding, in, bytes);
+                  EXPECT_TRUE(e.ok()) << e.ToString();
+                  e = positions  ? DecodePositions(encoding, bytes, box, back)
+                      : tangents ? DecodeTangents(encoding, bytes, back)
+                                 : DecodeNormals(encoding, bytes, back);
+                  EXPECT_TRUE(e.ok()) << e.ToString();
+                  return back;
+                };
+                EXPECT_EQ(host_roundtrip(p, "positions"),
+                          std::vector<float>(result.instance_positions(k).begin(),
+                                             result.instance_positions(k).end()))
+                    << what << " instance " << k;
+                EXPECT_EQ(host_roundtrip({floats.normals.data() + k * n, n}, "normals"),
+                          std::vector<float>(result.instance_normals(k).begin(),
+                                             result.instance_normals(k).end()))
+                    << what << " instance " << k;
+                const std::size_t nt = 4ull * mesh->vertex_count();
+                EXPECT_EQ(host_roundtrip({floats.tangents.data() + k * nt, nt}, "tangents"),
+                          std::vector<float>(result.instance_tangents(k).begin(),
+                                             result.instance_tangents(k).end()))
+                    << what << " instance " << k;
+              }
+              ++checked;
+            }
+          }
+        }
+      }
+    }
+    // float16 overflow in instance 1 of 2: refused naming instance and vertex.
+    auto far = Palettes(SkinningMethod::kLinear, 2, 99);
+    for (uint32_t j = 0; j < kJoints; ++j) far[kFloatsPerJoint * (kJoints + j) + 3] = 1e6f;
+    FrameResult refused;
+    const Status s = t.client->Skin(info->mesh_id(), far, 99,
+                                    {.backend = backend,
+                                     .want_normals = true,
+                                     .want_tangents = true,
+                                     .encoding = VertexEncoding::kFloat16,
+                                     .instances = 2},
+                                    &refused);
+    EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << backend << ": " << s.ToString();
+    EXPECT_NE(s.message().find("instance 1: positions[vertex 0][x]"), std::string::npos)
+        << s.ToString();
+    EXPECT_NE(s.message().find("beyond float16's range"), std::string::npos) << s.ToString();
+  }
+  EXPECT_EQ(checked, 2 * 2 * 2 * 2 * 2 * 2);
+}
+
 // A frame of more than one part (1 MiB of vertex data each): the tangents field's framing
 // and the client's reading across gRPC's slices, per part, for a single instance and a
 // crowd sent one instance's range per part.

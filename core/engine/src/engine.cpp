@@ -244,6 +244,10 @@ class Engine::Impl {
   static Status CheckEncodedSizes(const SkinRequest& request, const Mesh& mesh,
                                   uint32_t instances) {
     const EncodedOutput& e = request.encoded;
+    if (!request.positions.empty() || !request.normals.empty() || !request.tangents.empty()) {
+      return InvalidArgument(
+          "a frame with encoded output has no float outputs (positions, normals, tangents empty)");
+    }
     const std::size_t bytes = EncodedBytes(e.encoding, mesh.vertex_count());
     const std::size_t tangent_bytes = EncodedTangentBytes(e.encoding, mesh.vertex_count());
     if (e.positions.size() != bytes * instances ||
@@ -275,7 +279,7 @@ class Engine::Impl {
     const std::size_t outputs = 3ull * mesh.vertex_count();
     SkinFrame frame{request.palette.subspan(std::min(request.palette.size(), i * palette)),
                     std::span<float>(), std::span<float>(), std::span<float>(), threads};
-    if (!request.skin_into_scratch) {
+    if (!request.skin_into_scratch && !request.encoded.active()) {
       frame.positions = request.positions.subspan(i * outputs, outputs);
       if (!request.normals.empty()) frame.normals = request.normals.subspan(i * outputs, outputs);
       const std::size_t tangents = 4ull * mesh.vertex_count();
