@@ -9,8 +9,10 @@
 
 #include <limits>
 #include <string>
+#include <tuple>
 #include <vector>
 
+#include "backends/opencl_quantized.h"
 #include "opencl_test_support.h"
 #include "quantized_reference.h"
 #include "skinserve/reference/synthetic.h"
@@ -52,6 +54,35 @@ TEST(OpenClQuantizedTest, StagedAndCoalescedRuntimesMatchBothReferences) {
       EXPECT_LE(e.dequantized_normal, 1e-5) << what;
       EXPECT_LE(e.over_bound, 1.0) << what << ": error / stated bound on the original input";
     }
+  }
+}
+
+// The point of the stream on the device: a quantized mesh's buffers hold its integers only,
+// 6 + B + 2 (B - 1) + 6 bytes a vertex at 8-bit joints, unorm16 weights and normals (B = 4:
+// 24, against 12 + 8 + 16 + 12 = 48 as floats), and (B - 1) bytes of weights with unorm8.
+TEST(OpenClQuantizedTest, TheDeviceHoldsOnlyTheIntegers) {
+  auto runtime = CoalescedTestRuntime();
+  if (!runtime.ok()) GTEST_SKIP() << runtime.status().ToString();
+  auto size_of = [](const ClBuffer& buffer) {
+    std::size_t bytes = 0;
+    EXPECT_EQ(clGetMemObjectInfo(buffer.get(), CL_MEM_SIZE, sizeof(bytes), &bytes, nullptr),
+              CL_SUCCESS);
+    return bytes;
+  };
+  constexpr uint32_t kVertices = 1001;
+  for (auto [encoding, weight_bytes, joints] :
+       {std::tuple{RestEncoding::kQuantized16, 2u, 77u},
+        std::tuple{RestEncoding::kQuantized8Weights, 1u, 300u}}) {
+    const QuantizedCase c{kVertices, 4, joints, true, encoding};
+    auto mesh = Mesh::Create(RandomQuantizedCaseMesh(c, 3), {.rest_encoding = encoding});
+    ASSERT_TRUE(mesh.ok());
+    auto device = CreateQuantizedDeviceMesh(**runtime, **mesh, CL_MEM_COPY_HOST_PTR);
+    ASSERT_TRUE(device.ok()) << device.status().ToString();
+    const std::size_t joint_bytes = joints <= 256 ? 1 : 2;
+    EXPECT_EQ(size_of(device->positions), 6u * kVertices);
+    EXPECT_EQ(size_of(device->normals), 6u * kVertices);
+    EXPECT_EQ(size_of(device->joints), 4 * joint_bytes * kVertices);
+    EXPECT_EQ(size_of(device->weights), 3 * weight_bytes * kVertices);
   }
 }
 
