@@ -19,6 +19,13 @@ std::vector<std::string> Split(const std::string& s, char sep) {
   return parts;
 }
 
+// The rest stream a row's kind names: BM_Skin[Normals]Quantized[Weights8] or float.
+RestEncoding StreamOf(const std::string& kind) {
+  if (kind.find("QuantizedWeights8") != std::string::npos) return RestEncoding::kQuantized8Weights;
+  if (kind.find("Quantized") != std::string::npos) return RestEncoding::kQuantized16;
+  return RestEncoding::kFloat32;
+}
+
 }  // namespace
 
 void PaperTablesReporter::ReportRuns(const std::vector<Run>& runs) {
@@ -150,30 +157,32 @@ void PaperTablesReporter::PrintDeviceBounds() const {
   for (const auto& [key, rate] : rates_) {
     const auto& [kind, backend, v, b] = key;
     if (kind.find("Normals") != std::string::npos || backend.rfind("opencl", 0) != 0) continue;
+    auto kernel = kernel_rates_.find(key);
+    const double kernel_rate = kernel == kernel_rates_.end() ? 0.0 : kernel->second;
+    // A quantized row's kernel reads its integers (quantized_rest.h), not the float stream.
+    const RestEncoding rest = StreamOf(kind);
+    const double bytes = rest == RestEncoding::kFloat32
+                             ? BytesPerVertex(b, false)
+                             : StreamedBytesPerVertex(rest, b, kPaperJoints, false);
     // Encoded rows (--encoding): 6 bytes a vertex come back; their kernel time holds the
     // encoder's kernels too: they report no kernel rate (0 below).
     const bool encoded = kind.find("Encoded") != std::string::npos;
-    auto kernel = kernel_rates_.find(key);
-    const double kernel_rate = kernel == kernel_rates_.end() ? 0.0 : kernel->second;
-    fmt::print("{:<16} {:>10} {:>3} {:>12.0f} {:>7.0f}% {:>14.0f} {:>7.0f}%{}{}\n", backend, v, b,
+    std::string label = kind.rfind("BM_SkinStreams", 0) == 0 ? "  (streams)" : "";
+    if (rest != RestEncoding::kFloat32) {
+      label += fmt::format("  ({}, {:.0f} B/vertex)", RestEncodingName(rest), bytes);
+    }
+    if (encoded) label += fmt::format("  ({})", kind.substr(kind.find("Encoded")));
+    fmt::print("{:<16} {:>10} {:>3} {:>12.0f} {:>7.0f}% {:>14.0f} {:>7.0f}%{}\n", backend, v, b,
                rate / 1e6, 100 * rate * (encoded ? 6 : 12) / d2h, kernel_rate / 1e6,
-               100 * kernel_rate * BytesPerVertex(b, false) / copy,
-               kind.rfind("BM_SkinStreams", 0) == 0 ? "  (streams)" : "",
-               encoded ? fmt::format("  ({})", kind.substr(kind.find("Encoded"))) : "");
+               100 * kernel_rate * bytes / copy, label);
   }
 }
 
 void PaperTablesReporter::PrintQuantizedShares() const {
-  const auto stream_of = [](const std::string& kind) {
-    if (kind.find("QuantizedWeights8") != std::string::npos)
-      return RestEncoding::kQuantized8Weights;
-    if (kind.find("Quantized") != std::string::npos) return RestEncoding::kQuantized16;
-    return RestEncoding::kFloat32;
-  };
   bool header = false;
   for (const auto& [key, rate] : rates_) {
     const auto& [kind, backend, vertices, bones] = key;
-    const RestEncoding rest = stream_of(kind);
+    const RestEncoding rest = StreamOf(kind);
     if (rest == RestEncoding::kFloat32) continue;
     const bool normals = kind.rfind("BM_SkinNormals", 0) == 0;
     if (!header) {
