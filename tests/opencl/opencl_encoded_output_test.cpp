@@ -86,6 +86,43 @@ TEST_P(OpenClEncodedOutputTest, EveryEncodingMatchesTheReference) {
   }
 }
 
+// Issue 29's pairing: a quantized rest stream in, snorm16 (and float16) out, both on the
+// device; the decoded frame against the float64 reference of the dequantized input.
+TEST_P(OpenClEncodedOutputTest, AQuantizedMeshEncodesOnTheDeviceToo) {
+  Backend& backend = OpenClBackend(GetParam());
+  SKIP_IF_OPENCL_UNAVAILABLE(backend);
+  constexpr uint32_t kVertices = 3001, kJoints = 77;
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = kVertices,
+                                               .influences = 4,
+                                               .joint_count = kJoints,
+                                               .normals = true,
+                                               .seed = 31});
+  auto mesh = Mesh::Create(arrays, {.rest_encoding = RestEncoding::kQuantized16});
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  auto prepared = backend.Prepare(*mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  const auto palette = MakeSyntheticPalette(kJoints, 31, 4);
+  for (VertexEncoding encoding : {VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
+    SCOPED_TRACE(VertexEncodingName(encoding));
+    std::vector<std::byte> positions(EncodedBytes(encoding, kVertices));
+    std::vector<std::byte> normals(positions.size());
+    Bounds box;
+    SkinFrame skin{.palette = palette};
+    skin.encoded = {
+        .encoding = encoding, .positions = positions, .normals = normals, .bounds = &box};
+    const Status s = backend.Skin(**prepared, skin);
+    ASSERT_TRUE(s.ok()) << s.ToString();
+    if (encoding != VertexEncoding::kSnorm16) box = Bounds{};
+    std::vector<float> p(3 * kVertices), n(3 * kVertices);
+    ASSERT_TRUE(DecodePositions(encoding, positions, box, p).ok());
+    ASSERT_TRUE(DecodeNormals(encoding, normals, n).ok());
+    const EncodedDeviation d = CompareEncodedWithReference(**mesh, palette, encoding, box, p, n);
+    EXPECT_TRUE(d.within_tolerance())
+        << "position ratio " << d.worst_position_ratio << ", normal ratio " << d.worst_normal_ratio
+        << " at vertex " << d.worst_vertex;
+  }
+}
+
 // Every joint maps x to 0: the box's x axis is empty, and snorm16 writes q = 0 there (the
 // host encoder's rule); y and z as usual.
 TEST_P(OpenClEncodedOutputTest, AnEmptyAxisOfTheBoxEncodesAsZero) {
