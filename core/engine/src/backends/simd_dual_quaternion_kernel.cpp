@@ -2,7 +2,7 @@
 // same targets as the linear one (simd_kernel.cpp, whose GetKernel hands it out). The
 // semantics are the scalar loop's (scalar_dual_quaternion_skinning.h): blend the B unit
 // dual quaternions of the frame's DualQuaternionPalette, each one's sign chosen against
-// the first influence, normalise by the real part's length, move the position; the normal
+// the first influence, normalised by the real part's length, move the position; the normal
 // and the tangent's xyz are rotated by the blended rotation (the tangent's w is kept).
 //
 // Two passes per chunk of 256 vertices, so each part runs where it is cheap:
@@ -13,12 +13,14 @@
 //     else the sign test is a 4-lane dot product;
 //     the blended real and dual parts go to two small arrays (L1) instead of being
 //     transposed in registers;
-//  2. normalisation and the transform, one vertex per lane at the full vector width: the
-//     blends come back with LoadInterleaved4, positions and normals with
-//     LoadInterleaved3 (tangents with LoadInterleaved4), so this part is plain lane-wise
-//     arithmetic.
+//  2. the transform, one vertex per lane at the full vector width, of the blend as it is
+//     (its normalisation folded into one scale, TransformStep): the blends come back with
+//     LoadInterleaved4, positions and normals with LoadInterleaved3 (tangents with
+//     LoadInterleaved4), so this part is plain lane-wise arithmetic.
 // (Gathering each component of each influence instead - 8 gathers an influence - measured
-// 3.2x the linear loop at 400k x 4 on AVX-512; these two passes, 1.5x.) No vector lives in a struct
+// 3.2x the linear loop at 400k x 4 on AVX-512; these two passes, 1.5x; with the hemisphere
+// table and the folded normalisation, 1.32x on one VM thread, from 1.73x before them
+// (docs/results/2026-11-27-dq-speed-vm).) No vector lives in a struct
 // or an array, so SVE's sizeless vectors work as well. The chunk's last partial vector runs on
 // padded local copies: nothing outside the range is written.
 #undef HWY_TARGET_INCLUDE
@@ -192,9 +194,8 @@ HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions,
 #endif
 
 // 2 / n2. On x86 the CPU's reciprocal (12 or 14 bits) and one Newton-Raphson step (~23
-// bits; the 1e-5 tolerance needs ~17) cost a fraction of a division, which takes the
-// divider for ~10 cycles per 16 lanes on AVX-512. Elsewhere the estimate has 8 bits (NEON,
-// SVE) or is emulated: the exact form.
+// bits; the 1e-5 tolerance needs ~17) instead of a division, which holds the divider.
+// Elsewhere the estimate has 8 bits (NEON, SVE) or is emulated: the exact form.
 HWY_INLINE V TwiceInverse(V n2) {
   const D d;
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_SSE4
