@@ -34,7 +34,7 @@ struct Options {
   std::string backends = "all";
   uint32_t vertices = 100'000, bones = 2, joints = 77;
   bool normals = false;
-  bool tangents = false;  // synthetic mesh with tangents, asked for back (needs --normals)
+  bool tangents = false;  // tangents asked for back and checked (needs --normals)
   std::string method = "linear";
   uint64_t seed = 1;
   MorphWorkload morph;  // synthetic mesh: morph targets and active weights per frame
@@ -141,15 +141,15 @@ Result<std::string> Upload(client::SkinClient& client, const Workload& w) {
 // The glTF character when --mesh names one, else the synthetic mesh of this shape.
 Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bones, uint64_t seed) {
   const SkinningMethod method = *ParseMethod(o.method);
-  if (o.tangents && (!o.normals || !o.mesh.empty() || o.rest_encoding != "float32")) {
+  if (o.tangents && (!o.normals || o.rest_encoding != "float32")) {
     return InvalidArgument(
-        "--tangents needs --normals, the synthetic mesh (no --mesh) and --rest-encoding float32 "
-        "(a quantized rest stream carries no tangents)");
+        "--tangents needs --normals and --rest-encoding float32 (a quantized rest stream "
+        "carries no tangents)");
   }
   Result<Workload> workload =
       o.mesh.empty() ? Result<Workload>(MakeWorkload(vertices, bones, o.joints, o.normals, seed,
                                                      method, o.morph, o.tangents))
-                     : MakeGltfWorkload(o.mesh, o.primitive, o.normals);
+                     : MakeGltfWorkload(o.mesh, o.primitive, o.normals, o.tangents);
   if (!workload.ok()) return workload;
   workload->method = method;
   const RestEncoding rest = *ParseRestEncoding(o.rest_encoding);
@@ -377,9 +377,9 @@ int main(int argc, char** argv) {
   app.add_option("--joints", o.joints, "synthetic mesh: joints")->capture_default_str();
   app.add_flag("--normals", o.normals, "skin normals too");
   app.add_flag("--tangents", o.tangents,
-               "skin tangents too and check them against the float64 reference (synthetic "
-               "mesh with tangents; needs --normals and backends whose BackendInfo.tangents "
-               "is set)");
+               "skin tangents too and check them against the float64 reference (the synthetic "
+               "mesh gets tangents; a --mesh character must have them in every primitive); "
+               "needs --normals and backends whose BackendInfo.tangents is set");
   app.add_option("--method", o.method,
                  "skinning method: linear, or dual-quaternion (synthetic palettes are then "
                  "rigid; 'all' backends means those that implement it)")

@@ -140,7 +140,8 @@ MeshArrays MergeMeshes(const std::vector<CharacterMesh>& meshes) {
 
 }  // namespace
 
-Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool normals) {
+Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool normals,
+                                  bool tangents) {
   auto character = LoadGltfFile(path);
   if (!character.ok()) {
     // The importer names the file itself in most errors: never twice.
@@ -161,6 +162,9 @@ Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool n
     if (normals && m.arrays.normals.empty()) {
       return InvalidArgument(fmt::format("--normals: {} has no normals in {}", m.name, path));
     }
+    if (tangents && m.arrays.tangents.empty()) {
+      return InvalidArgument(fmt::format("--tangents: {} has no tangents in {}", m.name, path));
+    }
     joints += m.arrays.joint_count;
   }
   if (joints > kMaxJointsLimit) {
@@ -178,6 +182,7 @@ Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool n
   w.bones = w.arrays->influences;
   w.joints = w.arrays->joint_count;
   w.normals = normals;
+  w.tangents = tangents;
   auto mesh = Mesh::Create(*w.arrays);
   if (!mesh.ok()) {
     return Status(mesh.status().code(), fmt::format("{}: {}", path, mesh.status().message()));

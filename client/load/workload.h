@@ -22,7 +22,7 @@ struct Workload {
   uint32_t bones = 0;
   uint32_t joints = 77;
   bool normals = false;
-  bool tangents = false;  // asked for back (want_tangents) and checked; synthetic meshes only
+  bool tangents = false;                            // asked for back (want_tangents) and checked
   SkinningMethod method = SkinningMethod::kLinear;  // asked of the server, checked locally
   std::shared_ptr<const MeshArrays> arrays;         // shared by every stream's client
   std::shared_ptr<const Mesh> mesh;                 // for the float64 reference checks
@@ -78,9 +78,11 @@ inline constexpr double kGltfWorkloadFps = 30.0;
 // first clip every 1 / kGltfWorkloadFps s over its duration, so frame f shows time f / 30 s wrapped
 // around the clip. INVALID_ARGUMENT (naming the file) when it does not import, has no such
 // primitive or no clip, its meshes have more than 65535 palette entries together, or `normals` is
-// asked of a mesh without them. Morph targets of the meshes are kept (concatenated like the
+// asked of a mesh without them, or `tangents` of a character whose primitives do not all have
+// them. Morph targets of the meshes are kept (concatenated like the
 // vertices); each frame carries their weights at its clip time (the clip's `weights`
 // channels, else the file's default weights), as `animate` sends them.
-Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool normals);
+Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool normals,
+                                  bool tangents = false);
 
 }  // namespace skinserve::load

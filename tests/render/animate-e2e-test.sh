@@ -13,6 +13,9 @@
 #     skinserve-cli upload                         the rigid parts in the skin's meshes
 #     skinserve-cli animate --render               every vertex of every part, one image
 #     skinserve-load --mesh                        the whole character, answers checked
+#   a hand-made character with tangents and morph tangent deltas (tangents):
+#     skinserve-load --mesh --normals --tangents   tangents asked for and checked; refused,
+#                                                  naming the mesh, of one without tangents
 # The characters are the repository's (tests/assets/gltf); a missing one fails the test.
 # usage: animate-e2e-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD ASSETS-DIR TEST-SCENE
 set -euo pipefail
@@ -179,4 +182,28 @@ for r in results:
     assert r["vertices"] == int(sys.argv[2]) and r["frames"] > 0 and r["checked"] > 0, r
     assert r["mismatches"] == 0 and not r["errors"], r
 PY
+# ---- a character with tangents (and morph targets with tangent deltas) ------------------
+tangent=$work/tangents.glb
+facts=$("$scene" tangents "$tangent") || fail "skinserve-test-scene exited $?"
+say "tangents.glb: $facts"
+total=${facts%% vertices*}
+say "skinserve-load --mesh tangents.glb --normals --tangents"
+timeout 120 "$load" --target "$target" --mesh "$tangent" --backends sse,simd --normals --tangents \
+  --duration 1 --warmup 0 --check-every 2 --json "$work/tangent-load.json" ||
+  fail "skinserve-load --mesh tangents.glb --tangents exited $?"
+python3 - "$work/tangent-load.json" "$total" <<'PY' || fail "tangents load report"
+import json, sys
+results = json.load(open(sys.argv[1]))["results"]
+assert len(results) == 2, results
+for r in results:
+    assert r["vertices"] == int(sys.argv[2]) and r["frames"] > 0 and r["checked"] > 0, r
+    assert r["tangents"] and r["mismatches"] == 0 and not r["errors"], r
+PY
+say "skinserve-load --mesh RiggedSimple.glb --tangents (it has none): refused"
+if "$load" --target "$target" --mesh "$assets/RiggedSimple.glb" --backends sse --normals \
+  --tangents --duration 1 2>"$work/no-tangents.err"; then
+  fail "--tangents on a mesh without tangents exited 0"
+fi
+grep -q -- "--tangents: Armature has no tangents in" "$work/no-tangents.err" ||
+  fail "--tangents without tangents: $(cat "$work/no-tangents.err")"
 say "passed"

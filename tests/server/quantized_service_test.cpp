@@ -5,8 +5,11 @@
 // the float64 reference on the decoded input, unary and streamed; an unknown encoding, quantizing a
 // mesh with morph targets and dual quaternions on the quantized `simd` stream are refused naming
 // the reason. Tolerance: CompareWithReference's (float32 rounding, 1e-5 * (1 + S)). The bound
-// against the original float input is tested per target in quantized_rest_test.cpp.
+// against the original float input is tested per target in quantized_rest_test.cpp. `opencl`
+// (which reads the integers on the device) gets the same checks.
 #include <gtest/gtest.h>
+
+#include <algorithm>
 
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/reference/reference.h"
@@ -118,6 +121,55 @@ TEST(QuantizedServiceTest, UploadedQuantizedSkinsOnSimdLikeTheDecodedReference) 
   ASSERT_TRUE(raw.ok()) << raw.status().ToString();
   EXPECT_EQ(raw->mesh_id(),
             Mesh::Create(arrays, {.rest_encoding = RestEncoding::kQuantized16}).value()->id());
+}
+
+// `opencl` (PoCL here) reads the integers on the device: unary frames of both encodings,
+// with and without normals, and streamed frames, against the reference on the decoded input;
+// BackendInfo says it reads the stream, and dual quaternions are refused as on `simd`.
+TEST(QuantizedServiceTest, OpenClSkinsTheQuantizedStreamLikeTheDecodedReference) {
+  TestServer t;
+  auto list = t.client->ListBackends();
+  ASSERT_TRUE(list.ok());
+  const auto found = std::find_if(list->backends().begin(), list->backends().end(),
+                                  [](const auto& b) { return b.id() == "opencl"; });
+  ASSERT_NE(found, list->backends().end());
+  if (!found->available()) GTEST_SKIP() << "opencl unavailable: " << found->unavailable_reason();
+  EXPECT_TRUE(found->quantized_rest());
+  const MeshArrays arrays = Arrays();
+  for (RestEncoding encoding : {RestEncoding::kQuantized16, RestEncoding::kQuantized8Weights}) {
+    auto info = t.client->Upload(arrays, {.rest_encoding = encoding});
+    ASSERT_TRUE(info.ok()) << info.status().ToString();
+    const auto mesh = Mesh::Create(arrays, {.rest_encoding = encoding}).value();
+    const std::string what = "opencl " + std::string(RestEncodingName(encoding));
+    for (uint64_t frame = 0; frame < 2; ++frame) {
+      const auto palette = MakeSyntheticPalette(kJoints, 8, frame);
+      client::FrameResult result;
+      Status s = t.client->Skin(info->mesh_id(), palette, frame,
+                                {.backend = "opencl", .want_normals = frame == 1}, &result);
+      ASSERT_TRUE(s.ok()) << what << ": " << s.ToString();
+      ExpectMatches(*mesh, palette, result.positions, result.normals,
+                    what + " frame " + std::to_string(frame));
+    }
+    int seen = 0;
+    client::StreamOptions options{
+        .mesh_id = info->mesh_id(), .backend = "opencl", .want_normals = true, .frames = 3};
+    Status streamed = client::StreamFrames(
+        *t.client, options, [](uint64_t f) { return MakeSyntheticPalette(kJoints, 9, f); },
+        [&](client::FrameResult& r, std::chrono::nanoseconds) {
+          ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+          ExpectMatches(*mesh, MakeSyntheticPalette(kJoints, 9, r.frame), r.positions, r.normals,
+                        what + " streamed frame " + std::to_string(r.frame));
+          ++seen;
+        });
+    ASSERT_TRUE(streamed.ok()) << streamed.ToString();
+    EXPECT_EQ(seen, 3);
+    client::FrameResult result;
+    Status s =
+        t.client->Skin(info->mesh_id(), MakeRigidPalette(kJoints, 1, 1), 0,
+                       {.backend = "opencl", .method = SkinningMethod::kDualQuaternion}, &result);
+    EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << s.ToString();
+    EXPECT_NE(s.message().find("linear method only"), std::string::npos) << s.message();
+  }
 }
 
 TEST(QuantizedServiceTest, BadRequestsAreRefusedNamingTheReason) {

@@ -19,6 +19,13 @@ std::vector<std::string> Split(const std::string& s, char sep) {
   return parts;
 }
 
+// The rest stream a row's kind names: BM_Skin[Normals]Quantized[Weights8] or float.
+RestEncoding StreamOf(const std::string& kind) {
+  if (kind.find("QuantizedWeights8") != std::string::npos) return RestEncoding::kQuantized8Weights;
+  if (kind.find("Quantized") != std::string::npos) return RestEncoding::kQuantized16;
+  return RestEncoding::kFloat32;
+}
+
 }  // namespace
 
 void PaperTablesReporter::ReportRuns(const std::vector<Run>& runs) {
@@ -148,27 +155,29 @@ void PaperTablesReporter::PrintDeviceBounds() const {
              "M vert/s", "% PCIe", "kernel M v/s", "% mem");
   for (const auto& [key, rate] : rates_) {
     const auto& [kind, backend, v, b] = key;
-    if (kind == "BM_SkinNormals" || backend.rfind("opencl", 0) != 0) continue;
+    if (kind.rfind("BM_SkinNormals", 0) == 0 || backend.rfind("opencl", 0) != 0) continue;
     auto kernel = kernel_rates_.find(key);
     const double kernel_rate = kernel == kernel_rates_.end() ? 0.0 : kernel->second;
+    // A quantized row's kernel reads its integers (quantized_rest.h), not the float stream.
+    const RestEncoding rest = StreamOf(kind);
+    const double bytes = rest == RestEncoding::kFloat32
+                             ? BytesPerVertex(b, false)
+                             : StreamedBytesPerVertex(rest, b, kPaperJoints, false);
     fmt::print("{:<16} {:>10} {:>3} {:>12.0f} {:>7.0f}% {:>14.0f} {:>7.0f}%{}\n", backend, v, b,
                rate / 1e6, 100 * rate * 12 / d2h, kernel_rate / 1e6,
-               100 * kernel_rate * BytesPerVertex(b, false) / copy,
-               kind == "BM_SkinStreams" ? "  (streams)" : "");
+               100 * kernel_rate * bytes / copy,
+               kind == "BM_SkinStreams" ? "  (streams)"
+               : rest == RestEncoding::kFloat32
+                   ? ""
+                   : fmt::format("  ({}, {:.0f} B/vertex)", RestEncodingName(rest), bytes));
   }
 }
 
 void PaperTablesReporter::PrintQuantizedShares() const {
-  const auto stream_of = [](const std::string& kind) {
-    if (kind.find("QuantizedWeights8") != std::string::npos)
-      return RestEncoding::kQuantized8Weights;
-    if (kind.find("Quantized") != std::string::npos) return RestEncoding::kQuantized16;
-    return RestEncoding::kFloat32;
-  };
   bool header = false;
   for (const auto& [key, rate] : rates_) {
     const auto& [kind, backend, vertices, bones] = key;
-    const RestEncoding rest = stream_of(kind);
+    const RestEncoding rest = StreamOf(kind);
     if (rest == RestEncoding::kFloat32) continue;
     const bool normals = kind.rfind("BM_SkinNormals", 0) == 0;
     if (!header) {

@@ -18,7 +18,8 @@ class PaperTablesReporter : public benchmark::ConsoleReporter {
   // Prints the tables for the positions-only runs (and the normals runs, if any).
   void PrintTables(const std::vector<std::string>& backends) const;
   // The OpenCL rates (transfers included, and kernel only) as shares of the device's
-  // bounds, when the device bandwidth benchmarks ran.
+  // bounds, when the device bandwidth benchmarks ran; BM_SkinQuantized* rows at the bytes of
+  // their integer stream.
   void PrintDeviceBounds() const;
   // BM_Skin[Normals]Quantized* rows: bytes per vertex streamed, share of the memory bound
   // (BM_MemoryBandwidth's best repetition) and speed over the float row of the same backend.

@@ -19,10 +19,10 @@
 // palette from global memory (rows .../opencl-global/...), beside `opencl`'s own rows, which
 // on a GPU stage it in work-group local memory: the two kernels compared in one run.
 // --quantized: also BM_SkinQuantized/<backend>/<vertices>/<bones> (and
-// BM_SkinQuantizedWeights8) for the backends that read a quantized rest stream
-// (RestEncoding quantized16, quantized8-weights), the same mesh stored quantized, beside the
-// float rows; after the run, each quantized row's bytes per vertex, its share of
-// BM_MemoryBandwidth's bound and its speed over the float row (issue 29).
+// BM_SkinQuantizedWeights8) for the backends that read a quantized rest stream (simd,
+// simd-openmp and OpenCL; RestEncoding quantized16, quantized8-weights), the same mesh
+// stored quantized, beside the float rows; after the run, each quantized row's bytes per
+// vertex, its share of BM_MemoryBandwidth's bound and its speed over the float row (issue 29).
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and

@@ -48,8 +48,9 @@ BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, cons
   info.threads = threads;
   // linear_blend_skinning.cl and dual_quaternion_skinning.cl.
   info.methods = {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion};
-  info.morph_targets = true;  // morph_targets.cl, before either method's kernels
-  info.tangents = true;       // the *_tangents_* kernels, and morphed on the device too
+  info.morph_targets = true;   // morph_targets.cl, before either method's kernels
+  info.tangents = true;        // the *_tangents_* kernels, and morphed on the device too
+  info.quantized_rest = true;  // quantized_skinning.cl: the device holds the integers only
   return info;
 }
 

@@ -25,6 +25,7 @@
 #include "dual_quaternion_palette.h"
 #include "opencl_backends.h"
 #include "opencl_morph.h"
+#include "opencl_quantized.h"
 #include "skinserve/model/palette.h"
 
 namespace skinserve {
@@ -70,6 +71,15 @@ class OpenClCopyBackend final : public Backend {
 
   Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
     auto prepared = std::make_unique<OpenClPreparedMesh>(mesh);
+    if (mesh->quantized_rest() != nullptr) {  // the integers only (opencl_quantized.h)
+      if (Status s =
+              PrepareQuantizedMesh(*runtime_, *mesh, CL_MEM_COPY_HOST_PTR, &prepared->positions,
+                                   &prepared->normals, &prepared->joints, &prepared->weights);
+          !s.ok()) {
+        return s;
+      }
+      return std::unique_ptr<PreparedMesh>(std::move(prepared));
+    }
     constexpr cl_mem_flags kCopyIn = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
     struct Plan {
       const char* what;
@@ -102,6 +112,13 @@ class OpenClCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    if (const QuantizedRest* rest = base.mesh().quantized_rest()) {
+      // The qskin_* kernels take the palette folded with the mesh's box.
+      if (Status s = CheckQuantizedMethod(info_.id, base.mesh(), frame.method); !s.ok()) return s;
+      SkinFrame folded = frame;
+      folded.palette = FoldedQuantizedPalette(frame.palette, *rest);
+      return SkinPalette(base, folded);
+    }
     if (frame.method == SkinningMethod::kDualQuaternion) {
       // The kernels take the palette as unit dual quaternions, converted here once per
       // frame (J conversions): from here on the frame is the same as a linear one.

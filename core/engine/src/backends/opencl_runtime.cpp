@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "opencl_quantized.h"
 #include "skinserve/kernels/embedded_kernels.h"
 
 namespace skinserve {
@@ -333,6 +334,8 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
       kVerticesPerItem, kItemsPerGroup, runtime->coalesced_ ? 1 : 0,
       runtime->local_palette() ? 1 : 0, runtime->local_tiles_, kMorphVerticesPerItem);
   if (Status s = runtime->Build(build_options); !s.ok()) return s;
+  runtime->quantized_ = std::make_unique<OpenClQuantizedKernels>(
+      runtime->context_, runtime->device_, build_options, runtime->local_tiles_);
   const int lanes = options.lanes > 0 ? options.lanes : (runtime->staging_ ? 4 : 1);
   runtime->threads_ = threads;
   runtime->max_chunks_ = options.max_chunks;
@@ -460,6 +463,7 @@ Status OpenClRuntime::CreateLanes(int count) {
 }
 
 OpenClRuntime::~OpenClRuntime() {
+  quantized_.reset();  // its kernels and programs before the context
   for (auto& lane : lanes_) {
     for (auto& variant : lane->kernels) {
       for (auto& method : variant) {
@@ -575,6 +579,10 @@ bool OpenClRuntime::UsesLocalPalette(const Mesh& mesh, SkinningMethod method) co
 
 Status OpenClRuntime::EnqueueSkin(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args,
                                   uint32_t first, uint32_t end, cl_event* event) {
+  if (mesh.quantized_rest() != nullptr) {
+    return quantized_->Enqueue(lane, mesh, args, first, end, UsesLocalPalette(mesh, args.method),
+                               event);
+  }
   return EnqueueSkinKernel(lane, mesh, args, first, end, UsesLocalPalette(mesh, args.method),
                            event);
 }

@@ -118,6 +118,7 @@ struct PinnedBuffer {
 };
 
 class OpenClRuntime;
+class OpenClQuantizedKernels;  // opencl_quantized.h
 
 // One lane: queues, kernels and the per-frame buffers a backend keeps on it. Used by one
 // frame at a time (OpenClRuntime::Lease).
@@ -270,6 +271,9 @@ class OpenClRuntime {
   bool UsesLocalPalette(const Mesh& mesh, SkinningMethod method) const;
   int local_tiles() const { return local_tiles_; }
   static constexpr int kDefaultLocalTiles = 1;
+  // The qskin_* kernels of meshes with a quantized rest stream; EnqueueSkin takes them for
+  // such a mesh.
+  OpenClQuantizedKernels& quantized_kernels() { return *quantized_; }
 
  private:
   OpenClRuntime() = default;
@@ -300,6 +304,7 @@ class OpenClRuntime {
   int threads_ = 1;
   int max_chunks_ = kDefaultChunks;
   uint32_t min_chunk_vertices_ = 1;
+  std::unique_ptr<OpenClQuantizedKernels> quantized_;
 };
 
 }  // namespace skinserve

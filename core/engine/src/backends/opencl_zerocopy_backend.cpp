@@ -22,6 +22,7 @@
 #include "dual_quaternion_palette.h"
 #include "opencl_backends.h"
 #include "opencl_morph.h"
+#include "opencl_quantized.h"
 
 namespace skinserve {
 namespace {
@@ -44,6 +45,15 @@ class OpenClZeroCopyBackend final : public Backend {
   Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
     // The prepared mesh holds the Mesh alive, and with it the memory these buffers wrap.
     auto prepared = std::make_unique<ZeroCopyPreparedMesh>(mesh);
+    if (mesh->quantized_rest() != nullptr) {  // the integers only (opencl_quantized.h)
+      if (Status s =
+              PrepareQuantizedMesh(*runtime_, *mesh, CL_MEM_USE_HOST_PTR, &prepared->positions,
+                                   &prepared->normals, &prepared->joints, &prepared->weights);
+          !s.ok()) {
+        return s;
+      }
+      return std::unique_ptr<PreparedMesh>(std::move(prepared));
+    }
     auto wrap = [&](const char* what, ClBuffer* buffer, auto span) -> Status {
       auto created = runtime_->CreateBuffer(what, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
                                             span.size_bytes(), span.data());
@@ -67,6 +77,13 @@ class OpenClZeroCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    if (const QuantizedRest* rest = base.mesh().quantized_rest()) {
+      // The qskin_* kernels take the palette folded with the mesh's box.
+      if (Status s = CheckQuantizedMethod(info_.id, base.mesh(), frame.method); !s.ok()) return s;
+      SkinFrame folded = frame;
+      folded.palette = FoldedQuantizedPalette(frame.palette, *rest);
+      return SkinPalette(base, folded);
+    }
     if (frame.method == SkinningMethod::kDualQuaternion) {
       // The kernels take the palette as unit dual quaternions, converted here once per
       // frame into this thread's buffer, which the kernel then reads in place.

@@ -10,6 +10,7 @@
 #include "dual_quaternion_palette.h"
 #include "morph_stage.h"
 #include "parallel_range.h"
+#include "quantized_palette.h"
 #include "simd_stream.h"
 #include "skinserve/engine/simd_targets.h"
 #include "skinserve/model/aligned_buffer.h"
@@ -96,25 +97,19 @@ const float* ColumnPalette(std::span<const float> palette) {
   return buffer.data();
 }
 
-// The same for a quantized rest stream: each joint's matrix times the box's decoding
-// (x = offset + scale * q per axis), so the loop multiplies the integers directly. In
-// float64, rounded once.
+// The same for a quantized rest stream: each joint's matrix folded with the box
+// (quantized_palette.h), so the loop multiplies the integers directly.
 const float* QuantizedColumnPalette(std::span<const float> palette, const QuantizedRest& rest) {
   const std::size_t joints = palette.size() / 12;
   AlignedBuffer<float>& buffer = ThreadColumnBuffer(joints);
   for (std::size_t j = 0; j < joints; ++j) {
-    const float* rows = palette.data() + 12 * j;
+    float rows[12];
+    FoldQuantizedBox(palette.data() + 12 * j, rest, rows);
     float* out = buffer.data() + simd::kFloatsPerJoint * j;
-    for (int r = 0; r < 3; ++r) {
-      const float* row = rows + 4 * r;
-      double translation = row[3];
-      for (int c = 0; c < 3; ++c) {
-        out[4 * c + r] = static_cast<float>(double{row[c]} * rest.scale[c]);
-        translation += double{row[c]} * rest.offset[c];
-      }
-      out[12 + r] = static_cast<float>(translation);
+    for (int c = 0; c < 4; ++c) {
+      out[4 * c] = rows[c], out[4 * c + 1] = rows[4 + c], out[4 * c + 2] = rows[8 + c];
+      out[4 * c + 3] = 0.0f;
     }
-    out[3] = out[7] = out[11] = out[15] = 0.0f;
   }
   return buffer.data();
 }
