@@ -2,10 +2,11 @@
 // the independent float64 reference (ReferenceSkinDualQuaternion, on glm) on random rigid
 // palettes, B = 1..8, vertex counts that leave tails, 1, 77 and 300 joints (`simd`
 // streams 8-bit joints up to 256, 16-bit above), with and without normals; the twist,
-// where it must keep the tube's radius while linear blending collapses it; and the method
-// lists. (`simd` at every SIMD target: simd_targets_test.cpp; the OpenCL kernels' own
-// cases and the staged copy path: tests/opencl.)
-// Tolerance: CompareWithReference's (1e-5 relative to the frame's scale, 1e-5 on normals).
+// where it must keep the tube's radius while linear blending collapses it; three joints whose
+// quaternions are not in one hemisphere, in every order; and the method lists. (`simd` at every
+// SIMD target: simd_targets_test.cpp; the OpenCL kernels' own cases and the staged copy path:
+// tests/opencl.) Tolerance: CompareWithReference's (1e-5 relative to the frame's scale, 1e-5 on
+// normals).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -144,6 +145,64 @@ TEST_P(TwistTest, DualQuaternionsKeepTheRadiusWhereLinearCollapses) {
 }
 
 INSTANTIATE_TEST_SUITE_P(DualQuaternionBackends, TwistTest,
+                         ::testing::ValuesIn(BackendIdsWithMethod(SkinningMethod::kDualQuaternion)),
+                         [](const ::testing::TestParamInfo<std::string>& param) {
+                           std::string name = param.param;
+                           std::replace(name.begin(), name.end(), '-', '_');
+                           return name;
+                         });
+
+// Three joints at 0, 120 and 240 degrees about z. Their quaternions (Shepperd's
+// conversion: (0 0 0 1), (0 0 .866 .5), (0 0 .866 -.5)) are not in one hemisphere: q0.q1 =
+// 0.5, q1.q2 = 0.5, but q0.q2 = -0.5. So each influence's sign depends on which joint is
+// the vertex's first: with joints (1, 0, 2) and weights (.5, .3, .2) the blend against
+// joint 1 is (0 0 .61 .45), a rotation by 107 degrees; against joint 0 (wrong) it would be
+// (0 0 .26 .65), 44 degrees.
+// Every ordering of the joints, 4 vertices (per-vertex signs on `simd`: fewer dot products
+// than the table's 9) and 6 and 600 (its per-frame hemisphere table, past one 256-vertex
+// chunk), each checked against the float64 reference, which takes the first's hemisphere.
+class HemisphereTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(HemisphereTest, EachInfluenceTakesTheFirstInfluencesHemisphere) {
+  Backend& backend = BackendById(GetParam());
+  SKIP_IF_UNAVAILABLE(backend);
+  const double third = 2 * std::numbers::pi / 3;
+  std::vector<float> palette;
+  const float translations[3][3] = {{1, 2, 3}, {-2, 0, 1}, {0, 3, -1}};
+  for (int j = 0; j < 3; ++j) {
+    const float c = static_cast<float>(std::cos(j * third));
+    const float s = static_cast<float>(std::sin(j * third));
+    const std::vector<float> m = {c, -s, 0, translations[j][0], s, c, 0, translations[j][1],
+                                  0, 0,  1, translations[j][2]};
+    palette.insert(palette.end(), m.begin(), m.end());
+  }
+  const uint32_t orders[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (uint32_t vertices : {4u, 6u, 600u}) {
+    MeshArrays arrays{.vertex_count = vertices, .influences = 3, .joint_count = 3};
+    for (uint32_t v = 0; v < vertices; ++v) {
+      const float f = static_cast<float>(v);
+      arrays.positions.insert(arrays.positions.end(), {1 + 0.01f * f, -0.5f, 0.25f * (v % 7)});
+      const float n[3] = {0.6f, 0, 0.8f};
+      arrays.normals.insert(arrays.normals.end(), n, n + 3);
+      arrays.joints.insert(arrays.joints.end(), orders[v % 6], orders[v % 6] + 3);
+      arrays.weights.insert(arrays.weights.end(), {0.5f, 0.3f, 0.2f});
+    }
+    auto mesh = Mesh::Create(arrays);
+    ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+    auto prepared = backend.Prepare(*mesh);
+    ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+    const Output out =
+        SkinOnce(backend, **prepared, palette, true, SkinningMethod::kDualQuaternion);
+    const Deviation d = CompareWithReference(**mesh, palette, out.positions, out.normals,
+                                             SkinningMethod::kDualQuaternion);
+    EXPECT_TRUE(d.within_tolerance())
+        << GetParam() << " V=" << vertices << ": position error " << d.max_position_error
+        << " (tolerance " << d.position_tolerance << "), normal error " << d.max_normal_error
+        << ", worst vertex " << d.worst_vertex;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(DualQuaternionBackends, HemisphereTest,
                          ::testing::ValuesIn(BackendIdsWithMethod(SkinningMethod::kDualQuaternion)),
                          [](const ::testing::TestParamInfo<std::string>& param) {
                            std::string name = param.param;

@@ -100,7 +100,8 @@ void ExpectBothBackendsMatchAt(const std::string& target, SkinningMethod method)
     ASSERT_TRUE(backend->info().Supports(method));
     for (uint32_t b = 1; b <= 8; ++b) {
       // 8-bit joints up to 256, 16-bit above; with 20 joints the dual-quaternion kernel
-      // takes its per-frame sign table from 400 / (B - 1) vertices on, per-vertex signs below.
+      // takes its per-frame hemisphere table from 400 / (B - 1) vertices on, per-vertex signs
+      // below.
       for (uint32_t j : {1u, 20u, 256u, 300u}) {
         for (int outputs = 0; outputs < 3; ++outputs) {  // positions, + normals, + tangents
           for (uint32_t v : VertexCounts()) {

@@ -114,26 +114,42 @@ const float* QuantizedColumnPalette(std::span<const float> palette, const Quanti
   return buffer.data();
 }
 
-// The frame's quaternion sign table (simd::DualQuaternionFrame::signs), in this thread's
-// buffer like ColumnPalette: J x J dot products, built only where they are fewer than the
-// vertices' own (a vertex compares each of its B - 1 other influences with its first) and
-// the joints stream as 8 bits (J <= 256, 256 KB at most). Null otherwise.
-const float* SignTable(const DualQuaternionPalette& quaternions, const Mesh& mesh,
-                       const simd::VertexStream& stream) {
+// The frame's dual quaternions for the kernel (simd::DualQuaternionFrame), with the
+// hemisphere table where it is cheaper than a dot product per vertex and influence (a
+// vertex compares each of its B - 1 other influences with its first; the table costs J x J)
+// and the joints stream as 8 bits (J <= 256: 128 KB of table at most). The table and the
+// palette doubled with its negation live in this thread's buffers, like ColumnPalette.
+simd::DualQuaternionFrame KernelPalette(const DualQuaternionPalette& quaternions, const Mesh& mesh,
+                                        const simd::VertexStream& stream) {
+  constexpr std::size_t kStride = DualQuaternionPalette::kFloatsPerJoint;
   const std::size_t joints = mesh.joint_count();
+  simd::DualQuaternionFrame frame{.quaternions = quaternions.joint(0),
+                                  .joint_count = mesh.joint_count()};
   const std::size_t dots = std::size_t{mesh.vertex_count()} * (mesh.influences() - 1);
-  if (stream.joints8 == nullptr || joints * joints > dots) return nullptr;
-  thread_local AlignedBuffer<float> buffer;
-  if (buffer.size() < joints * joints) buffer = AlignedBuffer<float>(joints * joints);
+  if (stream.joints8 == nullptr || joints * joints > dots) return frame;
+  thread_local AlignedBuffer<float> both;
+  thread_local AlignedBuffer<uint16_t> table;
+  if (both.size() < 2 * kStride * joints) both = AlignedBuffer<float>(2 * kStride * joints);
+  if (table.size() < joints * joints) table = AlignedBuffer<uint16_t>(joints * joints);
+  for (std::size_t j = 0; j < joints; ++j) {
+    const float* q = quaternions.joint(j);
+    for (std::size_t e = 0; e < kStride; ++e) {
+      both[kStride * j + e] = q[e];
+      both[kStride * (joints + j) + e] = -q[e];
+    }
+  }
   for (std::size_t i = 0; i < joints; ++i) {
     const float* a = quaternions.joint(i);
     for (std::size_t j = 0; j < joints; ++j) {
       const float* b = quaternions.joint(j);
+      // The dot product the kernel's per-vertex path takes (q_i . q_i = 1: its own record).
       const float dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
-      buffer[i * joints + j] = dot < 0 ? -1.0f : 1.0f;
+      table[i * joints + j] = static_cast<uint16_t>(kStride * (dot < 0 ? joints + j : j));
     }
   }
-  return buffer.data();
+  frame.quaternions = both.data();
+  frame.hemisphere = table.data();
+  return frame;
 }
 
 class SimdBackend final : public Backend {
@@ -168,10 +184,8 @@ class SimdBackend final : public Backend {
         RunQuantized(*quantized, prepared.mesh(), columns, frame, out.normals);
       } else if (frame.method == SkinningMethod::kDualQuaternion) {
         const DualQuaternionPalette quaternions(frame.palette);
-        const simd::DualQuaternionFrame palette{
-            .quaternions = quaternions.joint(0),
-            .signs = SignTable(quaternions, prepared.mesh(), stream),
-            .joint_count = prepared.mesh().joint_count()};
+        const simd::DualQuaternionFrame palette =
+            KernelPalette(quaternions, prepared.mesh(), stream);
         Run(kernel_.skin_dual_quaternion_range, prepared.mesh(), stream, palette, frame, out);
       } else {
         const float* columns = ColumnPalette(frame.palette);

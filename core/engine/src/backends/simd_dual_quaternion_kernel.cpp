@@ -2,22 +2,25 @@
 // same targets as the linear one (simd_kernel.cpp, whose GetKernel hands it out). The
 // semantics are the scalar loop's (scalar_dual_quaternion_skinning.h): blend the B unit
 // dual quaternions of the frame's DualQuaternionPalette, each one's sign chosen against
-// the first influence, normalise by the real part's length, move the position; the normal
+// the first influence, normalised by the real part's length, move the position; the normal
 // and the tangent's xyz are rotated by the blended rotation (the tangent's w is kept).
 //
 // Two passes per chunk of 256 vertices, so each part runs where it is cheap:
 //  1. the blend, one vertex at a time: a joint's record is one aligned 256-bit load on
 //     AVX2 and AVX-512 (its rotation and dual part two 128-bit ones elsewhere), as the
-//     linear loop loads whole matrix records; the sign test is a 4-lane dot product, or a
-//     look-up in the frame's sign table when there is one (DualQuaternionFrame::signs);
+//     linear loop loads whole matrix records; the frame's hemisphere table, when there is
+//     one (DualQuaternionFrame::hemisphere), gives each record with its sign already chosen,
+//     else the sign test is a 4-lane dot product;
 //     the blended real and dual parts go to two small arrays (L1) instead of being
 //     transposed in registers;
-//  2. normalisation and the transform, one vertex per lane at the full vector width: the
-//     blends come back with LoadInterleaved4, positions and normals with
-//     LoadInterleaved3 (tangents with LoadInterleaved4), so this part is plain lane-wise
-//     arithmetic.
+//  2. the transform, one vertex per lane at the full vector width, of the blend as it is
+//     (its normalisation folded into one scale, TransformStep): the blends come back with
+//     LoadInterleaved4, positions and normals with LoadInterleaved3 (tangents with
+//     LoadInterleaved4), so this part is plain lane-wise arithmetic.
 // (Gathering each component of each influence instead - 8 gathers an influence - measured
-// 3.2x the linear loop at 400k x 4 on AVX-512; these two passes, 1.5x.) No vector lives in a struct
+// 3.2x the linear loop at 400k x 4 on AVX-512; these two passes, 1.5x; with the hemisphere
+// table and the folded normalisation, 1.32x on one VM thread, from 1.73x before them
+// (docs/results/2026-11-27-dq-speed-vm).) No vector lives in a struct
 // or an array, so SVE's sizeless vectors work as well. The chunk's last partial vector runs on
 // padded local copies: nothing outside the range is written.
 #undef HWY_TARGET_INCLUDE
@@ -53,30 +56,53 @@ constexpr std::size_t kChunk = 256;  // vertices blended before they are transfo
 // Pass 1 for one vertex: the sum of w_i q_i, each q_i's sign chosen against the first
 // influence's rotation, into real[0..3] and dual[0..3] (x, y, z, w). The weights are the
 // stream's B - 1; the last is 1 - their sum (the mesh's weights sum to 1).
-// With a sign table (DualQuaternionFrame::signs), its row for the first influence's joint
-// replaces the dot products.
+//
+// With the frame's hemisphere table (DualQuaternionFrame::hemisphere) each influence's
+// record is loaded with its sign already chosen, and the blend takes the linear loop's
+// form (simd_kernel.cpp's Blend): q_last + sum over i < B - 1 of w_i (q_i - q_last), the
+// weights broadcast straight from memory. Per influence that is a table look-up, a load, a
+// subtraction and a multiply-add: no scalar arithmetic and no register broadcast.
+// Without it (16-bit joints, or fewer vertices than the table's J x J entries) a dot
+// product per influence decides the sign.
+// The records of a vertex's B influences, each in the first one's hemisphere.
+template <int B, typename Joint>
+HWY_INLINE void HemisphereRecords(const float* HWY_RESTRICT quaternions,
+                                  const uint16_t* HWY_RESTRICT hemisphere, uint32_t joint_count,
+                                  const Joint* HWY_RESTRICT joints, const float** records) {
+  const uint16_t* HWY_RESTRICT row = hemisphere + std::size_t{joint_count} * joints[0];
+  records[0] = quaternions + kStride * joints[0];  // its own hemisphere
+  for (int i = 1; i < B; ++i) records[i] = quaternions + row[joints[i]];
+}
+
 #if HWY_TARGET == HWY_SCALAR
 template <int B, bool Table, typename Joint>
-HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions, const float* HWY_RESTRICT signs,
-                            uint32_t joint_count, const Joint* HWY_RESTRICT joints,
-                            const float* HWY_RESTRICT weights, float* HWY_RESTRICT real,
-                            float* HWY_RESTRICT dual) {
-  const float* q0 = quaternions + kStride * joints[0];
-  float last_weight = 1.0f, b[8];
-  const float w0 = B > 1 ? weights[0] : 1.0f;
-  last_weight -= w0;
-  for (std::size_t e = 0; e < 8; ++e) b[e] = w0 * q0[e];
-  for (int i = 1; i < B; ++i) {
-    const float* q = quaternions + kStride * joints[i];
-    float w = last_weight;
-    if (i + 1 < B) w = weights[i], last_weight -= w;
-    if constexpr (Table) {
-      w *= signs[std::size_t{joint_count} * joints[0] + joints[i]];
-    } else {
+HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions,
+                            const uint16_t* HWY_RESTRICT hemisphere, uint32_t joint_count,
+                            const Joint* HWY_RESTRICT joints, const float* HWY_RESTRICT weights,
+                            float* HWY_RESTRICT real, float* HWY_RESTRICT dual) {
+  float b[8];
+  if constexpr (Table) {
+    const float* q[B];
+    HemisphereRecords<B>(quaternions, hemisphere, joint_count, joints, q);
+    for (std::size_t e = 0; e < 8; ++e) {
+      float sum = q[B - 1][e];
+      for (int i = 0; i < B - 1; ++i) sum += weights[i] * (q[i][e] - q[B - 1][e]);
+      b[e] = sum;
+    }
+  } else {
+    const float* q0 = quaternions + kStride * joints[0];
+    float last_weight = 1.0f;
+    const float w0 = B > 1 ? weights[0] : 1.0f;
+    last_weight -= w0;
+    for (std::size_t e = 0; e < 8; ++e) b[e] = w0 * q0[e];
+    for (int i = 1; i < B; ++i) {
+      const float* q = quaternions + kStride * joints[i];
+      float w = last_weight;
+      if (i + 1 < B) w = weights[i], last_weight -= w;
       const float dot = q0[0] * q[0] + q0[1] * q[1] + q0[2] * q[2] + q0[3] * q[3];
       if (dot < 0) w = -w;
+      for (std::size_t e = 0; e < 8; ++e) b[e] += w * q[e];
     }
-    for (std::size_t e = 0; e < 8; ++e) b[e] += w * q[e];
   }
   std::copy_n(b, 4, real);
   std::copy_n(b + 4, 4, dual);
@@ -85,30 +111,37 @@ HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions, const float* 
 // AVX2 and AVX-512: a joint's whole record is one 256-bit vector, so each influence is one
 // load and one multiply-add.
 template <int B, bool Table, typename Joint>
-HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions, const float* HWY_RESTRICT signs,
-                            uint32_t joint_count, const Joint* HWY_RESTRICT joints,
-                            const float* HWY_RESTRICT weights, float* HWY_RESTRICT real,
-                            float* HWY_RESTRICT dual) {
+HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions,
+                            const uint16_t* HWY_RESTRICT hemisphere, uint32_t joint_count,
+                            const Joint* HWY_RESTRICT joints, const float* HWY_RESTRICT weights,
+                            float* HWY_RESTRICT real, float* HWY_RESTRICT dual) {
   const hn::FixedTag<float, 8> d8;
   const hn::FixedTag<float, 4> d4;
-  const auto q0 = hn::Load(d8, quaternions + kStride * joints[0]);  // 32-byte aligned
-  const auto r0 = hn::LowerHalf(d4, q0);
-  float last_weight = 1.0f;
-  const float w0 = B > 1 ? weights[0] : 1.0f;
-  last_weight -= w0;
-  auto b = hn::Mul(hn::Set(d8, w0), q0);
-  for (int i = 1; i < B; ++i) {
-    const auto q = hn::Load(d8, quaternions + kStride * joints[i]);
-    float w = last_weight;
-    if (i + 1 < B) w = weights[i], last_weight -= w;
-    // q and -q are the same rotation: take the one in the first influence's hemisphere.
-    if constexpr (Table) {
-      w *= signs[std::size_t{joint_count} * joints[0] + joints[i]];
-    } else {
+  hn::Vec<decltype(d8)> b;
+  if constexpr (Table) {
+    const float* q[B];
+    HemisphereRecords<B>(quaternions, hemisphere, joint_count, joints, q);
+    const auto base = hn::Load(d8, q[B - 1]);  // 32-byte aligned
+    b = base;
+    for (int i = 0; i < B - 1; ++i) {
+      b = hn::MulAdd(hn::Set(d8, weights[i]), hn::Sub(hn::Load(d8, q[i]), base), b);
+    }
+  } else {
+    const auto q0 = hn::Load(d8, quaternions + kStride * joints[0]);
+    const auto r0 = hn::LowerHalf(d4, q0);
+    float last_weight = 1.0f;
+    const float w0 = B > 1 ? weights[0] : 1.0f;
+    last_weight -= w0;
+    b = hn::Mul(hn::Set(d8, w0), q0);
+    for (int i = 1; i < B; ++i) {
+      const auto q = hn::Load(d8, quaternions + kStride * joints[i]);
+      float w = last_weight;
+      if (i + 1 < B) w = weights[i], last_weight -= w;
+      // q and -q are the same rotation: take the one in the first influence's hemisphere.
       const float dot = hn::GetLane(hn::SumOfLanes(d4, hn::Mul(r0, hn::LowerHalf(d4, q))));
       w = dot < 0 ? -w : w;
+      b = hn::MulAdd(hn::Set(d8, w), q, b);
     }
-    b = hn::MulAdd(hn::Set(d8, w), q, b);
   }
   hn::Store(hn::LowerHalf(d4, b), d4, real);
   hn::Store(hn::UpperHalf(d4, b), d4, dual);
@@ -117,43 +150,65 @@ HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions, const float* 
 // 128-bit targets (SSE4, NEON, SVE at any length): the rotation and the dual part are one
 // 4-lane vector each.
 template <int B, bool Table, typename Joint>
-HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions, const float* HWY_RESTRICT signs,
-                            uint32_t joint_count, const Joint* HWY_RESTRICT joints,
-                            const float* HWY_RESTRICT weights, float* HWY_RESTRICT real,
-                            float* HWY_RESTRICT dual) {
+HWY_INLINE void BlendVertex(const float* HWY_RESTRICT quaternions,
+                            const uint16_t* HWY_RESTRICT hemisphere, uint32_t joint_count,
+                            const Joint* HWY_RESTRICT joints, const float* HWY_RESTRICT weights,
+                            float* HWY_RESTRICT real, float* HWY_RESTRICT dual) {
   const hn::FixedTag<float, 4> d4;
-  const float* q0 = quaternions + kStride * joints[0];
-  const auto r0 = hn::Load(d4, q0);  // the palette's records are 32-byte aligned
-  float last_weight = 1.0f;
-  const float w0 = B > 1 ? weights[0] : 1.0f;
-  last_weight -= w0;
-  auto br = hn::Mul(hn::Set(d4, w0), r0);
-  auto bd = hn::Mul(hn::Set(d4, w0), hn::Load(d4, q0 + 4));
-  for (int i = 1; i < B; ++i) {
-    const float* q = quaternions + kStride * joints[i];
-    float w = last_weight;
-    if (i + 1 < B) w = weights[i], last_weight -= w;
-    const auto r = hn::Load(d4, q);
-    // q and -q are the same rotation: take the one in the first influence's hemisphere.
-    auto signed_w = hn::Set(d4, w);
-    if constexpr (Table) {
-      signed_w = hn::Set(d4, w * signs[std::size_t{joint_count} * joints[0] + joints[i]]);
-    } else {
+  hn::Vec<decltype(d4)> br, bd;
+  if constexpr (Table) {
+    const float* q[B];
+    HemisphereRecords<B>(quaternions, hemisphere, joint_count, joints, q);
+    const auto base_r = hn::Load(d4, q[B - 1]);  // the palette's records are 32-byte aligned
+    const auto base_d = hn::Load(d4, q[B - 1] + 4);
+    br = base_r, bd = base_d;
+    for (int i = 0; i < B - 1; ++i) {
+      const auto w = hn::Set(d4, weights[i]);
+      br = hn::MulAdd(w, hn::Sub(hn::Load(d4, q[i]), base_r), br);
+      bd = hn::MulAdd(w, hn::Sub(hn::Load(d4, q[i] + 4), base_d), bd);
+    }
+  } else {
+    const float* q0 = quaternions + kStride * joints[0];
+    const auto r0 = hn::Load(d4, q0);
+    float last_weight = 1.0f;
+    const float w0 = B > 1 ? weights[0] : 1.0f;
+    last_weight -= w0;
+    br = hn::Mul(hn::Set(d4, w0), r0);
+    bd = hn::Mul(hn::Set(d4, w0), hn::Load(d4, q0 + 4));
+    for (int i = 1; i < B; ++i) {
+      const float* q = quaternions + kStride * joints[i];
+      float w = last_weight;
+      if (i + 1 < B) w = weights[i], last_weight -= w;
+      const auto r = hn::Load(d4, q);
+      // q and -q are the same rotation: take the one in the first influence's hemisphere.
+      auto signed_w = hn::Set(d4, w);
       const auto dot = hn::SumOfLanes(d4, hn::Mul(r0, r));
       signed_w = hn::IfThenElse(hn::Lt(dot, hn::Zero(d4)), hn::Neg(signed_w), signed_w);
+      br = hn::MulAdd(signed_w, r, br);
+      bd = hn::MulAdd(signed_w, hn::Load(d4, q + 4), bd);
     }
-    br = hn::MulAdd(signed_w, r, br);
-    bd = hn::MulAdd(signed_w, hn::Load(d4, q + 4), bd);
   }
   hn::Store(br, d4, real);
   hn::Store(bd, d4, dual);
 }
 #endif
 
-// 1 / sqrt(n2). On x86 the CPU's reciprocal square root (12 or 14 bits) and one
-// Newton-Raphson step (~23 bits; the 1e-5 tolerance needs ~17) cost a fraction of a true
-// square root and division, which take the divider for ~22 cycles per 16 lanes on AVX-512.
+// 2 / n2. On x86 the CPU's reciprocal (12 or 14 bits) and one Newton-Raphson step (~23
+// bits; the 1e-5 tolerance needs ~17) instead of a division, which holds the divider.
 // Elsewhere the estimate has 8 bits (NEON, SVE) or is emulated: the exact form.
+HWY_INLINE V TwiceInverse(V n2) {
+  const D d;
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_SSE4
+  const V r = hn::ApproximateReciprocal(n2);
+  // 2 r (2 - n2 r)
+  return hn::Mul(hn::Add(r, r), hn::NegMulAdd(n2, r, hn::Set(d, 2.0f)));
+#else
+  return hn::Div(hn::Set(d, 2.0f), n2);
+#endif
+}
+
+// 1 / sqrt(n2), the same way: the CPU's reciprocal square root and one Newton-Raphson step
+// on x86 (a square root and a division take the divider ~22 cycles per 16 lanes).
 HWY_INLINE V InverseLength(V n2) {
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_SSE4
   const D d;
@@ -166,19 +221,24 @@ HWY_INLINE V InverseLength(V n2) {
 #endif
 }
 
-// (x, y, z) <- (x, y, z) + 2 r x (r x p + rw p), lane-wise: the rotation by unit r.
-HWY_INLINE void Rotate(V rx, V ry, V rz, V rw, V& x, V& y, V& z) {
-  const V cx = hn::MulAdd(rw, x, hn::Sub(hn::Mul(ry, z), hn::Mul(rz, y)));
-  const V cy = hn::MulAdd(rw, y, hn::Sub(hn::Mul(rz, x), hn::Mul(rx, z)));
-  const V cz = hn::MulAdd(rw, z, hn::Sub(hn::Mul(rx, y), hn::Mul(ry, x)));
-  const V two = hn::Set(D(), 2.0f);
-  x = hn::MulAdd(two, hn::Sub(hn::Mul(ry, cz), hn::Mul(rz, cy)), x);
-  y = hn::MulAdd(two, hn::Sub(hn::Mul(rz, cx), hn::Mul(rx, cz)), y);
-  z = hn::MulAdd(two, hn::Sub(hn::Mul(rx, cy), hn::Mul(ry, cx)), z);
+// (x, y, z) <- (x, y, z) + k b x (b x p + bw p), lane-wise: with k = 2 / |b|^2 the rotation
+// by b / |b|, so the blend itself is never normalised (nor its dual part: see
+// TransformStep).
+HWY_INLINE void Rotate(V bx, V by, V bz, V bw, V k, V& x, V& y, V& z) {
+  const V cx = hn::MulAdd(bw, x, hn::MulSub(by, z, hn::Mul(bz, y)));
+  const V cy = hn::MulAdd(bw, y, hn::MulSub(bz, x, hn::Mul(bx, z)));
+  const V cz = hn::MulAdd(bw, z, hn::MulSub(bx, y, hn::Mul(by, x)));
+  x = hn::MulAdd(k, hn::MulSub(by, cz, hn::Mul(bz, cy)), x);
+  y = hn::MulAdd(k, hn::MulSub(bz, cx, hn::Mul(bx, cz)), y);
+  z = hn::MulAdd(k, hn::MulSub(bx, cy, hn::Mul(by, cx)), z);
 }
 
 // Pass 2 for Lanes(D) vertices: their blends (4 floats each in `real` and `dual`)
-// normalised and applied to 3 floats per vertex of positions (and normals; 4 of tangents).
+// applied to 3 floats per vertex of positions (and normals; 4 of tangents). With the blend
+// (b, e) unnormalised and k = 2 / |b|^2, the unit dual quaternion (b, e) / |b| moves p to
+//   p + k (b x (b x p + bw p) + bw e - ew b + b x e),
+// rotation and translation (2 (rw s - sw r + r x s) for the unit (r, s)) under one scale:
+// one reciprocal per vertex and no multiplications to normalise the eight components.
 template <bool Normals, bool Tangents>
 HWY_INLINE void TransformStep(const float* HWY_RESTRICT real, const float* HWY_RESTRICT dual,
                               const float* HWY_RESTRICT positions,
@@ -189,25 +249,23 @@ HWY_INLINE void TransformStep(const float* HWY_RESTRICT real, const float* HWY_R
   V bx, by, bz, bw, ex, ey, ez, ew;
   hn::LoadInterleaved4(d, real, bx, by, bz, bw);
   hn::LoadInterleaved4(d, dual, ex, ey, ez, ew);
-  // Normalise by the real part's length.
-  const V inverse =
-      InverseLength(hn::MulAdd(bx, bx, hn::MulAdd(by, by, hn::MulAdd(bz, bz, hn::Mul(bw, bw)))));
-  const V rx = hn::Mul(bx, inverse), ry = hn::Mul(by, inverse), rz = hn::Mul(bz, inverse),
-          rw = hn::Mul(bw, inverse);
-  const V sx = hn::Mul(ex, inverse), sy = hn::Mul(ey, inverse), sz = hn::Mul(ez, inverse),
-          sw = hn::Mul(ew, inverse);
-  // Translation t = 2 (rw s - sw r + r x s), vector parts.
-  const V two = hn::Set(d, 2.0f);
-  const V tx = hn::Mul(two, hn::Add(hn::Sub(hn::Mul(rw, sx), hn::Mul(sw, rx)),
-                                    hn::Sub(hn::Mul(ry, sz), hn::Mul(rz, sy))));
-  const V ty = hn::Mul(two, hn::Add(hn::Sub(hn::Mul(rw, sy), hn::Mul(sw, ry)),
-                                    hn::Sub(hn::Mul(rz, sx), hn::Mul(rx, sz))));
-  const V tz = hn::Mul(two, hn::Add(hn::Sub(hn::Mul(rw, sz), hn::Mul(sw, rz)),
-                                    hn::Sub(hn::Mul(rx, sy), hn::Mul(ry, sx))));
+  const V k =
+      TwiceInverse(hn::MulAdd(bx, bx, hn::MulAdd(by, by, hn::MulAdd(bz, bz, hn::Mul(bw, bw)))));
+  // bw e - ew b + b x e, the translation over k.
+  const V ux = hn::MulAdd(bw, ex, hn::NegMulAdd(ew, bx, hn::MulSub(by, ez, hn::Mul(bz, ey))));
+  const V uy = hn::MulAdd(bw, ey, hn::NegMulAdd(ew, by, hn::MulSub(bz, ex, hn::Mul(bx, ez))));
+  const V uz = hn::MulAdd(bw, ez, hn::NegMulAdd(ew, bz, hn::MulSub(bx, ey, hn::Mul(by, ex))));
   V x, y, z;
   hn::LoadInterleaved3(d, positions, x, y, z);
-  Rotate(rx, ry, rz, rw, x, y, z);
-  hn::StoreInterleaved3(hn::Add(x, tx), hn::Add(y, ty), hn::Add(z, tz), d, out_p);
+  {
+    const V cx = hn::MulAdd(bw, x, hn::MulSub(by, z, hn::Mul(bz, y)));
+    const V cy = hn::MulAdd(bw, y, hn::MulSub(bz, x, hn::Mul(bx, z)));
+    const V cz = hn::MulAdd(bw, z, hn::MulSub(bx, y, hn::Mul(by, x)));
+    x = hn::MulAdd(k, hn::Add(hn::MulSub(by, cz, hn::Mul(bz, cy)), ux), x);
+    y = hn::MulAdd(k, hn::Add(hn::MulSub(bz, cx, hn::Mul(bx, cz)), uy), y);
+    z = hn::MulAdd(k, hn::Add(hn::MulSub(bx, cy, hn::Mul(by, cx)), uz), z);
+  }
+  hn::StoreInterleaved3(x, y, z, d, out_p);
   // Normals and tangents come out unit, as linear blending's: the rotation keeps a length,
   // and a morphed normal's is not 1.
   const auto normalize = [](V& vx, V& vy, V& vz) {
@@ -216,14 +274,14 @@ HWY_INLINE void TransformStep(const float* HWY_RESTRICT real, const float* HWY_R
   };
   if constexpr (Normals) {
     hn::LoadInterleaved3(d, normals, x, y, z);
-    Rotate(rx, ry, rz, rw, x, y, z);
+    Rotate(bx, by, bz, bw, k, x, y, z);
     normalize(x, y, z);
     hn::StoreInterleaved3(x, y, z, d, out_n);
   }
   if constexpr (Tangents) {
     V w;
     hn::LoadInterleaved4(d, tangents, x, y, z, w);
-    Rotate(rx, ry, rz, rw, x, y, z);
+    Rotate(bx, by, bz, bw, k, x, y, z);
     normalize(x, y, z);
     hn::StoreInterleaved4(x, y, z, w, d, out_t);
   }
@@ -248,7 +306,7 @@ void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
     const std::size_t count = std::min(kChunk, last - chunk);
     for (std::size_t k = 0; k < count; ++k) {
       const std::size_t v = chunk + k;
-      BlendVertex<B, Table>(quaternions, palette.signs, palette.joint_count, joints + B * v,
+      BlendVertex<B, Table>(quaternions, palette.hemisphere, palette.joint_count, joints + B * v,
                             weights + kWeights * v, real + 4 * k, dual + 4 * k);
     }
     std::size_t k = 0;
@@ -298,7 +356,7 @@ void SkinDualQuaternionRange(const VertexStream& stream, const DualQuaternionFra
     const auto with_joints = [&](auto normals, auto tangents) {
       if (stream.joints8 == nullptr) {
         run(normals, tangents, std::false_type{}, stream.joints16);
-      } else if (palette.signs != nullptr) {  // (signs come with 8-bit joints only)
+      } else if (palette.hemisphere != nullptr) {  // (8-bit joints only)
         run(normals, tangents, std::true_type{}, stream.joints8);
       } else {
         run(normals, tangents, std::false_type{}, stream.joints8);

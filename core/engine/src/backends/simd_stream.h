@@ -57,11 +57,15 @@ using SkinQuantizedRangeFn = void (*)(const QuantizedStream& stream, const float
 
 // A frame's palette for the dual-quaternion kernel.
 struct DualQuaternionFrame {
-  const float* quaternions = nullptr;  // DualQuaternionPalette: 8 floats per joint
-  // Null, or (8-bit joint streams only) J x J floats: signs[i * J + j] = -1 when joint j's
-  // rotation lies in the other hemisphere from joint i's (q_i . q_j < 0), else 1. Built
-  // once per frame when that is cheaper than a dot product per vertex and influence.
-  const float* signs = nullptr;
+  // DualQuaternionPalette: 8 floats per joint; with a hemisphere table, 2 J records: the J
+  // joints', then their negations.
+  const float* quaternions = nullptr;
+  // Null, or (8-bit joint streams only) J x J offsets into `quaternions`: hemisphere[i * J + j]
+  // is where joint j's dual quaternion in joint i's hemisphere starts, 8 j when q_i . q_j >= 0,
+  // else 8 (J + j), its negation (q and -q are the same rotation), so the kernel loads each
+  // influence with its sign already chosen. Built once per frame when that is cheaper than a
+  // dot product per vertex and influence.
+  const uint16_t* hemisphere = nullptr;
   uint32_t joint_count = 0;
 };
 
