@@ -153,6 +153,18 @@ WorkloadCache& Cache() {
   return cache;
 }
 
+// OpenCL rows: the device's kernel and transfer time per frame (profiling events), averaged
+// over the frames and threads; false (nothing reported) for backends without device times.
+bool ReportDeviceTimes(benchmark::State& state, const DeviceTiming& total) {
+  if (total.kernel_ns <= 0 || state.iterations() <= 0) return false;
+  const double frames = static_cast<double>(state.iterations());
+  state.counters["kernel_ns"] = benchmark::Counter(static_cast<double>(total.kernel_ns) / frames,
+                                                   benchmark::Counter::kAvgThreads);
+  state.counters["transfer_ns"] = benchmark::Counter(
+      static_cast<double>(total.transfer_ns) / frames, benchmark::Counter::kAvgThreads);
+  return true;
+}
+
 void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
                    bool normals, SkinningMethod method, RestEncoding rest, bool tangents) {
   const Workload& workload = Cache().Get(vertices, bones, false, rest);
@@ -189,12 +201,8 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
                            : StreamedBytesPerVertex(rest, bones, kPaperJoints, normals);
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * vertices * bytes));
   state.counters["bytes_per_vertex"] = bytes;
-  if (total.kernel_ns > 0 && state.iterations() > 0) {
+  if (ReportDeviceTimes(state, total)) {
     const double frames = static_cast<double>(state.iterations());
-    state.counters["kernel_ns"] = benchmark::Counter(static_cast<double>(total.kernel_ns) / frames,
-                                                     benchmark::Counter::kAvgThreads);
-    state.counters["transfer_ns"] = benchmark::Counter(
-        static_cast<double>(total.transfer_ns) / frames, benchmark::Counter::kAvgThreads);
     const double kernel_rate = vertices * frames * 1e9 / static_cast<double>(total.kernel_ns);
     state.counters["kernel_vertices_per_second"] =
         benchmark::Counter(kernel_rate, benchmark::Counter::kAvgThreads);
@@ -243,13 +251,7 @@ void SkinEncodedBenchmark(benchmark::State& state, Backend* backend, uint32_t ve
       benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["read_back_bytes_per_vertex"] =
       static_cast<double>(EncodedBytes(encoding, 1) * (normals ? 2 : 1));
-  if (total.kernel_ns > 0 && state.iterations() > 0) {
-    const double frames = static_cast<double>(state.iterations());
-    state.counters["kernel_ns"] = benchmark::Counter(static_cast<double>(total.kernel_ns) / frames,
-                                                     benchmark::Counter::kAvgThreads);
-    state.counters["transfer_ns"] = benchmark::Counter(
-        static_cast<double>(total.transfer_ns) / frames, benchmark::Counter::kAvgThreads);
-  }
+  ReportDeviceTimes(state, total);
 }
 
 // A frame of the morph workload with `active` targets (0: the frame carries no weights).

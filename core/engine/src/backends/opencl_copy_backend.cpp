@@ -164,14 +164,7 @@ class OpenClCopyBackend final : public Backend {
       clFinish(lane->transfer);
       return status;
     }
-    if (frame.device_timing != nullptr) {
-      auto kernel_ns = ProfiledNs(kernels.all());
-      if (!kernel_ns.ok()) return kernel_ns.status();
-      auto transfer_ns = ProfiledNs(transfers.all());
-      if (!transfer_ns.ok()) return transfer_ns.status();
-      *frame.device_timing = {.transfer_ns = *transfer_ns, .kernel_ns = *kernel_ns};
-    }
-    return Status::Ok();
+    return RecordDeviceTiming(kernels, transfers, frame.device_timing);
   }
 
   // The lane's device buffers (and pinned staging) large enough for `frame`.
@@ -277,15 +270,7 @@ class OpenClCopyBackend final : public Backend {
   Status SkinDirect(OpenClLane& lane, const OpenClPreparedMesh& prepared, const SkinFrame& frame,
                     const SkinKernelArgs& args, ClEvents& kernels, ClEvents& transfers) {
     const bool with_normals = !frame.normals.empty();
-    if (cl_int err = clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
-                                          frame.palette.size_bytes(), frame.palette.data(), 0,
-                                          nullptr, transfers.Next());
-        err != CL_SUCCESS) {
-      return ClError("clEnqueueWriteBuffer(palette)", err);
-    }
-    const Mesh& mesh = prepared.mesh();
-    if (Status s = runtime_->EnqueueSkin(lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
-        !s.ok()) {
+    if (Status s = EnqueueWholeFrame(lane, prepared, frame, args, kernels, transfers); !s.ok()) {
       return s;
     }
     if (with_normals) {
@@ -317,6 +302,18 @@ class OpenClCopyBackend final : public Backend {
   // on the same queue and only the encoded bytes back (opencl_encode.h).
   Status SkinEncoded(OpenClLane& lane, const OpenClPreparedMesh& prepared, const SkinFrame& frame,
                      const SkinKernelArgs& args, ClEvents& kernels, ClEvents& transfers) {
+    if (Status s = EnqueueWholeFrame(lane, prepared, frame, args, kernels, transfers); !s.ok()) {
+      return s;
+    }
+    return encoder_->Encode(lane, args, prepared.mesh().vertex_count(), frame,
+                            /*zero_copy=*/false, kernels, transfers);
+  }
+
+  // On the compute queue: the palette in (through the lane's pinned memory when the
+  // runtime stages), then the whole frame's kernel - the direct and the encoded paths.
+  Status EnqueueWholeFrame(OpenClLane& lane, const OpenClPreparedMesh& prepared,
+                           const SkinFrame& frame, const SkinKernelArgs& args, ClEvents& kernels,
+                           ClEvents& transfers) {
     const void* palette = frame.palette.data();
     if (runtime_->staging()) {
       std::memcpy(lane.pinned_palette.host, frame.palette.data(), frame.palette.size_bytes());
@@ -329,12 +326,7 @@ class OpenClCopyBackend final : public Backend {
       return ClError("clEnqueueWriteBuffer(palette)", err);
     }
     const Mesh& mesh = prepared.mesh();
-    if (Status s = runtime_->EnqueueSkin(lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
-        !s.ok()) {
-      return s;
-    }
-    return encoder_->Encode(lane, args, mesh.vertex_count(), frame, /*zero_copy=*/false, kernels,
-                            transfers);
+    return runtime_->EnqueueSkin(lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
   }
 
   // Pinned staging, chunks, two queues: see the top of this file.

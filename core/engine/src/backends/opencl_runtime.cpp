@@ -270,6 +270,17 @@ Result<int64_t> ProfiledNs(const std::vector<cl_event>& events) {
   return total;
 }
 
+Status RecordDeviceTiming(const ClEvents& kernels, const ClEvents& transfers,
+                          DeviceTiming* timing) {
+  if (timing == nullptr) return Status::Ok();
+  auto kernel_ns = ProfiledNs(kernels.all());
+  if (!kernel_ns.ok()) return kernel_ns.status();
+  auto transfer_ns = ProfiledNs(transfers.all());
+  if (!transfer_ns.ok()) return transfer_ns.status();
+  *timing = {.transfer_ns = *transfer_ns, .kernel_ns = *kernel_ns};
+  return Status::Ok();
+}
+
 Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntimeOptions& options) {
   // PoCL sizes its worker pool when the ICD loader first loads it, i.e. on the first
   // clGetPlatformIDs of the process: match the engine's compute threads, unless the

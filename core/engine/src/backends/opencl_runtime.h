@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "skinserve/engine/backend.h"
 #include "skinserve/model/mesh.h"
 #include "skinserve/model/skinning_method.h"
 #include "skinserve/model/status.h"
@@ -70,6 +71,9 @@ class ClEvents {
 
 // Device time of the commands in `events` (CL_PROFILING_COMMAND_END - _START, summed).
 Result<int64_t> ProfiledNs(const std::vector<cl_event>& events);
+
+// A finished frame's kernel and transfer time into *timing (nothing when it is null).
+Status RecordDeviceTiming(const ClEvents& kernels, const ClEvents& transfers, DeviceTiming* timing);
 
 // The device-side arrays of one frame and its method. `normals` and `out_normals` are null
 // when the frame skips normals, `tangents` and `out_tangents` (4 floats per vertex) when it

@@ -177,19 +177,7 @@ class OpenClZeroCopyBackend final : public Backend {
     if (status.ok() && with_tangents) {
       status = SyncToHost(*lane, out_tangents.get(), frame.tangents.size_bytes(), transfers);
     }
-    // One wait for the whole in-order sequence (kernel, maps, unmaps), also after an
-    // error: the buffers wrap the caller's memory and must be idle when this returns.
-    if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS && status.ok()) {
-      status = ClError("clFinish", err);
-    }
-    if (status.ok() && frame.device_timing != nullptr) {
-      auto kernel_ns = ProfiledNs(kernels.all());
-      if (!kernel_ns.ok()) return kernel_ns.status();
-      auto transfer_ns = ProfiledNs(transfers.all());
-      if (!transfer_ns.ok()) return transfer_ns.status();
-      *frame.device_timing = {.transfer_ns = *transfer_ns, .kernel_ns = *kernel_ns};
-    }
-    return status;
+    return Finish(*lane, status, frame, kernels, transfers);
   }
 
   // Encoded output: the floats go to the lane's device buffers, and the encoder's kernels
@@ -245,18 +233,19 @@ class OpenClZeroCopyBackend final : public Backend {
       status = encoder_->Encode(*lane, args, mesh.vertex_count(), frame, /*zero_copy=*/true,
                                 kernels, transfers);
     }
-    // Idle before return, also after an error: buffers wrap the caller's memory.
-    if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS && status.ok()) {
+    return Finish(*lane, status, frame, kernels, transfers);
+  }
+
+  // One wait for the whole in-order sequence (kernels, maps, unmaps), also after an error:
+  // the buffers wrap the caller's memory and must be idle when Skin() returns. Then the
+  // frame's device timing.
+  Status Finish(OpenClLane& lane, Status status, const SkinFrame& frame, const ClEvents& kernels,
+                const ClEvents& transfers) {
+    if (cl_int err = clFinish(lane.compute); err != CL_SUCCESS && status.ok()) {
       status = ClError("clFinish", err);
     }
-    if (status.ok() && frame.device_timing != nullptr) {
-      auto kernel_ns = ProfiledNs(kernels.all());
-      if (!kernel_ns.ok()) return kernel_ns.status();
-      auto transfer_ns = ProfiledNs(transfers.all());
-      if (!transfer_ns.ok()) return transfer_ns.status();
-      *frame.device_timing = {.transfer_ns = *transfer_ns, .kernel_ns = *kernel_ns};
-    }
-    return status;
+    if (!status.ok()) return status;
+    return RecordDeviceTiming(kernels, transfers, frame.device_timing);
   }
 
   // Enqueues a map and an unmap: they make the kernel's writes visible in the host memory
