@@ -14,6 +14,7 @@
 #include <limits>
 #include <tuple>
 
+#include "backends/simd_encoded_output.h"  // core/engine/src: the fallback counter
 #include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/engine/simd_targets.h"
 #include "skinserve/reference/encoded_reference.h"
@@ -126,8 +127,11 @@ void ExpectMatches(Backend& backend, const FrameInput& in, VertexEncoding encodi
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
   const Encoded host = HostEncoded(backend, **prepared, in, encoding, o, threads);
   ASSERT_TRUE(host.status.ok()) << host.status.ToString();
+  const uint64_t fallbacks = simd::HostEncodedFallbacks();
   const Encoded direct = BackendEncoded(backend, **prepared, in, encoding, o, threads);
   ASSERT_TRUE(direct.status.ok()) << direct.status.ToString();
+  // Encoded by the loop, not by the error path's host encoder (which would match anyway).
+  EXPECT_EQ(simd::HostEncodedFallbacks(), fallbacks) << "the frame went through the host encoder";
   EXPECT_TRUE(direct.positions == host.positions) << "positions differ from the host encoder's";
   EXPECT_TRUE(direct.normals == host.normals) << "normals differ from the host encoder's";
   EXPECT_TRUE(direct.tangents == host.tangents) << "tangents differ from the host encoder's";
@@ -306,8 +310,10 @@ TEST_P(SimdEncodedOutputTest, AValueTheEncodingCannotHoldFailsNamingTheVertex) {
     const Encoded host =
         HostEncoded(backend, **prepared, in, c.encoding, {true, true}, GetParam().frame_threads);
     ASSERT_FALSE(host.status.ok());
+    const uint64_t fallbacks = simd::HostEncodedFallbacks();
     const Encoded direct =
         BackendEncoded(backend, **prepared, in, c.encoding, {true, true}, GetParam().frame_threads);
+    EXPECT_EQ(simd::HostEncodedFallbacks(), fallbacks + 1);
     EXPECT_EQ(direct.status.code(), StatusCode::kInvalidArgument) << direct.status.ToString();
     EXPECT_EQ(direct.status.message(), host.status.message());
     EXPECT_NE(direct.status.message().find(c.says), std::string::npos) << direct.status.ToString();

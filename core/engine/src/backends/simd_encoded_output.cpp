@@ -11,6 +11,8 @@ std::vector<VertexEncoding> EncodedOutputs() {
 
 namespace {
 
+std::atomic<uint64_t> host_encoded_fallbacks{0};
+
 AlignedBuffer<float>& Grown(AlignedBuffer<float>& buffer, std::size_t floats) {
   if (buffer.size() < floats) buffer = AlignedBuffer<float>(floats);
   return buffer;
@@ -23,6 +25,9 @@ std::span<std::byte> Slice(std::span<std::byte> bytes, std::size_t values_per_ve
 }
 
 }  // namespace
+
+uint64_t HostEncodedFallbacks() { return host_encoded_fallbacks.load(); }
+void CountHostEncodedFallback() { host_encoded_fallbacks.fetch_add(1); }
 
 FloatFrameBuffers ThreadFloatFrame(std::size_t vertex_count, bool normals, bool tangents) {
   thread_local AlignedBuffer<float> positions, normal_buffer, tangent_buffer;

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <mutex>
 #include <vector>
 
@@ -77,6 +78,11 @@ class EncodedWriter {
   bool have_box_ = false;
 };
 
+// Frames of this process that took SkinThenHostEncode (a value failed its encoding): for
+// tests, which check that a frame they expect to pass was encoded directly.
+uint64_t HostEncodedFallbacks();
+void CountHostEncodedFallback();
+
 // Skins then encodes the whole frame the host's way (float32 arrays, then ComputeBounds,
 // EncodePositions, EncodeNormals, EncodeTangents in that order): the error path of a frame
 // whose direct encoding failed. skin_floats(positions, normals, tangents) skins the frame
@@ -100,6 +106,7 @@ FloatFrameBuffers ThreadFloatFrame(std::size_t vertex_count, bool normals, bool 
 template <typename SkinFloats>
 Status SkinThenHostEncode(const EncodedOutput& out, std::size_t vertex_count,
                           const SkinFloats& skin_floats) {
+  CountHostEncodedFallback();
   const bool normals = !out.normals.empty(), tangents = !out.tangents.empty();
   const FloatFrameBuffers f = ThreadFloatFrame(vertex_count, normals, tangents);
   skin_floats(f.positions, normals ? f.normals : nullptr, tangents ? f.tangents : nullptr);
