@@ -51,21 +51,10 @@ float* EncodedWriter::ThreadScratch() {
 }
 
 bool EncodedWriter::EncodeChunk(std::size_t first, std::size_t count, const float* p,
-                                const float* n, const float* t, Bounds* box,
-                                bool* have_box) const {
+                                const float* n, const float* t) const {
   const std::size_t value_bytes = EncodedBytesPerValue(out_.encoding);
   if (boxed_) {
-    Result<Bounds> chunk = ComputeBounds({p, 3 * count}, first);
-    if (!chunk.ok()) return false;
-    if (!*have_box) {
-      *box = *chunk;
-      *have_box = true;
-    } else {
-      for (int a = 0; a < 3; ++a) {
-        box->min[a] = std::min(box->min[a], chunk->min[a]);
-        box->max[a] = std::max(box->max[a], chunk->max[a]);
-      }
-    }
+    // Positions stay floats until Finish has the frame's box.
   } else if (!EncodePositions(out_.encoding, {p, 3 * count}, Bounds{},
                               Slice(out_.positions, 3, first, count, value_bytes), first)
                   .ok()) {
@@ -100,9 +89,18 @@ void EncodedWriter::MergeBox(const Bounds& box) {
 bool EncodedWriter::Finish(int threads) {
   if (failed_.load()) return false;
   if (!boxed_) return true;
-  *out_.bounds = have_box_ ? box_ : Bounds{};  // no vertices: ComputeBounds' zero box
-  const Bounds box = *out_.bounds;
+  // The box as ComputeBounds over each thread's range (one pass, as the host encoder's; a
+  // box per chunk measured slower), merged; then the positions encoded against it.
+  const auto bound = [&](std::size_t first, std::size_t last) {
+    Result<Bounds> range = ComputeBounds({positions_ + 3 * first, 3 * (last - first)}, first);
+    if (!range.ok()) {
+      failed_.store(true, std::memory_order_relaxed);
+      return;
+    }
+    MergeBox(*range);
+  };
   const std::size_t value_bytes = EncodedBytesPerValue(out_.encoding);
+  Bounds box;
   const auto encode = [&](std::size_t first, std::size_t last) {
     if (!EncodePositions(out_.encoding, {positions_ + 3 * first, 3 * (last - first)}, box,
                          Slice(out_.positions, 3, first, last - first, value_bytes), first)
@@ -110,6 +108,14 @@ bool EncodedWriter::Finish(int threads) {
       failed_.store(true, std::memory_order_relaxed);
     }
   };
+  if (threads <= 1) {
+    bound(0, vertex_count_);
+  } else {
+    ParallelOverVertices(vertex_count_, threads, bound);
+  }
+  if (failed_.load()) return false;
+  box = have_box_ ? box_ : Bounds{};  // no vertices: ComputeBounds' zero box
+  *out_.bounds = box;
   if (threads <= 1) {
     encode(0, vertex_count_);
   } else {

@@ -3,8 +3,8 @@
 // with core/encoding's own functions (EncodePositions / EncodeNormals / EncodeTangents on
 // the chunk), so the bytes are the host encoder's by construction and no frame-sized float
 // array is written. snorm16 positions need the frame's box first: they are skinned into a
-// frame-sized float array while each chunk's box is taken (ComputeBounds, hot), the boxes
-// merged, and encoded in a second pass; their normals and tangents go through the scratch.
+// frame-sized float array, boxed (ComputeBounds per thread range, merged) and encoded in a
+// second pass, as the host encoder would; their normals and tangents go through the scratch.
 #pragma once
 
 #include <algorithm>
@@ -25,8 +25,8 @@ std::vector<VertexEncoding> EncodedOutputs();
 
 class EncodedWriter {
  public:
-  // Vertices per chunk: 128 x (3 + 3 + 4) floats = 5 KiB of scratch, well inside L1.
-  static constexpr std::size_t kChunkVertices = 128;
+  // Vertices per chunk: 512 x (3 + 3 + 4) floats = 20 KiB of scratch, inside L1.
+  static constexpr std::size_t kChunkVertices = 512;
 
   // `out` as validated (SkinFrame::ValidateEncoded); `vertex_count` the mesh's.
   EncodedWriter(const EncodedOutput& out, std::size_t vertex_count);
@@ -38,8 +38,6 @@ class EncodedWriter {
   template <typename Skin>
   void Write(std::size_t from, std::size_t to, const Skin& skin) {
     float* scratch = ThreadScratch();
-    Bounds box;
-    bool have_box = false;
     for (std::size_t c = from; c < to; c += kChunkVertices) {
       if (failed_.load(std::memory_order_relaxed)) return;
       const std::size_t count = std::min(kChunkVertices, to - c);
@@ -47,23 +45,22 @@ class EncodedWriter {
       float* n = wants_normals_ ? scratch + 3 * kChunkVertices : nullptr;
       float* t = wants_tangents_ ? scratch + 6 * kChunkVertices : nullptr;
       skin(c - from, count, p, n, t);
-      if (!EncodeChunk(c, count, p, n, t, &box, &have_box)) {
+      if (!EncodeChunk(c, count, p, n, t)) {
         failed_.store(true, std::memory_order_relaxed);
         return;
       }
     }
-    if (have_box) MergeBox(box);
   }
 
-  // After every Write: snorm16's box into out.bounds and its positions' second pass (split
-  // across `threads`). False when some value failed its encoding: the caller then skins the
+  // After every Write: snorm16's box into out.bounds and its positions' second pass (both
+  // split across `threads`). False when some value failed its encoding: the caller then skins the
   // frame to floats and runs the host encoder, whose error names the vertex.
   bool Finish(int threads);
 
  private:
   static float* ThreadScratch();
   bool EncodeChunk(std::size_t first, std::size_t count, const float* p, const float* n,
-                   const float* t, Bounds* box, bool* have_box) const;
+                   const float* t) const;
   void MergeBox(const Bounds& box);
 
   EncodedOutput out_;
