@@ -30,6 +30,8 @@
 // each row reports read_back_bytes_per_vertex (12 a float frame's positions, 6 encoded);
 // and BM_Skin[Normals]HostEncoded<Encoding>/... for every backend, the baseline: float32
 // skinned, then encoded by core/encoding as the server does for the other backends.
+// --process-cpu-time: those rows' CPU time is the process's (every thread's, OpenMP's
+// workers included), not the timing thread's alone.
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
@@ -80,6 +82,7 @@ struct Options {
   bool opencl_global_palette = false;
   bool quantized = false;
   std::vector<VertexEncoding> encodings;  // --encoding=: encoded-output rows
+  bool process_cpu_time = false;          // --process-cpu-time: those rows' CPU time, all threads
 };
 
 template <typename T>
@@ -127,6 +130,8 @@ Options ParseOptions(int* argc, char** argv) {
       options.opencl_device = device;
     } else if (const char* streams = value("--streams=")) {
       options.streams = static_cast<int>(std::stoul(streams));
+    } else if (arg == "--process-cpu-time") {
+      options.process_cpu_time = true;
     } else if (const char* encodings = value("--encoding=")) {
       for (const std::string& name : ParseList<std::string>(encodings)) {
         const auto encoding = ParseVertexEncoding(name);
@@ -543,21 +548,21 @@ int main(int argc, char** argv) {
           for (const auto& [id, backend] : rows) {
             const char* encoding_name =
                 encoding == VertexEncoding::kFloat16 ? "Float16" : "Snorm16";
-            benchmark::RegisterBenchmark(
+            auto* host = benchmark::RegisterBenchmark(
                 fmt::format("{}HostEncoded{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin",
                             encoding_name, id, v, b)
                     .c_str(),
-                SkinHostEncodedBenchmark, backend, v, b, normals, encoding)
-                ->UseRealTime()
-                ->Unit(benchmark::kMicrosecond);
+                SkinHostEncodedBenchmark, backend, v, b, normals, encoding);
+            host->UseRealTime()->Unit(benchmark::kMicrosecond);
+            if (options.process_cpu_time) host->MeasureProcessCPUTime();
             if (!backend->info().WritesEncoding(encoding)) continue;
             const std::string kind = std::string("Encoded") + encoding_name;
             const std::string name = fmt::format(
                 "{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", kind, id, v, b);
-            benchmark::RegisterBenchmark(name.c_str(), SkinEncodedBenchmark, backend, v, b, normals,
-                                         encoding)
-                ->UseRealTime()
-                ->Unit(benchmark::kMicrosecond);
+            auto* direct = benchmark::RegisterBenchmark(name.c_str(), SkinEncodedBenchmark, backend,
+                                                        v, b, normals, encoding);
+            direct->UseRealTime()->Unit(benchmark::kMicrosecond);
+            if (options.process_cpu_time) direct->MeasureProcessCPUTime();
             if (options.streams > 1 && !normals) {
               benchmark::RegisterBenchmark(
                   fmt::format("BM_SkinStreams{}/{}/{}/{}", kind, id, v, b).c_str(),

@@ -73,34 +73,31 @@ bool EncodedWriter::EncodeChunk(std::size_t first, std::size_t count, const floa
   return true;
 }
 
-void EncodedWriter::MergeBox(const Bounds& box) {
+void EncodedWriter::BoxRange(std::size_t from, std::size_t to) {
+  // One pass per range, as the host encoder's; a box per chunk measured slower.
+  Result<Bounds> box = ComputeBounds({positions_ + 3 * from, 3 * (to - from)}, from);
+  if (!box.ok()) {
+    failed_.store(true, std::memory_order_relaxed);
+    return;
+  }
   std::lock_guard lock(box_mutex_);
   if (!have_box_) {
-    box_ = box;
+    box_ = *box;
     have_box_ = true;
     return;
   }
   for (int a = 0; a < 3; ++a) {
-    box_.min[a] = std::min(box_.min[a], box.min[a]);
-    box_.max[a] = std::max(box_.max[a], box.max[a]);
+    box_.min[a] = std::min(box_.min[a], box->min[a]);
+    box_.max[a] = std::max(box_.max[a], box->max[a]);
   }
 }
 
 bool EncodedWriter::Finish(int threads) {
   if (failed_.load()) return false;
   if (!boxed_) return true;
-  // The box as ComputeBounds over each thread's range (one pass, as the host encoder's; a
-  // box per chunk measured slower), merged; then the positions encoded against it.
-  const auto bound = [&](std::size_t first, std::size_t last) {
-    Result<Bounds> range = ComputeBounds({positions_ + 3 * first, 3 * (last - first)}, first);
-    if (!range.ok()) {
-      failed_.store(true, std::memory_order_relaxed);
-      return;
-    }
-    MergeBox(*range);
-  };
+  const Bounds box = have_box_ ? box_ : Bounds{};  // no vertices: ComputeBounds' zero box
+  *out_.bounds = box;
   const std::size_t value_bytes = EncodedBytesPerValue(out_.encoding);
-  Bounds box;
   const auto encode = [&](std::size_t first, std::size_t last) {
     if (!EncodePositions(out_.encoding, {positions_ + 3 * first, 3 * (last - first)}, box,
                          Slice(out_.positions, 3, first, last - first, value_bytes), first)
@@ -108,14 +105,6 @@ bool EncodedWriter::Finish(int threads) {
       failed_.store(true, std::memory_order_relaxed);
     }
   };
-  if (threads <= 1) {
-    bound(0, vertex_count_);
-  } else {
-    ParallelOverVertices(vertex_count_, threads, bound);
-  }
-  if (failed_.load()) return false;
-  box = have_box_ ? box_ : Bounds{};  // no vertices: ComputeBounds' zero box
-  *out_.bounds = box;
   if (threads <= 1) {
     encode(0, vertex_count_);
   } else {

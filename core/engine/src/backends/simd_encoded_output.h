@@ -3,8 +3,8 @@
 // with core/encoding's own functions (EncodePositions / EncodeNormals / EncodeTangents on
 // the chunk), so the bytes are the host encoder's by construction and no frame-sized float
 // array is written. snorm16 positions need the frame's box first: they are skinned into a
-// frame-sized float array, boxed (ComputeBounds per thread range, merged) and encoded in a
-// second pass, as the host encoder would; their normals and tangents go through the scratch.
+// frame-sized float array, boxed (ComputeBounds over each thread's range once it is skinned,
+// merged) and encoded in a second pass; their normals and tangents go through the scratch.
 #pragma once
 
 #include <algorithm>
@@ -50,10 +50,11 @@ class EncodedWriter {
         return;
       }
     }
+    if (boxed_) BoxRange(from, to);
   }
 
-  // After every Write: snorm16's box into out.bounds and its positions' second pass (both
-  // split across `threads`). False when some value failed its encoding: the caller then skins the
+  // After every Write: snorm16's box into out.bounds and its positions' second pass (split
+  // across `threads`). False when some value failed its encoding: the caller then skins the
   // frame to floats and runs the host encoder, whose error names the vertex.
   bool Finish(int threads);
 
@@ -61,7 +62,9 @@ class EncodedWriter {
   static float* ThreadScratch();
   bool EncodeChunk(std::size_t first, std::size_t count, const float* p, const float* n,
                    const float* t) const;
-  void MergeBox(const Bounds& box);
+  // snorm16: the box of positions [from, to) (ComputeBounds, while they are in this core's
+  // cache) merged into the frame's.
+  void BoxRange(std::size_t from, std::size_t to);
 
   EncodedOutput out_;
   std::size_t vertex_count_;
