@@ -149,12 +149,11 @@ void ExpectMatches(Backend& backend, const FrameInput& in, VertexEncoding encodi
   if (o.tangents) {
     ASSERT_TRUE(DecodeTangents(encoding, direct.tangents, t).ok());
   }
-  const EncodedDeviation d =
-      CompareEncodedWithReference(*in.mesh, in.palette, encoding, direct.box, p, n, in.method,
-                                  in.morph);
-  EXPECT_TRUE(d.within_tolerance()) << "position ratio " << d.worst_position_ratio
-                                    << ", normal ratio " << d.worst_normal_ratio << " at vertex "
-                                    << d.worst_vertex;
+  const EncodedDeviation d = CompareEncodedWithReference(*in.mesh, in.palette, encoding, direct.box,
+                                                         p, n, in.method, in.morph);
+  EXPECT_TRUE(d.within_tolerance())
+      << "position ratio " << d.worst_position_ratio << ", normal ratio " << d.worst_normal_ratio
+      << " at vertex " << d.worst_vertex;
   if (o.tangents) {
     const ReferenceFrame reference =
         in.method == SkinningMethod::kDualQuaternion
@@ -227,8 +226,8 @@ TEST_P(SimdEncodedOutputTest, LargeFramesAndDualQuaternionsMatchTheHostEncoder) 
       for (VertexEncoding encoding : kEncodings) {
         for (Outputs o : kOutputs) {
           SCOPED_TRACE(::testing::Message() << VertexEncodingName(encoding) << " J " << joints
-                                            << " " << MethodName(method) << " normals "
-                                            << o.normals << " tangents " << o.tangents);
+                                            << " " << MethodName(method) << " normals " << o.normals
+                                            << " tangents " << o.tangents);
           ExpectMatches(backend, in, encoding, o, GetParam().frame_threads);
         }
       }
@@ -239,9 +238,12 @@ TEST_P(SimdEncodedOutputTest, LargeFramesAndDualQuaternionsMatchTheHostEncoder) 
 TEST_P(SimdEncodedOutputTest, MorphTargetsMatchTheHostEncoder) {
   Backend& backend = BackendOf(GetParam());
   for (uint32_t v : {7u, 5003u}) {
-    MeshArrays arrays = MakeSyntheticMesh(
-        {.vertex_count = v, .influences = 3, .joint_count = 33, .normals = true,
-         .tangents = true, .seed = v});
+    MeshArrays arrays = MakeSyntheticMesh({.vertex_count = v,
+                                           .influences = 3,
+                                           .joint_count = 33,
+                                           .normals = true,
+                                           .tangents = true,
+                                           .seed = v});
     AddSyntheticMorphTargets({.targets = 24, .fraction = 0.2, .seed = v}, &arrays);
     auto mesh = Mesh::Create(arrays);
     ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
@@ -267,8 +269,8 @@ TEST_P(SimdEncodedOutputTest, AQuantizedMeshMatchesTheHostEncoder) {
     FrameInput in{.mesh = *mesh, .palette = MakeSyntheticPalette(77, 31, 4)};
     for (VertexEncoding encoding : kEncodings) {
       for (Outputs o : {Outputs{false, false}, Outputs{true, false}}) {
-        SCOPED_TRACE(::testing::Message() << VertexEncodingName(encoding) << " B " << b
-                                          << " normals " << o.normals);
+        SCOPED_TRACE(::testing::Message()
+                     << VertexEncodingName(encoding) << " B " << b << " normals " << o.normals);
         ExpectMatches(backend, in, encoding, o, GetParam().frame_threads);
       }
     }

@@ -227,7 +227,8 @@ class SimdBackend final : public Backend {
       RunQuantized(*quantized, mesh, columns, frame, sink);
     } else if (frame.method == SkinningMethod::kDualQuaternion) {
       const DualQuaternionPalette quaternions(frame.palette);
-      const simd::DualQuaternionFrame palette = KernelPalette(quaternions, mesh, simd_mesh.stream());
+      const simd::DualQuaternionFrame palette =
+          KernelPalette(quaternions, mesh, simd_mesh.stream());
       Run(kernel_.skin_dual_quaternion_range, mesh, simd_mesh.stream(), palette, frame, sink);
     } else {
       const float* columns = ColumnPalette(frame.palette);
