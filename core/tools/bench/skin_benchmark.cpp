@@ -27,7 +27,11 @@
 // (and, with --streams=N, BM_SkinStreamsEncoded<Encoding>/...) for the backends that write
 // that encoding themselves (BackendInfo::encoded_outputs: the OpenCL ones encode on the
 // device and read back only the encoded bytes), beside the float rows (issue 29 item 2);
-// each row reports read_back_bytes_per_vertex (12 a float frame's positions, 6 encoded).
+// each row reports read_back_bytes_per_vertex (12 a float frame's positions, 6 encoded);
+// and BM_Skin[Normals]HostEncoded<Encoding>/... for every backend, the baseline: float32
+// skinned, then encoded by core/encoding as the server does for the other backends.
+// --process-cpu-time: those rows' CPU time is the process's (every thread's, OpenMP's
+// workers included), not the timing thread's alone.
 // --vertex-order=sorted: the synthetic meshes' vertices sorted by their joints, as a mesh
 // optimiser leaves a real character (neighbouring vertices share bones), instead of the
 // paper's shuffled order (each vertex on a random bone); the CPU loops hardly care, a GPU's
@@ -82,6 +86,7 @@ struct Options {
   bool opencl_global_palette = false;
   bool quantized = false;
   std::vector<VertexEncoding> encodings;  // --encoding=: encoded-output rows
+  bool process_cpu_time = false;          // --process-cpu-time: those rows' CPU time, all threads
   bool sorted_by_joints = false;          // --vertex-order=sorted
 };
 
@@ -130,6 +135,8 @@ Options ParseOptions(int* argc, char** argv) {
       options.opencl_device = device;
     } else if (const char* streams = value("--streams=")) {
       options.streams = static_cast<int>(std::stoul(streams));
+    } else if (arg == "--process-cpu-time") {
+      options.process_cpu_time = true;
     } else if (const char* order = value("--vertex-order=")) {
       if (std::string_view(order) != "sorted" && std::string_view(order) != "shuffled") {
         throw std::invalid_argument(std::string("--vertex-order=: sorted or shuffled, not ") +
@@ -263,6 +270,52 @@ void SkinEncodedBenchmark(benchmark::State& state, Backend* backend, uint32_t ve
   state.counters["read_back_bytes_per_vertex"] =
       static_cast<double>(EncodedBytes(encoding, 1) * (normals ? 2 : 1));
   ReportDeviceTimes(state, total);
+}
+
+// The same frame the host's way, the baseline of the rows above: the backend skins float32
+// (into arrays reused every frame, as the server's scratch), then core/encoding encodes it
+// (the box for snorm16, positions, normals), as the server does for a backend that does not
+// list the encoding.
+void SkinHostEncodedBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
+                              uint32_t bones, bool normals, VertexEncoding encoding) {
+  const Workload& workload = Cache().Get(vertices, bones, false);
+  const PreparedMesh& prepared = Cache().Prepared(*backend, vertices, bones, false);
+  const std::size_t bytes = EncodedBytes(encoding, vertices);
+  AlignedBuffer<std::byte> positions(bytes), out_normals(normals ? bytes : 0);
+  AlignedBuffer<float> floats(3ull * vertices), float_normals(normals ? 3ull * vertices : 0);
+  std::size_t frame = state.thread_index();
+  const auto skin_one = [&]() -> Status {
+    const SkinFrame skin{.palette = workload.palettes[frame++ % workload.palettes.size()],
+                         .positions = floats.span(),
+                         .normals = float_normals.span()};
+    if (Status s = backend->Skin(prepared, skin); !s.ok()) return s;
+    Bounds box;
+    if (QuantisedToBox(encoding)) {
+      Result<Bounds> computed = ComputeBounds(floats.span());
+      if (!computed.ok()) return computed.status();
+      box = *computed;
+    }
+    if (Status s = EncodePositions(encoding, floats.span(), box, positions.span()); !s.ok()) {
+      return s;
+    }
+    return normals ? EncodeNormals(encoding, float_normals.span(), out_normals.span())
+                   : Status::Ok();
+  };
+  if (Status s = skin_one(); !s.ok()) {  // untimed, as the encoded rows' first frame
+    state.SkipWithError(s.ToString().c_str());
+    return;
+  }
+  for (auto _ : state) {
+    if (Status s = skin_one(); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+      break;
+    }
+    benchmark::DoNotOptimize(positions.data());
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
+  state.counters["vertices_per_second"] =
+      benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
 }
 
 // A frame of the morph workload with `active` targets (0: the frame carries no weights).
@@ -505,15 +558,23 @@ int main(int argc, char** argv) {
       for (uint32_t v : options.vertices) {
         for (uint32_t b : options.bones) {
           for (const auto& [id, backend] : rows) {
+            const char* encoding_name =
+                encoding == VertexEncoding::kFloat16 ? "Float16" : "Snorm16";
+            auto* host = benchmark::RegisterBenchmark(
+                fmt::format("{}HostEncoded{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin",
+                            encoding_name, id, v, b)
+                    .c_str(),
+                SkinHostEncodedBenchmark, backend, v, b, normals, encoding);
+            host->UseRealTime()->Unit(benchmark::kMicrosecond);
+            if (options.process_cpu_time) host->MeasureProcessCPUTime();
             if (!backend->info().WritesEncoding(encoding)) continue;
-            const std::string kind = std::string("Encoded") +
-                                     (encoding == VertexEncoding::kFloat16 ? "Float16" : "Snorm16");
+            const std::string kind = std::string("Encoded") + encoding_name;
             const std::string name = fmt::format(
                 "{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", kind, id, v, b);
-            benchmark::RegisterBenchmark(name.c_str(), SkinEncodedBenchmark, backend, v, b, normals,
-                                         encoding)
-                ->UseRealTime()
-                ->Unit(benchmark::kMicrosecond);
+            auto* direct = benchmark::RegisterBenchmark(name.c_str(), SkinEncodedBenchmark, backend,
+                                                        v, b, normals, encoding);
+            direct->UseRealTime()->Unit(benchmark::kMicrosecond);
+            if (options.process_cpu_time) direct->MeasureProcessCPUTime();
             if (options.streams > 1 && !normals) {
               benchmark::RegisterBenchmark(
                   fmt::format("BM_SkinStreams{}/{}/{}/{}", kind, id, v, b).c_str(),

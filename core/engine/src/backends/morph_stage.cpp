@@ -26,9 +26,9 @@ std::vector<MorphWalk::Target>* ThreadTargets() {
 
 MorphWalk::MorphWalk(const Mesh& mesh, const SkinFrame& frame, std::size_t first)
     : mesh_(mesh), targets_(ThreadTargets()) {
-  normals_ = !frame.normals.empty();
+  normals_ = frame.wants_normals();
   morph_normals_ = normals_ && mesh.has_morph_normals();
-  tangents_ = !frame.tangents.empty();
+  tangents_ = frame.wants_tangents();
   morph_tangents_ = tangents_ && mesh.has_morph_tangents();
   constexpr std::size_t kVec3 = 3 * kMorphChunkVertices, kVec4 = 4 * kMorphChunkVertices;
   float* scratch =

@@ -69,8 +69,8 @@ template <typename Skin>
 void ForEachMorphedRange(const Mesh& mesh, const SkinFrame& frame, std::size_t first,
                          std::size_t last, const Skin& skin) {
   const RestArrays own{.positions = mesh.positions().data(),
-                       .normals = frame.normals.empty() ? nullptr : mesh.normals().data(),
-                       .tangents = frame.tangents.empty() ? nullptr : mesh.tangents().data(),
+                       .normals = !frame.wants_normals() ? nullptr : mesh.normals().data(),
+                       .tangents = !frame.wants_tangents() ? nullptr : mesh.tangents().data(),
                        .first = 0};
   if (!HasActiveMorph(frame.morph_weights)) {
     skin(own, first, last);

@@ -11,6 +11,7 @@
 #include "morph_stage.h"
 #include "parallel_range.h"
 #include "quantized_palette.h"
+#include "simd_encoded_output.h"
 #include "simd_stream.h"
 #include "skinserve/engine/simd_targets.h"
 #include "skinserve/model/aligned_buffer.h"
@@ -167,67 +168,101 @@ class SimdBackend final : public Backend {
   }
   Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) override {
     const auto& simd_mesh = static_cast<const SimdPreparedMesh&>(prepared);
-    const auto& stream = simd_mesh.stream();
-    const Outputs out{.normals = frame.normals.empty() ? nullptr : frame.normals.data(),
-                      .tangents = frame.tangents.empty() ? nullptr : frame.tangents.data()};
     try {
-      if (const simd::QuantizedStream* quantized = simd_mesh.quantized()) {
-        if (frame.method != SkinningMethod::kLinear) {
-          return FailedPrecondition(
-              info_.id + ": mesh " + prepared.mesh().id() +
-              " is stored with a quantized rest stream, which this backend skins with the "
-              "linear method only; skin it linear, or on a backend that reads the float values "
-              "it decodes to (serial, sse, ...), or upload it as float32");
-        }
-        const float* columns =
-            QuantizedColumnPalette(frame.palette, *prepared.mesh().quantized_rest());
-        RunQuantized(*quantized, prepared.mesh(), columns, frame, out.normals);
-      } else if (frame.method == SkinningMethod::kDualQuaternion) {
-        const DualQuaternionPalette quaternions(frame.palette);
-        const simd::DualQuaternionFrame palette =
-            KernelPalette(quaternions, prepared.mesh(), stream);
-        Run(kernel_.skin_dual_quaternion_range, prepared.mesh(), stream, palette, frame, out);
-      } else {
-        const float* columns = ColumnPalette(frame.palette);
-        Run(kernel_.skin_range, prepared.mesh(), stream, columns, frame, out);
-      }
+      if (frame.encoded.active()) return SkinEncoded(simd_mesh, frame);
+      FloatSink sink{.positions = frame.positions.data(),
+                     .normals = frame.normals.empty() ? nullptr : frame.normals.data(),
+                     .tangents = frame.tangents.empty() ? nullptr : frame.tangents.data()};
+      return Dispatch(simd_mesh, frame, sink);
     } catch (const std::bad_alloc&) {  // a palette or morph scratch larger than any seen so far
       return ResourceExhausted(info_.id +
                                ": out of memory for the frame's palette or morph scratch");
     }
-    return Status::Ok();
   }
 
  private:
-  struct Outputs {
+  // Where the loop writes float32 output: the frame's own arrays (or the error path's).
+  struct FloatSink {
+    float* positions = nullptr;
     float* normals = nullptr;   // null: no normals
     float* tangents = nullptr;  // null: no tangents
+    // skin(offset, count, p, n, t) as simd::EncodedWriter::Write: here in place.
+    template <typename Skin>
+    void Write(std::size_t from, std::size_t to, const Skin& skin) const {
+      skin(0, to - from, positions + 3 * from, normals == nullptr ? nullptr : normals + 3 * from,
+           tangents == nullptr ? nullptr : tangents + 4 * from);
+    }
   };
+
+  // Encoded output (simd_encoded_output.h): chunks encoded while hot; a value that fails its
+  // encoding sends the frame through float32 and the host encoder, for its error.
+  Status SkinEncoded(const SimdPreparedMesh& mesh, const SkinFrame& frame) {
+    const std::size_t count = mesh.mesh().vertex_count();
+    simd::EncodedWriter writer(frame.encoded, count);
+    if (Status s = Dispatch(mesh, frame, writer); !s.ok()) return s;
+    if (writer.Finish(FrameThreads(frame.threads, info_.threads))) return Status::Ok();
+    Status skinned = Status::Ok();
+    Status encoded =
+        simd::SkinThenHostEncode(frame.encoded, count, [&](float* p, float* n, float* t) {
+          FloatSink sink{.positions = p, .normals = n, .tangents = t};
+          skinned = Dispatch(mesh, frame, sink);
+        });
+    return skinned.ok() ? encoded : skinned;
+  }
+
+  // The frame's palette for its method and mesh, then the loop into `sink` (FloatSink or
+  // simd::EncodedWriter).
+  template <typename Sink>
+  Status Dispatch(const SimdPreparedMesh& simd_mesh, const SkinFrame& frame, Sink& sink) {
+    const Mesh& mesh = simd_mesh.mesh();
+    if (const simd::QuantizedStream* quantized = simd_mesh.quantized()) {
+      if (frame.method != SkinningMethod::kLinear) {
+        return FailedPrecondition(
+            info_.id + ": mesh " + mesh.id() +
+            " is stored with a quantized rest stream, which this backend skins with the "
+            "linear method only; skin it linear, or on a backend that reads the float values "
+            "it decodes to (serial, sse, ...), or upload it as float32");
+      }
+      const float* columns = QuantizedColumnPalette(frame.palette, *mesh.quantized_rest());
+      RunQuantized(*quantized, mesh, columns, frame, sink);
+    } else if (frame.method == SkinningMethod::kDualQuaternion) {
+      const DualQuaternionPalette quaternions(frame.palette);
+      const simd::DualQuaternionFrame palette =
+          KernelPalette(quaternions, mesh, simd_mesh.stream());
+      Run(kernel_.skin_dual_quaternion_range, mesh, simd_mesh.stream(), palette, frame, sink);
+    } else {
+      const float* columns = ColumnPalette(frame.palette);
+      Run(kernel_.skin_range, mesh, simd_mesh.stream(), columns, frame, sink);
+    }
+    return Status::Ok();
+  }
 
   // Runs `range` (a linear or dual-quaternion kernel) over the frame's vertices, on the
   // calling thread or split across the frame's threads, each range from the rest arrays
-  // the morph stage hands it (morph_stage.h).
-  template <typename RangeFn, typename Palette>
+  // the morph stage hands it (morph_stage.h), into `sink`.
+  template <typename RangeFn, typename Palette, typename Sink>
   void Run(RangeFn range, const Mesh& mesh, const simd::VertexStream& stream,
-           const Palette& palette, const SkinFrame& frame, const Outputs& out) {
+           const Palette& palette, const SkinFrame& frame, Sink& sink) {
     const std::size_t count = mesh.vertex_count();
     const auto skin_range = [&](std::size_t first, std::size_t last) {
       ForEachMorphedRange(
           mesh, frame, first, last, [&](const RestArrays& rest, std::size_t from, std::size_t to) {
-            // Every array of the stream from `from` on, so the kernel
-            // reads a morphed chunk's scratch from its index 0.
-            const std::size_t skip = from - rest.first;
-            const std::size_t b = stream.influences;
-            simd::VertexStream chunk = stream;
-            chunk.positions = rest.positions + 3 * skip;
-            chunk.normals = rest.normals ? rest.normals + 3 * skip : nullptr;
-            chunk.tangents = rest.tangents ? rest.tangents + 4 * skip : nullptr;
-            if (chunk.joints8 != nullptr) chunk.joints8 += b * from;
-            if (chunk.joints16 != nullptr) chunk.joints16 += b * from;
-            if (chunk.weights != nullptr) chunk.weights += (b - 1) * from;
-            range(chunk, palette, frame.positions.data() + 3 * from,
-                  out.normals == nullptr ? nullptr : out.normals + 3 * from,
-                  out.tangents == nullptr ? nullptr : out.tangents + 4 * from, 0, to - from);
+            sink.Write(from, to,
+                       [&](std::size_t offset, std::size_t n, float* p, float* nrm, float* tan) {
+                         // Every array of the stream from vertex `v` on, so the kernel reads
+                         // a morphed chunk's scratch from its index 0.
+                         const std::size_t v = from + offset;
+                         const std::size_t skip = v - rest.first;
+                         const std::size_t b = stream.influences;
+                         simd::VertexStream chunk = stream;
+                         chunk.positions = rest.positions + 3 * skip;
+                         chunk.normals = rest.normals ? rest.normals + 3 * skip : nullptr;
+                         chunk.tangents = rest.tangents ? rest.tangents + 4 * skip : nullptr;
+                         if (chunk.joints8 != nullptr) chunk.joints8 += b * v;
+                         if (chunk.joints16 != nullptr) chunk.joints16 += b * v;
+                         if (chunk.weights != nullptr) chunk.weights += (b - 1) * v;
+                         range(chunk, palette, p, nrm, tan, 0, n);
+                       });
           });
     };
     const int threads = FrameThreads(frame.threads, info_.threads);
@@ -238,11 +273,23 @@ class SimdBackend final : public Backend {
     }
   }
 
-  // The same over a quantized rest stream (no morph targets: CheckRestEncoding).
+  // The same over a quantized rest stream (no morph targets: CheckRestEncoding; no tangents).
+  template <typename Sink>
   void RunQuantized(const simd::QuantizedStream& stream, const Mesh& mesh, const float* columns,
-                    const SkinFrame& frame, float* out_n) {
+                    const SkinFrame& frame, Sink& sink) {
     const auto skin_range = [&](std::size_t first, std::size_t last) {
-      kernel_.skin_quantized_range(stream, columns, frame.positions.data(), out_n, first, last);
+      sink.Write(first, last, [&](std::size_t offset, std::size_t n, float* p, float* nrm, float*) {
+        const std::size_t v = first + offset;
+        const std::size_t b = stream.influences;
+        simd::QuantizedStream chunk = stream;
+        chunk.positions += 3 * v;
+        if (chunk.normals != nullptr) chunk.normals += 3 * v;
+        if (chunk.joints8 != nullptr) chunk.joints8 += b * v;
+        if (chunk.joints16 != nullptr) chunk.joints16 += b * v;
+        if (chunk.weights8 != nullptr) chunk.weights8 += (b - 1) * v;
+        if (chunk.weights16 != nullptr) chunk.weights16 += (b - 1) * v;
+        kernel_.skin_quantized_range(chunk, columns, p, nrm, 0, n);
+      });
     };
     const int threads = FrameThreads(frame.threads, info_.threads);
     if (threads <= 1) {
@@ -283,6 +330,7 @@ std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_t
     info.unavailable_reason = error;
     return std::make_unique<UnavailableBackend>(std::move(info));
   }
+  info.encoded_outputs = simd::EncodedOutputs();
   info.simd_target = kernel.target;
   info.simd_width = kernel.lanes;
   return std::make_unique<SimdBackend>(std::move(info), kernel);
