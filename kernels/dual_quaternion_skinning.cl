@@ -18,15 +18,19 @@
 /* The normalised blend of vertex v's B dual quaternions: rotation r, dual part e, from a
  * palette in either address space (__local: the *_local_* kernels, see
  * linear_blend_skinning.cl's StagePalette). */
+/* Joint j's 8 floats as two aligned float4 loads (as SKIN_JOINT_ROWS01). */
+#define DQS_JOINT(SPACE, quaternions, j)                   \
+  (float8)(((const SPACE float4*)(quaternions))[2 * (uint)(j)], \
+           ((const SPACE float4*)(quaternions))[2 * (uint)(j) + 1])
 #define DEFINE_BLEND_DUAL_QUATERNIONS(NAME, SPACE)                                              \
-  static inline void NAME(const SPACE float* restrict quaternions,                              \
+  static inline void NAME(const SPACE void* restrict quaternions,                               \
                           const __global ushort* restrict joints,                               \
                           const __global float* restrict weights, const uint v,                 \
                           const int influences, float4* r, float4* e) {                         \
-    const float8 first = vload8(0, quaternions + 8 * (uint)joints[v * influences]);             \
+    const float8 first = DQS_JOINT(SPACE, quaternions, joints[v * influences]);                 \
     float8 b = weights[v * influences] * first;                                                 \
     _Pragma("unroll") for (int i = 1; i < influences; ++i) {                                    \
-      const float8 q = vload8(0, quaternions + 8 * (uint)joints[v * influences + i]);           \
+      const float8 q = DQS_JOINT(SPACE, quaternions, joints[v * influences + i]);               \
       const float dot =                                                                         \
           fma(first.s0, q.s0, fma(first.s1, q.s1, fma(first.s2, q.s2, first.s3 * q.s3)));       \
       const float w = dot < 0.0f ? -weights[v * influences + i] : weights[v * influences + i];  \

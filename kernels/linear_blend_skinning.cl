@@ -26,7 +26,10 @@
  *    the last vertex) instead of branching per vertex; items past the end return.
  * On a GPU the same kernels run with a coalesced vertex order (SKIN_VERTEX below), and
  * with SKIN_LOCAL_PALETTE the *_local_* kernels stage the palette in local memory first
- * (below).
+ * (below). Palette records, joints and weights are read as aligned vectors (float4 rows,
+ * LoadInfluences): vload8/vload4 on a float pointer promise only a float's alignment, and
+ * NVIDIA's compiler made them scalar loads, which halved the kernel's speed on an H200
+ * (docs/backends/opencl.md#aligned-loads).
  * Normals use rsqrt (a sqrt and a true division on this device): full precision, never
  * native_ or half_ maths, so they match a float64 reference to 1e-5.
  */
@@ -69,19 +72,60 @@ typedef struct {
   float4 r2;
 } Blended;
 
+/* Vertex v's B joints and weights, as whole vectors where the layout allows (B a multiple
+ * of 4 or of 2: a vertex's joints[v * B ..] and weights[v * B ..] then start on a vector
+ * boundary, and the buffers' bases are aligned far beyond that): on a GPU one 16-byte load
+ * instead of four 4-byte ones (vload4 on a float pointer promises no more than a float's
+ * alignment, so it compiles to scalar loads). B is a constant: one branch survives. */
+static inline void LoadInfluences(const __global ushort* restrict joints,
+                                  const __global float* restrict weights, const uint v,
+                                  const int influences, uint* joint, float* weight) {
+  if (influences % 4 == 0) {
+    for (int g = 0; g < influences / 4; ++g) {
+      const uint at = v * (uint)(influences / 4) + (uint)g;
+      const ushort4 j = ((const __global ushort4*)joints)[at];
+      const float4 w = ((const __global float4*)weights)[at];
+      joint[4 * g] = j.s0, joint[4 * g + 1] = j.s1;
+      joint[4 * g + 2] = j.s2, joint[4 * g + 3] = j.s3;
+      weight[4 * g] = w.s0, weight[4 * g + 1] = w.s1;
+      weight[4 * g + 2] = w.s2, weight[4 * g + 3] = w.s3;
+    }
+  } else if (influences % 2 == 0) {
+    for (int g = 0; g < influences / 2; ++g) {
+      const uint at = v * (uint)(influences / 2) + (uint)g;
+      const ushort2 j = ((const __global ushort2*)joints)[at];
+      const float2 w = ((const __global float2*)weights)[at];
+      joint[2 * g] = j.s0, joint[2 * g + 1] = j.s1;
+      weight[2 * g] = w.s0, weight[2 * g + 1] = w.s1;
+    }
+  } else {
+    for (int i = 0; i < influences; ++i) {
+      joint[i] = joints[v * influences + i];
+      weight[i] = weights[v * influences + i];
+    }
+  }
+}
+
+/* A joint's 12 floats as three aligned float4 loads (the palette's base is aligned: a
+ * buffer's, or a __local float4 array's). */
+#define SKIN_JOINT_ROWS01(SPACE, palette, j) \
+  (float8)(((const SPACE float4*)(palette))[3 * (j)], ((const SPACE float4*)(palette))[3 * (j) + 1])
+#define SKIN_JOINT_ROW2(SPACE, palette, j) (((const SPACE float4*)(palette))[3 * (j) + 2])
+
 /* The blend from a palette in either address space: __global (every kernel but the
  * *_local_* ones) or __local (those, after StagePalette). */
 #define DEFINE_BLEND_PALETTE(NAME, SPACE)                                                  \
-  static inline Blended NAME(const SPACE float* restrict palette,                          \
+  static inline Blended NAME(const SPACE void* restrict palette,                           \
                              const __global ushort* restrict joints,                       \
                              const __global float* restrict weights, const uint v,         \
                              const int influences) {                                       \
+    uint joint[8];                                                                         \
+    float weight[8];                                                                       \
+    LoadInfluences(joints, weights, v, influences, joint, weight);                         \
     Blended m = {(float8)(0.0f), (float4)(0.0f)};                                          \
     _Pragma("unroll") for (int i = 0; i < influences; ++i) {                               \
-      const float w = weights[v * influences + i];                                         \
-      const SPACE float* joint = palette + 12 * (uint)joints[v * influences + i];          \
-      m.r01 = fma((float8)(w), vload8(0, joint), m.r01);                                   \
-      m.r2 = fma((float4)(w), vload4(2, joint), m.r2);                                     \
+      m.r01 = fma((float8)(weight[i]), SKIN_JOINT_ROWS01(SPACE, palette, joint[i]), m.r01); \
+      m.r2 = fma((float4)(weight[i]), SKIN_JOINT_ROW2(SPACE, palette, joint[i]), m.r2);    \
     }                                                                                      \
     return m;                                                                              \
   }
@@ -218,10 +262,10 @@ static inline void StoreTangent(const float3 xyz, const __global float* restrict
 DEFINE_BLEND_PALETTE(BlendLocalPalette, __local)
 
 static inline void StagePalette(const __global float* restrict palette,
-                                __local float* restrict staged, const uint palette_floats) {
+                                __local float4* restrict staged, const uint palette_floats) {
   /* palette_floats is a multiple of 4 (12 or 8 per joint). */
   for (uint i = (uint)get_local_id(0); i < palette_floats / 4; i += (uint)get_local_size(0)) {
-    vstore4(vload4(i, palette), i, staged);
+    staged[i] = ((const __global float4*)palette)[i];
   }
   barrier(CLK_LOCAL_MEM_FENCE);
 }
@@ -233,7 +277,8 @@ static inline void StagePalette(const __global float* restrict palette,
                                      (uint)get_local_size(0)) * SKIN_VERTICES_PER_ITEM +   \
    (uint)(tile) * (SKIN_VERTICES_PER_ITEM * SKIN_ITEMS_PER_GROUP))
 #define SKIN_TILE_VERTEX(k) (tile_base + (uint)(k) * SKIN_ITEMS_PER_GROUP + (uint)get_local_id(0))
-#define SKIN_LOCAL_ARGS __local float *restrict staged, const uint palette_floats
+/* float4: local memory aligned for the palette's vector loads. */
+#define SKIN_LOCAL_ARGS __local float4 *restrict staged, const uint palette_floats
 
 /* Tiles ascend: an item whose first vertex of a tile is past the end returns (the body's
  * `return`), and so would it for every later tile. */

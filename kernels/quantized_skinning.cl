@@ -19,21 +19,52 @@
 #error "the host passes QSKIN_JOINT, QSKIN_WEIGHT and QSKIN_WEIGHT_STEPS"
 #endif
 
+/* QSKIN_VECTOR(uchar, 4) is uchar4: the two levels let QSKIN_JOINT expand first. */
+#define QSKIN_PASTE(type, n) type##n
+#define QSKIN_VECTOR(type, n) QSKIN_PASTE(type, n)
+
+/* `count` values of TYPE per vertex from `values[v * count ..]` into `out` (uints), as whole
+ * vectors where count is a multiple of 4 or 2 (each vertex's values then start on a vector
+ * boundary), as LoadInfluences does for float meshes; count is a constant. */
+#define DEFINE_LOAD_PER_VERTEX(NAME, TYPE)                                                 \
+  static inline void NAME(const __global TYPE* restrict values, const uint v,             \
+                          const int count, uint* out) {                                    \
+    if (count > 0 && count % 4 == 0) {                                                     \
+      for (int g = 0; g < count / 4; ++g) {                              \
+        const QSKIN_VECTOR(TYPE, 4) x =                                                    \
+            ((const __global QSKIN_VECTOR(TYPE, 4)*)values)[v * (uint)(count / 4) + (uint)g]; \
+        out[4 * g] = x.s0, out[4 * g + 1] = x.s1, out[4 * g + 2] = x.s2, out[4 * g + 3] = x.s3; \
+      }                                                                                    \
+    } else if (count > 0 && count % 2 == 0) {                                              \
+      for (int g = 0; g < count / 2; ++g) {                              \
+        const QSKIN_VECTOR(TYPE, 2) x =                                                    \
+            ((const __global QSKIN_VECTOR(TYPE, 2)*)values)[v * (uint)(count / 2) + (uint)g]; \
+        out[2 * g] = x.s0, out[2 * g + 1] = x.s1;                                          \
+      }                                                                                    \
+    } else {                                                                               \
+      for (int i = 0; i < count; ++i) out[i] = values[v * count + i];   \
+    }                                                                                      \
+  }
+DEFINE_LOAD_PER_VERTEX(LoadQuantizedJoints, QSKIN_JOINT)
+DEFINE_LOAD_PER_VERTEX(LoadQuantizedWeights, QSKIN_WEIGHT)
+
 /* The blend from a palette in either address space. B = 1: the one joint's matrix. */
 #define DEFINE_QUANTIZED_BLEND(NAME, SPACE)                                                \
-  static inline Blended NAME(const SPACE float* restrict palette,                          \
+  static inline Blended NAME(const SPACE void* restrict palette,                           \
                              const __global QSKIN_JOINT* restrict joints,                  \
                              const __global QSKIN_WEIGHT* restrict weights, const uint v,  \
                              const int influences) {                                       \
-    const SPACE float* last = palette + 12 * (uint)joints[v * influences + influences - 1]; \
-    const Blended base = {vload8(0, last), vload4(2, last)};                               \
+    uint joint[8], weight[8];                                                              \
+    LoadQuantizedJoints(joints, v, influences, joint);                                     \
+    LoadQuantizedWeights(weights, v, influences - 1, weight);                              \
+    const uint last = joint[influences - 1];                                               \
+    const Blended base = {SKIN_JOINT_ROWS01(SPACE, palette, last),                         \
+                          SKIN_JOINT_ROW2(SPACE, palette, last)};                          \
     Blended m = base;                                                                      \
     _Pragma("unroll") for (int i = 0; i < influences - 1; ++i) {                           \
-      const float w =                                                                      \
-          (float)weights[v * (influences - 1) + i] * (1.0f / (float)QSKIN_WEIGHT_STEPS);   \
-      const SPACE float* joint = palette + 12 * (uint)joints[v * influences + i];          \
-      m.r01 = fma((float8)(w), vload8(0, joint) - base.r01, m.r01);                        \
-      m.r2 = fma((float4)(w), vload4(2, joint) - base.r2, m.r2);                           \
+      const float w = (float)weight[i] * (1.0f / (float)QSKIN_WEIGHT_STEPS);               \
+      m.r01 = fma((float8)(w), SKIN_JOINT_ROWS01(SPACE, palette, joint[i]) - base.r01, m.r01); \
+      m.r2 = fma((float4)(w), SKIN_JOINT_ROW2(SPACE, palette, joint[i]) - base.r2, m.r2);  \
     }                                                                                      \
     return m;                                                                              \
   }

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "skinserve/model/mesh.h"
 #include "skinserve/model/palette.h"
@@ -25,6 +27,43 @@ TEST(SyntheticTest, MeshIsValidAndDeterministicFromTheSeed) {
   SyntheticMeshSpec other = spec;
   other.seed = 4;
   EXPECT_NE(MakeSyntheticMesh(other).positions, a.positions);
+}
+
+// Sorted by joints: the same vertices (each one's position, normal, tangent, joints and
+// weights kept together), ordered by their joint lists.
+TEST(SyntheticTest, SortedByJointsIsThePermutationOrderedByJoints) {
+  SyntheticMeshSpec spec{
+      .vertex_count = 3000, .influences = 3, .normals = true, .tangents = true, .seed = 9};
+  const MeshArrays shuffled = MakeSyntheticMesh(spec);
+  spec.sorted_by_joints = true;
+  const MeshArrays sorted = MakeSyntheticMesh(spec);
+  ASSERT_EQ(sorted.vertex_count, shuffled.vertex_count);
+  // Each vertex as one record; the multisets must match and the sorted joints ascend.
+  auto record = [](const MeshArrays& m, uint32_t v) {
+    std::vector<float> r(m.positions.begin() + 3 * v, m.positions.begin() + 3 * v + 3);
+    r.insert(r.end(), m.normals.begin() + 3 * v, m.normals.begin() + 3 * v + 3);
+    r.insert(r.end(), m.tangents.begin() + 4 * v, m.tangents.begin() + 4 * v + 4);
+    for (uint32_t i = 0; i < m.influences; ++i) {
+      r.push_back(static_cast<float>(m.joints[m.influences * v + i]));
+      r.push_back(m.weights[m.influences * v + i]);
+    }
+    return r;
+  };
+  std::vector<std::vector<float>> a, b;
+  for (uint32_t v = 0; v < shuffled.vertex_count; ++v) {
+    a.push_back(record(shuffled, v));
+    b.push_back(record(sorted, v));
+  }
+  EXPECT_NE(a, b);  // the paper's order is not already sorted
+  for (uint32_t v = 1; v < sorted.vertex_count; ++v) {
+    ASSERT_FALSE(std::lexicographical_compare(
+        sorted.joints.begin() + 3 * v, sorted.joints.begin() + 3 * v + 3,
+        sorted.joints.begin() + 3 * (v - 1), sorted.joints.begin() + 3 * v))
+        << "vertex " << v;
+  }
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  EXPECT_EQ(a, b);
 }
 
 TEST(SyntheticTest, WeightsAreSmoothNotUniform) {

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <numeric>
 
 #include "skinserve/model/palette.h"
 #include "splitmix_random.h"
@@ -25,6 +26,33 @@ std::vector<Vec3> MakeSkeleton(uint32_t joint_count, Random& random) {
     for (int k = 0; k < 3; ++k) joints[j][k] = parent[k] + length * dir[k];
   }
   return joints;
+}
+
+// Reorders the vertices (every per-vertex array alike) by their joint lists, compared
+// lexicographically; ties keep their order. The mesh has no morph targets yet.
+void SortByJoints(MeshArrays* mesh) {
+  const uint32_t b = mesh->influences;
+  std::vector<uint32_t> order(mesh->vertex_count);
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t l, uint32_t r) {
+    return std::lexicographical_compare(
+        mesh->joints.begin() + std::size_t{l} * b, mesh->joints.begin() + std::size_t{l + 1} * b,
+        mesh->joints.begin() + std::size_t{r} * b, mesh->joints.begin() + std::size_t{r + 1} * b);
+  });
+  auto permute = [&order](auto& values, std::size_t per_vertex) {
+    if (values.empty()) return;
+    auto sorted = values;
+    for (std::size_t v = 0; v < order.size(); ++v) {
+      std::copy_n(values.begin() + order[v] * per_vertex, per_vertex,
+                  sorted.begin() + v * per_vertex);
+    }
+    values = std::move(sorted);
+  };
+  permute(mesh->positions, 3);
+  permute(mesh->normals, 3);
+  permute(mesh->tangents, 4);
+  permute(mesh->joints, b);
+  permute(mesh->weights, b);
 }
 
 }  // namespace
@@ -93,6 +121,7 @@ MeshArrays MakeSyntheticMesh(const SyntheticMeshSpec& spec) {
       mesh.weights[slot] = static_cast<float>(i < used ? raw[i] / sum : 0.0);
     }
   }
+  if (spec.sorted_by_joints) SortByJoints(&mesh);
   return mesh;
 }
 

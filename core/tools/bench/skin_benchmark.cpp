@@ -28,6 +28,10 @@
 // that encoding themselves (BackendInfo::encoded_outputs: the OpenCL ones encode on the
 // device and read back only the encoded bytes), beside the float rows (issue 29 item 2);
 // each row reports read_back_bytes_per_vertex (12 a float frame's positions, 6 encoded).
+// --vertex-order=sorted: the synthetic meshes' vertices sorted by their joints, as a mesh
+// optimiser leaves a real character (neighbouring vertices share bones), instead of the
+// paper's shuffled order (each vertex on a random bone); the CPU loops hardly care, a GPU's
+// palette reads do.
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
@@ -78,6 +82,7 @@ struct Options {
   bool opencl_global_palette = false;
   bool quantized = false;
   std::vector<VertexEncoding> encodings;  // --encoding=: encoded-output rows
+  bool sorted_by_joints = false;          // --vertex-order=sorted
 };
 
 template <typename T>
@@ -125,6 +130,12 @@ Options ParseOptions(int* argc, char** argv) {
       options.opencl_device = device;
     } else if (const char* streams = value("--streams=")) {
       options.streams = static_cast<int>(std::stoul(streams));
+    } else if (const char* order = value("--vertex-order=")) {
+      if (std::string_view(order) != "sorted" && std::string_view(order) != "shuffled") {
+        throw std::invalid_argument(std::string("--vertex-order=: sorted or shuffled, not ") +
+                                    order);
+      }
+      options.sorted_by_joints = std::string_view(order) == "sorted";
     } else if (const char* encodings = value("--encoding=")) {
       for (const std::string& name : ParseList<std::string>(encodings)) {
         const auto encoding = ParseVertexEncoding(name);
@@ -373,16 +384,17 @@ int main(int argc, char** argv) {
   Options options;
   try {
     options = ParseOptions(&argc, argv);
-  } catch (const std::invalid_argument& e) {  // std::stoul on a malformed list, or a method
+  } catch (const std::invalid_argument& e) {  // std::stoul on a malformed list, or a value
     fmt::print(stderr,
-               "skinserve-bench: --vertices= and --bones= take comma-separated counts, "
-               "--methods= linear and dual-quaternion ({})\n",
+               "skinserve-bench: {} (--vertices= and --bones= take comma-separated counts, "
+               "--methods= linear and dual-quaternion, --vertex-order= sorted or shuffled)\n",
                e.what());
     return 2;
   } catch (const std::exception&) {  // std::stoul out of range
     fmt::print(stderr, "skinserve-bench: --vertices= and --bones= take comma-separated counts\n");
     return 2;
   }
+  Cache().set_sorted_by_joints(options.sorted_by_joints);
   const auto bad_bones = [](uint32_t b) { return b < 1 || b > kMaxInfluences; };
   if (std::count(options.vertices.begin(), options.vertices.end(), 0u) != 0 ||
       std::any_of(options.bones.begin(), options.bones.end(), bad_bones)) {

@@ -19,7 +19,8 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph
                                            // (read only by BM_SkinTangents; a quantized
                                            // rest stream carries none)
                                            .tangents = rest == RestEncoding::kFloat32,
-                                           .seed = vertices * 10ull + bones});
+                                           .seed = vertices * 10ull + bones,
+                                           .sorted_by_joints = sorted_by_joints_});
     if (morph) {
       AddSyntheticMorphTargets(
           {.targets = kMorphTargets, .fraction = kMorphFraction, .seed = vertices * 10ull + bones},

@@ -35,8 +35,12 @@ class WorkloadCache {
                       RestEncoding rest = RestEncoding::kFloat32);
   const PreparedMesh& Prepared(Backend& backend, uint32_t vertices, uint32_t bones,
                                bool morph = false, RestEncoding rest = RestEncoding::kFloat32);
+  // --vertex-order=sorted: every mesh made from now on has its vertices sorted by joints
+  // (SyntheticMeshSpec::sorted_by_joints) instead of the paper's shuffled order.
+  void set_sorted_by_joints(bool sorted) { sorted_by_joints_ = sorted; }
 
  private:
+  bool sorted_by_joints_ = false;
   std::mutex mutex_;
   std::map<std::tuple<uint32_t, uint32_t, bool, RestEncoding>, Workload> workloads_;
   std::map<std::tuple<Backend*, uint32_t, uint32_t, bool, RestEncoding>,

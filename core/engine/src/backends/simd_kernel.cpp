@@ -12,7 +12,8 @@
 // time, four vertices per step, while the chunk is still in L1. Tangents (4 floats per
 // vertex) take the normals' path in the same loop: their stores of (x', y', z', 0) fill
 // exactly one vertex, and the renormalising step puts back the rest tangents' w.
-// The quantized rest stream takes the same loop, a 256-vertex chunk at a time decoded into
+// The quantized rest stream takes the same blend and transform, each vertex's integer
+// position converted in registers and the weights decoded a 256-vertex chunk at a time into
 // an L1 scratch (SkinQuantizedRangeT).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "backends/simd_kernel.cpp"
@@ -149,6 +150,7 @@ struct Spread {
   V unit_w;    // 0 0 0 1 per 128-bit block
   using Indices = decltype(hn::SetTableIndices(D(), static_cast<const int32_t*>(nullptr)));
   Indices first;
+  Indices second;  // the transform from a register, 8 lanes
   Spread() {
     const D d;
     alignas(16) static constexpr float kKeep[4] = {1, 1, 1, 0};
@@ -158,6 +160,9 @@ struct Spread {
     alignas(64) static constexpr int32_t kFirst[16] = {0, 0, 0, 0, 1, 1, 1, 1,
                                                        2, 2, 2, 2, 3, 3, 3, 3};
     first = hn::SetTableIndices(d, kFirst);
+    alignas(64) static constexpr int32_t kSecond[16] = {2, 2, 2, 2, 3, 3, 3, 3,
+                                                        2, 2, 2, 2, 3, 3, 3, 3};
+    second = hn::SetTableIndices(d, kSecond);
   }
 };
 
@@ -324,12 +329,11 @@ void SkinRange(const VertexStream& stream, const float* columns, float* out_p, f
   });
 }
 
-// The quantized rest stream (QuantizedStream), a chunk at a time: its integers become
-// floats in a 256-vertex scratch on the stack (about 13 KB at most, in L1), by plain loops
-// the compiler vectorises for this target, and the chunk takes the float loop above. The
-// weights then reach the blend as broadcasts from L1, as in the float stream, instead of
-// a conversion and a register broadcast each per vertex (on x86 both of those compete
-// with the transform's lane permutes). Memory sees only the integers.
+#if SKINSERVE_SIMD_SIZELESS || HWY_TARGET == HWY_SCALAR
+// The quantized rest stream (QuantizedStream) on the SVE and HWY_SCALAR targets, a chunk at
+// a time: its integers become floats in a 256-vertex scratch on the stack (about 13 KB at
+// most, in L1), by plain loops the compiler vectorises, and the chunk takes the float loop
+// above. Memory sees only the integers.
 template <int B, bool Normals, typename Joint, typename Weight>
 void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRICT joints,
                          const Weight* HWY_RESTRICT weights, const float* HWY_RESTRICT columns,
@@ -363,6 +367,107 @@ void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRIC
                                   Normals ? out_n + 3 * chunk : nullptr, nullptr, 0, count);
   }
 }
+#else
+// xyz (and a fourth lane the transforms ignore) of the 4 integers at q, as floats: 8 bytes
+// read, one widening and one conversion.
+template <typename T>
+HWY_INLINE V4 LoadConvert4(const T* HWY_RESTRICT q) {
+  const hn::FixedTag<T, 4> dq;
+  const hn::FixedTag<int32_t, 4> di;
+  return hn::ConvertTo(D4(), hn::PromoteTo(di, hn::LoadU(dq, q)));
+}
+
+// TransformQuad with (x, y, z) in a register instead of memory: the same lane spread, from
+// the register (kN = 4: three lane broadcasts; 8: two permutes; 16: one permute, as from
+// memory).
+template <bool Point, class DD>
+HWY_INLINE V4 TransformRegisterQuad(DD d, const hn::Vec<DD>* HWY_RESTRICT m, const Spread& s,
+                                    V4 xyz) {
+  constexpr std::size_t kN = hn::MaxLanes(DD());
+  if constexpr (kN == 4) {
+    const auto x = hn::Broadcast<0>(xyz), y = hn::Broadcast<1>(xyz), z = hn::Broadcast<2>(xyz);
+    const auto xc = Point ? hn::MulAdd(m[0], x, m[3]) : hn::Mul(m[0], x);
+    return hn::MulAdd(m[2], z, hn::MulAdd(m[1], y, xc));
+  } else {
+    const hn::Half<DD> dh;
+    const hn::Half<hn::Half<DD>> dq;
+    const D4 d4;
+    alignas(16) static constexpr float kKeep[4] = {1, 1, 1, 0};
+    alignas(16) static constexpr float kUnit[4] = {0, 0, 0, 1};
+    const V4 keep = hn::Load(d4, kKeep);
+    const V4 xyzh = Point ? hn::MulAdd(xyz, keep, hn::Load(d4, kUnit)) : hn::Mul(xyz, keep);
+    if constexpr (kN == 8) {
+      const auto wide = hn::ZeroExtendVector(d, xyzh);
+      const auto product = hn::MulAdd(m[1], hn::TableLookupLanes(wide, s.second),
+                                      hn::Mul(m[0], hn::TableLookupLanes(wide, s.first)));
+      return hn::Add(hn::LowerHalf(dh, product), hn::UpperHalf(dh, product));
+    } else {
+      const auto wide = hn::ZeroExtendVector(d, hn::ZeroExtendVector(dh, xyzh));
+      const auto product = hn::Mul(m[0], hn::TableLookupLanes(wide, s.first));
+      const auto sum8 = hn::Add(hn::LowerHalf(dh, product), hn::UpperHalf(dh, product));
+      return hn::Add(hn::LowerHalf(dq, sum8), hn::UpperHalf(dq, sum8));
+    }
+  }
+}
+
+// The quantized rest stream (QuantizedStream): each vertex's integer position (and normal)
+// is converted in registers as it is skinned (LoadConvert4), while the weights, which the
+// blend wants as broadcasts, are decoded a 256-vertex chunk at a time into an L1 scratch
+// (a plain loop the compiler vectorises): from L1 a weight is a broadcast load, as in the
+// float stream, where a conversion and a register broadcast per weight compete with the
+// transform's lane permutes. Memory sees only the integers. The 8 bytes LoadConvert4 reads
+// pass a vertex's 6: the range's last vertex goes through local copies.
+template <int B, bool Normals, typename Joint, typename Weight>
+void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRICT joints,
+                         const Weight* HWY_RESTRICT weights, const float* HWY_RESTRICT columns,
+                         float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n, std::size_t first,
+                         std::size_t last) {
+  constexpr std::size_t kChunk = 256;  // also the vertices whose normals are renormalised at once
+  constexpr float kStep = 1.0f / static_cast<float>(hwy::LimitsMax<Weight>());
+  alignas(64) float w[(B - 1) * kChunk + 1];
+  const Spread s;
+  const D d;
+  const D4 d4;
+  alignas(16) const float scale_lanes[4] = {stream.normal_scale[0], stream.normal_scale[1],
+                                            stream.normal_scale[2], 0.0f};
+  const V4 scale = hn::Load(d4, scale_lanes);
+  const uint16_t* HWY_RESTRICT qp = stream.positions;
+  const int16_t* HWY_RESTRICT qn = stream.normals;
+  for (std::size_t chunk = first; chunk < last; chunk += kChunk) {
+    const std::size_t chunk_end = std::min(last, chunk + kChunk);
+    const Weight* HWY_RESTRICT qw = weights + (B - 1) * chunk;
+    for (std::size_t i = 0; i < (B - 1) * (chunk_end - chunk); ++i) {
+      w[i] = static_cast<float>(qw[i]) * kStep;
+    }
+    const auto vertex = [&](std::size_t v, const uint16_t* p, const int16_t* n, float* op,
+                            float* on) {
+      const Blended m = Blend<B>(columns, joints + B * v, w + (B - 1) * (v - chunk));
+      hn::StoreU(TransformRegisterQuad<true>(d, m.v, s, LoadConvert4(p)), d4, op);
+      if constexpr (Normals) {
+        const V4 normal = hn::Mul(LoadConvert4(n), scale);
+        hn::StoreU(TransformRegisterQuad<false>(d, m.v, s, normal), d4, on);
+      }
+    };
+    // Every vertex but the range's last reads and stores in place.
+    const std::size_t direct_end = std::min(chunk_end, last - 1);
+    for (std::size_t v = chunk; v < direct_end; ++v) {
+      vertex(v, qp + 3 * v, Normals ? qn + 3 * v : nullptr, out_p + 3 * v,
+             Normals ? out_n + 3 * v : nullptr);
+    }
+    if (chunk_end == last) {  // the last vertex: local copies in and out
+      const std::size_t v = last - 1;
+      const uint16_t in_p[4] = {qp[3 * v], qp[3 * v + 1], qp[3 * v + 2], 0};
+      int16_t in_n[4] = {};
+      if constexpr (Normals) std::copy_n(qn + 3 * v, 3, in_n);
+      float res_p[4], res_n[4];
+      vertex(v, in_p, in_n, res_p, res_n);
+      std::copy_n(res_p, 3, out_p + 3 * v);
+      if constexpr (Normals) std::copy_n(res_n, 3, out_n + 3 * v);
+    }
+    if constexpr (Normals) Renormalise(out_n, chunk, chunk_end);
+  }
+}
+#endif
 
 void SkinQuantizedRange(const QuantizedStream& stream, const float* columns, float* out_p,
                         float* out_n, std::size_t first, std::size_t last) {
