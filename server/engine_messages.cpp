@@ -34,6 +34,7 @@ v1::BackendInfo ToWire(const BackendInfo& info) {
   wire.set_morph_targets(info.morph_targets);
   wire.set_quantized_rest(info.quantized_rest);
   wire.set_tangents(info.tangents);
+  for (VertexEncoding encoding : info.encoded_outputs) wire.add_encoded_outputs(ToWire(encoding));
   return wire;
 }
 

@@ -44,9 +44,9 @@ struct Options {
   bool capacity = false;
   int capacity_max_streams = 64;
   std::string encoding = "float32";
-  std::string rest_encoding = "float32";  // how the server stores the mesh
-  std::string modes;                      // --capacity: ENCODING[xK] list, e.g. float32,snorm16x16
-  std::string data_planes = "grpc";       // grpc and/or shm, each run once per data plane
+  std::string rest_encoding;         // how the server stores the mesh; empty: not asked
+  std::string modes;                 // --capacity: ENCODING[xK] list, e.g. float32,snorm16x16
+  std::string data_planes = "grpc";  // grpc and/or shm, each run once per data plane
   std::string json, csv, plot;
   MeasurementFlags measurement;  // rates, arrivals, percentile, stability, server metrics
 };
@@ -141,7 +141,7 @@ Result<std::string> Upload(client::SkinClient& client, const Workload& w) {
 // The glTF character when --mesh names one, else the synthetic mesh of this shape.
 Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bones, uint64_t seed) {
   const SkinningMethod method = *ParseMethod(o.method);
-  if (o.tangents && (!o.normals || o.rest_encoding != "float32")) {
+  if (o.tangents && (!o.normals || (!o.rest_encoding.empty() && o.rest_encoding != "float32"))) {
     return InvalidArgument(
         "--tangents needs --normals and --rest-encoding float32 (a quantized rest stream "
         "carries no tangents)");
@@ -152,12 +152,9 @@ Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bone
                      : MakeGltfWorkload(o.mesh, o.primitive, o.normals, o.tangents);
   if (!workload.ok()) return workload;
   workload->method = method;
-  const RestEncoding rest = *ParseRestEncoding(o.rest_encoding);
-  if (rest != RestEncoding::kFloat32) {
-    if (Status s = SetRestEncoding(&*workload, rest); !s.ok()) {
-      return Status(s.code(), fmt::format("--rest-encoding {}: {}", o.rest_encoding, s.message()));
-    }
-  }
+  const std::optional<RestEncoding> asked =
+      o.rest_encoding.empty() ? std::nullopt : ParseRestEncoding(o.rest_encoding);
+  if (Status s = ChooseRestEncoding(&*workload, asked, o.tangents); !s.ok()) return s;
   return workload;
 }
 
@@ -175,6 +172,8 @@ int RunMain(const Options& o) {
   if (!o.mesh.empty()) {
     auto probe = LoadWorkload(o, o.vertices, o.bones, o.seed);
     if (!probe.ok()) return fmt::print(stderr, "error: {}\n", probe.status().ToString()), 1;
+    fmt::print(stderr, "note: rest encoding {} for {}: {}\n",
+               RestEncodingName(probe->rest_encoding), o.mesh, probe->rest_encoding_reason);
     morph = std::any_of(probe->morph_weights.begin(), probe->morph_weights.end(),
                         [](const std::vector<MorphWeight>& w) { return HasActiveMorph(w); });
   }
@@ -427,9 +426,11 @@ int main(int argc, char** argv) {
   app.add_option("--rest-encoding", o.rest_encoding,
                  "how the server stores the mesh: float32, or quantized16 / quantized8-weights "
                  "(16-bit positions, normals and weights, or 8-bit weights; read directly by "
-                 "simd and simd-openmp); checks compare with the values it decodes to")
-      ->check(CLI::IsMember({"float32", "quantized16", "quantized8-weights"}))
-      ->capture_default_str();
+                 "simd, simd-openmp and the OpenCL backends); checks compare with the values it "
+                 "decodes to. Default: float32, but a --mesh file storing 16-bit positions and "
+                 "integer weights (KHR_mesh_quantization) gets quantized16 (quantized8-weights "
+                 "for UNSIGNED_BYTE weights); the choice and why is printed")
+      ->check(CLI::IsMember({"float32", "quantized16", "quantized8-weights"}));
   app.add_option("--instances", o.run.instances,
                  "crowd batches: K palettes per request, K characters per stream")
       ->check(CLI::Range(1u, 1u << 16))

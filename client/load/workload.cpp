@@ -30,6 +30,29 @@ Status SetRestEncoding(Workload* w, RestEncoding encoding) {
   return Status::Ok();
 }
 
+Status ChooseRestEncoding(Workload* w, std::optional<RestEncoding> asked, bool tangents) {
+  RestEncodingChoice choice;
+  if (asked) {
+    choice = {*asked, "asked for (--rest-encoding)"};
+  } else if (tangents) {
+    choice = {RestEncoding::kFloat32, "--tangents (a quantized rest stream carries none)"};
+  } else if (w->file_rest_encoding) {
+    choice = *w->file_rest_encoding;
+    choice.reason = "from the file: " + choice.reason;
+  } else {
+    choice = {RestEncoding::kFloat32, "the default"};
+  }
+  if (choice.encoding != w->rest_encoding) {
+    if (Status s = SetRestEncoding(w, choice.encoding); !s.ok()) {
+      return Status(s.code(),
+                    fmt::format("rest encoding {} ({}): {}", RestEncodingName(choice.encoding),
+                                choice.reason, s.message()));
+    }
+  }
+  w->rest_encoding_reason = std::move(choice.reason);
+  return Status::Ok();
+}
+
 Workload MakeWorkload(uint32_t vertices, uint32_t bones, uint32_t joints, bool normals,
                       uint64_t seed, SkinningMethod method, const MorphWorkload& morph,
                       bool tangents) {
@@ -177,6 +200,11 @@ Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool n
   if (clip == nullptr) return InvalidArgument(fmt::format("{} has no animation clip", path));
 
   Workload w;
+  std::vector<int> uploaded;
+  for (const CharacterMesh& m : *meshes) {
+    for (const PrimitiveSpan& part : m.parts) uploaded.push_back(part.primitive);
+  }
+  w.file_rest_encoding = RestEncodingFromFile(*character, uploaded);
   w.arrays = std::make_shared<const MeshArrays>(MergeMeshes(*meshes));
   w.vertices = w.arrays->vertex_count;
   w.bones = w.arrays->influences;

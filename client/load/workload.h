@@ -4,10 +4,12 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "skinserve/character/rest_encoding_choice.h"
 #include "skinserve/model/mesh.h"
 #include "skinserve/model/morph_targets.h"
 #include "skinserve/model/skinning_method.h"
@@ -29,6 +31,11 @@ struct Workload {
   // Asked of the server at upload (--rest-encoding); `mesh` then holds the values the
   // quantized stream decodes to, which is what the server skins.
   RestEncoding rest_encoding = RestEncoding::kFloat32;
+  // A glTF workload: the rest encoding its file's stored types ask for (RestEncodingFromFile
+  // over the uploaded primitives); unset for the synthetic mesh.
+  std::optional<RestEncodingChoice> file_rest_encoding;
+  // Why rest_encoding is what it is (ChooseRestEncoding), one line for the run's output.
+  std::string rest_encoding_reason;
   std::vector<std::vector<float>> palettes;  // frame f uses palettes[f % size]
   // Frame f's sparse morph target weights: morph_weights[f % size]; empty: the frames carry
   // none (a mesh without targets, or --morph-active 0).
@@ -59,6 +66,12 @@ struct MorphWorkload {
 // Stores the workload's mesh as `encoding` (its reference mesh rebuilt from the arrays):
 // INVALID_ARGUMENT as the server would answer (e.g. a mesh with morph targets).
 Status SetRestEncoding(Workload* w, RestEncoding encoding);
+
+// Picks and applies (SetRestEncoding) the workload's rest encoding: `asked` when the user
+// named one (--rest-encoding: an explicit choice always wins); else float32 when `tangents`
+// are asked back (a quantized rest stream carries none); else the file's
+// (file_rest_encoding) for a glTF workload; else float32. Sets rest_encoding_reason.
+Status ChooseRestEncoding(Workload* w, std::optional<RestEncoding> asked, bool tangents);
 
 // Dual-quaternion workloads get rigid palettes (MakeRigidPalette): the method refuses the
 // synthetic palettes' scale. `tangents` (with normals): the mesh has tangents (and its

@@ -180,6 +180,10 @@ table = [line.split()[0] for line in text[1:-1]]
 assert ids == table, (ids, table)
 assert text[-1] == "default: " + backends["default_backend"], (text[-1], backends["default_backend"])
 assert all(isinstance(b["available"], bool) for b in backends["backends"])
+# The table's encodes column is BackendInfo.encoded_outputs ("-": none).
+for b, line in zip(backends["backends"], text[1:-1]):
+    names = [e.removeprefix("ENCODING_").lower() for e in b.get("encoded_outputs", [])]
+    assert line.split()[5] == (",".join(names) or "-"), (b, line)
 PY
 say "stats --json: 21 frames on serial, 2 compute threads; backends --json = the table"
 

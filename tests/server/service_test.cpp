@@ -57,6 +57,28 @@ TEST(ServiceTest, HealthBackendsUploadGetDeleteStats) {
   EXPECT_EQ(t.client->GetMesh(first->mesh_id()).status().code(), StatusCode::kNotFound);
 }
 
+// BackendInfo.encoded_outputs on the wire: the OpenCL backends (PoCL here) write float16 and
+// snorm16 themselves, on the device; every CPU backend writes none (the server encodes).
+TEST(ServiceTest, BackendsListTheEncodingsTheyWriteThemselves) {
+  TestServer t;
+  auto list = t.client->ListBackends();
+  ASSERT_TRUE(list.ok()) << list.status().ToString();
+  int opencl = 0;
+  for (const auto& b : list->backends()) {
+    SCOPED_TRACE(b.id());
+    std::vector<int> listed(b.encoded_outputs().begin(), b.encoded_outputs().end());
+    if (b.id() == "opencl" || b.id() == "opencl-zerocopy") {
+      ASSERT_TRUE(b.available()) << b.id() << " (PoCL) must be available for this test: "
+                                 << b.unavailable_reason();
+      EXPECT_EQ(listed, (std::vector<int>{v1::ENCODING_FLOAT16, v1::ENCODING_SNORM16}));
+      ++opencl;
+    } else {
+      EXPECT_TRUE(listed.empty()) << listed.size() << " encodings listed";
+    }
+  }
+  EXPECT_EQ(opencl, 2);
+}
+
 TEST(ServiceTest, EveryBackendThroughSkinAndStreamSkin) {
   TestServer t;
   const MeshArrays arrays =

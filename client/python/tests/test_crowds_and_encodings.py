@@ -42,6 +42,19 @@ def check_crowd(got_p, got_n, mesh, palettes, encoding):
         check_instance(got_n[k], want_n, encoding, NORMAL_TOLERANCE, normals=True)
 
 
+def test_backends_list_the_encodings_they_write_themselves(client):
+    """BackendInfo.encoded_outputs: the OpenCL backends encode float16 and snorm16 on the
+    device; every CPU backend leaves encoding to the server."""
+    listed = {b["id"]: b for b in client.backends()}
+    for backend in ("opencl", "opencl-zerocopy"):
+        if not listed[backend]["available"]:
+            pytest.skip(f"{backend} unavailable: {listed[backend]['unavailable_reason']}")
+        assert listed[backend]["encoded_outputs"] == ["float16", "snorm16"], backend
+        assert listed[backend]["quantized_rest"], backend
+    for backend in ("serial", "simd", "passthrough"):
+        assert listed[backend]["encoded_outputs"] == [], backend
+
+
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_every_encoding_and_crowd_size_on_every_backend(client, rng, encoding):
     mesh = random_mesh(rng, 1500, 3, JOINTS)

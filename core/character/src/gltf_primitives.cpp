@@ -29,6 +29,45 @@ std::optional<int> Attribute(const tinygltf::Primitive& p, const std::string& na
   return it->second;
 }
 
+// How `reader`'s accessor stores its values (the types the importer accepts for vertex
+// attributes; any other reads as kNone).
+StoredAttribute Stored(const AccessorReader& reader) {
+  StoredType type = StoredType::kNone;
+  switch (reader.component_type()) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      type = StoredType::kFloat;
+      break;
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+      type = StoredType::kByte;
+      break;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      type = StoredType::kUnsignedByte;
+      break;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+      type = StoredType::kShort;
+      break;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      type = StoredType::kUnsignedShort;
+      break;
+    default:
+      break;
+  }
+  return {.type = type, .normalized = reader.normalized()};
+}
+
+// The wider of two WEIGHTS_n sets' storage: FLOAT over UNSIGNED_SHORT over UNSIGNED_BYTE.
+StoredAttribute WiderWeights(StoredAttribute a, StoredAttribute b) {
+  auto rank = [](StoredType t) {
+    return t == StoredType::kFloat           ? 3
+           : t == StoredType::kUnsignedShort ? 2
+           : t == StoredType::kUnsignedByte  ? 1
+                                             : 0;
+  };
+  if (rank(b.type) > rank(a.type)) return b;
+  if (rank(b.type) == rank(a.type)) return {a.type, a.normalized && b.normalized};
+  return a;
+}
+
 Result<AccessorReader> OpenAttribute(const tinygltf::Model& model, int accessor,
                                      const std::string& what, int type,
                                      std::initializer_list<int> component_types,
@@ -217,6 +256,7 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
                                        v_count, std::numeric_limits<uint32_t>::max()));
   }
   MeshArrays& a = out->arrays;
+  out->stored.position = Stored(*positions);
   a.vertex_count = static_cast<uint32_t>(v_count);
   a.influences = static_cast<uint32_t>(sets * kInfluencesPerSet);
   a.joint_count = joint_count;
@@ -237,6 +277,7 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
           "integer normals must be normalized (KHR_mesh_quantization)",
           what, *normal, ComponentTypeName(normals->component_type())));
     }
+    out->stored.normal = Stored(*normals);
     a.normals.resize(3 * v_count);
     for (std::size_t v = 0; v < v_count; ++v) {
       for (int c = 0; c < 3; ++c) a.normals[3 * v + c] = normals->Normalized(v, c);
@@ -278,6 +319,8 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
          TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
         v_count);
     if (!weights.ok()) return weights.status();
+    out->stored.weights =
+        set == 0 ? Stored(*weights) : WiderWeights(out->stored.weights, Stored(*weights));
     for (std::size_t v = 0; v < v_count; ++v) {
       for (int c = 0; c < kInfluencesPerSet; ++c) {
         const std::size_t k = v * b + static_cast<std::size_t>(set * kInfluencesPerSet + c);

@@ -2,14 +2,21 @@
 both clients."""
 from typing import Any, Dict, List
 
+from ._requests import ENCODINGS
 from .v1 import skinning_pb2 as pb
+
+ENCODING_NAMES = {value: name for name, value in ENCODINGS.items()}
 
 
 def backends(response: pb.ListBackendsResponse) -> List[Dict[str, Any]]:
+    """encoded_outputs: the encodings the backend writes itself ("float16", "snorm16" on the
+    OpenCL backends: encoded on the device); the server encodes the others."""
     return [{"id": b.id, "description": b.description, "available": b.available,
              "unavailable_reason": b.unavailable_reason, "device": b.device,
              "simd_width": b.simd_width, "threads": b.threads,
              "morph_targets": b.morph_targets, "tangents": b.tangents,
+             "quantized_rest": b.quantized_rest,
+             "encoded_outputs": [ENCODING_NAMES.get(e, str(e)) for e in b.encoded_outputs],
              "default": b.id == response.default_backend} for b in response.backends]
 
 

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <glm/gtc/quaternion.hpp>
@@ -37,6 +38,25 @@ struct CharacterSkin {
   std::vector<glm::mat4> inverse_bind;  // one per joint (identity when the file omits them)
 };
 
+// How the file stored one vertex attribute: its glTF componentType (KHR_mesh_quantization
+// allows integers besides FLOAT) and `normalized` flag. kNone: no such attribute.
+enum class StoredType : uint8_t { kNone, kFloat, kByte, kUnsignedByte, kShort, kUnsignedShort };
+std::string_view StoredTypeName(StoredType type);  // glTF's: "FLOAT", "UNSIGNED_SHORT", ...
+
+struct StoredAttribute {
+  StoredType type = StoredType::kNone;
+  bool normalized = false;
+};
+
+// A primitive's attributes as the file stored them (the arrays hold their float values),
+// for tools that match an upload to the file (rest_encoding_choice.h). weights: the widest
+// of the WEIGHTS_n sets (FLOAT over UNSIGNED_SHORT over UNSIGNED_BYTE); none on a rigid part.
+struct StoredAttributes {
+  StoredAttribute position;
+  StoredAttribute normal;
+  StoredAttribute weights;
+};
+
 // One primitive of one mesh node, ready for Mesh::Create: skinned (the node has a skin) or
 // a rigid part (skin -1: a mesh node without a skin, whose vertices all follow the node).
 //  - arrays: positions, normals (when present), tangents (TANGENT, when present with
@@ -55,6 +75,7 @@ struct SkinnedPrimitive {
   int skin = -1;     // index into Character::skins; -1: a rigid part following `node`
   bool rigid() const { return skin < 0; }
   MeshArrays arrays;
+  StoredAttributes stored;  // how the file stored POSITION, NORMAL and WEIGHTS_n
   std::vector<uint32_t> indices;
   // What of the primitive the spec says to ignore and the importer left out (e.g. TANGENT
   // without NORMAL), one line each, naming the object: the tools print them.
