@@ -44,14 +44,16 @@ def check_crowd(got_p, got_n, mesh, palettes, encoding):
 
 def test_backends_list_the_encodings_they_write_themselves(client):
     """BackendInfo.encoded_outputs: the OpenCL backends encode float16 and snorm16 on the
-    device; every CPU backend leaves encoding to the server."""
+    device, the simd loops as they skin; the other CPU backends leave encoding to the server."""
     listed = {b["id"]: b for b in client.backends()}
     for backend in ("opencl", "opencl-zerocopy"):
         if not listed[backend]["available"]:
             pytest.skip(f"{backend} unavailable: {listed[backend]['unavailable_reason']}")
         assert listed[backend]["encoded_outputs"] == ["float16", "snorm16"], backend
         assert listed[backend]["quantized_rest"], backend
-    for backend in ("serial", "simd", "passthrough"):
+    for backend in ("simd", "simd-openmp"):
+        assert listed[backend]["encoded_outputs"] == ["float16", "snorm16"], backend
+    for backend in ("serial", "sse", "passthrough"):
         assert listed[backend]["encoded_outputs"] == [], backend
 
 
