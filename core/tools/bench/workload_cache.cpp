@@ -1,5 +1,6 @@
 #include "workload_cache.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "skinserve/reference/synthetic.h"
@@ -26,7 +27,10 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph
           {.targets = kMorphTargets, .fraction = kMorphFraction, .seed = vertices * 10ull + bones},
           &arrays);
     }
-    auto mesh = Mesh::Create(arrays, {.rest_encoding = rest});
+    // The server's vertex limit guards uploads; the bench may go past it (past a large L3).
+    MeshLimits limits;
+    limits.max_vertices = std::max(limits.max_vertices, vertices);
+    auto mesh = Mesh::Create(arrays, {.limits = limits, .rest_encoding = rest});
     if (!mesh.ok()) throw std::runtime_error(mesh.status().ToString());
     it->second.mesh = *mesh;
     for (int frame = 0; frame < kPalettesPerWorkload; ++frame) {
