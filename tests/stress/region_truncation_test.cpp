@@ -8,6 +8,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -34,6 +35,14 @@ using namespace std::chrono_literals;
 constexpr uint32_t kVertices = 400'000;  // 4.8 MB a frame: writes take a while
 constexpr int kRounds = 6;
 constexpr int kFramesPerRound = 40;
+
+// "still running", or how it ended (e.g. "killed by signal 7": a SIGBUS the guard missed).
+std::string HowTheServerEnded(const ServerChild& server) {
+  int status = 0;
+  if (waitpid(server.pid(), &status, WNOHANG) != server.pid()) return "still running";
+  if (WIFSIGNALED(status)) return fmt::format("killed by signal {}", WTERMSIG(status));
+  return fmt::format("exited with {}", WEXITSTATUS(status));
+}
 
 TEST(RegionTruncationTest, AClientTruncatingItsRegionMidStreamCannotCrashTheServer) {
   char name[] = "/dev/shm/skinserve-truncate-XXXXXX";
@@ -117,7 +126,9 @@ TEST(RegionTruncationTest, AClientTruncatingItsRegionMidStreamCannotCrashTheServ
         });
     round_done.store(true);
     truncator.join();
-    EXPECT_TRUE(streamed.ok()) << streamed.ToString();
+    EXPECT_TRUE(streamed.ok()) << streamed.ToString() << " (round " << round << ", "
+                               << (round % 2 == 0 ? "simd-openmp" : "opencl-zerocopy")
+                               << "; the server: " << HowTheServerEnded(server) << ")";
     (void)hostile.UnregisterRegion(region_name);  // a broken region may be gone already
   }
   stop.store(true);
