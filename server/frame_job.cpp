@@ -9,6 +9,7 @@
 #include <grpcpp/impl/codegen/proto_utils.h>
 
 #include "engine_messages.h"
+#include "sigbus_guard.h"
 #include "skinserve/wire/part_framing.h"
 #include "skinserve/wire/region_layout.h"
 
@@ -229,6 +230,7 @@ Status FrameJob::PrepareRegion(const v1::OutputRegion& output, RegionRegistry* r
   Result<std::shared_ptr<MappedRegion>> region = regions->Acquire(output.region());
   if (!region.ok()) return region.status();
   if (Status s = (*region)->CheckIntact(); !s.ok()) return s;
+  SigbusGuard::Install();  // still the SIGBUS handler, whatever a library did since
   const uint64_t size = (*region)->byte_size();
   const uint64_t offset = output.offset();
   if (offset % wire::kRegionAlignment != 0) {

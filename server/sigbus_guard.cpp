@@ -21,7 +21,7 @@ struct Slot {
 Slot g_slots[SigbusGuard::kMaxRanges];
 std::mutex g_slots_mutex;  // Add and Remove only, never the handler
 struct sigaction g_previous;
-std::once_flag g_installed;
+std::mutex g_install_mutex;  // Install only, never the handler
 
 void OnSigbus(int signal, siginfo_t* info, void* context) {
   const auto address = reinterpret_cast<uintptr_t>(info->si_addr);
@@ -60,13 +60,21 @@ void OnSigbus(int signal, siginfo_t* info, void* context) {
 }  // namespace
 
 void SigbusGuard::Install() {
-  std::call_once(g_installed, [] {
-    struct sigaction action = {};
-    action.sa_sigaction = &OnSigbus;
-    action.sa_flags = SA_SIGINFO | SA_ONSTACK;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGBUS, &action, &g_previous);
-  });
+  // Another library may have put its own handler over this one since (PoCL's LLVM
+  // registers its crash handlers when it compiles a kernel, and one of them restored the
+  // default action on a fault in a guarded range: the server died of the SIGBUS the guard
+  // exists for). Then the one found becomes the one faults outside the ranges go to.
+  std::lock_guard lock(g_install_mutex);
+  struct sigaction current = {};
+  if (sigaction(SIGBUS, nullptr, &current) == 0 && (current.sa_flags & SA_SIGINFO) &&
+      current.sa_sigaction == &OnSigbus) {
+    return;
+  }
+  struct sigaction action = {};
+  action.sa_sigaction = &OnSigbus;
+  action.sa_flags = SA_SIGINFO | SA_ONSTACK;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGBUS, &action, &g_previous);
 }
 
 int SigbusGuard::Add(void* begin, std::size_t size, std::atomic<bool>* broken) {

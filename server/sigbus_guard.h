@@ -19,7 +19,8 @@ class SigbusGuard {
   // The most ranges guarded at once (the server caps its regions below this).
   static constexpr std::size_t kMaxRanges = 4096;
 
-  // Installs the process-wide handler (once; later calls do nothing).
+  // Installs the process-wide handler; later calls put it back if another library has
+  // replaced it since (the server calls it before every frame it writes into a region).
   static void Install();
 
   // Guards [begin, begin + size) (page-aligned, as mmap returns it) until Remove;

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <csignal>
 #include <cstring>
 #include <filesystem>
@@ -93,6 +94,40 @@ TEST_F(SigbusGuardTest, ASigbusOutsideEveryRegionStillKillsTheProcess) {
   } else {
     EXPECT_EXIT(write_past_a_truncated_file(), ::testing::KilledBySignal(SIGBUS), "");
   }
+}
+
+// A library that puts its own SIGBUS handler over the guard's (PoCL's LLVM does when it
+// compiles a kernel; its handler then restores the default action): Install(), which the
+// server calls before each frame it writes into a region, takes the signal back, and the
+// foreign handler becomes the one faults outside every region go to. In a child process,
+// so this process's handlers stay as they were: exit 42 is success (the foreign handler
+// reached from outside the region only), 41 the foreign handler reached from inside it.
+std::atomic<bool> g_outside_phase{false};
+void ForeignHandler(int) { std::_Exit(g_outside_phase.load() ? 42 : 41); }
+
+TEST_F(SigbusGuardTest, AHandlerInstalledOverTheGuardsIsTakenBackAndChained) {
+  const std::string region_path = MakeFile(dir_, "region");
+  const std::string other_path = MakeFile(dir_, "unguarded");
+  const auto scenario = [&] {
+    auto region = server::MappedRegion::Open(dir_fd_, "r", "region", kBytes, "test");
+    if (!region.ok()) std::_Exit(3);
+    struct sigaction foreign = {};
+    foreign.sa_handler = &ForeignHandler;
+    sigemptyset(&foreign.sa_mask);
+    sigaction(SIGBUS, &foreign, nullptr);  // over the guard's, as LLVM's RegisterHandlers
+    server::SigbusGuard::Install();        // what the server does before a region frame
+    if (truncate(region_path.c_str(), 0) != 0) std::_Exit(4);
+    std::memset((*region)->bytes().data(), 2, kBytes);  // caught by the guard, not the foreign one
+    if ((*region)->CheckIntact().code() != StatusCode::kFailedPrecondition) std::_Exit(5);
+    g_outside_phase.store(true);
+    const int fd = open(other_path.c_str(), O_RDWR);
+    auto* bytes =
+        static_cast<char*>(mmap(nullptr, kBytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0));
+    if (ftruncate(fd, 0) != 0) std::_Exit(6);
+    bytes[0] = 1;  // outside every region: handed on to the foreign handler
+    std::_Exit(7);
+  };
+  EXPECT_EXIT(scenario(), ::testing::ExitedWithCode(42), "");
 }
 
 }  // namespace
