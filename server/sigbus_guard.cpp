@@ -42,14 +42,15 @@ void OnSigbus(int signal, siginfo_t* info, void* context) {
     return;
   }
   // Not ours: what was there before (e.g. a sanitizer's report), else the default action.
-  if ((g_previous.sa_flags & SA_SIGINFO) && g_previous.sa_sigaction != nullptr) {
+  // A handler that returns (LLVM's puts back what it replaced, this one, and returns for
+  // the fault to rerun) gets the default action after it: the rerun kills the process
+  // instead of coming back here for ever.
+  if ((g_previous.sa_flags & SA_SIGINFO) && g_previous.sa_sigaction != nullptr &&
+      g_previous.sa_sigaction != &OnSigbus) {
     g_previous.sa_sigaction(signal, info, context);
-    return;
-  }
-  if (g_previous.sa_handler != SIG_DFL && g_previous.sa_handler != SIG_IGN &&
-      g_previous.sa_handler != nullptr) {
+  } else if (!(g_previous.sa_flags & SA_SIGINFO) && g_previous.sa_handler != SIG_DFL &&
+             g_previous.sa_handler != SIG_IGN && g_previous.sa_handler != nullptr) {
     g_previous.sa_handler(signal);
-    return;
   }
   // Returning re-runs the faulting access, which now kills the process with a core dump.
   struct sigaction fallback = {};
