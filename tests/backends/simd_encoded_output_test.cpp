@@ -159,16 +159,8 @@ void ExpectMatches(Backend& backend, const FrameInput& in, VertexEncoding encodi
         in.method == SkinningMethod::kDualQuaternion
             ? ReferenceSkinDualQuaternion(*in.mesh, in.palette, in.morph)
             : ReferenceSkin(*in.mesh, in.palette, in.morph);
-    std::size_t outside = 0;
-    for (std::size_t i = 0; i < t.size(); ++i) {
-      const double r = reference.tangents[i];
-      if (i % 4 == 3) {
-        outside += t[i] != r;  // w is +1 or -1: every encoding holds it exactly
-      } else {
-        outside += !(std::fabs(t[i] - r) <= 1e-5 + NormalEncodingError(encoding, r));
-      }
-    }
-    EXPECT_EQ(outside, 0u) << "tangent values outside float32 + the encoding's bound";
+    EXPECT_EQ(TangentValuesOutsideBound(encoding, t, reference.tangents), 0u)
+        << "tangent values outside float32 + the encoding's bound";
   }
 }
 

@@ -48,4 +48,19 @@ EncodedDeviation CompareEncodedWithReference(const Mesh& mesh, std::span<const f
   return d;
 }
 
+std::size_t TangentValuesOutsideBound(VertexEncoding encoding, std::span<const float> decoded,
+                                      std::span<const double> reference) {
+  if (decoded.size() != reference.size()) return std::max(decoded.size(), reference.size());
+  std::size_t outside = 0;
+  for (std::size_t i = 0; i < decoded.size(); ++i) {
+    const double r = reference[i];
+    if (i % 4 == 3) {
+      outside += decoded[i] != r;  // w is +1 or -1: every encoding holds it exactly
+    } else {
+      outside += !(std::fabs(decoded[i] - r) <= 1e-5 + NormalEncodingError(encoding, r));
+    }
+  }
+  return outside;
+}
+
 }  // namespace skinserve

@@ -3,6 +3,7 @@
 // states (vertex_encoding.h).
 #pragma once
 
+#include <cstddef>
 #include <span>
 
 #include "skinserve/encoding/vertex_encoding.h"
@@ -32,5 +33,11 @@ EncodedDeviation CompareEncodedWithReference(const Mesh& mesh, std::span<const f
                                              std::span<const float> normals,
                                              SkinningMethod method = SkinningMethod::kLinear,
                                              std::span<const MorphWeight> morph = {});
+
+// How many of the decoded tangents' values (x y z w per vertex) lie outside the float32
+// tolerance (1e-5) plus `encoding`'s unit-vector bound of the reference's (w, +1 or -1,
+// must be exact); a wrong length counts every value.
+std::size_t TangentValuesOutsideBound(VertexEncoding encoding, std::span<const float> decoded,
+                                      std::span<const double> reference);
 
 }  // namespace skinserve
