@@ -20,8 +20,45 @@ struct Slot {
 
 Slot g_slots[SigbusGuard::kMaxRanges];
 std::mutex g_slots_mutex;  // Add and Remove only, never the handler
-struct sigaction g_previous;
-std::mutex g_install_mutex;  // Install only, never the handler
+// Where faults outside the ranges go. The original is what the first Install found (a
+// sanitizer's handler, or the default action). A foreign handler is one another library put
+// over the guard's later (PoCL's LLVM, when it compiles a kernel): Install publishes it in
+// the slot the handler is not reading, so the handler never sees half a struct.
+struct sigaction g_original;
+bool g_has_original = false;  // under g_install_mutex
+struct sigaction g_foreign[2];
+std::atomic<int> g_foreign_slot{-1};  // -1: none
+std::mutex g_install_mutex;           // Install only, never the handler
+
+void OnSigbus(int signal, siginfo_t* info, void* context);
+
+bool IsCallable(const struct sigaction& action) {
+  if (action.sa_flags & SA_SIGINFO) {
+    return action.sa_sigaction != nullptr && action.sa_sigaction != &OnSigbus;
+  }
+  return action.sa_handler != SIG_DFL && action.sa_handler != SIG_IGN &&
+         action.sa_handler != nullptr;
+}
+
+bool SameHandler(const struct sigaction& a, const struct sigaction& b) {
+  return (a.sa_flags & SA_SIGINFO) == (b.sa_flags & SA_SIGINFO) &&
+         ((a.sa_flags & SA_SIGINFO) ? a.sa_sigaction == b.sa_sigaction
+                                    : a.sa_handler == b.sa_handler);
+}
+
+bool GuardIsInstalled() {
+  struct sigaction now = {};
+  return sigaction(SIGBUS, nullptr, &now) == 0 && (now.sa_flags & SA_SIGINFO) &&
+         now.sa_sigaction == &OnSigbus;
+}
+
+void Call(const struct sigaction& action, int signal, siginfo_t* info, void* context) {
+  if (action.sa_flags & SA_SIGINFO) {
+    action.sa_sigaction(signal, info, context);
+  } else {
+    action.sa_handler(signal);
+  }
+}
 
 void OnSigbus(int signal, siginfo_t* info, void* context) {
   const auto address = reinterpret_cast<uintptr_t>(info->si_addr);
@@ -41,18 +78,22 @@ void OnSigbus(int signal, siginfo_t* info, void* context) {
     }
     return;
   }
-  // Not ours: what was there before (e.g. a sanitizer's report), else the default action.
-  // A handler that returns (LLVM's puts back what it replaced, this one, and returns for
-  // the fault to rerun) gets the default action after it: the rerun kills the process
-  // instead of coming back here for ever.
-  if ((g_previous.sa_flags & SA_SIGINFO) && g_previous.sa_sigaction != nullptr &&
-      g_previous.sa_sigaction != &OnSigbus) {
-    g_previous.sa_sigaction(signal, info, context);
-  } else if (!(g_previous.sa_flags & SA_SIGINFO) && g_previous.sa_handler != SIG_DFL &&
-             g_previous.sa_handler != SIG_IGN && g_previous.sa_handler != nullptr) {
-    g_previous.sa_handler(signal);
+  // Not ours. First the foreign handler, if any, then the original. A handler that returns
+  // may have changed the disposition: LLVM's puts back the handlers it replaced and returns
+  // for the fault to rerun. If what it put back is not this one (ASan's, installed before
+  // LLVM's), the rerun goes there. If it is this one, the chain goes on; at its end the
+  // default action, so the rerun kills the process with a core dump instead of coming back
+  // here for ever.
+  const int slot = g_foreign_slot.load(std::memory_order_acquire);
+  const struct sigaction* foreign = slot < 0 ? nullptr : &g_foreign[slot];
+  if (foreign != nullptr && IsCallable(*foreign)) {
+    Call(*foreign, signal, info, context);
+    if (!GuardIsInstalled()) return;
   }
-  // Returning re-runs the faulting access, which now kills the process with a core dump.
+  if (IsCallable(g_original) && (foreign == nullptr || !SameHandler(*foreign, g_original))) {
+    Call(g_original, signal, info, context);
+    if (!GuardIsInstalled()) return;
+  }
   struct sigaction fallback = {};
   fallback.sa_handler = SIG_DFL;
   sigaction(SIGBUS, &fallback, nullptr);
@@ -64,18 +105,28 @@ void SigbusGuard::Install() {
   // Another library may have put its own handler over this one since (PoCL's LLVM
   // registers its crash handlers when it compiles a kernel, and one of them restored the
   // default action on a fault in a guarded range: the server died of the SIGBUS the guard
-  // exists for). Then the one found becomes the one faults outside the ranges go to.
+  // exists for). Then the one found is the first that faults outside the ranges go to,
+  // before the original one.
   std::lock_guard lock(g_install_mutex);
   struct sigaction current = {};
   if (sigaction(SIGBUS, nullptr, &current) == 0 && (current.sa_flags & SA_SIGINFO) &&
       current.sa_sigaction == &OnSigbus) {
     return;
   }
+  if (!g_has_original) {
+    g_original = current;
+    g_has_original = true;
+  } else {
+    // Publish into the slot the handler is not reading.
+    const int next = g_foreign_slot.load(std::memory_order_relaxed) == 0 ? 1 : 0;
+    g_foreign[next] = current;
+    g_foreign_slot.store(next, std::memory_order_release);
+  }
   struct sigaction action = {};
   action.sa_sigaction = &OnSigbus;
   action.sa_flags = SA_SIGINFO | SA_ONSTACK;
   sigemptyset(&action.sa_mask);
-  sigaction(SIGBUS, &action, &g_previous);
+  sigaction(SIGBUS, &action, nullptr);
 }
 
 int SigbusGuard::Add(void* begin, std::size_t size, std::atomic<bool>* broken) {

@@ -130,5 +130,40 @@ TEST_F(SigbusGuardTest, AHandlerInstalledOverTheGuardsIsTakenBackAndChained) {
   EXPECT_EXIT(scenario(), ::testing::ExitedWithCode(42), "");
 }
 
+// What LLVM's handler does (llvm/lib/Support/Unix/Signals.inc): put back the handler it
+// replaced and return for the fault to rerun. The fault must then end as it would without
+// the foreign handler (the original action: ASan's report, or death by SIGBUS), not come
+// back to the guard for ever nor skip the original: CI's ASan run lost ASan's report when
+// the guard forgot the original handler for the foreign one.
+struct sigaction g_replaced_by_foreign;
+std::atomic<int> g_foreign_calls{0};
+void ForeignHandlerThatReturns(int) {
+  g_foreign_calls.fetch_add(1);
+  sigaction(SIGBUS, &g_replaced_by_foreign, nullptr);
+}
+
+TEST_F(SigbusGuardTest, AForeignHandlerThatReturnsLeavesTheFaultToTheOriginalAction) {
+  server::SigbusGuard::Install();
+  const std::string path = MakeFile(dir_, "unguarded");
+  const auto scenario = [&path] {
+    struct sigaction foreign = {};
+    foreign.sa_handler = &ForeignHandlerThatReturns;
+    sigemptyset(&foreign.sa_mask);
+    sigaction(SIGBUS, &foreign, &g_replaced_by_foreign);  // over the guard's, as LLVM does
+    server::SigbusGuard::Install();
+    const int fd = open(path.c_str(), O_RDWR);
+    auto* bytes =
+        static_cast<char*>(mmap(nullptr, kBytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0));
+    if (ftruncate(fd, 0) != 0) std::_Exit(3);
+    bytes[0] = 1;  // outside every region: foreign handler, then the original action
+    std::_Exit(g_foreign_calls.load() == 1 ? 0 : 10 + g_foreign_calls.load());
+  };
+  if (kBuiltWithAsan) {
+    EXPECT_EXIT(scenario(), ::testing::ExitedWithCode(1), "AddressSanitizer: BUS");
+  } else {
+    EXPECT_EXIT(scenario(), ::testing::KilledBySignal(SIGBUS), "");
+  }
+}
+
 }  // namespace
 }  // namespace skinserve::testing
