@@ -19,6 +19,7 @@
 #include "character_input.h"
 #include "commands.h"
 #include "progress_line.h"
+#include "rest_encoding_option.h"
 #include "skinserve/character/animation.h"
 #include "skinserve/character/character_mesh.h"
 #include "skinserve/client/channel.h"
@@ -37,6 +38,7 @@ struct AnimateOptions {
   double fps = 30;
   double seconds = 0;  // 0: the clip's duration
   std::string backend;
+  std::string rest_encoding = "auto";
   SkinningMethod method = SkinningMethod::kLinear;
   std::string out;
   bool render = false;
@@ -127,6 +129,8 @@ class FrameGather {
 
 int Animate(const CommonOptions& common, const AnimateOptions& o) {
   if (Status s = CheckOptions(o); !s.ok()) return Report(s);
+  auto asked = ParseRestEncodingOption(o.rest_encoding);
+  if (!asked.ok()) return Report(asked.status());
   auto character = ImportCharacter(o.file);
   if (!character.ok()) return Report(character.status());
   if (o.primitive >= 0) {
@@ -170,9 +174,16 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
   if (!channel.ok()) return Report(channel.status());
   std::vector<std::unique_ptr<client::SkinClient>> clients;
   std::vector<std::string> mesh_ids;
+  std::vector<RestEncodingChoice> rest;
   for (const CharacterMesh& mesh : meshes) {
+    auto choice = MeshRestEncoding(*character, mesh, *asked);
+    if (!choice.ok()) return Report(choice.status());
+    rest.push_back(*std::move(choice));
+  }
+  for (std::size_t m = 0; m < meshes.size(); ++m) {
+    const CharacterMesh& mesh = meshes[m];
     clients.push_back(std::make_unique<client::SkinClient>(*channel, common.Limits()));
-    auto info = clients.back()->Upload(mesh.arrays);
+    auto info = clients.back()->Upload(mesh.arrays, {.rest_encoding = rest[m].encoding});
     if (!info.ok()) {
       return Report(
           Status(info.status().code(), fmt::format("{}: {}", mesh.name, info.status().message())));
@@ -181,6 +192,7 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
     fmt::print("{}: {}  {} vertices, {} joints, {} triangles, {} primitive(s)\n", mesh.name,
                info->mesh_id(), info->vertex_count(), info->joint_count(), mesh.indices.size() / 3,
                mesh.parts.size());
+    fmt::print("  rest stream {}: {}\n", RestEncodingName(rest[m].encoding), rest[m].reason);
   }
   fmt::print("clip '{}' ({:.3f} s)\n", (*clip)->name, (*clip)->duration);
 
@@ -327,6 +339,7 @@ void AddAnimateCommand(CLI::App& app, CommonOptions& common) {
   command->add_option("--fps", o->fps, "frames per second of clip time")->capture_default_str();
   command->add_option("--seconds", o->seconds, "clip time to cover (default: the clip's duration)");
   command->add_option("--backend", o->backend, "backend id (default: the server's)");
+  AddRestEncodingOption(command, &o->rest_encoding);
   AddMethodOption(command, &o->method);
   command->add_option("--out", o->out, "output directory (created if missing)")->required();
   command->add_flag("--render", o->render,

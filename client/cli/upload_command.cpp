@@ -1,7 +1,10 @@
 #include <fmt/format.h>
 
+#include <optional>
+
 #include "character_input.h"
 #include "commands.h"
+#include "rest_encoding_option.h"
 #include "skinserve/character/character_mesh.h"
 #include "skinserve/client/channel.h"
 
@@ -16,7 +19,8 @@ void PrintInfo(const std::string& name, const v1::MeshInfo& info) {
 
 // The whole character: one mesh per skin, its primitives concatenated with the rigid
 // parts (what `animate` streams), each listed with its primitives.
-int UploadCharacter(client::SkinClient& client, const std::string& path) {
+int UploadCharacter(client::SkinClient& client, const std::string& path,
+                    std::optional<RestEncoding> asked) {
   if (!IsGltfPath(path)) {
     return Report(InvalidArgument(fmt::format("{}: not a .glb or .gltf file", path)));
   }
@@ -25,12 +29,15 @@ int UploadCharacter(client::SkinClient& client, const std::string& path) {
   auto meshes = CharacterMeshes(*character);
   if (!meshes.ok()) return Report(meshes.status());
   for (const CharacterMesh& mesh : *meshes) {
-    auto info = client.Upload(mesh.arrays);
+    auto rest = MeshRestEncoding(*character, mesh, asked);
+    if (!rest.ok()) return Report(rest.status());
+    auto info = client.Upload(mesh.arrays, {.rest_encoding = rest->encoding});
     if (!info.ok()) {
       return Report(
           Status(info.status().code(), fmt::format("{}: {}", mesh.name, info.status().message())));
     }
     PrintInfo(mesh.name, *info);
+    fmt::print("  rest stream {}: {}\n", RestEncodingName(rest->encoding), rest->reason);
     for (const PrimitiveSpan& part : mesh.parts) {
       fmt::print("  {}: vertices {}..{}, {} triangles\n", part.name, part.first_vertex,
                  part.first_vertex + part.vertex_count - 1, part.index_count / 3);
@@ -49,11 +56,18 @@ void AddUploadCommand(CLI::App& app, CommonOptions& common) {
   auto mesh = std::make_shared<MeshOptionsCli>();
   mesh->Add(command);
   auto file = std::make_shared<std::string>();
+  auto rest_encoding = std::make_shared<std::string>();
+  AddRestEncodingOption(command, rest_encoding.get());
   command->add_option(
       "file", *file,
       "glTF 2.0 character: every skinned primitive and rigid part is uploaded, one mesh per skin "
       "(the synthetic mesh options are then ignored)");
-  command->callback([&common, mesh, file] {
+  command->callback([&common, mesh, file, rest_encoding] {
+    auto asked = ParseRestEncodingOption(*rest_encoding);
+    if (!asked.ok()) {
+      common.exit_code = Report(asked.status());
+      return;
+    }
     auto channel = common.Channel();
     if (!channel.ok()) {
       common.exit_code = Report(channel.status());
@@ -61,10 +75,12 @@ void AddUploadCommand(CLI::App& app, CommonOptions& common) {
     }
     client::SkinClient client(*channel, common.Limits());
     if (!file->empty()) {
-      common.exit_code = UploadCharacter(client, *file);
+      common.exit_code = UploadCharacter(client, *file, *asked);
       return;
     }
-    auto info = client.Upload(MakeSyntheticMesh(mesh->spec));
+    // A synthetic mesh has no file to ask: float32 unless named.
+    auto info = client.Upload(MakeSyntheticMesh(mesh->spec),
+                              {.rest_encoding = asked->value_or(RestEncoding::kFloat32)});
     if (!info.ok()) {
       common.exit_code = Report(info.status());
       return;

@@ -16,6 +16,11 @@
 #   a hand-made character with tangents and morph tangent deltas (tangents):
 #     skinserve-load --mesh --normals --tangents   tangents asked for and checked; refused,
 #                                                  naming the mesh, of one without tangents
+#     skinserve-cli upload                         float32 by itself; quantized16 refused
+#   a KHR_mesh_quantization character (quantized):
+#     skinserve-cli upload                         quantized16 from the file, float32 when
+#                                                  asked (another mesh id), a bad name refused
+#     skinserve-cli animate --backend simd         auto and float32 agree within 1e-3 extent
 # The characters are the repository's (tests/assets/gltf); a missing one fails the test.
 # usage: animate-e2e-test.sh SKINSERVE SKINSERVE-CLI SKINSERVE-LOAD ASSETS-DIR TEST-SCENE
 set -euo pipefail
@@ -206,4 +211,57 @@ if "$load" --target "$target" --mesh "$assets/RiggedSimple.glb" --backends sse -
 fi
 grep -q -- "--tangents: Armature has no tangents in" "$work/no-tangents.err" ||
   fail "--tangents without tangents: $(cat "$work/no-tangents.err")"
+
+# ---- the rest stream a quantized glTF asks for (KHR_mesh_quantization) --------------------
+quant=$work/quantized.glb
+facts=$("$scene" quantized "$quant") || fail "skinserve-test-scene exited $?"
+say "quantized.glb: $facts"
+"$cli" --target "$target" upload "$quant" >"$work/q-upload.txt" || fail "upload exited $?"
+grep -q '^  rest stream quantized16: every primitive stores POSITION as 16-bit' "$work/q-upload.txt" ||
+  fail "upload of quantized.glb did not take quantized16 from the file: $(cat "$work/q-upload.txt")"
+"$cli" --target "$target" upload --rest-encoding float32 "$quant" >"$work/f-upload.txt" ||
+  fail "upload --rest-encoding float32 exited $?"
+grep -q '^  rest stream float32: asked with --rest-encoding' "$work/f-upload.txt" ||
+  fail "--rest-encoding float32 did not win: $(cat "$work/f-upload.txt")"
+q_id=$(grep -o '[0-9a-f]\{64\}' "$work/q-upload.txt")
+f_id=$(grep -o '[0-9a-f]\{64\}' "$work/f-upload.txt")
+[ "$q_id" != "$f_id" ] || fail "float32 and quantized16 uploads share the mesh id $q_id"
+if "$cli" --target "$target" upload --rest-encoding quantized9 "$quant" 2>"$work/bad-enc.err"; then
+  fail "--rest-encoding quantized9 exited 0"
+fi
+grep -q -- "--rest-encoding 'quantized9' is none of auto, float32" "$work/bad-enc.err" ||
+  fail "--rest-encoding quantized9: $(cat "$work/bad-enc.err")"
+if "$cli" --target "$target" upload --rest-encoding quantized16 "$work/tangents.glb" \
+  2>"$work/tan-enc.err"; then
+  fail "--rest-encoding quantized16 of a mesh with tangents exited 0"
+fi
+grep -q -- "--rest-encoding quantized16: .* has tangents, which a quantized rest stream" \
+  "$work/tan-enc.err" || fail "quantized16 with tangents: $(cat "$work/tan-enc.err")"
+"$cli" --target "$target" upload "$work/tangents.glb" >"$work/tan-upload.txt" ||
+  fail "upload tangents.glb exited $?"
+grep -q '^  rest stream float32: it has tangents' "$work/tan-upload.txt" ||
+  fail "tangents.glb not float32 by itself: $(cat "$work/tan-upload.txt")"
+# The same clip from the quantized stream (simd reads the integers) and from float32: within
+# 1e-3 of the character's extent, far above the stream's bound (docs/backends/quantized-rest.md,
+# 1.3e-5 of it for positions plus a 16-bit weight step) and far below a wrong box or joint.
+say "skinserve-cli animate quantized.glb, auto and float32, on simd"
+for enc in auto float32; do
+  timeout 60 "$cli" --target "$target" animate "$quant" --fps 10 --seconds 0.5 --backend simd \
+    --rest-encoding "$enc" --out "$work/q-$enc" >"$work/q-$enc.txt" ||
+    fail "animate --rest-encoding $enc exited $?"
+done
+grep -q '^  rest stream quantized16' "$work/q-auto.txt" ||
+  fail "animate did not take quantized16: $(cat "$work/q-auto.txt")"
+python3 - "$work/q-auto" "$work/q-float32" <<'PY' || fail "quantized and float32 animations differ"
+import sys
+def vertices(path):
+    return [tuple(map(float, l.split()[1:4])) for l in open(path) if l.startswith("v ")]
+for i in range(5):
+    q = vertices(f"{sys.argv[1]}/frame_000{i}.obj")
+    f = vertices(f"{sys.argv[2]}/frame_000{i}.obj")
+    assert len(q) == len(f) == 66, (i, len(q), len(f))
+    extent = max(max(v[k] for v in f) - min(v[k] for v in f) for k in range(3))
+    worst = max(abs(a - b) for u, w in zip(q, f) for a, b in zip(u, w))
+    assert worst <= 1e-3 * extent, f"frame {i}: {worst} > 1e-3 * extent {extent}"
+PY
 say "passed"

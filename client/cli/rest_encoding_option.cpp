@@ -1,0 +1,47 @@
+#include "rest_encoding_option.h"
+
+#include <fmt/format.h>
+
+#include <vector>
+
+namespace skinserve::cli {
+
+void AddRestEncodingOption(CLI::App* command, std::string* value) {
+  *value = "auto";
+  command
+      ->add_option("--rest-encoding", *value,
+                   "how the server stores the rest stream: auto (a glTF file's storage decides: "
+                   "16-bit positions and integer weights give quantized16 or "
+                   "quantized8-weights), float32, quantized16, quantized8-weights")
+      ->capture_default_str();
+}
+
+Result<std::optional<RestEncoding>> ParseRestEncodingOption(const std::string& value) {
+  if (value == "auto") return std::optional<RestEncoding>();
+  if (auto encoding = ParseRestEncoding(value)) return std::optional<RestEncoding>(*encoding);
+  return InvalidArgument(fmt::format(
+      "--rest-encoding '{}' is none of auto, float32, quantized16, quantized8-weights", value));
+}
+
+Result<RestEncodingChoice> MeshRestEncoding(const Character& character, const CharacterMesh& mesh,
+                                            std::optional<RestEncoding> asked) {
+  const bool tangents = !mesh.arrays.tangents.empty();
+  const bool morphs = !mesh.arrays.morph_target_sizes.empty();
+  if (asked) {
+    if (*asked != RestEncoding::kFloat32 && (tangents || morphs)) {
+      return InvalidArgument(fmt::format(
+          "--rest-encoding {}: {} has {}, which a quantized rest stream does not carry",
+          RestEncodingName(*asked), mesh.name, tangents ? "tangents" : "morph targets"));
+    }
+    return RestEncodingChoice{*asked, "asked with --rest-encoding"};
+  }
+  if (tangents) {
+    return RestEncodingChoice{RestEncoding::kFloat32,
+                              "it has tangents (a quantized rest stream carries none)"};
+  }
+  std::vector<int> primitives;
+  for (const PrimitiveSpan& part : mesh.parts) primitives.push_back(part.primitive);
+  return RestEncodingFromFile(character, primitives);
+}
+
+}  // namespace skinserve::cli
