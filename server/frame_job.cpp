@@ -163,14 +163,20 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
   // A backend that writes this encoding itself (on its device: only the encoded bytes come
   // back) skins straight into the wire buffer or the region, and sends the boxes it found.
   device_encoded_ = !float32 && plan().BackendWrites(encoding_);
+  // snorm16 written by a host backend (simd): it keeps the positions as floats until it has
+  // their box, in this job's buffer, so that they are counted below.
+  box_scratch_ = device_encoded_ && boxed_ && plan().backend_box_scratch;
   const bool scratch =
       !float32 && !device_encoded_ && !want_tangents_ &&
       ScratchFloatsPerInstance(vertices_, want_normals_) <= kMaxScratchFloatsPerInstance;
   // What this frame holds while in flight; the job keeps its buffers, so only growth is
   // charged.
-  const uint64_t floats_kept = float32 || scratch || device_encoded_
-                                   ? 0
-                                   : (arrays * values + tangent_values) * sizeof(float);
+  uint64_t floats_kept = 0;
+  if (box_scratch_) {
+    floats_kept = values * sizeof(float);
+  } else if (!float32 && !scratch && !device_encoded_) {
+    floats_kept = (arrays * values + tangent_values) * sizeof(float);
+  }
   const uint64_t need = wire.palette().size() + floats_kept + std::max(wire_used_, wire_.size());
   if (need > charged_) {
     if (Status s = budget_->TryCharge(need - charged_); !s.ok()) return s;
@@ -190,14 +196,15 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
     request.normals = {};
     request.tangents = {};
     const std::size_t tangent_bytes = tangent_values * EncodedBytesPerValue(encoding_);
-    request.encoded = {.encoding = encoding_,
-                       .positions = {PositionsOut(), payload},
-                       .normals = want_normals_ ? std::span<std::byte>(NormalsOut(), payload)
-                                                : std::span<std::byte>(),
-                       .tangents = want_tangents_
-                                       ? std::span<std::byte>(TangentsOut(), tangent_bytes)
-                                       : std::span<std::byte>(),
-                       .bounds = boxed_ ? bounds_.data() : nullptr};
+    request.encoded = {
+        .encoding = encoding_,
+        .positions = {PositionsOut(), payload},
+        .normals =
+            want_normals_ ? std::span<std::byte>(NormalsOut(), payload) : std::span<std::byte>(),
+        .tangents = want_tangents_ ? std::span<std::byte>(TangentsOut(), tangent_bytes)
+                                   : std::span<std::byte>(),
+        .bounds = boxed_ ? bounds_.data() : nullptr,
+        .box_scratch = box_scratch_ ? Reuse(positions_, values) : std::span<float>()};
   } else if (float32) {  // skinned straight into the wire buffer or the region, aligned for SIMD
     const auto floats = [&](std::byte* out) {
       return std::span<float>(reinterpret_cast<float*>(out), values);

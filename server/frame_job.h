@@ -122,13 +122,15 @@ class FrameJob final : public SkinJob {
   VertexEncoding encoding_ = VertexEncoding::kFloat32;
   bool boxed_ = false;           // each instance's box travels with it (snorm16)
   bool device_encoded_ = false;  // the backend writes the encoding (BackendInfo.encoded_outputs)
+  bool box_scratch_ = false;     // ...snorm16 on the host: positions_ is its box_scratch
   std::vector<float> palette_;
   std::vector<MorphWeight> morph_;  // the frame's morph weights, capacity reused
   // A crowd's per-instance morph weights, back to back, and one view per instance.
   std::vector<MorphWeight> instance_morph_;
   std::vector<std::span<const MorphWeight>> instance_morph_views_;
   // Skinned floats for encodings other than float32, for instances too large for the
-  // compute thread's scratch (SkinRequest::skin_into_scratch).
+  // compute thread's scratch (SkinRequest::skin_into_scratch); positions_ is also the
+  // box_scratch of snorm16 written by a host backend (EncodedOutput::box_scratch).
   std::vector<float> positions_;
   std::vector<float> normals_;
   std::vector<float> tangents_;  // every encoding but float32 (never skinned into scratch)

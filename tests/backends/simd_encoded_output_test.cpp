@@ -96,7 +96,8 @@ Encoded HostEncoded(Backend& backend, const PreparedMesh& prepared, const FrameI
 }
 
 Encoded BackendEncoded(Backend& backend, const PreparedMesh& prepared, const FrameInput& in,
-                       VertexEncoding encoding, Outputs o, int threads) {
+                       VertexEncoding encoding, Outputs o, int threads,
+                       std::span<float> box_scratch = {}) {
   const std::size_t v = in.mesh->vertex_count();
   Encoded e;
   e.positions.assign(EncodedBytes(encoding, v), std::byte{0x55});
@@ -112,7 +113,8 @@ Encoded BackendEncoded(Backend& backend, const PreparedMesh& prepared, const Fra
                   .positions = e.positions,
                   .normals = e.normals,
                   .tangents = e.tangents,
-                  .bounds = &e.box};
+                  .bounds = &e.box,
+                  .box_scratch = box_scratch};
   const Status valid = skin.Validate(*in.mesh);
   EXPECT_TRUE(valid.ok()) << valid.ToString();
   e.status = backend.Skin(prepared, skin);
@@ -122,13 +124,13 @@ Encoded BackendEncoded(Backend& backend, const PreparedMesh& prepared, const Fra
 
 // Bytes and box equal to the host encoder's; decoded within the reference's bound.
 void ExpectMatches(Backend& backend, const FrameInput& in, VertexEncoding encoding, Outputs o,
-                   int threads) {
+                   int threads, std::span<float> box_scratch = {}) {
   auto prepared = backend.Prepare(in.mesh);
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
   const Encoded host = HostEncoded(backend, **prepared, in, encoding, o, threads);
   ASSERT_TRUE(host.status.ok()) << host.status.ToString();
   const uint64_t fallbacks = simd::HostEncodedFallbacks();
-  const Encoded direct = BackendEncoded(backend, **prepared, in, encoding, o, threads);
+  const Encoded direct = BackendEncoded(backend, **prepared, in, encoding, o, threads, box_scratch);
   ASSERT_TRUE(direct.status.ok()) << direct.status.ToString();
   // Encoded by the loop, not by the error path's host encoder (which would match anyway).
   EXPECT_EQ(simd::HostEncodedFallbacks(), fallbacks) << "the frame went through the host encoder";
@@ -278,6 +280,26 @@ TEST_P(SimdEncodedOutputTest, AnEmptyAxisOfTheBoxEncodesAsZero) {
     for (int c = 0; c < 4; ++c) in.palette[12 * j + c] = 0.0f;  // row 0: x = 0
   }
   ExpectMatches(backend, in, VertexEncoding::kSnorm16, {false, false}, GetParam().frame_threads);
+}
+
+// snorm16 with the caller's box_scratch (the server's frame job gives one, to count it in its
+// in-flight budget): the same bytes, and the scratch holds the skinned positions (within the
+// float64 reference's float32 tolerance), so the loop used it instead of its thread's buffer.
+TEST_P(SimdEncodedOutputTest, Snorm16KeepsItsPositionsInTheCallersBoxScratch) {
+  Backend& backend = BackendOf(GetParam());
+  EXPECT_TRUE(backend.info().encoded_box_scratch);
+  for (uint32_t v : {1u, 1001u, 20011u}) {
+    for (Outputs o : {Outputs{false, false}, Outputs{true, false}}) {
+      SCOPED_TRACE(::testing::Message() << "V " << v << " normals " << o.normals);
+      FrameInput in{.mesh = MakeMesh(v, 4, o, 5 * v)};
+      in.palette = MakeSyntheticPalette(77, v, 2);
+      std::vector<float> scratch(3 * v, std::numeric_limits<float>::quiet_NaN());
+      ExpectMatches(backend, in, VertexEncoding::kSnorm16, o, GetParam().frame_threads, scratch);
+      const Deviation d = CompareWithReference(*in.mesh, in.palette, scratch, {});
+      EXPECT_TRUE(d.within_tolerance()) << "box_scratch is not the skinned positions: worst "
+                                        << d.max_position_error << " at vertex " << d.worst_vertex;
+    }
+  }
 }
 
 // The first vertex (in vertex order) of the joint that overflows, past the first chunks and

@@ -589,6 +589,47 @@ TEST(EncodingBatchTest, FramesBeyondTheInflightBudgetAreRefusedAndTheMemoryRetur
   EXPECT_EQ(held, 0u);
 }
 
+// snorm16 on `simd`: the loop keeps the frame's float positions until it has their box, in
+// the frame job's buffer (EncodedOutput::box_scratch), which the in-flight budget counts: a
+// stream of snorm16 frames holds 12 bytes a vertex more than one of float16 frames (the
+// same encoded bytes otherwise), and its answers stay within the encoding's bound.
+TEST(EncodingBatchTest, Snorm16OnSimdCountsItsFloatPositionsInTheInflightBudget) {
+  TestServer t;
+  constexpr uint32_t kVertices = 50'000;
+  auto mesh_arrays = MakeSyntheticMesh({.vertex_count = kVertices, .influences = 4});
+  auto mesh = Mesh::Create(mesh_arrays);
+  auto info = t.client->Upload(mesh_arrays);
+  ASSERT_TRUE(mesh.ok() && info.ok());
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  const auto palette = CrowdPalettes(77, 1, 0);
+  const auto held_while_streaming = [&](v1::Encoding encoding) -> uint64_t {
+    grpc::ClientContext context;
+    auto stream = stub->StreamSkin(&context);
+    EXPECT_TRUE(
+        stream->Write(MakeRequest(info->mesh_id(), "simd", 0, 1, encoding, false, palette)));
+    const Answer answer = ReadFrame(*stream, 0, kVertices, 1, encoding, false);
+    EXPECT_EQ(answer.error, grpc::StatusCode::OK) << answer.message;
+    if (answer.error == grpc::StatusCode::OK) {
+      ExpectWithinBound(**mesh, palette, answer.positions[0], {}, encoding, answer.bounds[0]);
+    }
+    auto stats = t.client->GetServerStats();
+    EXPECT_TRUE(stats.ok());
+    const uint64_t held = stats.ok() ? stats->inflight_bytes() : 0;
+    stream->WritesDone();
+    EXPECT_TRUE(stream->Finish().ok());
+    return held;
+  };
+  const uint64_t float16 = held_while_streaming(v1::ENCODING_FLOAT16);
+  // The first stream's buffers are given back before the second one starts.
+  for (int i = 0; i < 100 && t.client->GetServerStats()->inflight_bytes() != 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  const uint64_t snorm16 = held_while_streaming(v1::ENCODING_SNORM16);
+  EXPECT_GE(snorm16, float16 + 12ull * kVertices)
+      << "float16 stream held " << float16 << " bytes, snorm16 " << snorm16;
+  EXPECT_LE(snorm16, float16 + 12ull * kVertices + 4096);
+}
+
 // Answers go to gRPC as slices of the frame job's buffer, which keeps the stream's
 // reactor (and so its jobs and budget) alive until gRPC lets go. A stream cut off in the
 // middle of a many-part frame must still let go: its buffers return to the budget.

@@ -260,6 +260,12 @@ class Engine::Impl {
           VertexEncodingName(e.encoding), bytes * instances, bytes * instances,
           tangent_bytes * instances));
     }
+    const std::size_t box_floats = 3ull * mesh.vertex_count() * instances;
+    if (!e.box_scratch.empty() && e.box_scratch.size() != box_floats) {
+      return InvalidArgument(fmt::format(
+          "encoded output's box_scratch holds {} floats; {} instances of {} vertices need {}",
+          e.box_scratch.size(), instances, mesh.vertex_count(), box_floats));
+    }
     for (uint32_t i = 0; i < instances; ++i) {
       if (Status s = InstanceFrame(request, mesh, i).Validate(mesh); !s.ok()) {
         if (instances == 1) return s;
@@ -300,6 +306,8 @@ class Engine::Impl {
         frame.encoded.tangents = e.tangents.subspan(i * tangent_bytes, tangent_bytes);
       }
       if (e.bounds != nullptr) frame.encoded.bounds = e.bounds + i;
+      if (!e.box_scratch.empty())
+        frame.encoded.box_scratch = e.box_scratch.subspan(i * outputs, outputs);
     }
     frame.method = request.method;
     frame.morph_weights = request.instance_morph_weights.empty()
@@ -333,7 +341,8 @@ class Engine::Impl {
                   .has_tangents = mesh.has_tangents(),
                   .morph_target_count = mesh.morph_target_count(),
                   .backend_tangents = backends_[*backend_index]->info().tangents,
-                  .backend_encodings = EncodingMask(backends_[*backend_index]->info())};
+                  .backend_encodings = EncodingMask(backends_[*backend_index]->info()),
+                  .backend_box_scratch = backends_[*backend_index]->info().encoded_box_scratch};
     return Status::Ok();
   }
 

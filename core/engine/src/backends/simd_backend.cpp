@@ -331,6 +331,7 @@ std::unique_ptr<Backend> CreateSimdBackend(int threads, const std::string& max_t
     return std::make_unique<UnavailableBackend>(std::move(info));
   }
   info.encoded_outputs = simd::EncodedOutputs();
+  info.encoded_box_scratch = true;  // snorm16's float positions (simd_encoded_output.h)
   info.simd_target = kernel.target;
   info.simd_width = kernel.lanes;
   return std::make_unique<SimdBackend>(std::move(info), kernel);

@@ -42,7 +42,11 @@ EncodedWriter::EncodedWriter(const EncodedOutput& out, std::size_t vertex_count)
       boxed_(QuantisedToBox(out.encoding)),
       wants_normals_(!out.normals.empty()),
       wants_tangents_(!out.tangents.empty()) {
-  if (boxed_) positions_ = ThreadFloatFrame(vertex_count, false, false).positions;
+  if (boxed_) {
+    positions_ = out.box_scratch.size() >= 3 * vertex_count
+                     ? out.box_scratch.data()
+                     : ThreadFloatFrame(vertex_count, false, false).positions;
+  }
 }
 
 float* EncodedWriter::ThreadScratch() {

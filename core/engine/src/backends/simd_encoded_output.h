@@ -3,8 +3,9 @@
 // with core/encoding's own functions (EncodePositions / EncodeNormals / EncodeTangents on
 // the chunk), so the bytes are the host encoder's by construction and no frame-sized float
 // array is written. snorm16 positions need the frame's box first: they are skinned into a
-// frame-sized float array, boxed (ComputeBounds over each thread's range once it is skinned,
-// merged) and encoded in a second pass; their normals and tangents go through the scratch.
+// frame-sized float array (EncodedOutput::box_scratch, the caller's, else this thread's), boxed
+// (ComputeBounds over each thread's range once it is skinned, merged) and encoded in a second pass;
+// their normals and tangents go through the scratch.
 #pragma once
 
 #include <algorithm>
@@ -71,7 +72,8 @@ class EncodedWriter {
   bool boxed_;
   bool wants_normals_;
   bool wants_tangents_;
-  float* positions_ = nullptr;  // snorm16: the frame's float positions (this thread's buffer)
+  float* positions_ = nullptr;  // snorm16: the frame's float positions (box_scratch or this
+                                // thread's buffer)
   std::atomic<bool> failed_{false};
   std::mutex box_mutex_;
   Bounds box_;

@@ -38,6 +38,9 @@ struct BackendInfo {
   // Encodings Skin() writes itself into SkinFrame::encoded (on the device, read back
   // encoded); for the others the caller encodes the float output (core/encoding).
   std::vector<VertexEncoding> encoded_outputs;
+  // Writing snorm16 itself, Skin() keeps the frame's float positions on the host until it
+  // has their box, in EncodedOutput::box_scratch when the caller gives one (simd).
+  bool encoded_box_scratch = false;
 
   bool Supports(SkinningMethod method) const;
   bool WritesEncoding(VertexEncoding encoding) const;
@@ -72,6 +75,11 @@ struct EncodedOutput {
   std::span<std::byte> normals;    // empty: no normals; else as positions
   std::span<std::byte> tangents;   // empty: no tangents; else EncodedTangentBytes
   Bounds* bounds = nullptr;        // snorm16: where the box goes; else unused
+  // snorm16 on a backend with BackendInfo::encoded_box_scratch: empty, or 3 * vertex_count
+  // floats (per instance) where it keeps the skinned positions until it has their box. The
+  // caller's memory, so the caller can count it (the server's in-flight budget); empty: the
+  // backend uses a buffer of its calling thread's.
+  std::span<float> box_scratch;
   bool active() const { return encoding != VertexEncoding::kFloat32; }
 };
 

@@ -116,6 +116,9 @@ struct FramePlan {
   bool backend_tangents = false;  // the backend skins tangents (BackendInfo::tangents)
   // Bit e set: the backend writes VertexEncoding e itself (BackendInfo::encoded_outputs).
   uint32_t backend_encodings = 0;
+  // The backend keeps snorm16 positions as floats in EncodedOutput::box_scratch
+  // (BackendInfo::encoded_box_scratch).
+  bool backend_box_scratch = false;
   bool BackendWrites(VertexEncoding e) const {
     return (backend_encodings >> static_cast<unsigned>(e)) & 1u;
   }
