@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "cpu_backend_ids.h"
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 #include "skinserve/reference/synthetic_morph.h"
@@ -372,6 +373,57 @@ TEST(EngineTest, NamesWhatIsWrongWithARequest) {
   s = engine->Submit(normals_without, [](Status, FrameTiming) { FAIL(); });
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("mesh has none"), std::string::npos) << s.message();
+}
+
+// snorm16 written by `simd` for a crowd, with the caller's box_scratch: the engine hands
+// each instance its own 3 * V floats of it (each holds that instance's skinned positions,
+// within the float64 reference's tolerance), and a box_scratch of any other size is
+// refused naming it.
+TEST(EngineTest, ACrowdsBoxScratchIsSplitPerInstanceAndItsSizeChecked) {
+  auto engine = MakeEngine({.enabled_backends = {"simd"}});
+  auto arrays = MakeSyntheticMesh({.vertex_count = 3001, .influences = 4});
+  auto mesh = Mesh::Create(arrays);
+  ASSERT_TRUE(mesh.ok());
+  auto info = engine->AddMesh(arrays);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  constexpr uint32_t kInstances = 3;
+  const std::size_t n = info->vertex_count;
+  std::vector<float> palettes;
+  for (uint32_t k = 0; k < kInstances; ++k) {
+    const auto one = MakeSyntheticPalette(info->joint_count, 5, k);
+    palettes.insert(palettes.end(), one.begin(), one.end());
+  }
+  const std::size_t bytes = EncodedBytes(VertexEncoding::kSnorm16, n);
+  std::vector<std::byte> encoded(bytes * kInstances);
+  std::vector<Bounds> boxes(kInstances);
+  std::vector<float> scratch(3 * n * kInstances, std::numeric_limits<float>::quiet_NaN());
+  const auto request = [&](std::span<float> box_scratch) {
+    return SkinRequest{.mesh_id = info->id,
+                       .backend = "simd",
+                       .palette = palettes,
+                       .instances = kInstances,
+                       .encoded = {.encoding = VertexEncoding::kSnorm16,
+                                   .positions = encoded,
+                                   .bounds = boxes.data(),
+                                   .box_scratch = box_scratch}};
+  };
+  const Status skinned = engine->SkinBlocking(request(scratch));
+  ASSERT_TRUE(skinned.ok()) << skinned.ToString();
+  const std::size_t floats = 12ull * info->joint_count;
+  for (uint32_t k = 0; k < kInstances; ++k) {
+    const Deviation d =
+        CompareWithReference(**mesh, std::span<const float>(palettes).subspan(k * floats, floats),
+                             std::span<const float>(scratch).subspan(3 * n * k, 3 * n), {});
+    EXPECT_TRUE(d.within_tolerance())
+        << "instance " << k << "'s box_scratch: position error " << d.max_position_error;
+  }
+  const Status refused =
+      engine->SkinBlocking(request(std::span<float>(scratch).first(scratch.size() - 3)));
+  EXPECT_EQ(refused.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.message().find("box_scratch holds 27006 floats; 3 instances of 3001 "
+                                   "vertices need 27009"),
+            std::string::npos)
+      << refused.message();
 }
 
 TEST(EngineTest, RejectsUnknownEnabledBackend) {

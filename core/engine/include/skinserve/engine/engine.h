@@ -90,7 +90,8 @@ struct SkinRequest {
   // Set (encoding not float32): the backend writes each instance encoded here instead of
   // into positions/normals/tangents, which stay empty (backend.h's EncodedOutput; the
   // backend's BackendInfo::encoded_outputs must list the encoding). Instance i's bytes
-  // follow instance i-1's; `bounds` points at `instances` boxes (snorm16).
+  // follow instance i-1's; `bounds` points at `instances` boxes (snorm16); `box_scratch`,
+  // if given, holds 3 * vertex_count floats per instance, likewise one after another.
   EncodedOutput encoded;
 };
 
