@@ -1,7 +1,6 @@
 #include "simd_encoded_output.h"
 
 #include "parallel_range.h"
-#include "skinserve/model/aligned_buffer.h"
 
 namespace skinserve::simd {
 
@@ -29,11 +28,9 @@ std::span<std::byte> Slice(std::span<std::byte> bytes, std::size_t values_per_ve
 uint64_t HostEncodedFallbacks() { return host_encoded_fallbacks.load(); }
 void CountHostEncodedFallback() { host_encoded_fallbacks.fetch_add(1); }
 
-FloatFrameBuffers ThreadFloatFrame(std::size_t vertex_count, bool normals, bool tangents) {
-  thread_local AlignedBuffer<float> positions, normal_buffer, tangent_buffer;
-  return {.positions = Grown(positions, 3 * vertex_count).data(),
-          .normals = normals ? Grown(normal_buffer, 3 * vertex_count).data() : nullptr,
-          .tangents = tangents ? Grown(tangent_buffer, 4 * vertex_count).data() : nullptr};
+float* ThreadFloatPositions(std::size_t vertex_count) {
+  thread_local AlignedBuffer<float> positions;
+  return Grown(positions, 3 * vertex_count).data();
 }
 
 EncodedWriter::EncodedWriter(const EncodedOutput& out, std::size_t vertex_count)
@@ -43,9 +40,8 @@ EncodedWriter::EncodedWriter(const EncodedOutput& out, std::size_t vertex_count)
       wants_normals_(!out.normals.empty()),
       wants_tangents_(!out.tangents.empty()) {
   if (boxed_) {
-    positions_ = out.box_scratch.size() >= 3 * vertex_count
-                     ? out.box_scratch.data()
-                     : ThreadFloatFrame(vertex_count, false, false).positions;
+    positions_ = out.box_scratch.size() >= 3 * vertex_count ? out.box_scratch.data()
+                                                            : ThreadFloatPositions(vertex_count);
   }
 }
 

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "skinserve/engine/backend.h"
+#include "skinserve/model/aligned_buffer.h"
 
 namespace skinserve::simd {
 
@@ -97,25 +98,22 @@ Status SkinThenHostEncode(const EncodedOutput& out, std::size_t vertex_count,
 Status HostEncode(const EncodedOutput& out, std::span<const float> positions,
                   std::span<const float> normals, std::span<const float> tangents);
 
-// Frame-sized float arrays of this thread, grown, never shrunk.
-struct FloatFrameBuffers {
-  float* positions;
-  float* normals;
-  float* tangents;
-};
-FloatFrameBuffers ThreadFloatFrame(std::size_t vertex_count, bool normals, bool tangents);
+// 3 * vertex_count floats of this thread, grown, never shrunk: snorm16's positions for an
+// in-process caller that gives no EncodedOutput::box_scratch.
+float* ThreadFloatPositions(std::size_t vertex_count);
 
 template <typename SkinFloats>
 Status SkinThenHostEncode(const EncodedOutput& out, std::size_t vertex_count,
                           const SkinFloats& skin_floats) {
   CountHostEncodedFallback();
   const bool normals = !out.normals.empty(), tangents = !out.tangents.empty();
-  const FloatFrameBuffers f = ThreadFloatFrame(vertex_count, normals, tangents);
-  skin_floats(f.positions, normals ? f.normals : nullptr, tangents ? f.tangents : nullptr);
-  return HostEncode(
-      out, {f.positions, 3 * vertex_count},
-      normals ? std::span<const float>(f.normals, 3 * vertex_count) : std::span<const float>(),
-      tangents ? std::span<const float>(f.tangents, 4 * vertex_count) : std::span<const float>());
+  // This frame's only, freed on return: a client can send values the encoding refuses at
+  // will, and frame-sized buffers kept on every compute thread would escape the server's
+  // in-flight budget.
+  AlignedBuffer<float> p(3 * vertex_count), n(normals ? 3 * vertex_count : 0),
+      t(tangents ? 4 * vertex_count : 0);
+  skin_floats(p.data(), normals ? n.data() : nullptr, tangents ? t.data() : nullptr);
+  return HostEncode(out, p.span(), n.span(), t.span());
 }
 
 }  // namespace skinserve::simd
