@@ -11,7 +11,7 @@ void AddRestEncodingOption(CLI::App* command, std::string* value) {
   command
       ->add_option("--rest-encoding", *value,
                    "how the server stores the rest stream: auto (a glTF file's storage decides: "
-                   "16-bit positions and integer weights give quantized16 or "
+                   "8- or 16-bit positions and integer weights give quantized16 or "
                    "quantized8-weights), float32, quantized16, quantized8-weights")
       ->capture_default_str();
 }

@@ -423,13 +423,14 @@ int main(int argc, char** argv) {
                  "instance's box); checks allow the encoding's stated error")
       ->check(CLI::IsMember({"float32", "float16", "snorm16"}))
       ->capture_default_str();
-  app.add_option("--rest-encoding", o.rest_encoding,
-                 "how the server stores the mesh: float32, or quantized16 / quantized8-weights "
-                 "(16-bit positions, normals and weights, or 8-bit weights; read directly by "
-                 "simd, simd-openmp and the OpenCL backends); checks compare with the values it "
-                 "decodes to. Default: float32, but a --mesh file storing 16-bit positions and "
-                 "integer weights (KHR_mesh_quantization) gets quantized16 (quantized8-weights "
-                 "for UNSIGNED_BYTE weights); the choice and why is printed")
+  app.add_option(
+         "--rest-encoding", o.rest_encoding,
+         "how the server stores the mesh: float32, or quantized16 / quantized8-weights "
+         "(16-bit positions, normals and weights, or 8-bit weights; read directly by "
+         "simd, simd-openmp and the OpenCL backends); checks compare with the values it "
+         "decodes to. Default: float32, but a --mesh file storing 8- or 16-bit positions and "
+         "integer weights (KHR_mesh_quantization) gets quantized16 (quantized8-weights "
+         "for UNSIGNED_BYTE weights); the choice and why is printed")
       ->check(CLI::IsMember({"float32", "quantized16", "quantized8-weights"}));
   app.add_option("--instances", o.run.instances,
                  "crowd batches: K palettes per request, K characters per stream")

@@ -89,6 +89,15 @@ TEST(QuantizedGltfUploadTest, TheFileDecidesTheEncodingNamingWhy) {
   EXPECT_EQ(c.encoding, RestEncoding::kFloat32);
   EXPECT_NE(c.reason.find("stores POSITION as FLOAT"), std::string::npos) << c.reason;
 
+  // 8-bit positions (KHR_mesh_quantization allows BYTE and UNSIGNED_BYTE): the 16-bit
+  // stream holds them as well.
+  Character bytes = *quantized;
+  bytes.primitives[0].stored.position = {StoredType::kByte, true};
+  bytes.primitives[2].stored.position = {StoredType::kUnsignedByte, false};
+  c = RestEncodingFromFile(bytes, all);
+  EXPECT_EQ(c.encoding, RestEncoding::kQuantized16) << c.reason;
+  EXPECT_NE(c.reason.find("POSITION as 8- or 16-bit integers"), std::string::npos) << c.reason;
+
   // 16-bit positions with float weights: float32, naming the weights.
   Character mixed = *quantized;
   mixed.primitives[1].stored.weights = {StoredType::kFloat, false};

@@ -5,8 +5,11 @@
 namespace skinserve {
 namespace {
 
-bool Is16Bit(StoredType type) {
-  return type == StoredType::kShort || type == StoredType::kUnsignedShort;
+// KHR_mesh_quantization's integer POSITION types: the 16-bit grid of the quantized stream
+// holds an 8-bit one to within half its own step.
+bool IsInteger(StoredType type) {
+  return type == StoredType::kByte || type == StoredType::kUnsignedByte ||
+         type == StoredType::kShort || type == StoredType::kUnsignedShort;
 }
 
 std::string Describe(StoredAttribute a) {
@@ -24,7 +27,7 @@ RestEncodingChoice RestEncodingFromFile(const Character& character,
       return {RestEncoding::kFloat32,
               fmt::format("{} has morph targets (a quantized rest stream carries none)", p.name)};
     }
-    if (!Is16Bit(p.stored.position.type)) {
+    if (!IsInteger(p.stored.position.type)) {
       return {RestEncoding::kFloat32,
               fmt::format("{} stores POSITION as {}", p.name, Describe(p.stored.position))};
     }
@@ -39,7 +42,7 @@ RestEncodingChoice RestEncodingFromFile(const Character& character,
     weights16 = weights16 || w.type == StoredType::kUnsignedShort;
   }
   if (primitives.empty()) return {RestEncoding::kFloat32, "no primitive"};
-  const std::string positions = "POSITION as 16-bit integers (KHR_mesh_quantization)";
+  const std::string positions = "POSITION as 8- or 16-bit integers (KHR_mesh_quantization)";
   if (!any_skinned) {
     return {RestEncoding::kQuantized16, fmt::format("every part stores {}", positions)};
   }

@@ -1,5 +1,5 @@
 // The rest encoding (skinserve/model/quantized_rest.h) a glTF file asks for by how it stores
-// its vertices: a KHR_mesh_quantization file that already holds 16-bit positions and
+// its vertices: a KHR_mesh_quantization file that already holds 8- or 16-bit positions and
 // normalized integer weights gets the quantized rest stream, a float file stays float32.
 // Tools use it when the user did not choose one (an explicit choice always wins).
 #pragma once
@@ -19,7 +19,8 @@ struct RestEncodingChoice {
 
 // Over `primitives` (indices into character.primitives, the ones uploaded together):
 //  - float32 when one of them has morph targets (a quantized rest stream carries none),
-//    stores POSITION as anything but SHORT or UNSIGNED_SHORT (normalized or not), or, when
+//    stores POSITION as FLOAT (anything but BYTE, UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT,
+//    normalized or not), or, when
 //    skinned, WEIGHTS_n as anything but normalized UNSIGNED_BYTE or UNSIGNED_SHORT; the
 //    reason names the first such primitive and its type;
 //  - else quantized8-weights when every skinned one stores its weights as UNSIGNED_BYTE,
