@@ -27,21 +27,14 @@ Result<RestEncodingChoice> MeshRestEncoding(const Character& character, const Ch
                                             std::optional<RestEncoding> asked) {
   const bool tangents = !mesh.arrays.tangents.empty();
   const bool morphs = !mesh.arrays.morph_target_sizes.empty();
-  if (asked) {
-    if (*asked != RestEncoding::kFloat32 && (tangents || morphs)) {
-      return InvalidArgument(fmt::format(
-          "--rest-encoding {}: {} has {}, which a quantized rest stream does not carry",
-          RestEncodingName(*asked), mesh.name, tangents ? "tangents" : "morph targets"));
-    }
-    return RestEncodingChoice{*asked, "asked with --rest-encoding"};
-  }
-  if (tangents) {
-    return RestEncodingChoice{RestEncoding::kFloat32,
-                              "it has tangents (a quantized rest stream carries none)"};
+  if (asked && *asked != RestEncoding::kFloat32 && (tangents || morphs)) {
+    return InvalidArgument(
+        fmt::format("--rest-encoding {}: {} has {}, which a quantized rest stream does not carry",
+                    RestEncodingName(*asked), mesh.name, tangents ? "tangents" : "morph targets"));
   }
   std::vector<int> primitives;
   for (const PrimitiveSpan& part : mesh.parts) primitives.push_back(part.primitive);
-  return RestEncodingFromFile(character, primitives);
+  return DecideRestEncoding(asked, tangents, RestEncodingFromFile(character, primitives));
 }
 
 }  // namespace skinserve::cli

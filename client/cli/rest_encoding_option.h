@@ -22,10 +22,10 @@ void AddRestEncodingOption(CLI::App* command, std::string* value);
 // the accepted names.
 Result<std::optional<RestEncoding>> ParseRestEncodingOption(const std::string& value);
 
-// The encoding `mesh` goes up in, with why: the asked one; else float32 for a mesh with
-// tangents (a quantized stream carries none); else what the file asks for over the mesh's
-// parts. INVALID_ARGUMENT, naming the mesh, for a quantized encoding asked of a mesh with
-// tangents or morph targets.
+// The encoding `mesh` goes up in, with why: DecideRestEncoding over the file's choice for
+// the mesh's parts (the asked one; else float32 for a mesh with tangents; else the file's).
+// INVALID_ARGUMENT, naming the mesh, for a quantized encoding asked of a mesh with tangents
+// or morph targets.
 Result<RestEncodingChoice> MeshRestEncoding(const Character& character, const CharacterMesh& mesh,
                                             std::optional<RestEncoding> asked);
 

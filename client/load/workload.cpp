@@ -31,17 +31,7 @@ Status SetRestEncoding(Workload* w, RestEncoding encoding) {
 }
 
 Status ChooseRestEncoding(Workload* w, std::optional<RestEncoding> asked, bool tangents) {
-  RestEncodingChoice choice;
-  if (asked) {
-    choice = {*asked, "asked for (--rest-encoding)"};
-  } else if (tangents) {
-    choice = {RestEncoding::kFloat32, "--tangents (a quantized rest stream carries none)"};
-  } else if (w->file_rest_encoding) {
-    choice = *w->file_rest_encoding;
-    choice.reason = "from the file: " + choice.reason;
-  } else {
-    choice = {RestEncoding::kFloat32, "the default"};
-  }
+  RestEncodingChoice choice = DecideRestEncoding(asked, tangents, w->file_rest_encoding);
   if (choice.encoding != w->rest_encoding) {
     if (Status s = SetRestEncoding(w, choice.encoding); !s.ok()) {
       return Status(s.code(),

@@ -67,10 +67,10 @@ struct MorphWorkload {
 // INVALID_ARGUMENT as the server would answer (e.g. a mesh with morph targets).
 Status SetRestEncoding(Workload* w, RestEncoding encoding);
 
-// Picks and applies (SetRestEncoding) the workload's rest encoding: `asked` when the user
-// named one (--rest-encoding: an explicit choice always wins); else float32 when `tangents`
-// are asked back (a quantized rest stream carries none); else the file's
-// (file_rest_encoding) for a glTF workload; else float32. Sets rest_encoding_reason.
+// Picks the workload's rest encoding as every tool does (DecideRestEncoding: `asked`, else
+// float32 when `tangents` are asked back, else file_rest_encoding for a glTF workload, else
+// float32), applies it (SetRestEncoding; a quantized one drops the tangents the load tool
+// never asks back) and sets rest_encoding_reason.
 Status ChooseRestEncoding(Workload* w, std::optional<RestEncoding> asked, bool tangents);
 
 // Dual-quaternion workloads get rigid palettes (MakeRigidPalette): the method refuses the

@@ -57,4 +57,14 @@ RestEncodingChoice RestEncodingFromFile(const Character& character,
                       positions)};
 }
 
+RestEncodingChoice DecideRestEncoding(std::optional<RestEncoding> asked, bool tangents,
+                                      std::optional<RestEncodingChoice> from_file) {
+  if (asked) return {*asked, "asked with --rest-encoding"};
+  if (tangents) {
+    return {RestEncoding::kFloat32, "it has tangents (a quantized rest stream carries none)"};
+  }
+  if (from_file) return std::move(*from_file);
+  return {RestEncoding::kFloat32, "the default"};
+}
+
 }  // namespace skinserve

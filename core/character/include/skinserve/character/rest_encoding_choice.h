@@ -4,6 +4,7 @@
 // Tools use it when the user did not choose one (an explicit choice always wins).
 #pragma once
 
+#include <optional>
 #include <span>
 #include <string>
 
@@ -27,5 +28,12 @@ struct RestEncodingChoice {
 //    quantized16 otherwise (some UNSIGNED_SHORT, or only rigid parts, whose weight is 1).
 RestEncodingChoice RestEncodingFromFile(const Character& character,
                                         std::span<const int> primitives);
+
+// The rest encoding a tool uploads a mesh in, with why, in the one order every tool follows:
+// `asked` (--rest-encoding: an explicit choice always wins); else float32 when the mesh
+// goes up with tangents (a quantized rest stream carries none); else `from_file`
+// (RestEncodingFromFile; nullopt: not from a file); else float32, the default.
+RestEncodingChoice DecideRestEncoding(std::optional<RestEncoding> asked, bool tangents,
+                                      std::optional<RestEncodingChoice> from_file);
 
 }  // namespace skinserve
