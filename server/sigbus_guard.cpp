@@ -46,10 +46,13 @@ bool SameHandler(const struct sigaction& a, const struct sigaction& b) {
                                     : a.sa_handler == b.sa_handler);
 }
 
+bool IsGuard(const struct sigaction& action) {
+  return (action.sa_flags & SA_SIGINFO) && action.sa_sigaction == &OnSigbus;
+}
+
 bool GuardIsInstalled() {
   struct sigaction now = {};
-  return sigaction(SIGBUS, nullptr, &now) == 0 && (now.sa_flags & SA_SIGINFO) &&
-         now.sa_sigaction == &OnSigbus;
+  return sigaction(SIGBUS, nullptr, &now) == 0 && IsGuard(now);
 }
 
 void Call(const struct sigaction& action, int signal, siginfo_t* info, void* context) {
@@ -109,10 +112,7 @@ void SigbusGuard::Install() {
   // before the original one.
   std::lock_guard lock(g_install_mutex);
   struct sigaction current = {};
-  if (sigaction(SIGBUS, nullptr, &current) == 0 && (current.sa_flags & SA_SIGINFO) &&
-      current.sa_sigaction == &OnSigbus) {
-    return;
-  }
+  if (sigaction(SIGBUS, nullptr, &current) == 0 && IsGuard(current)) return;
   if (!g_has_original) {
     g_original = current;
     g_has_original = true;

@@ -229,6 +229,32 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
   }
 }
 
+// The timing loop of the encoded rows: `skin_one` (a frame; its Status) once untimed (the
+// first encoded frame builds the encoder's program and grows its buffers), then once per
+// iteration, each followed by `after_timed_frame`; items and vertices_per_second counted.
+// False, with the run skipped naming the error, when a frame fails.
+template <typename SkinOne, typename AfterFrame>
+bool TimeEncodedFrames(benchmark::State& state, uint32_t vertices, const void* output,
+                       const SkinOne& skin_one, const AfterFrame& after_timed_frame) {
+  if (Status s = skin_one(); !s.ok()) {
+    state.SkipWithError(s.ToString().c_str());
+    return false;
+  }
+  for (auto _ : state) {
+    if (Status s = skin_one(); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+      return false;
+    }
+    after_timed_frame();
+    benchmark::DoNotOptimize(output);
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
+  state.counters["vertices_per_second"] =
+      benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
+  return true;
+}
+
 // A frame whose output the backend writes encoded (SkinFrame::encoded): the OpenCL backends
 // read back only the encoded bytes.
 void SkinEncodedBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
@@ -249,24 +275,11 @@ void SkinEncodedBenchmark(benchmark::State& state, Backend* backend, uint32_t ve
                     .bounds = &box};
     return backend->Skin(prepared, skin);
   };
-  // Untimed: the first encoded frame builds the encoder's program and grows its buffers.
-  if (Status s = skin_one(); !s.ok()) {
-    state.SkipWithError(s.ToString().c_str());
-    return;
-  }
-  for (auto _ : state) {
-    if (Status s = skin_one(); !s.ok()) {
-      state.SkipWithError(s.ToString().c_str());
-      break;
-    }
+  const auto count_device_time = [&] {
     total.kernel_ns += device.kernel_ns;
     total.transfer_ns += device.transfer_ns;
-    benchmark::DoNotOptimize(positions.data());
-    benchmark::ClobberMemory();
-  }
-  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
-  state.counters["vertices_per_second"] =
-      benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
+  };
+  if (!TimeEncodedFrames(state, vertices, positions.data(), skin_one, count_device_time)) return;
   state.counters["read_back_bytes_per_vertex"] =
       static_cast<double>(EncodedBytes(encoding, 1) * (normals ? 2 : 1));
   ReportDeviceTimes(state, total);
@@ -301,21 +314,7 @@ void SkinHostEncodedBenchmark(benchmark::State& state, Backend* backend, uint32_
     return normals ? EncodeNormals(encoding, float_normals.span(), out_normals.span())
                    : Status::Ok();
   };
-  if (Status s = skin_one(); !s.ok()) {  // untimed, as the encoded rows' first frame
-    state.SkipWithError(s.ToString().c_str());
-    return;
-  }
-  for (auto _ : state) {
-    if (Status s = skin_one(); !s.ok()) {
-      state.SkipWithError(s.ToString().c_str());
-      break;
-    }
-    benchmark::DoNotOptimize(positions.data());
-    benchmark::ClobberMemory();
-  }
-  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
-  state.counters["vertices_per_second"] =
-      benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
+  TimeEncodedFrames(state, vertices, positions.data(), skin_one, [] {});
 }
 
 // A frame of the morph workload with `active` targets (0: the frame carries no weights).
