@@ -114,37 +114,18 @@ class OpenClCopyBackend final : public Backend {
   }
 
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
-    if (const QuantizedRest* rest = base.mesh().quantized_rest()) {
-      // The qskin_* kernels take the palette folded with the mesh's box.
-      if (Status s = CheckQuantizedMethod(info_.id, base.mesh(), frame.method); !s.ok()) return s;
-      SkinFrame folded = frame;
-      folded.palette = FoldedQuantizedPalette(frame.palette, *rest);
-      return SkinPalette(base, folded);
-    }
-    if (frame.method == SkinningMethod::kDualQuaternion) {
-      // The kernels take the palette as unit dual quaternions, converted here once per
-      // frame (J conversions): from here on the frame is the same as a linear one.
-      const DualQuaternionPalette quaternions(frame.palette);
-      SkinFrame converted = frame;
-      converted.palette = quaternions.floats();
-      return SkinPalette(base, converted);
-    }
-    return SkinPalette(base, frame);
+    return SkinWithKernelPalette(info_.id, base, frame, [&](const SkinFrame& in_kernel_layout) {
+      return SkinPalette(base, in_kernel_layout);
+    });
   }
 
  private:
   // Skin() with frame.palette in the layout of frame.method's kernels.
   Status SkinPalette(const PreparedMesh& base, const SkinFrame& frame) {
     const auto& prepared = static_cast<const OpenClPreparedMesh&>(base);
+    if (Status s = CheckOpenClOutputs(prepared.mesh(), frame); !s.ok()) return s;
     const bool with_normals = frame.wants_normals();
-    if (with_normals && prepared.normals.get() == nullptr) {
-      return InvalidArgument("normals requested, but the mesh has none");
-    }
     const bool with_tangents = frame.wants_tangents();
-    if (with_tangents && (prepared.tangents.get() == nullptr || !with_normals)) {
-      return InvalidArgument(
-          "tangents requested, but the mesh has none or normals are not asked for");
-    }
     auto lane = runtime_->AcquireLane();
     if (Status s = Reserve(*lane, frame, prepared.mesh().vertex_count()); !s.ok()) return s;
     ClEvents kernels, transfers;
