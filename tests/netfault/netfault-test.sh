@@ -161,11 +161,13 @@ blackhole_case() {  # name, bound (s), expected code, client options...
     { cat "$tmp/$name.log"; echo "FAIL: $name: no frame in flight reported failed"; exit 1; }
 }
 # Keepalive: a ping every 2 s, 2 s to answer: the blackhole is found within 2 + 2 s, plus
-# one second for TCP and the emulator's own delays.
-blackhole_case keepalive 5 UNAVAILABLE --keepalive-seconds 2 --keepalive-timeout-seconds 2 \
+# two seconds for TCP, the emulator's own delays and a busy machine's timers (one second
+# was not enough on the 2-core VM under a parallel build: 5.13 s, 2026-11-27). A client
+# without the watchdog waits the whole 15 s loop above.
+blackhole_case keepalive 6 UNAVAILABLE --keepalive-seconds 2 --keepalive-timeout-seconds 2 \
   --stream-idle-seconds 0
-# Keepalive off: the stream's idle limit, 3 s without an answer, plus one second.
-blackhole_case idle-limit 4 DEADLINE_EXCEEDED --keepalive-seconds 0 --stream-idle-seconds 3
+# Keepalive off: the stream's idle limit, 3 s without an answer, plus two seconds.
+blackhole_case idle-limit 5 DEADLINE_EXCEEDED --keepalive-seconds 0 --stream-idle-seconds 3
 
 kill -TERM "$server" "$emulator"
 wait "$server" "$emulator" 2>/dev/null || true
