@@ -27,10 +27,10 @@ Result<RestEncodingChoice> MeshRestEncoding(const Character& character, const Ch
                                             std::optional<RestEncoding> asked) {
   const bool tangents = !mesh.arrays.tangents.empty();
   const bool morphs = !mesh.arrays.morph_target_sizes.empty();
-  if (asked && *asked != RestEncoding::kFloat32 && (tangents || morphs)) {
-    return InvalidArgument(
-        fmt::format("--rest-encoding {}: {} has {}, which a quantized rest stream does not carry",
-                    RestEncodingName(*asked), mesh.name, tangents ? "tangents" : "morph targets"));
+  if (asked && *asked != RestEncoding::kFloat32 && morphs) {
+    return InvalidArgument(fmt::format(
+        "--rest-encoding {}: {} has morph targets, which a quantized rest stream does not carry",
+        RestEncodingName(*asked), mesh.name));
   }
   std::vector<int> primitives;
   for (const PrimitiveSpan& part : mesh.parts) primitives.push_back(part.primitive);

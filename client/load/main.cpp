@@ -143,8 +143,8 @@ Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bone
   const SkinningMethod method = *ParseMethod(o.method);
   if (o.tangents && (!o.normals || (!o.rest_encoding.empty() && o.rest_encoding != "float32"))) {
     return InvalidArgument(
-        "--tangents needs --normals and --rest-encoding float32 (a quantized rest stream "
-        "carries no tangents)");
+        "--tangents needs --normals and --rest-encoding float32 (the load tool runs every "
+        "backend, and the OpenCL ones skin no tangents from a quantized rest stream)");
   }
   Result<Workload> workload =
       o.mesh.empty() ? Result<Workload>(MakeWorkload(vertices, bones, o.joints, o.normals, seed,

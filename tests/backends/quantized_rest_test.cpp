@@ -82,6 +82,48 @@ TEST_P(QuantizedRestTargetTest, BothBackendsMatchBothReferencesAtThisTarget) {
   }
 }
 
+// Tangents from the stream (snorm16 xyz, w +-32767): every output against the float64
+// reference on the mesh's float arrays, which hold the values the integers decode to
+// (ExpectFrameMatchesReference: CompareWithReference's tolerances, tangents' xyz 1e-5, w
+// exact). Both weight widths, 8- and 16-bit joints, influence counts with and without a
+// vector's worth of weights, tails around the 256-vertex chunks.
+TEST_P(QuantizedRestTargetTest, TangentsFromTheStreamMatchTheReferenceOnTheDecodedInput) {
+  std::vector<std::unique_ptr<Backend>> backends;
+  for (int threads : {0, 2}) {  // simd, simd-openmp
+    backends.push_back(CreateSimdBackend(threads, GetParam()));
+    ASSERT_TRUE(backends.back()->info().available) << backends.back()->info().unavailable_reason;
+  }
+  uint64_t seed = 700;
+  for (RestEncoding encoding : {RestEncoding::kQuantized16, RestEncoding::kQuantized8Weights}) {
+    for (uint32_t b : {1u, 3u, 4u, 8u}) {
+      for (uint32_t j : {20u, 300u}) {
+        for (uint32_t v : {1u, 5u, 257u, 1001u}) {
+          if (v > TargetCheckMaxVertices()) continue;
+          const MeshCase c{v, b, j, true, true};
+          auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = v,
+                                                      .influences = b,
+                                                      .joint_count = j,
+                                                      .normals = true,
+                                                      .tangents = true,
+                                                      .seed = ++seed}),
+                                   {.rest_encoding = encoding});
+          ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+          ASSERT_EQ((*mesh)->quantized_rest()->tangents.size(), 4u * v);
+          const auto palette = MakeSyntheticPalette(j, seed, 2);
+          for (auto& backend : backends) {
+            auto prepared = backend->Prepare(*mesh);
+            ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+            ExpectFrameMatchesReference(
+                *backend, **prepared, **mesh, palette, c, SkinningMethod::kLinear,
+                std::string(RestEncodingName(encoding)) + " at " + backend->info().simd_target);
+            if (HasFailure()) return;
+          }
+        }
+      }
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(RunnableHere, QuantizedRestTargetTest,
                          ::testing::ValuesIn(RunnableSimdTargets()),
                          [](const ::testing::TestParamInfo<std::string>& param_info) {
@@ -161,6 +203,57 @@ TEST(QuantizedRestTest, OtherBackendsSkinTheDecodedFloats) {
   }
 }
 
+// The stream's tangents: within a step of the unit direction, w exactly the handedness;
+// the mesh's floats hold what they decode to.
+TEST(QuantizedRestTest, TangentsAreStoredAsSnorm16WithTheirHandedness) {
+  const MeshArrays original = MakeSyntheticMesh(
+      {.vertex_count = 300, .influences = 2, .normals = true, .tangents = true, .seed = 8});
+  auto mesh = Mesh::Create(original, {.rest_encoding = RestEncoding::kQuantized16});
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  const QuantizedRest& q = *(*mesh)->quantized_rest();
+  ASSERT_EQ(q.tangents.size(), 4u * 300);
+  for (std::size_t v = 0; v < 300; ++v) {
+    const float* t = &original.tangents[4 * v];
+    const double length =
+        std::sqrt(double{t[0]} * t[0] + double{t[1]} * t[1] + double{t[2]} * t[2]);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_LE(std::abs(q.tangents[4 * v + a] / 32767.0 - t[a] / length), 0.5 / 32767 + 1e-12)
+          << "vertex " << v << " axis " << a;
+      EXPECT_EQ((*mesh)->tangents()[4 * v + a],
+                static_cast<float>(q.tangents[4 * v + a] / 32767.0));
+    }
+    EXPECT_EQ(q.tangents[4 * v + 3], t[3] < 0 ? -32767 : 32767) << "vertex " << v;
+    EXPECT_EQ((*mesh)->tangents()[4 * v + 3], t[3]) << "vertex " << v;
+  }
+}
+
+// The OpenCL kernels read positions and normals of the stream: a frame asking them for
+// tangents is refused naming the backends that skin them; without tangents it runs.
+TEST(QuantizedRestTest, OpenClRefusesTangentsOfAQuantizedMeshNamingWhoSkinsThem) {
+  auto mesh = Mesh::Create(
+      MakeSyntheticMesh(
+          {.vertex_count = 10, .joint_count = 8, .normals = true, .tangents = true, .seed = 4}),
+      {.rest_encoding = RestEncoding::kQuantized16});
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  const auto palette = MakeSyntheticPalette(8, 4, 1);
+  for (const char* id : {"opencl", "opencl-zerocopy"}) {
+    Backend& backend = BackendById(id);
+    if (!backend.info().available) continue;
+    auto prepared = backend.Prepare(*mesh);
+    ASSERT_TRUE(prepared.ok()) << id;
+    std::vector<float> positions(30), normals(30), tangents(40);
+    Status s = backend.Skin(
+        **prepared,
+        {.palette = palette, .positions = positions, .normals = normals, .tangents = tangents});
+    EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << id;
+    EXPECT_NE(s.message().find(std::string(id) + ": mesh "), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("ask for them from simd or simd-openmp"), std::string::npos)
+        << s.message();
+    s = backend.Skin(**prepared, {.palette = palette, .positions = positions, .normals = normals});
+    EXPECT_TRUE(s.ok()) << id << ": " << s.ToString();
+  }
+}
+
 TEST(QuantizedRestTest, DualQuaternionsOnTheQuantizedStreamAreRefusedWithTheReason) {
   auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = 10, .joint_count = 8}),
                            {.rest_encoding = RestEncoding::kQuantized16});
@@ -212,6 +305,15 @@ TEST(QuantizedRestTest, IdsAndBytesSayWhatIsStored) {
   EXPECT_EQ(StreamedBytesPerVertex(RestEncoding::kFloat32, 4, 77, false), 40.0);
   EXPECT_EQ(StreamedBytesPerVertex(RestEncoding::kQuantized16, 4, 77, false), 28.0);
   EXPECT_EQ(StreamedBytesPerVertex(RestEncoding::kQuantized8Weights, 4, 77, false), 25.0);
+  // Tangents: 8 bytes more stored and streamed in (16 float), 16 out.
+  const MeshArrays with_tangents =
+      MakeSyntheticMesh({.vertex_count = 1000, .influences = 4, .normals = true, .tangents = true});
+  auto float_t = Mesh::Create(with_tangents).value();
+  auto q16_t = Mesh::Create(with_tangents, {.rest_encoding = RestEncoding::kQuantized16}).value();
+  EXPECT_EQ(q16_t->byte_size(), float_t->byte_size() + 1000 * (6 + 6 + 8 + 4 + 6));
+  EXPECT_EQ(q16_t->quantized_rest()->byte_size(), 1000u * 30);
+  EXPECT_EQ(StreamedBytesPerVertex(RestEncoding::kFloat32, 4, 77, true, true), 96.0);
+  EXPECT_EQ(StreamedBytesPerVertex(RestEncoding::kQuantized16, 4, 77, true, true), 70.0);
 }
 
 }  // namespace

@@ -123,7 +123,8 @@ TEST(QuantizedGltfUploadTest, ToolsDecideTheEncodingInOneOrder) {
   EXPECT_EQ(c.encoding, RestEncoding::kFloat32);
   c = DecideRestEncoding(std::nullopt, true, file);
   EXPECT_EQ(c.encoding, RestEncoding::kFloat32);
-  EXPECT_EQ(c.reason, "it has tangents (a quantized rest stream carries none)");
+  EXPECT_EQ(c.reason,
+            "it has tangents (the OpenCL backends skin none from a quantized rest stream)");
   c = DecideRestEncoding(std::nullopt, false, file);
   EXPECT_EQ(c.encoding, RestEncoding::kQuantized8Weights);
   EXPECT_EQ(c.reason, "the file's reason");
@@ -202,7 +203,8 @@ TEST(QuantizedGltfUploadTest, AFloatFileAndAnExplicitFloat32StayFloat32) {
   ASSERT_TRUE(load::ChooseRestEncoding(&*asked, RestEncoding::kFloat32, false).ok());
   EXPECT_EQ(asked->rest_encoding, RestEncoding::kFloat32);
   EXPECT_EQ(asked->mesh->quantized_rest(), nullptr);
-  // Tangents asked back also keep floats (a quantized rest stream carries none).
+  // Tangents asked back also keep floats (the OpenCL backends skin none from a quantized
+  // rest stream).
   auto tangents = load::MakeGltfWorkload(WriteScene(Quantized(), "tangents-float"), -1, true);
   ASSERT_TRUE(tangents.ok());
   ASSERT_TRUE(load::ChooseRestEncoding(&*tangents, std::nullopt, true).ok());

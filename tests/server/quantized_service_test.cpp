@@ -6,7 +6,8 @@
 // mesh with morph targets and dual quaternions on the quantized `simd` stream are refused naming
 // the reason. Tolerance: CompareWithReference's (float32 rounding, 1e-5 * (1 + S)). The bound
 // against the original float input is tested per target in quantized_rest_test.cpp. `opencl`
-// (which reads the integers on the device) gets the same checks.
+// (which reads the integers on the device) gets the same checks. A mesh's tangents travel in
+// the stream: `simd` skins them, `opencl` refuses them naming who does.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -170,6 +171,55 @@ TEST(QuantizedServiceTest, OpenClSkinsTheQuantizedStreamLikeTheDecodedReference)
     EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << s.ToString();
     EXPECT_NE(s.message().find("linear method only"), std::string::npos) << s.message();
   }
+}
+
+// A mesh with tangents uploaded quantized keeps them in the stream: `simd` and `simd-openmp`
+// skin them (against the float64 reference on the decoded input, tangents within
+// CompareWithReference's tolerance, w exact); `opencl` refuses a frame that asks it for them,
+// naming who skins them, and still answers the same mesh's frames without them.
+TEST(QuantizedServiceTest, TangentsOfAQuantizedMeshComeFromSimdAndOpenClSaysWho) {
+  TestServer t;
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 2003,
+                                               .influences = 4,
+                                               .joint_count = kJoints,
+                                               .normals = true,
+                                               .tangents = true,
+                                               .seed = 23});
+  auto info = t.client->Upload(arrays, {.rest_encoding = RestEncoding::kQuantized16});
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  const auto mesh = Mesh::Create(arrays, {.rest_encoding = RestEncoding::kQuantized16}).value();
+  EXPECT_EQ(info->mesh_id(), mesh->id());
+  EXPECT_EQ(info->rest_encoding(), v1::REST_ENCODING_QUANTIZED16);
+  const auto palette = MakeSyntheticPalette(kJoints, 8, 2);
+  for (const char* backend : {"simd", "simd-openmp"}) {
+    client::FrameResult result;
+    Status s =
+        t.client->Skin(info->mesh_id(), palette, 2,
+                       {.backend = backend, .want_normals = true, .want_tangents = true}, &result);
+    ASSERT_TRUE(s.ok()) << backend << ": " << s.ToString();
+    ASSERT_EQ(result.tangents.size(), 4u * 2003) << backend;
+    const Deviation d = CompareWithReference(*mesh, palette, result.positions, result.normals,
+                                             SkinningMethod::kLinear, {}, result.tangents);
+    EXPECT_TRUE(d.within_tolerance())
+        << backend << ": tangent error " << d.max_tangent_error << " (tolerance "
+        << d.tangent_tolerance << "), position error " << d.max_position_error;
+  }
+  auto list = t.client->ListBackends();
+  ASSERT_TRUE(list.ok());
+  const auto opencl = std::find_if(list->backends().begin(), list->backends().end(),
+                                   [](const auto& b) { return b.id() == "opencl"; });
+  if (opencl == list->backends().end() || !opencl->available()) return;
+  client::FrameResult result;
+  Status s =
+      t.client->Skin(info->mesh_id(), palette, 3,
+                     {.backend = "opencl", .want_normals = true, .want_tangents = true}, &result);
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << s.ToString();
+  EXPECT_NE(s.message().find("ask for them from simd or simd-openmp"), std::string::npos)
+      << s.message();
+  s = t.client->Skin(info->mesh_id(), palette, 4, {.backend = "opencl", .want_normals = true},
+                     &result);
+  ASSERT_TRUE(s.ok()) << s.ToString();
+  ExpectMatches(*mesh, palette, result.positions, result.normals, "opencl without tangents");
 }
 
 TEST(QuantizedServiceTest, BadRequestsAreRefusedNamingTheReason) {

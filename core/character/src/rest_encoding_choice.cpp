@@ -61,7 +61,8 @@ RestEncodingChoice DecideRestEncoding(std::optional<RestEncoding> asked, bool ta
                                       std::optional<RestEncodingChoice> from_file) {
   if (asked) return {*asked, "asked with --rest-encoding"};
   if (tangents) {
-    return {RestEncoding::kFloat32, "it has tangents (a quantized rest stream carries none)"};
+    return {RestEncoding::kFloat32,
+            "it has tangents (the OpenCL backends skin none from a quantized rest stream)"};
   }
   if (from_file) return std::move(*from_file);
   return {RestEncoding::kFloat32, "the default"};

@@ -500,10 +500,7 @@ Status Engine::CheckMeshShape(uint64_t vertex_count, uint64_t influences, uint64
       !s.ok()) {
     return s;
   }
-  if (Status s = CheckRestEncoding(rest_encoding, morph_target_sizes.size(), has_tangents);
-      !s.ok()) {
-    return s;
-  }
+  if (Status s = CheckRestEncoding(rest_encoding, morph_target_sizes.size()); !s.ok()) return s;
   uint64_t deltas = 0;
   for (uint32_t size : morph_target_sizes) deltas += size;
   return impl_->store_.CheckFits(

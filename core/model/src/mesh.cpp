@@ -254,13 +254,7 @@ Status CheckMeshHeader(uint64_t vertex_count, uint64_t influences, uint64_t join
   return Status::Ok();
 }
 
-Status CheckRestEncoding(RestEncoding encoding, uint64_t morph_targets, bool has_tangents) {
-  if (encoding != RestEncoding::kFloat32 && has_tangents) {
-    return InvalidArgument(fmt::format(
-        "rest_encoding {} with tangents: a quantized rest stream carries no tangents; upload "
-        "it as float32",
-        RestEncodingName(encoding)));
-  }
+Status CheckRestEncoding(RestEncoding encoding, uint64_t morph_targets) {
   if (encoding != RestEncoding::kFloat32 && morph_targets > 0) {
     return InvalidArgument(fmt::format(
         "rest_encoding {} with {} morph targets: a quantized rest stream carries no morph "
@@ -280,8 +274,8 @@ uint64_t MeshByteSize(uint64_t vertex_count, uint64_t influences, bool has_norma
   const uint64_t per_delta = sizeof(uint32_t) + 3 * sizeof(float) * (morph_normals ? 2 : 1) +
                              (morph_tangents ? 3 * sizeof(float) : 0);
   const uint64_t offsets = morph_targets > 0 ? (morph_targets + 1) * sizeof(uint32_t) : 0;
-  const uint64_t quantized =
-      QuantizedRestBytesPerVertex(rest_encoding, influences, joint_count, has_normals);
+  const uint64_t quantized = QuantizedRestBytesPerVertex(rest_encoding, influences, joint_count,
+                                                         has_normals, has_tangents);
   return vertex_count * (per_vertex + quantized) + morph_deltas * per_delta + offsets;
 }
 
@@ -351,8 +345,7 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
     }
   }
 
-  if (Status s = CheckRestEncoding(options.rest_encoding, arrays.morph_target_sizes.size(),
-                                   !arrays.tangents.empty());
+  if (Status s = CheckRestEncoding(options.rest_encoding, arrays.morph_target_sizes.size());
       !s.ok()) {
     return s;
   }
@@ -415,9 +408,10 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
         AlignedBuffer<float>(std::span<const float>(arrays.morph_tangent_deltas));
   }
   if (options.rest_encoding != RestEncoding::kFloat32) {
-    mesh->quantized_ = Quantize(options.rest_encoding, mesh->vertex_count_, mesh->influences_,
-                                mesh->joint_count_, mesh->positions_.span(), mesh->normals_.span(),
-                                mesh->joints_.span(), mesh->weights_.span());
+    mesh->quantized_ =
+        Quantize(options.rest_encoding, mesh->vertex_count_, mesh->influences_, mesh->joint_count_,
+                 mesh->positions_.span(), mesh->normals_.span(), mesh->tangents_.span(),
+                 mesh->joints_.span(), mesh->weights_.span());
   }
   mesh->id_ = ContentId(*mesh);
   return std::shared_ptr<const Mesh>(std::move(mesh));

@@ -57,34 +57,37 @@ std::optional<RestEncoding> ParseRestEncoding(std::string_view name) {
 }
 
 uint64_t QuantizedRestBytesPerVertex(RestEncoding encoding, uint64_t influences,
-                                     uint64_t joint_count, bool has_normals) {
+                                     uint64_t joint_count, bool has_normals, bool has_tangents) {
   if (encoding == RestEncoding::kFloat32) return 0;
   const uint64_t weight = encoding == RestEncoding::kQuantized8Weights ? 1 : 2;
   const uint64_t joint = joint_count <= 256 ? 1 : 2;
-  return 3 * 2 * (has_normals ? 2 : 1) + influences * joint + (influences - 1) * weight;
+  return 3 * 2 * (has_normals ? 2 : 1) + (has_tangents ? 4 * 2 : 0) + influences * joint +
+         (influences - 1) * weight;
 }
 
 double StreamedBytesPerVertex(RestEncoding encoding, uint32_t influences, uint32_t joint_count,
-                              bool normals) {
-  const double out = normals ? 24.0 : 12.0;
+                              bool normals, bool tangents) {
+  const double out = (normals ? 24.0 : 12.0) + (tangents ? 16.0 : 0.0);
   if (encoding == RestEncoding::kFloat32) {
     // The `simd` float stream (simd_stream.h): float32 rest, 8-bit joints where they fit,
     // B - 1 float weights.
     const double joint = joint_count <= 256 ? 1 : 2;
-    return out + (normals ? 24.0 : 12.0) + influences * joint + (influences - 1) * 4.0;
+    return out + (normals ? 24.0 : 12.0) + (tangents ? 16.0 : 0.0) + influences * joint +
+           (influences - 1) * 4.0;
   }
-  return out + static_cast<double>(
-                   QuantizedRestBytesPerVertex(encoding, influences, joint_count, normals));
+  return out + static_cast<double>(QuantizedRestBytesPerVertex(encoding, influences, joint_count,
+                                                               normals, tangents));
 }
 
 uint64_t QuantizedRest::byte_size() const {
-  return positions.size() * 2 + normals.size() * 2 + joints8.size() + joints16.size() * 2 +
-         weights8.size() + weights16.size() * 2;
+  return positions.size() * 2 + normals.size() * 2 + tangents.size() * 2 + joints8.size() +
+         joints16.size() * 2 + weights8.size() + weights16.size() * 2;
 }
 
 QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t influences,
                        uint32_t joint_count, std::span<float> positions, std::span<float> normals,
-                       std::span<const uint16_t> joints, std::span<float> weights) {
+                       std::span<float> tangents, std::span<const uint16_t> joints,
+                       std::span<float> weights) {
   QuantizedRest rest;
   rest.encoding = encoding;
   rest.influences = influences;
@@ -127,6 +130,23 @@ QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t in
         rest.normals[3 * v + a] = q;
         n[a] = static_cast<float>(q / double{kNormalSteps});
       }
+    }
+  }
+
+  // Tangents: xyz as the normals, w (+1 or -1) as +-32767.
+  if (!tangents.empty()) {
+    rest.tangents = AlignedBuffer<int16_t>(4 * v_count);
+    for (std::size_t v = 0; v < v_count; ++v) {
+      float* t = &tangents[4 * v];
+      const double length =
+          std::sqrt(double{t[0]} * t[0] + double{t[1]} * t[1] + double{t[2]} * t[2]);
+      for (int a = 0; a < 3; ++a) {
+        const auto q = static_cast<int16_t>(std::lround(t[a] / length * kNormalSteps));
+        rest.tangents[4 * v + a] = q;
+        t[a] = static_cast<float>(q / double{kNormalSteps});
+      }
+      rest.tangents[4 * v + 3] = static_cast<int16_t>(t[3] < 0 ? -kNormalSteps : kNormalSteps);
+      t[3] = t[3] < 0 ? -1.0f : 1.0f;
     }
   }
 

@@ -91,6 +91,17 @@ Status CheckQuantizedMethod(const std::string& backend_id, const Mesh& mesh,
       "(serial, sse, ...), or upload it as float32");
 }
 
+Status CheckQuantizedTangents(const std::string& backend_id, const Mesh& mesh,
+                              const SkinFrame& frame) {
+  if (!frame.wants_tangents()) return Status::Ok();
+  return FailedPrecondition(
+      backend_id + ": mesh " + mesh.id() +
+      " is stored with a quantized rest stream, whose tangents this backend does not skin; "
+      "ask for them from simd or simd-openmp (which read the stream's tangents) or from a "
+      "backend that reads the float values it decodes to (serial, sse, ...), ask this one "
+      "for positions and normals only, or upload the mesh as float32");
+}
+
 std::span<const float> FoldedQuantizedPalette(std::span<const float> palette,
                                               const QuantizedRest& rest) {
   thread_local std::vector<float> buffer;

@@ -37,6 +37,11 @@ Status PrepareQuantizedMesh(OpenClRuntime& runtime, const Mesh& mesh, cl_mem_fla
 // FAILED_PRECONDITION for a method other than linear blending on a quantized mesh (the
 // words `simd` uses), else OK.
 Status CheckQuantizedMethod(const std::string& backend_id, const Mesh& mesh, SkinningMethod method);
+// FAILED_PRECONDITION for a frame that asks a quantized mesh for tangents: the qskin_*
+// kernels write positions and normals only (simd and simd-openmp read the stream's
+// tangents; the float kernels would need the float arrays on the device).
+Status CheckQuantizedTangents(const std::string& backend_id, const Mesh& mesh,
+                              const SkinFrame& frame);
 
 // The frame's palette folded with the mesh's box, 12 floats per joint, in this thread's
 // buffer (valid until the thread's next call).

@@ -32,6 +32,7 @@ class SimdPreparedMesh final : public PreparedMesh {
           .influences = m.influences(),
           .positions = q->positions.data(),
           .normals = q->normals.empty() ? nullptr : q->normals.data(),
+          .tangents = q->tangents.empty() ? nullptr : q->tangents.data(),
           .joints8 = q->joints8.empty() ? nullptr : q->joints8.data(),
           .joints16 = q->joints16.empty() ? nullptr : q->joints16.data(),
           .weights8 = q->weights8.empty() ? nullptr : q->weights8.data(),
@@ -273,23 +274,25 @@ class SimdBackend final : public Backend {
     }
   }
 
-  // The same over a quantized rest stream (no morph targets: CheckRestEncoding; no tangents).
+  // The same over a quantized rest stream (no morph targets: CheckRestEncoding).
   template <typename Sink>
   void RunQuantized(const simd::QuantizedStream& stream, const Mesh& mesh, const float* columns,
                     const SkinFrame& frame, Sink& sink) {
     const auto skin_range = [&](std::size_t first, std::size_t last) {
-      sink.Write(first, last, [&](std::size_t offset, std::size_t n, float* p, float* nrm, float*) {
-        const std::size_t v = first + offset;
-        const std::size_t b = stream.influences;
-        simd::QuantizedStream chunk = stream;
-        chunk.positions += 3 * v;
-        if (chunk.normals != nullptr) chunk.normals += 3 * v;
-        if (chunk.joints8 != nullptr) chunk.joints8 += b * v;
-        if (chunk.joints16 != nullptr) chunk.joints16 += b * v;
-        if (chunk.weights8 != nullptr) chunk.weights8 += (b - 1) * v;
-        if (chunk.weights16 != nullptr) chunk.weights16 += (b - 1) * v;
-        kernel_.skin_quantized_range(chunk, columns, p, nrm, 0, n);
-      });
+      sink.Write(first, last,
+                 [&](std::size_t offset, std::size_t n, float* p, float* nrm, float* tan) {
+                   const std::size_t v = first + offset;
+                   const std::size_t b = stream.influences;
+                   simd::QuantizedStream chunk = stream;
+                   chunk.positions += 3 * v;
+                   if (chunk.normals != nullptr) chunk.normals += 3 * v;
+                   if (chunk.tangents != nullptr) chunk.tangents += 4 * v;
+                   if (chunk.joints8 != nullptr) chunk.joints8 += b * v;
+                   if (chunk.joints16 != nullptr) chunk.joints16 += b * v;
+                   if (chunk.weights8 != nullptr) chunk.weights8 += (b - 1) * v;
+                   if (chunk.weights16 != nullptr) chunk.weights16 += (b - 1) * v;
+                   kernel_.skin_quantized_range(chunk, columns, p, nrm, tan, 0, n);
+                 });
     };
     const int threads = FrameThreads(frame.threads, info_.threads);
     if (threads <= 1) {

@@ -241,8 +241,8 @@ HWY_INLINE void Renormalise(float* HWY_RESTRICT normals, std::size_t first, std:
   }
 }
 
-// Scales the xyz of tangents [first, last) to unit length and copies each rest tangent's w,
-// four vertices per step like Renormalise.
+// Scales the xyz of tangents [first, last) to unit length and copies each rest tangent's w
+// (rest null: keeps the w already stored), four vertices per step like Renormalise.
 HWY_INLINE void RenormaliseTangents(float* HWY_RESTRICT tangents, const float* HWY_RESTRICT rest,
                                     std::size_t first, std::size_t last) {
   std::size_t v = first;
@@ -253,16 +253,19 @@ HWY_INLINE void RenormaliseTangents(float* HWY_RESTRICT tangents, const float* H
     hn::LoadInterleaved4(d4, tangents + 4 * v, x, y, z, w);
     const V4 length = hn::Sqrt(hn::MulAdd(x, x, hn::MulAdd(y, y, hn::Mul(z, z))));
     const V4 inverse = hn::Div(hn::Set(d4, 1.0f), length);
-    V4 rx, ry, rz, rw;
-    hn::LoadInterleaved4(d4, rest + 4 * v, rx, ry, rz, rw);
-    hn::StoreInterleaved4(hn::Mul(x, inverse), hn::Mul(y, inverse), hn::Mul(z, inverse), rw, d4,
+    if (rest != nullptr) {
+      V4 rx, ry, rz;
+      hn::LoadInterleaved4(d4, rest + 4 * v, rx, ry, rz, w);
+    }
+    hn::StoreInterleaved4(hn::Mul(x, inverse), hn::Mul(y, inverse), hn::Mul(z, inverse), w, d4,
                           tangents + 4 * v);
   }
 #endif
   for (; v < last; ++v) {
     float* t = tangents + 4 * v;
     const float inverse = 1.0f / std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
-    t[0] *= inverse, t[1] *= inverse, t[2] *= inverse, t[3] = rest[4 * v + 3];
+    t[0] *= inverse, t[1] *= inverse, t[2] *= inverse;
+    if (rest != nullptr) t[3] = rest[4 * v + 3];
   }
 }
 
@@ -334,16 +337,17 @@ void SkinRange(const VertexStream& stream, const float* columns, float* out_p, f
 // a time: its integers become floats in a 256-vertex scratch on the stack (about 13 KB at
 // most, in L1), by plain loops the compiler vectorises, and the chunk takes the float loop
 // above. Memory sees only the integers.
-template <int B, bool Normals, typename Joint, typename Weight>
+template <int B, bool Normals, bool Tangents, typename Joint, typename Weight>
 void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRICT joints,
                          const Weight* HWY_RESTRICT weights, const float* HWY_RESTRICT columns,
-                         float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n, std::size_t first,
-                         std::size_t last) {
+                         float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n,
+                         float* HWY_RESTRICT out_t, std::size_t first, std::size_t last) {
   constexpr std::size_t kChunk = 256;
   constexpr float kStep = 1.0f / static_cast<float>(hwy::LimitsMax<Weight>());
   // 4 floats past each chunk's positions and normals: SkinVertex reads 4 of each.
   alignas(64) float p[3 * kChunk + 4];
   alignas(64) float n[Normals ? 3 * kChunk + 4 : 1];
+  alignas(64) float t[Tangents ? 4 * kChunk : 1];
   alignas(64) float w[(B - 1) * kChunk + 1];
   const float scale[3] = {stream.normal_scale[0], stream.normal_scale[1], stream.normal_scale[2]};
   for (std::size_t chunk = first; chunk < last; chunk += kChunk) {
@@ -356,15 +360,24 @@ void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRIC
         for (int a = 0; a < 3; ++a) n[3 * v + a] = static_cast<float>(qn[3 * v + a]) * scale[a];
       }
     }
+    if constexpr (Tangents) {  // xyz as the normals; w (+-32767) as +-1
+      const int16_t* HWY_RESTRICT qt = stream.tangents + 4 * chunk;
+      for (std::size_t v = 0; v < count; ++v) {
+        for (int a = 0; a < 3; ++a) t[4 * v + a] = static_cast<float>(qt[4 * v + a]) * scale[a];
+        t[4 * v + 3] = qt[4 * v + 3] < 0 ? -1.0f : 1.0f;
+      }
+    }
     const Weight* HWY_RESTRICT qw = weights + (B - 1) * chunk;
     for (std::size_t i = 0; i < (B - 1) * count; ++i) w[i] = static_cast<float>(qw[i]) * kStep;
     VertexStream decoded;
     decoded.influences = B;
     decoded.positions = p;
     decoded.normals = n;
+    decoded.tangents = t;
     decoded.weights = w;
-    SkinRangeT<B, Normals, false>(decoded, joints + B * chunk, columns, out_p + 3 * chunk,
-                                  Normals ? out_n + 3 * chunk : nullptr, nullptr, 0, count);
+    SkinRangeT<B, Normals, Tangents>(decoded, joints + B * chunk, columns, out_p + 3 * chunk,
+                                     Normals ? out_n + 3 * chunk : nullptr,
+                                     Tangents ? out_t + 4 * chunk : nullptr, 0, count);
   }
 }
 #else
@@ -417,11 +430,12 @@ HWY_INLINE V4 TransformRegisterQuad(DD d, const hn::Vec<DD>* HWY_RESTRICT m, con
 // float stream, where a conversion and a register broadcast per weight compete with the
 // transform's lane permutes. Memory sees only the integers. The 8 bytes LoadConvert4 reads
 // pass a vertex's 6: the range's last vertex goes through local copies.
-template <int B, bool Normals, typename Joint, typename Weight>
+template <int B, bool Normals, bool Tangents, typename Joint, typename Weight>
 void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRICT joints,
                          const Weight* HWY_RESTRICT weights, const float* HWY_RESTRICT columns,
-                         float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n, std::size_t first,
-                         std::size_t last) {
+                         float* HWY_RESTRICT out_p, float* HWY_RESTRICT out_n,
+                         float* HWY_RESTRICT out_t, std::size_t first, std::size_t last) {
+  static_assert(Normals || !Tangents, "tangents come with normals");
   constexpr std::size_t kChunk = 256;  // also the vertices whose normals are renormalised at once
   constexpr float kStep = 1.0f / static_cast<float>(hwy::LimitsMax<Weight>());
   alignas(64) float w[(B - 1) * kChunk + 1];
@@ -433,6 +447,7 @@ void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRIC
   const V4 scale = hn::Load(d4, scale_lanes);
   const uint16_t* HWY_RESTRICT qp = stream.positions;
   const int16_t* HWY_RESTRICT qn = stream.normals;
+  const int16_t* HWY_RESTRICT qt = stream.tangents;
   for (std::size_t chunk = first; chunk < last; chunk += kChunk) {
     const std::size_t chunk_end = std::min(last, chunk + kChunk);
     const Weight* HWY_RESTRICT qw = weights + (B - 1) * chunk;
@@ -446,6 +461,13 @@ void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRIC
       if constexpr (Normals) {
         const V4 normal = hn::Mul(LoadConvert4(n), scale);
         hn::StoreU(TransformRegisterQuad<false>(d, m.v, s, normal), d4, on);
+      }
+      if constexpr (Tangents) {  // its own 4 integers in, its own 4 floats out: no copies
+        const int16_t* t = qt + 4 * v;
+        float* ot = out_t + 4 * v;
+        const V4 tangent = hn::Mul(LoadConvert4(t), scale);  // scale's fourth lane is 0
+        hn::StoreU(TransformRegisterQuad<false>(d, m.v, s, tangent), d4, ot);
+        ot[3] = t[3] < 0 ? -1.0f : 1.0f;
       }
     };
     // Every vertex but the range's last reads and stores in place.
@@ -465,12 +487,13 @@ void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRIC
       if constexpr (Normals) std::copy_n(res_n, 3, out_n + 3 * v);
     }
     if constexpr (Normals) Renormalise(out_n, chunk, chunk_end);
+    if constexpr (Tangents) RenormaliseTangents(out_t, nullptr, chunk, chunk_end);
   }
 }
 #endif
 
 void SkinQuantizedRange(const QuantizedStream& stream, const float* columns, float* out_p,
-                        float* out_n, std::size_t first, std::size_t last) {
+                        float* out_n, float* out_t, std::size_t first, std::size_t last) {
   if (first >= last) return;
   WithInfluences(stream.influences, [&](auto b) {
     constexpr int kB = decltype(b)::value;
@@ -478,11 +501,14 @@ void SkinQuantizedRange(const QuantizedStream& stream, const float* columns, flo
       using Joint = std::remove_cv_t<std::remove_pointer_t<decltype(joints)>>;
       using Weight = std::remove_cv_t<std::remove_pointer_t<decltype(weights)>>;
       if (out_n == nullptr) {
-        SkinQuantizedRangeT<kB, false, Joint, Weight>(stream, joints, weights, columns, out_p,
-                                                      out_n, first, last);
+        SkinQuantizedRangeT<kB, false, false, Joint, Weight>(stream, joints, weights, columns,
+                                                             out_p, out_n, out_t, first, last);
+      } else if (out_t == nullptr) {
+        SkinQuantizedRangeT<kB, true, false, Joint, Weight>(stream, joints, weights, columns, out_p,
+                                                            out_n, out_t, first, last);
       } else {
-        SkinQuantizedRangeT<kB, true, Joint, Weight>(stream, joints, weights, columns, out_p, out_n,
-                                                     first, last);
+        SkinQuantizedRangeT<kB, true, true, Joint, Weight>(stream, joints, weights, columns, out_p,
+                                                           out_n, out_t, first, last);
       }
     };
     const auto with_weights = [&](const auto* joints) {

@@ -36,6 +36,7 @@ struct QuantizedStream {
   uint32_t influences = 0;              // B, 1..8
   const uint16_t* positions = nullptr;  // 3 per vertex
   const int16_t* normals = nullptr;     // 3 per vertex, or null
+  const int16_t* tangents = nullptr;    // 4 per vertex (w +-32767), or null
   const uint8_t* joints8 = nullptr;     // B per vertex when joint_count <= 256, else null
   const uint16_t* joints16 = nullptr;   // B per vertex otherwise
   const uint8_t* weights8 = nullptr;    // B - 1 unorm8 per vertex, or null
@@ -50,10 +51,11 @@ using SkinRangeFn = void (*)(const VertexStream& stream, const float* columns, f
                              float* out_normals, float* out_tangents, std::size_t first,
                              std::size_t last);
 
-// The same from a quantized stream, with the palette's columns folded with its box.
+// The same from a quantized stream, with the palette's columns folded with its box
+// (tangents' xyz divided by the scale as the normals are).
 using SkinQuantizedRangeFn = void (*)(const QuantizedStream& stream, const float* columns,
-                                      float* out_positions, float* out_normals, std::size_t first,
-                                      std::size_t last);
+                                      float* out_positions, float* out_normals, float* out_tangents,
+                                      std::size_t first, std::size_t last);
 
 // A frame's palette for the dual-quaternion kernel.
 struct DualQuaternionFrame {

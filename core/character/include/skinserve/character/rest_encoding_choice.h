@@ -31,7 +31,8 @@ RestEncodingChoice RestEncodingFromFile(const Character& character,
 
 // The rest encoding a tool uploads a mesh in, with why, in the one order every tool follows:
 // `asked` (--rest-encoding: an explicit choice always wins); else float32 when the mesh
-// goes up with tangents (a quantized rest stream carries none); else `from_file`
+// goes up with tangents (the OpenCL backends skin none from a quantized rest stream, so a
+// tool asks for it only when told to); else `from_file`
 // (RestEncodingFromFile; nullopt: not from a file); else float32, the default.
 RestEncodingChoice DecideRestEncoding(std::optional<RestEncoding> asked, bool tangents,
                                       std::optional<RestEncodingChoice> from_file);

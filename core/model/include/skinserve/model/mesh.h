@@ -97,8 +97,7 @@ Status CheckMorphHeader(std::span<const uint32_t> target_sizes, uint64_t vertex_
 
 // Checks that a mesh may take `encoding`: a quantized rest stream carries no morph targets
 // (their float deltas are added to the float rest arrays, which the quantized loops skip).
-// Nor tangents.
-Status CheckRestEncoding(RestEncoding encoding, uint64_t morph_targets, bool has_tangents = false);
+Status CheckRestEncoding(RestEncoding encoding, uint64_t morph_targets);
 
 // Bytes a mesh of this shape occupies once stored (its morph deltas included: they count
 // against the mesh store's budget and, while uploading, the upload budget).
