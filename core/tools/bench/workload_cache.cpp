@@ -17,8 +17,8 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph
                                            .influences = bones,
                                            .joint_count = kPaperJoints,
                                            .normals = true,
-                                           // (read only by BM_SkinTangents; a quantized
-                                           // rest stream carries none)
+                                           // (read only by BM_SkinTangents, float32
+                                           // only: the quantized rows stream none)
                                            .tangents = rest == RestEncoding::kFloat32,
                                            .seed = vertices * 10ull + bones,
                                            .sorted_by_joints = sorted_by_joints_});
