@@ -11,6 +11,12 @@
 namespace skinserve::client {
 namespace {
 
+// Whether a re-upload's outcome leaves the frame worth sending again: it went through, or
+// it was lost on its way (UNAVAILABLE) and the next attempt may find the stream's replica.
+bool Retried(const Status& reupload) {
+  return reupload.ok() || reupload.code() == StatusCode::kUnavailable;
+}
+
 using Clock = std::chrono::steady_clock;
 
 struct InFlight {
@@ -156,14 +162,23 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
             fmt::format("frame {} answered where frame {} was due", result.frame, head.frame));
       }
       const bool not_found = result.status.code() == StatusCode::kNotFound;
+      Status reupload;
       if (not_found && head.uploads_before < reuploads) {
         resend.push_back(head.frame);  // sent before the last re-upload: just send again
       } else if (not_found && reuploads < options.max_reuploads &&
-                 client.Reupload(options.mesh_id).ok()) {
+                 Retried(reupload = client.Reupload(options.mesh_id))) {
+        // Sent (or, UNAVAILABLE, lost on its way: a connection the server was ageing out, a
+        // replica going away; round_robin's next pick may be the stream's replica): either
+        // way one attempt of max_reuploads, and the frame goes again.
         ++reuploads;
-        ++summary.reuploads;
+        summary.reuploads += reupload.ok() ? 1 : 0;
         resend.push_back(head.frame);
       } else if (!result.status.ok()) {
+        if (!reupload.ok()) {  // the frame's NOT_FOUND, and why the mesh could not go again
+          result.status = Status(result.status.code(),
+                                 fmt::format("{}; re-uploading it failed: {}",
+                                             result.status.message(), reupload.ToString()));
+        }
         ++summary.failed;
         sink(result, Clock::now() - head.sent);
       } else {

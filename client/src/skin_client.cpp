@@ -537,7 +537,12 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   }
   Status status = SkinOnce(request, options.output, part, result);
   if (status.code() == StatusCode::kNotFound) {
-    if (Status s = Reupload(mesh_id); !s.ok()) return status;  // the original NOT_FOUND
+    if (Status s = Reupload(mesh_id); !s.ok()) {  // the original NOT_FOUND, and why
+      status = Status(status.code(), fmt::format("{}; re-uploading it failed: {}", status.message(),
+                                                 s.ToString()));
+      result->status = status;
+      return status;
+    }
     status = SkinOnce(request, options.output, part, result);
   }
   return status;

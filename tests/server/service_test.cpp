@@ -181,5 +181,42 @@ TEST(ServiceTest, ReuploadsTransparentlyWhenTheServerForgotTheMesh) {
   EXPECT_GE(summary.reuploads, 1u);
 }
 
+// A re-upload the server refuses (here every upload: --max-uploads 0) does not vanish: the
+// frame's NOT_FOUND says why the mesh could not go again, unary and streamed.
+TEST(ServiceTest, AFailedReuploadSaysWhyInTheFramesError) {
+  server::ServerOptions options;
+  options.max_uploads = 0;
+  TestServer t(options);
+  auto arrays =
+      std::make_shared<const MeshArrays>(MakeSyntheticMesh({.vertex_count = 100, .influences = 2}));
+  const std::string mesh_id = Mesh::Create(*arrays).value()->id();
+  t.client->Remember(mesh_id, arrays);
+  const auto palette = MakeSyntheticPalette(77, 2, 0);
+  client::FrameResult result;
+  const Status s = t.client->Skin(mesh_id, "serial", palette, 0, false, &result);
+  EXPECT_EQ(s.code(), StatusCode::kNotFound) << s.ToString();
+  EXPECT_NE(s.message().find("re-uploading it failed: RESOURCE_EXHAUSTED"), std::string::npos)
+      << s.message();
+  EXPECT_NE(s.message().find("--max-uploads 0"), std::string::npos) << s.message();
+
+  client::StreamSummary summary;
+  int failed = 0;
+  const Status streamed = client::StreamFrames(
+      *t.client, {.mesh_id = mesh_id, .backend = "serial", .frames = 3},
+      [](uint64_t f) { return MakeSyntheticPalette(77, 2, f); },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) {
+        EXPECT_EQ(r.status.code(), StatusCode::kNotFound);
+        EXPECT_NE(r.status.message().find("re-uploading it failed: RESOURCE_EXHAUSTED"),
+                  std::string::npos)
+            << r.status.message();
+        ++failed;
+      },
+      &summary);
+  EXPECT_TRUE(streamed.ok()) << streamed.ToString();
+  EXPECT_EQ(failed, 3);
+  EXPECT_EQ(summary.failed, 3u);
+  EXPECT_EQ(summary.reuploads, 0u);
+}
+
 }  // namespace
 }  // namespace skinserve::testing
