@@ -52,13 +52,19 @@ void ExpectWithinBounds(Backend& backend, const QuantizedCase& c, const Mesh& me
   EXPECT_LE(e.over_bound, 1.0) << what << ": against the original input, error / stated bound";
 }
 
+// `simd` and `simd-openmp` (two threads) capped at `target`.
+std::vector<std::unique_ptr<Backend>> SimdBackendsAt(const std::string& target) {
+  std::vector<std::unique_ptr<Backend>> backends;
+  for (int threads : {0, 2}) backends.push_back(CreateSimdBackend(threads, target));
+  return backends;
+}
+
 class QuantizedRestTargetTest : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(QuantizedRestTargetTest, BothBackendsMatchBothReferencesAtThisTarget) {
-  std::vector<std::unique_ptr<Backend>> backends;
-  for (int threads : {0, 2}) {  // simd, simd-openmp
-    backends.push_back(CreateSimdBackend(threads, GetParam()));
-    ASSERT_TRUE(backends.back()->info().available) << backends.back()->info().unavailable_reason;
+  const auto backends = SimdBackendsAt(GetParam());
+  for (const auto& backend : backends) {
+    ASSERT_TRUE(backend->info().available) << backend->info().unavailable_reason;
   }
   uint64_t seed = 1;
   for (RestEncoding encoding : {RestEncoding::kQuantized16, RestEncoding::kQuantized8Weights}) {
@@ -88,10 +94,9 @@ TEST_P(QuantizedRestTargetTest, BothBackendsMatchBothReferencesAtThisTarget) {
 // exact). Both weight widths, 8- and 16-bit joints, influence counts with and without a
 // vector's worth of weights, tails around the 256-vertex chunks.
 TEST_P(QuantizedRestTargetTest, TangentsFromTheStreamMatchTheReferenceOnTheDecodedInput) {
-  std::vector<std::unique_ptr<Backend>> backends;
-  for (int threads : {0, 2}) {  // simd, simd-openmp
-    backends.push_back(CreateSimdBackend(threads, GetParam()));
-    ASSERT_TRUE(backends.back()->info().available) << backends.back()->info().unavailable_reason;
+  const auto backends = SimdBackendsAt(GetParam());
+  for (const auto& backend : backends) {
+    ASSERT_TRUE(backend->info().available) << backend->info().unavailable_reason;
   }
   uint64_t seed = 700;
   for (RestEncoding encoding : {RestEncoding::kQuantized16, RestEncoding::kQuantized8Weights}) {

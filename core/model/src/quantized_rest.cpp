@@ -34,6 +34,16 @@ void QuantizeWeights(const float* w, uint32_t b, uint32_t steps, uint32_t* q) {
   }
 }
 
+// The unit direction of xyz[0..2] in snorm16 into q[0..2]; xyz becomes what q decodes to.
+void QuantizeDirection(float* xyz, int16_t* q) {
+  const double length =
+      std::sqrt(double{xyz[0]} * xyz[0] + double{xyz[1]} * xyz[1] + double{xyz[2]} * xyz[2]);
+  for (int a = 0; a < 3; ++a) {
+    q[a] = static_cast<int16_t>(std::lround(xyz[a] / length * kNormalSteps));
+    xyz[a] = static_cast<float>(q[a] / double{kNormalSteps});
+  }
+}
+
 }  // namespace
 
 std::string_view RestEncodingName(RestEncoding encoding) {
@@ -122,14 +132,7 @@ QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t in
   if (!normals.empty()) {
     rest.normals = AlignedBuffer<int16_t>(3 * v_count);
     for (std::size_t v = 0; v < v_count; ++v) {
-      float* n = &normals[3 * v];
-      const double length =
-          std::sqrt(double{n[0]} * n[0] + double{n[1]} * n[1] + double{n[2]} * n[2]);
-      for (int a = 0; a < 3; ++a) {
-        const auto q = static_cast<int16_t>(std::lround(n[a] / length * kNormalSteps));
-        rest.normals[3 * v + a] = q;
-        n[a] = static_cast<float>(q / double{kNormalSteps});
-      }
+      QuantizeDirection(&normals[3 * v], &rest.normals[3 * v]);
     }
   }
 
@@ -138,13 +141,7 @@ QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t in
     rest.tangents = AlignedBuffer<int16_t>(4 * v_count);
     for (std::size_t v = 0; v < v_count; ++v) {
       float* t = &tangents[4 * v];
-      const double length =
-          std::sqrt(double{t[0]} * t[0] + double{t[1]} * t[1] + double{t[2]} * t[2]);
-      for (int a = 0; a < 3; ++a) {
-        const auto q = static_cast<int16_t>(std::lround(t[a] / length * kNormalSteps));
-        rest.tangents[4 * v + a] = q;
-        t[a] = static_cast<float>(q / double{kNormalSteps});
-      }
+      QuantizeDirection(t, &rest.tangents[4 * v]);
       rest.tangents[4 * v + 3] = static_cast<int16_t>(t[3] < 0 ? -kNormalSteps : kNormalSteps);
       t[3] = t[3] < 0 ? -1.0f : 1.0f;
     }
