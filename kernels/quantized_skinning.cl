@@ -9,12 +9,13 @@
  *  - joints: QSKIN_JOINT (uchar when J <= 256, else ushort), B per vertex.
  *  - normals: snorm16 x 3, times normal_scale (1 / the box's scale per axis: the folded
  *    palette's 3x3 carries the scale), transformed and renormalised, which absorbs 1/32767.
+ *  - tangents: snorm16 x 4, xyz as the normals, w (+-32767) written as the handedness +-1.
  * Appended to linear_blend_skinning.cl in one program, built once per joint and weight
  * width (-DQSKIN_JOINT, -DQSKIN_WEIGHT, -DQSKIN_WEIGHT_STEPS): it takes that file's
  * work-item order (SKIN_VERTEX, SKIN_KEEP: four vertices per item, coalesced on a GPU), its
  * Blended matrix and, with SKIN_LOCAL_PALETTE, its staged palette and tiles. Kernels:
- * qskin_b1..8, qskin_normals_b1..8 and their *_local_* twins (no tangents: a quantized
- * mesh has none). */
+ * qskin_b1..8, qskin_normals_b1..8, qskin_tangents_b1..8 (normals and tangents) and their
+ * *_local_* twins. */
 #if !defined(QSKIN_JOINT) || !defined(QSKIN_WEIGHT) || !defined(QSKIN_WEIGHT_STEPS)
 #error "the host passes QSKIN_JOINT, QSKIN_WEIGHT and QSKIN_WEIGHT_STEPS"
 #endif
@@ -93,6 +94,22 @@ static inline float3 TransformQuantizedNormal(const Blended m,
                   fma(m.r2.s0, x, fma(m.r2.s1, y, m.r2.s2 * z)));
 }
 
+/* The upper 3x3 of m times the decoded tangent's xyz, not yet renormalised. */
+static inline float3 TransformQuantizedTangent(const Blended m,
+                                               const __global short* restrict tangents,
+                                               const float4 normal_scale, const uint v) {
+  const float4 t = convert_float4(vload4(v, tangents)) * normal_scale;
+  return (float3)(fma(m.r01.s0, t.x, fma(m.r01.s1, t.y, m.r01.s2 * t.z)),
+                  fma(m.r01.s4, t.x, fma(m.r01.s5, t.y, m.r01.s6 * t.z)),
+                  fma(m.r2.s0, t.x, fma(m.r2.s1, t.y, m.r2.s2 * t.z)));
+}
+
+/* The skinned tangent: xyz already renormalised, w the stored handedness (+-32767) as +-1. */
+static inline void StoreQuantizedTangent(const float3 xyz, const __global short* restrict tangents,
+                                         __global float* restrict out_tangents, const uint v) {
+  vstore4((float4)(xyz, tangents[4 * v + 3] < 0 ? -1.0f : 1.0f), v, out_tangents);
+}
+
 #define QSKIN_ARGS                                                                          \
   const __global float *restrict palette, const __global QSKIN_JOINT *restrict joints,      \
       const __global QSKIN_WEIGHT *restrict weights,                                        \
@@ -101,6 +118,8 @@ static inline float3 TransformQuantizedNormal(const Blended m,
 #define QSKIN_NORMAL_ARGS                                                                   \
   const __global short *restrict normals, __global float *restrict out_normals,             \
       const float4 normal_scale
+#define QSKIN_TANGENT_ARGS \
+  QSKIN_NORMAL_ARGS, const __global short *restrict tangents, __global float *restrict out_tangents
 
 #define QSKIN_POSITIONS_BODY(B, BLEND, PALETTE, VERTEX)                                    \
   if (VERTEX(0) >= vertex_count) return;                                                   \
@@ -111,8 +130,22 @@ static inline float3 TransformQuantizedNormal(const Blended m,
     if (SKIN_KEEP(raw, vertex_count)) StoreQuantizedPosition(m, positions, out_positions, v); \
   }
 
+/* TANGENTS_PREPARE and TANGENT(k, v) as in SKIN_NORMALS_BODY: the tangents decoded,
+ * transformed and sharing one vector rsqrt (QSKIN_TANGENTS_*), or nothing
+ * (SKIN_NO_TANGENTS_*). */
+#define QSKIN_TANGENTS_PREPARE                                                             \
+  const float3 s0 = TransformQuantizedTangent(m0, tangents, normal_scale, v0),             \
+               s1 = TransformQuantizedTangent(m1, tangents, normal_scale, v1),             \
+               s2 = TransformQuantizedTangent(m2, tangents, normal_scale, v2),             \
+               s3 = TransformQuantizedTangent(m3, tangents, normal_scale, v3);             \
+  const float4 tangent_inverse_length =                                                    \
+      rsqrt((float4)(SquaredLength(s0), SquaredLength(s1), SquaredLength(s2),              \
+                     SquaredLength(s3)));
+#define QSKIN_TANGENT(k, v) \
+  StoreQuantizedTangent(s##k * tangent_inverse_length.s##k, tangents, out_tangents, v);
+
 /* Four vertices share one vector rsqrt, as in skin_normals_b*. */
-#define QSKIN_NORMALS_BODY(B, BLEND, PALETTE, VERTEX)                                      \
+#define QSKIN_NORMALS_BODY(B, BLEND, PALETTE, VERTEX, TANGENTS_PREPARE, TANGENT)           \
   const uint r0 = VERTEX(0), r1 = VERTEX(1), r2 = VERTEX(2), r3 = VERTEX(3);               \
   if (r0 >= vertex_count) return;                                                          \
   const uint last = vertex_count - 1;                                                      \
@@ -128,19 +161,24 @@ static inline float3 TransformQuantizedNormal(const Blended m,
   const float4 inverse_length =                                                            \
       rsqrt((float4)(SquaredLength(t0), SquaredLength(t1), SquaredLength(t2),              \
                      SquaredLength(t3)));                                                  \
+  TANGENTS_PREPARE                                                                         \
   StoreQuantizedPosition(m0, positions, out_positions, v0);                                \
   vstore3(t0 * inverse_length.s0, v0, out_normals);                                        \
+  TANGENT(0, v0)                                                                           \
   if (SKIN_KEEP(r1, vertex_count)) {                                                       \
     StoreQuantizedPosition(m1, positions, out_positions, v1);                              \
     vstore3(t1 * inverse_length.s1, v1, out_normals);                                      \
+    TANGENT(1, v1)                                                                         \
   }                                                                                        \
   if (SKIN_KEEP(r2, vertex_count)) {                                                       \
     StoreQuantizedPosition(m2, positions, out_positions, v2);                              \
     vstore3(t2 * inverse_length.s2, v2, out_normals);                                      \
+    TANGENT(2, v2)                                                                         \
   }                                                                                        \
   if (SKIN_KEEP(r3, vertex_count)) {                                                       \
     StoreQuantizedPosition(m3, positions, out_positions, v3);                              \
     vstore3(t3 * inverse_length.s3, v3, out_normals);                                      \
+    TANGENT(3, v3)                                                                         \
   }
 
 #define DEFINE_QUANTIZED_KERNELS(B)                                                        \
@@ -148,7 +186,12 @@ static inline float3 TransformQuantizedNormal(const Blended m,
     QSKIN_POSITIONS_BODY(B, QuantizedBlendPalette, palette, SKIN_VERTEX)                   \
   }                                                                                        \
   __kernel void qskin_normals_b##B(QSKIN_ARGS, QSKIN_NORMAL_ARGS) {                        \
-    QSKIN_NORMALS_BODY(B, QuantizedBlendPalette, palette, SKIN_VERTEX)                     \
+    QSKIN_NORMALS_BODY(B, QuantizedBlendPalette, palette, SKIN_VERTEX,                     \
+                       SKIN_NO_TANGENTS_PREPARE, SKIN_NO_TANGENT)                          \
+  }                                                                                        \
+  __kernel void qskin_tangents_b##B(QSKIN_ARGS, QSKIN_TANGENT_ARGS) {                      \
+    QSKIN_NORMALS_BODY(B, QuantizedBlendPalette, palette, SKIN_VERTEX,                     \
+                       QSKIN_TANGENTS_PREPARE, QSKIN_TANGENT)                              \
   }
 
 #if SKIN_LOCAL_PALETTE
@@ -165,7 +208,16 @@ DEFINE_QUANTIZED_BLEND(QuantizedBlendLocalPalette, __local)
     StagePalette(palette, staged, palette_floats);                                         \
     for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                 \
       const uint tile_base = SKIN_TILE_BASE(tile);                                         \
-      QSKIN_NORMALS_BODY(B, QuantizedBlendLocalPalette, staged, SKIN_TILE_VERTEX)          \
+      QSKIN_NORMALS_BODY(B, QuantizedBlendLocalPalette, staged, SKIN_TILE_VERTEX,          \
+                         SKIN_NO_TANGENTS_PREPARE, SKIN_NO_TANGENT)                        \
+    }                                                                                      \
+  }                                                                                        \
+  __kernel void qskin_tangents_local_b##B(QSKIN_ARGS, QSKIN_TANGENT_ARGS, SKIN_LOCAL_ARGS) { \
+    StagePalette(palette, staged, palette_floats);                                         \
+    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                 \
+      const uint tile_base = SKIN_TILE_BASE(tile);                                         \
+      QSKIN_NORMALS_BODY(B, QuantizedBlendLocalPalette, staged, SKIN_TILE_VERTEX,          \
+                         QSKIN_TANGENTS_PREPARE, QSKIN_TANGENT)                            \
     }                                                                                      \
   }
 #else

@@ -25,7 +25,6 @@ Result<std::optional<RestEncoding>> ParseRestEncodingOption(const std::string& v
 
 Result<RestEncodingChoice> MeshRestEncoding(const Character& character, const CharacterMesh& mesh,
                                             std::optional<RestEncoding> asked) {
-  const bool tangents = !mesh.arrays.tangents.empty();
   const bool morphs = !mesh.arrays.morph_target_sizes.empty();
   if (asked && *asked != RestEncoding::kFloat32 && morphs) {
     return InvalidArgument(fmt::format(
@@ -34,7 +33,7 @@ Result<RestEncodingChoice> MeshRestEncoding(const Character& character, const Ch
   }
   std::vector<int> primitives;
   for (const PrimitiveSpan& part : mesh.parts) primitives.push_back(part.primitive);
-  return DecideRestEncoding(asked, tangents, RestEncodingFromFile(character, primitives));
+  return DecideRestEncoding(asked, RestEncodingFromFile(character, primitives));
 }
 
 }  // namespace skinserve::cli

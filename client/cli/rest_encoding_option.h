@@ -23,7 +23,7 @@ void AddRestEncodingOption(CLI::App* command, std::string* value);
 Result<std::optional<RestEncoding>> ParseRestEncodingOption(const std::string& value);
 
 // The encoding `mesh` goes up in, with why: DecideRestEncoding over the file's choice for
-// the mesh's parts (the asked one; else float32 for a mesh with tangents; else the file's).
+// the mesh's parts (the asked one; else the file's).
 // INVALID_ARGUMENT, naming the mesh, for a quantized encoding asked of a mesh with morph
 // targets.
 Result<RestEncodingChoice> MeshRestEncoding(const Character& character, const CharacterMesh& mesh,

@@ -141,11 +141,7 @@ Result<std::string> Upload(client::SkinClient& client, const Workload& w) {
 // The glTF character when --mesh names one, else the synthetic mesh of this shape.
 Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bones, uint64_t seed) {
   const SkinningMethod method = *ParseMethod(o.method);
-  if (o.tangents && (!o.normals || (!o.rest_encoding.empty() && o.rest_encoding != "float32"))) {
-    return InvalidArgument(
-        "--tangents needs --normals and --rest-encoding float32 (the load tool runs every "
-        "backend, and the OpenCL ones skin no tangents from a quantized rest stream)");
-  }
+  if (o.tangents && !o.normals) return InvalidArgument("--tangents needs --normals");
   Result<Workload> workload =
       o.mesh.empty() ? Result<Workload>(MakeWorkload(vertices, bones, o.joints, o.normals, seed,
                                                      method, o.morph, o.tangents))
@@ -154,7 +150,7 @@ Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bone
   workload->method = method;
   const std::optional<RestEncoding> asked =
       o.rest_encoding.empty() ? std::nullopt : ParseRestEncoding(o.rest_encoding);
-  if (Status s = ChooseRestEncoding(&*workload, asked, o.tangents); !s.ok()) return s;
+  if (Status s = ChooseRestEncoding(&*workload, asked); !s.ok()) return s;
   return workload;
 }
 

@@ -15,10 +15,9 @@
 namespace skinserve::load {
 
 Status SetRestEncoding(Workload* w, RestEncoding encoding) {
-  // With a quantized rest stream the load tool never asks for tangents back (--tangents
-  // needs float32: the OpenCL backends skin none from the stream): a character's tangents
-  // stay behind instead of costing the stream 8 bytes a vertex for nothing.
-  if (encoding != RestEncoding::kFloat32 && !w->arrays->tangents.empty()) {
+  // A character's tangents not asked back (--tangents) stay out of a quantized rest stream
+  // instead of costing it 8 bytes a vertex for nothing.
+  if (encoding != RestEncoding::kFloat32 && !w->tangents && !w->arrays->tangents.empty()) {
     auto arrays = std::make_shared<MeshArrays>(*w->arrays);
     arrays->tangents.clear();
     arrays->morph_tangent_deltas.clear();
@@ -31,8 +30,8 @@ Status SetRestEncoding(Workload* w, RestEncoding encoding) {
   return Status::Ok();
 }
 
-Status ChooseRestEncoding(Workload* w, std::optional<RestEncoding> asked, bool tangents) {
-  RestEncodingChoice choice = DecideRestEncoding(asked, tangents, w->file_rest_encoding);
+Status ChooseRestEncoding(Workload* w, std::optional<RestEncoding> asked) {
+  RestEncodingChoice choice = DecideRestEncoding(asked, w->file_rest_encoding);
   if (choice.encoding != w->rest_encoding) {
     if (Status s = SetRestEncoding(w, choice.encoding); !s.ok()) {
       return Status(s.code(),

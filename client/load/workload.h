@@ -63,15 +63,15 @@ struct MorphWorkload {
   uint32_t active = 4;
 };
 
-// Stores the workload's mesh as `encoding` (its reference mesh rebuilt from the arrays):
-// INVALID_ARGUMENT as the server would answer (e.g. a mesh with morph targets).
+// Stores the workload's mesh as `encoding` (its reference mesh rebuilt from the arrays; a
+// quantized one drops the mesh's tangents unless `tangents` are asked back): INVALID_ARGUMENT
+// as the server would answer (e.g. a mesh with morph targets).
 Status SetRestEncoding(Workload* w, RestEncoding encoding);
 
 // Picks the workload's rest encoding as every tool does (DecideRestEncoding: `asked`, else
-// float32 when `tangents` are asked back, else file_rest_encoding for a glTF workload, else
-// float32), applies it (SetRestEncoding; a quantized one drops the tangents the load tool
-// never asks back) and sets rest_encoding_reason.
-Status ChooseRestEncoding(Workload* w, std::optional<RestEncoding> asked, bool tangents);
+// file_rest_encoding for a glTF workload, else float32), applies it (SetRestEncoding) and
+// sets rest_encoding_reason.
+Status ChooseRestEncoding(Workload* w, std::optional<RestEncoding> asked);
 
 // Dual-quaternion workloads get rigid palettes (MakeRigidPalette): the method refuses the
 // synthetic palettes' scale. `tangents` (with normals): the mesh has tangents (and its

@@ -13,7 +13,8 @@
 // normals, both weight widths, meshes moved off the origin, tails around the chunks. Also:
 // the other backends skin the decoded floats; dual quaternions and morph targets are
 // refused with their reason; ids and byte sizes. `opencl` and `opencl-zerocopy` read the
-// integers on the device (quantized_skinning.cl): checked against both references too.
+// integers on the device (quantized_skinning.cl): checked against both references too, and
+// their tangents against the reference on the decoded input.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -232,30 +233,38 @@ TEST(QuantizedRestTest, TangentsAreStoredAsSnorm16WithTheirHandedness) {
   }
 }
 
-// The OpenCL kernels read positions and normals of the stream: a frame asking them for
-// tangents is refused naming the backends that skin them; without tangents it runs.
-TEST(QuantizedRestTest, OpenClRefusesTangentsOfAQuantizedMeshNamingWhoSkinsThem) {
-  auto mesh = Mesh::Create(
-      MakeSyntheticMesh(
-          {.vertex_count = 10, .joint_count = 8, .normals = true, .tangents = true, .seed = 4}),
-      {.rest_encoding = RestEncoding::kQuantized16});
-  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
-  const auto palette = MakeSyntheticPalette(8, 4, 1);
+// `opencl` and `opencl-zerocopy` read the stream's tangents too (qskin_tangents_*): every
+// output against the float64 reference on the decoded input, as the SIMD loops above
+// (tangents' xyz 1e-5, w exact); every influence count, both joint and weight widths,
+// vertex counts around the work-group and the work-item.
+TEST(QuantizedRestTest, OpenClTangentsFromTheStreamMatchTheReferenceOnTheDecodedInput) {
+  uint64_t seed = 800;
   for (const char* id : {"opencl", "opencl-zerocopy"}) {
     Backend& backend = BackendById(id);
-    if (!backend.info().available) continue;
-    auto prepared = backend.Prepare(*mesh);
-    ASSERT_TRUE(prepared.ok()) << id;
-    std::vector<float> positions(30), normals(30), tangents(40);
-    Status s = backend.Skin(
-        **prepared,
-        {.palette = palette, .positions = positions, .normals = normals, .tangents = tangents});
-    EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << id;
-    EXPECT_NE(s.message().find(std::string(id) + ": mesh "), std::string::npos) << s.message();
-    EXPECT_NE(s.message().find("ask for them from simd or simd-openmp"), std::string::npos)
-        << s.message();
-    s = backend.Skin(**prepared, {.palette = palette, .positions = positions, .normals = normals});
-    EXPECT_TRUE(s.ok()) << id << ": " << s.ToString();
+    SKIP_IF_UNAVAILABLE(backend);
+    for (RestEncoding encoding : {RestEncoding::kQuantized16, RestEncoding::kQuantized8Weights}) {
+      for (uint32_t j : {20u, 300u}) {
+        for (uint32_t b = 1; b <= 8; ++b) {
+          for (uint32_t v : {1u, 6u, 257u, 1001u}) {
+            const MeshCase c{v, b, j, true, true};
+            auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = v,
+                                                        .influences = b,
+                                                        .joint_count = j,
+                                                        .normals = true,
+                                                        .tangents = true,
+                                                        .seed = ++seed}),
+                                     {.rest_encoding = encoding});
+            ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+            auto prepared = backend.Prepare(*mesh);
+            ASSERT_TRUE(prepared.ok()) << id << ": " << prepared.status().ToString();
+            ExpectFrameMatchesReference(
+                backend, **prepared, **mesh, MakeSyntheticPalette(j, seed, 2), c,
+                SkinningMethod::kLinear, std::string(RestEncodingName(encoding)));
+            if (HasFailure()) return;
+          }
+        }
+      }
+    }
   }
 }
 

@@ -127,7 +127,8 @@ std::string WriteFile(const Glb& glb, const std::string& name) {
   return path;
 }
 
-TEST(GltfTangentsE2eTest, TheLoadToolsWorkloadCarriesTangentsExceptForAQuantizedRestStream) {
+TEST(GltfTangentsE2eTest,
+     TheLoadToolsWorkloadCarriesTangentsIntoAQuantizedRestStreamWhenAskedBack) {
   TangentScene scene = MakeTangentScene();
   std::string path = WriteFile(scene.glb, "workload-tangents.glb");
   auto w = load::MakeGltfWorkload(path, -1, true);
@@ -139,18 +140,26 @@ TEST(GltfTangentsE2eTest, TheLoadToolsWorkloadCarriesTangentsExceptForAQuantized
   EXPECT_EQ(w->arrays->morph_tangent_deltas, mesh.morph_tangent_deltas);
   EXPECT_TRUE(w->mesh->has_tangents());
 
-  // A quantized rest stream holds neither tangents nor morph targets: without targets the
-  // character loads so, its tangents left behind (the load tool never asks for them).
+  // A quantized rest stream holds no morph targets: without targets the character loads so,
+  // its tangents in the stream when asked back (--tangents), else left behind.
   scene.glb.json["meshes"][0]["primitives"][0].erase("targets");
   path = WriteFile(scene.glb, "workload-tangents-no-targets.glb");
   w = load::MakeGltfWorkload(path, -1, true);
   ASSERT_TRUE(w.ok()) << w.status().ToString();
   ASSERT_EQ(w->arrays->tangents.size(), 32u);
-  const Status s = load::SetRestEncoding(&*w, RestEncoding::kQuantized16);
+  Status s = load::SetRestEncoding(&*w, RestEncoding::kQuantized16);
   ASSERT_TRUE(s.ok()) << s.ToString();
   EXPECT_TRUE(w->arrays->tangents.empty());
   EXPECT_FALSE(w->mesh->has_tangents());
   EXPECT_EQ(w->arrays->positions, mesh.positions);
+
+  w = load::MakeGltfWorkload(path, -1, true, true);
+  ASSERT_TRUE(w.ok()) << w.status().ToString();
+  s = load::SetRestEncoding(&*w, RestEncoding::kQuantized16);
+  ASSERT_TRUE(s.ok()) << s.ToString();
+  EXPECT_EQ(w->arrays->tangents.size(), 32u);
+  ASSERT_NE(w->mesh->quantized_rest(), nullptr);
+  EXPECT_EQ(w->mesh->quantized_rest()->tangents.size(), 32u);
 }
 
 }  // namespace

@@ -112,23 +112,18 @@ TEST(QuantizedGltfUploadTest, TheFileDecidesTheEncodingNamingWhy) {
   EXPECT_NE(c.reason.find("morph targets"), std::string::npos) << c.reason;
 }
 
-// Every tool's order: an explicit choice wins over tangents and the file, tangents over the
-// file, the file over the default.
+// Every tool's order: an explicit choice wins over the file, the file over the default.
 TEST(QuantizedGltfUploadTest, ToolsDecideTheEncodingInOneOrder) {
   const RestEncodingChoice file{RestEncoding::kQuantized8Weights, "the file's reason"};
-  RestEncodingChoice c = DecideRestEncoding(RestEncoding::kQuantized16, true, file);
+  RestEncodingChoice c = DecideRestEncoding(RestEncoding::kQuantized16, file);
   EXPECT_EQ(c.encoding, RestEncoding::kQuantized16);
   EXPECT_EQ(c.reason, "asked with --rest-encoding");
-  c = DecideRestEncoding(RestEncoding::kFloat32, false, file);
+  c = DecideRestEncoding(RestEncoding::kFloat32, file);
   EXPECT_EQ(c.encoding, RestEncoding::kFloat32);
-  c = DecideRestEncoding(std::nullopt, true, file);
-  EXPECT_EQ(c.encoding, RestEncoding::kFloat32);
-  EXPECT_EQ(c.reason,
-            "it has tangents (the OpenCL backends skin none from a quantized rest stream)");
-  c = DecideRestEncoding(std::nullopt, false, file);
+  c = DecideRestEncoding(std::nullopt, file);
   EXPECT_EQ(c.encoding, RestEncoding::kQuantized8Weights);
   EXPECT_EQ(c.reason, "the file's reason");
-  c = DecideRestEncoding(std::nullopt, false, std::nullopt);
+  c = DecideRestEncoding(std::nullopt, std::nullopt);
   EXPECT_EQ(c.encoding, RestEncoding::kFloat32);
   EXPECT_EQ(c.reason, "the default");
 }
@@ -165,7 +160,7 @@ TEST(QuantizedGltfUploadTest, AQuantizedFileIsStoredQuantizedAndSkinsWithinTheSt
     SCOPED_TRACE("primitive " + std::to_string(primitive));
     auto w = load::MakeGltfWorkload(path, primitive, true);
     ASSERT_TRUE(w.ok()) << w.status().ToString();
-    ASSERT_TRUE(load::ChooseRestEncoding(&*w, std::nullopt, false).ok());
+    ASSERT_TRUE(load::ChooseRestEncoding(&*w, std::nullopt).ok());
     EXPECT_EQ(w->rest_encoding, encoding) << w->rest_encoding_reason;
     EXPECT_NE(w->rest_encoding_reason.find("stores POSITION as 8- or 16-bit"), std::string::npos)
         << "the file's reason: " << w->rest_encoding_reason;
@@ -193,22 +188,16 @@ TEST(QuantizedGltfUploadTest, AFloatFileAndAnExplicitFloat32StayFloat32) {
   TestServer t;
   auto floats = load::MakeGltfWorkload(WriteScene(TwoSkins(), "float-rest"), -1, true);
   ASSERT_TRUE(floats.ok()) << floats.status().ToString();
-  ASSERT_TRUE(load::ChooseRestEncoding(&*floats, std::nullopt, false).ok());
+  ASSERT_TRUE(load::ChooseRestEncoding(&*floats, std::nullopt).ok());
   EXPECT_EQ(floats->rest_encoding, RestEncoding::kFloat32) << floats->rest_encoding_reason;
   EXPECT_NE(floats->rest_encoding_reason.find("POSITION as FLOAT"), std::string::npos)
       << floats->rest_encoding_reason;
 
   auto asked = load::MakeGltfWorkload(WriteScene(Quantized(), "asked-float"), -1, true);
   ASSERT_TRUE(asked.ok()) << asked.status().ToString();
-  ASSERT_TRUE(load::ChooseRestEncoding(&*asked, RestEncoding::kFloat32, false).ok());
+  ASSERT_TRUE(load::ChooseRestEncoding(&*asked, RestEncoding::kFloat32).ok());
   EXPECT_EQ(asked->rest_encoding, RestEncoding::kFloat32);
   EXPECT_EQ(asked->mesh->quantized_rest(), nullptr);
-  // Tangents asked back also keep floats (the OpenCL backends skin none from a quantized
-  // rest stream).
-  auto tangents = load::MakeGltfWorkload(WriteScene(Quantized(), "tangents-float"), -1, true);
-  ASSERT_TRUE(tangents.ok());
-  ASSERT_TRUE(load::ChooseRestEncoding(&*tangents, std::nullopt, true).ok());
-  EXPECT_EQ(tangents->rest_encoding, RestEncoding::kFloat32);
 
   for (load::Workload* w : {&*floats, &*asked}) {
     auto info = t.client->Upload(*w->arrays, {.rest_encoding = w->rest_encoding});
@@ -249,6 +238,35 @@ TEST(QuantizedGltfUploadTest, LoadClientPicksTheFilesEncodingUnlessAsked) {
     std::ifstream err(base + ".err");
     const std::string said((std::istreambuf_iterator<char>(err)), {});
     EXPECT_NE(said.find(std::string("note: rest encoding ") + expected), std::string::npos) << said;
+  }
+}
+
+// The load client asks a quantized mesh for its tangents back on every backend that reads
+// the stream (and one that skins the decoded floats), each answer checked against the
+// float64 reference.
+TEST(QuantizedGltfUploadTest, LoadClientChecksAQuantizedMeshsTangentsOnEveryBackend) {
+  TestServer t;
+  const std::string base =
+      ::testing::TempDir() + "load-quantized-tangents-" + std::to_string(getpid());
+  const std::string command =
+      std::string(SKINSERVE_LOAD_BINARY) + " --target " + t.target +
+      " --vertices 3001 --bones 4 --rest-encoding quantized16 --normals --tangents"
+      " --backends simd,simd-openmp,opencl,opencl-zerocopy,serial --streams 1 --frames 10"
+      " --warmup 0 --check-every 1 --json " +
+      base + ".json > /dev/null 2> " + base + ".err";
+  const int status = std::system(command.c_str());
+  EXPECT_EQ(WEXITSTATUS(status), 0) << command;
+  std::ifstream in(base + ".json");
+  ASSERT_TRUE(in) << command;
+  nlohmann::json doc;
+  in >> doc;
+  ASSERT_EQ(doc["results"].size(), 5u) << doc.dump();
+  for (const auto& r : doc["results"]) {
+    EXPECT_EQ(r["rest_encoding"], "quantized16") << r.dump();
+    EXPECT_TRUE(r["tangents"].get<bool>()) << r.dump();
+    EXPECT_TRUE(r["errors"].empty()) << r.dump();
+    EXPECT_EQ(r["mismatches"], 0) << r.dump();
+    EXPECT_EQ(r["checked"], 10) << r.dump();
   }
 }
 

@@ -3,8 +3,9 @@
 // order, the palette in local memory up to 77 joints, the global kernels past it), against
 // the float64 references on the dequantized and on the original input
 // (tests/backends/quantized_reference.h). `opencl` and `opencl-zerocopy` on the CPU path:
-// tests/backends/quantized_rest_test.cpp. Representative cases only: PoCL compiles each
-// kernel on its first launch on each runtime (seconds on the loaded 2-core machine).
+// tests/backends/quantized_rest_test.cpp. Tangents against the reference on the decoded
+// input. Representative cases only: PoCL compiles each kernel on its first launch on each
+// runtime (seconds on the loaded 2-core machine).
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -15,6 +16,7 @@
 #include "backends/opencl_quantized.h"
 #include "opencl_test_support.h"
 #include "quantized_reference.h"
+#include "reference_cases.h"
 #include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {
@@ -57,6 +59,40 @@ TEST(OpenClQuantizedTest, StagedAndCoalescedRuntimesMatchBothReferences) {
   }
 }
 
+// The stream's tangents on the same runtimes (qskin_tangents_* and, on the coalesced one,
+// qskin_tangents_local_*): every output against the float64 reference on the decoded input
+// (tangents' xyz 1e-5, w exact).
+TEST(OpenClQuantizedTest, StagedAndCoalescedRuntimesSkinTheStreamsTangents) {
+  const MeshCase cases[] = {
+      {3000, 4, 20, true, true},   // local palette, 8-bit joints, three staged chunks
+      {3000, 8, 300, true, true},  // global kernels, 16-bit joints
+      {5, 1, 77, true, true},      // one influence, a partial item
+  };
+  uint64_t seed = 950;
+  for (const char* id : {"opencl-staging", "opencl-coalesced"}) {
+    Backend& backend = OpenClBackend(id);
+    SKIP_IF_OPENCL_UNAVAILABLE(backend);
+    for (const MeshCase& c : cases) {
+      for (RestEncoding encoding : {RestEncoding::kQuantized16, RestEncoding::kQuantized8Weights}) {
+        auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = c.vertices,
+                                                    .influences = c.influences,
+                                                    .joint_count = c.joints,
+                                                    .normals = true,
+                                                    .tangents = true,
+                                                    .seed = ++seed}),
+                                 {.rest_encoding = encoding});
+        ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+        auto prepared = backend.Prepare(*mesh);
+        ASSERT_TRUE(prepared.ok()) << id << ": " << prepared.status().ToString();
+        ExpectFrameMatchesReference(
+            backend, **prepared, **mesh, MakeSyntheticPalette(c.joints, seed, 2), c,
+            SkinningMethod::kLinear,
+            std::string(id) + " " + std::string(RestEncodingName(encoding)));
+      }
+    }
+  }
+}
+
 // The point of the stream on the device: a quantized mesh's buffers hold its integers only,
 // 6 + B + 2 (B - 1) + 6 bytes a vertex at 8-bit joints, unorm16 weights and normals (B = 4:
 // 24, against 12 + 8 + 16 + 12 = 48 as floats), and (B - 1) bytes of weights with unorm8.
@@ -83,7 +119,16 @@ TEST(OpenClQuantizedTest, TheDeviceHoldsOnlyTheIntegers) {
     EXPECT_EQ(size_of(device->normals), 6u * kVertices);
     EXPECT_EQ(size_of(device->joints), 4 * joint_bytes * kVertices);
     EXPECT_EQ(size_of(device->weights), 3 * weight_bytes * kVertices);
+    EXPECT_EQ(device->tangents.get(), nullptr) << "the mesh has no tangents";
   }
+  // With tangents: 4 snorm16 a vertex more.
+  auto tangents = Mesh::Create(
+      MakeSyntheticMesh({.vertex_count = kVertices, .normals = true, .tangents = true, .seed = 4}),
+      {.rest_encoding = RestEncoding::kQuantized16});
+  ASSERT_TRUE(tangents.ok());
+  auto device = CreateQuantizedDeviceMesh(**runtime, **tangents, CL_MEM_COPY_HOST_PTR);
+  ASSERT_TRUE(device.ok()) << device.status().ToString();
+  EXPECT_EQ(size_of(device->tangents), 8u * kVertices);
 }
 
 }  // namespace

@@ -57,13 +57,9 @@ RestEncodingChoice RestEncodingFromFile(const Character& character,
                       positions)};
 }
 
-RestEncodingChoice DecideRestEncoding(std::optional<RestEncoding> asked, bool tangents,
+RestEncodingChoice DecideRestEncoding(std::optional<RestEncoding> asked,
                                       std::optional<RestEncodingChoice> from_file) {
   if (asked) return {*asked, "asked with --rest-encoding"};
-  if (tangents) {
-    return {RestEncoding::kFloat32,
-            "it has tangents (the OpenCL backends skin none from a quantized rest stream)"};
-  }
   if (from_file) return std::move(*from_file);
   return {RestEncoding::kFloat32, "the default"};
 }

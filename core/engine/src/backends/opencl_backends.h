@@ -31,14 +31,13 @@ std::vector<std::unique_ptr<Backend>> MakeOpenClBackendsOn(std::shared_ptr<OpenC
 std::vector<std::unique_ptr<Backend>> MakeUnavailableOpenClBackends(const std::string& reason);
 
 // Both backends' Skin(): `frame` with its palette in the layout the kernels take - folded
-// with a quantized mesh's box (after CheckQuantizedMethod and CheckQuantizedTangents), or
+// with a quantized mesh's box (after CheckQuantizedMethod), or
 // as unit dual quaternions, converted once per frame - handed to `skin_palette`.
 template <typename SkinPalette>
 Status SkinWithKernelPalette(const std::string& backend_id, const PreparedMesh& base,
                              const SkinFrame& frame, const SkinPalette& skin_palette) {
   if (const QuantizedRest* rest = base.mesh().quantized_rest()) {
     if (Status s = CheckQuantizedMethod(backend_id, base.mesh(), frame.method); !s.ok()) return s;
-    if (Status s = CheckQuantizedTangents(backend_id, base.mesh(), frame); !s.ok()) return s;
     SkinFrame folded = frame;
     folded.palette = FoldedQuantizedPalette(frame.palette, *rest);
     return skin_palette(folded);

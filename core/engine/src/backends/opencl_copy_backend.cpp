@@ -74,9 +74,9 @@ class OpenClCopyBackend final : public Backend {
   Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
     auto prepared = std::make_unique<OpenClPreparedMesh>(mesh);
     if (mesh->quantized_rest() != nullptr) {  // the integers only (opencl_quantized.h)
-      if (Status s =
-              PrepareQuantizedMesh(*runtime_, *mesh, CL_MEM_COPY_HOST_PTR, &prepared->positions,
-                                   &prepared->normals, &prepared->joints, &prepared->weights);
+      if (Status s = PrepareQuantizedMesh(
+              *runtime_, *mesh, CL_MEM_COPY_HOST_PTR, &prepared->positions, &prepared->normals,
+              &prepared->tangents, &prepared->joints, &prepared->weights);
           !s.ok()) {
         return s;
       }

@@ -65,17 +65,25 @@ Result<QuantizedDeviceMesh> CreateQuantizedDeviceMesh(OpenClRuntime& runtime, co
       return s;
     }
   }
+  if (!rest->tangents.empty()) {
+    if (Status s = make("quantized tangents", &out.tangents, rest->tangents.size() * 2,
+                        rest->tangents.data());
+        !s.ok()) {
+      return s;
+    }
+  }
   return out;
 }
 
 Status PrepareQuantizedMesh(OpenClRuntime& runtime, const Mesh& mesh, cl_mem_flags flags,
-                            ClBuffer* positions, ClBuffer* normals, ClBuffer* joints,
-                            ClBuffer* weights) {
+                            ClBuffer* positions, ClBuffer* normals, ClBuffer* tangents,
+                            ClBuffer* joints, ClBuffer* weights) {
   auto device_mesh = CreateQuantizedDeviceMesh(runtime, mesh, flags);
   if (!device_mesh.ok()) return device_mesh.status();
   if (Status s = runtime.quantized_kernels().Warm(runtime, mesh, *device_mesh); !s.ok()) return s;
   *positions = std::move(device_mesh->positions);
   *normals = std::move(device_mesh->normals);
+  *tangents = std::move(device_mesh->tangents);
   *joints = std::move(device_mesh->joints);
   *weights = std::move(device_mesh->weights);
   return Status::Ok();
@@ -89,17 +97,6 @@ Status CheckQuantizedMethod(const std::string& backend_id, const Mesh& mesh,
       " is stored with a quantized rest stream, which this backend skins with the linear "
       "method only; skin it linear, or on a backend that reads the float values it decodes to "
       "(serial, sse, ...), or upload it as float32");
-}
-
-Status CheckQuantizedTangents(const std::string& backend_id, const Mesh& mesh,
-                              const SkinFrame& frame) {
-  if (!frame.wants_tangents()) return Status::Ok();
-  return FailedPrecondition(
-      backend_id + ": mesh " + mesh.id() +
-      " is stored with a quantized rest stream, whose tangents this backend does not skin; "
-      "ask for them from simd or simd-openmp (which read the stream's tangents) or from a "
-      "backend that reads the float values it decodes to (serial, sse, ...), ask this one "
-      "for positions and normals only, or upload the mesh as float32");
 }
 
 std::span<const float> FoldedQuantizedPalette(std::span<const float> palette,
@@ -161,16 +158,18 @@ Result<cl_program> OpenClQuantizedKernels::Program(bool joints16, bool weights16
 }
 
 Result<cl_kernel> OpenClQuantizedKernels::Kernel(const OpenClLane& lane, const Mesh& mesh,
-                                                 bool normals, bool local) {
+                                                 Outputs outputs, bool local) {
   const QuantizedRest& rest = *mesh.quantized_rest();
   const uint32_t b = mesh.influences();
-  const auto key = std::make_tuple(&lane, Joints16(rest), Weights16(rest), b, normals, local);
+  const auto key = std::make_tuple(&lane, Joints16(rest), Weights16(rest), b, outputs, local);
   std::lock_guard lock(mutex_);
   if (auto it = kernels_.find(key); it != kernels_.end()) return it->second;
   auto program = Program(Joints16(rest), Weights16(rest));
   if (!program.ok()) return program.status();
-  const std::string name =
-      fmt::format("qskin{}{}_b{}", normals ? "_normals" : "", local ? "_local" : "", b);
+  const char* what = outputs == Outputs::kTangents  ? "_tangents"
+                     : outputs == Outputs::kNormals ? "_normals"
+                                                    : "";
+  const std::string name = fmt::format("qskin{}{}_b{}", what, local ? "_local" : "", b);
   cl_int err = CL_SUCCESS;
   cl_kernel kernel = clCreateKernel(*program, name.c_str(), &err);
   if (err != CL_SUCCESS) return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
@@ -186,23 +185,29 @@ Status OpenClQuantizedKernels::Warm(OpenClRuntime& runtime, const Mesh& mesh,
       runtime.CreateBuffer("warm palette", kIn, palette.size() * sizeof(float), palette.data());
   auto out = runtime.CreateBuffer("warm output", CL_MEM_WRITE_ONLY, 3 * sizeof(float), nullptr);
   auto out_n = runtime.CreateBuffer("warm output", CL_MEM_WRITE_ONLY, 3 * sizeof(float), nullptr);
-  for (const auto* r : {&pal, &out, &out_n}) {
+  auto out_t = runtime.CreateBuffer("warm output", CL_MEM_WRITE_ONLY, 4 * sizeof(float), nullptr);
+  for (const auto* r : {&pal, &out, &out_n, &out_t}) {
     if (!r->ok()) return r->status();
   }
   auto lane = runtime.AcquireLane();
   // One vertex of the mesh itself, each variant its frames may take.
   for (bool local : {false, true}) {
     if (local && !runtime.UsesLocalPalette(mesh, SkinningMethod::kLinear)) continue;
-    for (bool normals : {false, true}) {
-      if (normals && device_mesh.normals.get() == nullptr) continue;
+    for (Outputs outputs : {Outputs::kPositions, Outputs::kNormals, Outputs::kTangents}) {
+      if (outputs != Outputs::kPositions && device_mesh.normals.get() == nullptr) continue;
+      if (outputs == Outputs::kTangents && device_mesh.tangents.get() == nullptr) continue;
       SkinKernelArgs args{.palette = pal->get(),
                           .joints = device_mesh.joints.get(),
                           .weights = device_mesh.weights.get(),
                           .positions = device_mesh.positions.get(),
                           .out_positions = out->get()};
-      if (normals) {
+      if (outputs != Outputs::kPositions) {
         args.normals = device_mesh.normals.get();
         args.out_normals = out_n->get();
+      }
+      if (outputs == Outputs::kTangents) {
+        args.tangents = device_mesh.tangents.get();
+        args.out_tangents = out_t->get();
       }
       if (Status s = Enqueue(*lane, mesh, args, 0, 1, local, nullptr); !s.ok()) return s;
     }
@@ -218,8 +223,8 @@ Status OpenClQuantizedKernels::Enqueue(OpenClLane& lane, const Mesh& mesh,
                                        bool local, cl_event* event) {
   const QuantizedRest* rest = mesh.quantized_rest();
   if (rest == nullptr) return Internal("quantized kernel for a float mesh");
-  if (args.method != SkinningMethod::kLinear || args.out_tangents != nullptr) {
-    return Internal("the quantized kernels blend linearly, without tangents");
+  if (args.method != SkinningMethod::kLinear) {
+    return Internal("the quantized kernels blend linearly");
   }
   const uint32_t influences = mesh.influences();
   if (influences < 1 || influences > kMaxInfluences) {
@@ -231,12 +236,21 @@ Status OpenClQuantizedKernels::Enqueue(OpenClLane& lane, const Mesh& mesh,
   }
   if (first == end) return Status::Ok();
   const bool with_normals = args.out_normals != nullptr;
+  const bool with_tangents = args.out_tangents != nullptr;
   if (with_normals && args.normals == nullptr) {
     return Internal("output normals without input normals: the mesh has none");
   }
-  auto kernel = Kernel(lane, mesh, with_normals, local);
+  if (with_tangents && (args.tangents == nullptr || !with_normals)) {
+    return Internal("output tangents without input tangents or output normals");
+  }
+  auto kernel = Kernel(lane, mesh,
+                       with_tangents  ? Outputs::kTangents
+                       : with_normals ? Outputs::kNormals
+                                      : Outputs::kPositions,
+                       local);
   if (!kernel.ok()) return kernel.status();
-  // Argument order: QSKIN_ARGS, QSKIN_NORMAL_ARGS, SKIN_LOCAL_ARGS (quantized_skinning.cl).
+  // Argument order: QSKIN_ARGS, QSKIN_NORMAL_ARGS, the tangents', SKIN_LOCAL_ARGS
+  // (quantized_skinning.cl).
   cl_uint index = 0;
   cl_int err = CL_SUCCESS;
   auto set = [&](std::size_t size, const void* value) {
@@ -256,6 +270,10 @@ Status OpenClQuantizedKernels::Enqueue(OpenClLane& lane, const Mesh& mesh,
     set(sizeof(cl_mem), &args.normals);
     set(sizeof(cl_mem), &args.out_normals);
     set(sizeof(cl_float4), &normal_scale);
+  }
+  if (with_tangents) {
+    set(sizeof(cl_mem), &args.tangents);
+    set(sizeof(cl_mem), &args.out_tangents);
   }
   if (local) {
     const cl_uint floats = static_cast<cl_uint>(12 * std::size_t{mesh.joint_count()});

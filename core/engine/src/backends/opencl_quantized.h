@@ -18,12 +18,12 @@
 
 namespace skinserve {
 
-// The device buffers of a quantized mesh: uint16 positions, snorm16 normals (when the mesh
-// has them), its joints and B - 1 weights at their stored widths. `flags` adds
+// The device buffers of a quantized mesh: uint16 positions, snorm16 normals and tangents
+// (when the mesh has them), its joints and B - 1 weights at their stored widths. `flags` adds
 // CL_MEM_COPY_HOST_PTR (`opencl`) or CL_MEM_USE_HOST_PTR (`opencl-zerocopy`) to read-only.
 // B = 1 stores no weights: `weights` is then a 4-byte placeholder the kernels never read.
 struct QuantizedDeviceMesh {
-  ClBuffer positions, normals, joints, weights;
+  ClBuffer positions, normals, tangents, joints, weights;
 };
 Result<QuantizedDeviceMesh> CreateQuantizedDeviceMesh(OpenClRuntime& runtime, const Mesh& mesh,
                                                       cl_mem_flags flags);
@@ -31,17 +31,12 @@ Result<QuantizedDeviceMesh> CreateQuantizedDeviceMesh(OpenClRuntime& runtime, co
 // A quantized mesh's device buffers (CreateQuantizedDeviceMesh) moved into a prepared mesh's
 // fields, after its kernels ran once (OpenClQuantizedKernels::Warm).
 Status PrepareQuantizedMesh(OpenClRuntime& runtime, const Mesh& mesh, cl_mem_flags flags,
-                            ClBuffer* positions, ClBuffer* normals, ClBuffer* joints,
-                            ClBuffer* weights);
+                            ClBuffer* positions, ClBuffer* normals, ClBuffer* tangents,
+                            ClBuffer* joints, ClBuffer* weights);
 
 // FAILED_PRECONDITION for a method other than linear blending on a quantized mesh (the
 // words `simd` uses), else OK.
 Status CheckQuantizedMethod(const std::string& backend_id, const Mesh& mesh, SkinningMethod method);
-// FAILED_PRECONDITION for a frame that asks a quantized mesh for tangents: the qskin_*
-// kernels write positions and normals only (simd and simd-openmp read the stream's
-// tangents; the float kernels would need the float arrays on the device).
-Status CheckQuantizedTangents(const std::string& backend_id, const Mesh& mesh,
-                              const SkinFrame& frame);
 
 // The frame's palette folded with the mesh's box, 12 floats per joint, in this thread's
 // buffer (valid until the thread's next call).
@@ -64,14 +59,16 @@ class OpenClQuantizedKernels {
   Status Warm(OpenClRuntime& runtime, const Mesh& mesh, const QuantizedDeviceMesh& device_mesh);
 
   // EnqueueSkin for a quantized mesh: args.palette holds the folded palette, args.joints,
-  // weights, positions and normals the QuantizedDeviceMesh's buffers.
+  // weights, positions, normals and tangents the QuantizedDeviceMesh's buffers.
   Status Enqueue(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args, uint32_t first,
                  uint32_t end, bool local, cl_event* event);
 
  private:
   // [16-bit joints][16-bit weights]
   Result<cl_program> Program(bool joints16, bool weights16);
-  Result<cl_kernel> Kernel(const OpenClLane& lane, const Mesh& mesh, bool normals, bool local);
+  // What a kernel writes: qskin_b*, qskin_normals_b*, qskin_tangents_b* (normals too).
+  enum class Outputs { kPositions, kNormals, kTangents };
+  Result<cl_kernel> Kernel(const OpenClLane& lane, const Mesh& mesh, Outputs outputs, bool local);
 
   cl_context context_;
   cl_device_id device_;
@@ -79,8 +76,8 @@ class OpenClQuantizedKernels {
   int local_tiles_;
   std::mutex mutex_;
   cl_program programs_[2][2] = {};
-  // (lane, 16-bit joints, 16-bit weights, B, normals, local) -> kernel
-  std::map<std::tuple<const OpenClLane*, bool, bool, uint32_t, bool, bool>, cl_kernel> kernels_;
+  // (lane, 16-bit joints, 16-bit weights, B, outputs, local) -> kernel
+  std::map<std::tuple<const OpenClLane*, bool, bool, uint32_t, Outputs, bool>, cl_kernel> kernels_;
 };
 
 }  // namespace skinserve

@@ -49,9 +49,9 @@ class OpenClZeroCopyBackend final : public Backend {
     // The prepared mesh holds the Mesh alive, and with it the memory these buffers wrap.
     auto prepared = std::make_unique<ZeroCopyPreparedMesh>(mesh);
     if (mesh->quantized_rest() != nullptr) {  // the integers only (opencl_quantized.h)
-      if (Status s =
-              PrepareQuantizedMesh(*runtime_, *mesh, CL_MEM_USE_HOST_PTR, &prepared->positions,
-                                   &prepared->normals, &prepared->joints, &prepared->weights);
+      if (Status s = PrepareQuantizedMesh(
+              *runtime_, *mesh, CL_MEM_USE_HOST_PTR, &prepared->positions, &prepared->normals,
+              &prepared->tangents, &prepared->joints, &prepared->weights);
           !s.ok()) {
         return s;
       }

@@ -30,11 +30,10 @@ RestEncodingChoice RestEncodingFromFile(const Character& character,
                                         std::span<const int> primitives);
 
 // The rest encoding a tool uploads a mesh in, with why, in the one order every tool follows:
-// `asked` (--rest-encoding: an explicit choice always wins); else float32 when the mesh
-// goes up with tangents (the OpenCL backends skin none from a quantized rest stream, so a
-// tool asks for it only when told to); else `from_file`
-// (RestEncodingFromFile; nullopt: not from a file); else float32, the default.
-RestEncodingChoice DecideRestEncoding(std::optional<RestEncoding> asked, bool tangents,
+// `asked` (--rest-encoding: an explicit choice always wins); else `from_file`
+// (RestEncodingFromFile; nullopt: not from a file); else float32, the default. Tangents do
+// not decide it: every backend that reads the quantized stream skins its tangents.
+RestEncodingChoice DecideRestEncoding(std::optional<RestEncoding> asked,
                                       std::optional<RestEncodingChoice> from_file);
 
 }  // namespace skinserve
