@@ -19,7 +19,7 @@ std::vector<std::string> Split(const std::string& s, char sep) {
   return parts;
 }
 
-// The rest stream a row's kind names: BM_Skin[Normals]Quantized[Weights8] or float.
+// The rest stream a row's kind names: BM_Skin[Normals|Tangents]Quantized[Weights8] or float.
 RestEncoding StreamOf(const std::string& kind) {
   if (kind.find("QuantizedWeights8") != std::string::npos) return RestEncoding::kQuantized8Weights;
   if (kind.find("Quantized") != std::string::npos) return RestEncoding::kQuantized16;
@@ -156,7 +156,10 @@ void PaperTablesReporter::PrintDeviceBounds() const {
              "M vert/s", "% PCIe", "kernel M v/s", "% mem");
   for (const auto& [key, rate] : rates_) {
     const auto& [kind, backend, v, b] = key;
-    if (kind.find("Normals") != std::string::npos || backend.rfind("opencl", 0) != 0) continue;
+    if (kind.find("Normals") != std::string::npos || kind.find("Tangents") != std::string::npos ||
+        backend.rfind("opencl", 0) != 0) {
+      continue;
+    }
     auto kernel = kernel_rates_.find(key);
     const double kernel_rate = kernel == kernel_rates_.end() ? 0.0 : kernel->second;
     // A quantized row's kernel reads its integers (quantized_rest.h), not the float stream.
@@ -184,7 +187,8 @@ void PaperTablesReporter::PrintQuantizedShares() const {
     const auto& [kind, backend, vertices, bones] = key;
     const RestEncoding rest = StreamOf(kind);
     if (rest == RestEncoding::kFloat32) continue;
-    const bool normals = kind.rfind("BM_SkinNormals", 0) == 0;
+    const bool tangents = kind.rfind("BM_SkinTangents", 0) == 0;
+    const bool normals = tangents || kind.rfind("BM_SkinNormals", 0) == 0;
     if (!header) {
       fmt::print(
           "\nQuantized rest stream (medians when repeated; memory bound: BM_MemoryBandwidth's "
@@ -196,7 +200,7 @@ void PaperTablesReporter::PrintQuantizedShares() const {
     }
     const auto row = [&](const std::string& name, RestEncoding encoding, double vertices_per_s,
                          double over_float) {
-      const double bytes = StreamedBytesPerVertex(encoding, bones, kPaperJoints, normals);
+      const double bytes = StreamedBytesPerVertex(encoding, bones, kPaperJoints, normals, tangents);
       const double share = bandwidth_bytes_per_second_ > 0
                                ? 100 * vertices_per_s * bytes / bandwidth_bytes_per_second_
                                : 0;
@@ -204,7 +208,8 @@ void PaperTablesReporter::PrintQuantizedShares() const {
                  vertices, bones, vertices_per_s / 1e6, bytes, share,
                  over_float > 0 ? fmt::format("{:.2f}x", over_float) : "");
     };
-    const std::string float_kind = normals ? "BM_SkinNormals" : "BM_Skin";
+    const std::string float_kind =
+        tangents ? "BM_SkinTangents" : (normals ? "BM_SkinNormals" : "BM_Skin");
     const auto float_rate = rates_.find({float_kind, backend, vertices, bones});
     if (float_rate != rates_.end() && rest == RestEncoding::kQuantized16) {
       row(float_kind, RestEncoding::kFloat32, float_rate->second, 0);

@@ -14,7 +14,8 @@
 // active:4, the same mesh with 64 morph targets each moving 10% of the vertices, frames with
 // no and with 4 active targets, beside the skin-only rows (issue 28's 1.3x target).
 // --tangents: also BM_SkinTangents[DualQuaternion]/<backend>/<vertices>/<bones>, normals and
-// tangents (4 floats a vertex) skinned together, beside BM_SkinNormals.
+// tangents (4 floats a vertex) skinned together, beside BM_SkinNormals (with --quantized,
+// BM_SkinTangentsQuantized[Weights8] too).
 // --opencl-global-palette: `opencl` once more, from a second runtime whose kernels read the
 // palette from global memory (rows .../opencl-global/...), beside `opencl`'s own rows, which
 // on a GPU stage it in work-group local memory: the two kernels compared in one run.
@@ -216,7 +217,7 @@ void SkinBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
   // Quantized rows: what the rest stream really moves (quantized_rest.h).
   const double bytes = rest == RestEncoding::kFloat32
                            ? BytesPerVertex(bones, normals, tangents)
-                           : StreamedBytesPerVertex(rest, bones, kPaperJoints, normals);
+                           : StreamedBytesPerVertex(rest, bones, kPaperJoints, normals, tangents);
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * vertices * bytes));
   state.counters["bytes_per_vertex"] = bytes;
   if (ReportDeviceTimes(state, total)) {
@@ -530,8 +531,10 @@ int main(int argc, char** argv) {
       }
     }
   }
-  for (bool normals : {false, true}) {
+  for (int outputs = 0; outputs < 3; ++outputs) {  // positions, + normals, + tangents
     if (!options.quantized) break;
+    const bool normals = outputs >= 1, tangents = outputs == 2;
+    if (tangents && !options.tangents) continue;
     for (uint32_t v : options.vertices) {
       for (uint32_t b : options.bones) {
         for (const auto& backend : backends) {
@@ -541,10 +544,11 @@ int main(int argc, char** argv) {
                {std::pair{"Quantized", RestEncoding::kQuantized16},
                 std::pair{"QuantizedWeights8", RestEncoding::kQuantized8Weights}}) {
             const std::string name =
-                fmt::format("{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", kind,
-                            backend->info().id, v, b);
+                fmt::format("{}{}/{}/{}/{}",
+                            tangents ? "BM_SkinTangents" : (normals ? "BM_SkinNormals" : "BM_Skin"),
+                            kind, backend->info().id, v, b);
             benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
-                                         SkinningMethod::kLinear, rest, false)
+                                         SkinningMethod::kLinear, rest, tangents)
                 ->UseRealTime()
                 ->Unit(benchmark::kMicrosecond);
           }

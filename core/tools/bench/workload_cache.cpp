@@ -17,9 +17,8 @@ const Workload& WorkloadCache::Get(uint32_t vertices, uint32_t bones, bool morph
                                            .influences = bones,
                                            .joint_count = kPaperJoints,
                                            .normals = true,
-                                           // (read only by BM_SkinTangents, float32
-                                           // only: the quantized rows stream none)
-                                           .tangents = rest == RestEncoding::kFloat32,
+                                           // (read only by BM_SkinTangents*)
+                                           .tangents = true,
                                            .seed = vertices * 10ull + bones,
                                            .sorted_by_joints = sorted_by_joints_});
     if (morph) {
