@@ -142,4 +142,24 @@ QuantizedErrors CheckQuantized(const Mesh& mesh, const MeshArrays& original,
   return e;
 }
 
+void ExpectQuantizedTangentsMatchReference(Backend& backend, const MeshCase& c,
+                                           RestEncoding encoding, uint64_t seed,
+                                           const std::string& what) {
+  auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = c.vertices,
+                                              .influences = c.influences,
+                                              .joint_count = c.joints,
+                                              .normals = true,
+                                              .tangents = true,
+                                              .seed = seed}),
+                           {.rest_encoding = encoding});
+  ASSERT_TRUE(mesh.ok()) << what << ": " << mesh.status().ToString();
+  ASSERT_EQ((*mesh)->quantized_rest()->tangents.size(), 4u * c.vertices) << what;
+  auto prepared = backend.Prepare(*mesh);
+  ASSERT_TRUE(prepared.ok()) << what << ": " << prepared.status().ToString();
+  ExpectFrameMatchesReference(backend, **prepared, **mesh, MakeSyntheticPalette(c.joints, seed, 2),
+                              {c.vertices, c.influences, c.joints, true, true},
+                              SkinningMethod::kLinear,
+                              what + " " + std::string(RestEncodingName(encoding)));
+}
+
 }  // namespace skinserve::testing

@@ -12,7 +12,10 @@
 
 #include <cstdint>
 #include <span>
+#include <string>
 
+#include "reference_cases.h"
+#include "skinserve/engine/backend.h"
 #include "skinserve/model/mesh.h"
 
 namespace skinserve::testing {
@@ -44,5 +47,13 @@ struct QuantizedErrors {
 QuantizedErrors CheckQuantized(const Mesh& mesh, const MeshArrays& original,
                                std::span<const float> palette, std::span<const float> positions,
                                std::span<const float> normals);
+
+// The stream's tangents: a synthetic mesh of c's shape with normals and tangents, stored as
+// `encoding`, skinned by `backend` (positions, normals and tangents) and expected within
+// CompareWithReference's tolerance of the float64 reference on the floats the integers
+// decode to (ExpectFrameMatchesReference: tangents' xyz 1e-5, w exact), naming `what`.
+void ExpectQuantizedTangentsMatchReference(Backend& backend, const MeshCase& c,
+                                           RestEncoding encoding, uint64_t seed,
+                                           const std::string& what);
 
 }  // namespace skinserve::testing

@@ -105,23 +105,10 @@ TEST_P(QuantizedRestTargetTest, TangentsFromTheStreamMatchTheReferenceOnTheDecod
       for (uint32_t j : {20u, 300u}) {
         for (uint32_t v : {1u, 5u, 257u, 1001u}) {
           if (v > TargetCheckMaxVertices()) continue;
-          const MeshCase c{v, b, j, true, true};
-          auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = v,
-                                                      .influences = b,
-                                                      .joint_count = j,
-                                                      .normals = true,
-                                                      .tangents = true,
-                                                      .seed = ++seed}),
-                                   {.rest_encoding = encoding});
-          ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
-          ASSERT_EQ((*mesh)->quantized_rest()->tangents.size(), 4u * v);
-          const auto palette = MakeSyntheticPalette(j, seed, 2);
+          ++seed;
           for (auto& backend : backends) {
-            auto prepared = backend->Prepare(*mesh);
-            ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
-            ExpectFrameMatchesReference(
-                *backend, **prepared, **mesh, palette, c, SkinningMethod::kLinear,
-                std::string(RestEncodingName(encoding)) + " at " + backend->info().simd_target);
+            ExpectQuantizedTangentsMatchReference(*backend, {v, b, j, true, true}, encoding, seed,
+                                                  "at " + backend->info().simd_target);
             if (HasFailure()) return;
           }
         }
@@ -246,20 +233,8 @@ TEST(QuantizedRestTest, OpenClTangentsFromTheStreamMatchTheReferenceOnTheDecoded
       for (uint32_t j : {20u, 300u}) {
         for (uint32_t b = 1; b <= 8; ++b) {
           for (uint32_t v : {1u, 6u, 257u, 1001u}) {
-            const MeshCase c{v, b, j, true, true};
-            auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = v,
-                                                        .influences = b,
-                                                        .joint_count = j,
-                                                        .normals = true,
-                                                        .tangents = true,
-                                                        .seed = ++seed}),
-                                     {.rest_encoding = encoding});
-            ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
-            auto prepared = backend.Prepare(*mesh);
-            ASSERT_TRUE(prepared.ok()) << id << ": " << prepared.status().ToString();
-            ExpectFrameMatchesReference(
-                backend, **prepared, **mesh, MakeSyntheticPalette(j, seed, 2), c,
-                SkinningMethod::kLinear, std::string(RestEncodingName(encoding)));
+            ExpectQuantizedTangentsMatchReference(backend, {v, b, j, true, true}, encoding, ++seed,
+                                                  id);
             if (HasFailure()) return;
           }
         }

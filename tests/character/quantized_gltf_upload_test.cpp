@@ -207,6 +207,31 @@ TEST(QuantizedGltfUploadTest, AFloatFileAndAnExplicitFloat32StayFloat32) {
   }
 }
 
+// What skinserve-load wrote: its JSON report (empty on failure, with a test failure) and its
+// stderr, after a run with `args` against `t` (`name` names the files).
+struct LoadRun {
+  nlohmann::json report;
+  std::string stderr_text;
+};
+LoadRun RunLoadClient(const TestServer& t, const std::string& args, const std::string& name) {
+  const std::string base = ::testing::TempDir() + name + "-" + std::to_string(getpid());
+  const std::string command = std::string(SKINSERVE_LOAD_BINARY) + " --target " + t.target + " " +
+                              args + " --streams 1 --warmup 0 --check-every 1 --json " + base +
+                              ".json > /dev/null 2> " + base + ".err";
+  const int status = std::system(command.c_str());
+  EXPECT_EQ(WEXITSTATUS(status), 0) << command;
+  LoadRun run;
+  std::ifstream err(base + ".err");
+  run.stderr_text.assign(std::istreambuf_iterator<char>(err), {});
+  std::ifstream in(base + ".json");
+  if (!in) {
+    ADD_FAILURE() << command << " wrote no report; stderr: " << run.stderr_text;
+    return run;
+  }
+  in >> run.report;
+  return run;
+}
+
 // The load client itself: on the quantized file it uploads quantized16 unless told
 // float32, says which and why, and every answer passes its own checks.
 TEST(QuantizedGltfUploadTest, LoadClientPicksTheFilesEncodingUnlessAsked) {
@@ -216,28 +241,18 @@ TEST(QuantizedGltfUploadTest, LoadClientPicksTheFilesEncodingUnlessAsked) {
   for (auto [extra, expected] :
        {std::pair{"", "quantized16"}, std::pair{" --rest-encoding float32", "float32"}}) {
     SCOPED_TRACE(extra);
-    const std::string base = ::testing::TempDir() + "load-quantized-" + std::to_string(getpid()) +
-                             "-" + std::to_string(run++);
-    const std::string command =
-        std::string(SKINSERVE_LOAD_BINARY) + " --target " + t.target + " --mesh " + path + extra +
-        " --backends simd,serial --normals --streams 1 --frames 20 --warmup 0"
-        " --check-every 1 --json " +
-        base + ".json > /dev/null 2> " + base + ".err";
-    const int status = std::system(command.c_str());
-    EXPECT_EQ(WEXITSTATUS(status), 0) << command;
-    std::ifstream in(base + ".json");
-    ASSERT_TRUE(in) << command;
-    nlohmann::json doc;
-    in >> doc;
-    ASSERT_EQ(doc["results"].size(), 2u) << doc.dump();
-    for (const auto& r : doc["results"]) {
+    const LoadRun load =
+        RunLoadClient(t, "--mesh " + path + extra + " --backends simd,serial --normals --frames 20",
+                      "load-quantized-" + std::to_string(run++));
+    ASSERT_EQ(load.report["results"].size(), 2u) << load.report.dump();
+    for (const auto& r : load.report["results"]) {
       EXPECT_EQ(r["rest_encoding"], expected) << r.dump();
       EXPECT_TRUE(r["errors"].empty()) << r.dump();
       EXPECT_EQ(r["checked"], 20) << r.dump();
     }
-    std::ifstream err(base + ".err");
-    const std::string said((std::istreambuf_iterator<char>(err)), {});
-    EXPECT_NE(said.find(std::string("note: rest encoding ") + expected), std::string::npos) << said;
+    EXPECT_NE(load.stderr_text.find(std::string("note: rest encoding ") + expected),
+              std::string::npos)
+        << load.stderr_text;
   }
 }
 
@@ -246,22 +261,13 @@ TEST(QuantizedGltfUploadTest, LoadClientPicksTheFilesEncodingUnlessAsked) {
 // float64 reference.
 TEST(QuantizedGltfUploadTest, LoadClientChecksAQuantizedMeshsTangentsOnEveryBackend) {
   TestServer t;
-  const std::string base =
-      ::testing::TempDir() + "load-quantized-tangents-" + std::to_string(getpid());
-  const std::string command =
-      std::string(SKINSERVE_LOAD_BINARY) + " --target " + t.target +
-      " --vertices 3001 --bones 4 --rest-encoding quantized16 --normals --tangents"
-      " --backends simd,simd-openmp,opencl,opencl-zerocopy,serial --streams 1 --frames 10"
-      " --warmup 0 --check-every 1 --json " +
-      base + ".json > /dev/null 2> " + base + ".err";
-  const int status = std::system(command.c_str());
-  EXPECT_EQ(WEXITSTATUS(status), 0) << command;
-  std::ifstream in(base + ".json");
-  ASSERT_TRUE(in) << command;
-  nlohmann::json doc;
-  in >> doc;
-  ASSERT_EQ(doc["results"].size(), 5u) << doc.dump();
-  for (const auto& r : doc["results"]) {
+  const LoadRun load =
+      RunLoadClient(t,
+                    "--vertices 3001 --bones 4 --rest-encoding quantized16 --normals --tangents"
+                    " --backends simd,simd-openmp,opencl,opencl-zerocopy,serial --frames 10",
+                    "load-quantized-tangents");
+  ASSERT_EQ(load.report["results"].size(), 5u) << load.report.dump();
+  for (const auto& r : load.report["results"]) {
     EXPECT_EQ(r["rest_encoding"], "quantized16") << r.dump();
     EXPECT_TRUE(r["tangents"].get<bool>()) << r.dump();
     EXPECT_TRUE(r["errors"].empty()) << r.dump();

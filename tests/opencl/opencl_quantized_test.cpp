@@ -74,20 +74,7 @@ TEST(OpenClQuantizedTest, StagedAndCoalescedRuntimesSkinTheStreamsTangents) {
     SKIP_IF_OPENCL_UNAVAILABLE(backend);
     for (const MeshCase& c : cases) {
       for (RestEncoding encoding : {RestEncoding::kQuantized16, RestEncoding::kQuantized8Weights}) {
-        auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = c.vertices,
-                                                    .influences = c.influences,
-                                                    .joint_count = c.joints,
-                                                    .normals = true,
-                                                    .tangents = true,
-                                                    .seed = ++seed}),
-                                 {.rest_encoding = encoding});
-        ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
-        auto prepared = backend.Prepare(*mesh);
-        ASSERT_TRUE(prepared.ok()) << id << ": " << prepared.status().ToString();
-        ExpectFrameMatchesReference(
-            backend, **prepared, **mesh, MakeSyntheticPalette(c.joints, seed, 2), c,
-            SkinningMethod::kLinear,
-            std::string(id) + " " + std::string(RestEncodingName(encoding)));
+        ExpectQuantizedTangentsMatchReference(backend, c, encoding, ++seed, id);
       }
     }
   }
