@@ -161,12 +161,17 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
         result.status = Internal(
             fmt::format("frame {} answered where frame {} was due", result.frame, head.frame));
       }
+      // NOT_FOUND: the server lost the mesh (evicted, or a replica that never had it). A
+      // frame sent before the last re-upload just goes again; else the mesh goes again
+      // first, at most max_reuploads times.
       const bool not_found = result.status.code() == StatusCode::kNotFound;
-      Status reupload;
-      if (not_found && head.uploads_before < reuploads) {
-        resend.push_back(head.frame);  // sent before the last re-upload: just send again
-      } else if (not_found && reuploads < options.max_reuploads &&
-                 Retried(reupload = client.Reupload(options.mesh_id))) {
+      const bool sent_before_reupload = not_found && head.uploads_before < reuploads;
+      const bool may_reupload =
+          not_found && !sent_before_reupload && reuploads < options.max_reuploads;
+      const Status reupload = may_reupload ? client.Reupload(options.mesh_id) : Status::Ok();
+      if (sent_before_reupload) {
+        resend.push_back(head.frame);
+      } else if (may_reupload && Retried(reupload)) {
         // Sent (or, UNAVAILABLE, lost on its way: a connection the server was ageing out, a
         // replica going away; round_robin's next pick may be the stream's replica): either
         // way one attempt of max_reuploads, and the frame goes again.
