@@ -79,7 +79,8 @@ TEST_P(OpenClEncodedOutputTest, EveryEncodingMatchesTheReference) {
 }
 
 // Issue 29's pairing: a quantized rest stream in, snorm16 (and float16) out, both on the
-// device; the decoded frame against the float64 reference of the dequantized input.
+// device, tangents included; the decoded frame against the float64 reference of the
+// dequantized input.
 TEST_P(OpenClEncodedOutputTest, AQuantizedMeshEncodesOnTheDeviceToo) {
   Backend& backend = OpenClBackend(GetParam());
   SKIP_IF_OPENCL_UNAVAILABLE(backend);
@@ -88,6 +89,7 @@ TEST_P(OpenClEncodedOutputTest, AQuantizedMeshEncodesOnTheDeviceToo) {
                                                .influences = 4,
                                                .joint_count = kJoints,
                                                .normals = true,
+                                               .tangents = true,
                                                .seed = 31});
   auto mesh = Mesh::Create(arrays, {.rest_encoding = RestEncoding::kQuantized16});
   ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
@@ -98,20 +100,27 @@ TEST_P(OpenClEncodedOutputTest, AQuantizedMeshEncodesOnTheDeviceToo) {
     SCOPED_TRACE(VertexEncodingName(encoding));
     std::vector<std::byte> positions(EncodedBytes(encoding, kVertices));
     std::vector<std::byte> normals(positions.size());
+    std::vector<std::byte> tangents(EncodedTangentBytes(encoding, kVertices));
     Bounds box;
     SkinFrame skin{.palette = palette};
-    skin.encoded = {
-        .encoding = encoding, .positions = positions, .normals = normals, .bounds = &box};
+    skin.encoded = {.encoding = encoding,
+                    .positions = positions,
+                    .normals = normals,
+                    .tangents = tangents,
+                    .bounds = &box};
     const Status s = backend.Skin(**prepared, skin);
     ASSERT_TRUE(s.ok()) << s.ToString();
     if (encoding != VertexEncoding::kSnorm16) box = Bounds{};
-    std::vector<float> p(3 * kVertices), n(3 * kVertices);
+    std::vector<float> p(3 * kVertices), n(3 * kVertices), t(4 * kVertices);
     ASSERT_TRUE(DecodePositions(encoding, positions, box, p).ok());
     ASSERT_TRUE(DecodeNormals(encoding, normals, n).ok());
+    ASSERT_TRUE(DecodeTangents(encoding, tangents, t).ok());
     const EncodedDeviation d = CompareEncodedWithReference(**mesh, palette, encoding, box, p, n);
     EXPECT_TRUE(d.within_tolerance())
         << "position ratio " << d.worst_position_ratio << ", normal ratio " << d.worst_normal_ratio
         << " at vertex " << d.worst_vertex;
+    EXPECT_EQ(TangentValuesOutsideBound(encoding, t, ReferenceSkin(**mesh, palette).tangents), 0u)
+        << "tangent values outside float32 + the encoding's bound";
   }
 }
 
