@@ -1,7 +1,8 @@
 """The quantized rest stream asked for at upload (rest_encoding) through a real server:
 the mesh stores under its own id, and frames on simd and serial match the float64
 reference of the original floats within the stream's error bound; an unknown encoding is
-refused on the client naming the parameter, a mesh with morph targets by the server.
+refused on the client naming the parameter, a mesh with morph targets by the server. A
+mesh's tangents come from every backend that reads the stream.
 
 Tolerance: the bound docs/backends/quantized-rest.md states, per vertex and axis r: the
 position's half step through the blended matrix, sum_k |M_rk| * step_k / 2 (step_k = the
@@ -17,6 +18,7 @@ import pytest
 
 import skinserve
 from reference import random_mesh, random_palette, skin
+from test_tangents import random_tangents, skin_tangents
 
 STEPS = {"quantized16": 65535, "quantized8-weights": 255}
 
@@ -65,6 +67,26 @@ def test_a_quantized_upload_skins_within_its_bound(client, rng, encoding):
     # Stored quantized: the answer is the decoded mesh's, not the float mesh's.
     float_p = client.skin(plain, palette, backend="simd")
     assert float(np.max(np.abs(client.skin(quantized, palette, backend="simd") - float_p))) > 1e-6
+
+
+def test_a_quantized_meshs_tangents_come_from_every_backend(client, rng):
+    """Tangents in the stream (xyz snorm16 as the normals, w the handedness): the backends
+    that read the integers (simd, simd-openmp, opencl, opencl-zerocopy) and one that skins
+    the floats they decode to (serial) answer them within the normals' bound of the float64
+    reference on the original floats, w exactly the rest tangent's."""
+    positions, joint_ids, weights, normals = random_mesh(rng, 2000, 3, 20)
+    tangents = random_tangents(rng, normals)
+    mesh = client.upload(positions, joint_ids, weights, normals=normals, tangents=tangents,
+                         rest_encoding="quantized16")
+    palette = random_palette(rng, 20)
+    want_t = skin_tangents(tangents, joint_ids, weights, palette)
+    bound = stated_normal_bound(tangents[:, :3], joint_ids, weights, palette, "quantized16")
+    for backend in ("simd", "simd-openmp", "opencl", "opencl-zerocopy", "serial"):
+        _, _, got_t = client.skin(mesh, palette, backend=backend, want_normals=True,
+                                  want_tangents=True)
+        assert got_t.shape == (2000, 4), backend
+        assert float(np.max(np.abs(got_t[:, :3] - want_t[:, :3]) / bound)) <= 1.0, backend
+        assert np.array_equal(got_t[:, 3], tangents[:, 3]), backend
 
 
 def test_the_async_client_asks_for_it_too(server, rng):
