@@ -61,20 +61,10 @@ FrameJob::PartRange FrameJob::RangeOf(std::size_t part) const {
 
 Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
                          const std::string& default_backend, RegionRegistry* regions) {
-  record_.Begin(wire.backend().empty() ? default_backend : wire.backend());
-  frame_ = wire.frame();
-  done_ = false;
-  error_part_ = false;
-  part_count_ = next_part_ = 0;
-  early_ = false;
-  ready_instances_ = 0;
-  parts_ready_.store(0, std::memory_order_relaxed);
-  if (wire_in_use()) return Internal("a frame job was reused while gRPC still sent its answer");
-  result_ = Status::Ok();
-  timing_ = {};
-  vertices_ = 0;
-  instances_ = 1;
-  region_.reset();
+  if (Status s = Begin(wire.frame(), wire.backend().empty() ? default_backend : wire.backend());
+      !s.ok()) {
+    return s;
+  }
   // The engine checks the backend, the method, the mesh and the batch once, and pins the
   // mesh: its shape sizes the buffers below, and Submit looks nothing up again.
   request.mesh_id.assign(wire.mesh_id());
@@ -226,6 +216,29 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
   request.skin_into_scratch = scratch;
   request.scratch_normals = scratch && want_normals_;
   return Status::Ok();
+}
+
+Status FrameJob::Begin(uint64_t frame, const std::string& backend) {
+  record_.Begin(backend);
+  frame_ = frame;
+  done_ = false;
+  error_part_ = false;
+  part_count_ = next_part_ = 0;
+  early_ = false;
+  ready_instances_ = 0;
+  parts_ready_.store(0, std::memory_order_relaxed);
+  if (wire_in_use()) return Internal("a frame job was reused while gRPC still sent its answer");
+  result_ = Status::Ok();
+  timing_ = {};
+  vertices_ = 0;
+  instances_ = 1;
+  region_.reset();
+  return Status::Ok();
+}
+
+void FrameJob::Refuse(uint64_t frame, const std::string& backend, Status status) {
+  if (Status s = Begin(frame, backend); !s.ok()) status = std::move(s);
+  Fail(std::move(status));
 }
 
 Status FrameJob::PrepareRegion(const v1::OutputRegion& output, RegionRegistry* regions) {

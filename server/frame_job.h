@@ -67,6 +67,9 @@ class FrameJob final : public SkinJob {
                  RegionRegistry* regions);
   // The frame failed before the engine: it is answered with `status`.
   void Fail(Status status);
+  // A frame refused before its request was parsed (SkinRequestReader): answered with
+  // `status` under the frame number the reader's scan found.
+  void Refuse(uint64_t frame, const std::string& backend, Status status);
 
   bool done() const { return done_; }  // under the listener's lock
   void set_done() { done_ = true; }
@@ -90,6 +93,8 @@ class FrameJob final : public SkinJob {
   Status OnInstanceSkinned(uint32_t instance, std::span<const float> positions,
                            std::span<const float> normals) override;
   void OnSkinned(Status status, const FrameTiming& timing) override;
+  // Resets the job for frame `frame` (its metrics record begins now).
+  Status Begin(uint64_t frame, const std::string& backend);
   Status EncodeInstance(uint32_t i, std::span<const float> positions,
                         std::span<const float> normals);
   // Checks the request's output range against its region and pins the region.

@@ -1,6 +1,7 @@
 #include "skin_reactor.h"
 
 #include "engine_messages.h"
+#include "skin_request_reader.h"
 
 namespace skinserve::server {
 
@@ -8,13 +9,15 @@ SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
                          const grpc::ByteBuffer& request_bytes, InflightBudget* budget,
                          RegionRegistry* regions)
     : job_(static_cast<FrameJob::Listener*>(this), budget) {
-  v1::SkinRequest request;
-  grpc::ByteBuffer bytes(request_bytes);  // parsing consumes it
-  Status status = engine == nullptr
-                      ? Unavailable("the server is starting: backends are being built")
-                  : !grpc::SerializationTraits<v1::SkinRequest>::Deserialize(&bytes, &request).ok()
-                      ? InvalidArgument("the request is not a valid skinserve.v1.SkinRequest")
-                      : job_.Prepare(request, *engine, default_backend, regions);
+  grpc::ByteBuffer bytes(request_bytes);  // reading consumes it
+  Status status = Unavailable("the server is starting: backends are being built");
+  if (engine != nullptr) {
+    // Held (and charged) only until the job took what it keeps.
+    SkinRequestReader reader(budget, {.max_instances = engine->options().max_instances});
+    status = reader.Read(&bytes);
+    status =
+        status.ok() ? job_.Prepare(reader.request(), *engine, default_backend, regions) : status;
+  }
   if (status.ok()) {
     refs_.fetch_add(1);
     status = engine->Submit(&job_);

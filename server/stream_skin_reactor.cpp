@@ -15,7 +15,9 @@ StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend
       window_(static_cast<std::size_t>(std::max(window, 1))),
       open_streams_(open_streams),
       budget_(budget),
-      regions_(regions) {
+      regions_(regions),
+      reader_(budget, {.max_instances = engine != nullptr ? engine->options().max_instances
+                                                          : SkinRequestLimits{}.max_instances}) {
   jobs_.reserve(window_);
   in_flight_jobs_.resize(window_, nullptr);
   idle_jobs_.reserve(window_);
@@ -40,17 +42,26 @@ void StreamSkinReactor::OnReadDone(bool ok) {
     return;
   }
   ++requests_read_;
-  if (!grpc::SerializationTraits<v1::SkinRequest>::Deserialize(&request_bytes_, &request_).ok()) {
+  Status read = reader_.Read(&request_bytes_);
+  if (!read.ok() && reader_.scan().malformed) {
     // Not a SkinRequest at all: nothing names the frame, so the stream cannot go on.
     FinishLocked(ToGrpc(InvalidArgument(fmt::format(
         "message {} on this stream is not a valid skinserve.v1.SkinRequest", requests_read_))));
     return;
   }
-  last_frame_read_ = request_.frame();
+  const uint64_t frame = read.ok() ? reader_.request().frame() : reader_.scan().frame;
+  last_frame_read_ = frame;
   FrameJob& job = *TakeIdleJobLocked();
   in_flight_jobs_[(oldest_ + in_flight_) % window_] = &job;
   ++in_flight_;
-  Status status = job.Prepare(request_, *engine_, default_backend_, regions_);
+  if (!read.ok()) {  // a limit: this frame fails, the stream goes on
+    job.Refuse(frame, default_backend_, std::move(read));
+    job.set_done();
+    PumpLocked();
+    return;
+  }
+  Status status = job.Prepare(reader_.request(), *engine_, default_backend_, regions_);
+  reader_.Trim();  // the job took what it keeps
   if (status.ok()) {
     refs_.fetch_add(1);
     status = engine_->Submit(&job);

@@ -22,6 +22,7 @@
 
 #include "frame_job.h"
 #include "open_streams.h"
+#include "skin_request_reader.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
@@ -65,7 +66,7 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
 
   std::mutex mutex_;
   grpc::ByteBuffer request_bytes_;
-  v1::SkinRequest request_;
+  SkinRequestReader reader_;  // the parsed request, reused frame after frame
   uint64_t requests_read_ = 0;
   // Created as needed: at most window in flight, and rarely a few more whose answer
   // gRPC still holds (wire_in_use) when the next frame comes.

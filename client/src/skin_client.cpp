@@ -39,9 +39,21 @@ bool FrameAssembler::AddRegionPart(const v1::SkinResponse& part, FrameResult* re
   const uint64_t array_bytes = instance_bytes * instances;
   const bool normals = write.normals_offset() != write.positions_offset();
   const bool tangents = write.tangent_instance_bytes() > 0;
+  const std::span<const std::byte> mapping = output_->region->bytes();
+  // Checked before any offset is added up: a server's offset near 2^64 must not wrap into
+  // a range that seems to fit (and then be read outside the mapping).
+  if (!wire::LayoutFitsRegion(write.positions_offset(), part.total_vertices(), instances, encoding,
+                              normals, tangents, mapping.size())) {
+    return fail(fmt::format(
+        "region '{}': the answer's range ({} x {} vertices in {} from offset {}{}) does not fit "
+        "the region's {} bytes",
+        write.region(), instances, part.total_vertices(), VertexEncodingName(encoding),
+        write.positions_offset(),
+        tangents ? " with normals and tangents" : (normals ? " with normals" : ""),
+        mapping.size()));
+  }
   const wire::RegionLayout layout = wire::LayoutInRegion(
       write.positions_offset(), part.total_vertices(), instances, encoding, normals, tangents);
-  const std::span<const std::byte> mapping = output_->region->bytes();
   if (!part.last() || write.instance_bytes() != instance_bytes ||
       write.normals_offset() != layout.normals_offset || write.end_offset() != layout.end_offset ||
       (tangents && (write.tangents_offset() != layout.tangents_offset ||

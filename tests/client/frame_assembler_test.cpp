@@ -10,6 +10,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <functional>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -18,7 +20,9 @@
 #include "alloc_counter.h"
 #endif
 #include "skinserve/client/frame_stream.h"
+#include "skinserve/client/shared_memory_region.h"
 #include "skinserve/client/skin_client.h"
+#include "skinserve/wire/region_layout.h"
 
 namespace skinserve::client {
 namespace {
@@ -283,6 +287,103 @@ TEST(FrameAssemblerTest, MalformedPartsAreRefusedNamingFrameInstanceAndRange) {
   parts = good;
   parts[3].set_frame(10);
   ExpectRefused(parts, "does not match");
+}
+
+// A frame the server says it wrote into the client's region: 2 instances of 10 vertices,
+// float32 positions and normals, at offset 64 of a 4 KiB region holding `values`.
+struct RegionFrame {
+  std::unique_ptr<SharedMemoryRegion> region;
+  RegionOutput output;
+  v1::SkinResponse part;
+};
+
+RegionFrame WrittenRegionFrame(std::span<const float> values) {
+  RegionFrame f;
+  auto region = SharedMemoryRegion::Create(SharedMemoryRegion::UniqueKey("assembler-test"), 4096);
+  EXPECT_TRUE(region.ok()) << region.status().message();
+  f.region = std::move(region).value();
+  f.output = {.name = "frames", .region = f.region.get(), .offset = 64};
+  const wire::RegionLayout layout =
+      wire::LayoutInRegion(64, 10, 2, VertexEncoding::kFloat32, /*normals=*/true);
+  std::memcpy(f.region->bytes().data() + layout.positions_offset, values.data(),
+              layout.instance_bytes * 2);
+  std::memcpy(f.region->bytes().data() + layout.normals_offset,
+              values.data() + layout.instance_bytes * 2 / sizeof(float), layout.instance_bytes * 2);
+  f.part.set_frame(4);
+  f.part.set_total_vertices(10);
+  f.part.set_instances(2);
+  f.part.set_last(true);
+  v1::RegionWrite* write = f.part.mutable_region_write();
+  write->set_region("frames");
+  write->set_positions_offset(layout.positions_offset);
+  write->set_normals_offset(layout.normals_offset);
+  write->set_instance_bytes(layout.instance_bytes);
+  write->set_end_offset(layout.end_offset);
+  return f;
+}
+
+// The client distrusts the server's RegionWrite: a range that does not lie inside the
+// mapping - also one whose end would wrap around 2^64 into a small number - fails the
+// frame before anything is read, and a range that fits decodes to the bytes in the region.
+TEST(FrameAssemblerTest, RegionRangesOutsideTheMappingFailTheFrameWithoutWrapAround) {
+  std::vector<float> values(2 * 2 * 30);
+  for (std::size_t i = 0; i < values.size(); ++i) values[i] = 0.5f * static_cast<float>(i);
+  {
+    RegionFrame f = WrittenRegionFrame(values);
+    FrameResult r;
+    FrameAssembler assembler(&f.output);
+    ASSERT_TRUE(assembler.Add(f.part, &r));
+    ASSERT_TRUE(r.status.ok()) << r.status.message();
+    ASSERT_TRUE(DecodeRegionFrame(&r).ok());
+    ASSERT_EQ(r.positions.size(), 60u);
+    ASSERT_EQ(r.normals.size(), 60u);
+    for (std::size_t i = 0; i < 60; ++i) {
+      EXPECT_EQ(r.positions[i], values[i]);
+      EXPECT_EQ(r.normals[i], values[60 + i]);
+    }
+  }
+  const auto expect_refused = [&](const std::function<void(v1::SkinResponse*)>& hostile) {
+    RegionFrame f = WrittenRegionFrame(values);
+    hostile(&f.part);
+    FrameResult r;
+    FrameAssembler assembler(&f.output);
+    assembler.Add(f.part, &r);
+    EXPECT_EQ(r.status.code(), StatusCode::kInternal) << f.part.ShortDebugString();
+    EXPECT_NE(r.status.message().find("region 'frames'"), std::string::npos) << r.status.message();
+    EXPECT_TRUE(r.region_positions.empty());
+    EXPECT_TRUE(r.region_normals.empty());
+  };
+  // An offset whose end wraps: 2^64 - 64 + 480 bytes of the frame ends at 416 mod 2^64,
+  // inside the 4 KiB mapping, and every field agrees with the layout computed in 64 bits.
+  expect_refused([](v1::SkinResponse* part) {
+    const uint64_t offset = ~uint64_t{0} - 63;
+    const wire::RegionLayout wrapped =
+        wire::LayoutInRegion(offset, 10, 2, VertexEncoding::kFloat32, true);
+    v1::RegionWrite* write = part->mutable_region_write();
+    write->set_positions_offset(offset);
+    write->set_normals_offset(wrapped.normals_offset);
+    write->set_end_offset(wrapped.end_offset);
+  });
+  // Counts whose product wraps: 2^32 - 1 instances of 2^32 - 1 vertices.
+  expect_refused([](v1::SkinResponse* part) {
+    part->set_instances(~uint32_t{0});
+    part->set_total_vertices(~uint32_t{0});
+    const wire::RegionLayout wrapped =
+        wire::LayoutInRegion(64, ~uint32_t{0}, ~uint32_t{0}, VertexEncoding::kFloat32, true);
+    v1::RegionWrite* write = part->mutable_region_write();
+    write->set_normals_offset(wrapped.normals_offset);
+    write->set_instance_bytes(wrapped.instance_bytes);
+    write->set_end_offset(wrapped.end_offset);
+  });
+  // Plainly past the end of the mapping.
+  expect_refused([](v1::SkinResponse* part) {
+    const wire::RegionLayout late =
+        wire::LayoutInRegion(4096, 10, 2, VertexEncoding::kFloat32, true);
+    v1::RegionWrite* write = part->mutable_region_write();
+    write->set_positions_offset(4096);
+    write->set_normals_offset(late.normals_offset);
+    write->set_end_offset(late.end_offset);
+  });
 }
 
 // Packed parts carry the same bytes as one part per instance: the frames decode alike.

@@ -49,6 +49,37 @@ inline RegionLayout LayoutInRegion(uint64_t offset, uint32_t vertices, uint32_t 
   return layout;
 }
 
+// Whether a frame of this shape at `offset` lies inside `region_bytes`. Every sum and
+// product is checked for overflow, so that no offset or count a peer sends (an offset near
+// 2^64, 2^32 instances of 2^32 vertices) can wrap around into a small end: a client must
+// distrust the server's RegionWrite as much as the server distrusts a request's output.
+inline bool LayoutFitsRegion(uint64_t offset, uint32_t vertices, uint32_t instances,
+                             VertexEncoding encoding, bool normals, bool tangents,
+                             uint64_t region_bytes) {
+  const uint64_t count = instances == 0 ? 1 : instances;
+  const uint64_t value_bytes = EncodedBytesPerValue(encoding);
+  bool wrapped = false;
+  const auto add = [&](uint64_t a, uint64_t b) {
+    uint64_t sum = 0;
+    wrapped |= __builtin_add_overflow(a, b, &sum);
+    return sum;
+  };
+  const auto mul = [&](uint64_t a, uint64_t b) {
+    uint64_t product = 0;
+    wrapped |= __builtin_mul_overflow(a, b, &product);
+    return product;
+  };
+  const auto round_up = [&](uint64_t n) {
+    return add(n, kRegionAlignment - 1) / kRegionAlignment * kRegionAlignment;
+  };
+  const uint64_t array_bytes = mul(uint64_t{vertices} * kValuesPerVertex * value_bytes, count);
+  uint64_t end = normals ? add(round_up(array_bytes), array_bytes) : array_bytes;
+  if (tangents) {
+    end = add(round_up(end), mul(uint64_t{vertices} * kValuesPerTangent * value_bytes, count));
+  }
+  return !wrapped && end <= region_bytes && offset <= region_bytes - end;
+}
+
 // The bytes a frame of this shape takes, rounded up so that frames can follow each other.
 inline uint64_t RegionFrameBytes(uint32_t vertices, uint32_t instances, VertexEncoding encoding,
                                  bool normals, bool tangents = false) {
