@@ -1,12 +1,9 @@
 #include "inflight_budget.h"
 
 #include <fmt/format.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <string>
-
-#include "cgroup_limits.h"
 
 namespace skinserve::server {
 
@@ -23,13 +20,6 @@ Status InflightBudget::TryCharge(uint64_t bytes) {
     }
   } while (!used_.compare_exchange_weak(used, used + bytes));
   return Status::Ok();
-}
-
-uint64_t InflightBudget::DefaultLimitBytes() {
-  const long pages = sysconf(_SC_PHYS_PAGES), page_size = sysconf(_SC_PAGE_SIZE);
-  uint64_t memory = pages > 0 && page_size > 0 ? uint64_t(pages) * uint64_t(page_size) : 4ull << 30;
-  if (const auto limit = ReadCgroupLimits().memory_bytes) memory = std::min(memory, *limit);
-  return std::max<uint64_t>(memory / 4, 64ull << 20);
 }
 
 }  // namespace skinserve::server

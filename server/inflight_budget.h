@@ -40,10 +40,6 @@ class InflightBudget {
   uint64_t used() const { return used_.load(); }
   uint64_t refused() const { return refused_.load(); }
 
-  // The default: a quarter of the memory this process may use (the cgroup's limit when
-  // one is set, else physical memory), so a replica in a container stays inside its quota.
-  static uint64_t DefaultLimitBytes();
-
  private:
   const uint64_t limit_;
   const BudgetWording wording_;

@@ -60,6 +60,13 @@ int main(int argc, char** argv) {
   skinserve::cli::AddVersionFlag(app, "skinserve");
   skinserve::cli::AddConfigFile(app, "SKINSERVE_CONFIG");
   if (const auto exit_code = skinserve::cli::ParseCommandLine(app, argc, argv)) return *exit_code;
+  if (options.print_memory_envelope) {
+    const MemoryEnvelope envelope = options.Envelope();
+    const skinserve::Status fits = envelope.Check();
+    std::printf("memory envelope:\n%s\n%s\n", envelope.Describe().c_str(),
+                fits.ok() ? "fits" : "does not fit");
+    return fits.ok() ? 0 : 1;
+  }
   TuneMalloc();
 
   if (pipe(signal_pipe) != 0) {

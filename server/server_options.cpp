@@ -51,15 +51,61 @@ std::string ServerOptions::DescribeSizing() const {
       memory_limit);
 }
 
+MemoryEnvelope ServerOptions::Envelope() const {
+  const auto enabled = [&](const char* id) {
+    return backends.empty() || std::find(backends.begin(), backends.end(), id) != backends.end();
+  };
+  // The backends' prepared copies of a stored mesh: opencl's buffers (host memory on PoCL,
+  // a whole copy); simd's joints and weights (at most ~45% of a float mesh's bytes).
+  double mesh_copies = 1;
+  std::string mesh_why = "the mesh";
+  if (enabled("opencl")) {
+    mesh_copies += 1;
+    mesh_why += ", opencl's buffers";
+  }
+  if (enabled("simd") || enabled("simd-openmp")) {
+    mesh_copies += 0.5;
+    mesh_why += ", simd's joints and weights";
+  }
+  MemoryEnvelope envelope = EnvelopeMemory(memory_limit_mb);
+  envelope.terms.push_back({.what = "stored meshes",
+                            .flag = "--mesh-budget-mb",
+                            .budget_bytes = mesh_budget_mb << 20,
+                            .copies = mesh_copies,
+                            .share = 0.35,
+                            .why = mesh_why});
+  envelope.terms.push_back({.what = "frames in flight, parsed requests",
+                            .flag = "--inflight-budget-mb",
+                            .budget_bytes = inflight_budget_mb << 20,
+                            .copies = 1,
+                            .share = 0.25,
+                            .why = "charged as held"});
+  envelope.terms.push_back({.what = "uploads",
+                            .flag = "--upload-budget-mb",
+                            .budget_bytes = upload_budget_mb << 20,
+                            .copies = 2,
+                            .share = 0.20,
+                            .why = "the arrays, and the mesh built while they are held"});
+  if (!shm_dir.empty()) {
+    envelope.terms.push_back({.what = "shared-memory regions",
+                              .flag = "--shm-budget-mb",
+                              .budget_bytes = shm_budget_mb << 20,
+                              .copies = 1,
+                              .share = 0.20,
+                              .why = "tmpfs pages the server's writes fault in"});
+  }
+  DeriveBudgets(&envelope);
+  return envelope;
+}
+
 uint64_t ServerOptions::InflightBudgetBytes() const {
-  return inflight_budget_mb > 0 ? inflight_budget_mb << 20 : InflightBudget::DefaultLimitBytes();
+  return Envelope().term("--inflight-budget-mb").budget_bytes;
 }
 
 RegionLimits ServerOptions::ToRegionLimits() const {
   RegionLimits limits;
   limits.dir = shm_dir;
-  limits.budget_bytes =
-      shm_budget_mb > 0 ? shm_budget_mb << 20 : InflightBudget::DefaultLimitBytes();
+  limits.budget_bytes = shm_dir.empty() ? 0 : Envelope().term("--shm-budget-mb").budget_bytes;
   limits.max_regions = shm_max_regions;
   limits.max_per_connection = shm_max_regions_per_connection;
   limits.idle_seconds = shm_idle_seconds;
@@ -88,14 +134,14 @@ Status ServerOptions::CheckSecurity() const {
 }
 
 uint64_t ServerOptions::UploadBudgetBytes() const {
-  return upload_budget_mb > 0 ? upload_budget_mb << 20 : InflightBudget::DefaultLimitBytes();
+  return Envelope().term("--upload-budget-mb").budget_bytes;
 }
 
 EngineOptions ServerOptions::ToEngineOptions() const {
   EngineOptions engine;
   engine.compute_threads = ComputeThreads();
   engine.queue_capacity = queue;
-  engine.mesh_budget_bytes = mesh_budget_mb << 20;
+  engine.mesh_budget_bytes = Envelope().term("--mesh-budget-mb").budget_bytes;
   engine.mesh.limits.max_vertices = max_vertices;
   engine.mesh.limits.max_joints = max_joints;
   engine.enabled_backends = backends;
@@ -125,10 +171,21 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--default-backend", o.default_backend, "backend used when a request names none")
       ->envname("SKINSERVE_DEFAULT_BACKEND")
       ->capture_default_str();
+  app.add_option("--memory-limit-mb", o.memory_limit_mb,
+                 "the memory this server may use, MiB, that its budgets must fit together with "
+                 "the copies they do not count (0: the cgroup's memory limit, else physical "
+                 "memory); the server does not start when they do not fit")
+      ->envname("SKINSERVE_MEMORY_LIMIT_MB")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_flag("--memory-envelope", o.print_memory_envelope,
+               "print every budget with the copies it does not count, their sum and the memory "
+               "it must fit, then exit: 0 when it fits, 1 when not");
   app.add_option("--mesh-budget-mb", o.mesh_budget_mb,
-                 "memory for stored meshes, MiB; least recently used meshes are evicted beyond")
+                 "memory for stored meshes, MiB; least recently used meshes are evicted beyond "
+                 "(0: its share of the memory envelope, see --memory-envelope)")
       ->envname("SKINSERVE_MESH_BUDGET_MB")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--max-vertices", o.max_vertices, "largest vertex count a mesh may have")
       ->envname("SKINSERVE_MAX_VERTICES")
@@ -151,8 +208,8 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->capture_default_str();
   app.add_option("--inflight-budget-mb", o.inflight_budget_mb,
                  "memory for frames in flight across all streams (palettes, skinned vertices, "
-                 "unwritten answers), MiB; frames beyond are answered RESOURCE_EXHAUSTED "
-                 "(0: a quarter of the machine's or the cgroup's memory)")
+                 "unwritten answers, parsed requests), MiB; frames beyond are answered "
+                 "RESOURCE_EXHAUSTED (0: its share of the memory envelope)")
       ->envname("SKINSERVE_INFLIGHT_BUDGET_MB")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -172,7 +229,7 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "memory for the arrays of uploads in progress, all together, MiB; taken as "
                  "chunks arrive (a header costs nothing; an upload holds up to 1.5 times its "
                  "mesh's size while its arrays grow); a chunk beyond it ends its upload with "
-                 "RESOURCE_EXHAUSTED (0: a quarter of the machine's or the cgroup's memory)")
+                 "RESOURCE_EXHAUSTED (0: its share of the memory envelope)")
       ->envname("SKINSERVE_UPLOAD_BUDGET_MB")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -227,8 +284,8 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_SHM_DIR")
       ->capture_default_str();
   app.add_option("--shm-budget-mb", o.shm_budget_mb,
-                 "bytes all registered regions may map together, MiB (0: a quarter of the "
-                 "machine's or the cgroup's memory); beyond, RegisterRegion is refused")
+                 "bytes all registered regions may map together, MiB (0: its share of the "
+                 "memory envelope); beyond, RegisterRegion is refused")
       ->envname("SKINSERVE_SHM_BUDGET_MB")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "memory_envelope.h"
 #include "region_registry.h"
 #include "skinserve/engine/engine.h"
 
@@ -17,7 +18,7 @@ struct ServerOptions {
   int threads = 0;                    // 0: one per core less one (see ComputeThreads)
   std::vector<std::string> backends;  // empty: all
   std::string default_backend = "sse-openmp";
-  uint64_t mesh_budget_mb = 4096;
+  uint64_t mesh_budget_mb = 0;  // 0: its share of the memory envelope
   uint32_t max_vertices = 4'000'000;
   uint32_t max_joints = 1024;
   std::size_t queue = 256;
@@ -40,12 +41,12 @@ struct ServerOptions {
   double keepalive_timeout_seconds = 10;
   double max_connection_age_seconds = 300;  // 0: connections never age out
   double max_connection_age_grace_seconds = 30;
-  uint64_t inflight_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
+  uint64_t inflight_budget_mb = 0;  // 0: its share of the memory envelope
   std::string opencl_device;        // "": the first CPU device (PoCL), else the first device
   // The same-host data plane (docs/serving/shared-memory.md): where clients' regions live (empty:
   // off), what they may map together, how many, and when an unused one is dropped.
   std::string shm_dir = "/dev/shm";
-  uint64_t shm_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
+  uint64_t shm_budget_mb = 0;  // 0: its share of the memory envelope
   uint32_t shm_max_regions = 256;
   uint32_t shm_max_regions_per_connection = 16;
   double shm_idle_seconds = 60;
@@ -61,11 +62,19 @@ struct ServerOptions {
   bool reflection = true;
   // Uploads (see OpenUploads): what their arrays may hold together, how many may be open
   // at once (over all connections and per connection), and how long one may send nothing.
-  uint64_t upload_budget_mb = 0;  // 0: InflightBudget::DefaultLimitBytes()
+  uint64_t upload_budget_mb = 0;  // 0: its share of the memory envelope
   std::size_t max_uploads = 16;
   std::size_t max_uploads_per_connection = 4;
   double upload_idle_seconds = 10;
 
+  // The memory the budgets must fit (memory_envelope.h): 0 reads the cgroup's limit, else
+  // physical memory.
+  uint64_t memory_limit_mb = 0;
+  bool print_memory_envelope = false;  // --memory-envelope: print it and exit
+
+  // Every budget with the copies it does not count, against the memory this process may
+  // use; budgets left at 0 are derived here.
+  MemoryEnvelope Envelope() const;
   EngineOptions ToEngineOptions() const;
   // --threads, or by default one per core less one (at least one): gRPC's threads do most
   // of a frame's work (messages, copies, the socket) and must not wait for cores that

@@ -59,6 +59,9 @@ void SkinServer::SetReady(bool ready) {
 Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& options) {
   spdlog::set_level(spdlog::level::from_str(options.log_level));
   SetLogFormat(options.log_format);
+  const MemoryEnvelope envelope = options.Envelope();
+  if (Status s = envelope.Check(); !s.ok()) return s;
+  spdlog::info("memory envelope:\n{}", envelope.Describe());
   std::unique_ptr<SkinServer> server(new SkinServer());
   if (!options.shm_dir.empty()) {
     auto regions = RegionRegistry::Create(options.ToRegionLimits());

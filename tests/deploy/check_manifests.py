@@ -5,7 +5,7 @@ yamllint checks the syntax and style; this renders every kustomize overlay under
 deploy/k8s/overlays/ (`kubectl kustomize`, offline) and checks what a cluster would only tell
 us at apply time, or never: the version label everywhere equals project(VERSION), the pods have
 CPU and memory limits and no thread count matched to them by hand (the server reads its
-cgroup), the probes reach the health service (through skinserve-cli over the pod's Unix
+cgroup), their budgets fit the memory limit (the server's own --memory-envelope), the probes reach the health service (through skinserve-cli over the pod's Unix
 socket when TCP has TLS, which the kubelet's gRPC probes cannot speak) with liveness asking
 "liveness" and readiness the whole server, the TLS files come from a Secret and the
 authorization policy from a ConfigMap equal to deploy/authz-policy.json, no pod mounts a
@@ -16,7 +16,7 @@ top (PROFILES): production and gpu with mutual TLS, the policy, anti-affinity, a
 and a disruption budget; development one plaintext replica; gpu a GPU limit, the GPU pool's
 node selector and toleration, and OpenCL on the GPU by default.
 
-usage: check_manifests.py <repository root>   (kubectl from $KUBECTL, else PATH)
+usage: check_manifests.py <repository root> <skinserve binary>   (kubectl from $KUBECTL, else PATH)
 """
 import json
 import os
@@ -162,7 +162,7 @@ def check_overlay(root, name, objects, version, profile):
               f"{where}: SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS under a second")
 
     check_sizing(where, container, config)
-    check_mesh_budget(where, container, config)
+    check_memory_envelope(where, container, config)
     tls = bool(config.get("SKINSERVE_TLS_CERT"))
     check(tls == profile["tls"],
           f"{where}: TLS on the gRPC port (SKINSERVE_TLS_CERT) is {tls}, wanted {profile['tls']}")
@@ -253,14 +253,24 @@ def memory_bytes(quantity):
     return float(m.group(1)) * scale[m.group(2)]
 
 
-def check_mesh_budget(where, container, env):
-    """Stored meshes fit in half the memory limit, leaving room for frames and buffers."""
+ENVELOPE_VARIABLES = ("SKINSERVE_MESH_BUDGET_MB", "SKINSERVE_INFLIGHT_BUDGET_MB",
+                      "SKINSERVE_UPLOAD_BUDGET_MB", "SKINSERVE_SHM_BUDGET_MB",
+                      "SKINSERVE_SHM_DIR", "SKINSERVE_BACKENDS")
+
+
+def check_memory_envelope(where, container, env):
+    """The server's own --memory-envelope under the container's memory limit and budgets:
+    every budget with the copies it does not count, plus the process, fits the limit."""
     limit = container.get("resources", {}).get("limits", {}).get("memory")
-    if limit and "SKINSERVE_MESH_BUDGET_MB" in env:
-        budget = float(env["SKINSERVE_MESH_BUDGET_MB"]) * 2**20
-        check(budget <= memory_bytes(limit) / 2,
-              f"{where}: SKINSERVE_MESH_BUDGET_MB {env['SKINSERVE_MESH_BUDGET_MB']} is over half "
-              f"the memory limit {limit}")
+    if not check(limit is not None, f"{where}: no memory limit"):
+        return
+    limit_mb = int(memory_bytes(limit) // 2**20)
+    server_env = {k: v for k, v in os.environ.items() if not k.startswith("SKINSERVE_")}
+    server_env.update({k: str(env[k]) for k in ENVELOPE_VARIABLES if k in env})
+    done = subprocess.run([SERVER_BINARY, "--memory-envelope", "--memory-limit-mb", str(limit_mb)],
+                          capture_output=True, text=True, env=server_env)
+    check(done.returncode == 0,
+          f"{where}: the budgets do not fit the memory limit {limit}:\n{done.stdout}{done.stderr}")
 
 
 def check_repository(root, version):
@@ -558,8 +568,9 @@ def check_same_host_pod(name, dep, version, base_maps):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 2:
+    if len(sys.argv) != 3:
         sys.exit(__doc__)
+    SERVER_BINARY = sys.argv[2]
     main(sys.argv[1])
     for f in failures:
         print("FAIL:", f)

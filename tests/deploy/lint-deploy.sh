@@ -5,10 +5,16 @@
 # probes, grace period vs drain, selectors, each overlay's TLS, placement and GPU).
 # Exit 77 (ctest's skip code) when yamllint or kubectl is missing and cannot be installed
 # here (Debian: yamllint, kubernetes-client).
-# usage: lint-deploy.sh [repository root]
+# The budgets of each overlay are checked by the server binary itself (--memory-envelope).
+# usage: lint-deploy.sh [repository root [skinserve binary]]
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 root=$(cd "${1:-$here/../..}" && pwd)
+server="${2:-$root/build/bin/skinserve}"
+if [ ! -x "$server" ]; then
+  echo "lint-deploy: no skinserve binary at $server (build first, or pass it as the second argument)" >&2
+  exit 1
+fi
 
 if ! command -v yamllint >/dev/null 2>&1; then
   if [ "$(id -u)" -eq 0 ] && command -v apt-get >/dev/null 2>&1; then
@@ -42,4 +48,4 @@ cd "$root"
 echo "lint-deploy: yamllint -c deploy/.yamllint deploy/"
 yamllint --strict -c deploy/.yamllint deploy/
 echo "lint-deploy: yamllint ok"
-python3 "$here/check_manifests.py" "$root"
+python3 "$here/check_manifests.py" "$root" "$server"

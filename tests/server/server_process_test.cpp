@@ -38,6 +38,23 @@ TEST(ServerProcessTest, UnwritablePortFileIsAStartUpErrorNamingTheOption) {
   EXPECT_NE(out.find("exit=1"), std::string::npos) << out;
 }
 
+// Budgets that could together make the server hold more than its memory: it does not
+// start (an OOM kill later would take every client's streams), and says which budgets.
+TEST(ServerProcessTest, BudgetsOverTheMemoryEnvelopeAreAStartUpErrorNamingThem) {
+  const std::string server = std::string(SKINSERVE_SERVER_BINARY) +
+                             " --listen 127.0.0.1:0 --log-level warn --memory-limit-mb 3072 ";
+  const std::string out = RunAndCapture(server + "--mesh-budget-mb 1024 2>&1; echo exit=$?");
+  EXPECT_NE(out.find("the budgets do not fit the memory"), std::string::npos) << out;
+  EXPECT_NE(out.find("--mesh-budget-mb 1024 MiB x 2.5"), std::string::npos) << out;
+  EXPECT_NE(out.find("exit=1"), std::string::npos) << out;
+  // --memory-envelope prints the same sum and says whether it fits.
+  const std::string fits =
+      RunAndCapture(server + "--mesh-budget-mb 512 --memory-envelope 2>&1; echo exit=$?");
+  EXPECT_NE(fits.find("--mesh-budget-mb 512 MiB x 2.5"), std::string::npos) << fits;
+  EXPECT_NE(fits.find("--inflight-budget-mb"), std::string::npos) << fits;
+  EXPECT_NE(fits.find("\nfits\nexit=0"), std::string::npos) << fits;
+}
+
 TEST(ServerProcessTest, SigtermDrainsStreamsInFlightAndExitsZero) {
   ServerChild server({"--log-level", "warn", "--drain-seconds", "5"});
   ASSERT_TRUE(server.ready()) << server.error();
