@@ -381,11 +381,11 @@ bool ClosedByPeer(int fd) {
   }
 }
 
-TEST_F(SlowClientsTest, ConnectionsThatNeverSpeakOrHoldNoCallAreClosed) {
-  Start({"--handshake-timeout-seconds", "1", "--connection-idle-seconds", "1"});
-  GoodClient good(target_);  // its connection always has a call open: never idle
-
-  // A TCP connection that never sends the HTTP/2 preface is dropped.
+TEST_F(SlowClientsTest, ConnectionsThatNeverSpeakAreDropped) {
+  // No idle limit: it would close the connection too, once gRPC has set it up.
+  Start({"--handshake-timeout-seconds", "1", "--connection-idle-seconds", "0"});
+  GoodClient good(target_);
+  // A TCP connection that never sends HTTP/2's preface and settings.
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   ASSERT_GE(fd, 0);
   sockaddr_in address{};
@@ -395,8 +395,13 @@ TEST_F(SlowClientsTest, ConnectionsThatNeverSpeakOrHoldNoCallAreClosed) {
   ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
   EXPECT_TRUE(ClosedByPeer(fd)) << "a silent TCP connection was kept";
   close(fd);
+  good.Stop();
+}
 
-  // A gRPC connection with no call is closed (GOAWAY: the channel goes IDLE), and the
+TEST_F(SlowClientsTest, ConnectionsWithNoCallAreClosed) {
+  Start({"--connection-idle-seconds", "1"});
+  GoodClient good(target_);  // its connection always has a call open: never idle
+  // A gRPC connection with no call gets a GOAWAY (the channel goes IDLE), and the
   // client's next call connects again.
   auto channel = OwnConnection(target_);
   ASSERT_TRUE(channel->WaitForConnected(GiveUpAt()));
