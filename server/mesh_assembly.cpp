@@ -54,6 +54,7 @@ Status MeshAssembly::AcceptHeader(const v1::MeshHeader& header) {
   declared_[v1::MESH_ARRAY_MORPH_POSITION_DELTAS] = 3 * deltas;
   declared_[v1::MESH_ARRAY_MORPH_NORMAL_DELTAS] = header.morph_normals() ? 3 * deltas : 0;
   declared_[v1::MESH_ARRAY_MORPH_TANGENT_DELTAS] = header.morph_tangents() ? 3 * deltas : 0;
+  ++progress_;
   return Status::Ok();
 }
 
@@ -125,6 +126,7 @@ Status MeshAssembly::Append(std::vector<T>& array, const char* name, const v1::M
   }
   array.resize(received + count);  // within the capacity reserved: no allocation
   std::memcpy(array.data() + received, chunk.data().data(), chunk.data().size());
+  progress_ += chunk.data().size();
   return Status::Ok();
 }
 

@@ -40,6 +40,10 @@ class MeshAssembly {
 
   // Bytes the arrays hold now, as charged to the budget.
   uint64_t charged_bytes() const { return charged_bytes_; }
+  // Grows exactly when a message makes progress: the header accepted (one), or bytes of
+  // an array accepted (their number). An empty chunk adds nothing, nor does a message that
+  // fails: the upload's idle limit counts time without progress (OpenUploads).
+  uint64_t progress() const { return progress_; }
 
  private:
   Status AcceptHeader(const v1::MeshHeader& header);
@@ -61,6 +65,7 @@ class MeshAssembly {
   uint64_t declared_[kArrays] = {};   // values the header implies, by MeshArray number
   uint64_t charged_[kArrays] = {};    // bytes charged for each array's block, by MeshArray number
   uint64_t charged_bytes_ = 0;
+  uint64_t progress_ = 0;  // never reset: only its growth means anything
 };
 
 }  // namespace skinserve::server

@@ -28,13 +28,16 @@ void MeshUploadReactor::OnReadDone(bool ok) {
   {
     std::lock_guard lock(mutex_);
     reading_ = false;
-    waiting_since_.store(std::chrono::steady_clock::time_point::max().time_since_epoch().count());
     if (finished_) return;  // ended meanwhile (idle, cancelled): OnDone frees what it holds
   }
   // The message is handled outside the lock, so the watchdog never waits on a big copy
   // or a store; it leaves an upload alone while reading_ is false.
   // !ok: the client finished sending (or went away: then Finish goes nowhere).
+  const uint64_t progress = assembly_.progress();
   const Status status = ok ? assembly_.Accept(message_) : Store();
+  if (assembly_.progress() != progress) {
+    progress_at_.store(std::chrono::steady_clock::now().time_since_epoch().count());
+  }
   if (!status.ok()) assembly_.Discard();  // drop everything received so far
   // A waiting upload holds its (charged) arrays and nothing more: not its last chunk.
   message_.clear_part();
@@ -57,12 +60,20 @@ void MeshUploadReactor::OnDone() {
   Unref();
 }
 
-bool MeshUploadReactor::EndIfWaitingSince(std::chrono::steady_clock::time_point cutoff,
-                                          const Status& status) {
+UploadOverdue MeshUploadReactor::EndIfOverdue(std::chrono::steady_clock::time_point idle_cutoff,
+                                              std::chrono::steady_clock::time_point deadline_cutoff,
+                                              const Status& idle, const Status& deadline) {
   std::lock_guard lock(mutex_);
-  if (finished_ || !reading_ || waiting_since() > cutoff) return false;
-  FinishLocked(ToGrpc(status));
-  return true;
+  if (finished_ || !reading_) return UploadOverdue::kNo;
+  if (admitted_at_ <= deadline_cutoff) {
+    FinishLocked(ToGrpc(deadline));
+    return UploadOverdue::kDeadline;
+  }
+  if (progress_at() <= idle_cutoff) {
+    FinishLocked(ToGrpc(idle));
+    return UploadOverdue::kIdle;
+  }
+  return UploadOverdue::kNo;
 }
 
 Status MeshUploadReactor::Store() {
@@ -78,7 +89,6 @@ Status MeshUploadReactor::Store() {
 void MeshUploadReactor::ReadLocked() {
   if (finished_) return;
   reading_ = true;
-  waiting_since_.store(std::chrono::steady_clock::now().time_since_epoch().count());
   StartRead(&message_);
 }
 

@@ -2,7 +2,7 @@
 // stores the mesh only once every array is complete and valid, so a failed or truncated
 // upload leaves nothing behind). Each upload is admitted by OpenUploads (the caps), its
 // arrays are charged to the upload budget as they arrive, and OpenUploads' watchdog ends
-// it if its client sends nothing for too long.
+// it if it makes no progress for too long, or is open too long in all.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -27,14 +27,19 @@ class MeshUploadReactor final : public grpc::ServerReadReactor<v1::UploadMeshReq
   void OnCancel() override;
   void OnDone() override;
 
-  // Since when the upload has waited for its client's next message; time_point::max()
-  // while it is busy with one (or has ended). Read by OpenUploads' watchdog.
-  std::chrono::steady_clock::time_point waiting_since() const {
+  // When it was admitted, and when it last made progress (MeshAssembly::progress; its
+  // admission until then). Read by OpenUploads' watchdog.
+  std::chrono::steady_clock::time_point admitted_at() const { return admitted_at_; }
+  std::chrono::steady_clock::time_point progress_at() const {
     return std::chrono::steady_clock::time_point(
-        std::chrono::steady_clock::duration(waiting_since_.load()));
+        std::chrono::steady_clock::duration(progress_at_.load()));
   }
-  // Ends the upload with `status` if it has waited since `cutoff` or before; true if so.
-  bool EndIfWaitingSince(std::chrono::steady_clock::time_point cutoff, const Status& status);
+  // While it waits for its client's next message, ends the upload with `deadline` if it
+  // was admitted at `deadline_cutoff` or before, else with `idle` if it made no progress
+  // since `idle_cutoff`; says which.
+  UploadOverdue EndIfOverdue(std::chrono::steady_clock::time_point idle_cutoff,
+                             std::chrono::steady_clock::time_point deadline_cutoff,
+                             const Status& idle, const Status& deadline);
   // Keeps the reactor alive across a call from outside gRPC (OpenUploads' watchdog).
   void Hold() { refs_.fetch_add(1); }
   void Release() { Unref(); }
@@ -54,8 +59,8 @@ class MeshUploadReactor final : public grpc::ServerReadReactor<v1::UploadMeshReq
   std::mutex mutex_;
   bool reading_ = false;
   bool finished_ = false;
-  std::atomic<std::chrono::steady_clock::rep> waiting_since_{
-      std::chrono::steady_clock::time_point::max().time_since_epoch().count()};
+  const std::chrono::steady_clock::time_point admitted_at_ = std::chrono::steady_clock::now();
+  std::atomic<std::chrono::steady_clock::rep> progress_at_{admitted_at_.time_since_epoch().count()};
   std::atomic<int> refs_{1};  // gRPC's (until OnDone), plus one per Hold
 };
 

@@ -127,6 +127,10 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
 
   w.Header("skinserve_open_streams", "gauge", "StreamSkin calls in progress.");
   w.Sample("skinserve_open_streams", "", static_cast<double>(s.open_streams));
+  w.Header("skinserve_streams_ended_idle_total", "counter",
+           "StreamSkin calls the server ended for sending nothing with no frame in flight "
+           "(--stream-idle-seconds).");
+  w.Sample("skinserve_streams_ended_idle_total", "", static_cast<double>(s.streams_ended_idle));
   const UploadStats& u = s.uploads;
   w.Header("skinserve_open_uploads", "gauge", "UploadMesh calls in progress.");
   w.Sample("skinserve_open_uploads", "", static_cast<double>(u.open));
@@ -138,12 +142,13 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
   w.Sample("skinserve_upload_budget_bytes", "", static_cast<double>(u.budget_bytes));
   w.Header("skinserve_upload_refusals_total", "counter",
            "Uploads refused or ended, by the limit: max_uploads, max_uploads_per_connection, "
-           "upload_budget, upload_idle.");
+           "upload_budget, upload_idle, upload_deadline.");
   const std::pair<const char*, uint64_t> refusals[] = {
       {"max_uploads", u.refused_max_uploads},
       {"max_uploads_per_connection", u.refused_per_connection},
       {"upload_budget", u.refused_budget},
-      {"upload_idle", u.cancelled_idle}};
+      {"upload_idle", u.cancelled_idle},
+      {"upload_deadline", u.cancelled_deadline}};
   for (const auto& [reason, n] : refusals) {
     w.Sample("skinserve_upload_refusals_total", fmt::format("reason=\"{}\"", reason),
              static_cast<double>(n));

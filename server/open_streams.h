@@ -1,13 +1,18 @@
-// OpenStreams: the StreamSkin calls in progress, at most `limit` of them, so that a
+// OpenStreams: the StreamSkin calls in progress, at most --max-streams of them, so that a
 // shutdown can drain them. A drained stream stops reading, answers every frame it has
 // read and ends with UNAVAILABLE, which tells its client to go on elsewhere at once,
 // instead of streaming on through the grace period and then being cancelled.
+// A watchdog ends a stream that is quiet (no frame in flight, none read) for
+// --stream-idle-seconds, so silent clients hold no stream slot for longer: UNAVAILABLE,
+// like a drain, since every frame it sent was answered and a new stream may carry on.
 #pragma once
 
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <mutex>
+#include <thread>
 #include <unordered_set>
 
 #include "skinserve/model/status.h"
@@ -16,11 +21,21 @@ namespace skinserve::server {
 
 class StreamSkinReactor;
 
+struct StreamLimits {
+  std::size_t max_streams = 1024;
+  double idle_seconds = 120;
+};
+
 class OpenStreams {
  public:
-  explicit OpenStreams(std::size_t limit) : limit_(limit) {}
+  explicit OpenStreams(const StreamLimits& limits);
+  ~OpenStreams();  // stops the watchdog; every stream has ended by then
+  OpenStreams(const OpenStreams&) = delete;
+  OpenStreams& operator=(const OpenStreams&) = delete;
+
   // Registers `stream`. Otherwise the stream should end at once with the status:
-  // UNAVAILABLE once draining, RESOURCE_EXHAUSTED (naming the limit) when `limit` are open.
+  // UNAVAILABLE once draining, RESOURCE_EXHAUSTED (naming the limit) when max_streams are
+  // open.
   Status Add(StreamSkinReactor* stream);
   void Remove(StreamSkinReactor* stream);
   // Drains every open stream and refuses new ones. Idempotent.
@@ -29,13 +44,22 @@ class OpenStreams {
   // true if they all ended.
   bool WaitUntilAllEnded(std::chrono::steady_clock::time_point deadline);
   std::size_t count() const;
+  // Streams the watchdog ended for --stream-idle-seconds.
+  uint64_t ended_idle() const;
 
  private:
-  const std::size_t limit_;
+  void Watch();  // the watchdog thread
+
+  const StreamLimits limits_;
+  const std::chrono::nanoseconds idle_limit_;
   mutable std::mutex mutex_;
   std::condition_variable ended_;  // notified when the last open stream is removed
   std::unordered_set<StreamSkinReactor*> streams_;
   bool draining_ = false;
+  uint64_t ended_idle_ = 0;
+  bool stopping_ = false;
+  std::condition_variable wake_;  // notified to stop the watchdog
+  std::thread watchdog_;          // started last: it uses every member above
 };
 
 }  // namespace skinserve::server

@@ -11,10 +11,16 @@
 namespace skinserve::server {
 namespace {
 
-// How often the watchdog looks: a quarter of the idle limit, at most 250 ms, so an idle
+// At most 1e9 s (31 years), so that the limit, and now less it, stay in range.
+std::chrono::nanoseconds Nanoseconds(double seconds) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+      std::chrono::duration<double>(std::min(seconds, 1e9)));
+}
+
+// How often the watchdog looks: a quarter of the shorter limit, at most 250 ms, so an
 // upload ends at most a quarter late.
-std::chrono::nanoseconds WatchPeriod(std::chrono::nanoseconds idle_limit) {
-  return std::clamp<std::chrono::nanoseconds>(idle_limit / 4, std::chrono::milliseconds(1),
+std::chrono::nanoseconds WatchPeriod(std::chrono::nanoseconds limit) {
+  return std::clamp<std::chrono::nanoseconds>(limit / 4, std::chrono::milliseconds(1),
                                               std::chrono::milliseconds(250));
 }
 
@@ -22,8 +28,8 @@ std::chrono::nanoseconds WatchPeriod(std::chrono::nanoseconds idle_limit) {
 
 OpenUploads::OpenUploads(const UploadLimits& limits)
     : limits_(limits),
-      idle_limit_(std::chrono::duration_cast<std::chrono::nanoseconds>(
-          std::chrono::duration<double>(limits.idle_seconds))),
+      idle_limit_(Nanoseconds(limits.idle_seconds)),
+      deadline_(Nanoseconds(limits.deadline_seconds)),
       budget_(limits.budget_bytes, kUploadBudgetWording),
       watchdog_([this] { Watch(); }) {}
 
@@ -75,37 +81,60 @@ UploadStats OpenUploads::Stats() const {
           .refused_max_uploads = refused_max_uploads_,
           .refused_per_connection = refused_per_connection_,
           .refused_budget = budget_.refused(),
-          .cancelled_idle = cancelled_idle_};
+          .cancelled_idle = cancelled_idle_,
+          .cancelled_deadline = cancelled_deadline_};
 }
 
 void OpenUploads::Watch() {
-  const auto period = WatchPeriod(idle_limit_);
+  const auto period = WatchPeriod(std::min(idle_limit_, deadline_));
   const Status idle = ResourceExhausted(fmt::format(
-      "this upload sent nothing for {} s (--upload-idle-seconds {}) and was ended; nothing "
-      "was stored: send the next message sooner, or start the upload again",
+      "this upload made no progress for {} s, its limit (--upload-idle-seconds {}): neither "
+      "its header nor array bytes arrived (empty chunks do not count); it was ended and "
+      "nothing was stored: send the next chunk sooner, or start the upload again",
       limits_.idle_seconds, limits_.idle_seconds));
+  const Status deadline = ResourceExhausted(fmt::format(
+      "this upload was still open {} s after it began, its limit (--upload-deadline-seconds "
+      "{}); it was ended and nothing was stored: send the mesh faster (larger chunks, no "
+      "pauses), or ask the operator for a longer limit",
+      limits_.deadline_seconds, limits_.deadline_seconds));
   std::unique_lock lock(mutex_);
   while (!wake_.wait_for(lock, period, [&] { return stopping_; })) {
-    const auto cutoff = std::chrono::steady_clock::now() - idle_limit_;
+    const auto now = std::chrono::steady_clock::now();
+    const auto idle_cutoff = now - idle_limit_, deadline_cutoff = now - deadline_;
     // Ended outside our lock (an upload's OnDone takes it to remove itself); each is held
     // so that it outlives that call.
-    std::vector<MeshUploadReactor*> idle_uploads;
+    std::vector<MeshUploadReactor*> overdue;
     for (const auto& [upload, peer] : uploads_) {
-      if (upload->waiting_since() <= cutoff) {
+      if (upload->progress_at() <= idle_cutoff || upload->admitted_at() <= deadline_cutoff) {
         upload->Hold();
-        idle_uploads.push_back(upload);
+        overdue.push_back(upload);
       }
     }
-    if (idle_uploads.empty()) continue;
+    if (overdue.empty()) continue;
     lock.unlock();
-    uint64_t ended = 0;
-    for (MeshUploadReactor* upload : idle_uploads) {
-      if (upload->EndIfWaitingSince(cutoff, idle)) ++ended;
+    uint64_t ended_idle = 0, ended_deadline = 0;
+    for (MeshUploadReactor* upload : overdue) {
+      switch (upload->EndIfOverdue(idle_cutoff, deadline_cutoff, idle, deadline)) {
+        case UploadOverdue::kIdle:
+          ++ended_idle;
+          break;
+        case UploadOverdue::kDeadline:
+          ++ended_deadline;
+          break;
+        case UploadOverdue::kNo:
+          break;
+      }
       upload->Release();
     }
-    if (ended > 0) spdlog::debug("{} idle uploads ended (--upload-idle-seconds)", ended);
+    if (ended_idle + ended_deadline > 0) {
+      spdlog::debug(
+          "uploads ended: {} idle (--upload-idle-seconds), {} past their deadline "
+          "(--upload-deadline-seconds)",
+          ended_idle, ended_deadline);
+    }
     lock.lock();
-    cancelled_idle_ += ended;
+    cancelled_idle_ += ended_idle;
+    cancelled_deadline_ += ended_deadline;
   }
 }
 

@@ -3,9 +3,11 @@
 // --max-uploads-per-connection per client connection (keyed by the peer address gRPC
 // reports, one per TCP connection), so that a few clients cannot take every slot. Their
 // arrays are charged to the upload budget (--upload-budget-mb) as their chunks arrive
-// (see MeshAssembly). A watchdog ends an upload whose client sends nothing for
-// --upload-idle-seconds, so a stalled or hostile client holds neither a slot nor what it
-// sent for longer than that. Every refusal is RESOURCE_EXHAUSTED naming the limit.
+// (see MeshAssembly). A watchdog ends an upload that makes no progress (no header, no
+// array bytes: empty chunks do not count) for --upload-idle-seconds, and one still open
+// --upload-deadline-seconds after it was admitted however it progresses, so a stalled,
+// dripping or hostile client holds neither a slot nor what it sent for longer than that.
+// Every refusal is RESOURCE_EXHAUSTED naming the limit.
 #pragma once
 
 #include <chrono>
@@ -33,7 +35,11 @@ struct UploadLimits {
   std::size_t max_uploads_per_connection = 4;
   uint64_t budget_bytes = 1ull << 30;
   double idle_seconds = 10;
+  double deadline_seconds = 300;
 };
+
+// Which limit, if any, the watchdog ended an upload for.
+enum class UploadOverdue { kNo, kIdle, kDeadline };
 
 // For GetServerStats and /metrics.
 struct UploadStats {
@@ -44,6 +50,7 @@ struct UploadStats {
   uint64_t refused_per_connection = 0;
   uint64_t refused_budget = 0;
   uint64_t cancelled_idle = 0;
+  uint64_t cancelled_deadline = 0;
 };
 
 class OpenUploads {
@@ -66,6 +73,7 @@ class OpenUploads {
 
   const UploadLimits limits_;
   const std::chrono::nanoseconds idle_limit_;
+  const std::chrono::nanoseconds deadline_;
   InflightBudget budget_;
   mutable std::mutex mutex_;
   std::unordered_map<MeshUploadReactor*, std::string> uploads_;  // to their peer
@@ -73,6 +81,7 @@ class OpenUploads {
   uint64_t refused_max_uploads_ = 0;
   uint64_t refused_per_connection_ = 0;
   uint64_t cancelled_idle_ = 0;
+  uint64_t cancelled_deadline_ = 0;
   bool stopping_ = false;
   std::condition_variable wake_;  // notified to stop the watchdog
   std::thread watchdog_;          // started last: it uses every member above

@@ -8,7 +8,6 @@
 #include <thread>
 
 #include "cgroup_limits.h"
-#include "inflight_budget.h"
 
 namespace skinserve::server {
 
@@ -45,10 +44,11 @@ std::string ServerOptions::DescribeSizing() const {
       cgroup.memory_bytes ? fmt::format("cgroup memory limit {} MiB", *cgroup.memory_bytes >> 20)
                           : "no cgroup memory limit";
   return fmt::format(
-      "compute threads {} ({}usable cores {}: affinity {}, {}); in-flight budget {} MiB ({}{})",
+      "compute threads {} ({}usable cores {}: affinity {}, {}); in-flight budget {} MiB ({}{}); "
+      "gRPC memory quota {} MiB{}",
       ComputeThreads(), threads > 0 ? "--threads; " : "", UsableCores(), AffinityCores(), cpu_limit,
       InflightBudgetBytes() >> 20, inflight_budget_mb > 0 ? "--inflight-budget-mb; " : "",
-      memory_limit);
+      memory_limit, GrpcMemoryBytes() >> 20, grpc_memory_mb > 0 ? " (--grpc-memory-mb)" : "");
 }
 
 MemoryEnvelope ServerOptions::Envelope() const {
@@ -72,14 +72,20 @@ MemoryEnvelope ServerOptions::Envelope() const {
                             .flag = "--mesh-budget-mb",
                             .budget_bytes = mesh_budget_mb << 20,
                             .copies = mesh_copies,
-                            .share = 0.35,
+                            .share = 0.30,
                             .why = mesh_why});
   envelope.terms.push_back({.what = "frames in flight, parsed requests",
                             .flag = "--inflight-budget-mb",
                             .budget_bytes = inflight_budget_mb << 20,
                             .copies = 1,
-                            .share = 0.25,
+                            .share = 0.20,
                             .why = "charged as held"});
+  envelope.terms.push_back({.what = "gRPC's buffers (resource quota)",
+                            .flag = "--grpc-memory-mb",
+                            .budget_bytes = grpc_memory_mb << 20,
+                            .copies = 1,
+                            .share = 0.10,
+                            .why = "connections' reads, HTTP/2 state, messages"});
   envelope.terms.push_back({.what = "uploads",
                             .flag = "--upload-budget-mb",
                             .budget_bytes = upload_budget_mb << 20,
@@ -135,6 +141,22 @@ Status ServerOptions::CheckSecurity() const {
 
 uint64_t ServerOptions::UploadBudgetBytes() const {
   return Envelope().term("--upload-budget-mb").budget_bytes;
+}
+
+UploadLimits ServerOptions::ToUploadLimits() const {
+  return {.max_uploads = max_uploads,
+          .max_uploads_per_connection = max_uploads_per_connection,
+          .budget_bytes = UploadBudgetBytes(),
+          .idle_seconds = upload_idle_seconds,
+          .deadline_seconds = upload_deadline_seconds};
+}
+
+StreamLimits ServerOptions::ToStreamLimits() const {
+  return {.max_streams = max_streams, .idle_seconds = stream_idle_seconds};
+}
+
+uint64_t ServerOptions::GrpcMemoryBytes() const {
+  return Envelope().term("--grpc-memory-mb").budget_bytes;
 }
 
 EngineOptions ServerOptions::ToEngineOptions() const {
@@ -225,6 +247,13 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_MAX_STREAMS")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  app.add_option("--stream-idle-seconds", o.stream_idle_seconds,
+                 "a StreamSkin stream with no frame in flight that sends none for this long "
+                 "(seconds) is ended with UNAVAILABLE (every frame it sent was answered; the "
+                 "client may open a new stream)")
+      ->envname("SKINSERVE_STREAM_IDLE_SECONDS")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--upload-budget-mb", o.upload_budget_mb,
                  "memory for the arrays of uploads in progress, all together, MiB; taken as "
                  "chunks arrive (a header costs nothing; an upload holds up to 1.5 times its "
@@ -246,9 +275,16 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--upload-idle-seconds", o.upload_idle_seconds,
-                 "an upload that sends nothing for this long is ended with RESOURCE_EXHAUSTED "
-                 "and what it sent is dropped")
+                 "an upload that makes no progress for this long (seconds; neither its header "
+                 "nor array bytes arrive: empty chunks do not count) is ended with "
+                 "RESOURCE_EXHAUSTED and what it sent is dropped")
       ->envname("SKINSERVE_UPLOAD_IDLE_SECONDS")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--upload-deadline-seconds", o.upload_deadline_seconds,
+                 "an upload still open this long after it began (seconds), however it "
+                 "progresses, is ended with RESOURCE_EXHAUSTED and what it sent is dropped")
+      ->envname("SKINSERVE_UPLOAD_DEADLINE_SECONDS")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error or off")
@@ -357,6 +393,25 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "is closed (longer than a frame; a longer stream ends UNAVAILABLE and the "
                  "client library resumes it elsewhere)")
       ->envname("SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--connection-idle-seconds", o.connection_idle_seconds,
+                 "close (GOAWAY) a connection with no call open for this long, seconds; "
+                 "clients reconnect on their next call (0: never)")
+      ->envname("SKINSERVE_CONNECTION_IDLE_SECONDS")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--handshake-timeout-seconds", o.handshake_timeout_seconds,
+                 "drop a new connection that has not completed its TLS handshake and sent its "
+                 "HTTP/2 settings within this long, seconds")
+      ->envname("SKINSERVE_HANDSHAKE_TIMEOUT_SECONDS")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--grpc-memory-mb", o.grpc_memory_mb,
+                 "memory gRPC's own buffers for all connections may take (its resource quota), "
+                 "MiB; near it gRPC closes idle connections, shrinks its windows and cancels "
+                 "calls (0: its share of the memory envelope)")
+      ->envname("SKINSERVE_GRPC_MEMORY_MB")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
 }

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "memory_envelope.h"
+#include "open_streams.h"
+#include "open_uploads.h"
 #include "region_registry.h"
 #include "skinserve/engine/engine.h"
 
@@ -28,6 +30,8 @@ struct ServerOptions {
   int max_streams_per_connection = 128;
   // StreamSkin streams open at once over all connections; more are refused.
   std::size_t max_streams = 1024;
+  // A stream with no frame in flight that sends none for this long is ended (UNAVAILABLE).
+  double stream_idle_seconds = 120;
   std::string log_level = "info";
   double drain_seconds = 10;
   std::string log_format = "text";  // text or json (one JSON object per line)
@@ -41,6 +45,13 @@ struct ServerOptions {
   double keepalive_timeout_seconds = 10;
   double max_connection_age_seconds = 300;  // 0: connections never age out
   double max_connection_age_grace_seconds = 30;
+  // What gRPC 1.51 offers against many or idle connections (it has no cap on their
+  // number; docs/security.md#connections): a connection with no call this long is closed
+  // (0: never), one that has not spoken HTTP/2 within the handshake timeout is dropped, and
+  // gRPC's own buffers for all connections share one memory quota.
+  double connection_idle_seconds = 120;
+  double handshake_timeout_seconds = 10;
+  uint64_t grpc_memory_mb = 0;      // 0: its share of the memory envelope
   uint64_t inflight_budget_mb = 0;  // 0: its share of the memory envelope
   std::string opencl_device;        // "": the first CPU device (PoCL), else the first device
   // The same-host data plane (docs/serving/shared-memory.md): where clients' regions live (empty:
@@ -61,11 +72,13 @@ struct ServerOptions {
   double authz_refresh_seconds = 60;
   bool reflection = true;
   // Uploads (see OpenUploads): what their arrays may hold together, how many may be open
-  // at once (over all connections and per connection), and how long one may send nothing.
+  // at once (over all connections and per connection), how long one may make no progress
+  // (empty chunks are no progress), and how long one may take in all.
   uint64_t upload_budget_mb = 0;  // 0: its share of the memory envelope
   std::size_t max_uploads = 16;
   std::size_t max_uploads_per_connection = 4;
   double upload_idle_seconds = 10;
+  double upload_deadline_seconds = 300;
 
   // The memory the budgets must fit (memory_envelope.h): 0 reads the cgroup's limit, else
   // physical memory.
@@ -86,6 +99,9 @@ struct ServerOptions {
   uint64_t InflightBudgetBytes() const;
   RegionLimits ToRegionLimits() const;
   uint64_t UploadBudgetBytes() const;
+  UploadLimits ToUploadLimits() const;
+  StreamLimits ToStreamLimits() const;
+  uint64_t GrpcMemoryBytes() const;
   // The combinations of the TLS and policy options that cannot work, each named.
   Status CheckSecurity() const;
 };

@@ -47,6 +47,7 @@ v1::ServerStats ToWire(const ServerSnapshot& s) {
   wire.set_evictions(e.evictions);
   wire.set_rejected_queue_full(e.rejected_queue_full);
   wire.set_open_streams(s.open_streams);
+  wire.set_ended_streams_idle(s.streams_ended_idle);
   wire.set_inflight_budget_bytes(s.inflight.budget_bytes);
   wire.set_inflight_bytes(s.inflight.bytes);
   wire.set_rejected_inflight_budget(s.inflight.refused);
@@ -65,6 +66,7 @@ v1::ServerStats ToWire(const ServerSnapshot& s) {
   wire.set_rejected_uploads_per_connection(u.refused_per_connection);
   wire.set_rejected_uploads_budget(u.refused_budget);
   wire.set_cancelled_uploads_idle(u.cancelled_idle);
+  wire.set_cancelled_uploads_deadline(u.cancelled_deadline);
   return wire;
 }
 

@@ -26,6 +26,7 @@ struct ServerSnapshot {
   std::string version;
   bool serving = false;  // false while starting and while draining
   std::size_t open_streams = 0;
+  uint64_t streams_ended_idle = 0;  // by the server's --stream-idle-seconds
   InflightStats inflight;
   UploadStats uploads;
   bool shared_memory = false;  // --shm-dir set; then `regions` holds

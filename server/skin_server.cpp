@@ -5,6 +5,7 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/impl/server_builder_option.h>
+#include <grpcpp/resource_quota.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -40,6 +41,28 @@ class WithoutReflection : public grpc::ServerBuilderOption {
                   [](const auto& plugin) { return plugin->name() == "proto_server_reflection"; });
   }
 };
+
+// Threads gRPC may start for synchronous methods: reflection's (the service's own methods
+// are callbacks, on gRPC's shared threads), one per open reflection stream otherwise.
+// Beyond it, a new reflection call is refused RESOURCE_EXHAUSTED.
+constexpr int kGrpcMaxThreads = 32;
+
+int Milliseconds(double seconds) { return static_cast<int>(std::min(seconds * 1000, 2.0e9)); }
+
+// What gRPC 1.51 offers against many, idle or silent connections; it cannot cap their
+// number (GRPC_ARG_MAX_ALLOWED_INCOMING_CONNECTIONS came in 2024). docs/security.md says
+// what this bounds and what not.
+void AddConnectionLimits(const ServerOptions& options, grpc::ServerBuilder* builder) {
+  builder->AddChannelArgument(GRPC_ARG_SERVER_HANDSHAKE_TIMEOUT_MS,
+                              Milliseconds(options.handshake_timeout_seconds));
+  if (options.connection_idle_seconds > 0) {
+    builder->AddChannelArgument(GRPC_ARG_MAX_CONNECTION_IDLE_MS,
+                                Milliseconds(options.connection_idle_seconds));
+  }
+  grpc::ResourceQuota quota("skinserve");
+  quota.Resize(options.GrpcMemoryBytes()).SetMaxThreads(kGrpcMaxThreads);
+  builder->SetResourceQuota(quota);
+}
 
 std::string DescribeSecurity(const ServerOptions& options) {
   if (options.tls_cert.empty()) return "plaintext";
@@ -78,13 +101,9 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
     server->policy_ = std::move(policy).value();
   }
   server->service_ = std::make_unique<SkinningService>(
-      options.default_backend, options.stream_window, options.max_streams,
-      options.InflightBudgetBytes(),
-      UploadLimits{.max_uploads = options.max_uploads,
-                   .max_uploads_per_connection = options.max_uploads_per_connection,
-                   .budget_bytes = options.UploadBudgetBytes(),
-                   .idle_seconds = options.upload_idle_seconds},
-      server->regions_.get(), server->policy_.get());
+      options.default_backend, options.stream_window, options.ToStreamLimits(),
+      options.InflightBudgetBytes(), options.ToUploadLimits(), server->regions_.get(),
+      server->policy_.get());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -94,6 +113,7 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, ms(options.keepalive_timeout_seconds));
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
                              kMinClientPingIntervalMs);
+  AddConnectionLimits(options, &builder);
   if (options.max_connection_age_seconds > 0) {
     builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS,
                                ms(options.max_connection_age_seconds));

@@ -107,6 +107,7 @@ ServerSnapshot SkinningService::Snapshot() const {
   s.version = SKINSERVE_VERSION;
   s.serving = serving_.load();
   s.open_streams = open_streams_.count();
+  s.streams_ended_idle = open_streams_.ended_idle();
   s.inflight = {budget_.limit(), budget_.used(), budget_.refused()};
   s.uploads = open_uploads_.Stats();
   s.shared_memory = regions_ != nullptr;

@@ -30,12 +30,12 @@ using SkinningCallbackService = v1::Skinning::WithCallbackMethod_UploadMesh<
 class SkinningService final : public SkinningCallbackService {
  public:
   // `regions` (null: shared memory is off) outlives the service.
-  SkinningService(std::string default_backend, int stream_window, std::size_t max_streams,
+  SkinningService(std::string default_backend, int stream_window, const StreamLimits& stream_limits,
                   uint64_t inflight_budget_bytes, const UploadLimits& upload_limits,
                   RegionRegistry* regions, const PolicyFile* policy = nullptr)
       : default_backend_(std::move(default_backend)),
         stream_window_(stream_window),
-        open_streams_(max_streams),
+        open_streams_(stream_limits),
         budget_(inflight_budget_bytes),
         regions_(regions),
         policy_(policy),
@@ -90,8 +90,8 @@ class SkinningService final : public SkinningCallbackService {
   std::atomic<bool> serving_{false};
   const std::string default_backend_;
   const int stream_window_;
-  OpenStreams open_streams_;
-  InflightBudget budget_;  // the bytes of frames in flight, all streams and Skin calls
+  OpenStreams open_streams_;  // the cap on streams, their idle watchdog, the drain
+  InflightBudget budget_;     // the bytes of frames in flight, all streams and Skin calls
   RegionRegistry* const regions_;
   const PolicyFile* const policy_;  // null: every client may call every method
   OpenUploads open_uploads_;        // the caps and budget of uploads, and their idle watchdog

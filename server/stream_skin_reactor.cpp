@@ -96,7 +96,9 @@ void StreamSkinReactor::OnWriteDone(bool ok) {
     writing_last_part_ = false;
     idle_jobs_.push_back(&Slot(oldest_));
     oldest_ = (oldest_ + 1) % window_;
-    --in_flight_;
+    if (--in_flight_ == 0) {
+      quiet_since_.store(std::chrono::steady_clock::now().time_since_epoch().count());
+    }
   }
   if (!ok) {  // the client is gone: nothing more can be delivered
     FinishLocked(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away"));
@@ -123,6 +125,20 @@ void StreamSkinReactor::Drain() {
   std::lock_guard lock(mutex_);
   draining_ = true;
   PumpLocked();
+}
+
+bool StreamSkinReactor::EndIfQuietSince(std::chrono::steady_clock::time_point cutoff,
+                                        const std::string& why) {
+  std::lock_guard lock(mutex_);
+  if (finished_ || draining_ || in_flight_ > 0 || writing_ || quiet_since() > cutoff) return false;
+  // Every frame read was answered: the client may open a new stream and carry on.
+  FinishLocked(ToGrpc(Unavailable(
+      last_frame_read_
+          ? fmt::format("{}; every frame read on it was answered (the last read was "
+                        "frame {}): send later frames on a new stream",
+                        why, *last_frame_read_)
+          : fmt::format("{}; no frame was read on it: send frames on a new stream", why))));
+  return true;
 }
 
 FrameJob* StreamSkinReactor::TakeIdleJobLocked() {

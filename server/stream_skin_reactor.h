@@ -10,11 +10,15 @@
 // a stream with one frame in flight (60 fps) reuses one job, whose buffers stay warm in
 // cache, and grows (and page-faults in) only as many as it ever has in flight (at most
 // `window`, and rarely one more whose answer is still on its way to the socket).
+// A stream with no frame in flight is quiet; OpenStreams' watchdog ends one quiet too long
+// (--stream-idle-seconds). All that costs a frame is one timestamp, stored when the last
+// frame in flight is answered.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
 
 #include <atomic>
+#include <chrono>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -45,6 +49,15 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   // Keeps the reactor alive across a call from outside gRPC and the engine (OpenStreams).
   void Hold() { refs_.fetch_add(1); }
   void Release() { Unref(); }
+  // Since when no frame has been in flight: the stream's start, or when its last frame in
+  // flight was answered (meaningless while one is). Read by OpenStreams' watchdog.
+  std::chrono::steady_clock::time_point quiet_since() const {
+    return std::chrono::steady_clock::time_point(
+        std::chrono::steady_clock::duration(quiet_since_.load()));
+  }
+  // Ends the stream UNAVAILABLE (`why`, then what was answered) if no frame is in flight
+  // and none has been since `cutoff` or before; true if so.
+  bool EndIfQuietSince(std::chrono::steady_clock::time_point cutoff, const std::string& why);
 
  private:
   void OnFrameDone(FrameJob* job) override;
@@ -83,6 +96,8 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   bool draining_ = false;
   bool writing_ = false;
   bool finished_ = false;
+  std::atomic<std::chrono::steady_clock::rep> quiet_since_{
+      std::chrono::steady_clock::now().time_since_epoch().count()};
   // gRPC's, plus one per frame the engine holds, per job whose wire buffer gRPC holds,
   // and per Hold.
   std::atomic<int> refs_{1};

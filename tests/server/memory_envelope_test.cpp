@@ -28,8 +28,9 @@ TEST(MemoryEnvelopeTest, DerivedBudgetsShareWhatTheFootprintLeavesCountedWithThe
   EXPECT_EQ(e.term("--mesh-budget-mb").copies, 2.5);
   EXPECT_EQ(e.term("--upload-budget-mb").copies, 2);
   for (const auto& [flag, share, copies] :
-       {std::tuple{"--mesh-budget-mb", 0.35, 2.5}, std::tuple{"--inflight-budget-mb", 0.25, 1.0},
-        std::tuple{"--upload-budget-mb", 0.20, 2.0}, std::tuple{"--shm-budget-mb", 0.20, 1.0}}) {
+       {std::tuple{"--mesh-budget-mb", 0.30, 2.5}, std::tuple{"--inflight-budget-mb", 0.20, 1.0},
+        std::tuple{"--grpc-memory-mb", 0.10, 1.0}, std::tuple{"--upload-budget-mb", 0.20, 2.0},
+        std::tuple{"--shm-budget-mb", 0.20, 1.0}}) {
     const EnvelopeTerm& t = e.term(flag);
     EXPECT_TRUE(t.derived) << flag;
     EXPECT_NEAR(static_cast<double>(t.budget_bytes), left * share / copies, kMiB) << flag;
@@ -44,6 +45,7 @@ TEST(MemoryEnvelopeTest, DerivedBudgetsShareWhatTheFootprintLeavesCountedWithThe
   EXPECT_EQ(options.UploadBudgetBytes(), e.term("--upload-budget-mb").budget_bytes);
   EXPECT_EQ(options.ToRegionLimits().budget_bytes, e.term("--shm-budget-mb").budget_bytes);
   EXPECT_EQ(options.ToEngineOptions().mesh_budget_bytes, e.term("--mesh-budget-mb").budget_bytes);
+  EXPECT_EQ(options.GrpcMemoryBytes(), e.term("--grpc-memory-mb").budget_bytes);
 }
 
 TEST(MemoryEnvelopeTest, GivenBudgetsComeFirstAndTheRestShareWhatIsLeft) {
@@ -57,10 +59,12 @@ TEST(MemoryEnvelopeTest, GivenBudgetsComeFirstAndTheRestShareWhatIsLeft) {
   EXPECT_EQ(e.term("--mesh-budget-mb").held_bytes(), 2000 * kMiB);
   EXPECT_THROW(e.term("--shm-budget-mb"), std::logic_error);
   const double left = 4096 * 0.9 * kMiB - 256.0 * kMiB - 2000.0 * kMiB;
-  EXPECT_NEAR(static_cast<double>(e.term("--inflight-budget-mb").budget_bytes), left * 0.25 / 0.45,
+  EXPECT_NEAR(static_cast<double>(e.term("--inflight-budget-mb").budget_bytes), left * 0.20 / 0.50,
               kMiB);
   EXPECT_NEAR(static_cast<double>(e.term("--upload-budget-mb").budget_bytes),
-              left * 0.20 / 0.45 / 2, kMiB);
+              left * 0.20 / 0.50 / 2, kMiB);
+  EXPECT_NEAR(static_cast<double>(e.term("--grpc-memory-mb").budget_bytes), left * 0.10 / 0.50,
+              kMiB);
   EXPECT_TRUE(e.Check().ok());
 }
 
@@ -70,13 +74,14 @@ TEST(MemoryEnvelopeTest, BudgetsThatDoNotFitAreRefusedNamingEveryTermAndTheSum) 
   const MemoryEnvelope e = options.Envelope();
   const Status status = e.Check();
   ASSERT_EQ(status.code(), StatusCode::kInvalidArgument);
-  for (const char* named : {"--mesh-budget-mb 1024 MiB x 2.5", "--inflight-budget-mb 16 MiB",
-                            "--upload-budget-mb 16 MiB", "--shm-budget-mb 16 MiB",
-                            "the process itself", "2880 MiB", "90% of the 3072 MiB it may use"}) {
+  for (const char* named :
+       {"--mesh-budget-mb 1024 MiB x 2.5", "--inflight-budget-mb 16 MiB",
+        "--upload-budget-mb 16 MiB", "--shm-budget-mb 16 MiB", "--grpc-memory-mb 16 MiB",
+        "the process itself", "2896 MiB", "90% of the 3072 MiB it may use"}) {
     EXPECT_NE(status.message().find(named), std::string::npos)
         << "'" << named << "' not in: " << status.message();
   }
-  options.mesh_budget_mb = 900;  // 2250 + 256 + 64 derived minimums = 2570 <= 2764
+  options.mesh_budget_mb = 900;  // 2250 + 256 + 80 of derived minimums = 2586 <= 2764
   EXPECT_TRUE(options.Envelope().Check().ok()) << options.Envelope().Describe();
 }
 

@@ -77,6 +77,26 @@ TEST(MeshAssemblyTest, AnEmptyChunkTakesNothing) {
   EXPECT_EQ(assembly.charged_bytes(), 0u);
 }
 
+// Progress (what resets an upload's idle clock, issue 42): the header and array bytes; not
+// an empty chunk, nor a message refused.
+TEST(MeshAssemblyTest, ProgressIsTheHeaderAndArrayBytesNotEmptyChunks) {
+  auto engine = SerialEngine();
+  server::MeshAssembly assembly(engine.get());
+  const std::vector<float> positions(3000, 0.5f);
+  EXPECT_EQ(assembly.progress(), 0u);
+  ASSERT_TRUE(assembly.Accept(Header(1000, 2, false)).ok());
+  const uint64_t after_header = assembly.progress();
+  EXPECT_GT(after_header, 0u);
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(assembly.Accept(Chunk(v1::MESH_ARRAY_POSITIONS, positions, 0, 0)).ok());
+  }
+  EXPECT_EQ(assembly.progress(), after_header) << "empty chunks are no progress";
+  EXPECT_FALSE(assembly.Accept(Header(1000, 2, false)).ok()) << "a second header is refused";
+  EXPECT_EQ(assembly.progress(), after_header);
+  ASSERT_TRUE(assembly.Accept(Chunk(v1::MESH_ARRAY_POSITIONS, positions, 0, 3)).ok());
+  EXPECT_EQ(assembly.progress(), after_header + 3 * sizeof(float));
+}
+
 TEST(MeshAssemblyTest, ArraysGrowWithTheirChunksAndAreChargedAsTheyGrow) {
   auto engine = SerialEngine();
   const MeshArrays arrays =

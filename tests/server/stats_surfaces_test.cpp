@@ -137,6 +137,7 @@ TEST(StatsSurfacesTest, GetServerStatsAndMetricsShowTheSameSnapshot) {
     }
   }
   expect("skinserve_open_streams", stats->open_streams());
+  expect("skinserve_streams_ended_idle_total", stats->ended_streams_idle());
   expect("skinserve_queue_depth", stats->queue_depth());
   expect("skinserve_queue_capacity", stats->queue_capacity());
   expect("skinserve_queue_rejections_total", stats->rejected_queue_full());
@@ -168,6 +169,8 @@ TEST(StatsSurfacesTest, GetServerStatsAndMetricsShowTheSameSnapshot) {
          stats->rejected_uploads_budget());
   expect("skinserve_upload_refusals_total{reason=\"upload_idle\"}",
          stats->cancelled_uploads_idle());
+  expect("skinserve_upload_refusals_total{reason=\"upload_deadline\"}",
+         stats->cancelled_uploads_deadline());
 
   // And the other way round: every family /metrics serves was compared above.
   std::set<std::string> families;
