@@ -42,7 +42,7 @@ if ! command -v kubectl >/dev/null 2>&1; then DEPLOY_PACKAGES+=(kubernetes-clien
 # Security (issue 27): openssl makes the tests' certificates (scripts/make-dev-certs.sh);
 # clinfo lists OpenCL platforms when debugging a machine (not in the runtime image).
 TEST_PACKAGES+=(openssl clinfo)
-# Operations (issue 15): the metrics endpoint's HTTP server (cpp-httplib); promtool
+# Operations (issue 15): skinserve-load's metrics scrapes (cpp-httplib's client); promtool
 # (prometheus) and curl to check the exposition; the Python client's venv, pip install and
 # pytest (Debian's grpcio and numpy are its runtime).
 BUILD_PACKAGES+=(libcpp-httplib-dev)

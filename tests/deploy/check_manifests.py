@@ -10,7 +10,8 @@ socket when TCP has TLS, which the kubelet's gRPC probes cannot speak) with live
 "liveness" and readiness the whole server, the TLS files come from a Secret and the
 authorization policy from a ConfigMap equal to deploy/authz-policy.json, no pod mounts a
 service account token, the grace period outlasts the drain, the Service, autoscaler and
-disruption budget select the Deployment's pods, and the image is built on a base pinned by
+disruption budget select the Deployment's pods, the NetworkPolicy admits only the scraper
+to the metrics port and everyone to gRPC, and the image is built on a base pinned by
 digest with no debugging tools in its runtime packages. Each overlay has its own rules on
 top (PROFILES): production and gpu with mutual TLS, the policy, anti-affinity, an autoscaler
 and a disruption budget; development one plaintext replica; gpu a GPU limit, the GPU pool's
@@ -101,7 +102,7 @@ def check_overlay(root, name, objects, version, profile):
         check(labels.get("app.kubernetes.io/version") == version,
               f"{where}: {doc['kind']} label app.kubernetes.io/version is "
               f"{labels.get('app.kubernetes.io/version')!r}, project is {version}")
-    wanted = ["Deployment", "Service"]
+    wanted = ["Deployment", "Service", "NetworkPolicy"]
     if profile["autoscaled"]:
         wanted += ["HorizontalPodAutoscaler", "PodDisruptionBudget"]
     for kind in wanted:
@@ -161,6 +162,7 @@ def check_overlay(root, name, objects, version, profile):
         check(float(config.get("SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS", 0)) >= 1,
               f"{where}: SKINSERVE_MAX_CONNECTION_AGE_GRACE_SECONDS under a second")
 
+    check_network_policy(where, docs["NetworkPolicy"], pod_labels, ports)
     check_sizing(where, container, config)
     check_memory_envelope(where, container, config)
     tls = bool(config.get("SKINSERVE_TLS_CERT"))
@@ -200,6 +202,35 @@ def check_overlay(root, name, objects, version, profile):
         check("HorizontalPodAutoscaler" not in docs,
               f"{where}: an autoscaler on a single-replica overlay")
     check_gpu(where, pod["spec"], container, config, profile["gpu"])
+
+
+def check_network_policy(where, policy, pod_labels, ports):
+    """The metrics port (plain HTTP, no authentication) admits only the scraper's pods,
+    named by labels; the gRPC port stays open to every client (issue 42)."""
+    spec = policy["spec"]
+    check(spec.get("podSelector", {}).get("matchLabels", {}).items() <= pod_labels.items()
+          and spec.get("podSelector", {}).get("matchLabels"),
+          f"{where}: NetworkPolicy does not select the server's pods")
+    check("Ingress" in spec.get("policyTypes", []),
+          f"{where}: NetworkPolicy has no Ingress policy type (it filters nothing coming in)")
+
+    def admits(rule, name):
+        """Whether an ingress rule covers the containerPort `name` (no ports: all of them)."""
+        if "ports" not in rule:
+            return True
+        return any(p.get("port") in (name, ports.get(name)) for p in rule["ports"])
+
+    rules = spec.get("ingress", [])
+    to_metrics = [r for r in rules if admits(r, "metrics")]
+    check(to_metrics, f"{where}: NetworkPolicy admits nobody to the metrics port (no scrapes)")
+    for rule in to_metrics:
+        peers = rule.get("from", [])
+        check(peers and all(p.get("podSelector", {}).get("matchLabels") and "ipBlock" not in p
+                            for p in peers),
+              f"{where}: NetworkPolicy admits the metrics port from {peers or 'anywhere'}, not "
+              "only from the scraper's pods (a podSelector with labels)")
+    check(any(admits(r, "grpc") and not r.get("from") for r in rules),
+          f"{where}: NetworkPolicy no longer admits every client to the gRPC port")
 
 
 def check_autoscaled(where, dep, pod_spec, pod_labels, docs):
