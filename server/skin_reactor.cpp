@@ -6,7 +6,7 @@ namespace skinserve::server {
 
 SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
                          const grpc::ByteBuffer& request_bytes, InflightBudget* budget,
-                         RegionRegistry* regions)
+                         RegionCaller regions)
     : job_(static_cast<FrameJob::Listener*>(this), budget) {
   v1::SkinRequest request;
   grpc::ByteBuffer bytes(request_bytes);  // parsing consumes it
