@@ -490,7 +490,7 @@ def check_regions_on_socket(where, env, same_host):
     """Shared-memory region calls stay on the Unix socket (issue 42): --shm-over-tcp only
     with mutual TLS, and never in the same-host examples, whose TCP (if any) must refuse
     them. The server's default is off; the examples say so explicitly."""
-    over_tcp = str(env.get("SKINSERVE_SHM_OVER_TCP", "false")).lower()
+    over_tcp = str(env.get("SKINSERVE_SHM_OVER_TCP", "unset" if same_host else "false")).lower()
     if same_host:
         check(over_tcp == "false",
               f"{where}: SKINSERVE_SHM_OVER_TCP is {over_tcp!r}, not an explicit false: region "
