@@ -84,8 +84,8 @@ TEST(UnixListenerTest, AnAddressThatCannotBeBoundIsAStartUpErrorNamingIt) {
   SocketDir dir;
   const std::string file = dir / "a-file";
   std::ofstream(file) << "not a socket";
-  for (const std::string& address : {"unix:/nonexistent-skinserve-dir/grpc.sock", "unix:" + file,
-                                     "unix:" + std::string(120, 'x')}) {
+  for (const std::string& address : {std::string("unix:/nonexistent-skinserve-dir/grpc.sock"),
+                                     "unix:" + file, "unix:" + std::string(120, 'x')}) {
     auto started = server::SkinServer::Start(Options({"127.0.0.1:0", address}));
     ASSERT_FALSE(started.ok()) << address;
     EXPECT_EQ(started.status().code(), StatusCode::kUnavailable) << started.status().ToString();
