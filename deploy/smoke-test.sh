@@ -280,9 +280,11 @@ print("smoke: same host, shared memory:",
       ", ".join(f"{r['backend']} {r['checked']}/{r['frames']}" for r in shm))
 sys.exit(1 if bad or len(shm) != 2 else 0)
 PY
-regions=$(podman exec "$name" skinserve-cli --target unix:/run/skinserve/grpc.sock regions | tail -1)
+# Every client's regions: `regions` lists the asking process's own (none), `stats` counts all.
+regions=$(podman exec "$name" skinserve-cli --target unix:/run/skinserve/grpc.sock stats |
+  grep '^shared-memory regions')
 echo "  $regions"
-case "$regions" in "0 regions"*) ;; *) fail "regions left registered after the client ended" ;; esac
+case "$regions" in "shared-memory regions 0 "*) ;; *) fail "regions left registered after the client ended" ;; esac
 
 # ---- SIGTERM during a load run: drain and exit 0 ---------------------------------------
 say "SIGTERM during a load run (sse, 2 streams): the server must drain and exit 0"

@@ -26,12 +26,15 @@ source "$root/scripts/lib/port-file.sh"
 run_setup() {
   local name=$1 server_cpus=$2 load_cpus=$3 server_args=$4
   shift 5
-  local port log pid port_file
+  local port log pid port_file socket_dir
   log=$(mktemp)
   port_file=$(mktemp -u)
+  # The load client talks to the server's Unix socket: shared-memory regions are served
+  # there only (docs/serving/shared-memory.md#ownership).
+  socket_dir=$(mktemp -d)
   # shellcheck disable=SC2086 # server_args is a list of flags
-  taskset -c "$server_cpus" "$server_bin" --listen 127.0.0.1:0 --port-file "$port_file" \
-    --log-level warn $server_args >"$log" 2>&1 &
+  taskset -c "$server_cpus" "$server_bin" --listen "127.0.0.1:0,unix:$socket_dir/grpc.sock" \
+    --port-file "$port_file" --log-level warn $server_args >"$log" 2>&1 &
   pid=$!
   if ! port=$(wait_for_port "$port_file" "$pid" 120); then
     echo "$name: the server did not start serving:" >&2
@@ -39,12 +42,14 @@ run_setup() {
     exit 1
   fi
   rm -f "$port_file"
-  echo "== $name: server on cpus $server_cpus ($server_args), load client on cpus $load_cpus"
-  echo "   $ taskset -c $load_cpus skinserve-load --target 127.0.0.1:$port $*"
+  echo "== $name: server on cpus $server_cpus ($server_args; TCP port $port), load client on" \
+    "cpus $load_cpus"
+  echo "   $ taskset -c $load_cpus skinserve-load --target unix:$socket_dir/grpc.sock $*"
   local status=0
-  taskset -c "$load_cpus" "$load_bin" --target "127.0.0.1:$port" "$@" || status=$?
+  taskset -c "$load_cpus" "$load_bin" --target "unix:$socket_dir/grpc.sock" "$@" || status=$?
   kill -TERM "$pid" 2>/dev/null || true
   wait "$pid" 2>/dev/null || true
+  rm -rf "$socket_dir"
   if [ $status -ne 0 ]; then
     echo "   (load client exit $status; server log:)"
     tail -5 "$log"

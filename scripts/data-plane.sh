@@ -64,7 +64,11 @@ run "${bench_threads[@]}" $(pin "$server_cpus") "$bin/skinserve-bench" --backend
   --benchmark_out="$out/bench.json" --benchmark_out_format=json | tee "$out/bench.txt"
 
 # 2. The service: one server, both data planes side by side in each load run.
-server_args=(--listen 127.0.0.1:0 --log-level warn --shm-dir "$shm_dir")
+# The load client talks to the server's Unix socket (both data planes): shared-memory
+# regions are served there only (docs/serving/shared-memory.md#ownership).
+socket_dir=$(mktemp -d)
+target="unix:$socket_dir/grpc.sock"
+server_args=(--listen "127.0.0.1:0,$target" --log-level warn --shm-dir "$shm_dir")
 [ -n "$threads" ] && server_args+=(--threads "$threads")
 [ -n "$device" ] && server_args+=(--opencl-device "$device")
 port_file=$(mktemp -u)
@@ -73,19 +77,19 @@ log=$(mktemp)
 $(pin "$server_cpus") "$bin/skinserve" "${server_args[@]}" --port-file "$port_file" \
   >"$log" 2>&1 &
 server=$!
-trap 'kill -TERM $server 2>/dev/null; wait $server 2>/dev/null; rm -f "$log" "$port_file"' EXIT
+trap 'kill -TERM $server 2>/dev/null; wait $server 2>/dev/null; rm -rf "$log" "$port_file" "$socket_dir"' EXIT
 port=$(wait_for_port "$port_file" "$server" 180) || { cat "$log"; exit 1; }
 echo "$(pin "$server_cpus")${server_cpus:+ }skinserve ${server_args[*]}  (port $port)" >>"$out/command.txt"
 for vertices in 400000 1600000; do
   # shellcheck disable=SC2046
-  run $(pin "$load_cpus") "$bin/skinserve-load" --target "127.0.0.1:$port" --backends "$backend" \
+  run $(pin "$load_cpus") "$bin/skinserve-load" --target "$target" --backends "$backend" \
     --vertices "$vertices" --bones 4 --streams "$streams" --window 2 --duration "$seconds" \
     --warmup 1 --data-planes grpc,shm --shm-dir "$shm_dir" \
     --json "$out/service-$vertices.json" | tee "$out/service-$vertices.txt"
 done
 if [ "$capacity" = 1 ]; then
   # shellcheck disable=SC2046
-  run $(pin "$load_cpus") "$bin/skinserve-load" --target "127.0.0.1:$port" --capacity \
+  run $(pin "$load_cpus") "$bin/skinserve-load" --target "$target" --capacity \
     --backends "$backend" --capacity-max-streams 1024 --duration 3 --warmup 0.5 \
     --check-every 20 --data-planes grpc,shm --shm-dir "$shm_dir" \
     --json "$out/capacity.json" | tee "$out/capacity.txt"

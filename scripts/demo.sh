@@ -12,13 +12,15 @@ bash "$root/scripts/build.sh"
 source "$root/scripts/lib/port-file.sh"
 log=$(mktemp)
 port_file=$(mktemp -u)
-"$build/bin/skinserve" --listen 127.0.0.1:0 --port-file "$port_file" --log-level warn \
-  >"$log" 2>&1 &
+# A Unix socket too: shared-memory regions are served there only.
+socket_dir=$(mktemp -d)
+"$build/bin/skinserve" --listen "127.0.0.1:0,unix:$socket_dir/grpc.sock" \
+  --port-file "$port_file" --log-level warn >"$log" 2>&1 &
 server=$!
 stop() {
   kill -TERM "$server" 2>/dev/null || true
   wait "$server" 2>/dev/null || true
-  rm -f "$log" "$port_file"
+  rm -rf "$log" "$port_file" "$socket_dir"
 }
 trap stop EXIT
 if ! port=$(wait_for_port "$port_file" "$server" 120); then
@@ -34,8 +36,9 @@ echo
   --bones 2 --streams 2 --window 4 --duration 3 --warmup 1 --check-every 25 "$@"
 echo
 echo "The two data planes side by side: vertices in the gRPC answers, or written by the"
-echo "server straight into each stream's shared-memory region (same host, /dev/shm):"
-"$build/bin/skinserve-load" --target "$target" --backends simd-openmp,passthrough \
+echo "server straight into each stream's shared-memory region (same host, /dev/shm; the"
+echo "client on the server's Unix socket, where regions are served):"
+"$build/bin/skinserve-load" --target "unix:$socket_dir/grpc.sock" --backends simd-openmp,passthrough \
   --data-planes grpc,shm --vertices 100000 --bones 2 --streams 2 --window 4 --duration 3 \
   --warmup 1 --check-every 25 "$@"
 echo

@@ -60,7 +60,7 @@ FrameJob::PartRange FrameJob::RangeOf(std::size_t part) const {
 }
 
 Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
-                         const std::string& default_backend, RegionRegistry* regions) {
+                         const std::string& default_backend, const RegionCaller& regions) {
   if (Status s = Begin(wire.frame(), wire.backend().empty() ? default_backend : wire.backend());
       !s.ok()) {
     return s;
@@ -241,13 +241,15 @@ void FrameJob::Refuse(uint64_t frame, const std::string& backend, Status status)
   Fail(std::move(status));
 }
 
-Status FrameJob::PrepareRegion(const v1::OutputRegion& output, RegionRegistry* regions) {
-  if (regions == nullptr) {
+Status FrameJob::PrepareRegion(const v1::OutputRegion& output, const RegionCaller& regions) {
+  if (regions.regions == nullptr) {
     return FailedPrecondition(
         "output names a shared-memory region, but this server's shared memory is off (--shm-dir "
         "is empty)");
   }
-  Result<std::shared_ptr<MappedRegion>> region = regions->Acquire(output.region());
+  if (!regions.owner.ok()) return regions.owner.status();
+  Result<std::shared_ptr<MappedRegion>> region =
+      regions.regions->Acquire(output.region(), *regions.owner);
   if (!region.ok()) return region.status();
   if (Status s = (*region)->CheckIntact(); !s.ok()) return s;
   SigbusGuard::Install();  // still the SIGBUS handler, whatever a library did since

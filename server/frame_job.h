@@ -64,7 +64,7 @@ class FrameJob final : public SkinJob {
   // the palette and sizes the outputs. Then Engine::Submit(this). Non-OK: the frame
   // failed before the engine. `regions` is null when shared memory is off.
   Status Prepare(const v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
-                 RegionRegistry* regions);
+                 const RegionCaller& regions);
   // The frame failed before the engine: it is answered with `status`.
   void Fail(Status status);
   // A frame refused before its request was parsed (SkinRequestReader): answered with
@@ -98,7 +98,7 @@ class FrameJob final : public SkinJob {
   Status EncodeInstance(uint32_t i, std::span<const float> positions,
                         std::span<const float> normals);
   // Checks the request's output range against its region and pins the region.
-  Status PrepareRegion(const v1::OutputRegion& output, RegionRegistry* regions);
+  Status PrepareRegion(const v1::OutputRegion& output, const RegionCaller& regions);
   // The frame's output: the wire buffer, or the region's bytes.
   std::byte* PositionsOut();
   std::byte* NormalsOut();

@@ -82,7 +82,7 @@ RegionRegistry::~RegionRegistry() {
 }
 
 Result<RegionInfo> RegionRegistry::Register(const std::string& name, const std::string& key,
-                                            uint64_t byte_size, const std::string& owner) {
+                                            uint64_t byte_size, const RegionOwner& owner) {
   if (Status s = CheckName(name); !s.ok()) return s;
   Result<std::string> file = FileOf(key);
   if (!file.ok()) return file.status();
@@ -94,18 +94,18 @@ Result<RegionInfo> RegionRegistry::Register(const std::string& name, const std::
     ++rejected_;
     return ResourceExhausted(fmt::format("region '{}' refused: {}", name, why));
   };
-  if (regions_.find(name) != regions_.end()) {
+  if (regions_.find({owner.id, name}) != regions_.end()) {
     return AlreadyExists(fmt::format(
-        "a region named '{}' is registered already; unregister it first or choose another name",
+        "this client has a region named '{}' already; unregister it first or choose another name",
         name));
   }
   if (regions_.size() >= limits_.max_regions) {
     return refuse(fmt::format("the server holds --shm-max-regions = {} regions already",
                               limits_.max_regions));
   }
-  if (auto it = per_owner_.find(owner);
+  if (auto it = per_owner_.find(owner.id);
       it != per_owner_.end() && it->second >= limits_.max_per_connection) {
-    return refuse(fmt::format("this connection holds --shm-max-regions-per-connection = {} already",
+    return refuse(fmt::format("this client holds --shm-max-regions-per-connection = {} already",
                               limits_.max_per_connection));
   }
   if (byte_size > limits_.budget_bytes - std::min(mapped_bytes_, limits_.budget_bytes)) {
@@ -116,31 +116,57 @@ Result<RegionInfo> RegionRegistry::Register(const std::string& name, const std::
   }
   // Reserve the name and the bytes, then open and map without the lock (file system calls).
   mapped_bytes_ += byte_size;
-  ++per_owner_[owner];
-  regions_.emplace(name, nullptr);
+  ++per_owner_[owner.id];
+  regions_.emplace(Key{owner.id, name}, nullptr);
   lock.unlock();
-  Result<std::shared_ptr<MappedRegion>> region =
-      MappedRegion::Open(dir_fd_, name, *file, byte_size, owner);
-  lock.lock();
-  auto it = regions_.find(name);
-  if (!region.ok()) {
-    regions_.erase(it);
-    mapped_bytes_ -= byte_size;
-    if (--per_owner_[owner] == 0) per_owner_.erase(owner);
-    return region.status();
-  }
-  (*region)->Touch(NowNs());
-  it->second = *region;
-  spdlog::info("region '{}' registered by {}: {} bytes of {}/{}", name, owner, byte_size,
+  Result<std::shared_ptr<MappedRegion>> region = MapAndEnter(name, *file, byte_size, owner);
+  if (!region.ok()) return region.status();
+  spdlog::info("region '{}' registered by {}: {} bytes of {}/{}", name, owner.id, byte_size,
                limits_.dir, *file);
   return InfoOf(**region, NowNs());
 }
 
-void RegionRegistry::EraseLocked(
-    std::map<std::string, std::shared_ptr<MappedRegion>, std::less<>>::iterator it,
-    std::function<void()> on_unmapped) {
+Result<std::shared_ptr<MappedRegion>> RegionRegistry::MapAndEnter(const std::string& name,
+                                                                  const std::string& file,
+                                                                  uint64_t byte_size,
+                                                                  const RegionOwner& owner) {
+  Result<std::shared_ptr<MappedRegion>> region =
+      MappedRegion::Open(dir_fd_, name, file, byte_size, owner.id, owner.file_uid);
+  std::unique_lock lock(mutex_);
+  auto it = regions_.find({owner.id, name});
+  Status failed = region.status();
+  if (failed.ok() && files_.count((*region)->file()) > 0) {
+    failed = AlreadyExists(fmt::format(
+        "region '{}': key '{}' names a file registered already (by this client or another): "
+        "one registration per file",
+        name, file));
+  }
+  if (failed.ok()) {
+    files_.insert((*region)->file());
+    (*region)->Touch(NowNs());
+    it->second = *region;
+    return region;
+  }
+  regions_.erase(it);
+  mapped_bytes_ -= byte_size;
+  if (--per_owner_[owner.id] == 0) per_owner_.erase(owner.id);
+  lock.unlock();
+  region = failed;  // a mapping made for nothing goes here, outside the lock
+  if (!owner.remote || failed.code() == StatusCode::kResourceExhausted) return failed;
+  // Over TCP the caller learns nothing about the files in --shm-dir: not whether one
+  // exists, nor its size, type, owner or registration. The operator's log says which.
+  spdlog::info("region '{}' of {} refused: {}", name, owner.id, failed.message());
+  return InvalidArgument(fmt::format(
+      "region '{}': key '{}' cannot be registered. Over TCP the key must name a regular file "
+      "in the server's --shm-dir, owned by the server's uid, holding at least byte_size "
+      "bytes and registered by no one; the server does not say which of these failed",
+      name, file));
+}
+
+void RegionRegistry::EraseLocked(Regions::iterator it, std::function<void()> on_unmapped) {
   std::shared_ptr<MappedRegion> region = std::move(it->second);
   regions_.erase(it);
+  files_.erase(region->file());
   mapped_bytes_ -= region->byte_size();
   frames_of_removed_ += region->frames();
   if (auto owner = per_owner_.find(region->owner());
@@ -151,29 +177,31 @@ void RegionRegistry::EraseLocked(
   // Unmapped here unless a frame still holds it; then when that frame lets go.
 }
 
-Status RegionRegistry::Unregister(const std::string& name, std::function<void()> on_unmapped) {
+Status RegionRegistry::Unregister(const std::string& name, const RegionOwner& owner,
+                                  std::function<void()> on_unmapped) {
   std::shared_ptr<MappedRegion> last;
   {
     std::lock_guard lock(mutex_);
-    auto it = regions_.find(name);
+    auto it = regions_.find({owner.id, name});
     if (it == regions_.end() || it->second == nullptr) {
-      return NotFound(fmt::format("no region named '{}' is registered", name));
+      return NotFound(fmt::format("this client has no region named '{}'", name));
     }
     last = it->second;  // unmapped outside the lock if nothing else holds it
     EraseLocked(it, std::move(on_unmapped));
   }
-  spdlog::info("region '{}' unregistered", name);
+  spdlog::info("region '{}' of {} unregistered", name, owner.id);
   return Status::Ok();
 }
 
-Result<std::shared_ptr<MappedRegion>> RegionRegistry::Acquire(const std::string& name) {
+Result<std::shared_ptr<MappedRegion>> RegionRegistry::Acquire(const std::string& name,
+                                                              const RegionOwner& owner) {
   std::lock_guard lock(mutex_);
-  auto it = regions_.find(name);
+  auto it = regions_.find({owner.id, name});
   if (it == regions_.end() || it->second == nullptr) {
     // Not NOT_FOUND: on a frame that means "upload the mesh again" (the wire contract).
     return FailedPrecondition(fmt::format(
-        "no region named '{}' is registered (never, unregistered, or idle for --shm-idle-seconds "
-        "= {}); register it again",
+        "this client has no region named '{}' (never registered, unregistered, or idle for "
+        "--shm-idle-seconds = {}); register it again",
         name, limits_.idle_seconds));
   }
   it->second->Touch(NowNs());
@@ -185,12 +213,13 @@ RegionInfo RegionRegistry::InfoOf(const MappedRegion& region, int64_t now_ns) co
           static_cast<double>(now_ns - region.last_used_ns()) * 1e-9};
 }
 
-std::vector<RegionInfo> RegionRegistry::List() const {
+std::vector<RegionInfo> RegionRegistry::List(const RegionOwner& owner) const {
   const int64_t now = NowNs();
   std::lock_guard lock(mutex_);
   std::vector<RegionInfo> out;
-  for (const auto& [name, region] : regions_) {
-    if (region != nullptr) out.push_back(InfoOf(*region, now));
+  for (auto it = regions_.lower_bound({owner.id, ""});
+       it != regions_.end() && it->first.first == owner.id; ++it) {
+    if (it->second != nullptr) out.push_back(InfoOf(*it->second, now));
   }
   return out;
 }
@@ -224,8 +253,8 @@ void RegionRegistry::ReapIdle() {
       const std::shared_ptr<MappedRegion>& region = it->second;
       if (region != nullptr &&
           static_cast<double>(now - region->last_used_ns()) * 1e-9 >= limits_.idle_seconds) {
-        spdlog::info("region '{}' unregistered: unused for --shm-idle-seconds = {}", region->name(),
-                     limits_.idle_seconds);
+        spdlog::info("region '{}' of {} unregistered: unused for --shm-idle-seconds = {}",
+                     region->name(), region->owner(), limits_.idle_seconds);
         dropped.push_back(region);
         EraseLocked(it, nullptr);
       }

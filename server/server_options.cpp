@@ -129,6 +129,11 @@ Status ServerOptions::CheckSecurity() const {
         fmt::format("--tls-client-ca '{}' needs --tls-cert and --tls-key: mutual TLS is TLS first",
                     tls_client_ca));
   }
+  if (shm_over_tcp && tls_client_ca.empty()) {
+    return InvalidArgument(
+        "--shm-over-tcp needs mutual TLS (--tls-cert, --tls-key and --tls-client-ca): over TCP "
+        "a region's owner is the identity of the client's certificate");
+  }
   for (const auto& [flag, seconds] :
        {std::pair{"--tls-refresh-seconds", tls_refresh_seconds},
         std::pair{"--authz-refresh-seconds", authz_refresh_seconds}}) {
@@ -330,7 +335,8 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
   app.add_option("--shm-max-regions-per-connection", o.shm_max_regions_per_connection,
-                 "regions one client connection may register")
+                 "regions one client may register (one owner: a process on the Unix socket, a "
+                 "certificate identity over TCP)")
       ->envname("SKINSERVE_SHM_MAX_REGIONS_PER_CONNECTION")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
@@ -339,6 +345,13 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "that went away leaves nothing mapped)")
       ->envname("SKINSERVE_SHM_IDLE_SECONDS")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--shm-over-tcp", o.shm_over_tcp,
+                 "serve the region RPCs (and frames into regions) over TCP too, to clients with "
+                 "a certificate (needs --tls-client-ca), whose identity owns their regions and "
+                 "who may map files the server's uid owns; off: only clients on a unix: "
+                 "address, owned by their process, mapping files their uid owns")
+      ->envname("SKINSERVE_SHM_OVER_TCP")
       ->capture_default_str();
   app.add_option("--tls-cert", o.tls_cert,
                  "PEM certificate chain of the server: TLS on every host:port address (unix: "

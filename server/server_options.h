@@ -61,6 +61,9 @@ struct ServerOptions {
   uint32_t shm_max_regions = 256;
   uint32_t shm_max_regions_per_connection = 16;
   double shm_idle_seconds = 60;
+  // Region RPCs (and frames into regions) over TCP, owned by the client certificate's
+  // identity: needs mutual TLS. Off: only Unix-socket clients, owned by their process.
+  bool shm_over_tcp = false;
   // Transport security (docs/security.md): TLS on every TCP address when a certificate is
   // given, mutual TLS when a client CA is given too; unix: addresses stay plaintext. The
   // files are re-read every tls_refresh_seconds, so mounted secrets rotate without a restart.

@@ -52,8 +52,4 @@ Result<std::shared_ptr<grpc::ServerCredentials>> MakeTcpCredentials(const Server
   return grpc::experimental::TlsServerCredentials(tls);
 }
 
-std::shared_ptr<grpc::ServerCredentials> MakeUnixCredentials() {
-  return grpc::InsecureServerCredentials();
-}
-
 }  // namespace skinserve::server

@@ -16,7 +16,7 @@ namespace skinserve::server {
 // naming the flag, not a handshake failure per connection), then makes the credentials.
 Result<std::shared_ptr<grpc::ServerCredentials>> MakeTcpCredentials(const ServerOptions& options);
 
-// Unix sockets serve same-host clients, guarded by their folder's permissions: plaintext.
-std::shared_ptr<grpc::ServerCredentials> MakeUnixCredentials();
+// Unix sockets (UnixListener) serve same-host clients, guarded by their folder's
+// permissions: plaintext, whatever the TCP credentials are.
 
 }  // namespace skinserve::server

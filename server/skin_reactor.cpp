@@ -7,7 +7,7 @@ namespace skinserve::server {
 
 SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
                          const grpc::ByteBuffer& request_bytes, InflightBudget* budget,
-                         RegionRegistry* regions)
+                         RegionCaller regions)
     : job_(static_cast<FrameJob::Listener*>(this), budget) {
   grpc::ByteBuffer bytes(request_bytes);  // reading consumes it
   Status status = Unavailable("the server is starting: backends are being built");

@@ -19,7 +19,7 @@ class SkinReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
  public:
   SkinReactor(Engine* engine,  // null: warming up
               const std::string& default_backend, const grpc::ByteBuffer& request,
-              InflightBudget* budget, RegionRegistry* regions);
+              InflightBudget* budget, RegionCaller regions);
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
   void OnDone() override;

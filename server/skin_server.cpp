@@ -17,6 +17,7 @@
 #include "metrics_text.h"
 #include "process_metrics.h"
 #include "server_tls.h"
+#include "unix_listener.h"
 
 namespace skinserve::server {
 namespace {
@@ -79,6 +80,39 @@ void SkinServer::SetReady(bool ready) {
   health->SetServingStatus(v1::Skinning::service_full_name(), ready);
 }
 
+Status SkinServer::ListenOn(const ServerOptions& options,
+                            const std::shared_ptr<grpc::ServerCredentials>& tcp_credentials,
+                            grpc::ServerBuilder& builder) {
+  // unix: addresses are accepted here (UnixListener: the peer's credentials), the others
+  // by gRPC.
+  std::vector<int> ports(options.listen.size(), 0);
+  for (std::size_t i = 0; i < options.listen.size(); ++i) {
+    if (options.listen[i].rfind("unix:", 0) == 0) {
+      auto listener = UnixListener::Listen(options.listen[i], &unix_peers_);
+      if (!listener.ok()) return listener.status();
+      unix_listeners_.push_back(std::move(listener).value());
+    } else {
+      builder.AddListeningPort(options.listen[i], tcp_credentials, &ports[i]);
+    }
+  }
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
+  builder.RegisterService(service_.get());
+  server_ = builder.BuildAndStart();
+  for (std::size_t i = 0; i < options.listen.size(); ++i) {
+    if (options.listen[i].rfind("unix:", 0) == 0) continue;
+    if (!server_ || ports[i] == 0) {
+      return Unavailable(fmt::format("cannot listen on {}", options.listen[i]));
+    }
+    // The first TCP address's port is the one --port-file reports.
+    if (port_ == 0) port_ = ports[i];
+  }
+  if (!server_) {
+    return Unavailable(fmt::format("cannot serve on {}", fmt::join(options.listen, ", ")));
+  }
+  for (auto& listener : unix_listeners_) listener->Start(server_.get());
+  return Status::Ok();
+}
+
 Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& options) {
   spdlog::set_level(spdlog::level::from_str(options.log_level));
   SetLogFormat(options.log_format);
@@ -103,7 +137,8 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   server->service_ = std::make_unique<SkinningService>(
       options.default_backend, options.stream_window, options.ToStreamLimits(),
       options.InflightBudgetBytes(), options.ToUploadLimits(), server->regions_.get(),
-      server->policy_.get());
+      server->policy_.get(),
+      RegionAccessPolicy{.unix_peers = &server->unix_peers_, .over_tcp = options.shm_over_tcp});
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -121,35 +156,23 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
                                ms(options.max_connection_age_grace_seconds));
   }
   if (options.listen.empty()) return InvalidArgument("--listen names no address");
-  std::vector<int> ports(options.listen.size(), 0);
-  for (std::size_t i = 0; i < options.listen.size(); ++i) {
-    const bool unix_socket = options.listen[i].rfind("unix:", 0) == 0;
-    builder.AddListeningPort(options.listen[i],
-                             unix_socket ? MakeUnixCredentials() : *tcp_credentials, &ports[i]);
-  }
-  builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
-  builder.RegisterService(server->service_.get());
-  server->server_ = builder.BuildAndStart();
-  for (std::size_t i = 0; i < options.listen.size(); ++i) {
-    if (!server->server_ || ports[i] == 0) {
-      return Unavailable(fmt::format("cannot listen on {}", options.listen[i]));
-    }
-    // The first TCP address's port is the one --port-file reports.
-    if (server->port_ == 0 && options.listen[i].rfind("unix:", 0) != 0) server->port_ = ports[i];
-  }
+  if (Status s = server->ListenOn(options, *tcp_credentials, builder); !s.ok()) return s;
   // Readiness ("" and the service's name) waits for the engine; liveness answers SERVING
   // from now until the process stops, draining included
   // (docs/deployment/kubernetes.md#probes).
   server->SetReady(false);
   server->server_->GetHealthCheckService()->SetServingStatus(kLivenessService, true);
   spdlog::info(
-      "listening on {} (port {}; TCP {}{}, unix: plaintext; reflection {}); building "
-      "backends",
+      "listening on {} (port {}; TCP {}{}, unix: plaintext; shared-memory regions {}; "
+      "reflection {}); building backends",
       fmt::join(options.listen, ", "), server->port_, DescribeSecurity(options),
       options.authz_policy.empty()
           ? ""
           : fmt::format(", authorization policy {} re-read every {} s", options.authz_policy,
                         options.authz_refresh_seconds),
+      options.shm_dir.empty() ? "off"
+      : options.shm_over_tcp  ? "on unix: and mutual-TLS TCP"
+                              : "on unix: only",
       options.reflection ? "on" : "off");
   // The per-frame histograms feed GetServerStats as well as /metrics: always on.
   FrameMetrics::Enable();
@@ -215,6 +238,8 @@ void SkinServer::Shutdown(std::chrono::milliseconds grace) {
       }
       const auto left = std::max(deadline - std::chrono::steady_clock::now(),
                                  std::chrono::steady_clock::duration::zero());
+      // gRPC stops accepting on its addresses now: so do the Unix sockets, before.
+      for (auto& listener : unix_listeners_) listener->Stop();
       server_->Shutdown(std::chrono::system_clock::now() + left);
     }
     if (engine_) engine_->Shutdown();  // the frames still queued finish; nobody waits

@@ -8,11 +8,13 @@
 #include <atomic>
 #include <chrono>
 #include <memory>
+#include <vector>
 
 #include "authz_policy_file.h"
 #include "metrics_server.h"
 #include "server_options.h"
 #include "skinning_service.h"
+#include "unix_listener.h"
 
 namespace skinserve::server {
 
@@ -36,12 +38,19 @@ class SkinServer {
 
  private:
   SkinServer() = default;
-  void SetReady(bool ready);                 // the readiness names of the health service
+  void SetReady(bool ready);  // the readiness names of the health service
+  // Listens on every --listen address and starts the gRPC server (service_ registered).
+  Status ListenOn(const ServerOptions& options,
+                  const std::shared_ptr<grpc::ServerCredentials>& tcp_credentials,
+                  grpc::ServerBuilder& builder);
   std::string RenderMetrics() const;         // on the metrics server's threads
   std::unique_ptr<RegionRegistry> regions_;  // null: shared memory off; outlives service_
   std::unique_ptr<PolicyFile> policy_;       // null: no --authz-policy; outlives service_
+  UnixPeers unix_peers_;  // the Unix-socket clients' credentials; outlives service_
   std::unique_ptr<SkinningService> service_;
   std::unique_ptr<grpc::Server> server_;
+  // The unix: addresses; stopped before server_ shuts down, destroyed before it.
+  std::vector<std::unique_ptr<UnixListener>> unix_listeners_;
   std::unique_ptr<Engine> engine_;
   // Declared last: destroyed first, so no scrape outlives what it reads.
   std::unique_ptr<MetricsServer> metrics_;

@@ -44,6 +44,11 @@ Status SkinningService::Authorize(const grpc::CallbackServerContext& context,
   return policy_->Check(context, fmt::format("/{}/{}", v1::Skinning::service_full_name(), method));
 }
 
+RegionCaller SkinningService::RegionCallerOf(const grpc::CallbackServerContext& context) const {
+  if (regions_ == nullptr) return {};
+  return {regions_, RegionOwnerOf(context, region_access_)};
+}
+
 grpc::ServerReadReactor<v1::UploadMeshRequest>* SkinningService::UploadMesh(
     grpc::CallbackServerContext* context, v1::MeshInfo* response) {
   if (Status s = Authorize(*context, "UploadMesh"); !s.ok()) {
@@ -79,7 +84,8 @@ grpc::ServerWriteReactor<grpc::ByteBuffer>* SkinningService::Skin(
   if (Status s = Authorize(*context, "Skin"); !s.ok()) {
     return new Refused<grpc::ServerWriteReactor<grpc::ByteBuffer>>(s);
   }
-  return new SkinReactor(engine_.load(), default_backend_, *request, &budget_, regions_);
+  return new SkinReactor(engine_.load(), default_backend_, *request, &budget_,
+                         RegionCallerOf(*context));
 }
 
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* SkinningService::StreamSkin(
@@ -88,7 +94,7 @@ grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* SkinningService::St
     return new Refused<grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>>(s);
   }
   return new StreamSkinReactor(engine_.load(), default_backend_, stream_window_, &open_streams_,
-                               &budget_, regions_);
+                               &budget_, RegionCallerOf(*context));
 }
 
 grpc::ServerUnaryReactor* SkinningService::ListBackends(grpc::CallbackServerContext* context,
@@ -131,8 +137,10 @@ grpc::ServerUnaryReactor* SkinningService::RegisterRegion(grpc::CallbackServerCo
                                                           v1::RegionInfo* response) {
   if (Status s = Authorize(*context, "RegisterRegion"); !s.ok()) return Done(context, s);
   if (regions_ == nullptr) return Done(context, kNoSharedMemory);
+  const Result<RegionOwner> owner = RegionOwnerOf(*context, region_access_);
+  if (!owner.ok()) return Done(context, owner.status());
   Result<RegionInfo> info =
-      regions_->Register(request->name(), request->key(), request->byte_size(), context->peer());
+      regions_->Register(request->name(), request->key(), request->byte_size(), *owner);
   if (info.ok()) ToWire(*info, response);
   return Done(context, info.status());
 }
@@ -142,10 +150,12 @@ grpc::ServerUnaryReactor* SkinningService::UnregisterRegion(
     v1::UnregisterRegionResponse*) {
   if (Status s = Authorize(*context, "UnregisterRegion"); !s.ok()) return Done(context, s);
   if (regions_ == nullptr) return Done(context, kNoSharedMemory);
+  const Result<RegionOwner> owner = RegionOwnerOf(*context, region_access_);
+  if (!owner.ok()) return Done(context, owner.status());
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
   // Answered once the last frame writing into the region is done and it is unmapped.
-  Status status =
-      regions_->Unregister(request->name(), [reactor] { reactor->Finish(grpc::Status::OK); });
+  Status status = regions_->Unregister(request->name(), *owner,
+                                       [reactor] { reactor->Finish(grpc::Status::OK); });
   if (!status.ok()) reactor->Finish(ToGrpc(status));
   return reactor;
 }
@@ -155,7 +165,9 @@ grpc::ServerUnaryReactor* SkinningService::ListRegions(grpc::CallbackServerConte
                                                        v1::ListRegionsResponse* response) {
   if (Status s = Authorize(*context, "ListRegions"); !s.ok()) return Done(context, s);
   if (regions_ == nullptr) return Done(context, kNoSharedMemory);
-  for (const RegionInfo& info : regions_->List()) ToWire(info, response->add_regions());
+  const Result<RegionOwner> owner = RegionOwnerOf(*context, region_access_);
+  if (!owner.ok()) return Done(context, owner.status());
+  for (const RegionInfo& info : regions_->List(*owner)) ToWire(info, response->add_regions());
   const RegionLimits& limits = regions_->limits();
   const RegionStats stats = regions_->Stats();
   response->set_shm_dir(limits.dir);

@@ -29,15 +29,17 @@ using SkinningCallbackService = v1::Skinning::WithCallbackMethod_UploadMesh<
 
 class SkinningService final : public SkinningCallbackService {
  public:
-  // `regions` (null: shared memory is off) outlives the service.
+  // `regions` (null: shared memory is off) and `region_access.unix_peers` outlive the service.
   SkinningService(std::string default_backend, int stream_window, const StreamLimits& stream_limits,
                   uint64_t inflight_budget_bytes, const UploadLimits& upload_limits,
-                  RegionRegistry* regions, const PolicyFile* policy = nullptr)
+                  RegionRegistry* regions, const PolicyFile* policy = nullptr,
+                  RegionAccessPolicy region_access = {})
       : default_backend_(std::move(default_backend)),
         stream_window_(stream_window),
         open_streams_(stream_limits),
         budget_(inflight_budget_bytes),
         regions_(regions),
+        region_access_(region_access),
         policy_(policy),
         open_uploads_(upload_limits) {}
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
@@ -85,6 +87,8 @@ class SkinningService final : public SkinningCallbackService {
  private:
   // OK when there is no policy or it allows `method` ("UploadMesh") for this call's peer.
   Status Authorize(const grpc::CallbackServerContext& context, const char* method) const;
+  // The registry and who this call's peer is to it, for the frames of a Skin or StreamSkin.
+  RegionCaller RegionCallerOf(const grpc::CallbackServerContext& context) const;
 
   std::atomic<Engine*> engine_{nullptr};
   std::atomic<bool> serving_{false};
@@ -93,8 +97,9 @@ class SkinningService final : public SkinningCallbackService {
   OpenStreams open_streams_;  // the cap on streams, their idle watchdog, the drain
   InflightBudget budget_;     // the bytes of frames in flight, all streams and Skin calls
   RegionRegistry* const regions_;
-  const PolicyFile* const policy_;  // null: every client may call every method
-  OpenUploads open_uploads_;        // the caps and budget of uploads, and their idle watchdog
+  const RegionAccessPolicy region_access_;  // who may own regions (region_owner.h)
+  const PolicyFile* const policy_;          // null: every client may call every method
+  OpenUploads open_uploads_;  // the caps and budget of uploads, and their idle watchdog
 };
 
 }  // namespace skinserve::server

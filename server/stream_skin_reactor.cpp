@@ -9,13 +9,13 @@ namespace skinserve::server {
 
 StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend, int window,
                                      OpenStreams* open_streams, InflightBudget* budget,
-                                     RegionRegistry* regions)
+                                     RegionCaller regions)
     : engine_(engine),
       default_backend_(std::move(default_backend)),
       window_(static_cast<std::size_t>(std::max(window, 1))),
       open_streams_(open_streams),
       budget_(budget),
-      regions_(regions),
+      regions_(std::move(regions)),
       reader_(budget, {.max_instances = engine != nullptr ? engine->options().max_instances
                                                           : SkinRequestLimits{}.max_instances}) {
   jobs_.reserve(window_);

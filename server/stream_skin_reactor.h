@@ -38,7 +38,7 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
  public:
   StreamSkinReactor(Engine* engine,  // null: warming up
                     std::string default_backend, int window, OpenStreams* open_streams,
-                    InflightBudget* budget, RegionRegistry* regions);
+                    InflightBudget* budget, RegionCaller regions);
   void OnReadDone(bool ok) override;
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
@@ -75,7 +75,7 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   const std::size_t window_;
   OpenStreams* open_streams_;
   InflightBudget* budget_;
-  RegionRegistry* regions_;  // null: shared memory is off
+  const RegionCaller regions_;  // the registry (null: shared memory is off) and the caller
 
   std::mutex mutex_;
   grpc::ByteBuffer request_bytes_;

@@ -7,7 +7,9 @@ namespace skinserve::cli {
 
 void AddRegionsCommand(CLI::App& app, CommonOptions& common) {
   auto* command = app.add_subcommand(
-      "regions", "the shared-memory regions registered with the server, and its limits");
+      "regions",
+      "this process's shared-memory regions (the server shows each client its own), and the "
+      "server's limits");
   command->callback([&common] {
     auto channel = common.Channel();
     if (!channel.ok()) {
@@ -26,8 +28,8 @@ void AddRegionsCommand(CLI::App& app, CommonOptions& common) {
                  r.frames_written(), r.idle_seconds());
     }
     fmt::print(
-        "{} regions mapping {} of {} bytes in {}; at most {} ({} per connection); dropped after "
-        "{} s unused\n",
+        "{} regions of this client; all clients' regions map {} of {} bytes in {}; at most {} "
+        "({} per client); dropped after {} s unused\n",
         list->regions_size(), list->mapped_bytes(), list->budget_bytes(), list->shm_dir(),
         list->max_regions(), list->max_regions_per_connection(), list->idle_limit_seconds());
   });

@@ -132,6 +132,7 @@ def check_overlay(root, name, objects, version, profile):
     check(docs["ConfigMap"]["metadata"]["name"] in refs,
           f"{where}: the ConfigMap is not in envFrom")
     config = effective_env(container, config_maps)
+    check_regions_on_socket(where, config, same_host=False)
     check_pod_hardening(where, pod["spec"])
     ports = {p["name"]: p["containerPort"] for p in container["ports"]}
     tcp, sockets = listen_addresses(config.get("SKINSERVE_LISTEN", ""))
@@ -526,6 +527,20 @@ def flag(args, name):
     return None
 
 
+def check_regions_on_socket(where, env, same_host):
+    """Shared-memory region calls stay on the Unix socket (issue 42): --shm-over-tcp only
+    with mutual TLS, and never in the same-host examples, whose TCP (if any) must refuse
+    them. The server's default is off; the examples say so explicitly."""
+    over_tcp = str(env.get("SKINSERVE_SHM_OVER_TCP", "unset" if same_host else "false")).lower()
+    if same_host:
+        check(over_tcp == "false",
+              f"{where}: SKINSERVE_SHM_OVER_TCP is {over_tcp!r}, not an explicit false: region "
+              "calls must stay on the Unix socket")
+    elif over_tcp not in ("false", "0", ""):
+        check(env.get("SKINSERVE_TLS_CLIENT_CA"),
+              f"{where}: SKINSERVE_SHM_OVER_TCP without SKINSERVE_TLS_CLIENT_CA (mutual TLS)")
+
+
 def check_same_host_client(where, args, shm_dir, socket_dir):
     """A same-host client: the shared-memory data plane in the server's --shm-dir, and
     gRPC over the server's Unix socket in the shared folder."""
@@ -556,6 +571,7 @@ def check_same_host_compose(compose):
     volume = compose.get("volumes", {}).get(mounts.get(shm_dir), {}) or {}
     check(volume.get("driver_opts", {}).get("type") == "tmpfs",
           "compose.yaml: the shared volume is not memory-backed (tmpfs)")
+    check_regions_on_socket("compose.yaml", env, same_host=True)
     check_same_host_client("compose.yaml renderer", renderer.get("command", []), shm_dir,
                            shm_dir)
 
@@ -590,6 +606,7 @@ def check_same_host_pod(name, dep, version, base_maps):
     sockets = [a[5:] for a in (env.get("SKINSERVE_LISTEN") or "").split(",") if a.startswith("unix:")]
     check(sockets and sockets[0].rsplit("/", 1)[0] == shm_dir,
           f"{name}: no Unix socket in the shared folder {shm_dir}")
+    check_regions_on_socket(name, env, same_host=True)
     for client in clients:
         mounts = {m["mountPath"]: m["name"] for m in client["volumeMounts"]}
         check(mounts.get(shm_dir) == server_mounts.get(shm_dir),

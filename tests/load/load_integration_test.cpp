@@ -300,9 +300,11 @@ TEST(LoadIntegrationTest, RoundRobinSpreadsStreamsOverTwoServers) {
 TEST(LoadIntegrationTest, SharedMemoryDataPlaneInEveryModeCountsAndChecksEveryFrame) {
   char name[] = "/dev/shm/skinserve-load-XXXXXX";
   const std::string dir = mkdtemp(name);
-  ServerProcess server(0, {"--shm-dir", dir});
+  // Regions are served on the Unix socket: the load client talks to it, as a renderer would.
+  const std::string socket = dir + "/grpc.sock";
+  ServerProcess server(0, {"--shm-dir", dir, "--listen", "unix:" + socket});
   ASSERT_TRUE(server.ready());
-  const std::string common = "--target " + server.target() + " --shm-dir " + dir +
+  const std::string common = "--target unix:" + socket + " --shm-dir " + dir +
                              " --data-planes grpc,shm --check-every 1 --warmup 0";
   int code = 0;
   const nlohmann::json closed =

@@ -1,6 +1,7 @@
 // Shutdown with a stream open: the stream stops being read, every frame the server read
 // is answered (and matches the reference), and the stream ends UNAVAILABLE, so its client
 // can go on at another replica. Without draining it would be cancelled at the deadline.
+// The same over TCP and over a Unix socket (whose connections the server accepts itself).
 #include <gtest/gtest.h>
 
 #include <thread>
@@ -12,8 +13,8 @@
 namespace skinserve::testing {
 namespace {
 
-TEST(DrainTest, ShutdownAnswersEveryFrameReadThenEndsStreamsUnavailable) {
-  TestServer t;
+void ShutdownAnswersEveryFrameReadThenEndsStreamsUnavailable(Transport transport) {
+  TestServer t({}, transport);
   const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 20'000, .influences = 2});
   auto info = t.client->Upload(arrays);
   ASSERT_TRUE(info.ok()) << info.status().ToString();
@@ -68,6 +69,14 @@ TEST(DrainTest, ShutdownAnswersEveryFrameReadThenEndsStreamsUnavailable) {
   // Frames the server read were answered; the rest (if any) were never read, and the
   // message says so. Either way none came back twice or out of order (checked above).
   EXPECT_LE(expected, 5u);
+}
+
+TEST(DrainTest, ShutdownAnswersEveryFrameReadThenEndsStreamsUnavailable) {
+  ShutdownAnswersEveryFrameReadThenEndsStreamsUnavailable(Transport::kTcp);
+}
+
+TEST(DrainTest, OnAUnixSocketShutdownAnswersEveryFrameReadThenEndsStreamsUnavailable) {
+  ShutdownAnswersEveryFrameReadThenEndsStreamsUnavailable(Transport::kUnixSocket);
 }
 
 }  // namespace

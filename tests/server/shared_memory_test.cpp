@@ -107,7 +107,7 @@ void ExpectRegionMatchesReference(const Mesh& mesh, const std::vector<float>& pa
 
 TEST(SharedMemoryTest, EveryBackendEncodingAndCrowdWritesTheReferenceIntoItsRange) {
   ShmDir dir;
-  TestServer t(ShmOptions(dir));
+  TestServer t(ShmOptions(dir), Transport::kUnixSocket);
   const MeshArrays arrays = MakeSyntheticMesh(
       {.vertex_count = 1001, .influences = 4, .joint_count = 77, .normals = true, .seed = 3});
   auto mesh = Mesh::Create(arrays).value();
@@ -168,7 +168,7 @@ TEST(SharedMemoryTest, EveryBackendEncodingAndCrowdWritesTheReferenceIntoItsRang
 
 TEST(SharedMemoryTest, StreamsWriteEachFrameInFlightIntoItsOwnSlotInEveryMethod) {
   ShmDir dir;
-  TestServer t(ShmOptions(dir));
+  TestServer t(ShmOptions(dir), Transport::kUnixSocket);
   const MeshArrays arrays = MakeSyntheticMesh(
       {.vertex_count = 20'000, .influences = 4, .joint_count = 77, .normals = true, .seed = 8});
   auto mesh = Mesh::Create(arrays).value();
@@ -238,7 +238,7 @@ void ExpectError(const Status& s, StatusCode code, std::initializer_list<std::st
 
 TEST(SharedMemoryTest, HostileFramesGetAStatusNamingTheRegionAndTheLimit) {
   ShmDir dir;
-  TestServer t(ShmOptions(dir));
+  TestServer t(ShmOptions(dir), Transport::kUnixSocket);
   const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 1000, .influences = 2});
   auto info = t.client->Upload(arrays);
   ASSERT_TRUE(info.ok());
@@ -277,24 +277,28 @@ TEST(SharedMemoryTest, HostileFramesGetAStatusNamingTheRegionAndTheLimit) {
   EXPECT_TRUE(client::CheckHealth(t.client->channel(), std::chrono::seconds(5)).ok());
 }
 
+Status Register(client::SkinClient& c, const std::string& name, const std::string& key,
+                uint64_t bytes) {
+  v1::RegisterRegionRequest request;
+  request.set_name(name);
+  request.set_key(key);
+  request.set_byte_size(bytes);
+  grpc::ClientContext context;
+  v1::RegionInfo info;
+  return wire::FromGrpc(c.stub().RegisterRegion(&context, request, &info));
+}
+
 TEST(SharedMemoryTest, RegistrationIsCheckedAndBounded) {
   ShmDir dir;
   server::ServerOptions options = ShmOptions(dir);
   options.shm_budget_mb = 1;
   options.shm_max_regions = 3;
   options.shm_max_regions_per_connection = 2;
-  TestServer t(options);
-  auto region = MakeRegion(dir, 4096);
-  v1::RegisterRegionRequest request;
+  TestServer t(options, Transport::kUnixSocket);
+  auto region = MakeRegion(dir, 4096), second = MakeRegion(dir, 4096);
   const auto reg = [&](const std::string& name, const std::string& key, uint64_t bytes,
                        client::SkinClient* c = nullptr) {
-    c = c != nullptr ? c : t.client.get();
-    request.set_name(name);
-    request.set_key(key);
-    request.set_byte_size(bytes);
-    grpc::ClientContext context;
-    v1::RegionInfo info;
-    return wire::FromGrpc(c->stub().RegisterRegion(&context, request, &info));
+    return Register(c != nullptr ? *c : *t.client, name, key, bytes);
   };
   ExpectError(reg("bad/name", region->key(), 4096), StatusCode::kInvalidArgument, {"bad/name"});
   ExpectError(reg("", region->key(), 4096), StatusCode::kInvalidArgument, {"region name"});
@@ -307,38 +311,61 @@ TEST(SharedMemoryTest, RegistrationIsCheckedAndBounded) {
   ASSERT_EQ(symlink(region->path().c_str(), (dir.path() + "/link").c_str()), 0);
   ExpectError(reg("r", "link", 4096), StatusCode::kInvalidArgument, {"symbolic link"});
   ASSERT_EQ(mkdir((dir.path() + "/adir").c_str(), 0700), 0);
-  ExpectError(reg("r", "adir", 4096), StatusCode::kInvalidArgument, {"adir"});
+  ExpectError(reg("r", "adir", 4096), StatusCode::kInvalidArgument, {"adir", "regular file"});
+  ASSERT_EQ(mkfifo((dir.path() + "/afifo").c_str(), 0600), 0);
+  ExpectError(reg("r", "afifo", 4096), StatusCode::kInvalidArgument, {"afifo", "regular file"});
 
   EXPECT_TRUE(reg("one", "/" + region->key(), 4096).ok()) << "a POSIX shm name's '/' is fine";
-  ExpectError(reg("one", region->key(), 4096), StatusCode::kAlreadyExists, {"one"});
+  ExpectError(reg("one", second->key(), 4096), StatusCode::kAlreadyExists, {"one"});
+  // One registration per file: not under another name, nor through another connection.
+  client::SkinClient other(client::MakeChannel(t.target, /*connection=*/1));
+  ExpectError(reg("again", region->key(), 4096), StatusCode::kAlreadyExists,
+              {"again", "registered already"});
+  ExpectError(reg("again", region->key(), 4096, &other), StatusCode::kAlreadyExists,
+              {"registered already"});
   auto big = MakeRegion(dir, 2 << 20);
   ExpectError(reg("big", big->key(), 2 << 20), StatusCode::kResourceExhausted,
               {"big", "--shm-budget-mb = 1"});
-  EXPECT_TRUE(reg("two", region->key(), 4096).ok());
-  ExpectError(reg("three", region->key(), 4096), StatusCode::kResourceExhausted,
+  EXPECT_TRUE(reg("two", second->key(), 4096).ok());
+  // The cap is the client's (its process), whatever connection it uses.
+  auto third = MakeRegion(dir, 4096);
+  ExpectError(reg("three", third->key(), 4096), StatusCode::kResourceExhausted,
               {"--shm-max-regions-per-connection = 2"});
-  // Another connection may register, up to the total.
-  client::SkinClient other(client::MakeChannel(t.target, /*connection=*/1));
-  EXPECT_TRUE(reg("three", region->key(), 4096, &other).ok());
-  ExpectError(reg("four", region->key(), 4096, &other), StatusCode::kResourceExhausted,
-              {"--shm-max-regions = 3"});
-  auto list = t.client->ListRegions();
+  ExpectError(reg("three", third->key(), 4096, &other), StatusCode::kResourceExhausted,
+              {"--shm-max-regions-per-connection = 2"});
+  auto list = other.ListRegions();  // the client's regions, on either connection
   ASSERT_TRUE(list.ok());
-  EXPECT_EQ(list->regions_size(), 3);
-  EXPECT_EQ(list->mapped_bytes(), 3u * 4096);
+  EXPECT_EQ(list->regions_size(), 2);
+  EXPECT_EQ(list->mapped_bytes(), 2u * 4096);
   EXPECT_EQ(list->shm_dir(), dir.path());
   auto stats = t.client->GetServerStats();
   ASSERT_TRUE(stats.ok());
   EXPECT_EQ(stats->rejected_regions(), 3u);
   ExpectError(t.client->UnregisterRegion("nope"), StatusCode::kNotFound, {"nope"});
-  for (const char* name : {"one", "two", "three"})
-    EXPECT_TRUE(t.client->UnregisterRegion(name).ok());
+  EXPECT_TRUE(other.UnregisterRegion("one").ok());
+  EXPECT_TRUE(t.client->UnregisterRegion("two").ok());
   EXPECT_EQ(t.client->ListRegions()->regions_size(), 0);
+  EXPECT_TRUE(reg("again", region->key(), 4096).ok()) << "unregistered: the file is free again";
 }
 
-TEST(SharedMemoryTest, TwoClientsWithTheSameNameCannotTakeEachOthersRegion) {
+TEST(SharedMemoryTest, TheServerHoldsAtMostMaxRegions) {
   ShmDir dir;
-  TestServer t(ShmOptions(dir));
+  server::ServerOptions options = ShmOptions(dir);
+  options.shm_max_regions = 2;
+  TestServer t(options, Transport::kUnixSocket);
+  std::vector<std::unique_ptr<SharedMemoryRegion>> regions;
+  for (int i = 0; i < 3; ++i) regions.push_back(MakeRegion(dir, 4096));
+  EXPECT_TRUE(Register(*t.client, "a", regions[0]->key(), 4096).ok());
+  EXPECT_TRUE(Register(*t.client, "b", regions[1]->key(), 4096).ok());
+  ExpectError(Register(*t.client, "c", regions[2]->key(), 4096), StatusCode::kResourceExhausted,
+              {"'c'", "--shm-max-regions = 2"});
+}
+
+// A client's second connection is the same client: its names are the client's (another
+// client's names are its own: tests/security/region_owners_test.cpp).
+TEST(SharedMemoryTest, ANameIsOneRegionOfTheClientOnEveryConnection) {
+  ShmDir dir;
+  TestServer t(ShmOptions(dir), Transport::kUnixSocket);
   const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 500, .influences = 2});
   auto mesh = Mesh::Create(arrays).value();
   auto info = t.client->Upload(arrays);
@@ -358,12 +385,12 @@ TEST(SharedMemoryTest, TwoClientsWithTheSameNameCannotTakeEachOthersRegion) {
                          &result)
                   .ok());
   ExpectRegionMatchesReference(*mesh, palette, result, false, SkinningMethod::kLinear, "mine");
-  ExpectUntouchedOutside(*theirs, 0, 0, "the other client's region");
+  ExpectUntouchedOutside(*theirs, 0, 0, "the other connection's region");
 }
 
 TEST(SharedMemoryTest, UnregisterAnswersOnceTheFramesInFlightAreDoneAndNothingIsWrittenAfter) {
   ShmDir dir;
-  TestServer t(ShmOptions(dir));
+  TestServer t(ShmOptions(dir), Transport::kUnixSocket);
   const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 200'000, .influences = 4});
   auto info = t.client->Upload(arrays);
   ASSERT_TRUE(info.ok());
@@ -409,7 +436,7 @@ TEST(SharedMemoryTest, AnUnusedRegionIsDroppedAfterTheIdleLimit) {
   ShmDir dir;
   server::ServerOptions options = ShmOptions(dir);
   options.shm_idle_seconds = 0.3;
-  TestServer t(options);
+  TestServer t(options, Transport::kUnixSocket);
   auto region = MakeRegion(dir, 4096);
   ASSERT_TRUE(t.client->RegisterRegion("idle", *region).ok());
   EXPECT_EQ(t.client->ListRegions()->regions_size(), 1);
@@ -424,7 +451,7 @@ TEST(SharedMemoryTest, AnUnusedRegionIsDroppedAfterTheIdleLimit) {
 
 TEST(SharedMemoryTest, ADeletedRegionFileKeepsWorkingAndATruncatedOneFailsItsFrames) {
   ShmDir dir;
-  TestServer t(ShmOptions(dir));
+  TestServer t(ShmOptions(dir), Transport::kUnixSocket);
   const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 2000, .influences = 2});
   auto mesh = Mesh::Create(arrays).value();
   auto info = t.client->Upload(arrays);

@@ -61,7 +61,7 @@ class SigbusGuardTest : public ::testing::Test {
 
 TEST_F(SigbusGuardTest, AWriteIntoATruncatedRegionLandsElsewhereAndFailsTheRegion) {
   const std::string path = MakeFile(dir_, "region");
-  auto region = server::MappedRegion::Open(dir_fd_, "r", "region", kBytes, "test");
+  auto region = server::MappedRegion::Open(dir_fd_, "r", "region", kBytes, "test", geteuid());
   ASSERT_TRUE(region.ok()) << region.status().ToString();
   std::memset((*region)->bytes().data(), 1, kBytes);
   EXPECT_TRUE((*region)->CheckIntact().ok());
@@ -109,7 +109,7 @@ TEST_F(SigbusGuardTest, AHandlerInstalledOverTheGuardsIsTakenBackAndChained) {
   const std::string region_path = MakeFile(dir_, "region");
   const std::string other_path = MakeFile(dir_, "unguarded");
   const auto scenario = [&] {
-    auto region = server::MappedRegion::Open(dir_fd_, "r", "region", kBytes, "test");
+    auto region = server::MappedRegion::Open(dir_fd_, "r", "region", kBytes, "test", geteuid());
     if (!region.ok()) std::_Exit(3);
     struct sigaction foreign = {};
     foreign.sa_handler = &ForeignHandler;

@@ -43,7 +43,7 @@ TEST(StatsSurfacesTest, GetServerStatsAndMetricsShowTheSameSnapshot) {
   options.shm_dir = dir;
   options.backends = {"serial", "simd", "passthrough"};
   options.default_backend = "simd";
-  TestServer t(options);
+  TestServer t(options, Transport::kUnixSocket);
   const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 3000, .influences = 2});
   auto info = t.client->Upload(arrays);
   ASSERT_TRUE(info.ok());

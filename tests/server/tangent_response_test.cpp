@@ -113,7 +113,7 @@ TEST(TangentResponseTest, EveryEncodingMethodMorphCrowdAndTransportMatchesTheRef
   ShmDir dir;
   server::ServerOptions server_options;
   server_options.shm_dir = dir.path();
-  TestServer t(server_options);
+  TestServer t(server_options, Transport::kUnixSocket);
   const MeshArrays arrays = TangentMesh(301);
   const auto mesh = Mesh::Create(arrays).value();
   auto info = t.client->Upload(arrays);
@@ -180,7 +180,8 @@ TEST(TangentResponseTest, OpenClEncodesOnTheDeviceAndMatchesTheReferenceAndTheHo
   ShmDir dir;
   server::ServerOptions server_options;
   server_options.shm_dir = dir.path();
-  TestServer t(server_options);  // one OpenCL runtime for both backends: PoCL compiles once
+  TestServer t(server_options,
+               Transport::kUnixSocket);  // one OpenCL runtime for both backends: PoCL compiles once
   const MeshArrays arrays = TangentMesh(301);
   const auto mesh = Mesh::Create(arrays).value();
   auto info = t.client->Upload(arrays);
@@ -370,7 +371,7 @@ TEST(TangentResponseTest, AskingWhereTangentsCannotComeIsRefusedNamingWantTangen
   ShmDir dir;
   server::ServerOptions server_options;
   server_options.shm_dir = dir.path();
-  TestServer t(server_options);
+  TestServer t(server_options, Transport::kUnixSocket);
   MeshArrays without = TangentMesh(101);
   without.tangents.clear();
   without.morph_tangent_deltas.clear();

@@ -1,8 +1,12 @@
 // A real skinserve server in this process, on an ephemeral loopback port, and a client.
+// Shared-memory regions are served to Unix-socket clients only (by default): tests that
+// register regions ask for kUnixSocket, and the client talks to the server's socket.
 #pragma once
 
 #include <gtest/gtest.h>
+#include <stdlib.h>
 
+#include <filesystem>
 #include <vector>
 
 #include "skin_server.h"
@@ -11,20 +15,36 @@
 
 namespace skinserve::testing {
 
+enum class Transport { kTcp, kUnixSocket };
+
 struct TestServer {
   std::unique_ptr<server::SkinServer> server;
   std::unique_ptr<client::SkinClient> client;
-  std::string target;
+  std::string target;      // what `client` talks to
+  std::string socket_dir;  // kUnixSocket: the socket's folder (removed at the end)
 
-  explicit TestServer(server::ServerOptions options = {}) {
+  explicit TestServer(server::ServerOptions options = {}, Transport transport = Transport::kTcp) {
     options.listen = {"127.0.0.1:0"};
+    if (transport == Transport::kUnixSocket) {
+      char name[] = "/tmp/skinserve-test-sock-XXXXXX";
+      socket_dir = mkdtemp(name);
+      options.listen.push_back("unix:" + socket_dir + "/grpc.sock");
+    }
     options.log_level = "warn";
     auto started = server::SkinServer::Start(options);
     EXPECT_TRUE(started.ok()) << started.status().ToString();
     server = std::move(started).value();
-    target = "127.0.0.1:" + std::to_string(server->port());
+    target = transport == Transport::kUnixSocket ? "unix:" + socket_dir + "/grpc.sock"
+                                                 : "127.0.0.1:" + std::to_string(server->port());
     client = std::make_unique<client::SkinClient>(client::MakeChannel(target));
   }
+  ~TestServer() {
+    client.reset();
+    server.reset();
+    if (!socket_dir.empty()) std::filesystem::remove_all(socket_dir);
+  }
+  TestServer(const TestServer&) = delete;
+  TestServer& operator=(const TestServer&) = delete;
 };
 
 // Sends `messages` as one UploadMesh call through the raw stub (for uploads the client

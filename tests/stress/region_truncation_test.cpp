@@ -47,9 +47,12 @@ std::string HowTheServerEnded(const ServerChild& server) {
 TEST(RegionTruncationTest, AClientTruncatingItsRegionMidStreamCannotCrashTheServer) {
   char name[] = "/dev/shm/skinserve-truncate-XXXXXX";
   const std::string dir = mkdtemp(name);
-  ServerChild server({"--log-level", "warn", "--shm-dir", dir, "--threads", "2"});
+  // Regions are served on the Unix socket (their owner is the client's process).
+  const std::string socket = dir + "/grpc.sock";
+  ServerChild server(
+      {"--log-level", "warn", "--shm-dir", dir, "--threads", "2", "--listen", "unix:" + socket});
   ASSERT_TRUE(server.ready()) << server.error();
-  client::SkinClient hostile(client::MakeChannel(server.target(), 0));
+  client::SkinClient hostile(client::MakeChannel("unix:" + socket, 0));
   client::SkinClient neighbour(client::MakeChannel(server.target(), 1));
   const MeshArrays big = MakeSyntheticMesh({.vertex_count = kVertices, .influences = 4});
   auto big_id = hostile.Upload(big);

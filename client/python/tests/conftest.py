@@ -36,17 +36,25 @@ def _wait_serving(channel, deadline):
 
 
 class Server:
-    def __init__(self, binary, *args):
+    """`unix_socket`: a Unix socket too, at `unix_target` (shared-memory regions are served
+    there only: their owner is the client's process)."""
+
+    def __init__(self, binary, *args, unix_socket=False):
         self.port = _free_port()
         self.target = f"127.0.0.1:{self.port}"
+        self.socket_dir = tempfile.mkdtemp(prefix="skinserve-py-sock-") if unix_socket else None
+        self.unix_target = f"unix:{self.socket_dir}/grpc.sock" if unix_socket else None
+        listen = ",".join(t for t in (self.target, self.unix_target) if t)
         self.process = subprocess.Popen(
-            [binary, "--listen", self.target, "--threads", "1", "--log-level", "warn", *args])
+            [binary, "--listen", listen, "--threads", "1", "--log-level", "warn", *args])
         with grpc.insecure_channel(self.target) as channel:
             _wait_serving(channel, time.time() + 120)
 
     def stop(self):
         self.process.send_signal(signal.SIGTERM)
         assert self.process.wait(timeout=60) == 0
+        if self.socket_dir:
+            shutil.rmtree(self.socket_dir, ignore_errors=True)
 
 
 @pytest.fixture(scope="session")

@@ -176,12 +176,12 @@ def test_errors_and_bad_input(server, rng):
 
 def test_shared_memory_region_every_encoding(binary, rng):
     shm_dir = tempfile.mkdtemp(prefix="skinserve-py-aio-", dir="/dev/shm")
-    server = Server(binary, "--shm-dir", shm_dir)
+    server = Server(binary, "--shm-dir", shm_dir, unix_socket=True)
     mesh = random_mesh(rng, 1200, 3, JOINTS)
     crowd = crowd_of(rng, 3)
 
     async def main():
-        async with skinserve.AsyncClient(server.target) as client:
+        async with skinserve.AsyncClient(server.unix_target) as client:
             mesh_id = await client.upload(*mesh)
             with skinserve.SharedMemoryRegion(4 << 20, directory=shm_dir) as region:
                 await client.register_region(region)

@@ -17,14 +17,14 @@ JOINTS = 30
 
 @pytest.fixture(scope="module")
 def shm_server(binary, shm_dir):
-    s = Server(binary, "--shm-dir", shm_dir)
+    s = Server(binary, "--shm-dir", shm_dir, unix_socket=True)
     yield s
     s.stop()
 
 
 @pytest.fixture
 def shm_client(shm_server):
-    with skinserve.Client(shm_server.target) as c:
+    with skinserve.Client(shm_server.unix_target) as c:
         yield c
 
 
@@ -91,3 +91,13 @@ def test_a_region_too_small_or_unknown_is_refused_naming_it(shm_client, shm_dir,
     stats = shm_client.stats()
     assert not any(r["name"] == "tiny" for r in shm_client.regions())
     assert stats["region_frames"] > 0
+
+
+def test_regions_over_tcp_are_refused_saying_where_to_go(shm_server, shm_dir):
+    with skinserve.Client(shm_server.target) as tcp, \
+            skinserve.SharedMemoryRegion(4096, directory=shm_dir) as region:
+        for call in (tcp.regions, lambda: tcp.register_region(region, name="tcp")):
+            with pytest.raises(skinserve.SkinserveError) as error:
+                call()
+            assert error.value.code == grpc.StatusCode.PERMISSION_DENIED
+            assert "Unix socket" in error.value.message and shm_dir not in error.value.message

@@ -111,8 +111,8 @@ def as_float32(answer):
 
 @pytest.fixture(scope="module")
 def shm_client(binary, shm_dir):
-    s = Server(binary, "--shm-dir", shm_dir)
-    with skinserve.Client(s.target) as c:
+    s = Server(binary, "--shm-dir", shm_dir, unix_socket=True)
+    with skinserve.Client(s.unix_target) as c:
         yield c
     s.stop()
 

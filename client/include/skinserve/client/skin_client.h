@@ -210,9 +210,10 @@ class SkinClient {
   Result<bool> DeleteMesh(const std::string& mesh_id);
   Result<v1::ListBackendsResponse> ListBackends();
   Result<v1::ServerStats> GetServerStats();
-  // The same-host data plane: `region` under `name` (unique on the server), until
-  // UnregisterRegion (which returns once the server has unmapped it) or the server's idle
-  // limit.
+  // The same-host data plane, over the server's Unix socket: `region` under `name` (unique
+  // among this process's regions), until UnregisterRegion (which returns once the server
+  // has unmapped it) or the server's idle limit. The region is this process's: no other
+  // client sees it, names it or unregisters it; ListRegions lists this process's alone.
   Result<v1::RegionInfo> RegisterRegion(const std::string& name, const SharedMemoryRegion& region);
   Status UnregisterRegion(const std::string& name);
   Result<v1::ListRegionsResponse> ListRegions();

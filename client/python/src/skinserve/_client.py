@@ -166,8 +166,9 @@ class Client:
     def register_region(self, region: SharedMemoryRegion,
                         name: Optional[str] = None) -> pb.RegionInfo:
         """Registers a SharedMemoryRegion with the server (which must run on this host,
-        with the region's directory as its --shm-dir) under `name` (default: its key).
-        Frames naming it are skinned straight into it. Returns the server's RegionInfo."""
+        with the region's directory as its --shm-dir, reached on its Unix socket) under
+        `name` (default: its key). The region is this process's: frames naming it are
+        skinned straight into it. Returns the server's RegionInfo."""
         name = name or region.key
         try:
             info: pb.RegionInfo = self._stub.RegisterRegion(pb.RegisterRegionRequest(
@@ -193,7 +194,8 @@ class Client:
             region.name = None
 
     def regions(self) -> List[Dict[str, Any]]:
-        """The server's registered regions: a list of dicts (name, key, byte_size, ...)."""
+        """This process's registered regions (the server shows each client its own): a list
+        of dicts (name, key, byte_size, ...)."""
         try:
             response = self._stub.ListRegions(pb.ListRegionsRequest(), timeout=self.timeout)
         except grpc.RpcError as e:
