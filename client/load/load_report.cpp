@@ -34,6 +34,20 @@ std::string BackendLabel(const RunResult& r) {
 
 }  // namespace
 
+std::string ServerCpuHeader() {
+  return fmt::format(" {:>10} {:>10} {:>8}", "cpu us/fr", "cpu us/ch", "cpu/comp");
+}
+
+std::string ServerCpuCells(const RunResult& r) {
+  const auto cell = [](std::optional<double> value, int width, int precision) {
+    return value ? fmt::format("{:>{}.{}f}", *value, width, precision)
+                 : fmt::format("{:>{}}", "-", width);
+  };
+  return fmt::format(" {} {} {}", cell(r.server_cpu_us_per_frame(), 10, 1),
+                     cell(r.server_cpu_us_per_character(), 10, 1),
+                     cell(r.server_cpu_over_compute(), 8, 2));
+}
+
 double SerialFramesPerSecond(const std::vector<RunResult>& results, const RunResult& of) {
   for (const RunResult& r : results) {
     if (r.backend == "serial" && r.vertices == of.vertices && r.bones == of.bones &&
@@ -51,20 +65,22 @@ void PrintTable(const std::vector<RunResult>& results, bool open_loop) {
   const bool rates = std::any_of(results.begin(), results.end(), [&](const RunResult& r) {
     return r.rate != results.front().rate;
   });
+  const bool cpu = std::any_of(results.begin(), results.end(),
+                               [](const RunResult& r) { return r.server_cpu_seconds.has_value(); });
   fmt::print(
       "{:<16}{} {:>8} {:>2} {:>7} {:>9} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} "
-      "{:>7} {:>9} {:>7}{}{} {}\n",
+      "{:>7} {:>9} {:>7}{}{}{} {}\n",
       "backend", rates ? fmt::format(" {:>7}", "rate") : "", "vertices", "B", "frames", "frames/s",
       "Mvert/s", "MB/s", "p50 ms", "p90 ms", "p99 ms", "max ms",
       fmt::format("p{:g} ms", percentile), "queue", "compute", "encode", "transport", "speedup",
       open_loop ? fmt::format(" {:>6} {:>7} {:>10}", "late", "dropped", "late sends") : "",
-      trials ? fmt::format(" {:>6}", "stable") : "", "errors");
+      trials ? fmt::format(" {:>6}", "stable") : "", cpu ? ServerCpuHeader() : "", "errors");
   for (const RunResult& r : results) {
     const LatencySummary l = Summarize(r.latencies_ms, r.percentile);
     const double serial = SerialFramesPerSecond(results, r);
     fmt::print(
         "{:<16}{} {:>8} {:>2} {:>7} {:>9.1f} {:>9.1f} {:>8.1f} {:>7.2f} {:>7.2f} {:>7.2f} "
-        "{:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>9.2f} {:>7}{}{} {}{}{}\n",
+        "{:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>9.2f} {:>7}{}{}{} {}{}{}\n",
         BackendLabel(r), rates ? fmt::format(" {:>7g}", r.rate) : "", r.vertices, r.bones, r.frames,
         r.frames_per_second(), r.vertices_per_second() / 1e6, r.megabytes_per_second(), l.p50,
         l.p90, l.p99, l.max, l.at_percentile, r.mean(r.server_queue_ms_sum),
@@ -75,7 +91,8 @@ void PrintTable(const std::vector<RunResult>& results, bool open_loop) {
                                        : *r.stable ? "yes"
                                                    : "no")
                : "",
-        ErrorsText(r), r.mismatches > 0 ? fmt::format(" MISMATCHES={}", r.mismatches) : "",
+        cpu ? ServerCpuCells(r) : "", ErrorsText(r),
+        r.mismatches > 0 ? fmt::format(" MISMATCHES={}", r.mismatches) : "",
         r.within_limit() ? "" : " OVER-LIMIT");
   }
 }

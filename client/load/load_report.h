@@ -11,6 +11,11 @@
 namespace skinserve::load {
 
 void PrintTable(const std::vector<RunResult>& results, bool open_loop);
+// The server CPU columns of a text table (server_cpu_us_per_frame, _per_character and
+// _over_compute, for tables of rows measured with --metrics-url): the header, and a row's
+// cells ("-" where not known).
+std::string ServerCpuHeader();
+std::string ServerCpuCells(const RunResult& r);
 // The paper's tables 2 and 3 layout: per backend, vertices x bones, speedup over serial.
 void PrintSpeedupTables(const std::vector<RunResult>& results);
 // frames/s of `serial` on the same workload in the same run; 0 if not measured.

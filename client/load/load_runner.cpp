@@ -555,7 +555,14 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
 }  // namespace
 
 RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
-                  const Progress& progress) {
+                  const Progress& progress, const MeasuredPartHooks& hooks) {
+  bool begun = false;
+  const auto begin = [&] {
+    if (!begun && hooks.begin) hooks.begin();
+    begun = true;
+  };
+  // No warm-up: the measured part starts with the streams, so `begin` goes first.
+  if (config.warmup_seconds <= 0) begin();
   const Clock::time_point start = Clock::now();
   const auto warmup = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(config.warmup_seconds));
@@ -581,16 +588,24 @@ RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::
   const auto report = [&](double fraction) {
     if (progress) progress(std::clamp(fraction, 0.0, 1.0));
   };
+  // Ticks of 100 ms for the progress bar, one falling on the end of the warm-up; `begin`
+  // there (before closed-loop streams are let into their measured phase).
+  const auto tick = [&] {
+    Clock::time_point next = Clock::now() + std::chrono::milliseconds(100);
+    if (!begun) next = std::min(next, start + warmup);
+    std::this_thread::sleep_until(next);
+    if (!begun && Clock::now() >= start + warmup) begin();
+  };
   if (by_frames) {
     const double wanted = static_cast<double>(config.frames) * config.streams;
     while (running.load() > 0) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      if (!warm.load() && Clock::now() >= start + warmup) warm.store(true);
+      tick();
+      if (begun) warm.store(true);
       report(recorder.frames() / wanted);
     }
   } else {
     while (Clock::now() < start + total) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      tick();
       report((Clock::now() - start) / std::chrono::duration<double>(total));
     }
   }
@@ -598,6 +613,8 @@ RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::
   stop.store(true);
   const Clock::time_point stopped = Clock::now();
   for (auto& stream : streams) stream.join();
+  begin();  // streams that ended within the warm-up: an empty measured part
+  if (hooks.end) hooks.end();
   return recorder.Finish(stopped);
 }
 

@@ -46,7 +46,15 @@ struct RunConfig {
 // Called now and then with the fraction done (for a progress bar).
 using Progress = std::function<void(double fraction)>;
 
+// Called on RunLoad's own thread around the measured part, e.g. to scrape the server's
+// /metrics: `begin` before the first measured frame can be answered (with no warm-up, before
+// the streams open; else when the warm-up ends, the frames then in flight straddling it),
+// `end` after the last answer, once every stream has ended. Either may be empty.
+struct MeasuredPartHooks {
+  std::function<void()> begin, end;
+};
+
 RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
-                  const Progress& progress);
+                  const Progress& progress, const MeasuredPartHooks& hooks = {});
 
 }  // namespace skinserve::load

@@ -44,6 +44,24 @@ double RunResult::send_gap_cv() const {
   return mean > 0 ? std::sqrt(variance) / mean : 0;
 }
 
+std::optional<double> RunResult::server_cpu_us_per_frame() const {
+  if (!server_cpu_seconds || !(server_frames > 0)) return std::nullopt;
+  return *server_cpu_seconds * 1e6 / server_frames;
+}
+
+std::optional<double> RunResult::server_cpu_us_per_character() const {
+  const auto per_frame = server_cpu_us_per_frame();
+  if (!per_frame) return std::nullopt;
+  return *per_frame / std::max(instances, 1u);
+}
+
+std::optional<double> RunResult::server_cpu_over_compute() const {
+  const auto per_frame = server_cpu_us_per_frame();
+  const double compute_us = mean(server_compute_ms_sum) * 1e3;
+  if (!per_frame || compute_us <= 0) return std::nullopt;
+  return *per_frame / compute_us;
+}
+
 RunResult MergeResults(const std::vector<RunResult>& windows) {
   RunResult merged = windows.front();
   for (std::size_t i = 1; i < windows.size(); ++i) {
@@ -71,6 +89,11 @@ RunResult MergeResults(const std::vector<RunResult>& windows) {
     merged.transport_ms_sum += w.transport_ms_sum;
     merged.metrics_scraped = merged.metrics_scraped && w.metrics_scraped;
     for (const auto& [series, delta] : w.server_metrics) merged.server_metrics[series] += delta;
+    merged.server_frames += w.server_frames;
+    merged.server_cpu_seconds =
+        merged.server_cpu_seconds && w.server_cpu_seconds
+            ? std::optional(*merged.server_cpu_seconds + *w.server_cpu_seconds)
+            : std::nullopt;
   }
   return merged;
 }

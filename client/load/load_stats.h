@@ -65,6 +65,13 @@ struct RunResult {
   // --metrics-url: the server's counter deltas over this row's windows, by series.
   bool metrics_scraped = false;
   std::map<std::string, double> server_metrics;
+  // --metrics-url: the increase of the server's process_cpu_seconds_total (the whole
+  // process's user + system CPU) over the measured part; none when not scraped, when the
+  // server does not export it, or when it went down (the server restarted). And the frames
+  // the server answered between the same two scrapes (skinserve_frames_total, every
+  // backend): both from one pair of scrapes, however late either answered.
+  std::optional<double> server_cpu_seconds;
+  double server_frames = 0;
 
   // The latency at `percentile` within the limit (true when no limit).
   bool within_limit() const;
@@ -80,6 +87,13 @@ struct RunResult {
   }
   double mean(double sum) const { return frames > 0 ? sum / frames : 0; }
   uint64_t error_count() const;
+  // Server CPU per frame it answered and per character (a crowd frame of K instances is K
+  // characters), in microseconds, and its ratio to the mean compute per frame (ServerTiming's
+  // compute_ns, the compute column); none without server_cpu_seconds or server_frames (or
+  // compute).
+  std::optional<double> server_cpu_us_per_frame() const;
+  std::optional<double> server_cpu_us_per_character() const;
+  std::optional<double> server_cpu_over_compute() const;
   double send_gap_mean_ms() const { return send_gaps > 0 ? send_gap_ms_sum / send_gaps : 0; }
   double send_gap_cv() const;
   bool failed() const { return error_count() > 0 || mismatches > 0; }
@@ -88,7 +102,8 @@ struct RunResult {
 inline constexpr double kLateSendMs = 1.0;
 
 // One row from several measurement windows of one configuration: counts and sums added,
-// latencies pooled, seconds summed, metric deltas added. `windows` must not be empty.
+// latencies pooled, seconds summed, metric deltas added (server CPU only when every window
+// has it). `windows` must not be empty.
 RunResult MergeResults(const std::vector<RunResult>& windows);
 
 }  // namespace skinserve::load

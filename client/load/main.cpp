@@ -215,6 +215,7 @@ int RunMain(const Options& o) {
     measure.latency_limit_ms = budget_ms;
     const std::string at = fmt::format("p{:g}", measure.percentile);
     const std::string backend = backends->empty() ? "" : backends->front();
+    const bool cpu = !measure.metrics_url.empty();  // the server CPU columns
     std::vector<Mode> modes;
     for (const std::string& text : SplitList(o.modes)) {
       auto mode = ParseMode(text);
@@ -229,10 +230,10 @@ int RunMain(const Options& o) {
         fmt::print(
             "capacity of {} at {:.0f} fps per stream, {} vertices x {} bones, {}, {} instance(s) "
             "per stream, {} data plane: {} <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
-            "{:>9} {:>9} {:>8} {:>8} {:>7}\n",
+            "{:>9} {:>9} {:>8} {:>8} {:>7}{}\n",
             backend, o.run.rate, w.vertices, w.bones, VertexEncodingName(mode.encoding),
             mode.instances, plane, at, budget_ms, "streams", "characters", "frames/s", at + " ms",
-            "max ms", "late", "dropped", "holds");
+            "max ms", "late", "dropped", "holds", cpu ? ServerCpuHeader() : "");
         Status probe_error;
         auto probe = [&](int streams) {
           RunConfig config = o.run;
@@ -251,9 +252,9 @@ int RunMain(const Options& o) {
           RunResult r = std::move(measured).value();
           const LatencySummary l = Summarize(r.latencies_ms, r.percentile);
           const bool holds = r.within_limit() && r.dropped == 0 && !r.failed() && r.frames > 0;
-          fmt::print("{:>8} {:>10} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}\n", streams,
+          fmt::print("{:>8} {:>10} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}{}\n", streams,
                      streams * mode.instances, r.frames_per_second(), l.at_percentile, l.max,
-                     r.late, r.dropped, holds ? "yes" : "no");
+                     r.late, r.dropped, holds ? "yes" : "no", cpu ? ServerCpuCells(r) : "");
           results.push_back(std::move(r));
           return std::optional<bool>(holds);
         };

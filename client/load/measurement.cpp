@@ -12,11 +12,8 @@ Result<RunResult> Measure(const RunConfig& config, const Workload& workload,
                           const std::string& mesh_id, const Progress& progress,
                           const MeasureOptions& options) {
   const bool scrape = !options.metrics_url.empty();
-  MetricSamples before;
-  if (scrape) {
-    auto samples = ScrapeMetrics(options.metrics_url);
-    if (!samples.ok()) return samples.status();
-    before = std::move(samples).value();
+  if (scrape) {  // a wrong URL fails now, not after a window's --duration
+    if (auto probe = ScrapeMetrics(options.metrics_url); !probe.ok()) return probe.status();
   }
   const int trials = std::max(options.max_trials, 1);
   const bool rule = trials >= static_cast<int>(kStableWindows);
@@ -28,14 +25,23 @@ Result<RunResult> Measure(const RunConfig& config, const Workload& workload,
     window.arrivals_seed = config.arrivals_seed + trial;  // each window its own Poisson draws
     const Progress window_progress =
         progress ? Progress([&, trial](double f) { progress((trial + f) / trials); }) : nullptr;
-    RunResult r = RunLoad(window, workload, mesh_id, window_progress);
+    // The scrapes bracket the window's measured part (not its warm-up): the server's CPU
+    // and counters over the frames this row counts, give or take those in flight at its ends.
+    Result<MetricSamples> before = MetricSamples(), after = MetricSamples();
+    MeasuredPartHooks hooks;
+    if (scrape) {
+      hooks.begin = [&] { before = ScrapeMetrics(options.metrics_url); };
+      hooks.end = [&] { after = ScrapeMetrics(options.metrics_url); };
+    }
+    RunResult r = RunLoad(window, workload, mesh_id, window_progress, hooks);
     r.percentile = options.percentile;
     if (scrape) {
-      auto after = ScrapeMetrics(options.metrics_url);
+      if (!before.ok()) return before.status();
       if (!after.ok()) return after.status();
-      r.server_metrics = MetricDeltas(before, *after);
+      r.server_metrics = MetricDeltas(*before, *after);
+      r.server_cpu_seconds = CpuSecondsBetween(*before, *after);
+      r.server_frames = SumSeries(r.server_metrics, "skinserve_frames_total");
       r.metrics_scraped = true;
-      before = std::move(after).value();
     }
     windows.push_back(std::move(r));
     if (windows.back().failed()) break;  // errors do not settle: report them now

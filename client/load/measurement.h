@@ -22,8 +22,9 @@ struct MeasureOptions {
 
 // Runs windows of `config` (the first with its warm-up, the next without) until the last
 // three agree or `max_trials` ran, or a window failed; the row merges the last (up to)
-// three. With a metrics URL, scrapes before the first window and after each: the row holds
-// the deltas over its windows. A failed scrape is UNAVAILABLE naming the URL.
+// three. With a metrics URL, scrapes when each window's measured part begins and after it
+// ends (RunLoad's MeasuredPartHooks): the row holds the counters' deltas and the server's
+// CPU seconds over its windows' measured parts. A failed scrape is UNAVAILABLE naming the URL.
 Result<RunResult> Measure(const RunConfig& config, const Workload& workload,
                           const std::string& mesh_id, const Progress& progress,
                           const MeasureOptions& options);

@@ -49,8 +49,13 @@ void AddMeasurementFlags(CLI::App& app, MeasurementFlags& flags) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--metrics-url", flags.measure.metrics_url,
-                 "the server's Prometheus endpoint (http://HOST:PORT[/metrics]): scraped before "
-                 "and after each window, its counters' deltas go in the report");
+                 "the server's Prometheus endpoint (http://HOST:PORT[/metrics], its "
+                 "--metrics-listen): scraped when each window's measured part begins (after the "
+                 "warm-up) and after it ends; its counters' deltas go in the report, and the "
+                 "server's CPU (process_cpu_seconds_total) over the frames it answered between "
+                 "the scrapes: per frame, per character and over the compute column "
+                 "(server_cpu_us_per_frame, server_cpu_us_per_character, "
+                 "server_cpu_over_compute); without it those are empty");
 }
 
 Result<std::vector<double>> ParseRateRange(const std::string& text) {

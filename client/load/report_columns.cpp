@@ -1,5 +1,7 @@
 #include "report_columns.h"
 
+#include <optional>
+
 #include "load_report.h"
 #include "server_metrics.h"
 
@@ -9,6 +11,7 @@ namespace {
 using nlohmann::json;
 
 json OrNull(bool applies, json value) { return applies ? std::move(value) : json(nullptr); }
+json OrNull(const std::optional<double>& value) { return value ? json(*value) : json(nullptr); }
 
 // The row's backend's label in the server's per-backend series.
 std::vector<std::string> BackendLabel(const RunResult& r) {
@@ -91,6 +94,17 @@ std::vector<ReportColumn> MakeColumns() {
          const double serial = SerialFramesPerSecond(all, r);
          return OrNull(serial > 0, serial > 0 ? r.frames_per_second() / serial : 0);
        }},
+      // --metrics-url: process_cpu_seconds_total's increase over the measured part, and the
+      // frames the server answered between the same scrapes (every backend).
+      {"server_cpu_seconds",
+       [](R r, All) {
+         return OrNull(r.server_cpu_seconds.has_value(), r.server_cpu_seconds.value_or(0));
+       }},
+      {"server_frames", [](R r, All) { return OrNull(r.metrics_scraped, r.server_frames); }},
+      {"server_cpu_us_per_frame", [](R r, All) { return OrNull(r.server_cpu_us_per_frame()); }},
+      {"server_cpu_us_per_character",
+       [](R r, All) { return OrNull(r.server_cpu_us_per_character()); }},
+      {"server_cpu_over_compute", [](R r, All) { return OrNull(r.server_cpu_over_compute()); }},
       {"server_metrics/frames", metric("skinserve_frames_total")},
       {"server_metrics/frame_errors", metric("skinserve_frame_errors_total")},
       {"server_metrics/queue_seconds_sum", metric("skinserve_frame_queue_seconds_sum")},

@@ -179,6 +179,15 @@ MetricSamples MetricDeltas(const MetricSamples& before, const MetricSamples& aft
   return deltas;
 }
 
+std::optional<double> CpuSecondsBetween(const MetricSamples& before, const MetricSamples& after) {
+  const std::string series = "process_cpu_seconds_total";
+  const auto was = before.find(series), is = after.find(series);
+  if (was == before.end() || is == after.end()) return std::nullopt;
+  const double spent = is->second - was->second;
+  if (!(spent >= 0)) return std::nullopt;  // a restart, or NaN
+  return spent;
+}
+
 double SumSeries(const MetricSamples& samples, const std::string& name,
                  const std::vector<std::string>& labels) {
   double sum = 0;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,12 @@ Result<MetricSamples> ScrapeMetrics(const std::string& url, double timeout_secon
 // series that went down (the server restarted) keeps its `after` value, as Prometheus'
 // increase() does. Zero deltas are left out.
 MetricSamples MetricDeltas(const MetricSamples& before, const MetricSamples& after);
+
+// The server process's CPU seconds (user + system, process_cpu_seconds_total, which the
+// server reads from /proc/self/stat in clock ticks: 10 ms steps) spent from `before` to
+// `after`; none when either scrape lacks the series or it went down (the server restarted:
+// the CPU before the restart is lost, so no difference can be made up).
+std::optional<double> CpuSecondsBetween(const MetricSamples& before, const MetricSamples& after);
 
 // The sum of the deltas of family `name` whose labels include every `label="value"` in
 // `labels` (e.g. {"backend=\"sse\""}).

@@ -12,8 +12,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "report_files.h"
 #include "server_child.h"
@@ -40,6 +42,7 @@ class ServerProcess {
   }
   const std::string& target() const { return child_.target(); }
   bool ready() const { return child_.ready(); }
+  pid_t pid() const { return child_.pid(); }
   // Frames served per backend, from the server's own stats.
   std::map<std::string, uint64_t> FramesServed() const {
     client::SkinClient c(client::MakeChannel(target()));
@@ -424,6 +427,89 @@ TEST(LoadIntegrationTest, RateRangeGivesOneRowPerRateWithTheFramesItShould) {
   }
   EXPECT_EQ(total, server.FramesServed().at("sse"));
   load::ExpectCsvMatchesJson(csv, json);
+}
+
+// The server process's user + system CPU seconds as the kernel counts them
+// (/proc/PID/stat's utime and stime, in clock ticks): a measure of the server's CPU that
+// does not go through its /metrics.
+double ProcessCpuSeconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  std::getline(in, line);
+  std::istringstream fields(line.substr(line.rfind(')') + 2));  // from field 3, state
+  std::vector<std::string> field{std::istream_iterator<std::string>(fields), {}};
+  EXPECT_GT(field.size(), 13u) << line;
+  if (field.size() <= 13) return 0;
+  return (std::stod(field[11]) + std::stod(field[12])) / sysconf(_SC_CLK_TCK);  // fields 14, 15
+}
+
+// Server CPU per frame (issue 41): over a run whose only server work outside the measured
+// part is the upload and a few small calls, the reported CPU per frame x frames is the
+// kernel's count of the server's CPU over the whole run, within 30% and 50 ms (the upload,
+// the scrapes, 10 ms ticks at both ends of both counts); per character is per frame over
+// the crowd's 2; over compute is per frame over the compute column. (Not asserted: that it
+// is >= 1. The compute column is wall time on the compute thread, and on a busy machine
+// that thread's preemption counts in it: simd measured 0.92 here under other builds.)
+TEST(LoadIntegrationTest, ServerCpuPerFrameAgreesWithTheKernelsCountOfTheServersCpu) {
+  const int metrics_port = FreePort();
+  ServerProcess server(
+      0, {"--threads", "1", "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port)});
+  ASSERT_TRUE(server.ready());
+  const double cpu_before = ProcessCpuSeconds(server.pid());
+  const std::string csv = UniqueJsonPath() + ".csv";
+  std::string json;
+  int code = 0;
+  const nlohmann::json doc = RunLoad(
+      "--target " + server.target() +
+          " --backends simd --vertices 25000 --bones 2 --instances 2 --streams 1 --window 2"
+          " --duration 2 --warmup 0 --csv " +
+          csv + " --metrics-url http://127.0.0.1:" + std::to_string(metrics_port) + "/metrics",
+      &code, &json);
+  const double cpu_spent = ProcessCpuSeconds(server.pid()) - cpu_before;
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(doc["results"].size(), 1u) << doc.dump();
+  const auto& r = doc["results"][0];
+  ASSERT_TRUE(r["server_cpu_us_per_frame"].is_number()) << r.dump();
+  const double frames = r["frames"].get<double>();
+  ASSERT_GT(frames, 0);
+  // Closed loop with no warm-up: the server answered between the scrapes exactly the frames
+  // the row counts, and per frame is the CPU over them.
+  EXPECT_DOUBLE_EQ(r["server_frames"].get<double>(), frames) << r.dump();
+  const double per_frame = r["server_cpu_us_per_frame"].get<double>();
+  const double reported = r["server_cpu_seconds"].get<double>();
+  EXPECT_NEAR(per_frame, reported * 1e6 / frames, 1e-6 * per_frame);
+  EXPECT_LE(reported, cpu_spent * 1.3 + 0.05) << r.dump() << " kernel: " << cpu_spent << " s";
+  EXPECT_GE(reported, cpu_spent * 0.7 - 0.05) << r.dump() << " kernel: " << cpu_spent << " s";
+  EXPECT_DOUBLE_EQ(r["server_cpu_us_per_character"].get<double>(), per_frame / 2);
+  EXPECT_NEAR(r["server_cpu_over_compute"].get<double>(),
+              per_frame / (r["server_ms"]["compute"].get<double>() * 1e3), 1e-9);
+  load::ExpectCsvMatchesJson(csv, json);
+
+  // With a warm-up the first scrape comes as it ends: the server's frames between the scrapes
+  // are the measured ones, give or take those answered while a scrape was on its way (a
+  // quarter here: the warm-up's frames would double them).
+  const nlohmann::json warm =
+      RunLoad("--target " + server.target() +
+                  " --backends simd --vertices 25000 --streams 1 --window 2 --duration 1 --warmup 1"
+                  " --metrics-url http://127.0.0.1:" +
+                  std::to_string(metrics_port) + "/metrics",
+              &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(warm["results"].size(), 1u) << warm.dump();
+  const double warm_frames = warm["results"][0]["frames"].get<double>();
+  EXPECT_LE(warm["results"][0]["server_frames"].get<double>(), warm_frames * 1.25 + 5)
+      << warm.dump();
+
+  // Without --metrics-url the columns are there and empty: no number is made up.
+  const nlohmann::json bare =
+      RunLoad("--target " + server.target() + " --backends simd --vertices 2000 --frames 5", &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(bare["results"].size(), 1u) << bare.dump();
+  for (const char* column : {"server_cpu_us_per_frame", "server_cpu_us_per_character",
+                             "server_cpu_over_compute", "server_cpu_seconds", "server_frames"}) {
+    EXPECT_TRUE(bare["results"][0].contains(column)) << column;
+    EXPECT_TRUE(bare["results"][0][column].is_null()) << column << ": " << bare.dump();
+  }
 }
 
 // Poisson arrivals as sent: the gaps between a stream's sends have the exponential's

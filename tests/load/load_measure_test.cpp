@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -136,6 +137,76 @@ TEST(MergeResultsTest, AddsCountsAndPoolsLatencies) {
   EXPECT_DOUBLE_EQ(m.mean(m.transport_ms_sum), 0.2);
 }
 
+// Server CPU per frame and per character, and over compute, worked out by hand: 0.05 s of
+// CPU over the 200 frames of 4 characters each the server answered is 250 us a frame, 62.5
+// a character; a compute column of 25 us a frame makes it 10 times compute. The client's
+// own count (190 frames) is not the divisor: its measured part is not the scrapes' window.
+TEST(ServerCpuTest, PerFramePerCharacterAndOverComputeFromHandPickedNumbers) {
+  RunResult r = Window(190, 1, 5);
+  r.instances = 4;
+  r.server_compute_ms_sum = 190 * 0.025;
+  r.server_frames = 200;
+  EXPECT_FALSE(r.server_cpu_us_per_frame()) << "not scraped: no number made up";
+  EXPECT_FALSE(r.server_cpu_us_per_character());
+  EXPECT_FALSE(r.server_cpu_over_compute());
+  r.server_cpu_seconds = 0.05;
+  EXPECT_DOUBLE_EQ(*r.server_cpu_us_per_frame(), 250);
+  EXPECT_DOUBLE_EQ(*r.server_cpu_us_per_character(), 62.5);
+  EXPECT_DOUBLE_EQ(*r.server_cpu_over_compute(), 10);
+  r.server_compute_ms_sum = 0;
+  EXPECT_FALSE(r.server_cpu_over_compute()) << "no compute to compare with";
+  RunResult none = Window(190, 1, 5);
+  none.server_cpu_seconds = 0.05;
+  EXPECT_FALSE(none.server_cpu_us_per_frame()) << "the server answered no frames";
+
+  // Merged windows: CPU seconds and frames added (0.05 + 0.03 over 200 + 100 frames), or
+  // none when a window lacks the CPU.
+  RunResult more = Window(90, 1, 5);
+  more.instances = 4;
+  more.server_frames = 100;
+  more.server_cpu_seconds = 0.03;
+  r.server_cpu_seconds = 0.05;
+  EXPECT_DOUBLE_EQ(*MergeResults({r, more}).server_cpu_us_per_frame(), 0.08e6 / 300);
+  more.server_cpu_seconds.reset();
+  EXPECT_FALSE(MergeResults({r, more}).server_cpu_seconds);
+}
+
+TEST(ServerCpuTest, CpuSecondsBetweenScrapesOnlyWhenBothHoldIt) {
+  const MetricSamples before = {{"process_cpu_seconds_total", 12.5}, {"other_total", 1}};
+  const MetricSamples after = {{"process_cpu_seconds_total", 12.75}, {"other_total", 9}};
+  EXPECT_DOUBLE_EQ(*CpuSecondsBetween(before, after), 0.25);
+  EXPECT_DOUBLE_EQ(*CpuSecondsBetween(before, before), 0) << "no CPU spent is 0, not none";
+  EXPECT_FALSE(CpuSecondsBetween({{"other_total", 1}}, after)) << "an older server";
+  EXPECT_FALSE(CpuSecondsBetween(before, {{"other_total", 9}}));
+  EXPECT_FALSE(CpuSecondsBetween(after, before)) << "went down: a restart";
+  // As the server writes it (a counter), the parser keeps it.
+  auto parsed = ParseMetricsText(
+      "# HELP process_cpu_seconds_total Total user and system CPU time spent in seconds.\n"
+      "# TYPE process_cpu_seconds_total counter\nprocess_cpu_seconds_total 3.41\n");
+  ASSERT_TRUE(parsed.ok()) << parsed.status().ToString();
+  EXPECT_NEAR(*CpuSecondsBetween({{"process_cpu_seconds_total", 3}}, *parsed), 0.41, 1e-12);
+}
+
+// The text table: the server CPU columns, in their places, only when a row knows its CPU.
+TEST(ServerCpuTest, TextTableShowsTheColumnsWhenScraped) {
+  RunResult r = Window(200, 1, 5);
+  r.instances = 4;
+  r.server_compute_ms_sum = 200 * 0.025;
+  r.server_frames = 200;
+  ::testing::internal::CaptureStdout();
+  PrintTable({r}, false);
+  std::fflush(stdout);
+  const std::string bare = ::testing::internal::GetCapturedStdout();
+  EXPECT_EQ(bare.find("cpu us/fr"), std::string::npos) << bare;
+  r.server_cpu_seconds = 0.05;
+  ::testing::internal::CaptureStdout();
+  PrintTable({r}, false);
+  std::fflush(stdout);
+  const std::string text = ::testing::internal::GetCapturedStdout();
+  EXPECT_NE(text.find("cpu us/fr  cpu us/ch cpu/comp errors\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("      250.0       62.5    10.00 0\n"), std::string::npos) << text;
+}
+
 TEST(SendGapTest, CoefficientOfVariationOfHandPickedGaps) {
   RunResult r;
   for (double g : {10.0, 20.0, 30.0}) {  // mean 20, sample sd 10: CV 0.5
@@ -231,6 +302,9 @@ TEST(ReportColumnsTest, CsvAndJsonHoldTheSameColumnsAndValues) {
   sse.server_metrics["skinserve_frame_errors_total{backend=\"sse\",code=\"RESOURCE_EXHAUSTED\"}"] =
       2;
   sse.server_metrics["skinserve_frames_total{backend=\"passthrough\"}"] = 2;
+  sse.server_cpu_seconds = 0.06;  // over 100 frames of 4: 600 us a frame, 150 a character
+  sse.server_frames = 100;
+  sse.server_compute_ms_sum = 100 * 0.2;
   const std::vector<RunResult> results = {serial, sse};
   const std::string base = ::testing::TempDir() + "columns-" + std::to_string(getpid());
   ASSERT_TRUE(WriteCsv(base + ".csv", results).ok());
@@ -252,6 +326,15 @@ TEST(ReportColumnsTest, CsvAndJsonHoldTheSameColumnsAndValues) {
   EXPECT_DOUBLE_EQ(row["server_metrics"]["frames"].get<double>(), 100) << "sse's series only";
   EXPECT_DOUBLE_EQ(row["server_metrics"]["frame_errors"].get<double>(), 2);
   EXPECT_TRUE(doc["results"][0]["server_metrics"]["frames"].is_null()) << "not scraped";
+  EXPECT_DOUBLE_EQ(row["server_cpu_us_per_frame"].get<double>(), 600);
+  EXPECT_DOUBLE_EQ(row["server_cpu_us_per_character"].get<double>(), 150);
+  EXPECT_DOUBLE_EQ(row["server_cpu_over_compute"].get<double>(), 3);
+  EXPECT_DOUBLE_EQ(row["server_cpu_seconds"].get<double>(), 0.06);
+  EXPECT_DOUBLE_EQ(row["server_frames"].get<double>(), 100);
+  for (const char* column : {"server_cpu_us_per_frame", "server_cpu_us_per_character",
+                             "server_cpu_over_compute", "server_cpu_seconds", "server_frames"}) {
+    EXPECT_TRUE(doc["results"][0][column].is_null()) << column << ": not scraped, left empty";
+  }
   EXPECT_TRUE(doc["results"][0]["stable"].is_null()) << "no stability rule applied";
 }
 
