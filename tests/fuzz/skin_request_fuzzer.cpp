@@ -71,7 +71,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static server::InflightBudget budget(256ull << 20);
   DoneListener listener;
   server::FrameJob job(&listener, &budget);
-  Status status = job.Prepare(wire, engine, "serial", /*regions=*/nullptr);
+  Status status = job.Prepare(wire, engine, "serial", /*regions=*/server::RegionCaller{});
   if (status.ok()) status = engine.Submit(&job);
   if (status.ok()) {
     listener.Wait();
