@@ -6,6 +6,7 @@
 #include <chrono>
 #include <thread>
 
+#include "own_connection.h"
 #include "skinserve/reference/synthetic.h"
 #include "test_server.h"
 
@@ -13,13 +14,6 @@ namespace skinserve::testing {
 namespace {
 
 using Stream = grpc::ClientReaderWriter<v1::SkinRequest, v1::SkinResponse>;
-
-// A channel with a TCP connection of its own (channels with equal arguments share one).
-std::shared_ptr<grpc::Channel> OwnConnection(const std::string& target) {
-  grpc::ChannelArguments args;
-  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
-}
 
 v1::SkinRequest Frame(const std::string& mesh_id, uint64_t frame) {
   v1::SkinRequest request;

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <thread>
 
+#include "own_connection.h"
 #include "process_probe.h"
 #include "server_child.h"
 #include "skinserve/client/channel.h"
@@ -43,13 +44,6 @@ constexpr uint64_t kBudgetMb = 256;
 constexpr uint64_t kMarginMb = 192 + kSanitizerQuarantineMb;
 // Allowed growth of the resting size from the first round to the last.
 constexpr uint64_t kGrowthMarginMb = 64;
-
-// A channel with a TCP connection of its own (channels with equal arguments share one).
-std::shared_ptr<grpc::Channel> OwnConnection(const std::string& target) {
-  grpc::ChannelArguments args;
-  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
-}
 
 // One hostile connection: a stream that writes its frames and never reads.
 struct HostileClient {

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "own_connection.h"
 #include "process_probe.h"
 #include "server_child.h"
 #include "skinserve/client/channel.h"
@@ -33,12 +34,6 @@ constexpr int kEntries = 2'000'000;
 // HTTP/2 windows) and the allocator's slack; far below one parsed frame (~210 MB).
 // Under AddressSanitizer freed memory waits in its quarantine first.
 constexpr uint64_t kMarginMb = 96 + kSanitizerQuarantineMb;
-
-std::shared_ptr<grpc::Channel> OwnConnection(const std::string& target) {
-  grpc::ChannelArguments args;
-  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
-}
 
 TEST(RequestCountsAttackTest, CountsOverTheirLimitsAreRefusedBeforeTheServerHoldsThem) {
   ServerChild server({"--log-level", "warn", "--threads", "2", "--default-backend", "sse"});

@@ -19,6 +19,7 @@
 #include <fstream>
 #include <thread>
 
+#include "own_connection.h"
 #include "process_probe.h"
 #include "server_child.h"
 #include "skinserve/client/channel.h"
@@ -40,13 +41,6 @@ constexpr auto kDidNotHang = 20s;
 
 std::chrono::system_clock::time_point GiveUpAt() {
   return std::chrono::system_clock::now() + kDidNotHang;
-}
-
-// A channel with a TCP connection of its own (channels with equal arguments share one).
-std::shared_ptr<grpc::Channel> OwnConnection(const std::string& target) {
-  grpc::ChannelArguments args;
-  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
 }
 
 void ExpectEnded(const grpc::Status& status, grpc::StatusCode code, const std::string& option) {
