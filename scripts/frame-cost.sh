@@ -49,6 +49,7 @@ source "$root/scripts/lib/port-file.sh"
   git -C "$root" rev-parse --short HEAD 2>/dev/null || true
 } >"$out/machine.txt"
 : >"$out/command.txt"
+rm -f "$out/summary.csv" "$out/summary.txt"
 
 socket_dir=$(mktemp -d)
 target="unix:$socket_dir/grpc.sock"
@@ -90,6 +91,17 @@ row = rows[0]
 frames = int(row.get("server_frames") or row["frames"])
 chars = frames * max(1, row.get("instances", 1) or 1)
 sw = (int(sys.argv[3]) - int(sys.argv[2])) / frames
+import os
+csv = os.path.join(os.path.dirname(sys.argv[1]), "summary.csv")
+new = not os.path.exists(csv)
+with open(csv, "a") as f:
+    if new:
+        f.write("plane,frames,server CPU us/frame,server CPU us/character,compute us,"
+                "CPU / compute,switches/frame,errors\n")
+    f.write(f"{sys.argv[4]},{frames},{row.get('server_cpu_us_per_frame') or 0:.1f},"
+            f"{row.get('server_cpu_us_per_character') or 0:.1f},"
+            f"{1000 * row['server_ms']['compute']:.1f},"
+            f"{row.get('server_cpu_over_compute') or 0:.2f},{sw:.2f},{row.get('errors') or 0}\n")
 print(f"{sys.argv[4]:5s} frames {frames:7d}  cpu us/frame {row.get('server_cpu_us_per_frame') or 0:8.1f}"
       f"  cpu us/char {row.get('server_cpu_us_per_character') or 0:7.1f}"
       f"  compute us {1000 * row['server_ms']['compute']:6.1f}"

@@ -9,7 +9,6 @@
 #include <grpcpp/impl/codegen/proto_utils.h>
 
 #include "engine_messages.h"
-#include "sigbus_guard.h"
 #include "skinserve/wire/part_framing.h"
 #include "skinserve/wire/region_layout.h"
 
@@ -60,7 +59,8 @@ FrameJob::PartRange FrameJob::RangeOf(std::size_t part) const {
 }
 
 Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
-                         const std::string& default_backend, const RegionCaller& regions) {
+                         const std::string& default_backend, const RegionCaller& regions,
+                         RegionHandle* region) {
   if (Status s = Begin(wire.frame(), wire.backend().empty() ? default_backend : wire.backend());
       !s.ok()) {
     return s;
@@ -136,7 +136,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
                                                EncodedBytesPerValue(encoding_));
   region_part_ = wire.has_output();
   if (region_part_) {  // the vertices go into the region: the wire carries one header
-    if (Status s = PrepareRegion(wire.output(), regions); !s.ok()) return s;
+    if (Status s = PrepareRegion(wire.output(), regions, region); !s.ok()) return s;
     part_count_ = 1;
     instances_per_part_ = 1;
     header_room_ =
@@ -241,18 +241,11 @@ void FrameJob::Refuse(uint64_t frame, const std::string& backend, Status status)
   Fail(std::move(status));
 }
 
-Status FrameJob::PrepareRegion(const v1::OutputRegion& output, const RegionCaller& regions) {
-  if (regions.regions == nullptr) {
-    return FailedPrecondition(
-        "output names a shared-memory region, but this server's shared memory is off (--shm-dir "
-        "is empty)");
-  }
-  if (!regions.owner.ok()) return regions.owner.status();
-  Result<std::shared_ptr<MappedRegion>> region =
-      regions.regions->Acquire(output.region(), *regions.owner);
+Status FrameJob::PrepareRegion(const v1::OutputRegion& output, const RegionCaller& regions,
+                               RegionHandle* handle) {
+  // Looked up, checked and guarded once per stream and region (RegionHandle).
+  Result<std::shared_ptr<MappedRegion>> region = handle->Resolve(output.region(), regions);
   if (!region.ok()) return region.status();
-  if (Status s = (*region)->CheckIntact(); !s.ok()) return s;
-  SigbusGuard::Install();  // still the SIGBUS handler, whatever a library did since
   const uint64_t size = (*region)->byte_size();
   const uint64_t offset = output.offset();
   if (offset % wire::kRegionAlignment != 0) {
@@ -311,7 +304,8 @@ void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
           "region '{}' was unregistered while frame {} was in flight: its output is undefined",
           region_->name(), frame_));
     }
-    if (result_.ok()) result_ = region_->CheckIntact();
+    // A write that met a truncated page was caught by the guard, which marked the region.
+    if (result_.ok()) result_ = region_->CheckNotBroken();
     if (result_.ok()) region_->CountFrame();
   }
   if (result_.ok()) result_ = WriteHeaders();

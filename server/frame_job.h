@@ -26,6 +26,7 @@
 #include "inflight_budget.h"
 #include "mapped_region.h"
 #include "metrics_frames.h"
+#include "region_handle.h"
 #include "region_registry.h"
 #include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/engine/engine.h"
@@ -61,10 +62,11 @@ class FrameJob final : public SkinJob {
 
   // Prepares `request` for the engine: checks what the server must know before sizing
   // buffers (mesh, encoding, batch limits, budget, the output region's range), decodes
-  // the palette and sizes the outputs. Then Engine::Submit(this). Non-OK: the frame
-  // failed before the engine. `regions` is null when shared memory is off.
+  // the palette and sizes the outputs. Then Engine::Run(this). Non-OK: the frame
+  // failed before the engine. `regions.regions` is null when shared memory is off;
+  // `region` is the stream's hold on the region its frames write into.
   Status Prepare(const v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
-                 const RegionCaller& regions);
+                 const RegionCaller& regions, RegionHandle* region);
   // The frame failed before the engine: it is answered with `status`.
   void Fail(Status status);
   // A frame refused before its request was parsed (SkinRequestReader): answered with
@@ -98,7 +100,8 @@ class FrameJob final : public SkinJob {
   Status EncodeInstance(uint32_t i, std::span<const float> positions,
                         std::span<const float> normals);
   // Checks the request's output range against its region and pins the region.
-  Status PrepareRegion(const v1::OutputRegion& output, const RegionCaller& regions);
+  Status PrepareRegion(const v1::OutputRegion& output, const RegionCaller& regions,
+                       RegionHandle* handle);
   // The frame's output: the wire buffer, or the region's bytes.
   std::byte* PositionsOut();
   std::byte* NormalsOut();

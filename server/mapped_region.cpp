@@ -111,13 +111,16 @@ MappedRegion::~MappedRegion() {
   if (done) done();
 }
 
+Status MappedRegion::CheckNotBroken() const {
+  if (!broken_.load(std::memory_order_acquire)) return Status::Ok();
+  return FailedPrecondition(fmt::format(
+      "region '{}' was truncated by its owner while the server wrote into it: its output is "
+      "lost; unregister it and register a new one",
+      name_));
+}
+
 Status MappedRegion::CheckIntact() const {
-  if (broken_.load(std::memory_order_acquire)) {
-    return FailedPrecondition(fmt::format(
-        "region '{}' was truncated by its owner while the server wrote into it: its output is "
-        "lost; unregister it and register a new one",
-        name_));
-  }
+  if (Status s = CheckNotBroken(); !s.ok()) return s;
   struct stat st = {};
   if (fstat(fd_, &st) != 0 || static_cast<uint64_t>(st.st_size) < byte_size_) {
     return FailedPrecondition(fmt::format(

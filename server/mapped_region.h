@@ -47,6 +47,9 @@ class MappedRegion {
   // OK while the file still holds the mapped bytes and no write met a truncated page;
   // else FAILED_PRECONDITION naming the region and its file's size now.
   Status CheckIntact() const;
+  // The same without looking at the file: only whether a write met a truncated page (the
+  // guard's mark). For the frames of a stream whose region was checked whole when resolved.
+  Status CheckNotBroken() const;
   // Unregistered: frames still holding it fail; `on_unmapped` runs once it is unmapped.
   void MarkRemoved(std::function<void()> on_unmapped);
   bool removed() const { return removed_.load(std::memory_order_acquire); }

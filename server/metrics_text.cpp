@@ -173,6 +173,9 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
   w.Header("skinserve_peak_busy_threads", "gauge",
            "The most compute threads ever skinning at once (never above the compute threads).");
   w.Sample("skinserve_peak_busy_threads", "", static_cast<double>(e.peak_busy_threads));
+  w.Header("skinserve_inline_frames_total", "counter",
+           "Frames skinned on the thread that read them (no compute thread was worth waking).");
+  w.Sample("skinserve_inline_frames_total", "", static_cast<double>(e.inline_frames));
   w.Header("skinserve_inflight_bytes", "gauge",
            "Memory frames in flight hold (every stream's frame buffers).");
   w.Sample("skinserve_inflight_bytes", "", static_cast<double>(s.inflight.bytes));

@@ -11,16 +11,18 @@ SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
     : job_(static_cast<FrameJob::Listener*>(this), budget) {
   grpc::ByteBuffer bytes(request_bytes);  // reading consumes it
   Status status = Unavailable("the server is starting: backends are being built");
+  RegionHandle region;  // one frame: resolved for it alone
   if (engine != nullptr) {
     // Held (and charged) only until the job took what it keeps.
     SkinRequestReader reader(budget, {.max_instances = engine->options().max_instances});
     status = reader.Read(&bytes);
-    status =
-        status.ok() ? job_.Prepare(reader.request(), *engine, default_backend, regions) : status;
+    status = status.ok()
+                 ? job_.Prepare(reader.request(), *engine, default_backend, regions, &region)
+                 : status;
   }
   if (status.ok()) {
     refs_.fetch_add(1);
-    status = engine->Submit(&job_);
+    status = engine->Run(&job_);           // a small frame is skinned here, answered from here
     if (!status.ok()) refs_.fetch_sub(1);  // refused: the engine will not call back
   }
   if (!status.ok()) {

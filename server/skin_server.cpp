@@ -17,6 +17,7 @@
 #include "metrics_text.h"
 #include "process_metrics.h"
 #include "server_tls.h"
+#include "sigbus_guard.h"
 #include "unix_listener.h"
 
 namespace skinserve::server {
@@ -186,7 +187,11 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   }
 
   spdlog::info("{}", options.DescribeSizing());
-  auto engine = Engine::Create(options.ToEngineOptions());
+  EngineOptions engine_options = options.ToEngineOptions();
+  // A frame into a region relies on the SIGBUS guard; a backend preparing a mesh may have
+  // compiled kernels, and the compiler may have replaced the handler (sigbus_guard.h).
+  engine_options.after_prepare = [] { SigbusGuard::Install(); };
+  auto engine = Engine::Create(engine_options);
   if (!engine.ok()) return engine.status();
   server->engine_ = std::move(engine).value();
   const auto backends = server->engine_->Backends();

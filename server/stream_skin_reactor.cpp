@@ -33,13 +33,28 @@ StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend
 }
 
 void StreamSkinReactor::OnReadDone(bool ok) {
+  FrameJob* job = PrepareRead(ok);
+  if (job == nullptr) return;
+  // Outside the lock: a small frame is skinned right here (Engine::Run) and its answer
+  // started from OnFrameDone on this thread, with no compute thread woken and no thread
+  // woken to write it.
+  Status status = engine_->Run(job);
+  if (status.ok()) return;
+  refs_.fetch_sub(1);  // refused: the engine will not call back
+  std::lock_guard lock(mutex_);
+  job->Fail(std::move(status));  // answered with its error
+  job->set_done();
+  PumpLocked();
+}
+
+FrameJob* StreamSkinReactor::PrepareRead(bool ok) {
   std::lock_guard lock(mutex_);
   reading_ = false;
-  if (finished_) return;  // ended meanwhile (drained or cancelled): nobody awaits an answer
+  if (finished_) return nullptr;  // ended meanwhile (drained or cancelled): nobody awaits
   if (!ok) {
     reads_done_ = true;  // the client half-closed (or went away)
     PumpLocked();
-    return;
+    return nullptr;
   }
   ++requests_read_;
   Status read = reader_.Read(&request_bytes_);
@@ -47,7 +62,7 @@ void StreamSkinReactor::OnReadDone(bool ok) {
     // Not a SkinRequest at all: nothing names the frame, so the stream cannot go on.
     FinishLocked(ToGrpc(InvalidArgument(fmt::format(
         "message {} on this stream is not a valid skinserve.v1.SkinRequest", requests_read_))));
-    return;
+    return nullptr;
   }
   const uint64_t frame = read.ok() ? reader_.request().frame() : reader_.scan().frame;
   last_frame_read_ = frame;
@@ -58,20 +73,19 @@ void StreamSkinReactor::OnReadDone(bool ok) {
     job.Refuse(frame, default_backend_, std::move(read));
     job.set_done();
     PumpLocked();
-    return;
+    return nullptr;
   }
-  Status status = job.Prepare(reader_.request(), *engine_, default_backend_, regions_);
-  reader_.Trim();  // the job took what it keeps
-  if (status.ok()) {
-    refs_.fetch_add(1);
-    status = engine_->Submit(&job);
-    if (!status.ok()) refs_.fetch_sub(1);
-  }
+  Status status = job.Prepare(reader_.request(), *engine_, default_backend_, regions_, &region_);
+  reader_.Trim();      // the job took what it keeps
   if (!status.ok()) {  // answered with its error
     job.Fail(std::move(status));
     job.set_done();
   }
+  // The next read is started before the frame is skinned: it overlaps the skinning.
   PumpLocked();
+  if (!status.ok()) return nullptr;
+  refs_.fetch_add(1);  // the engine's, until OnFrameDone
+  return &job;
 }
 
 void StreamSkinReactor::OnFrameDone(FrameJob* job) {

@@ -65,6 +65,9 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   void HoldForWire() override { refs_.fetch_add(1); }
   void ReleaseForWire() override { Unref(); }
   FrameJob& Slot(std::size_t i) { return *in_flight_jobs_[i % window_]; }
+  // OnReadDone, under the lock: takes the request read into a job and prepares it; the job
+  // to hand to the engine, or null (none, or answered already with its error).
+  FrameJob* PrepareRead(bool ok);
   FrameJob* TakeIdleJobLocked();
   void PumpLocked();  // starts the next write, the next read or the finish, as due
   void FinishLocked(const grpc::Status& status);
@@ -76,6 +79,7 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   OpenStreams* open_streams_;
   InflightBudget* budget_;
   const RegionCaller regions_;  // the registry (null: shared memory is off) and the caller
+  RegionHandle region_;         // the region this stream's frames write into (under mutex_)
 
   std::mutex mutex_;
   grpc::ByteBuffer request_bytes_;

@@ -225,5 +225,110 @@ TEST(ComputePoolTest, AFixedWidthTaskWaitsForItsThreadsAndKeepsItsTurn) {
   EXPECT_EQ(order, (std::vector<int>{0, 1}));
 }
 
+// TryRunInline: a small single frame runs on the caller's thread when a pool thread is free
+// and nothing waits; anything else is left to TrySubmit (the pool's threads).
+TEST(ComputePoolTest, ASmallLoneFrameRunsOnItsCallersThread) {
+  struct Where {
+    std::thread::id id;
+    int threads = 0;
+  } where;
+  ComputePool::Task task;
+  task.run = [](void* context, uint32_t, int threads) {
+    auto* w = static_cast<Where*>(context);
+    w->id = std::this_thread::get_id();
+    w->threads = threads;
+  };
+  task.context = &where;
+  task.max_width = 4;
+  task.work = 999;
+  ComputePool pool(2, 16, /*split_min_work=*/1000);
+  ASSERT_TRUE(pool.TryRunInline(task));
+  EXPECT_EQ(where.id, std::this_thread::get_id());
+  EXPECT_EQ(where.threads, 1);
+  EXPECT_EQ(pool.inline_runs(), 1u);
+}
+
+TEST(ComputePoolTest, FramesThatBuyParallelismAreNotRunInline) {
+  std::atomic<int> ran{0};
+  ComputePool::Task task;
+  task.run = [](void* context, uint32_t, int) {
+    static_cast<std::atomic<int>*>(context)->fetch_add(1);
+  };
+  task.context = &ran;
+  ComputePool pool(2, 16, /*split_min_work=*/1000);
+  ComputePool::Task large = task;
+  large.work = 1000;  // worth splitting: the pool decides its width
+  EXPECT_FALSE(pool.TryRunInline(large));
+  ComputePool::Task crowd = task;
+  crowd.parts = 2;  // its instances run side by side on the pool
+  EXPECT_FALSE(pool.TryRunInline(crowd));
+  ComputePool::Task fixed = task;
+  fixed.min_width = fixed.max_width = 2;  // needs a team
+  EXPECT_FALSE(pool.TryRunInline(fixed));
+  EXPECT_EQ(ran.load(), 0);
+  EXPECT_EQ(pool.inline_runs(), 0u);
+}
+
+TEST(ComputePoolTest, NothingRunsInlineWhileFramesWaitOrEveryThreadIsBusy) {
+  std::atomic<int> ran{0};
+  ComputePool::Task small;
+  small.run = [](void* context, uint32_t, int) {
+    static_cast<std::atomic<int>*>(context)->fetch_add(1);
+  };
+  small.context = &ran;
+  small.work = 1;
+  ComputePool pool(1, 16, /*split_min_work=*/1000);
+  Blocker blocker;
+  blocker.Occupy(pool, 1);  // the only thread is busy
+  EXPECT_FALSE(pool.TryRunInline(small)) << "it would skin beside the pool's thread: > size()";
+  ASSERT_TRUE(pool.TrySubmit(small));  // waits for the thread
+  EXPECT_FALSE(pool.TryRunInline(small)) << "it would overtake the frame queued before it";
+  blocker.release.set_value();
+  pool.Shutdown();
+  EXPECT_EQ(ran.load(), 1);
+  EXPECT_EQ(pool.inline_runs(), 0u);
+  EXPECT_FALSE(pool.TryRunInline(small)) << "shut down";
+}
+
+// While a frame runs inline it holds one of the pool's threads: the pool's own threads
+// never skin more frames than it has threads beside it.
+TEST(ComputePoolTest, AnInlineFrameTakesAThreadsPlace) {
+  Occupancy occupancy;
+  ComputePool pool(1, 16, /*split_min_work=*/1000);
+  struct Context {
+    Occupancy* occupancy;
+    std::promise<void>* inside;
+    std::shared_future<void> release;
+  };
+  std::promise<void> inside, release;
+  Context context{&occupancy, &inside, release.get_future().share()};
+  ComputePool::Task held;
+  held.run = [](void* c, uint32_t, int) {
+    auto* ctx = static_cast<Context*>(c);
+    ctx->occupancy->Enter(1);
+    ctx->inside->set_value();
+    ctx->release.wait();
+    ctx->occupancy->Leave(1);
+  };
+  held.context = &context;
+  held.work = 1;
+  std::thread caller([&] { EXPECT_TRUE(pool.TryRunInline(held)); });
+  inside.get_future().wait();
+  std::atomic<int> ran{0};
+  ASSERT_TRUE(pool.TrySubmit(1, [&] {
+    occupancy.Enter(1);
+    occupancy.Leave(1);
+    ran.fetch_add(1);
+  }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_EQ(ran.load(), 0) << "the queued frame ran beside the inline one on a 1-thread pool";
+  release.set_value();
+  caller.join();
+  pool.Shutdown();
+  EXPECT_EQ(ran.load(), 1);
+  EXPECT_LE(occupancy.peak.load(), 1);
+  EXPECT_EQ(pool.peak_busy(), 1);
+}
+
 }  // namespace
 }  // namespace skinserve

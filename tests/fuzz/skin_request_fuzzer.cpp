@@ -71,7 +71,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static server::InflightBudget budget(256ull << 20);
   DoneListener listener;
   server::FrameJob job(&listener, &budget);
-  Status status = job.Prepare(wire, engine, "serial", /*regions=*/server::RegionCaller{});
+  server::RegionHandle region;
+  Status status =
+      job.Prepare(wire, engine, "serial", /*regions=*/server::RegionCaller{}, &region);
   if (status.ok()) status = engine.Submit(&job);
   if (status.ok()) {
     listener.Wait();

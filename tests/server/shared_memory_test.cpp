@@ -479,6 +479,49 @@ TEST(SharedMemoryTest, ADeletedRegionFileKeepsWorkingAndATruncatedOneFailsItsFra
   EXPECT_TRUE(client::CheckHealth(t.client->channel(), std::chrono::seconds(5)).ok());
 }
 
+// A stream resolves its region once (RegionHandle) and does not fstat it per frame: a file
+// truncated between two of its frames is caught by the SIGBUS guard on the next write, and
+// every later frame fails naming the region, while the server goes on serving.
+TEST(SharedMemoryTest, ARegionTruncatedBetweenAStreamsFramesFailsItsLaterFrames) {
+  ShmDir dir;
+  TestServer t(ShmOptions(dir), Transport::kUnixSocket);
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 20'000, .influences = 2});
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok());
+  const uint64_t bytes = wire::RegionFrameBytes(20'000, 1, VertexEncoding::kFloat32, false);
+  auto region = MakeRegion(dir, bytes);
+  ASSERT_TRUE(t.client->RegisterRegion("s", *region).ok());
+  uint64_t answered = 0, failed_before = 0, failed_after = 0;
+  std::string failure;
+  const Status streamed = client::StreamFrames(
+      *t.client,
+      {.mesh_id = info->mesh_id(),
+       .backend = "simd",
+       .output = {.name = "s", .region = region.get(), .stride = bytes},
+       .frames = 8,
+       .window = 1},
+      [](uint64_t f) { return MakeSyntheticPalette(77, 1, f); },
+      [&](FrameResult& r, std::chrono::nanoseconds) {
+        if (++answered <= 3) {
+          failed_before += r.status.ok() ? 0 : 1;
+          if (answered == 3) {
+            EXPECT_EQ(truncate(region->path().c_str(), 0), 0);
+          }
+          return;
+        }
+        if (r.status.ok()) return;
+        ++failed_after;
+        if (failure.empty()) failure = r.status.ToString();
+      });
+  EXPECT_TRUE(streamed.ok()) << streamed.ToString();
+  EXPECT_EQ(answered, 8u);
+  EXPECT_EQ(failed_before, 0u);
+  EXPECT_EQ(failed_after, 5u) << "a frame after the truncation was answered as written";
+  EXPECT_NE(failure.find("'s'"), std::string::npos) << failure;
+  EXPECT_NE(failure.find("truncated"), std::string::npos) << failure;
+  EXPECT_TRUE(client::CheckHealth(t.client->channel(), std::chrono::seconds(5)).ok());
+}
+
 TEST(SharedMemoryTest, ShmOffRefusesRegionsWithAClearStatus) {
   server::ServerOptions options;
   options.shm_dir = "";

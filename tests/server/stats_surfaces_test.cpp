@@ -144,6 +144,7 @@ TEST(StatsSurfacesTest, GetServerStatsAndMetricsShowTheSameSnapshot) {
   expect("skinserve_compute_threads", stats->compute_threads());
   expect("skinserve_peak_busy_threads", stats->peak_busy_threads());
   EXPECT_GE(stats->peak_busy_threads(), 1);
+  expect("skinserve_inline_frames_total", stats->inline_frames());
   expect("skinserve_meshes", stats->meshes());
   expect("skinserve_mesh_bytes", stats->mesh_bytes());
   expect("skinserve_mesh_budget_bytes", stats->mesh_budget_bytes());

@@ -33,6 +33,25 @@ bool ComputePool::TrySubmit(const Task& task) {
   return true;
 }
 
+bool ComputePool::TryRunInline(const Task& task) {
+  if (task.parts > 1 || task.min_width > 1 || task.work >= split_min_work_) return false;
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ || count_ > 0 || free_threads_ < 1) return false;
+    --free_threads_;
+    ++inline_runs_;
+    peak_busy_ = std::max(peak_busy_, size() - free_threads_);
+  }
+  task.run(task.context, 0, 1);
+  {
+    std::lock_guard lock(mutex_);
+    ++free_threads_;
+    if (count_ == 0) return true;  // nobody waited for the thread it held
+  }
+  changed_.notify_all();
+  return true;
+}
+
 bool ComputePool::TrySubmit(int width, std::function<void()> task) {
   auto* owned = new std::function<void()>(std::move(task));
   Task wrapped;
@@ -67,6 +86,11 @@ std::size_t ComputePool::depth() const {
 int ComputePool::peak_busy() const {
   std::lock_guard lock(mutex_);
   return peak_busy_;
+}
+
+uint64_t ComputePool::inline_runs() const {
+  std::lock_guard lock(mutex_);
+  return inline_runs_;
 }
 
 int ComputePool::GrantLocked() const {

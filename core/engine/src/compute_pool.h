@@ -48,6 +48,13 @@ class ComputePool {
   // Queues `task`. Returns false, without queuing, when `capacity` tasks are already
   // waiting or the pool is shut down.
   bool TrySubmit(const Task& task);
+  // Runs `task` on the calling thread instead of queuing it, when that costs no
+  // parallelism: nothing waits, a pool thread is free (the caller takes its place, so the
+  // threads skinning never exceed size()), and the task is one part of one thread's width
+  // that would not be split (work below split_min_work). Handing such a frame to a pool
+  // thread only adds two thread switches (wake it, then wake the caller's side to answer).
+  // Returns whether it ran; false: queue it with TrySubmit.
+  bool TryRunInline(const Task& task);
   // For tests and tools: one part of fixed `width`, as a std::function (allocates).
   bool TrySubmit(int width, std::function<void()> task);
   // Stops accepting, runs every queued task, joins the threads. Idempotent.
@@ -58,6 +65,8 @@ class ComputePool {
   std::size_t depth() const;
   // Highest number of threads ever held by running parts at once (<= size()).
   int peak_busy() const;
+  // Tasks run on their caller's thread (TryRunInline).
+  uint64_t inline_runs() const;
 
  private:
   // The threads the head task's next part gets now; 0 if it must wait.
@@ -74,6 +83,7 @@ class ComputePool {
   uint32_t next_part_ = 0;  // of the head task
   int free_threads_ = 0;
   int peak_busy_ = 0;
+  uint64_t inline_runs_ = 0;
   bool stopping_ = false;
   std::vector<std::thread> workers_;
   std::once_flag joined_;

@@ -346,7 +346,7 @@ class Engine::Impl {
     return Status::Ok();
   }
 
-  Status Submit(SkinJob* job, void (*run)(void*, uint32_t, int)) {
+  Status Submit(SkinJob* job, void (*run)(void*, uint32_t, int), bool allow_inline = false) {
     if (shut_down_.load()) {
       job->DropPlan();
       return Unavailable("the engine is shutting down");
@@ -354,13 +354,13 @@ class Engine::Impl {
     if (!job->plan_.planned) {
       if (Status s = Plan(job); !s.ok()) return s;
     }
-    Status status = Queue(job, run);
+    Status status = Queue(job, run, allow_inline);
     if (!status.ok()) job->DropPlan();
     return status;
   }
 
   // Queues a planned job once the rest of its request is checked.
-  Status Queue(SkinJob* job, void (*run)(void*, uint32_t, int)) {
+  Status Queue(SkinJob* job, void (*run)(void*, uint32_t, int), bool allow_inline) {
     const SkinRequest& request = job->request;
     auto& entry = *static_cast<MeshStore::Entry*>(job->lease_.get());
     const Mesh& mesh = *entry.mesh();
@@ -388,6 +388,7 @@ class Engine::Impl {
     task.max_width = info.threads;
     task.min_width = info.min_threads > 0 ? info.min_threads : info.threads;
     task.work = mesh.vertex_count();
+    if (allow_inline && pool_.TryRunInline(task)) return Status::Ok();
     if (!pool_.TrySubmit(task)) {
       if (shut_down_.load()) return Unavailable("the engine is shutting down");
       rejected_.fetch_add(1);
@@ -408,7 +409,9 @@ class Engine::Impl {
     Status status;
     const int64_t started = NowNs();
     try {
-      Result<const PreparedMesh*> prepared = entry.Prepared(job.backend_index_, backend);
+      bool built = false;
+      Result<const PreparedMesh*> prepared = entry.Prepared(job.backend_index_, backend, &built);
+      if (built && options_.after_prepare) options_.after_prepare();
       DeviceTiming device;
       const Mesh& mesh = *entry.mesh();
       *frame = InstanceFrame(job.request, mesh, i, threads);
@@ -570,6 +573,10 @@ Status Engine::Plan(SkinJob* job) { return impl_->Plan(job); }
 
 Status Engine::Submit(SkinJob* job) { return impl_->Submit(job, &Engine::RunPart); }
 
+Status Engine::Run(SkinJob* job) {
+  return impl_->Submit(job, &Engine::RunPart, /*allow_inline=*/true);
+}
+
 void Engine::RunPart(void* context, uint32_t instance, int threads) {
   auto& job = *static_cast<SkinJob*>(context);
   auto& impl = *static_cast<Impl*>(job.engine_);
@@ -667,6 +674,7 @@ EngineStats Engine::Stats() const {
   stats.evictions = impl_->store_.evictions();
   stats.rejected_queue_full = impl_->rejected_.load();
   stats.peak_busy_threads = impl_->pool_.peak_busy();
+  stats.inline_frames = impl_->pool_.inline_runs();
   return stats;
 }
 

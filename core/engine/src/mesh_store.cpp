@@ -4,12 +4,13 @@
 
 namespace skinserve {
 
-Result<const PreparedMesh*> MeshStore::Entry::Prepared(std::size_t backend_index,
-                                                       Backend& backend) {
+Result<const PreparedMesh*> MeshStore::Entry::Prepared(std::size_t backend_index, Backend& backend,
+                                                       bool* built) {
   std::lock_guard lock(prepare_mutex_);
   auto& slot = prepared_.at(backend_index);
   if (!slot) {
     auto prepared = backend.Prepare(mesh_);
+    if (built != nullptr) *built = true;  // even when it failed: it may have compiled
     if (!prepared.ok()) return prepared.status();
     slot = std::move(prepared).value();
   }

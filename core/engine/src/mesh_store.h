@@ -24,8 +24,10 @@ class MeshStore {
     Entry(std::shared_ptr<const Mesh> mesh, std::size_t backend_count)
         : mesh_(std::move(mesh)), prepared_(backend_count) {}
     const std::shared_ptr<const Mesh>& mesh() const { return mesh_; }
-    // The backend's resident copy, prepared once (later callers wait for the first).
-    Result<const PreparedMesh*> Prepared(std::size_t backend_index, Backend& backend);
+    // The backend's resident copy, prepared once (later callers wait for the first);
+    // `*built` is set when this call prepared it.
+    Result<const PreparedMesh*> Prepared(std::size_t backend_index, Backend& backend,
+                                         bool* built = nullptr);
 
    private:
     std::shared_ptr<const Mesh> mesh_;

@@ -33,6 +33,11 @@ struct EngineOptions {
   // "gpu", or part of a platform or device name. A choice that finds no device fails
   // Engine::Create (with the devices there are); "" leaves OpenCL unavailable instead.
   std::string opencl_device;
+  // Runs on the compute thread after a backend prepared a mesh (its first frame there),
+  // before that frame is skinned. Preparing may compile OpenCL kernels, and the compiler
+  // (PoCL's LLVM) may replace process-wide signal handlers: the server puts its SIGBUS
+  // guard back here, once per prepared mesh instead of before every frame.
+  std::function<void()> after_prepare;
 };
 
 struct MeshInfo {
@@ -200,7 +205,8 @@ struct EngineStats {
   uint64_t mesh_budget_bytes = 0;
   uint64_t evictions = 0;
   uint64_t rejected_queue_full = 0;
-  int peak_busy_threads = 0;  // most compute threads ever skinning at once
+  int peak_busy_threads = 0;   // most compute threads ever skinning at once
+  uint64_t inline_frames = 0;  // frames Engine::Run skinned on its caller's thread
 };
 
 class Engine {
@@ -252,6 +258,12 @@ class Engine {
   // UNAVAILABLE) and queues it. On OK, OnSkinned is called exactly once, on a compute thread; on an
   // error, never, and the plan is dropped. Allocates nothing.
   Status Submit(SkinJob* job);
+  // Submit, or when handing the frame to a compute thread buys no parallelism
+  // (ComputePool::TryRunInline: a free thread, nothing queued, one instance too small to
+  // split) skins it on the calling thread: OnSkinned then runs before Run returns, so the
+  // caller must hold no lock that OnSkinned takes. The server's reactors call this: a small
+  // frame costs no thread switch to a compute thread and back.
+  Status Run(SkinJob* job);
   // The same for a request and a callback (allocates the job: for tools and tests).
   Status Submit(SkinRequest request, SkinDone done);
   // Submit and wait: for tools and tests.
