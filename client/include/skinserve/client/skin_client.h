@@ -27,6 +27,9 @@ namespace skinserve::client {
 
 using wire::RawPart;
 
+class Tick;  // skinserve/client/tick.h
+struct TickResult;
+
 inline constexpr std::size_t kUploadChunkBytes = 1 << 20;
 // The most vertices (instances x vertices per instance) the client accepts in one frame.
 inline constexpr uint64_t kMaxFrameVertices = uint64_t{1} << 28;
@@ -227,6 +230,12 @@ class SkinClient {
   // from call to call (its vectors keep their capacity); so are this client's messages.
   Status Skin(const std::string& mesh_id, std::span<const float> palette, uint64_t frame,
               const SkinOptions& options, FrameResult* result);
+  // A tick (skinserve/client/tick.h) through Skin: one result per
+  // character in `result`. Returns the tick's own status (a refused tick); each
+  // character's own is in result->characters[i].status. A character answered NOT_FOUND
+  // for a mesh this client uploaded has its mesh uploaded again and the tick is sent once
+  // more.
+  Status SkinTick(const Tick& tick, TickResult* result);
 
  private:
   Status SkinOnce(const v1::SkinRequest& request, const RegionOutput& output, RawPart* part,
