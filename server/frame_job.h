@@ -94,7 +94,7 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   // `frame` (its request's own frame field is ignored): every part carries the character,
   // its vertex parts have `last` false, and a region character's answer is its TickHeader.
   void SetTickCharacter(uint32_t character, uint64_t frame);
-  void ClearTickMode() { tick_character_ = -1; }
+  int64_t tick_character() const { return tick_character_; }  // -1: a plain frame
   // The character's header in the tick's TickAnswer, once it is done (or failed): as its
   // final part would be without vertex data; a failure's message names the character.
   void TickHeader(v1::SkinResponse* out) const;

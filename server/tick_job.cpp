@@ -120,25 +120,27 @@ void TickJob::FailTick(Status status) {
   final_ready_ = true;
 }
 
-bool TickJob::CharacterDone(uint32_t i) {
+void TickJob::CharacterDone(uint32_t i) {
   {
     std::lock_guard lock(mutex_);
     order_[finished_++] = i;
   }
-  return pending_.fetch_sub(1) == 1;
+  pending_.fetch_sub(1);
 }
 
 void TickJob::OnFrameDone(StreamAnswer* answer) {
   auto* character = static_cast<FrameJob*>(answer);
   character->set_done();
-  uint32_t i = 0;
-  while (characters_[i].get() != character) ++i;  // a tick holds at most a few hundred
-  if (CharacterDone(i)) {
-    BuildFinalPart();
-    listener_->OnFrameDone(this);  // may reuse this job at once: nothing after
-  } else {
-    listener_->OnPartsReady(this);
+  const auto i = static_cast<uint32_t>(character->tick_character());
+  {
+    std::lock_guard lock(mutex_);
+    order_[finished_++] = i;
   }
+  // Told while this character still holds the tick (and so the listener) alive.
+  listener_->OnPartsReady(this);
+  if (pending_.fetch_sub(1) != 1) return;
+  BuildFinalPart();
+  listener_->OnFrameDone(this);  // may reuse this job at once: nothing after
 }
 
 void TickJob::BuildFinalPart() {

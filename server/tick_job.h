@@ -64,9 +64,9 @@ class TickJob final : public StreamAnswer, private FrameJob::Listener {
   // Prepares character i; false: it failed alone (answered with its error).
   bool PrepareCharacter(uint32_t i, const v1::SkinRequest& character, Engine& engine,
                         const std::string& default_backend, const RegionCaller& regions);
-  // Character `i` is done (or failed): it joins the finish order. True when it was the
-  // tick's last, which then builds the final part.
-  bool CharacterDone(uint32_t i);
+  // Character `i` failed in Start (the listener's lock is held: it is not told): it joins
+  // the finish order. Never the tick's last, since Start holds one.
+  void CharacterDone(uint32_t i);
   // Once every character is done: the final part, over final_bytes_.
   void BuildFinalPart();
   // Moves next_sending_ past characters that have no part to send (failed, in a region).

@@ -42,7 +42,7 @@ void CharacterToWire(const TickCharacter& c, uint64_t slot_offset, v1::SkinReque
 
 }  // namespace
 
-std::size_t Tick::Add(std::string mesh_id, std::span<const float> palette,
+std::size_t Tick::Add(const std::string& mesh_id, std::span<const float> palette,
                       const SkinOptions& options) {
   if (size_ == characters_.size()) characters_.emplace_back();
   TickCharacter& c = characters_[size_];

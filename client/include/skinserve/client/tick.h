@@ -34,7 +34,7 @@ class Tick {
  public:
   // Adds a character and returns its index. `palette` and the options' spans (morph
   // weights) are the caller's and must stay valid until the tick is sent.
-  std::size_t Add(std::string mesh_id, std::span<const float> palette,
+  std::size_t Add(const std::string& mesh_id, std::span<const float> palette,
                   const SkinOptions& options = {});
   void Clear() { size_ = 0; }  // keeps frame()
   // The tick's number (SkinRequest.frame), echoed in its answer.
