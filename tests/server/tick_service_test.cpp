@@ -537,5 +537,59 @@ TEST(TickTest, CharactersWriteTheirOwnRangesOfOneOrTwoRegions) {
   }
 }
 
+// StreamTicks: a mesh deleted between ticks is uploaded again and the tick sent again; two
+// ticks in flight write into their own slots of a region (region_stride).
+TEST(TickTest, AStreamOfTicksReuploadsALostMeshAndKeepsItsRegionSlotsApart) {
+  ShmDir dir;
+  server::ServerOptions options;
+  options.shm_dir = dir.path();
+  TestServer t(options, Transport::kUnixSocket);
+  const Meshes meshes(*t.client);
+  const Character region_spec = Mix(0)[1];  // mesh 1, a crowd of 3 in float16 with normals
+  const uint64_t stride =
+      wire::RegionFrameBytes(meshes.meshes[1]->vertex_count(), region_spec.instances,
+                             region_spec.encoding, region_spec.normals);
+  auto region = client::SharedMemoryRegion::Create(client::SharedMemoryRegion::UniqueKey("tick"),
+                                                   2 * stride, dir.path());
+  ASSERT_TRUE(region.ok()) << region.status().ToString();
+  ASSERT_TRUE(t.client->RegisterRegion("slots", **region).ok());
+  std::vector<std::vector<Character>> sent(6);
+  int answered = 0;
+  client::TickStreamSummary summary;
+  const Status streamed = client::StreamTicks(
+      *t.client, {.first_tick = 0, .ticks = 6, .window = 2, .region_stride = stride},
+      [&](uint64_t frame, Tick* tick) {
+        if (frame == 3 && sent[3].empty()) {  // the server loses mesh 0 (once)
+          ASSERT_TRUE(t.client->DeleteMesh(meshes.ids[0]).ok());
+        }
+        sent[frame] = Mix(frame);
+        const Character& r = sent[frame][1];
+        const Character& w = sent[frame][0];  // mesh 0 with morph weights, over the wire
+        tick->Add(meshes.ids[0], w.palettes,
+                  {.want_normals = w.normals, .encoding = w.encoding, .morph_weights = w.weights});
+        tick->Add(meshes.ids[1], r.palettes,
+                  {.want_normals = r.normals,
+                   .encoding = r.encoding,
+                   .instances = r.instances,
+                   .output = {.name = "slots", .region = region->get(), .offset = 0}});
+      },
+      [&](TickResult& r, std::chrono::nanoseconds) {
+        ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+        EXPECT_EQ(r.frame, static_cast<uint64_t>(answered));
+        ASSERT_EQ(r.characters.size(), 2u);
+        ExpectMatches(meshes, sent[r.frame][0], r.characters[0], "over the wire");
+        // Its slot: the region's bytes stay its own until the slot is used again.
+        EXPECT_TRUE(r.characters[1].in_region());
+        ExpectMatches(meshes, sent[r.frame][1], r.characters[1], "in the region");
+        ++answered;
+      },
+      &summary);
+  ASSERT_TRUE(streamed.ok()) << streamed.ToString();
+  EXPECT_EQ(answered, 6);
+  EXPECT_GE(summary.reuploads, 1u);
+  EXPECT_EQ(summary.characters_failed, 0u);
+  EXPECT_EQ(summary.characters_answered, 12u);
+}
+
 }  // namespace
 }  // namespace skinserve::testing
