@@ -42,6 +42,8 @@ v1::ServerStats ToWire(const ServerSnapshot& s) {
   wire.set_compute_threads(e.compute_threads);
   wire.set_peak_busy_threads(e.peak_busy_threads);
   wire.set_inline_frames(e.inline_frames);
+  wire.set_ticks(s.ticks.ticks);
+  wire.set_tick_characters(s.ticks.characters);
   wire.set_meshes(e.meshes);
   wire.set_mesh_bytes(e.mesh_bytes);
   wire.set_mesh_budget_bytes(e.mesh_budget_bytes);

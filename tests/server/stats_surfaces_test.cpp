@@ -159,6 +159,8 @@ TEST(StatsSurfacesTest, GetServerStatsAndMetricsShowTheSameSnapshot) {
   expect("skinserve_region_frames_total", stats->region_frames());
   EXPECT_EQ(stats->region_frames(), 1u);
   expect("skinserve_region_rejections_total", stats->rejected_regions());
+  expect("skinserve_ticks_total", stats->ticks());
+  expect("skinserve_tick_characters_total", stats->tick_characters());
   expect("skinserve_open_uploads", stats->open_uploads());
   expect("skinserve_upload_bytes", stats->upload_bytes());
   expect("skinserve_upload_budget_bytes", stats->upload_budget_bytes());

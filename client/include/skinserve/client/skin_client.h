@@ -27,6 +27,9 @@ namespace skinserve::client {
 
 using wire::RawPart;
 
+class Tick;  // skinserve/client/tick.h
+struct TickResult;
+
 inline constexpr std::size_t kUploadChunkBytes = 1 << 20;
 // The most vertices (instances x vertices per instance) the client accepts in one frame.
 inline constexpr uint64_t kMaxFrameVertices = uint64_t{1} << 28;
@@ -111,6 +114,11 @@ class FrameAssembler {
   // The same from the bytes gRPC received, read with `reader` (one per stream, reused) and
   // decoded without copying them first. Bytes that are no SkinResponse fail the frame.
   bool Add(const grpc::ByteBuffer& part, RawPart* reader, FrameResult* result);
+  // The same for a part `reader` has parsed already (a tick's, routed by its character).
+  bool Add(const RawPart& part, FrameResult* result);
+  // A tick's character (tick.h): its vertex parts come with `last` false, and it is complete
+  // once every instance's vertices are in; its final header comes in the tick's final part.
+  void set_in_tick() { in_tick_ = true; }
 
  private:
   // The bytes of each vertex field; decode(field, offset, encoding, bounds, out) decodes
@@ -131,6 +139,7 @@ class FrameAssembler {
   bool failed_ = false;
   bool normals_ = false;
   bool tangents_ = false;
+  bool in_tick_ = false;
   uint32_t next_instance_ = 0;
   uint32_t next_vertex_ = 0;
 };
@@ -227,6 +236,12 @@ class SkinClient {
   // from call to call (its vectors keep their capacity); so are this client's messages.
   Status Skin(const std::string& mesh_id, std::span<const float> palette, uint64_t frame,
               const SkinOptions& options, FrameResult* result);
+  // A tick (skinserve/client/tick.h) through Skin: one result per
+  // character in `result`. Returns the tick's own status (a refused tick); each
+  // character's own is in result->characters[i].status. A character answered NOT_FOUND
+  // for a mesh this client uploaded has its mesh uploaded again and the tick is sent once
+  // more.
+  Status SkinTick(const Tick& tick, TickResult* result);
 
  private:
   Status SkinOnce(const v1::SkinRequest& request, const RegionOutput& output, RawPart* part,
