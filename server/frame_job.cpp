@@ -220,7 +220,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
 
 Status FrameJob::Begin(uint64_t frame, const std::string& backend) {
   record_.Begin(backend);
-  frame_ = frame;
+  frame_ = tick_character_ >= 0 ? tick_frame_ : frame;  // a tick's characters: the tick's
   done_ = false;
   error_part_ = false;
   part_count_ = next_part_ = 0;
@@ -369,6 +369,7 @@ void FrameJob::SetCommonHeader(bool with_timing) {
   header_.set_total_vertices(vertices_);
   header_.set_instances(instances_);
   header_.set_encoding(ToWire(encoding_));
+  if (tick_character_ >= 0) header_.set_character(static_cast<uint32_t>(tick_character_));
   if (!with_timing) return;
   v1::ServerTiming* timing = header_.mutable_timing();
   timing->set_queued_ns(timing_.queued_ns);
@@ -399,7 +400,7 @@ Status FrameJob::WritePartHeader(std::size_t p) {
   header_.set_first_vertex(r.first);
   header_.set_vertex_count(r.count);
   header_.set_instance(r.instance);
-  header_.set_last(p + 1 == part_count_);
+  header_.set_last(p + 1 == part_count_ && tick_character_ < 0);  // a tick ends in its own part
   if (instances_per_part_ > 1) header_.set_instance_count(r.instances);
   if (boxed_) {
     ToWire(bounds_[r.instance], header_.mutable_bounds());

@@ -31,20 +31,22 @@
 #include "skinserve/engine/engine.h"
 #include "skinserve/model/aligned_buffer.h"
 #include "skinserve/v1/skinning.pb.h"
+#include "stream_answer.h"
 
 namespace skinserve::server {
 
 inline constexpr std::size_t kMaxPartPayloadBytes = 1 << 20;
 
-class FrameJob final : public SkinJob {
+class FrameJob final : public SkinJob, public StreamAnswer {
  public:
-  // Told on a compute thread once the frame's answer is ready (or failed).
+  // Told on a compute thread once the answer is ready (or failed): a FrameJob's, or a
+  // TickJob's (which listens to its characters' FrameJobs and tells its own listener).
   class Listener {
    public:
-    virtual void OnFrameDone(FrameJob* job) = 0;
-    // SkinRequest.early_parts: more of the frame's parts may go out (HasPartToSend), on a
-    // compute thread, before OnFrameDone.
-    virtual void OnPartsReady(FrameJob* job) = 0;
+    virtual void OnFrameDone(StreamAnswer* job) = 0;
+    // SkinRequest.early_parts (and ticks, as characters finish): more of the answer's parts
+    // may go out (HasPartToSend), on a compute thread, before OnFrameDone.
+    virtual void OnPartsReady(StreamAnswer* job) = 0;
     // The listener stays alive from HoldForWire (the first part handed out) until
     // ReleaseForWire (gRPC dropped the last slice of the job's wire buffer). Release may
     // come on any thread, also from inside the listener's own calls into gRPC while it
@@ -71,22 +73,33 @@ class FrameJob final : public SkinJob {
   // `status` under the frame number the reader's scan found.
   void Refuse(uint64_t frame, const std::string& backend, Status status);
 
-  bool done() const { return done_; }  // under the listener's lock
-  void set_done() { done_ = true; }
-  const Status& status() const { return result_; }
+  bool done() const override { return done_; }  // under the listener's lock
+  void set_done() override { done_ = true; }
+  const Status& status() const override { return result_; }
   uint64_t frame() const { return frame_; }
   // Whether a part is ready to go out that was not handed out yet.
-  bool HasPartToSend();
+  bool HasPartToSend() override;
   // The next response part, serialized; nullptr while none is ready (every part handed
   // out, or the rest not skinned yet). `*last` tells whether it is the frame's final
-  // part. Valid until PartWritten or the next call.
-  const grpc::ByteBuffer* NextPart(bool* last);
+  // part (in a tick: the character's). Valid until PartWritten or the next call.
+  const grpc::ByteBuffer* NextPart(bool* last) override;
   // The part handed out last was written (or failed): the job lets go of it.
-  void PartWritten() { out_.reset(); }
+  void PartWritten() override { out_.reset(); }
   // Lets go of every slice the job itself still holds (a frame abandoned mid-way).
-  void DropWire();
+  void DropWire() override;
   // Whether gRPC still holds slices of the wire buffer: until then the job is not reused.
-  bool wire_in_use() const { return wire_refs_.load(std::memory_order_acquire) > 0; }
+  bool wire_in_use() const override { return wire_refs_.load(std::memory_order_acquire) > 0; }
+
+  // Tick mode (TickJob, frame_job_tick.cpp): the job is character `character` of tick
+  // `frame` (its request's own frame field is ignored): every part carries the character,
+  // its vertex parts have `last` false, and a region character's answer is its TickHeader.
+  void SetTickCharacter(uint32_t character, uint64_t frame);
+  void ClearTickMode() { tick_character_ = -1; }
+  // The character's header in the tick's TickAnswer, once it is done (or failed): as its
+  // final part would be without vertex data; a failure's message names the character.
+  void TickHeader(v1::SkinResponse* out) const;
+  // The answer is in a shared-memory region (no vertex parts of its own).
+  bool answers_in_region() const { return region_part_; }
 
  private:
   // Encodes instance `instance` into the wire buffer, on the thread that skinned it.
@@ -191,6 +204,9 @@ class FrameJob final : public SkinJob {
   FrameTiming timing_;
   bool done_ = false;
   FrameRecord record_;  // for the metrics
+  // Tick mode: the character's index (-1: a plain frame) and the tick's frame number.
+  int64_t tick_character_ = -1;
+  uint64_t tick_frame_ = 0;
 };
 
 }  // namespace skinserve::server

@@ -7,7 +7,19 @@ namespace skinserve::server {
 
 namespace {
 std::atomic<FrameMetrics*> installed{nullptr};
+std::atomic<uint64_t> ticks_read{0};
+std::atomic<uint64_t> tick_characters_read{0};
 }  // namespace
+
+void CountTick(uint64_t characters) {
+  ticks_read.fetch_add(1, std::memory_order_relaxed);
+  tick_characters_read.fetch_add(characters, std::memory_order_relaxed);
+}
+
+TickCounts TickTotals() {
+  return {ticks_read.load(std::memory_order_relaxed),
+          tick_characters_read.load(std::memory_order_relaxed)};
+}
 
 void DurationHistogram::Observe(int64_t ns) {
   const double seconds = static_cast<double>(std::max<int64_t>(ns, 0)) * 1e-9;

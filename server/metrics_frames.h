@@ -68,6 +68,15 @@ class FrameMetrics {
   std::map<std::string, BackendFrameMetrics> backends_;
 };
 
+// Ticks (SkinRequest.characters) read and the characters they held, refused ones too:
+// counted always (an atomic add per tick), shown on /metrics beside the frames.
+struct TickCounts {
+  uint64_t ticks = 0;
+  uint64_t characters = 0;
+};
+void CountTick(uint64_t characters);
+TickCounts TickTotals();
+
 // One frame's record: begun when the server reads the request, ended once with its
 // outcome. Cheap when no FrameMetrics is installed.
 class FrameRecord {

@@ -100,6 +100,12 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
                fmt::format("{},code=\"{}\"", BackendLabel(backend), code), static_cast<double>(n));
     }
   }
+  w.Header("skinserve_ticks_total", "counter",
+           "Ticks read (requests with SkinRequest.characters), refused ones included.");
+  w.Sample("skinserve_ticks_total", "", static_cast<double>(s.ticks.ticks));
+  w.Header("skinserve_tick_characters_total", "counter",
+           "Characters of the ticks read; each is also counted as a frame of its backend.");
+  w.Sample("skinserve_tick_characters_total", "", static_cast<double>(s.ticks.characters));
   struct Histo {
     const char* name;
     const char* help;

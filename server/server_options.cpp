@@ -160,6 +160,10 @@ StreamLimits ServerOptions::ToStreamLimits() const {
   return {.max_streams = max_streams, .idle_seconds = stream_idle_seconds};
 }
 
+SkinRequestLimits ServerOptions::ToRequestLimits() const {
+  return {.max_tick_characters = max_tick_characters, .max_tick_bytes = max_tick_bytes};
+}
+
 uint64_t ServerOptions::GrpcMemoryBytes() const {
   return Envelope().term("--grpc-memory-mb").budget_bytes;
 }
@@ -232,6 +236,19 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "further ahead")
       ->envname("SKINSERVE_STREAM_WINDOW")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-tick-characters", o.max_tick_characters,
+                 "characters one tick (SkinRequest.characters) may hold, nested ones included; "
+                 "more: the tick is refused RESOURCE_EXHAUSTED")
+      ->envname("SKINSERVE_MAX_TICK_CHARACTERS")
+      ->check(CLI::Range(1u, 1u << 16))
+      ->capture_default_str();
+  app.add_option("--max-tick-bytes", o.max_tick_bytes,
+                 "bytes one tick's request may hold (67108864 = 64 MiB by default); more: the "
+                 "tick is refused RESOURCE_EXHAUSTED. The server takes messages up to this size "
+                 "(at least 4 MiB), ticks only; a plain frame stays within 4 MiB")
+      ->envname("SKINSERVE_MAX_TICK_BYTES")
+      ->check(CLI::Range(uint64_t{1} << 10, uint64_t{1} << 31))
       ->capture_default_str();
   app.add_option("--inflight-budget-mb", o.inflight_budget_mb,
                  "memory for frames in flight across all streams (palettes, skinned vertices, "

@@ -10,6 +10,7 @@
 #include "open_streams.h"
 #include "open_uploads.h"
 #include "region_registry.h"
+#include "skin_request_reader.h"
 #include "skinserve/engine/engine.h"
 
 namespace skinserve::server {
@@ -25,6 +26,9 @@ struct ServerOptions {
   uint32_t max_joints = 1024;
   std::size_t queue = 256;
   int stream_window = 16;
+  // Ticks (SkinRequest.characters): characters in one request, and its bytes.
+  uint32_t max_tick_characters = 256;
+  uint64_t max_tick_bytes = 64ull << 20;
   // HTTP/2 streams (calls) one client connection may have open at once; more wait at the
   // client until one ends (gRPC's GRPC_ARG_MAX_CONCURRENT_STREAMS).
   int max_streams_per_connection = 128;
@@ -104,6 +108,8 @@ struct ServerOptions {
   uint64_t UploadBudgetBytes() const;
   UploadLimits ToUploadLimits() const;
   StreamLimits ToStreamLimits() const;
+  // The limits a SkinRequest is read under (ticks' included; max_instances from the engine).
+  SkinRequestLimits ToRequestLimits() const;
   uint64_t GrpcMemoryBytes() const;
   // The combinations of the TLS and policy options that cannot work, each named.
   Status CheckSecurity() const;

@@ -33,6 +33,7 @@ struct ServerSnapshot {
   RegionStats regions;
   EngineStats engine;                                 // empty while starting
   std::map<std::string, BackendFrameMetrics> frames;  // per-frame histograms, by backend
+  TickCounts ticks;                                   // ticks and their characters read
 };
 
 v1::ServerStats ToWire(const ServerSnapshot& snapshot);

@@ -7,14 +7,18 @@ namespace skinserve::server {
 
 SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
                          const grpc::ByteBuffer& request_bytes, InflightBudget* budget,
-                         RegionCaller regions)
+                         RegionCaller regions, const SkinRequestLimits& limits)
     : job_(static_cast<FrameJob::Listener*>(this), budget) {
   grpc::ByteBuffer bytes(request_bytes);  // reading consumes it
   Status status = Unavailable("the server is starting: backends are being built");
   if (engine != nullptr) {
     // Held (and charged) only until the job took what it keeps.
-    SkinRequestReader reader(budget, {.max_instances = engine->options().max_instances});
+    SkinRequestReader reader(budget, WithMaxInstances(limits, engine));
     status = reader.Read(&bytes);
+    if (status.ok() && reader.request().characters_size() > 0) {  // a tick: tick_job.h
+      StartTick(reader.request(), *engine, default_backend, regions, budget);
+      return;
+    }
     status =
         status.ok() ? job_.Prepare(reader.request(), *engine, default_backend, regions) : status;
   }
@@ -30,16 +34,29 @@ SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
   }
 }
 
-void SkinReactor::OnFrameDone(FrameJob*) {
+void SkinReactor::StartTick(const v1::SkinRequest& request, Engine& engine,
+                            const std::string& default_backend, const RegionCaller& regions,
+                            InflightBudget* budget) {
+  tick_ = std::make_unique<TickJob>(static_cast<FrameJob::Listener*>(this), budget);
+  answer_ = tick_.get();
+  refs_.fetch_add(1);
+  if (tick_->Start(request, engine, default_backend, regions)) return;
+  refs_.fetch_sub(1);  // answered already: no callback comes
+  std::lock_guard lock(mutex_);
+  tick_->set_done();
+  WriteNextLocked();
+}
+
+void SkinReactor::OnFrameDone(StreamAnswer*) {
   {
     std::lock_guard lock(mutex_);
-    job_.set_done();
+    answer_->set_done();
     WriteNextLocked();
   }
   Unref();
 }
 
-void SkinReactor::OnPartsReady(FrameJob*) {
+void SkinReactor::OnPartsReady(StreamAnswer*) {
   std::lock_guard lock(mutex_);
   WriteNextLocked();
 }
@@ -47,7 +64,7 @@ void SkinReactor::OnPartsReady(FrameJob*) {
 void SkinReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mutex_);
   writing_ = false;
-  job_.PartWritten();
+  answer_->PartWritten();
   if (!ok) {
     FinishLocked(grpc::Status(grpc::StatusCode::CANCELLED, "the client went away"));
     return;
@@ -58,7 +75,7 @@ void SkinReactor::OnWriteDone(bool ok) {
 void SkinReactor::OnDone() {
   {
     std::lock_guard lock(mutex_);
-    job_.DropWire();  // a frame cut off mid-way holds its buffer
+    answer_->DropWire();  // a frame cut off mid-way holds its buffer
   }
   Unref();
 }
@@ -71,15 +88,15 @@ void SkinReactor::OnCancel() {
 void SkinReactor::WriteNextLocked() {
   if (finished_ || writing_) return;
   // A failed frame's status ends the call (after an early part still being written).
-  if (job_.done() && !job_.status().ok()) {
-    FinishLocked(ToGrpc(job_.status()));
+  if (answer_->done() && !answer_->status().ok()) {
+    FinishLocked(ToGrpc(answer_->status()));
     return;
   }
   bool last = false;
-  if (const grpc::ByteBuffer* part = job_.NextPart(&last)) {
+  if (const grpc::ByteBuffer* part = answer_->NextPart(&last)) {
     writing_ = true;
     StartWrite(part);
-  } else if (job_.done()) {  // every part written (early parts: else more are coming)
+  } else if (answer_->done()) {  // every part written (early parts: else more are coming)
     FinishLocked(grpc::Status::OK);
   }
 }

@@ -5,11 +5,14 @@
 #include <grpcpp/grpcpp.h>
 
 #include <atomic>
+#include <memory>
 #include <mutex>
 
 #include "frame_job.h"
+#include "skin_request_reader.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
+#include "tick_job.h"
 
 namespace skinserve::server {
 
@@ -19,22 +22,27 @@ class SkinReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
  public:
   SkinReactor(Engine* engine,  // null: warming up
               const std::string& default_backend, const grpc::ByteBuffer& request,
-              InflightBudget* budget, RegionCaller regions);
+              InflightBudget* budget, RegionCaller regions, const SkinRequestLimits& limits = {});
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
   void OnDone() override;
 
  private:
-  void OnFrameDone(FrameJob* job) override;
-  void OnPartsReady(FrameJob* job) override;
+  void OnFrameDone(StreamAnswer* job) override;
+  void OnPartsReady(StreamAnswer* job) override;
   void HoldForWire() override { refs_.fetch_add(1); }
   void ReleaseForWire() override { Unref(); }
+  // The request is a tick: its TickJob answers the call.
+  void StartTick(const v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
+                 const RegionCaller& regions, InflightBudget* budget);
   void WriteNextLocked();
   void FinishLocked(const grpc::Status& status);
   void Unref();
 
   std::mutex mutex_;
   FrameJob job_;
+  std::unique_ptr<TickJob> tick_;  // when the request is a tick
+  StreamAnswer* answer_ = &job_;   // the frame's job, or the tick's
   bool finished_ = false;
   bool writing_ = false;
   // gRPC's reference (dropped in OnDone), the engine's (dropped after its callback) and

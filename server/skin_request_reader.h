@@ -13,6 +13,7 @@
 #include <cstdint>
 
 #include "inflight_budget.h"
+#include "skinserve/engine/engine.h"
 #include "skinserve/model/status.h"
 #include "skinserve/v1/skinning.pb.h"
 
@@ -22,21 +23,35 @@ namespace skinserve::server {
 // of 77 joints are 237 KB), so its steady state allocates nothing.
 inline constexpr uint64_t kKeptRequestBytes = 1 << 20;
 
+// The most bytes a request other than a tick may hold: gRPC's default message limit (the
+// server accepts larger messages only for ticks, up to --max-tick-bytes).
+inline constexpr uint64_t kMaxFrameRequestBytes = 4 << 20;
+
 struct SkinRequestLimits {
   uint32_t max_instances = 64;  // instance_morph_weights entries (EngineOptions::max_instances)
   uint32_t max_morph_weights = 1024;  // targets or weights in one list (kMaxMorphTargets)
+  // Ticks (SkinRequest.characters): characters in one request, nested ones included
+  // (--max-tick-characters), and the request's bytes (--max-tick-bytes).
+  uint32_t max_tick_characters = 256;
+  uint64_t max_tick_bytes = 64ull << 20;
 };
+
+// `limits` with the engine's max_instances (the default while it is not there yet).
+SkinRequestLimits WithMaxInstances(SkinRequestLimits limits, const Engine* engine);
 
 // What the walk over the bytes found, before any parse.
 struct SkinRequestScan {
   uint64_t frame = 0;         // SkinRequest.frame, so that a refusal can name the frame
   uint64_t parsed_bytes = 0;  // at most what the parsed message holds
+  uint64_t characters = 0;    // a tick's characters (nested ones too); 0: a frame
   bool malformed = false;     // the bytes are no SkinRequest: nothing in them can be trusted
 };
 
-// Walks the bytes of a SkinRequest field by field without parsing it: INVALID_ARGUMENT
-// naming the field and its limit when a repeated field is over it, or when the bytes are
-// no SkinRequest at all. Reads `bytes` without consuming it.
+// Walks the bytes of a SkinRequest field by field without parsing it, a tick's characters
+// too: INVALID_ARGUMENT naming the field and its limit when a repeated field is over it, or
+// when the bytes are no SkinRequest at all; RESOURCE_EXHAUSTED naming the option when a
+// tick is over --max-tick-characters or --max-tick-bytes (or a frame over
+// kMaxFrameRequestBytes). Reads `bytes` without consuming it.
 Status ScanSkinRequest(grpc::ByteBuffer* bytes, const SkinRequestLimits& limits,
                        SkinRequestScan* scan);
 

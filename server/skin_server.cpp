@@ -139,6 +139,7 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
       options.InflightBudgetBytes(), options.ToUploadLimits(), server->regions_.get(),
       server->policy_.get(),
       RegionAccessPolicy{.unix_peers = &server->unix_peers_, .over_tcp = options.shm_over_tcp});
+  server->service_->SetRequestLimits(options.ToRequestLimits());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -149,6 +150,10 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
                              kMinClientPingIntervalMs);
   AddConnectionLimits(options, &builder);
+  // A tick may exceed gRPC's default 4 MiB message (its scan refuses what is over
+  // --max-tick-bytes, and a plain frame over 4 MiB, before the parse).
+  builder.SetMaxReceiveMessageSize(
+      static_cast<int>(std::max<uint64_t>(options.max_tick_bytes, kMaxFrameRequestBytes)));
   if (options.max_connection_age_seconds > 0) {
     builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS,
                                ms(options.max_connection_age_seconds));

@@ -85,7 +85,7 @@ grpc::ServerWriteReactor<grpc::ByteBuffer>* SkinningService::Skin(
     return new Refused<grpc::ServerWriteReactor<grpc::ByteBuffer>>(s);
   }
   return new SkinReactor(engine_.load(), default_backend_, *request, &budget_,
-                         RegionCallerOf(*context));
+                         RegionCallerOf(*context), request_limits_);
 }
 
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* SkinningService::StreamSkin(
@@ -94,7 +94,7 @@ grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* SkinningService::St
     return new Refused<grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>>(s);
   }
   return new StreamSkinReactor(engine_.load(), default_backend_, stream_window_, &open_streams_,
-                               &budget_, RegionCallerOf(*context));
+                               &budget_, RegionCallerOf(*context), request_limits_);
 }
 
 grpc::ServerUnaryReactor* SkinningService::ListBackends(grpc::CallbackServerContext* context,
@@ -120,6 +120,7 @@ ServerSnapshot SkinningService::Snapshot() const {
   if (regions_ != nullptr) s.regions = regions_->Stats();
   if (const Engine* engine = engine_.load()) s.engine = engine->Stats();
   if (const FrameMetrics* frames = FrameMetrics::Installed()) s.frames = frames->Snapshot();
+  s.ticks = TickTotals();
   return s;
 }
 

@@ -10,6 +10,7 @@
 #include "open_uploads.h"
 #include "region_registry.h"
 #include "server_snapshot.h"
+#include "skin_request_reader.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
@@ -42,6 +43,9 @@ class SkinningService final : public SkinningCallbackService {
         region_access_(region_access),
         policy_(policy),
         open_uploads_(upload_limits) {}
+  // The limits Skin and StreamSkin read requests under (ticks'); max_instances comes from
+  // the engine. Set before serving.
+  void SetRequestLimits(const SkinRequestLimits& limits) { request_limits_ = limits; }
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }
   // Shutdown: open streams answer the frames they have read and end UNAVAILABLE; new
@@ -94,6 +98,7 @@ class SkinningService final : public SkinningCallbackService {
   std::atomic<bool> serving_{false};
   const std::string default_backend_;
   const int stream_window_;
+  SkinRequestLimits request_limits_;
   OpenStreams open_streams_;  // the cap on streams, their idle watchdog, the drain
   InflightBudget budget_;     // the bytes of frames in flight, all streams and Skin calls
   RegionRegistry* const regions_;

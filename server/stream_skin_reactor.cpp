@@ -9,15 +9,15 @@ namespace skinserve::server {
 
 StreamSkinReactor::StreamSkinReactor(Engine* engine, std::string default_backend, int window,
                                      OpenStreams* open_streams, InflightBudget* budget,
-                                     RegionCaller regions)
+                                     RegionCaller regions, const SkinRequestLimits& limits)
     : engine_(engine),
       default_backend_(std::move(default_backend)),
       window_(static_cast<std::size_t>(std::max(window, 1))),
       open_streams_(open_streams),
       budget_(budget),
       regions_(std::move(regions)),
-      reader_(budget, {.max_instances = engine != nullptr ? engine->options().max_instances
-                                                          : SkinRequestLimits{}.max_instances}) {
+      reader_(budget, WithMaxInstances(limits, engine)),
+      ticks_(static_cast<FrameJob::Listener*>(this), budget) {
   jobs_.reserve(window_);
   in_flight_jobs_.resize(window_, nullptr);
   idle_jobs_.reserve(window_);
@@ -51,6 +51,10 @@ void StreamSkinReactor::OnReadDone(bool ok) {
   }
   const uint64_t frame = read.ok() ? reader_.request().frame() : reader_.scan().frame;
   last_frame_read_ = frame;
+  if (read.ok() && reader_.request().characters_size() > 0) {  // a tick: tick_job.h
+    StartTickLocked();
+    return;
+  }
   FrameJob& job = *TakeIdleJobLocked();
   in_flight_jobs_[(oldest_ + in_flight_) % window_] = &job;
   ++in_flight_;
@@ -74,7 +78,20 @@ void StreamSkinReactor::OnReadDone(bool ok) {
   PumpLocked();
 }
 
-void StreamSkinReactor::OnFrameDone(FrameJob* job) {
+void StreamSkinReactor::StartTickLocked() {
+  TickJob& tick = ticks_.Take();
+  in_flight_jobs_[(oldest_ + in_flight_) % window_] = &tick;
+  ++in_flight_;
+  refs_.fetch_add(1);
+  if (!tick.Start(reader_.request(), *engine_, default_backend_, regions_)) {
+    refs_.fetch_sub(1);  // answered already: no callback comes
+    tick.set_done();
+  }
+  reader_.Trim();  // the characters' jobs took what they keep
+  PumpLocked();
+}
+
+void StreamSkinReactor::OnFrameDone(StreamAnswer* job) {
   {
     std::lock_guard lock(mutex_);
     job->set_done();
@@ -83,7 +100,7 @@ void StreamSkinReactor::OnFrameDone(FrameJob* job) {
   Unref();
 }
 
-void StreamSkinReactor::OnPartsReady(FrameJob*) {
+void StreamSkinReactor::OnPartsReady(StreamAnswer*) {
   std::lock_guard lock(mutex_);
   PumpLocked();  // the oldest frame may have a part to write now
 }
@@ -94,7 +111,8 @@ void StreamSkinReactor::OnWriteDone(bool ok) {
   Slot(oldest_).PartWritten();
   if (writing_last_part_) {  // the oldest frame is answered: its job is free again
     writing_last_part_ = false;
-    idle_jobs_.push_back(&Slot(oldest_));
+    if (!ticks_.Recycle(&Slot(oldest_)))
+      idle_jobs_.push_back(static_cast<FrameJob*>(&Slot(oldest_)));
     oldest_ = (oldest_ + 1) % window_;
     if (--in_flight_ == 0) {
       quiet_since_.store(std::chrono::steady_clock::now().time_since_epoch().count());
@@ -117,6 +135,7 @@ void StreamSkinReactor::OnDone() {
   {
     std::lock_guard lock(mutex_);
     for (auto& job : jobs_) job->DropWire();  // a frame cut off mid-way holds its buffer
+    ticks_.DropWire();
   }
   Unref();
 }

@@ -29,6 +29,7 @@
 #include "skin_request_reader.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
+#include "tick_job.h"
 
 namespace skinserve::server {
 
@@ -38,7 +39,8 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
  public:
   StreamSkinReactor(Engine* engine,  // null: warming up
                     std::string default_backend, int window, OpenStreams* open_streams,
-                    InflightBudget* budget, RegionCaller regions);
+                    InflightBudget* budget, RegionCaller regions,
+                    const SkinRequestLimits& limits = {});
   void OnReadDone(bool ok) override;
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
@@ -60,12 +62,14 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   bool EndIfQuietSince(std::chrono::steady_clock::time_point cutoff, const std::string& why);
 
  private:
-  void OnFrameDone(FrameJob* job) override;
-  void OnPartsReady(FrameJob* job) override;
+  void OnFrameDone(StreamAnswer* job) override;
+  void OnPartsReady(StreamAnswer* job) override;
   void HoldForWire() override { refs_.fetch_add(1); }
   void ReleaseForWire() override { Unref(); }
-  FrameJob& Slot(std::size_t i) { return *in_flight_jobs_[i % window_]; }
+  StreamAnswer& Slot(std::size_t i) { return *in_flight_jobs_[i % window_]; }
   FrameJob* TakeIdleJobLocked();
+  // The request read is a tick (tick_job.h): it takes the next slot, a window's one frame.
+  void StartTickLocked();
   void PumpLocked();  // starts the next write, the next read or the finish, as due
   void FinishLocked(const grpc::Status& status);
   void Unref();
@@ -85,8 +89,9 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   // gRPC still holds (wire_in_use) when the next frame comes.
   std::vector<std::unique_ptr<FrameJob>> jobs_;
   // The frames in flight, oldest first: slots [oldest_, oldest_ + in_flight_) mod window.
-  std::vector<FrameJob*> in_flight_jobs_;
-  std::vector<FrameJob*> idle_jobs_;  // a stack: the job freed last is reused first
+  std::vector<StreamAnswer*> in_flight_jobs_;  // frames (FrameJob) or ticks (TickJob)
+  std::vector<FrameJob*> idle_jobs_;           // a stack: the job freed last is reused first
+  TickJobs ticks_;                             // the stream's tick jobs, likewise reused
   std::size_t oldest_ = 0;
   std::size_t in_flight_ = 0;
   bool writing_last_part_ = false;  // the write in progress ends the oldest frame

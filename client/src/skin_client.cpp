@@ -267,6 +267,7 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, FieldSizes sizes, con
     next_instance_ += packed;
     next_vertex_ = 0;
   }
+  if (in_tick_) return next_instance_ == result->instances;  // the tick's final part ends it
   if (part.last() && next_instance_ != result->instances) {
     return Fail(part, result,
                 Internal(fmt::format("frame {}: ended at instance {} vertex {} of {} x {} "
@@ -308,7 +309,10 @@ bool FrameAssembler::Add(const grpc::ByteBuffer& bytes, RawPart* reader, FrameRe
                 Internal(fmt::format("a part of {} bytes is not a skinserve.v1.SkinResponse",
                                      bytes.Length())));
   }
-  const RawPart& part = *reader;
+  return Add(*reader, result);
+}
+
+bool FrameAssembler::Add(const RawPart& part, FrameResult* result) {
   const auto decode = [&](int field, std::size_t offset, VertexEncoding encoding,
                           const Bounds& bounds, std::span<float> out) {
     return field == 2 ? part.DecodeTangents(offset, encoding, out)

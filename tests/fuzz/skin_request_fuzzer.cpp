@@ -41,12 +41,12 @@ const std::string& StoredMeshId() {
 // Waits for the engine's verdict on a job (OnFrameDone runs on a compute thread).
 class DoneListener final : public server::FrameJob::Listener {
  public:
-  void OnFrameDone(server::FrameJob*) override {
+  void OnFrameDone(server::StreamAnswer*) override {
     std::lock_guard lock(mutex_);
     done_ = true;
     changed_.notify_all();
   }
-  void OnPartsReady(server::FrameJob*) override {}  // early parts: read after the frame
+  void OnPartsReady(server::StreamAnswer*) override {}  // early parts: read after the frame
   void HoldForWire() override { holds.fetch_add(1); }
   void ReleaseForWire() override { holds.fetch_sub(1); }
   void Wait() {

@@ -114,6 +114,11 @@ class FrameAssembler {
   // The same from the bytes gRPC received, read with `reader` (one per stream, reused) and
   // decoded without copying them first. Bytes that are no SkinResponse fail the frame.
   bool Add(const grpc::ByteBuffer& part, RawPart* reader, FrameResult* result);
+  // The same for a part `reader` has parsed already (a tick's, routed by its character).
+  bool Add(const RawPart& part, FrameResult* result);
+  // A tick's character (tick.h): its vertex parts come with `last` false, and it is complete
+  // once every instance's vertices are in; its final header comes in the tick's final part.
+  void set_in_tick() { in_tick_ = true; }
 
  private:
   // The bytes of each vertex field; decode(field, offset, encoding, bounds, out) decodes
@@ -134,6 +139,7 @@ class FrameAssembler {
   bool failed_ = false;
   bool normals_ = false;
   bool tangents_ = false;
+  bool in_tick_ = false;
   uint32_t next_instance_ = 0;
   uint32_t next_vertex_ = 0;
 };

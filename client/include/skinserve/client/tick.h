@@ -70,24 +70,24 @@ struct TickResult {
   std::size_t failed() const;
 };
 
-// Gathers a tick's parts (every character's vertex parts in any order of characters, then
+// Gathers a tick's parts (every character's vertex parts, characters in any order, then
 // the final part with SkinResponse.tick) into a TickResult; true once the final part has
 // arrived. `tick` is the request's tick (it must outlive the assembler: its characters'
-// region outputs are read). Anything against the contract sets the tick's status
-// (INTERNAL). One per tick; the result may be reused.
+// region outputs are read). A part against the contract fails the tick (INTERNAL); a tick
+// the server refused whole fails with the server's status. One per tick; the result may be
+// reused from tick to tick.
 class TickAssembler {
  public:
-  // `slot_offset`: as Tick::ToWire's (the offset the tick's region characters were sent with).
-  TickAssembler(const Tick& tick, TickResult* result, uint64_t slot_offset = 0);
+  TickAssembler(const Tick& tick, TickResult* result);
   bool Add(const grpc::ByteBuffer& part, RawPart* reader);
 
  private:
   bool Finish(const v1::SkinResponse& final_part);
-  bool FailTick(Status status, bool last);
+  // The tick failed whole: every character takes `status`.
+  void FailTick(Status status);
 
   const Tick& tick_;
   TickResult* result_;
-  std::vector<RegionOutput> outputs_;       // each region character's output, at its slot
   std::vector<FrameAssembler> assemblers_;  // one per character
   std::vector<uint8_t> complete_;           // per character: its vertex parts ended
   bool failed_ = false;
