@@ -558,7 +558,7 @@ void OpenLoopStream(const RunConfig& config, const std::vector<UploadedMesh>& me
       watchdog.Answered();
       if (ticks && !tick_assembler) {  // the oldest tick in flight: answers come in order
         std::lock_guard lock(mutex);
-        tick_assembler.emplace(tick_slots[ring_head], &tick_result, ring_head * output.stride);
+        tick_assembler.emplace(tick_slots[ring_head], &tick_result);
       }
       if (ticks ? !tick_assembler->Add(bytes, &part) : !assembler.Add(bytes, &part, &result)) {
         continue;
