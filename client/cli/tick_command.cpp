@@ -155,7 +155,10 @@ bool PrintCharacter(std::size_t i, const CharacterInput& input, client::FrameRes
   const std::size_t vertices = result.positions.size() / 3;
   std::string check = "not checked (no local copy of the mesh)";
   bool ok = true;
-  if (input.local != nullptr) {
+  if (input.local != nullptr && vertices != input.local->vertex_count()) {
+    ok = false;
+    check = fmt::format("MISMATCH: {} vertices expected", input.local->vertex_count());
+  } else if (input.local != nullptr) {
     const Deviation d = CompareWithReference(*input.local, input.palette, result.positions,
                                              result.normals, method, input.morph, result.tangents);
     ok = d.within_tolerance();
