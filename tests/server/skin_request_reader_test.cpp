@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <tuple>
 
 namespace skinserve::server {
 namespace {
@@ -156,6 +157,73 @@ TEST(SkinRequestReaderTest, ALargeRequestsStorageAndChargeGoAfterItsFrameASmallO
   reader.Trim();
   EXPECT_EQ(budget.used(), small) << "a small request's storage is kept, and so is its charge";
   EXPECT_EQ(reader.request().instance_morph_weights_size(), 1);
+}
+
+// A tick of `characters` crowds, each as Crowd(instances, targets) without its frame.
+v1::SkinRequest TickOf(uint32_t characters, uint32_t instances, uint32_t targets) {
+  v1::SkinRequest tick;
+  tick.set_frame(41);
+  for (uint32_t c = 0; c < characters; ++c) {
+    v1::SkinRequest* character = tick.add_characters();
+    *character = Crowd(instances, targets);
+    character->clear_frame();
+  }
+  return tick;
+}
+
+TEST(SkinRequestReaderTest, ATicksCharactersAreCountedAndTheirParsedSizeIsCharged) {
+  InflightBudget budget(1 << 30);
+  const SkinRequestLimits limits{.max_tick_characters = 64};
+  for (const auto& [characters, instances, targets] :
+       {std::tuple{1u, 1u, 0u}, std::tuple{64u, 1u, 0u}, std::tuple{8u, 16u, 200u}}) {
+    SCOPED_TRACE(::testing::Message() << characters << " x " << instances << " x " << targets);
+    SkinRequestReader reader(&budget, limits);
+    grpc::ByteBuffer bytes = Bytes(TickOf(characters, instances, targets));
+    ASSERT_TRUE(reader.Read(&bytes).ok());
+    EXPECT_EQ(reader.scan().characters, characters);
+    EXPECT_EQ(reader.scan().frame, 41u);
+    EXPECT_EQ(reader.request().characters_size(), static_cast<int>(characters));
+    EXPECT_GE(reader.scan().parsed_bytes, reader.request().SpaceUsedLong())
+        << "the charge is below what the parse holds";
+    EXPECT_EQ(budget.used(), reader.scan().parsed_bytes);
+  }
+}
+
+TEST(SkinRequestReaderTest, ATickOverItsLimitsIsRefusedBeforeTheParseNamingFieldOrOption) {
+  InflightBudget budget(1 << 30);
+  const SkinRequestLimits limits{.max_tick_characters = 8, .max_tick_bytes = 64 << 10};
+  const auto refused = [&](const v1::SkinRequest& request, StatusCode code,
+                           const std::string& words) {
+    SkinRequestReader reader(&budget, limits);
+    grpc::ByteBuffer bytes = Bytes(request);
+    const Status status = reader.Read(&bytes);
+    EXPECT_EQ(status.code(), code) << status.ToString();
+    EXPECT_NE(status.message().find(words), std::string::npos) << status.message();
+    EXPECT_EQ(reader.scan().frame, 41u) << "the refusal must be able to name its frame";
+    EXPECT_EQ(reader.request().characters_size(), 0) << "parsed although refused";
+    EXPECT_EQ(budget.used(), 0u);
+  };
+  refused(TickOf(9, 1, 0), StatusCode::kResourceExhausted, "at most 8 (--max-tick-characters)");
+  // Nested characters count too.
+  v1::SkinRequest nested = TickOf(2, 1, 0);
+  for (int i = 0; i < 7; ++i) nested.mutable_characters(1)->add_characters();
+  refused(nested, StatusCode::kResourceExhausted, "--max-tick-characters");
+  v1::SkinRequest large = TickOf(2, 1, 0);
+  for (int c = 0; c < 2; ++c) large.mutable_characters(c)->set_palette(std::string(40 << 10, '\1'));
+  refused(large, StatusCode::kResourceExhausted, "; at most 65536 (--max-tick-bytes)");
+  refused(TickOf(2, 2, 1025), StatusCode::kInvalidArgument,
+          "characters[0].instance_morph_weights[0].targets has 1025 entries");
+  v1::SkinRequest lists = TickOf(3, 1, 0);
+  for (int t = 0; t < 1025; ++t) lists.mutable_characters(2)->add_morph_weights(0.5f);
+  refused(lists, StatusCode::kInvalidArgument, "characters[2].morph_weights has 1025 entries");
+  v1::SkinRequest deep = TickOf(1, 1, 0);
+  deep.mutable_characters(0)->add_characters()->add_characters();
+  refused(deep, StatusCode::kInvalidArgument,
+          "characters[0].characters[0].characters is set: ticks do not nest");
+  // A plain frame stays within gRPC's default 4 MiB, which the server raises for ticks.
+  v1::SkinRequest frame = Crowd(1, 0);
+  frame.set_palette(std::string(kMaxFrameRequestBytes, '\1'));
+  refused(frame, StatusCode::kResourceExhausted, "at most 4194304 for one frame");
 }
 
 }  // namespace
