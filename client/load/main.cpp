@@ -265,8 +265,9 @@ int RunMain(const Options& o) {
             o.run.characters_per_tick > 0
                 ? fmt::format("ticks of {} characters (distinct meshes), ", per_tick)
                 : "",
-            mode.instances, plane, at, budget_ms, "streams", "characters", "frames/s", at + " ms",
-            "max ms", "late", "dropped", "holds", cpu ? ServerCpuHeader() : "");
+            mode.instances, plane, at, budget_ms, "streams", "characters",
+            o.run.characters_per_tick > 0 ? "ticks/s" : "frames/s", at + " ms", "max ms", "late",
+            "dropped", "holds", cpu ? ServerCpuHeader() : "");
         Status probe_error;
         auto probe = [&](int streams) {
           RunConfig config = o.run;
@@ -319,8 +320,9 @@ int RunMain(const Options& o) {
       }
     }
     if (held.size() > 1) {
-      fmt::print("\ncharacters held at {:.0f} fps ({} <= {:.1f} ms, nothing dropped), {}:\n",
-                 o.run.rate, at, budget_ms, backend);
+      fmt::print("\ncharacters held at {:.0f} {} ({} <= {:.1f} ms, nothing dropped), {}:\n",
+                 o.run.rate, o.run.characters_per_tick > 0 ? "ticks/s" : "fps", at, budget_ms,
+                 backend);
       for (const auto& [label, characters] : held) {
         fmt::print("  {:<18} {:>6}\n", label, characters);
       }
