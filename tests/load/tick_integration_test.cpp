@@ -2,6 +2,7 @@
 // --characters-per-tick (every character of every tick against its own mesh's float64
 // reference, over both data planes, counts in characters) and skinserve-cli tick (each
 // character's outcome, a bad one named, the exit status saying so).
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
@@ -31,6 +32,8 @@ class ShmServer {
   ServerProcess& server() { return server_; }
   // The load client's options to reach the server over its socket with regions in `dir_`.
   std::string LoadTarget() const { return "--target unix:" + socket_ + " --shm-dir " + dir_; }
+  std::string socket_target() const { return "unix:" + socket_; }
+  const std::string& dir() const { return dir_; }
 
  private:
   static std::string MakeDir() {
@@ -192,6 +195,33 @@ TEST(TickCliTest, PrintsEachCharacterAndFailsTheExitStatusOnABadOne) {
   EXPECT_NE(bad.find("character 1 (synthetic seed 2): 3000 vertices"), std::string::npos) << bad;
   EXPECT_NE(bad.find("character 2 (mesh " + unknown + "): NOT_FOUND"), std::string::npos) << bad;
   EXPECT_NE(bad.find("tick 7: 3 characters, 2 answered, 1 failed"), std::string::npos) << bad;
+}
+
+// Over shared memory each character is written into its own range of the command's region,
+// read there and checked against its reference; the region is unregistered afterwards.
+TEST(TickCliTest, WritesEachCharacterIntoItsOwnRangeOfARegion) {
+  ShmServer shm;
+  ASSERT_TRUE(shm.server().ready());
+  int code = 0;
+  const std::string out = Cli(shm.socket_target(),
+                              "--synthetic 3 --vertices 2000 --normals --backend simd-openmp "
+                              "--shared-memory --shm-dir " +
+                                  shm.dir(),
+                              &code);
+  EXPECT_EQ(code, 0) << out;
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NE(out.find(fmt::format("character {} (synthetic seed {}): 2000 vertices in the region",
+                                   i, i + 1)),
+              std::string::npos)
+        << out;
+  }
+  EXPECT_EQ(out.find("MISMATCH"), std::string::npos) << out;
+  EXPECT_NE(out.find("tick 0: 3 characters, 3 answered, 0 failed"), std::string::npos) << out;
+  client::SkinClient c(client::MakeChannel(shm.server().target()));
+  auto stats = c.GetServerStats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->regions(), 0u) << "the command unregisters its region";
+  EXPECT_GT(stats->region_frames(), 0u);
 }
 
 }  // namespace
