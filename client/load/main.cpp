@@ -4,9 +4,8 @@
 //                 START:END:STEP one row per rate; --arrivals constant|poisson
 //   --sweep paper the paper's grid over every backend, tables 2 and 3 layout
 //   --characters-per-tick N  each request a tick of N characters, N distinct meshes
-//   --capacity    the most characters (streams x ticks' characters x --instances) held at 60 fps
-//   with the
-//                 latency at --percentile (p99) within one frame and nothing dropped, per
+//   --capacity    the most characters (streams x N a tick x --instances) held at 60 fps with
+//                 the latency at --percentile (p99) within one frame and nothing dropped, per
 //                 --modes (encoding x crowd size)
 #include <fmt/format.h>
 #include <unistd.h>
@@ -233,7 +232,8 @@ int RunMain(const Options& o) {
   std::vector<RunResult> results;
   if (o.capacity) {
     // Open loop at the given rate, per mode; grow the stream count until p99 exceeds one
-    // frame or a frame is dropped or fails, then bisect. Characters = streams x instances.
+    // frame or a frame is dropped or fails, then bisect. Characters = streams x instances
+    // (x N with ticks of N).
     auto loaded = LoadAndUpload(client, o, o.vertices, o.bones, o.seed);
     if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
     const Workload& w = (*loaded)->workloads.front();
@@ -258,14 +258,15 @@ int RunMain(const Options& o) {
         const std::string label = plane == "shm" ? mode.Name() + "+shm" : mode.Name();
         fmt::print(
             "capacity of {} at {:.0f} {} per stream, {} vertices x {} bones, {}, {}{} instance(s) "
-            "per character, {} data plane: {} <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
+            "per {}, {} data plane: {} <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
             "{:>9} {:>9} {:>8} {:>8} {:>7}{}\n",
             backend, o.run.rate, o.run.characters_per_tick > 0 ? "ticks/s" : "fps", w.vertices,
             w.bones, VertexEncodingName(mode.encoding),
             o.run.characters_per_tick > 0
                 ? fmt::format("ticks of {} characters (distinct meshes), ", per_tick)
                 : "",
-            mode.instances, plane, at, budget_ms, "streams", "characters",
+            mode.instances, o.run.characters_per_tick > 0 ? "character" : "stream", plane, at,
+            budget_ms, "streams", "characters",
             o.run.characters_per_tick > 0 ? "ticks/s" : "frames/s", at + " ms", "max ms", "late",
             "dropped", "holds", cpu ? ServerCpuHeader() : "");
         Status probe_error;
