@@ -236,18 +236,22 @@ def data_plane_view(path, options):
 
 
 def capacity_view(path, options):
-    """skinserve-load --capacity's console output: characters held per mode and data plane."""
+    """skinserve-load --capacity's console output: characters held per mode and data plane
+    (ticks: the mode says "ticks of N", the rate is ticks/s)."""
     held = []
-    pattern = re.compile(r"^capacity: (\d+) characters \((\d+) streams x (\d+) instances, "
-                         r"([0-9.]+) fps, ([^,]+), ([^,)]+)")
+    pattern = re.compile(r"^capacity: (\d+) characters \((\d+) streams x "
+                         r"(?:(\d+) characters a tick x )?(\d+) instances, "
+                         r"([0-9.]+) (?:fps|ticks/s), ([^,]+), ([^,)]+)")
     with open(path, encoding="utf-8") as f:
         for line in f:
             m = pattern.match(line)
             if m:
-                mode = m.group(6)
+                mode = m.group(7)
                 plane = "shared memory" if mode.endswith("+shm") else "gRPC"
-                held.append([m.group(5), mode.removesuffix("+shm"), plane, m.group(4),
-                             m.group(1)])
+                mode = mode.removesuffix("+shm")
+                if m.group(3):
+                    mode += f", ticks of {m.group(3)}"
+                held.append([m.group(6), mode, plane, m.group(5), m.group(1)])
     if not held:
         raise TableError(f"{path}: no 'capacity:' lines")
     return markdown_table(["backend", "mode", "data plane", "fps", "characters held"], held)

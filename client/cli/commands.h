@@ -49,6 +49,7 @@ void AddVerifyCommand(CLI::App& app, CommonOptions& common);
 void AddAnimateCommand(CLI::App& app, CommonOptions& common);
 void AddTwistCommand(CLI::App& app, CommonOptions& common);
 void AddRegionsCommand(CLI::App& app, CommonOptions& common);
+void AddTickCommand(CLI::App& app, CommonOptions& common);
 
 // --method linear|dual-quaternion on `command`, into `method`.
 void AddMethodOption(CLI::App* command, SkinningMethod* method);

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   AddAnimateCommand(app, common);
   AddTwistCommand(app, common);
   AddRegionsCommand(app, common);
+  AddTickCommand(app, common);
   CLI11_PARSE(app, argc, argv);
   return common.exit_code;
 }

@@ -22,11 +22,12 @@ std::string ErrorsText(const RunResult& r) {
   return text.empty() ? "0" : text;
 }
 
-// The backend, with the encoding and crowd size when they are not float32 x 1.
-// The backend, with the encoding and crowd size when they are not float32 x 1, and "+shm"
-// for the shared-memory data plane.
+// The backend, with the encoding and crowd size when they are not float32 x 1, "+shm"
+// for the shared-memory data plane and "+tickN" for ticks of N characters.
 std::string BackendLabel(const RunResult& r) {
-  const std::string shm = r.data_plane == "shm" ? "+shm" : "";
+  const std::string shm =
+      (r.data_plane == "shm" ? "+shm" : "") +
+      (r.characters_per_tick > 0 ? fmt::format("+tick{}", r.characters_per_tick) : std::string());
   if (r.encoding == "float32" && r.instances <= 1) return r.backend + shm;
   return r.instances > 1 ? fmt::format("{}/{}x{}{}", r.backend, r.encoding, r.instances, shm)
                          : fmt::format("{}/{}{}", r.backend, r.encoding, shm);
@@ -67,24 +68,31 @@ void PrintTable(const std::vector<RunResult>& results, bool open_loop) {
   });
   const bool cpu = std::any_of(results.begin(), results.end(),
                                [](const RunResult& r) { return r.server_cpu_seconds.has_value(); });
+  // Crowds and ticks: characters/s beside frames/s (a tick is one frame of the row).
+  const bool characters = std::any_of(results.begin(), results.end(), [](const RunResult& r) {
+    return r.characters_per_frame() > 1;
+  });
   fmt::print(
-      "{:<16}{} {:>8} {:>2} {:>7} {:>9} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} "
+      "{:<16}{} {:>8} {:>2} {:>7} {:>9}{} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} "
       "{:>7} {:>9} {:>7}{}{}{} {}\n",
       "backend", rates ? fmt::format(" {:>7}", "rate") : "", "vertices", "B", "frames", "frames/s",
-      "Mvert/s", "MB/s", "p50 ms", "p90 ms", "p99 ms", "max ms",
-      fmt::format("p{:g} ms", percentile), "queue", "compute", "encode", "transport", "speedup",
+      characters ? fmt::format(" {:>9}", "chars/s") : "", "Mvert/s", "MB/s", "p50 ms", "p90 ms",
+      "p99 ms", "max ms", fmt::format("p{:g} ms", percentile), "queue", "compute", "encode",
+      "transport", "speedup",
       open_loop ? fmt::format(" {:>6} {:>7} {:>10}", "late", "dropped", "late sends") : "",
       trials ? fmt::format(" {:>6}", "stable") : "", cpu ? ServerCpuHeader() : "", "errors");
   for (const RunResult& r : results) {
     const LatencySummary l = Summarize(r.latencies_ms, r.percentile);
     const double serial = SerialFramesPerSecond(results, r);
     fmt::print(
-        "{:<16}{} {:>8} {:>2} {:>7} {:>9.1f} {:>9.1f} {:>8.1f} {:>7.2f} {:>7.2f} {:>7.2f} "
+        "{:<16}{} {:>8} {:>2} {:>7} {:>9.1f}{} {:>9.1f} {:>8.1f} {:>7.2f} {:>7.2f} {:>7.2f} "
         "{:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>7.2f} {:>9.2f} {:>7}{}{}{} {}{}{}\n",
         BackendLabel(r), rates ? fmt::format(" {:>7g}", r.rate) : "", r.vertices, r.bones, r.frames,
-        r.frames_per_second(), r.vertices_per_second() / 1e6, r.megabytes_per_second(), l.p50,
-        l.p90, l.p99, l.max, l.at_percentile, r.mean(r.server_queue_ms_sum),
-        r.mean(r.server_compute_ms_sum), r.mean(r.server_encode_ms_sum), r.mean(r.transport_ms_sum),
+        r.frames_per_second(),
+        characters ? fmt::format(" {:>9.1f}", r.characters_per_second()) : "",
+        r.vertices_per_second() / 1e6, r.megabytes_per_second(), l.p50, l.p90, l.p99, l.max,
+        l.at_percentile, r.mean(r.server_queue_ms_sum), r.mean(r.server_compute_ms_sum),
+        r.mean(r.server_encode_ms_sum), r.mean(r.transport_ms_sum),
         serial > 0 ? fmt::format("{:.2f}x", r.frames_per_second() / serial) : "-",
         open_loop ? fmt::format(" {:>6} {:>7} {:>10}", r.late, r.dropped, r.late_sends) : "",
         trials ? fmt::format(" {:>6}", !r.stable   ? "-"

@@ -7,12 +7,14 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/client/idle_watchdog.h"
 #include "skinserve/client/shared_memory_region.h"
+#include "skinserve/client/tick.h"
 #include "skinserve/model/palette.h"
 #include "skinserve/reference/encoded_reference.h"
 #include "skinserve/reference/reference.h"
@@ -23,55 +25,18 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Frame f's palette for a request: with K instances, K palettes back to back, instance k
-// posed as frame f + k of the workload (so that a crowd's characters differ). Returns a
-// view valid until the next call; the buffer keeps its capacity from frame to frame.
-class FramePalette {
- public:
-  FramePalette(const Workload& workload, uint32_t instances)
-      : workload_(workload), instances_(std::max(instances, 1u)) {}
-  std::span<const float> operator()(uint64_t frame) {
-    if (instances_ == 1) return workload_.Palette(frame);
-    buffer_.clear();
-    for (uint32_t k = 0; k < instances_; ++k) {
-      const std::vector<float>& p = workload_.Palette(frame + k);
-      buffer_.insert(buffer_.end(), p.begin(), p.end());
-    }
-    return buffer_;
-  }
-
- private:
-  const Workload& workload_;
-  const uint32_t instances_;
-  std::vector<float> buffer_;
-};
-
-// Frame f's morph weights per instance of a crowd: instance k takes the workload's frame
-// f + k, as its palette does. The buffer keeps its capacity from frame to frame.
-class FrameMorph {
- public:
-  FrameMorph(const Workload& workload, uint32_t instances)
-      : workload_(workload), buffer_(std::max(instances, 1u)) {}
-  std::span<const std::vector<MorphWeight>> operator()(uint64_t frame) {
-    for (std::size_t k = 0; k < buffer_.size(); ++k) buffer_[k] = workload_.MorphVector(frame + k);
-    return buffer_;
-  }
-
- private:
-  const Workload& workload_;
-  std::vector<std::vector<MorphWeight>> buffer_;
-};
-
-// A stream's shared-memory region (RunConfig::shared_memory): one slot per frame in flight,
-// registered under its own name for the stream's life. Off: output() is disabled.
+// A stream's shared-memory region (RunConfig::shared_memory): one slot per frame (or tick)
+// in flight, each tick's slot holding its characters one after another, registered under its
+// own name for the stream's life. Off: output() is disabled.
 class StreamRegion {
  public:
   StreamRegion(const RunConfig& config, const Workload& workload, client::SkinClient& client)
       : client_(client) {
     if (!config.shared_memory) return;
     const uint32_t instances = std::max(config.instances, 1u);
-    const uint64_t stride = wire::RegionFrameBytes(workload.vertices, instances, config.encoding,
-                                                   workload.normals, workload.tangents);
+    character_stride_ = wire::RegionFrameBytes(workload.vertices, instances, config.encoding,
+                                               workload.normals, workload.tangents);
+    const uint64_t stride = character_stride_ * std::max(config.characters_per_tick, 1u);
     const std::string name = client::SharedMemoryRegion::UniqueKey("load");
     auto region = client::SharedMemoryRegion::Create(
         name, stride * static_cast<uint64_t>(std::max(config.window, 1)), config.shm_dir);
@@ -90,12 +55,16 @@ class StreamRegion {
     if (output_.enabled()) (void)client_.UnregisterRegion(output_.name);  // idle-dropped anyway
   }
   const Status& status() const { return status_; }
+  // stride: a frame's (or a whole tick's) bytes, the distance between slots.
   const client::RegionOutput& output() const { return output_; }
+  // Ticks: one character's bytes, the distance between a tick's characters in its slot.
+  uint64_t character_stride() const { return character_stride_; }
 
  private:
   client::SkinClient& client_;
   std::unique_ptr<client::SharedMemoryRegion> region_;
   client::RegionOutput output_;
+  uint64_t character_stride_ = 0;
   Status status_;
 };
 
@@ -114,11 +83,15 @@ class Recorder {
  public:
   // `measure_from`: the start of the measured part, or Clock::time_point::max() when the
   // streams announce it (frame-count runs, StartMeasuring).
-  Recorder(const RunConfig& config, const Workload& workload, Clock::time_point measure_from)
+  // `meshes`: the frames' mesh, or a tick's characters' (the row describes the first).
+  Recorder(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
+           Clock::time_point measure_from)
       : config_(config),
-        workload_(workload),
-        identity_(IdentityPalette(workload.joints)),
+        meshes_(meshes),
+        workload_(*meshes.front().workload),
+        identity_(IdentityPalette(workload_.joints)),
         measure_from_(measure_from) {
+    const Workload& workload = workload_;
     result_.backend = config.backend;
     result_.vertices = workload.vertices;
     result_.bones = workload.bones;
@@ -127,6 +100,7 @@ class Recorder {
     result_.encoding = VertexEncodingName(config.encoding);
     result_.rest_encoding = RestEncodingName(workload.rest_encoding);
     result_.instances = std::max(config.instances, 1u);
+    result_.characters_per_tick = config.characters_per_tick;
     result_.data_plane = config.shared_memory ? "shm" : "grpc";
     result_.streams = config.streams;
     result_.rate = config.rate;
@@ -158,7 +132,7 @@ class Recorder {
     if (frame.status.ok() && config_.check_every > 0 &&
         answered_.fetch_add(1) % config_.check_every == 0) {
       checked = true;
-      mismatch = !Matches(frame);
+      mismatch = !Matches(frame, workload_);
     }
     std::lock_guard lock(mutex_);
     result_.checked += checked;
@@ -182,6 +156,58 @@ class Recorder {
     result_.transport_ms_sum += latency_ms - send_lag_ms - queue - compute;
     last_answer_ = std::max(last_answer_, now);
   }
+  // One answered (or failed) tick: every character of every check_every-th tick is checked
+  // against its own mesh's reference, each failed character counts as an error by its code,
+  // and only a tick whose characters all succeeded counts as answered. The server timing
+  // columns sum the characters' (the compute the tick cost); the latency breakdown follows
+  // the character that finished last on the server (queue + compute largest).
+  void RecordTick(const client::TickResult& tick, double latency_ms, bool late, bool measured,
+                  double send_lag_ms = 0) {
+    const Clock::time_point now = Clock::now();
+    uint64_t checked = 0, mismatches = 0;
+    if (tick.status.ok() && config_.check_every > 0 &&
+        answered_.fetch_add(1) % config_.check_every == 0) {
+      for (std::size_t c = 0; c < tick.characters.size() && c < meshes_.size(); ++c) {
+        if (!tick.characters[c].status.ok()) continue;
+        ++checked;
+        mismatches += !Matches(tick.characters[c], *meshes_[c].workload);
+      }
+      // A tick answering fewer characters than it carried is wrong whole.
+      mismatches += tick.characters.size() != meshes_.size();
+    }
+    std::lock_guard lock(mutex_);
+    result_.checked += checked;
+    result_.mismatches += mismatches;
+    if (!tick.status.ok()) {
+      result_.errors[StatusCodeName(tick.status.code())] +=
+          std::max<std::size_t>(tick.characters.size(), 1);
+      return;
+    }
+    std::size_t failed = 0;
+    for (const client::FrameResult& c : tick.characters) {
+      if (!c.status.ok()) ++failed, ++result_.errors[StatusCodeName(c.status.code())];
+    }
+    if (failed > 0 || !measured) return;  // failed, or warm-up
+    ++result_.frames;
+    result_.late += late;
+    result_.latencies_ms.push_back(latency_ms);
+    const v1::ServerTiming* last = nullptr;
+    for (const client::FrameResult& c : tick.characters) {
+      result_.server_queue_ms_sum += c.timing.queued_ns() / 1e6;
+      result_.server_compute_ms_sum += c.timing.compute_ns() / 1e6;
+      result_.server_encode_ms_sum += c.timing.encode_ns() / 1e6;
+      const auto end = [](const v1::ServerTiming& t) { return t.queued_ns() + t.compute_ns(); };
+      if (last == nullptr || end(c.timing) > end(*last)) last = &c.timing;
+    }
+    const double queue = last ? last->queued_ns() / 1e6 : 0;
+    const double compute = last ? last->compute_ns() / 1e6 : 0;
+    const double encode = last ? std::min(last->encode_ns() / 1e6, compute) : 0;
+    result_.send_lag_ms_sum += send_lag_ms;
+    result_.skinning_ms_sum += compute - encode;
+    result_.breakdown_encode_ms_sum += encode;
+    result_.transport_ms_sum += latency_ms - send_lag_ms - queue - compute;
+    last_answer_ = std::max(last_answer_, now);
+  }
   // One instance of a checked frame against the float64 reference, within the bound of the
   // encoding it came in; `passthrough` (no compute) must return the rest pose. The checks
   // run on the stream's reader: all K instances of a crowd (K float64 skinnings) would
@@ -190,21 +216,21 @@ class Recorder {
   // Instance k's tangents against the float64 reference: x y z within float32's rounding
   // (1e-5, times the morph deltas' magnification) plus the encoding's bound for normals, w
   // exactly the rest's. passthrough answers the rest tangents as uploaded.
-  bool TangentsMatch(const client::FrameResult& frame, uint32_t k,
-                     std::span<const float> tangents) const {
-    const Mesh& mesh = *workload_.mesh;
+  bool TangentsMatch(const client::FrameResult& frame, uint32_t k, std::span<const float> tangents,
+                     const Workload& w) const {
+    const Mesh& mesh = *w.mesh;
     if (tangents.size() != 4ull * mesh.vertex_count()) return false;
-    const std::span<const MorphWeight> morph = workload_.Morph(frame.frame + k);
+    const std::span<const MorphWeight> morph = w.Morph(frame.frame + k);
     std::vector<double> want;
     double magnification = 1;
     if (config_.backend == "passthrough") {
       want.assign(mesh.tangents().begin(), mesh.tangents().end());
     } else {
-      const std::span<const float> palette = workload_.Palette(frame.frame + k);
-      want = (workload_.method == SkinningMethod::kLinear
-                  ? ReferenceSkin(mesh, palette, morph)
-                  : ReferenceSkinDualQuaternion(mesh, palette, morph))
-                 .tangents;
+      const std::span<const float> palette = w.Palette(frame.frame + k);
+      want =
+          (w.method == SkinningMethod::kLinear ? ReferenceSkin(mesh, palette, morph)
+                                               : ReferenceSkinDualQuaternion(mesh, palette, morph))
+              .tangents;
       magnification = ReferenceMorphMagnitudes(mesh, morph).tangent_magnification;
     }
     if (want.size() != tangents.size()) return false;
@@ -219,7 +245,7 @@ class Recorder {
     return true;
   }
 
-  bool Matches(const client::FrameResult& answer) const {
+  bool Matches(const client::FrameResult& answer, const Workload& w) const {
     client::FrameResult decoded;
     if (answer.in_region()) {  // decoded from the region for the check only
       decoded = answer;
@@ -232,24 +258,23 @@ class Recorder {
          k += instances) {
       const std::span<const float> positions = frame.instance_positions(k);
       const std::span<const float> normals =
-          workload_.normals ? frame.instance_normals(k) : std::span<const float>();
-      if (workload_.normals && normals.empty()) return false;
+          w.normals ? frame.instance_normals(k) : std::span<const float>();
+      if (w.normals && normals.empty()) return false;
       const std::span<const float> tangents =
-          workload_.tangents ? frame.instance_tangents(k) : std::span<const float>();
-      if (workload_.tangents && !TangentsMatch(frame, k, tangents)) return false;
+          w.tangents ? frame.instance_tangents(k) : std::span<const float>();
+      if (w.tangents && !TangentsMatch(frame, k, tangents, w)) return false;
       const bool passthrough = config_.backend == "passthrough";
       if (passthrough && frame.encoding == VertexEncoding::kFloat32) {
-        const auto rest = workload_.mesh->positions();
+        const auto rest = w.mesh->positions();
         if (!std::equal(rest.begin(), rest.end(), positions.begin(), positions.end())) {
           return false;
         }
         continue;
       }
       const std::span<const float> palette =
-          passthrough ? std::span<const float>(identity_) : workload_.Palette(frame.frame + k);
-      if (!CompareEncodedWithReference(*workload_.mesh, palette, frame.encoding, frame.bounds[k],
-                                       positions, normals, workload_.method,
-                                       workload_.Morph(frame.frame + k))
+          passthrough ? std::span<const float>(identity_) : w.Palette(frame.frame + k);
+      if (!CompareEncodedWithReference(*w.mesh, palette, frame.encoding, frame.bounds[k], positions,
+                                       normals, w.method, w.Morph(frame.frame + k))
                .within_tolerance()) {
         return false;
       }
@@ -288,6 +313,7 @@ class Recorder {
 
  private:
   const RunConfig& config_;
+  const std::vector<UploadedMesh>& meshes_;
   const Workload& workload_;
   const std::vector<float> identity_;
   std::atomic<uint64_t> answered_{0};
@@ -368,6 +394,63 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
   run(true, nullptr);
 }
 
+// ClosedLoopStream for ticks: `window` ticks in flight (StreamTicks), each of every mesh's
+// character, counted as ClosedLoopStream counts frames.
+void ClosedLoopTickStream(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
+                          int connection, const std::atomic<bool>& stop,
+                          const std::atomic<bool>& warm, Recorder& recorder) {
+  client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
+                            config.limits);
+  for (const UploadedMesh& m : meshes) {  // re-uploads where a replica lacks a mesh
+    client.Remember(m.mesh_id, m.workload->arrays, {.rest_encoding = m.workload->rest_encoding});
+  }
+  const StreamRegion region(config, *meshes.front().workload, client);
+  if (!region.status().ok()) {
+    recorder.RecordStreamError(region.status());
+    return;
+  }
+  TickFiller fill(meshes, {config.backend, config.encoding, config.instances}, region.output(),
+                  region.character_stride());
+  client::TickStreamOptions options{.ticks = UINT64_MAX / 2,
+                                    .window = config.window,
+                                    .region_stride = region.output().stride,
+                                    .stop = &stop};
+  const auto run = [&](bool measured_phase, uint64_t* sent) {
+    const bool count_by_time = config.frames == 0;
+    uint64_t measured_sent = 0;
+    client::TickStreamSummary summary;
+    Status status = client::StreamTicks(
+        client, options,
+        [&](uint64_t f, client::Tick* tick) {
+          if (measured_phase && (!count_by_time || recorder.Measuring())) ++measured_sent;
+          fill(f, tick);
+        },
+        [&](client::TickResult& r, std::chrono::nanoseconds latency) {
+          const bool measured = measured_phase && (!count_by_time || recorder.Measuring());
+          recorder.RecordTick(r, latency.count() / 1e6, false, measured);
+        },
+        &summary);
+    if (measured_phase) recorder.AddSentAndDropped(measured_sent, 0);
+    if (sent != nullptr) *sent = summary.sent;
+    if (!status.ok()) recorder.RecordStreamError(status);
+    return status.ok();
+  };
+  if (config.frames == 0) {
+    run(true, nullptr);
+    return;
+  }
+  uint64_t warmup_sent = 0;
+  if (config.warmup_seconds > 0) {
+    options.stop = &warm;
+    if (!run(false, &warmup_sent)) return;
+  }
+  recorder.StartMeasuring(Clock::now());
+  options.stop = nullptr;
+  options.first_tick = warmup_sent;
+  options.ticks = config.frames;
+  run(true, nullptr);
+}
+
 // Sends frame k at its time in the stream's ArrivalSchedule (constant: start + (k + stagger) /
 // rate; or Poisson) whatever happened to earlier frames, and measures
 // latency from that scheduled time, so a slow answer cannot hide the frames behind it
@@ -377,12 +460,19 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
 // connection, say). Whether a frame is measured depends on its
 // scheduled time (time-bounded runs) or its number (frame-count runs: warm-up * rate
 // frames first, then `config.frames` measured ones, then the stream ends).
-void OpenLoopStream(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
+// Ticks (config.characters_per_tick): each scheduled frame is a tick of every mesh's
+// character, its slot of the region holding them all.
+void OpenLoopStream(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
                     int stream_index, int connection, const std::atomic<bool>& stop,
                     Clock::time_point start, Clock::time_point end, Recorder& recorder) {
+  const Workload& workload = *meshes.front().workload;
+  const std::string& mesh_id = meshes.front().mesh_id;
+  const bool ticks = config.characters_per_tick > 0;
   client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
                             config.limits);
-  client.Remember(mesh_id, workload.arrays, {.rest_encoding = workload.rest_encoding});
+  for (const UploadedMesh& m : meshes) {
+    client.Remember(m.mesh_id, m.workload->arrays, {.rest_encoding = m.workload->rest_encoding});
+  }
   const StreamRegion region(config, workload, client);
   if (!region.status().ok()) {
     recorder.RecordStreamError(region.status());
@@ -395,13 +485,14 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   // Before the schedule starts, make sure this stream's replica holds the mesh: one frame
   // outside the schedule, re-uploading on NOT_FOUND (round_robin may place the upload on
   // another replica, hence the retries). It asks for `passthrough`, so that it never counts
-  // as a frame of the backend under test on the server either.
-  for (int attempt = 0; attempt < 8; ++attempt) {
+  // as a frame of the backend under test on the server either. Ticks: each mesh's.
+  for (std::size_t m = 0, attempt = 0; m < meshes.size() && attempt < 8; ++attempt) {
     v1::SkinRequest probe;
-    probe.set_mesh_id(mesh_id);
+    probe.set_mesh_id(meshes[m].mesh_id);
     probe.set_backend("passthrough");
     probe.set_frame(UINT64_MAX);
-    probe.set_palette(wire::EncodeFloats(workload.Palette(0)));  // one instance, float32
+    // one instance, float32
+    probe.set_palette(wire::EncodeFloats(meshes[m].workload->Palette(0)));
     if (!stream->Write(probe)) break;
     client::FrameResult result;
     client::FrameAssembler assembler;
@@ -411,8 +502,12 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     watchdog.Awaiting(true);
     while (!complete && stream->Read(&bytes)) complete = assembler.Add(bytes, &part, &result);
     watchdog.Awaiting(false);
-    if (!complete || result.status.code() != StatusCode::kNotFound) break;
-    if (!client.Reupload(mesh_id).ok()) break;
+    if (!complete) break;
+    if (result.status.code() != StatusCode::kNotFound) {
+      ++m, attempt = 0;
+    } else if (!client.Reupload(meshes[m].mesh_id).ok()) {
+      break;
+    }
   }
   const auto period =
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / config.rate));
@@ -448,6 +543,8 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
   // Sent, unanswered, oldest first: a ring of `window` slots (never more are in flight).
   std::vector<Scheduled> ring(static_cast<std::size_t>(std::max(config.window, 1)));
   std::size_t ring_head = 0, in_flight = 0;
+  // Ticks: the tick sent in each slot, which its answer's assembler reads.
+  std::vector<client::Tick> tick_slots(ticks ? ring.size() : 0);
 
   std::thread reader([&] {
     // One part reader and one result for the whole run (their buffers are reused).
@@ -455,9 +552,17 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     grpc::ByteBuffer bytes;
     client::FrameResult result;
     client::FrameAssembler assembler(&output);
+    client::TickResult tick_result;
+    std::optional<client::TickAssembler> tick_assembler;
     while (stream->Read(&bytes)) {
       watchdog.Answered();
-      if (!assembler.Add(bytes, &part, &result)) continue;
+      if (ticks && !tick_assembler) {  // the oldest tick in flight: answers come in order
+        std::lock_guard lock(mutex);
+        tick_assembler.emplace(tick_slots[ring_head], &tick_result);
+      }
+      if (ticks ? !tick_assembler->Add(bytes, &part) : !assembler.Add(bytes, &part, &result)) {
+        continue;
+      }
       const Clock::time_point answered = Clock::now();
       Scheduled frame;
       {
@@ -465,9 +570,14 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
         frame = ring[ring_head];
       }
       const auto latency = answered - frame.due;
-      recorder.Record(result, std::chrono::duration<double, std::milli>(latency).count(),
-                      latency > period, frame.measured,
-                      std::chrono::duration<double, std::milli>(frame.sent - frame.due).count());
+      const double latency_ms = std::chrono::duration<double, std::milli>(latency).count();
+      const double lag_ms =
+          std::chrono::duration<double, std::milli>(frame.sent - frame.due).count();
+      if (ticks) {
+        recorder.RecordTick(tick_result, latency_ms, latency > period, frame.measured, lag_ms);
+      } else {
+        recorder.Record(result, latency_ms, latency > period, frame.measured, lag_ms);
+      }
       {  // only now may the frame's slot (and its range of a region) take the next frame
         std::lock_guard lock(mutex);
         ring_head = (ring_head + 1) % ring.size();
@@ -475,21 +585,26 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
         watchdog.Awaiting(in_flight > 0);
       }
       assembler = client::FrameAssembler(&output);
+      tick_assembler.reset();
     }
   });
   FramePalette palette(workload, config.instances);
   FrameMorph morph(workload, config.instances);
+  TickFiller fill(meshes, {config.backend, config.encoding, config.instances}, output,
+                  region.character_stride());
   v1::SkinRequest request;  // reused: only the frame number and the palette change
-  request.set_mesh_id(mesh_id);
-  request.set_backend(config.backend);
-  request.set_want_normals(workload.normals);
-  request.set_want_tangents(workload.tangents);
-  request.set_encoding(static_cast<v1::Encoding>(config.encoding));
-  request.set_instances(config.instances);
-  request.set_pack_instances(true);  // FrameAssembler takes packed parts
-  request.set_method(wire::ToWire(workload.method));
-  if (output.enabled()) request.mutable_output()->set_region(output.name);
-  request.set_early_parts(config.early_parts);
+  if (!ticks) request.set_mesh_id(mesh_id);
+  if (!ticks) {
+    request.set_backend(config.backend);
+    request.set_want_normals(workload.normals);
+    request.set_want_tangents(workload.tangents);
+    request.set_encoding(static_cast<v1::Encoding>(config.encoding));
+    request.set_instances(config.instances);
+    request.set_pack_instances(true);  // FrameAssembler takes packed parts
+    request.set_method(wire::ToWire(workload.method));
+    if (output.enabled()) request.mutable_output()->set_region(output.name);
+    request.set_early_parts(config.early_parts);
+  }
   uint64_t late_sends = 0, gaps = 0;
   double gap_ms_sum = 0, gap_ms_sq_sum = 0;
   Clock::time_point previous_send{};  // of the last measured frame sent, if it was the last
@@ -498,6 +613,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
     if (stop.load()) break;
     const bool counted = measured();
     const Clock::time_point sent_at = Clock::now();
+    std::size_t slot = 0;
     {
       std::lock_guard lock(mutex);
       if (in_flight >= ring.size()) {
@@ -505,18 +621,26 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
         previous_send = {};
         continue;
       }
-      const std::size_t slot = (ring_head + in_flight++) % ring.size();
+      slot = (ring_head + in_flight++) % ring.size();
       ring[slot] = {due, sent_at, counted};
       watchdog.Awaiting(true);
       // Frames in flight take the ring's slots in turn: each its own range of the region.
       if (output.enabled()) request.mutable_output()->set_offset(slot * output.stride);
     }
     request.set_frame(k);
-    wire::EncodeFloats(palette(k), request.mutable_palette());
-    if (!workload.morph_weights.empty() && config.instances <= 1) {
-      wire::MorphWeightsToWire(workload.Morph(k), &request);
-    } else if (!workload.morph_weights.empty()) {
-      wire::InstanceMorphWeightsToWire(morph(k), &request);
+    if (ticks) {  // the slot is this tick's until its answer: the reader reads it then
+      client::Tick& tick = tick_slots[slot];
+      tick.Clear();
+      tick.set_frame(k);
+      fill(k, &tick);
+      tick.ToWire(&request, slot * output.stride);
+    } else {
+      wire::EncodeFloats(palette(k), request.mutable_palette());
+      if (!workload.morph_weights.empty() && config.instances <= 1) {
+        wire::MorphWeightsToWire(workload.Morph(k), &request);
+      } else if (!workload.morph_weights.empty()) {
+        wire::InstanceMorphWeightsToWire(morph(k), &request);
+      }
     }
     if (counted) {
       ++sent;
@@ -554,7 +678,7 @@ void OpenLoopStream(const RunConfig& config, const Workload& workload, const std
 
 }  // namespace
 
-RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
+RunResult RunLoad(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
                   const Progress& progress, const MeasuredPartHooks& hooks) {
   bool begun = false;
   const auto begin = [&] {
@@ -569,7 +693,7 @@ RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::
   const auto total = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(config.warmup_seconds + config.duration_seconds));
   const bool by_frames = config.frames > 0;
-  Recorder recorder(config, workload, by_frames ? Clock::time_point::max() : start + warmup);
+  Recorder recorder(config, meshes, by_frames ? Clock::time_point::max() : start + warmup);
   std::atomic<bool> stop{false}, warm{false};
   std::atomic<int> running{config.streams};
   std::vector<std::thread> streams;
@@ -577,10 +701,13 @@ RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::
     const int connection = s / std::max(config.streams_per_connection, 1);
     streams.emplace_back([&, s, connection] {
       if (config.rate > 0) {
-        OpenLoopStream(config, workload, mesh_id, s, connection, stop, start,
+        OpenLoopStream(config, meshes, s, connection, stop, start,
                        by_frames ? Clock::time_point::max() : start + total, recorder);
+      } else if (config.characters_per_tick > 0) {
+        ClosedLoopTickStream(config, meshes, connection, stop, warm, recorder);
       } else {
-        ClosedLoopStream(config, workload, mesh_id, connection, stop, warm, recorder);
+        ClosedLoopStream(config, *meshes.front().workload, meshes.front().mesh_id, connection, stop,
+                         warm, recorder);
       }
       --running;
     });

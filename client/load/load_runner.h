@@ -1,12 +1,14 @@
 // One load run: `streams` concurrent StreamSkin streams on one backend, closed loop (each
 // keeps `window` frames in flight) or open loop (`rate` frames per second per stream, on
-// schedule whatever the answers do).
+// schedule whatever the answers do). A stream's frames may be ticks of N characters
+// (characters_per_tick), then every count and latency of a frame is of a tick.
 #pragma once
 
 #include <functional>
 #include <string>
 
 #include "arrivals.h"
+#include "frame_inputs.h"
 #include "load_stats.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
@@ -31,6 +33,9 @@ struct RunConfig {
   uint64_t check_every = 0;                 // compare every Nth answer with the float64 reference
   VertexEncoding encoding = VertexEncoding::kFloat32;  // of the answers
   uint32_t instances = 1;  // crowd batches: palettes per request, characters per stream
+  // Ticks: N characters per request, each its own mesh (RunLoad's meshes[c]); 0: frames of
+  // meshes[0].
+  uint32_t characters_per_tick = 0;
   // Streams share a TCP connection this many at a time (each further group its own): a
   // server works one connection's HTTP/2 on one thread at a time, so a pool of connections
   // spreads heavy streams over its cores (gRPC's performance guide says the same).
@@ -54,7 +59,9 @@ struct MeasuredPartHooks {
   std::function<void()> begin, end;
 };
 
-RunResult RunLoad(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
+// `meshes`: the uploaded mesh of frames (one), or one per character of a tick
+// (config.characters_per_tick of them).
+RunResult RunLoad(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
                   const Progress& progress, const MeasuredPartHooks& hooks = {});
 
 }  // namespace skinserve::load

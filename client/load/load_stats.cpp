@@ -46,13 +46,13 @@ double RunResult::send_gap_cv() const {
 
 std::optional<double> RunResult::server_cpu_us_per_frame() const {
   if (!server_cpu_seconds || !(server_frames > 0)) return std::nullopt;
-  return *server_cpu_seconds * 1e6 / server_frames;
+  return *server_cpu_seconds * 1e6 / server_requests();
 }
 
 std::optional<double> RunResult::server_cpu_us_per_character() const {
   const auto per_frame = server_cpu_us_per_frame();
   if (!per_frame) return std::nullopt;
-  return *per_frame / std::max(instances, 1u);
+  return *per_frame / characters_per_frame();
 }
 
 std::optional<double> RunResult::server_cpu_over_compute() const {

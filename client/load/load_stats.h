@@ -2,6 +2,7 @@
 // that it is unit-tested against hand-computed values.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -30,8 +31,12 @@ struct RunResult {
   bool tangents = false;
   std::string encoding = "float32";
   std::string rest_encoding = "float32";  // the mesh as stored (--rest-encoding)
-  uint32_t instances = 1;                 // characters per frame (crowd batch)
-  std::string data_plane = "grpc";        // or "shm": vertices written into shared memory
+  uint32_t instances = 1;                 // instances per character (crowd batch)
+  // Ticks (--characters-per-tick): characters per request, each its own mesh; 0: plain
+  // frames, one character per request. A tick is one "frame" of this row: frames, latency
+  // and frames_per_second count ticks, the character columns count characters.
+  uint32_t characters_per_tick = 0;
+  std::string data_plane = "grpc";  // or "shm": vertices written into shared memory
   int streams = 0;
   double rate = 0;      // frames/s per stream (open loop); 0: closed loop
   uint64_t frames = 0;  // answered correctly within the measured window
@@ -72,13 +77,22 @@ struct RunResult {
   // backend): both from one pair of scrapes, however late either answered.
   std::optional<double> server_cpu_seconds;
   double server_frames = 0;
+  // The requests (frames or ticks) server_frames stands for.
+  double server_requests() const {
+    return characters_per_tick > 0 ? server_frames / characters_per_tick : server_frames;
+  }
 
   // The latency at `percentile` within the limit (true when no limit).
   bool within_limit() const;
 
   double frames_per_second() const { return seconds > 0 ? frames / seconds : 0; }
-  // Every instance's vertices.
-  double vertices_per_second() const { return frames_per_second() * vertices * instances; }
+  // Characters a request carries: a tick's characters times each one's crowd.
+  uint32_t characters_per_frame() const {
+    return std::max(characters_per_tick, 1u) * std::max(instances, 1u);
+  }
+  double characters_per_second() const { return frames_per_second() * characters_per_frame(); }
+  // Every character's vertices.
+  double vertices_per_second() const { return characters_per_second() * vertices; }
   // Vertex payload returned, in MB/s (12 bytes per vertex in float32, 6 in float16 and
   // snorm16; twice that with normals; tangents add 4 values a vertex).
   double megabytes_per_second() const {
@@ -88,9 +102,11 @@ struct RunResult {
   double mean(double sum) const { return frames > 0 ? sum / frames : 0; }
   uint64_t error_count() const;
   // Server CPU per frame it answered and per character (a crowd frame of K instances is K
-  // characters), in microseconds, and its ratio to the mean compute per frame (ServerTiming's
-  // compute_ns, the compute column); none without server_cpu_seconds or server_frames (or
-  // compute).
+  // characters; a tick of N characters N x K), in microseconds, and its ratio to the mean
+  // compute per frame (ServerTiming's compute_ns, the compute column; a tick's is the sum of
+  // its characters'); none without server_cpu_seconds or server_frames (or compute). The
+  // server counts each character of a tick as one frame of its backend
+  // (skinserve_frames_total), so a tick row's server_frames counts characters.
   std::optional<double> server_cpu_us_per_frame() const;
   std::optional<double> server_cpu_us_per_character() const;
   std::optional<double> server_cpu_over_compute() const;

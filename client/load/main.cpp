@@ -3,8 +3,9 @@
 //   open loop     --rate FPS (per stream), late and dropped frames reported; --rate-range
 //                 START:END:STEP one row per rate; --arrivals constant|poisson
 //   --sweep paper the paper's grid over every backend, tables 2 and 3 layout
-//   --capacity    the most characters (streams x --instances) held at 60 fps with the
-//                 latency at --percentile (p99) within one frame and nothing dropped, per
+//   --characters-per-tick N  each request a tick of N characters, N distinct meshes
+//   --capacity    the most characters (streams x N a tick x --instances) held at 60 fps with
+//                 the latency at --percentile (p99) within one frame and nothing dropped, per
 //                 --modes (encoding x crowd size)
 #include <fmt/format.h>
 #include <unistd.h>
@@ -138,6 +139,13 @@ Result<std::string> Upload(client::SkinClient& client, const Workload& w) {
   return info->mesh_id();
 }
 
+// A run's meshes, uploaded: one, or with ticks one per character (UploadedMesh points into
+// `workloads`, which is never resized after).
+struct RunMeshes {
+  std::vector<Workload> workloads;
+  std::vector<UploadedMesh> meshes;
+};
+
 // The glTF character when --mesh names one, else the synthetic mesh of this shape.
 Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bones, uint64_t seed) {
   const SkinningMethod method = *ParseMethod(o.method);
@@ -152,6 +160,25 @@ Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bone
       o.rest_encoding.empty() ? std::nullopt : ParseRestEncoding(o.rest_encoding);
   if (Status s = ChooseRestEncoding(&*workload, asked); !s.ok()) return s;
   return workload;
+}
+
+// The workload of `seed` (LoadWorkload), or with ticks of N characters N distinct synthetic
+// meshes of this shape, character c's seeded seed + c, each uploaded once.
+Result<std::unique_ptr<RunMeshes>> LoadAndUpload(client::SkinClient& client, const Options& o,
+                                                 uint32_t vertices, uint32_t bones, uint64_t seed) {
+  auto run = std::make_unique<RunMeshes>();
+  const uint32_t characters = std::max(o.run.characters_per_tick, 1u);
+  for (uint32_t c = 0; c < characters; ++c) {
+    auto loaded = LoadWorkload(o, vertices, bones, seed + c);
+    if (!loaded.ok()) return loaded.status();
+    run->workloads.push_back(std::move(loaded).value());
+  }
+  for (const Workload& w : run->workloads) {
+    auto mesh = Upload(client, w);
+    if (!mesh.ok()) return mesh.status();
+    run->meshes.push_back({&w, *mesh});
+  }
+  return run;
 }
 
 int RunMain(const Options& o) {
@@ -205,12 +232,14 @@ int RunMain(const Options& o) {
   std::vector<RunResult> results;
   if (o.capacity) {
     // Open loop at the given rate, per mode; grow the stream count until p99 exceeds one
-    // frame or a frame is dropped or fails, then bisect. Characters = streams x instances.
-    auto loaded = LoadWorkload(o, o.vertices, o.bones, o.seed);
+    // frame or a frame is dropped or fails, then bisect. Characters = streams x instances
+    // (x N with ticks of N).
+    auto loaded = LoadAndUpload(client, o, o.vertices, o.bones, o.seed);
     if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
-    const Workload& w = *loaded;
-    auto mesh = Upload(client, w);
-    if (!mesh.ok()) return fmt::print(stderr, "error: {}\n", mesh.status().ToString()), 1;
+    const Workload& w = (*loaded)->workloads.front();
+    const std::vector<UploadedMesh>& meshes = (*loaded)->meshes;
+    // Characters a stream holds: its ticks' characters (1 without ticks) x each one's crowd.
+    const int per_tick = static_cast<int>(std::max(o.run.characters_per_tick, 1u));
     const double budget_ms = measure.latency_limit_ms.value_or(1000.0 / o.run.rate);
     measure.latency_limit_ms = budget_ms;
     const std::string at = fmt::format("p{:g}", measure.percentile);
@@ -228,12 +257,18 @@ int RunMain(const Options& o) {
       for (const std::string& plane : SplitList(o.data_planes)) {
         const std::string label = plane == "shm" ? mode.Name() + "+shm" : mode.Name();
         fmt::print(
-            "capacity of {} at {:.0f} fps per stream, {} vertices x {} bones, {}, {} instance(s) "
-            "per stream, {} data plane: {} <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
+            "capacity of {} at {:.0f} {} per stream, {} vertices x {} bones, {}, {}{} instance(s) "
+            "per {}, {} data plane: {} <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
             "{:>9} {:>9} {:>8} {:>8} {:>7}{}\n",
-            backend, o.run.rate, w.vertices, w.bones, VertexEncodingName(mode.encoding),
-            mode.instances, plane, at, budget_ms, "streams", "characters", "frames/s", at + " ms",
-            "max ms", "late", "dropped", "holds", cpu ? ServerCpuHeader() : "");
+            backend, o.run.rate, o.run.characters_per_tick > 0 ? "ticks/s" : "fps", w.vertices,
+            w.bones, VertexEncodingName(mode.encoding),
+            o.run.characters_per_tick > 0
+                ? fmt::format("ticks of {} characters (distinct meshes), ", per_tick)
+                : "",
+            mode.instances, o.run.characters_per_tick > 0 ? "character" : "stream", plane, at,
+            budget_ms, "streams", "characters",
+            o.run.characters_per_tick > 0 ? "ticks/s" : "frames/s", at + " ms", "max ms", "late",
+            "dropped", "holds", cpu ? ServerCpuHeader() : "");
         Status probe_error;
         auto probe = [&](int streams) {
           RunConfig config = o.run;
@@ -242,9 +277,8 @@ int RunMain(const Options& o) {
           config.encoding = mode.encoding;
           config.instances = mode.instances;
           config.shared_memory = plane == "shm";
-          auto measured =
-              Measure(config, w, *mesh, MakeProgress(fmt::format("{} {} streams", label, streams)),
-                      measure);
+          auto measured = Measure(
+              config, meshes, MakeProgress(fmt::format("{} {} streams", label, streams)), measure);
           if (!measured.ok()) {
             probe_error = measured.status();
             return std::optional<bool>();
@@ -253,8 +287,9 @@ int RunMain(const Options& o) {
           const LatencySummary l = Summarize(r.latencies_ms, r.percentile);
           const bool holds = r.within_limit() && r.dropped == 0 && !r.failed() && r.frames > 0;
           fmt::print("{:>8} {:>10} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}{}\n", streams,
-                     streams * mode.instances, r.frames_per_second(), l.at_percentile, l.max,
-                     r.late, r.dropped, holds ? "yes" : "no", cpu ? ServerCpuCells(r) : "");
+                     streams * per_tick * static_cast<int>(mode.instances), r.frames_per_second(),
+                     l.at_percentile, l.max, r.late, r.dropped, holds ? "yes" : "no",
+                     cpu ? ServerCpuCells(r) : "");
           results.push_back(std::move(r));
           return std::optional<bool>(holds);
         };
@@ -274,28 +309,30 @@ int RunMain(const Options& o) {
           if (!holds) return measure_failed(probe_error);
           (*holds ? good : bad) = mid;
         }
-        const int characters = good * static_cast<int>(mode.instances);
+        const int characters = good * per_tick * static_cast<int>(mode.instances);
         fmt::print(
-            "capacity: {} characters ({} streams x {} instances, {:.0f} fps, {}, {}{})\n",
-            characters, good, mode.instances, o.run.rate, backend, label,
+            "capacity: {} characters ({} streams x {}{} instances, {:.0f} {}, {}, {}{})\n",
+            characters, good,
+            o.run.characters_per_tick > 0 ? fmt::format("{} characters a tick x ", per_tick) : "",
+            mode.instances, o.run.rate, o.run.characters_per_tick > 0 ? "ticks/s" : "fps", backend,
+            label,
             bad == 0 ? fmt::format(", the most streams tried: {}", o.capacity_max_streams) : "");
         held.push_back({label, characters});
       }
     }
     if (held.size() > 1) {
-      fmt::print("\ncharacters held at {:.0f} fps ({} <= {:.1f} ms, nothing dropped), {}:\n",
-                 o.run.rate, at, budget_ms, backend);
+      fmt::print("\ncharacters held at {:.0f} {} ({} <= {:.1f} ms, nothing dropped), {}:\n",
+                 o.run.rate, o.run.characters_per_tick > 0 ? "ticks/s" : "fps", at, budget_ms,
+                 backend);
       for (const auto& [label, characters] : held) {
         fmt::print("  {:<18} {:>6}\n", label, characters);
       }
     }
   } else {
     for (const auto& [v, b] : grid) {
-      auto loaded = LoadWorkload(o, v, b, o.seed + v + b);
+      auto loaded = LoadAndUpload(client, o, v, b, o.seed + v + b);
       if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
-      const Workload& w = *loaded;
-      auto mesh = Upload(client, w);
-      if (!mesh.ok()) return fmt::print(stderr, "error: {}\n", mesh.status().ToString()), 1;
+      const std::vector<UploadedMesh>& meshes = (*loaded)->meshes;
       for (const std::string& backend : *backends) {
         for (const std::string& plane : SplitList(o.data_planes)) {
           for (const double rate : rates) {
@@ -304,7 +341,7 @@ int RunMain(const Options& o) {
             config.shared_memory = plane == "shm";
             config.rate = rate;
             auto row =
-                Measure(config, w, *mesh,
+                Measure(config, meshes,
                         MakeProgress(fmt::format("{} {} {}x{}{}", backend, plane, v, b,
                                                  rate > 0 ? fmt::format(" {:g}/s", rate) : "")),
                         measure);
@@ -316,7 +353,9 @@ int RunMain(const Options& o) {
         }
       }
       // A sweep stores 16 meshes; free each when done with it.
-      if (grid.size() > 1) (void)client.DeleteMesh(*mesh);
+      if (grid.size() > 1) {
+        for (const UploadedMesh& m : meshes) (void)client.DeleteMesh(m.mesh_id);
+      }
     }
     PrintTable(results, rates.front() > 0);
     if (grid.size() > 1) PrintSpeedupTables(results);
@@ -429,6 +468,14 @@ int main(int argc, char** argv) {
          "integer weights (KHR_mesh_quantization) gets quantized16 (quantized8-weights "
          "for UNSIGNED_BYTE weights); the choice and why is printed")
       ->check(CLI::IsMember({"float32", "quantized16", "quantized8-weights"}));
+  app.add_option("--characters-per-tick", o.run.characters_per_tick,
+                 "ticks: each request carries N characters, N distinct synthetic meshes of "
+                 "--vertices/--bones/--joints (character c seeded --seed + c, each uploaded "
+                 "once), each with its own palettes (--instances: a crowd each) and morph "
+                 "weights; frames, latency and --rate count ticks, characters/s and "
+                 "--capacity count characters (0: plain frames)")
+      ->check(CLI::Range(0u, 4096u))
+      ->capture_default_str();
   app.add_option("--instances", o.run.instances,
                  "crowd batches: K palettes per request, K characters per stream")
       ->check(CLI::Range(1u, 1u << 16))
@@ -487,6 +534,17 @@ int main(int argc, char** argv) {
   o.run.arrivals_seed = o.seed;
   if (o.run.frames > 0 && o.measurement.measure.max_trials > 1) {
     fmt::print(stderr, "error: --max-trials repeats windows of --duration: not with --frames\n");
+    return 2;
+  }
+  if (o.run.characters_per_tick > 0 && !o.mesh.empty()) {
+    fmt::print(stderr,
+               "error: --characters-per-tick skins distinct synthetic meshes: not with --mesh\n");
+    return 2;
+  }
+  if (o.run.characters_per_tick > 0 && o.run.early_parts) {
+    fmt::print(stderr,
+               "error: --early-parts: a tick's characters come as they finish anyway: not with "
+               "--characters-per-tick\n");
     return 2;
   }
   auto channel = o.connection.ToChannelOptions();

@@ -8,9 +8,8 @@
 
 namespace skinserve::load {
 
-Result<RunResult> Measure(const RunConfig& config, const Workload& workload,
-                          const std::string& mesh_id, const Progress& progress,
-                          const MeasureOptions& options) {
+Result<RunResult> Measure(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
+                          const Progress& progress, const MeasureOptions& options) {
   const bool scrape = !options.metrics_url.empty();
   if (scrape) {  // a wrong URL fails now, not after a window's --duration
     if (auto probe = ScrapeMetrics(options.metrics_url); !probe.ok()) return probe.status();
@@ -33,7 +32,7 @@ Result<RunResult> Measure(const RunConfig& config, const Workload& workload,
       hooks.begin = [&] { before = ScrapeMetrics(options.metrics_url); };
       hooks.end = [&] { after = ScrapeMetrics(options.metrics_url); };
     }
-    RunResult r = RunLoad(window, workload, mesh_id, window_progress, hooks);
+    RunResult r = RunLoad(window, meshes, window_progress, hooks);
     r.percentile = options.percentile;
     if (scrape) {
       if (!before.ok()) return before.status();

@@ -25,8 +25,7 @@ struct MeasureOptions {
 // three. With a metrics URL, scrapes when each window's measured part begins and after it
 // ends (RunLoad's MeasuredPartHooks): the row holds the counters' deltas and the server's
 // CPU seconds over its windows' measured parts. A failed scrape is UNAVAILABLE naming the URL.
-Result<RunResult> Measure(const RunConfig& config, const Workload& workload,
-                          const std::string& mesh_id, const Progress& progress,
-                          const MeasureOptions& options);
+Result<RunResult> Measure(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
+                          const Progress& progress, const MeasureOptions& options);
 
 }  // namespace skinserve::load

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "load_process.h"
 #include "report_files.h"
 #include "server_child.h"
 #include "skinserve/client/channel.h"
@@ -24,74 +25,6 @@
 
 namespace skinserve::testing {
 namespace {
-
-// A report file no other run of this test binary writes.
-std::string UniqueJsonPath() {
-  static int next = 0;
-  return ::testing::TempDir() + "load-" + std::to_string(getpid()) + "-" + std::to_string(next++) +
-         ".json";
-}
-
-// A skinserve child process on a loopback port, with the load client's view of it.
-class ServerProcess {
- public:
-  // `streams_per_connection`: the server's --max-streams-per-connection (0: its default).
-  explicit ServerProcess(int streams_per_connection = 0, std::vector<std::string> extra = {})
-      : child_(Arguments(streams_per_connection, std::move(extra))) {
-    EXPECT_TRUE(child_.ready()) << child_.error();
-  }
-  const std::string& target() const { return child_.target(); }
-  bool ready() const { return child_.ready(); }
-  pid_t pid() const { return child_.pid(); }
-  // Frames served per backend, from the server's own stats.
-  std::map<std::string, uint64_t> FramesServed() const {
-    client::SkinClient c(client::MakeChannel(target()));
-    std::map<std::string, uint64_t> frames;
-    auto stats = c.GetServerStats();
-    EXPECT_TRUE(stats.ok()) << stats.status().ToString();
-    if (stats.ok()) {
-      for (const auto& b : stats->backends()) frames[b.id()] = b.frames();
-    }
-    return frames;
-  }
-
- private:
-  static std::vector<std::string> Arguments(int streams_per_connection,
-                                            std::vector<std::string> extra) {
-    std::vector<std::string> args = {"--log-level", "warn"};
-    args.insert(args.end(), extra.begin(), extra.end());
-    if (streams_per_connection > 0) {
-      args.insert(args.end(),
-                  {"--max-streams-per-connection", std::to_string(streams_per_connection)});
-    }
-    return args;
-  }
-  ServerChild child_;
-};
-
-// `json_path`, when given, is told where the report went.
-nlohmann::json RunLoad(const std::string& args, int* exit_code, std::string* json_path = nullptr) {
-  const std::string json = UniqueJsonPath();
-  if (json_path != nullptr) *json_path = json;
-  const std::string command =
-      std::string(SKINSERVE_LOAD_BINARY) + " " + args + " --json " + json + " > /dev/null";
-  const int status = std::system(command.c_str());
-  *exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(json);
-  nlohmann::json doc;
-  if (in) in >> doc;
-  return doc;
-}
-
-std::map<std::string, uint64_t> FramesReported(const nlohmann::json& doc) {
-  std::map<std::string, uint64_t> frames;
-  for (const auto& r : doc["results"]) {
-    EXPECT_TRUE(r["errors"].empty()) << r.dump();
-    EXPECT_EQ(r["mismatches"], 0) << r.dump();
-    frames[r["backend"]] += r["frames"].get<uint64_t>();
-  }
-  return frames;
-}
 
 TEST(LoadIntegrationTest, ClosedLoopCountsEqualWhatTheServerServed) {
   ServerProcess server;
@@ -350,23 +283,6 @@ TEST(LoadIntegrationTest, SharedMemoryDataPlaneInEveryModeCountsAndChecksEveryFr
   EXPECT_EQ(stats->regions(), 0u) << "the load client unregisters its regions";
   EXPECT_GT(stats->region_frames(), 0u);
   std::filesystem::remove_all(dir);
-}
-
-// A loopback port free a moment ago, for the server's --metrics-listen (it has no port file
-// for metrics; tests/ops/metrics-test.sh does the same).
-int FreePort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t size = sizeof(address);
-  int port = 0;
-  if (bind(fd, reinterpret_cast<sockaddr*>(&address), size) == 0 &&
-      getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size) == 0) {
-    port = ntohs(address.sin_port);
-  }
-  close(fd);
-  return port;
 }
 
 // Each rate of a range is one row with rate x streams x duration frames scheduled (10% + 2:

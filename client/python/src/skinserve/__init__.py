@@ -18,6 +18,12 @@ asyncio (AsyncClient), with the same methods.
         client.register_region(region)
         vertices = client.skin(mesh_id, palette, region=region)
 
+    # A tick: many characters (each its mesh, palette and options) in one request.
+    results = client.tick([skinserve.Character(mesh_a, palette_a),
+                           skinserve.Character(mesh_b, crowd_b, want_normals=True)])
+    for r in results:
+        print(r.index, r.error or r.positions.shape)
+
     async with skinserve.AsyncClient("127.0.0.1:50051") as client:
         vertices = await client.skin(mesh_id, palette)
         async for vertices in client.stream(mesh_id, palettes):
@@ -29,6 +35,7 @@ from ._encoding import decode_values
 from ._errors import SkinserveError
 from ._morph import FrameWeights, MorphTarget, Weights
 from ._shared_memory import SharedMemoryRegion
+from ._tick import Character, CharacterResult
 
-__all__ = ["AsyncClient", "Client", "FrameWeights", "MorphTarget", "SkinserveError",
-           "SharedMemoryRegion", "Weights", "decode_values"]
+__all__ = ["AsyncClient", "Character", "CharacterResult", "Client", "FrameWeights",
+           "MorphTarget", "SkinserveError", "SharedMemoryRegion", "Weights", "decode_values"]

@@ -3,20 +3,21 @@ the frame assembly, the errors and the answers are the blocking client's own mod
 only the waiting differs (coroutines and an async generator instead of threads)."""
 import asyncio
 import time
-from typing import (Any, AsyncGenerator, AsyncIterator, Dict, Iterable, List, Literal,
-                    Optional, Sequence, Tuple, Union, overload)
+from typing import (Any, AsyncGenerator, AsyncIterator, Callable, Dict, Iterable, List,
+                    Literal, Optional, Sequence, Tuple, Union, overload)
 
 import grpc
 import grpc.aio
 import numpy as np
 import numpy.typing as npt
 
-from . import _answers, _arrays, _channel, _requests
+from . import _answers, _arrays, _channel, _requests, _tick
 from ._errors import SkinserveError, rpc_error
 from ._frame import Answer, FloatArray, Frame
 from ._morph import FrameWeights, MorphTarget
 from ._service import SkinningStub
 from ._shared_memory import SharedMemoryRegion
+from ._tick import Character, CharacterResult
 from .v1 import skinning_pb2 as pb
 
 
@@ -275,11 +276,14 @@ class AsyncClient:
 
     async def _one_stream(self, requests: List[pb.SkinRequest], first: int, window: int,
                           want_normals: bool, region: Optional[SharedMemoryRegion],
-                          ended: List[Tuple[Any, str]]) -> AsyncGenerator[Tuple[int, Frame], None]:
+                          ended: List[Tuple[Any, str]],
+                          make_frame: Optional[Callable[[int], Any]] = None
+                          ) -> AsyncGenerator[Tuple[int, Any], None]:
         """Client._one_stream with a writer task instead of a thread: sends requests[first:]
-        with at most `window` unanswered and yields (index, Frame) in order; ends early
-        (the reason appended to `ended`) on UNAVAILABLE or after stream_idle_timeout
-        seconds without an answer while frames are in flight."""
+        with at most `window` unanswered and yields (index, Frame) in order (or what
+        `make_frame(index)` makes: ticks); ends early (the reason appended to `ended`) on
+        UNAVAILABLE or after stream_idle_timeout seconds without an answer while frames are
+        in flight."""
         credits = asyncio.Semaphore(window)
         call = self._stub.StreamSkin()
         in_flight = 0
@@ -310,7 +314,9 @@ class AsyncClient:
                     return None
             return await reading
 
-        def new_frame(i: int) -> Frame:  # the frame answering requests[i]; past the end, one never filled
+        def new_frame(i: int) -> Any:  # the frame answering requests[i]; past the end, one never filled
+            if make_frame is not None:
+                return make_frame(i)
             return Frame((requests[i].instances or None) if i < len(requests) else None)
 
         sender = asyncio.ensure_future(send())
@@ -349,6 +355,79 @@ class AsyncClient:
                 await sender
             except (asyncio.CancelledError, grpc.RpcError, asyncio.InvalidStateError):
                 pass  # the call ended first: its status is what counts, handled above
+
+    # ---- ticks ----------------------------------------------------------------------------
+    async def tick(self, characters: Sequence[Character],
+                   frame: int = 0) -> List[CharacterResult]:
+        """Client.tick: many characters in one request, one CharacterResult each (a bad
+        character fails alone, its error naming it); NOT_FOUND re-uploads and resends."""
+        characters = list(characters)
+        crowds = _tick.check_characters(characters, self._joint_count)
+        return await self._tick_with_reuploads(characters, crowds, frame, 0)
+
+    async def _tick_with_reuploads(self, characters: List[Character],
+                                   crowds: List[Optional[int]], frame: int, slot_offset: int,
+                                   results: Optional[List[CharacterResult]] = None
+                                   ) -> List[CharacterResult]:
+        if results is None:
+            results = await self._tick_once(characters, crowds, frame, slot_offset)
+        for _ in range(self.max_reuploads):
+            missing = _tick.not_found(characters, results, self._meshes)
+            if not missing:
+                break
+            for mesh_id in {characters[i].mesh_id for i in missing}:
+                await self._upload(self._meshes[mesh_id][0])
+            again = await self._tick_once([characters[i] for i in missing],
+                                          [crowds[i] for i in missing], frame, slot_offset)
+            for i, result in zip(missing, again):
+                result.index = i
+                results[i] = result
+        return results
+
+    async def _tick_once(self, characters: List[Character], crowds: List[Optional[int]],
+                         frame: int, slot_offset: int) -> List[CharacterResult]:
+        request = _tick.tick_request(characters, crowds, frame, slot_offset)
+        answer = _tick.TickAnswer(characters, crowds, frame)
+        try:
+            async for part in self._stub.Skin(request, timeout=self.timeout):
+                answer.add_part(part)
+        except grpc.RpcError as e:
+            raise rpc_error(e, frame) from None
+        return answer.answered()
+
+    async def stream_ticks(self, ticks: Iterable[Sequence[Character]],
+                           window: int = 2) -> AsyncIterator[List[CharacterResult]]:
+        """Client.stream_ticks as an async generator: tick after tick over one StreamSkin
+        call, at most `window` unanswered, each tick's results yielded in order."""
+        tick_list = [list(t) for t in ticks]
+        crowds = [_tick.check_characters(t, self._joint_count) for t in tick_list]
+        _requests.check_window(window)
+        vertex_counts = {c.mesh_id: await self._vertex_count(c.mesh_id)
+                         for t in tick_list for c in t if c.region is not None}
+        stride, region = _tick.stream_regions(tick_list, crowds, vertex_counts.__getitem__, window)
+        requests = [_tick.tick_request(t, k, i, (i % window) * stride)
+                    for i, (t, k) in enumerate(zip(tick_list, crowds))]
+
+        def make(i: int) -> _tick.TickAnswer:
+            if i >= len(tick_list):
+                return _tick.TickAnswer([], [], i)
+            return _tick.TickAnswer(tick_list[i], crowds[i], i)
+
+        ended: List[Tuple[Any, str]] = []
+        answered = 0
+        answers = self._one_stream(requests, 0, window, False, region, ended, make)
+        try:
+            async for index, answer in answers:
+                results = await self._tick_with_reuploads(tick_list[index], crowds[index], index,
+                                                          (index % window) * stride,
+                                                          answer.answered())
+                answered = index + 1
+                yield results
+        finally:
+            await answers.aclose()
+        if answered < len(tick_list):
+            code, message = ended[0] if ended else (grpc.StatusCode.UNAVAILABLE, "")
+            raise SkinserveError(code, f"stream of ticks ended: {message}", answered)
 
     # ---- the server ----------------------------------------------------------------------
     async def backends(self) -> List[Dict[str, Any]]:

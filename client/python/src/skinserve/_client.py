@@ -3,18 +3,19 @@ import contextlib
 import queue
 import threading
 import time
-from typing import (Any, Dict, Generator, Iterable, Iterator, List, Literal, Optional,
-                    Sequence, Tuple, Union, overload)
+from typing import (Any, Callable, Dict, Generator, Iterable, Iterator, List, Literal,
+                    Optional, Sequence, Tuple, Union, overload)
 
 import grpc
 import numpy as np
 import numpy.typing as npt
 
-from . import _answers, _arrays, _channel, _requests
+from . import _answers, _arrays, _channel, _requests, _tick
 from ._errors import SkinserveError, rpc_error
 from ._frame import Answer, FloatArray, Frame
 from ._morph import FrameWeights, MorphTarget
 from ._shared_memory import SharedMemoryRegion
+from ._tick import Character, CharacterResult
 from ._service import SkinningStub
 from .v1 import skinning_pb2 as pb
 
@@ -364,11 +365,14 @@ class Client:
 
     def _one_stream(self, requests: List[pb.SkinRequest], first: int, window: int,
                     want_normals: bool, region: Optional[SharedMemoryRegion],
-                    ended: List[Tuple[Any, str]]) -> Generator[Tuple[int, Frame], None, None]:
+                    ended: List[Tuple[Any, str]],
+                    make_frame: Optional[Callable[[int], Any]] = None
+                    ) -> Generator[Tuple[int, Any], None, None]:
         """Sends requests[first:] with at most `window` unanswered; yields (index, Frame)
         in order. Ends early (without raising, the reason appended to `ended`) when the
         stream ends UNAVAILABLE or waits stream_idle_timeout for an answer. With a region, a
-        frame's slot is reused only once the caller has taken the next frame."""
+        frame's slot is reused only once the caller has taken the next frame. `make_frame`:
+        the assembler of requests[i]'s answer (ticks: a TickAnswer), instead of a Frame."""
         credits = threading.Semaphore(window)
         stop = threading.Event()
         outbox: "queue.Queue[Optional[pb.SkinRequest]]" = queue.Queue()
@@ -401,7 +405,9 @@ class Client:
         sender = threading.Thread(target=send, daemon=True)
         sender.start()
 
-        def new_frame(i: int) -> Frame:  # the frame answering requests[i]; past the end, one never filled
+        def new_frame(i: int) -> Any:  # the frame answering requests[i]; past the end, one never filled
+            if make_frame is not None:
+                return make_frame(i)
             return Frame((requests[i].instances or None) if i < len(requests) else None)
 
         frame, index = new_frame(first), first
@@ -437,6 +443,83 @@ class Client:
             outbox.put(None)
             call.cancel()
             sender.join()
+
+    # ---- ticks ----------------------------------------------------------------------------
+    def tick(self, characters: Sequence[Character], frame: int = 0) -> List[CharacterResult]:
+        """One tick: many characters (skinserve.Character each: mesh id, palette or crowd,
+        and skin's options) skinned by one request, answered as one CharacterResult per
+        character in order. A character whose input is bad fails alone: its result's
+        `error` names it and the field, the others are answered. A character answered
+        NOT_FOUND for a mesh this client uploaded has the mesh uploaded again and is sent
+        again (in a tick of those characters). A tick refused whole raises SkinserveError."""
+        characters = list(characters)
+        crowds = _tick.check_characters(characters, self._joint_count)
+        return self._tick_with_reuploads(characters, crowds, frame, 0)
+
+    def _tick_with_reuploads(self, characters: List[Character], crowds: List[Optional[int]],
+                             frame: int, slot_offset: int,
+                             results: Optional[List[CharacterResult]] = None
+                             ) -> List[CharacterResult]:
+        if results is None:
+            results = self._tick_once(characters, crowds, frame, slot_offset)
+        for _ in range(self.max_reuploads):
+            missing = _tick.not_found(characters, results, self._meshes)
+            if not missing:
+                break
+            for mesh_id in {characters[i].mesh_id for i in missing}:
+                self._upload(self._meshes[mesh_id][0])
+            again = self._tick_once([characters[i] for i in missing],
+                                    [crowds[i] for i in missing], frame, slot_offset)
+            for i, result in zip(missing, again):
+                result.index = i
+                results[i] = result
+        return results
+
+    def _tick_once(self, characters: List[Character], crowds: List[Optional[int]],
+                   frame: int, slot_offset: int) -> List[CharacterResult]:
+        request = _tick.tick_request(characters, crowds, frame, slot_offset)
+        answer = _tick.TickAnswer(characters, crowds, frame)
+        try:
+            for part in self._stub.Skin(request, timeout=self.timeout):
+                answer.add_part(part)
+        except grpc.RpcError as e:
+            raise rpc_error(e, frame) from None
+        return answer.answered()
+
+    def stream_ticks(self, ticks: Iterable[Sequence[Character]],
+                     window: int = 2) -> Iterator[List[CharacterResult]]:
+        """Tick after tick over one StreamSkin call, at most `window` unanswered: yields each
+        tick's results (as tick answers them) in order; tick i's frame number is i. A
+        character answered NOT_FOUND for a mesh this client uploaded is uploaded again and
+        sent again before its tick is yielded. Region characters: tick i writes each at its
+        offset + (i % window) * the ticks' furthest range end (the region must hold `window`
+        of those); the arrays view it until the next tick is taken. A tick refused whole, or
+        a stream that ends (UNAVAILABLE, idle), raises SkinserveError."""
+        tick_list = [list(t) for t in ticks]
+        crowds = [_tick.check_characters(t, self._joint_count) for t in tick_list]
+        _requests.check_window(window)
+        stride, region = _tick.stream_regions(tick_list, crowds, self._vertex_count, window)
+        requests = [_tick.tick_request(t, k, i, (i % window) * stride)
+                    for i, (t, k) in enumerate(zip(tick_list, crowds))]
+
+        def make(i: int) -> _tick.TickAnswer:
+            if i >= len(tick_list):
+                return _tick.TickAnswer([], [], i)
+            return _tick.TickAnswer(tick_list[i], crowds[i], i)
+
+        ended: List[Tuple[Any, str]] = []
+        answered = 0
+        with contextlib.closing(self._one_stream(requests, 0, window, False, region, ended,
+                                                 make)) as answers:
+            for index, answer in answers:
+                results = self._tick_with_reuploads(tick_list[index], crowds[index], index,
+                                                    (index % window) * stride,
+                                                    answer.answered())
+                answered = index + 1
+                yield results
+        if answered < len(tick_list):
+            code, message = ended[0] if ended else (grpc.StatusCode.UNAVAILABLE, "")
+            raise SkinserveError(code, f"stream of ticks ended: {message}", answered)
 
     # ---- the server ----------------------------------------------------------------------
     def backends(self) -> List[Dict[str, Any]]:
