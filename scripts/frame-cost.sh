@@ -3,8 +3,8 @@
 # --server-cpus with --threads compute threads, the load client pinned elsewhere, a fixed
 # open-loop load (default 32 streams of 25k x 2 at 60 fps) over each data plane in turn.
 # Per plane: the server's CPU per frame and per character, its ratio to the frame's compute
-# (skinserve-load --metrics-url) and the context switches per frame, summed over the
-# server's threads from /proc/PID/task/*/status before and after the run.
+# (skinserve-load --metrics-url) and the voluntary context switches per frame, summed over
+# the server's threads from /proc/PID/task/*/status before and after the run.
 #   scripts/frame-cost.sh OUT [options]
 #     --backend ID          (default simd)
 #     --server-cpus LIST    taskset for the server (default 0)
@@ -68,9 +68,12 @@ metrics=${metrics_port:+127.0.0.1:$metrics_port}
 echo "taskset -c $server_cpus skinserve ${server_args[*]}" | sed "s#$socket_dir#SOCKDIR#g" \
   >>"$out/command.txt"
 
-switches() {  # voluntary + involuntary context switches over the server's threads
+# Voluntary context switches over the server's threads: a thread blocked (waiting for the
+# next frame, or handing one to another thread). Involuntary ones (preemption by whatever
+# else runs on the server's cores) are left out: they say more about the machine.
+switches() {
   cat /proc/"$server"/task/*/status 2>/dev/null |
-    awk '/ctxt_switches/ {n += $2} END {print n}'
+    awk '/^voluntary_ctxt_switches/ {n += $2} END {print n}'
 }
 for plane in ${planes//,/ }; do
   before=$(switches)
@@ -97,7 +100,7 @@ new = not os.path.exists(csv)
 with open(csv, "a") as f:
     if new:
         f.write("plane,frames,server CPU us/frame,server CPU us/character,compute us,"
-                "CPU / compute,switches/frame,errors\n")
+                "CPU / compute,voluntary switches/frame,errors\n")
     f.write(f"{sys.argv[4]},{frames},{row.get('server_cpu_us_per_frame') or 0:.1f},"
             f"{row.get('server_cpu_us_per_character') or 0:.1f},"
             f"{1000 * row['server_ms']['compute']:.1f},"
