@@ -77,7 +77,7 @@ switches() {
 }
 for plane in ${planes//,/ }; do
   before=$(switches)
-  # shellcheck disable=SC2086 # extra is split on purpose
+  # shellcheck disable=SC2086,SC2206 # extra is split on purpose
   cmd=(taskset -c "$load_cpus" "$bin/skinserve-load" --target "$target" --backends "$backend"
     --vertices "$vertices" --bones "$bones" --streams "$streams" --rate "$rate"
     --duration "$seconds" --warmup 0 --data-planes "$plane" --shm-dir "$shm_dir"
