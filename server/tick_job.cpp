@@ -77,14 +77,22 @@ bool TickJob::Start(const v1::SkinRequest& request, Engine& engine,
       CharacterDone(i);  // never the last: Start holds one
     }
   }
+  // One place in the engine's queue for the whole tick (Engine::SubmitGroup).
+  group_.jobs.clear();
+  submitted_.clear();
   for (uint32_t i = 0; i < count_; ++i) {
-    FrameJob& job = *characters_[i];
-    if (job.done()) continue;  // failed before the engine
-    if (Status s = engine.Submit(&job); !s.ok()) {
-      job.Fail(std::move(s));
-      job.set_done();
-      CharacterDone(i);
-    }
+    if (characters_[i]->done()) continue;  // failed before the engine
+    group_.jobs.push_back(characters_[i].get());
+    submitted_.push_back(i);
+  }
+  verdicts_.resize(group_.jobs.size());
+  engine.SubmitGroup(&group_, verdicts_);
+  for (std::size_t k = 0; k < submitted_.size(); ++k) {
+    if (verdicts_[k].ok()) continue;
+    FrameJob& job = *characters_[submitted_[k]];
+    job.Fail(std::move(verdicts_[k]));
+    job.set_done();
+    CharacterDone(submitted_[k]);
   }
   if (pending_.fetch_sub(1) != 1) return true;  // the last character's callback finishes it
   BuildFinalPart();

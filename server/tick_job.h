@@ -79,6 +79,9 @@ class TickJob final : public StreamAnswer, private FrameJob::Listener {
   std::vector<std::unique_ptr<FrameJob>> characters_;  // [0, count_) in use; kept for reuse
   // Character i's hold on the region it writes into, kept from tick to tick.
   std::vector<RegionHandle> character_regions_;
+  SkinGroup group_;                  // the characters submitted, one queue place together
+  std::vector<uint32_t> submitted_;  // group_.jobs[k] is character submitted_[k]
+  std::vector<Status> verdicts_;     // the engine's verdict on group_.jobs[k]
   uint32_t count_ = 0;
   uint64_t frame_ = 0;
   Status status_;

@@ -464,6 +464,71 @@ TEST(EngineTest, AFullQueueSaysResourceExhausted) {
   EXPECT_EQ(engine->Stats().rejected_queue_full, 1u);
 }
 
+// A group (a tick's characters) takes one place in the queue whatever its size; each job
+// gets its own verdict, a refused one is never called back, and every accepted one is
+// skinned right, crowds included.
+TEST(EngineTest, AGroupTakesOneQueuePlaceAndEachJobItsOwnVerdict) {
+  auto engine = MakeEngine({.compute_threads = 2, .queue_capacity = 1});
+  const MeshArrays small = MakeSyntheticMesh({.vertex_count = 300, .influences = 2, .seed = 3});
+  const MeshArrays other = MakeSyntheticMesh({.vertex_count = 200, .influences = 4, .seed = 4});
+  const MeshInfo a = engine->AddMesh(small).value();
+  const MeshInfo b = engine->AddMesh(other).value();
+  constexpr int kJobs = 12;
+  std::vector<PlannedJob> jobs(kJobs);
+  std::vector<std::vector<float>> palettes(kJobs), outputs(kJobs);
+  SkinGroup group;
+  for (int i = 0; i < kJobs; ++i) {
+    const MeshInfo& info = i % 2 == 0 ? a : b;
+    const uint32_t instances = i % 3 == 0 ? 2 : 1;  // a crowd now and then
+    for (uint32_t k = 0; k < instances; ++k) {
+      const auto one = MakeSyntheticPalette(info.joint_count, 7 + i, k);
+      palettes[i].insert(palettes[i].end(), one.begin(), one.end());
+    }
+    outputs[i].assign(3ull * info.vertex_count * instances, 0.0f);
+    jobs[i].request.mesh_id = info.id;
+    jobs[i].request.backend = "serial";
+    jobs[i].request.instances = instances;
+    jobs[i].request.palette = palettes[i];
+    jobs[i].request.positions = outputs[i];
+    group.jobs.push_back(&jobs[i]);
+  }
+  jobs[5].request.palette = std::span<const float>(palettes[5]).first(12);  // short
+  jobs[8].request.mesh_id = "no-such-mesh";
+  std::vector<Status> verdicts(kJobs);
+  std::vector<std::future<Status>> done;
+  for (auto& job : jobs) done.push_back(job.done.get_future());
+  engine->SubmitGroup(&group, verdicts);
+  for (int i = 0; i < kJobs; ++i) {
+    if (i == 5) {
+      EXPECT_EQ(verdicts[i].code(), StatusCode::kInvalidArgument) << verdicts[i].ToString();
+    } else if (i == 8) {
+      EXPECT_EQ(verdicts[i].code(), StatusCode::kNotFound) << verdicts[i].ToString();
+    } else {
+      ASSERT_TRUE(verdicts[i].ok()) << i << ": " << verdicts[i].ToString();
+    }
+  }
+  for (int i = 0; i < kJobs; ++i) {
+    if (i == 5 || i == 8) {
+      EXPECT_EQ(done[i].wait_for(std::chrono::milliseconds(0)), std::future_status::timeout)
+          << "a refused job was called back";
+      continue;
+    }
+    ASSERT_TRUE(done[i].get().ok()) << i;
+    const MeshArrays& arrays = i % 2 == 0 ? small : other;
+    auto mesh = Mesh::Create(arrays).value();
+    const std::size_t floats = 12ull * mesh->joint_count();
+    const std::size_t values = 3ull * mesh->vertex_count();
+    for (uint32_t k = 0; k < jobs[i].request.instances; ++k) {
+      const Deviation d = CompareWithReference(
+          *mesh, std::span<const float>(palettes[i]).subspan(k * floats, floats),
+          std::span<const float>(outputs[i]).subspan(k * values, values), {});
+      EXPECT_TRUE(d.within_tolerance()) << "job " << i << " instance " << k;
+    }
+  }
+  engine->Shutdown();
+  EXPECT_EQ(engine->Stats().rejected_queue_full, 0u) << "12 jobs in a queue of 1: one place";
+}
+
 TEST(EngineTest, ShutdownFinishesQueuedFramesThenRefuses) {
   auto engine = MakeEngine({.compute_threads = 1});
   auto info = engine->AddMesh(MakeSyntheticMesh({.vertex_count = 5000})).value();

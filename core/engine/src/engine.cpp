@@ -361,6 +361,60 @@ class Engine::Impl {
 
   // Queues a planned job once the rest of its request is checked.
   Status Queue(SkinJob* job, void (*run)(void*, uint32_t, int), bool allow_inline) {
+    ComputePool::Task task;
+    if (Status s = Admit(job, run, &task); !s.ok()) return s;
+    if (allow_inline && pool_.TryRunInline(task)) return Status::Ok();
+    return Enqueue(task);
+  }
+
+  Status Enqueue(const ComputePool::Task& task) {
+    if (pool_.TrySubmit(task)) return Status::Ok();
+    if (shut_down_.load()) return Unavailable("the engine is shutting down");
+    rejected_.fetch_add(1);
+    return ResourceExhausted(fmt::format(
+        "the compute queue is full ({} frames waiting); retry later or keep fewer frames in "
+        "flight",
+        pool_.capacity()));
+  }
+
+  void SubmitGroup(SkinGroup* group, std::span<Status> statuses,
+                   void (*run_part)(void*, uint32_t, int),
+                   void (*run_group)(void*, uint32_t, int)) {
+    group->queued_.clear();
+    for (std::size_t i = 0; i < group->jobs.size(); ++i) {
+      SkinJob* job = group->jobs[i];
+      Status& status = statuses[i];
+      status = shut_down_.load() ? Unavailable("the engine is shutting down") : Status::Ok();
+      if (status.ok() && !job->plan_.planned) status = Plan(job);
+      ComputePool::Task task;
+      if (status.ok()) status = Admit(job, run_part, &task);
+      if (status.ok() && std::min(task.min_width, pool_.size()) > 1) {
+        status = Enqueue(task);  // a team's job: alone, as Submit queues it
+      } else if (status.ok()) {
+        group->queued_.push_back(job);
+      }
+      if (!status.ok()) job->DropPlan();
+    }
+    if (group->queued_.empty()) return;
+    ComputePool::Task task;
+    task.run = run_group;
+    task.context = group;
+    task.parts = static_cast<uint32_t>(group->queued_.size());
+    if (Status s = Enqueue(task); !s.ok()) {
+      for (std::size_t i = 0; i < group->jobs.size(); ++i) {
+        if (std::find(group->queued_.begin(), group->queued_.end(), group->jobs[i]) ==
+            group->queued_.end()) {
+          continue;
+        }
+        statuses[i] = s;
+        group->jobs[i]->DropPlan();
+      }
+      group->queued_.clear();
+    }
+  }
+
+  // Checks a planned job's request and readies its bookkeeping and its pool task.
+  Status Admit(SkinJob* job, void (*run)(void*, uint32_t, int), ComputePool::Task* task) {
     const SkinRequest& request = job->request;
     auto& entry = *static_cast<MeshStore::Entry*>(job->lease_.get());
     const Mesh& mesh = *entry.mesh();
@@ -381,22 +435,12 @@ class Engine::Impl {
     job->started_ns_.store(0);
     job->remaining_.store(instances);
     job->status_ = Status::Ok();
-    ComputePool::Task task;
-    task.run = run;
-    task.context = job;
-    task.parts = instances;
-    task.max_width = info.threads;
-    task.min_width = info.min_threads > 0 ? info.min_threads : info.threads;
-    task.work = mesh.vertex_count();
-    if (allow_inline && pool_.TryRunInline(task)) return Status::Ok();
-    if (!pool_.TrySubmit(task)) {
-      if (shut_down_.load()) return Unavailable("the engine is shutting down");
-      rejected_.fetch_add(1);
-      return ResourceExhausted(fmt::format(
-          "the compute queue is full ({} frames waiting); retry later or keep fewer frames in "
-          "flight",
-          pool_.capacity()));
-    }
+    task->run = run;
+    task->context = job;
+    task->parts = instances;
+    task->max_width = info.threads;
+    task->min_width = info.min_threads > 0 ? info.min_threads : info.threads;
+    task->work = mesh.vertex_count();
     return Status::Ok();
   }
 
@@ -572,6 +616,17 @@ bool Engine::DeleteMesh(const std::string& id) { return impl_->store_.Erase(id);
 Status Engine::Plan(SkinJob* job) { return impl_->Plan(job); }
 
 Status Engine::Submit(SkinJob* job) { return impl_->Submit(job, &Engine::RunPart); }
+
+void Engine::SubmitGroup(SkinGroup* group, std::span<Status> statuses) {
+  impl_->SubmitGroup(group, statuses, &Engine::RunPart, &Engine::RunGroupPart);
+}
+
+void Engine::RunGroupPart(void* context, uint32_t part, int threads) {
+  SkinJob* job = static_cast<SkinGroup*>(context)->queued_[part];
+  // Read first: the last instance's OnSkinned may reuse the job.
+  const uint32_t instances = std::max<uint32_t>(job->request.instances, 1);
+  for (uint32_t i = 0; i < instances; ++i) RunPart(job, i, threads);
+}
 
 Status Engine::Run(SkinJob* job) {
   return impl_->Submit(job, &Engine::RunPart, /*allow_inline=*/true);

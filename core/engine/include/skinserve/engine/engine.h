@@ -187,6 +187,17 @@ class SkinJob {
   Status status_;  // the first failure among the instances
 };
 
+// Jobs submitted together (Engine::SubmitGroup): the characters of a tick. The caller
+// keeps the group and its jobs alive, unchanged, until every accepted job's OnSkinned ran.
+class SkinGroup {
+ public:
+  std::vector<SkinJob*> jobs;
+
+ private:
+  friend class Engine;
+  std::vector<SkinJob*> queued_;  // the accepted jobs of the group's one task
+};
+
 struct BackendStats {
   std::string id;
   uint64_t frames = 0;
@@ -264,6 +275,13 @@ class Engine {
   // caller must hold no lock that OnSkinned takes. The server's reactors call this: a small
   // frame costs no thread switch to a compute thread and back.
   Status Run(SkinJob* job);
+  // Submits group->jobs together. Each is planned and checked as Submit does, and
+  // statuses[i] (jobs.size() entries) is jobs[i]'s verdict: non-OK, it was refused and is
+  // never called back. The accepted jobs take ONE place in the queue together (a tick of 64
+  // characters waits as one frame, not 64): the compute threads take them side by side,
+  // one job per thread at a time, a crowd job's instances one after another. A job whose
+  // backend needs a team of threads (OpenCL) is queued alone, as Submit would.
+  void SubmitGroup(SkinGroup* group, std::span<Status> statuses);
   // The same for a request and a callback (allocates the job: for tools and tests).
   Status Submit(SkinRequest request, SkinDone done);
   // Submit and wait: for tools and tests.
@@ -276,6 +294,7 @@ class Engine {
  private:
   class Impl;
   static void RunPart(void* job, uint32_t instance, int threads);
+  static void RunGroupPart(void* group, uint32_t part, int threads);
   explicit Engine(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
