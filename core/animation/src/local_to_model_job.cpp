@@ -32,17 +32,6 @@ Affine ToAffine(const Transform& t) {
 
 }  // namespace
 
-// a * b of two row-major 3x4 affine matrices.
-void MultiplyAffine(const Affine& a, const Affine& b, Affine& out) {
-  for (int r = 0; r < 3; ++r) {
-    const float* ar = &a.m[4 * r];
-    for (int c = 0; c < 4; ++c) {
-      out.m[4 * r + c] = ar[0] * b.m[c] + ar[1] * b.m[4 + c] + ar[2] * b.m[8 + c];
-    }
-    out.m[4 * r + 3] += ar[3];
-  }
-}
-
 Status LocalToModelJob::Validate() const {
   if (skeleton == nullptr) return InvalidArgument("local-to-model: skeleton is missing");
   const std::size_t n = skeleton->joint_count();

@@ -44,7 +44,7 @@ inline void FromSmallestThree(const float small[3], int largest, float q[4]) {
     q[c] = small[k++];
     sum += q[c] * q[c];
   }
-  q[largest] = std::sqrt(std::fmax(0.0f, 1.0f - sum));
+  q[largest] = std::sqrt(1.0f - sum > 0.0f ? 1.0f - sum : 0.0f);
 }
 
 }  // namespace skinserve::animation::detail

@@ -19,29 +19,38 @@ struct Segment {
   float seconds = 0;  // the interval's length (CUBICSPLINE tangents are per second)
 };
 
-// `global`: the last clip key time at or before t (or 0). A track keyed at every clip
-// time uses it directly; another finds its own last key at or before it.
-Segment FindSegment(const CompactClip& clip, const CompactTrack& track, uint32_t global, float t) {
+// Where the clip's key times bracket t: the segment every track keyed at all of them
+// shares (most tracks), so it is found once a sample.
+Segment FindClipSegment(const CompactClip& clip, float t) {
+  Segment s;
+  const auto after = std::upper_bound(clip.times.begin(), clip.times.end(), t);
+  if (after == clip.times.begin() || after == clip.times.end()) {
+    s.k = s.next = after == clip.times.begin() ? 0 : static_cast<uint32_t>(clip.times.size()) - 1;
+    return s;
+  }
+  s.k = static_cast<uint32_t>(after - clip.times.begin()) - 1;
+  s.next = s.k + 1;
+  s.seconds = clip.times[s.next] - clip.times[s.k];
+  s.u = std::clamp((t - clip.times[s.k]) / s.seconds, 0.0f, 1.0f);
+  return s;
+}
+
+// A track keyed at some of the clip's times: its own last key at or before the clip's
+// segment start (`global`), and the next.
+Segment FindTrackSegment(const CompactClip& clip, const CompactTrack& track, const Segment& global,
+                         float t) {
   Segment s;
   const uint32_t last = track.key_count - 1;
-  auto time_of = [&](uint32_t key) {
-    return clip
-        .times[track.key_times == kAllKeyTimes ? key : clip.key_times[track.key_times + key]];
-  };
-  if (track.key_times == kAllKeyTimes) {
-    s.k = global;
-  } else {
-    const uint16_t* keys = &clip.key_times[track.key_times];
-    const uint16_t* after = std::upper_bound(keys, keys + track.key_count, global);
-    s.k = after == keys ? 0 : static_cast<uint32_t>(after - keys) - 1;
-  }
-  if (s.k >= last || t <= time_of(0)) {  // before the first key or at/after the last
-    s.k = s.next = t <= time_of(0) ? 0 : last;
+  const uint16_t* keys = &clip.key_times[track.key_times];
+  const uint16_t* after = std::upper_bound(keys, keys + track.key_count, global.k);
+  s.k = after == keys ? 0 : static_cast<uint32_t>(after - keys) - 1;
+  if (s.k >= last || t <= clip.times[keys[0]]) {  // before the first key or at/after the last
+    s.k = s.next = t <= clip.times[keys[0]] ? 0 : last;
     return s;
   }
   s.next = s.k + 1;
-  const float t0 = time_of(s.k);
-  s.seconds = time_of(s.next) - t0;
+  const float t0 = clip.times[keys[s.k]];
+  s.seconds = clip.times[keys[s.next]] - t0;
   s.u = std::clamp((t - t0) / s.seconds, 0.0f, 1.0f);
   return s;
 }
@@ -65,7 +74,8 @@ void SmallestThree(const CompactClip& clip, const CompactTrack& track, uint32_t 
 void SampleTrack(const CompactClip& clip, const CompactTrack& track, const Segment& s, float* out) {
   const uint32_t w = track.width;
   if (track.format == TrackFormat::kConstant) {
-    std::copy_n(&clip.floats[track.floats], w, out);
+    const float* v = &clip.floats[track.floats];
+    for (uint32_t c = 0; c < w; ++c) out[c] = v[c];
     return;
   }
   if (track.format == TrackFormat::kSmallestThree16) {
@@ -148,16 +158,16 @@ Status SamplingJob::Run() const {
   } else {
     t = std::clamp(t, 0.0f, clip->duration);
   }
-  const auto after = std::upper_bound(clip->times.begin(), clip->times.end(), t);
-  const uint32_t global =
-      after == clip->times.begin() ? 0 : static_cast<uint32_t>(after - clip->times.begin()) - 1;
+  const Segment global = FindClipSegment(*clip, t);
   std::copy(skeleton->rest.begin(), skeleton->rest.end(), output.begin());
   for (const CompactTrack& track : clip->tracks) {
-    Segment s;
-    if (track.format != TrackFormat::kConstant) s = FindSegment(*clip, track, global, t);
     float* out = track.path == TrackPath::kWeights ? &morph_weights[track.weight_offset]
                                                    : Target(track, output[track.joint]);
-    SampleTrack(*clip, track, s, out);
+    if (track.format == TrackFormat::kConstant || track.key_times == kAllKeyTimes) {
+      SampleTrack(*clip, track, global, out);
+    } else {
+      SampleTrack(*clip, track, FindTrackSegment(*clip, track, global, t), out);
+    }
   }
   return Status::Ok();
 }
