@@ -40,7 +40,6 @@ struct CompactTrack {
   TrackPath path = TrackPath::kTranslation;
   Interpolation interpolation = Interpolation::kLinear;
   TrackFormat format = TrackFormat::kConstant;
-  uint8_t reserved = 0;
   uint16_t width = 0;          // floats a value
   uint16_t joint = 0;          // translation, rotation, scale: the skeleton joint
   uint32_t weight_offset = 0;  // weights: where its `width` floats go in the sampled weights
