@@ -37,6 +37,8 @@
 // optimiser leaves a real character (neighbouring vertices share bones), instead of the
 // paper's shuffled order (each vertex on a random bone); the CPU loops hardly care, a GPU's
 // palette reads do.
+// BM_Pose/<joints> and BM_PoseOneClip/<joints> (pose_benchmark.h): the animation runtime's
+// frame for one character, sampling to palette, on the timing thread alone (issue 43).
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
@@ -65,6 +67,7 @@
 #include "backends/opencl_backends.h"
 #include "backends/opencl_runtime.h"
 #include "paper_tables.h"
+#include "pose_benchmark.h"
 #include "skinserve/engine/backend_registry.h"
 #include "skinserve/model/aligned_buffer.h"
 #include "skinserve/reference/synthetic_morph.h"
@@ -656,6 +659,7 @@ int main(int argc, char** argv) {
   }
   // The bound is what memory can do, and other processes only ever slow a run down: the
   // tables take the best repetition ("max" of bytes_per_second), not the median.
+  RegisterPoseBenchmarks();  // the animation runtime's frame, beside the skinning rows
   benchmark::RegisterBenchmark("BM_MemoryBandwidth", MemoryBandwidth)
       ->UseRealTime()
       ->Unit(benchmark::kMillisecond)

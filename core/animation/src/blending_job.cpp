@@ -1,0 +1,112 @@
+#include "skinserve/animation/blending_job.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "quaternion.h"
+
+namespace skinserve::animation {
+namespace {
+
+void BlendNormal(std::span<const BlendLayer> layers, float total, std::span<Transform> out) {
+  const BlendLayer* first = nullptr;
+  for (const BlendLayer& l : layers) {
+    if (!l.additive && l.weight > 0) {
+      first = &l;
+      break;
+    }
+  }
+  for (std::size_t j = 0; j < out.size(); ++j) {
+    Transform acc;
+    acc.translation[0] = acc.translation[1] = acc.translation[2] = 0;
+    acc.rotation[3] = 0;
+    acc.scale[0] = acc.scale[1] = acc.scale[2] = 0;
+    const float* reference = first->pose[j].rotation;
+    for (const BlendLayer& l : layers) {
+      if (l.additive || l.weight <= 0) continue;
+      const Transform& t = l.pose[j];
+      const float w = l.weight / total;
+      // The shortest path: a quaternion on the other hemisphere than the first layer's
+      // is the same rotation negated.
+      const float wq = detail::Dot4(reference, t.rotation) < 0 ? -w : w;
+      for (int c = 0; c < 3; ++c) {
+        acc.translation[c] += w * t.translation[c];
+        acc.scale[c] += w * t.scale[c];
+      }
+      for (int c = 0; c < 4; ++c) acc.rotation[c] += wq * t.rotation[c];
+    }
+    detail::Normalize4(acc.rotation);
+    out[j] = acc;
+  }
+}
+
+void ApplyAdditive(const BlendLayer& l, std::span<Transform> out) {
+  const float w = l.weight;
+  for (std::size_t j = 0; j < out.size(); ++j) {
+    const Transform& a = l.pose[j];
+    Transform& t = out[j];
+    float q[4];  // nlerp(identity, a, w), on a's shortest path from identity
+    const float sign = a.rotation[3] < 0 ? -1.0f : 1.0f;
+    for (int c = 0; c < 3; ++c) q[c] = sign * w * a.rotation[c];
+    q[3] = (1 - w) + sign * w * a.rotation[3];
+    detail::Normalize4(q);
+    float r[4];
+    detail::Multiply(q, t.rotation, r);
+    for (int c = 0; c < 4; ++c) t.rotation[c] = r[c];
+    for (int c = 0; c < 3; ++c) {
+      t.translation[c] += w * a.translation[c];
+      t.scale[c] *= 1 + w * (a.scale[c] - 1);
+    }
+  }
+}
+
+}  // namespace
+
+Status BlendingJob::Validate() const {
+  if (layers.empty() || layers.size() > kMaxBlendLayers) {
+    return InvalidArgument(
+        fmt::format("blending: {} layers; 1..{} are supported", layers.size(), kMaxBlendLayers));
+  }
+  float total = 0;
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    const BlendLayer& l = layers[i];
+    if (!std::isfinite(l.weight) || l.weight < 0) {
+      return InvalidArgument(fmt::format(
+          "blending: layers[{}].weight is {}; weights are finite and >= 0", i, l.weight));
+    }
+    if (l.pose.size() != output.size()) {
+      return InvalidArgument(
+          fmt::format("blending: layers[{}].pose has {} transforms; output has {}", i,
+                      l.pose.size(), output.size()));
+    }
+    if (!morph_weights.empty() && l.morph_weights.size() != morph_weights.size()) {
+      return InvalidArgument(
+          fmt::format("blending: layers[{}].morph_weights has {} floats; output has {}", i,
+                      l.morph_weights.size(), morph_weights.size()));
+    }
+    if (!l.additive) total += l.weight;
+  }
+  if (!(total > 0)) {
+    return InvalidArgument(
+        "blending: the non-additive layers' weights sum to 0; at least one needs weight > 0");
+  }
+  return Status::Ok();
+}
+
+Status BlendingJob::Run() const {
+  if (Status s = Validate(); !s.ok()) return s;
+  float total = 0;
+  for (const BlendLayer& l : layers) total += l.additive ? 0 : l.weight;
+  BlendNormal(layers, total, output);
+  for (float& m : morph_weights) m = 0;
+  for (const BlendLayer& l : layers) {
+    if (l.additive && l.weight > 0) ApplyAdditive(l, output);
+    const float w = l.additive ? l.weight : l.weight / total;
+    for (std::size_t i = 0; i < morph_weights.size(); ++i)
+      morph_weights[i] += w * l.morph_weights[i];
+  }
+  return Status::Ok();
+}
+
+}  // namespace skinserve::animation

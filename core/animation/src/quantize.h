@@ -1,0 +1,50 @@
+// The compact clip's encodings of one value, shared by the builder and the sampler so the
+// two can never disagree: 16-bit range quantization and smallest-three quaternions.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+namespace skinserve::animation::detail {
+
+inline constexpr float kQuantSteps = 65535.0f;
+inline constexpr float kSqrtHalf = 0.70710678118654752f;
+
+inline uint16_t QuantizeRange(float v, float min, float step) {
+  if (!(step > 0)) return 0;
+  const float q = std::round((v - min) / step);
+  return static_cast<uint16_t>(q < 0 ? 0 : (q > kQuantSteps ? kQuantSteps : q));
+}
+inline float DequantizeRange(uint16_t q, float min, float step) { return min + step * q; }
+
+// Smallest-three: q and -q are one rotation, so the largest component is made positive
+// and left out; the other three (in order) lie in [-1/sqrt2, 1/sqrt2]. Returns its index.
+inline int SmallestThree(const float q_in[4], float out[3]) {
+  double q[4];
+  double length = 0;
+  for (int c = 0; c < 4; ++c) length += double{q_in[c]} * q_in[c];
+  length = std::sqrt(length);
+  int largest = 0;
+  for (int c = 0; c < 4; ++c) {
+    q[c] = q_in[c] / length;
+    if (std::fabs(q[c]) > std::fabs(q[largest])) largest = c;
+  }
+  const double sign = q[largest] < 0 ? -1.0 : 1.0;
+  for (int c = 0, k = 0; c < 4; ++c) {
+    if (c != largest) out[k++] = static_cast<float>(sign * q[c]);
+  }
+  return largest;
+}
+
+// The rotation from its three smaller components and the largest one's index.
+inline void FromSmallestThree(const float small[3], int largest, float q[4]) {
+  float sum = 0;
+  for (int c = 0, k = 0; c < 4; ++c) {
+    if (c == largest) continue;
+    q[c] = small[k++];
+    sum += q[c] * q[c];
+  }
+  q[largest] = std::sqrt(1.0f - sum > 0.0f ? 1.0f - sum : 0.0f);
+}
+
+}  // namespace skinserve::animation::detail

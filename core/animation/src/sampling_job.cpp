@@ -1,0 +1,175 @@
+#include "skinserve/animation/sampling_job.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "quantize.h"
+#include "quaternion.h"
+
+namespace skinserve::animation {
+namespace {
+
+// Where a track's keys bracket the sample: key k, the next, and how far between (u).
+struct Segment {
+  uint32_t k = 0;
+  uint32_t next = 0;
+  float u = 0;
+  float seconds = 0;  // the interval's length (CUBICSPLINE tangents are per second)
+};
+
+// Where the clip's key times bracket t: the segment every track keyed at all of them
+// shares (most tracks), so it is found once a sample.
+Segment FindClipSegment(const CompactClip& clip, float t) {
+  Segment s;
+  const auto after = std::upper_bound(clip.times.begin(), clip.times.end(), t);
+  if (after == clip.times.begin() || after == clip.times.end()) {
+    s.k = s.next = after == clip.times.begin() ? 0 : static_cast<uint32_t>(clip.times.size()) - 1;
+    return s;
+  }
+  s.k = static_cast<uint32_t>(after - clip.times.begin()) - 1;
+  s.next = s.k + 1;
+  s.seconds = clip.times[s.next] - clip.times[s.k];
+  s.u = std::clamp((t - clip.times[s.k]) / s.seconds, 0.0f, 1.0f);
+  return s;
+}
+
+// A track keyed at some of the clip's times: its own last key at or before the clip's
+// segment start (`global`), and the next.
+Segment FindTrackSegment(const CompactClip& clip, const CompactTrack& track, const Segment& global,
+                         float t) {
+  Segment s;
+  const uint32_t last = track.key_count - 1;
+  const uint16_t* keys = &clip.key_times[track.key_times];
+  const uint16_t* after = std::upper_bound(keys, keys + track.key_count, global.k);
+  s.k = after == keys ? 0 : static_cast<uint32_t>(after - keys) - 1;
+  if (s.k >= last || t <= clip.times[keys[0]]) {  // before the first key or at/after the last
+    s.k = s.next = t <= clip.times[keys[0]] ? 0 : last;
+    return s;
+  }
+  s.next = s.k + 1;
+  const float t0 = clip.times[keys[s.k]];
+  s.seconds = clip.times[keys[s.next]] - t0;
+  s.u = std::clamp((t - t0) / s.seconds, 0.0f, 1.0f);
+  return s;
+}
+
+// Component `col` of key `k` of a kRange16 track whose keys hold `columns` components.
+float Range16(const CompactClip& clip, const CompactTrack& track, uint32_t k, uint32_t columns,
+              uint32_t col) {
+  const float* range = &clip.floats[track.floats + 2 * col];
+  return detail::DequantizeRange(clip.words[track.words + k * columns + col], range[0], range[1]);
+}
+
+void SmallestThree(const CompactClip& clip, const CompactTrack& track, uint32_t k, float q[4]) {
+  const uint32_t slot = track.largest + k;
+  const int largest = (clip.largest[slot / 4] >> (2 * (slot % 4))) & 3;
+  float small[3];
+  for (uint32_t c = 0; c < 3; ++c) small[c] = Range16(clip, track, k, 3, c);
+  detail::FromSmallestThree(small, largest, q);
+}
+
+// A track's value at the segment into out[0..width).
+void SampleTrack(const CompactClip& clip, const CompactTrack& track, const Segment& s, float* out) {
+  const uint32_t w = track.width;
+  if (track.format == TrackFormat::kConstant) {
+    const float* v = &clip.floats[track.floats];
+    for (uint32_t c = 0; c < w; ++c) out[c] = v[c];
+    return;
+  }
+  if (track.format == TrackFormat::kSmallestThree16) {
+    float a[4];
+    SmallestThree(clip, track, s.k, a);
+    if (track.interpolation == Interpolation::kStep || s.next == s.k) {
+      std::copy_n(a, 4, out);
+      return;
+    }
+    float b[4];
+    SmallestThree(clip, track, s.next, b);
+    detail::Slerp(a, b, s.u, out);
+    return;
+  }
+  const bool cubic = track.interpolation == Interpolation::kCubicSpline;
+  const uint32_t columns = cubic ? 3 * w : w, value = cubic ? w : 0;
+  if (track.interpolation == Interpolation::kStep || s.next == s.k) {
+    for (uint32_t c = 0; c < w; ++c) out[c] = Range16(clip, track, s.k, columns, value + c);
+  } else if (!cubic) {
+    for (uint32_t c = 0; c < w; ++c) {
+      const float a = Range16(clip, track, s.k, columns, c);
+      out[c] = a + s.u * (Range16(clip, track, s.next, columns, c) - a);
+    }
+  } else {  // Hermite: value, out-tangent of k; value, in-tangent of next
+    const float u = s.u, u2 = u * u, u3 = u2 * u;
+    const float h00 = 2 * u3 - 3 * u2 + 1, h10 = (u3 - 2 * u2 + u) * s.seconds;
+    const float h01 = -2 * u3 + 3 * u2, h11 = (u3 - u2) * s.seconds;
+    for (uint32_t c = 0; c < w; ++c) {
+      out[c] = h00 * Range16(clip, track, s.k, columns, w + c) +
+               h10 * Range16(clip, track, s.k, columns, 2 * w + c) +
+               h01 * Range16(clip, track, s.next, columns, w + c) +
+               h11 * Range16(clip, track, s.next, columns, c);
+    }
+  }
+  if (track.path == TrackPath::kRotation) detail::Normalize4(out);
+}
+
+float* Target(const CompactTrack& track, Transform& t) {
+  switch (track.path) {
+    case TrackPath::kTranslation:
+      return t.translation;
+    case TrackPath::kRotation:
+      return t.rotation;
+    default:
+      return t.scale;
+  }
+}
+
+}  // namespace
+
+Status SamplingJob::Validate() const {
+  if (skeleton == nullptr) return InvalidArgument("sampling: skeleton is missing");
+  if (clip == nullptr) return InvalidArgument("sampling: clip is missing");
+  if (clip->joint_count != skeleton->joint_count()) {
+    return InvalidArgument(
+        fmt::format("sampling: clip {} was built for a skeleton of {} joints; this one has {}",
+                    clip->id, clip->joint_count, skeleton->joint_count()));
+  }
+  if (!std::isfinite(time)) {
+    return InvalidArgument(fmt::format("sampling: time is {}; it must be finite seconds", time));
+  }
+  if (output.size() != skeleton->joint_count()) {
+    return InvalidArgument(
+        fmt::format("sampling: output has {} transforms; the skeleton has {} joints", output.size(),
+                    skeleton->joint_count()));
+  }
+  if (morph_weights.size() != clip->weight_count) {
+    return InvalidArgument(fmt::format("sampling: morph_weights has {} floats; clip {} samples {}",
+                                       morph_weights.size(), clip->id, clip->weight_count));
+  }
+  return Status::Ok();
+}
+
+Status SamplingJob::Run() const {
+  if (Status s = Validate(); !s.ok()) return s;
+  float t = time;
+  if (mode == TimeMode::kLoop && clip->duration > 0) {
+    t = std::fmod(t, clip->duration);
+    if (t < 0) t += clip->duration;
+  } else {
+    t = std::clamp(t, 0.0f, clip->duration);
+  }
+  const Segment global = FindClipSegment(*clip, t);
+  std::copy(skeleton->rest.begin(), skeleton->rest.end(), output.begin());
+  for (const CompactTrack& track : clip->tracks) {
+    float* out = track.path == TrackPath::kWeights ? &morph_weights[track.weight_offset]
+                                                   : Target(track, output[track.joint]);
+    if (track.format == TrackFormat::kConstant || track.key_times == kAllKeyTimes) {
+      SampleTrack(*clip, track, global, out);
+    } else {
+      SampleTrack(*clip, track, FindTrackSegment(*clip, track, global, t), out);
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace skinserve::animation

@@ -1,0 +1,28 @@
+// A glTF character's skin and clips as the animation runtime's inputs
+// (skinserve/animation): the skeleton and raw clips the server stores and samples.
+#pragma once
+
+#include <vector>
+
+#include "skinserve/animation/raw_clip.h"
+#include "skinserve/animation/skeleton.h"
+#include "skinserve/character/character.h"
+#include "skinserve/model/status.h"
+
+namespace skinserve {
+
+struct Rig {
+  animation::Skeleton skeleton;
+  std::vector<int> nodes;  // the character's node of each skeleton joint
+};
+
+// The skin's joints and their ancestors (an armature node above them moves them too),
+// parents before children; palette entry p is skin.joints[p] with its inverse bind.
+// INVALID_ARGUMENT for a bad skin index or an inverse bind that is not affine.
+Result<Rig> RigFromSkin(const Character& character, int skin);
+
+// The clip's channels on the rig's joints and its morph weights channels (target: the
+// glTF node). Channels on nodes outside the rig (rigid parts' nodes) are left out.
+animation::RawClip RawClipFromCharacter(const AnimationClip& clip, const Rig& rig);
+
+}  // namespace skinserve
