@@ -7,7 +7,8 @@ A page asks for a table with two markers; everything between them is rewritten:
     ... (generated) ...
     <!-- end table -->
 
-The path is relative to docs/ (also in README.md). Options may follow the path:
+The path is relative to docs/ (also in README.md); a data file may be compressed (NAME.xz,
+NAME.gz: read as it is). Options may follow the path:
     columns=0,2-4     only these columns of a CSV (0-based; ranges allowed)
     rows=0-3          only these data rows of a CSV (0-based; ranges allowed)
     view=figure5      a Google Benchmark JSON of skinserve-bench --paper-tables (M vertices/s
@@ -31,8 +32,10 @@ Usage:
 Python 3 standard library only.
 """
 import csv
+import gzip
 import html.parser
 import json
+import lzma
 import os
 import re
 import sys
@@ -49,6 +52,15 @@ NUMBER = re.compile(r"^[-+]?[0-9][0-9,]*(\.[0-9]+)?(x|%| ms| us)?$")
 
 class TableError(Exception):
     pass
+
+
+def open_text(path):
+    """A data file as text; a large one may be kept compressed (NAME.xz or NAME.gz)."""
+    if path.endswith(".xz"):
+        return lzma.open(path, "rt", encoding="utf-8", newline="")
+    if path.endswith(".gz"):
+        return gzip.open(path, "rt", encoding="utf-8", newline="")
+    return open(path, encoding="utf-8", newline="")
 
 
 def parse_indexes(text):
@@ -95,7 +107,7 @@ def markdown_table(header, rows, right=None):
 
 
 def csv_view(path, options):
-    with open(path, newline="", encoding="utf-8") as f:
+    with open_text(path) as f:
         table = [row for row in csv.reader(f) if row and not row[0].startswith("#")]
     if not table:
         raise TableError(f"{path} is empty")
@@ -114,7 +126,7 @@ def csv_view(path, options):
 
 def figure5_view(path, options):
     """M vertices/s per series and (vertices, bones), medians, as scripts/figure5-plot.sh."""
-    with open(path, encoding="utf-8") as f:
+    with open_text(path) as f:
         data = json.load(f)
     rates = {}  # (series, vertices, bones) -> M vertices/s
     series = []
@@ -174,7 +186,7 @@ def chunks_view(path, options):
     values = {}
     names = []
     current = None
-    with open(path, encoding="utf-8") as f:
+    with open_text(path) as f:
         for line in f:
             m = re.match(r"^== chunks (\d+)", line)
             if m:
@@ -207,7 +219,7 @@ def data_plane_view(path, options):
     """scripts/data-plane.sh's run: its bench.json (the engine alone, medians) beside the
     load client's service-<vertices>.json (both data planes), in M vertices/s and as the
     engine's share."""
-    with open(path, encoding="utf-8") as f:
+    with open_text(path) as f:
         bench = json.load(f)
     folder = os.path.dirname(path)
     engine = {}  # (backend, vertices) -> vertices/s
@@ -220,7 +232,7 @@ def data_plane_view(path, options):
         service = os.path.join(folder, f"service-{vertices}.json")
         if not os.path.isfile(service):
             raise TableError(f"{os.path.relpath(service, DOCS)} does not exist")
-        with open(service, encoding="utf-8") as f:
+        with open_text(service) as f:
             results = json.load(f)["results"]
         planes = {r.get("data_plane", "grpc"): r["vertices_per_second"] for r in results
                   if r["backend"] == backend}
@@ -242,7 +254,7 @@ def capacity_view(path, options):
     pattern = re.compile(r"^capacity: (\d+) characters \((\d+) streams x "
                          r"(?:(\d+) characters a tick x )?(\d+) instances, "
                          r"([0-9.]+) (?:fps|ticks/s), ([^,]+), ([^,)]+)")
-    with open(path, encoding="utf-8") as f:
+    with open_text(path) as f:
         for line in f:
             m = pattern.match(line)
             if m:
@@ -268,7 +280,7 @@ def render(page, spec):
         raise TableError(f"data file {rel} (docs/{rel}) does not exist")
     view = options.get("view")
     if view is None:
-        if not path.endswith(".csv"):
+        if not re.sub(r"\.(xz|gz)$", "", path).endswith(".csv"):
             raise TableError(f"{rel}: only .csv files render without view=")
         lines = csv_view(path, options)
     elif view in VIEWS:
@@ -382,7 +394,7 @@ def check_site(site):
             if name.endswith(".html"):
                 path = os.path.join(base, name)
                 p = Anchors()
-                with open(path, encoding="utf-8") as f:
+                with open_text(path) as f:
                     p.feed(f.read())
                 parsed[os.path.normpath(path)] = p
     bad = []

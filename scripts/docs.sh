@@ -23,10 +23,15 @@ if [ "$status" -ne 0 ]; then
   echo "docs: mkdocs build --strict failed" >&2
   exit 1
 fi
-# MkDocs 1.4 reports a page left out of the navigation as INFO, not as a warning.
-if grep -q 'not included in the "nav" configuration' "$log"; then
-  sed -n '/not included in the "nav" configuration/,/^INFO/p' "$log" >&2
-  echo "docs: every page must be in mkdocs.yml's nav" >&2
+# MkDocs 1.4 reports a page left out of the navigation as INFO, not as a warning. A run's
+# page (results/<run>/SOURCE.md) stays out of the navigation on purpose: the results index
+# lists every run (docs-tables.py --check fails on a run it does not list). MkDocs 1.5 would
+# say this with not_in_nav; Debian 12's MkDocs is 1.4, so the check is here.
+left_out=$(sed -n '/not included in the "nav" configuration/,/^[A-Z]/p' "$log" |
+  grep '^  - ' | grep -Ev '^  - results/[^/]+/SOURCE\.md$' || true)
+if [ -n "$left_out" ]; then
+  echo "$left_out" >&2
+  echo "docs: every page but a run's SOURCE.md must be in mkdocs.yml's nav" >&2
   exit 1
 fi
 python3 "$root/scripts/docs-tables.py" --check-site "$build/site"
