@@ -12,6 +12,7 @@
 #     --tick-streams N   streams of the tick frame-cost runs (default 4)
 #     --repeats N        frame-cost runs per build, alternating (default 2)
 #     --no-capacity      skip the capacity searches
+#     --capacities LIST  which of base,new,tick (default all three; base needs --base)
 # Writes OUT/cost-{base,new}-R (scripts/frame-cost.sh), OUT/cost-tick-R, OUT/capacity-*.json
 # and .txt, OUT/command.txt, OUT/machine.txt, and OUT/summary.csv (one row per run).
 set -euo pipefail
@@ -19,7 +20,7 @@ out=${1:?usage: small-frames.sh OUT [options]}
 shift
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 new=$root/build/bin base="" backend=simd-openmp threads=2 server_cpus=0,1 load_cpus=2-15
-streams=64 tick=64 tick_streams=4 repeats=2 capacity=1
+streams=64 tick=64 tick_streams=4 repeats=2 capacity=1 capacities=base,new,tick
 while [ $# -gt 0 ]; do
   case "$1" in
     --new) new=$2; shift 2 ;;
@@ -33,6 +34,7 @@ while [ $# -gt 0 ]; do
     --tick-streams) tick_streams=$2; shift 2 ;;
     --repeats) repeats=$2; shift 2 ;;
     --no-capacity) capacity=0; shift ;;
+    --capacities) capacities=$2; shift 2 ;;
     *) echo "small-frames: unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -47,7 +49,7 @@ source "$root/scripts/lib/port-file.sh"
 } >"$out/machine.txt"
 echo "scripts/small-frames.sh OUT --backend $backend --threads $threads --server-cpus $server_cpus" \
   "--load-cpus $load_cpus --streams $streams --tick $tick --tick-streams $tick_streams" \
-  "--repeats $repeats${base:+ --base BASE}" >"$out/command.txt"
+  "--repeats $repeats --capacities $capacities${base:+ --base BASE}" >"$out/command.txt"
 echo "run,build,plane,frames,server CPU us/frame,server CPU us/character,compute us,CPU / compute,voluntary switches/frame,errors" \
   >"$out/summary.csv"
 
@@ -96,6 +98,11 @@ capacity() {  # NAME BIN [skinserve-load options]
   rm -rf "$socket_dir" "$port_file" "$log"
   grep -iE 'capacity|held' "$out/$name.txt" | tail -3 | sed "s/^/$name /"
 }
-[ -n "$base" ] && capacity capacity-base "$base" --capacity-max-streams 1024
-capacity capacity-new "$new" --capacity-max-streams 1024
-capacity capacity-tick "$new" --characters-per-tick "$tick" --capacity-max-streams 64
+wanted() { [[ ",$capacities," == *",$1,"* ]]; }
+if [ -n "$base" ] && wanted base; then
+  capacity capacity-base "$base" --capacity-max-streams 1024
+fi
+if wanted new; then capacity capacity-new "$new" --capacity-max-streams 1024; fi
+if wanted tick; then
+  capacity capacity-tick "$new" --characters-per-tick "$tick" --capacity-max-streams 64
+fi
