@@ -128,7 +128,8 @@ class Client(ClientCore):
         known = self._known_vertex_count(mesh_id)
         if known is not None:
             return known
-        return int(self._unary(self._stub.GetMesh, pb.GetMeshRequest(mesh_id=mesh_id)).vertex_count)
+        return int(self._unary(self._stub.GetMesh,
+                               pb.GetMeshRequest(mesh_id=mesh_id)).vertex_count)
 
     def _unary(self, method: Any, request: Any) -> Any:
         try:
