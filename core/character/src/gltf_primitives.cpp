@@ -342,7 +342,7 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
     }
   }
   // Every vertex's weights are divided by their sum. The spec asks for a sum of 1, but
-  // quantised (UNSIGNED_BYTE) weights and exporters' rounding miss it by more than
+  // quantized (UNSIGNED_BYTE) weights and exporters' rounding miss it by more than
   // Mesh::Create's kWeightSumTolerance (1e-3), which it rejects by default; dividing here
   // makes the importer's output pass that validator, and leaves a weight sum of exactly 1
   // up to float rounding, so skinning never scales a vertex.

@@ -112,7 +112,7 @@ Status SkinFrame::ValidateEncoded(const Mesh& mesh) const {
                                          EncodedTangentBytes(encoded.encoding, v)));
     }
   }
-  if (QuantisedToBox(encoded.encoding) && encoded.bounds == nullptr) {
+  if (QuantizedToBox(encoded.encoding) && encoded.bounds == nullptr) {
     return InvalidArgument(fmt::format("encoded.bounds is null; {} needs the instance's box",
                                        VertexEncodingName(encoded.encoding)));
   }

@@ -307,7 +307,7 @@ void SkinHostEncodedBenchmark(benchmark::State& state, Backend* backend, uint32_
                          .normals = float_normals.span()};
     if (Status s = backend->Skin(prepared, skin); !s.ok()) return s;
     Bounds box;
-    if (QuantisedToBox(encoding)) {
+    if (QuantizedToBox(encoding)) {
       Result<Bounds> computed = ComputeBounds(floats.span());
       if (!computed.ok()) return computed.status();
       box = *computed;

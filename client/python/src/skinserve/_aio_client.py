@@ -11,17 +11,17 @@ import grpc.aio
 import numpy as np
 import numpy.typing as npt
 
-from . import _answers, _arrays, _channel, _requests, _tick
-from ._errors import SkinserveError, rpc_error
+from . import _answers, _core, _requests, _tick
+from ._core import ClientCore, FrameStream, TickStream
+from ._errors import rpc_error
 from ._frame import Answer, FloatArray, Frame
 from ._morph import FrameWeights, MorphTarget
-from ._service import SkinningStub
 from ._shared_memory import SharedMemoryRegion
 from ._tick import Character, CharacterResult
 from .v1 import skinning_pb2 as pb
 
 
-class AsyncClient:
+class AsyncClient(ClientCore):
     """skinserve.Client for asyncio: the same constructor arguments (target, TLS,
     timeouts, keepalive, max_reuploads, max_reconnects) and methods, as coroutines, and
     `stream` as an async generator. Create it inside a running event loop:
@@ -36,25 +36,7 @@ class AsyncClient:
     ends UNAVAILABLE or idle resumes on a new one, errors are SkinserveError.
     """
 
-    def __init__(self, target: str, max_reuploads: int = 8, max_reconnects: int = 3,
-                 tls_ca: Optional[str] = None, tls_cert: Optional[str] = None,
-                 tls_key: Optional[str] = None, tls_server_name: Optional[str] = None,
-                 timeout: Optional[float] = 30.0, upload_timeout: Optional[float] = 300.0,
-                 stream_idle_timeout: Optional[float] = 30.0,
-                 keepalive: Optional[float] = 10.0, keepalive_timeout: float = 5.0) -> None:
-        self.target = target
-        self.max_reuploads, self.max_reconnects = max_reuploads, max_reconnects
-        self.timeout, self.upload_timeout = timeout, upload_timeout
-        self.stream_idle_timeout = stream_idle_timeout
-        credentials = _channel.credentials(tls_ca, tls_cert, tls_key, tls_server_name)
-        options = _channel.options(keepalive, keepalive_timeout, tls_server_name)
-        if credentials is None:
-            self._channel = grpc.aio.insecure_channel(target, options=options)
-        else:
-            self._channel = grpc.aio.secure_channel(target, credentials, options=options)
-        self._stub = SkinningStub(self._channel)
-        # mesh id -> (requests to upload it again, joint count, vertex count)
-        self._meshes: Dict[str, Tuple[List[pb.UploadMeshRequest], int, int]] = {}
+    _grpc = grpc.aio
 
     async def close(self) -> None:
         await self._channel.close()
@@ -77,10 +59,7 @@ class AsyncClient:
         requests = _requests.upload_requests(positions, joints, weights, normals,
                                              normalize_weights, joint_count, morph_targets,
                                              tangents, rest_encoding)
-        info = await self._upload(requests)
-        self._meshes[info.mesh_id] = (requests, requests[0].header.joint_count,
-                                      requests[0].header.vertex_count)
-        return str(info.mesh_id)
+        return self._remember(requests, await self._upload(requests))
 
     async def _upload(self, requests: List[pb.UploadMeshRequest]) -> pb.MeshInfo:
         try:
@@ -90,18 +69,10 @@ class AsyncClient:
         except grpc.RpcError as e:
             raise rpc_error(e) from None
 
-    async def _reupload(self, mesh_id: str, error: SkinserveError) -> None:
-        if mesh_id not in self._meshes:
-            raise error  # not uploaded through this client: nothing to send again
-        await self._upload(self._meshes[mesh_id][0])
-
-    def _joint_count(self, mesh_id: str) -> Optional[int]:
-        known = self._meshes.get(mesh_id)
-        return known[1] if known else None
-
     async def _vertex_count(self, mesh_id: str) -> int:
-        if mesh_id in self._meshes:
-            return self._meshes[mesh_id][2]
+        known = self._known_vertex_count(mesh_id)
+        if known is not None:
+            return known
         return int((await self._unary(self._stub.GetMesh,
                                       pb.GetMeshRequest(mesh_id=mesh_id))).vertex_count)
 
@@ -125,11 +96,7 @@ class AsyncClient:
 
     async def unregister_region(self, region_or_name: Union[SharedMemoryRegion, str]) -> None:
         """Client.unregister_region: returns once the server has unmapped the region."""
-        region: Optional[SharedMemoryRegion] = None
-        if isinstance(region_or_name, SharedMemoryRegion):
-            region, name = region_or_name, region_or_name.name
-        else:
-            name = region_or_name
+        region, name = self._region_and_name(region_or_name)
         await self._unary(self._stub.UnregisterRegion, pb.UnregisterRegionRequest(name=name))
         if region is not None:
             region.name = None
@@ -175,9 +142,8 @@ class AsyncClient:
         """Client.skin: one frame, a single palette (J, 3, 4) or a crowd (K, J, 3, 4),
         with its morph weights ({target: weight}, or one such per crowd instance);
         want_tangents answers (positions, normals, tangents)."""
-        crowd = _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
-        request = _requests.skin_request(mesh_id, palette, crowd, frame, backend, want_normals,
-                                         encoding, region, offset, morph_weights, want_tangents)
+        crowd, request = self._skin_request(mesh_id, palette, backend, want_normals, encoding,
+                                            frame, region, offset, morph_weights, want_tangents)
         for attempt in range(self.max_reuploads + 1):
             result = Frame(crowd)
             try:
@@ -185,10 +151,7 @@ class AsyncClient:
                     result.add_part(part, want_normals, region)
                 return result.result(want_normals, want_tangents)
             except grpc.RpcError as e:
-                error = rpc_error(e, frame)
-                if e.code() != grpc.StatusCode.NOT_FOUND or attempt == self.max_reuploads:
-                    raise error from None
-                await self._reupload(mesh_id, error)
+                await self._upload(self._retry_frame(e, attempt, frame, mesh_id))
         raise AssertionError("unreachable")
 
     @overload
@@ -229,50 +192,24 @@ class AsyncClient:
         at most `window` unanswered, yielded in order. To stop early, close it
         (`async with contextlib.aclosing(client.stream(...)) as frames:`): that cancels the
         call at once, rather than when the generator is collected."""
-        palettes = list(palettes)
-        joints = self._joint_count(mesh_id)
-        crowds = [_arrays.check_palette(f"palettes[{i}]", palette, joints)
-                  for i, palette in enumerate(palettes)]
-        _requests.check_window(window)
-        _requests.check_encoding(encoding)
-        weights = _requests.stream_weights(morph_weights, len(palettes))
-        stride = 0
-        if region is not None:
-            stride = _requests.region_stride(await self._vertex_count(mesh_id), crowds,
-                                             want_normals, encoding, window, region,
-                                             want_tangents)
-        requests = [_requests.skin_request(mesh_id, p, k, i, backend, want_normals, encoding,
-                                           region, (i % window) * stride, w, want_tangents)
-                    for i, (p, k, w) in enumerate(zip(palettes, crowds, weights))]
-        next_frame, reuploads, reconnects = 0, 0, 0
-        while next_frame < len(requests):
-            restart: Optional[SkinserveError] = None
-            ended: List[Tuple[Any, str]] = []
-            answers = self._one_stream(requests, next_frame, window, want_normals, region,
-                                       ended)
+        frames = FrameStream(self, mesh_id, palettes, backend, want_normals, encoding, window,
+                             region, morph_weights, want_tangents)
+        frames.build(await self._vertex_count(mesh_id) if region is not None else 0)
+        while not frames.done:
+            ended = frames.open()
+            answers = self._one_stream(frames.requests, frames.next_frame, window, want_normals,
+                                       region, ended)
             try:
                 async for index, frame in answers:
-                    if frame.error is None:
-                        next_frame = index + 1
-                        yield frame.result(want_normals, want_tangents)
-                        continue
-                    code, message = frame.error
-                    error = SkinserveError(code, message, index)
-                    if code != grpc.StatusCode.NOT_FOUND or reuploads >= self.max_reuploads:
-                        raise error
-                    restart = error
-                    break
+                    answer = frames.answer(index, frame)
+                    if answer is None:
+                        break  # NOT_FOUND: upload the mesh again and resume from the frame
+                    yield answer
             finally:
                 await answers.aclose()
-            if restart is not None:  # resume from the frame that was NOT_FOUND
-                reuploads += 1
-                await self._reupload(mesh_id, restart)
-            elif next_frame < len(requests):  # the stream ended UNAVAILABLE or idle early
-                reconnects += 1
-                if reconnects > self.max_reconnects:
-                    code, message = ended[0] if ended else (grpc.StatusCode.UNAVAILABLE, "")
-                    raise SkinserveError(code, f"stream ended {reconnects} times, the last: "
-                                         f"{message}", next_frame)
+            again = frames.closed()
+            if again is not None:
+                await self._upload(again)
 
     async def _one_stream(self, requests: List[pb.SkinRequest], first: int, window: int,
                           want_normals: bool, region: Optional[SharedMemoryRegion],
@@ -314,20 +251,14 @@ class AsyncClient:
                     return None
             return await reading
 
-        def new_frame(i: int) -> Any:  # the frame answering requests[i]; past the end, one never filled
-            if make_frame is not None:
-                return make_frame(i)
-            return Frame((requests[i].instances or None) if i < len(requests) else None)
-
+        new_frame = _core.new_frame(requests, make_frame)
         sender = asyncio.ensure_future(send())
         frame, index = new_frame(first), first
         try:
             while True:
                 part = await read()
                 if part is None:
-                    ended.append((grpc.StatusCode.DEADLINE_EXCEEDED,
-                                  f"no answer for {self.stream_idle_timeout} s with frames "
-                                  "in flight (stream_idle_timeout)"))
+                    ended.append(self._stream_idle_ended())
                     return
                 if part is grpc.aio.EOF:
                     return
@@ -372,16 +303,14 @@ class AsyncClient:
         if results is None:
             results = await self._tick_once(characters, crowds, frame, slot_offset)
         for _ in range(self.max_reuploads):
-            missing = _tick.not_found(characters, results, self._meshes)
+            missing, uploads = self._tick_reuploads(characters, results)
             if not missing:
                 break
-            for mesh_id in {characters[i].mesh_id for i in missing}:
-                await self._upload(self._meshes[mesh_id][0])
+            for requests in uploads:
+                await self._upload(requests)
             again = await self._tick_once([characters[i] for i in missing],
                                           [crowds[i] for i in missing], frame, slot_offset)
-            for i, result in zip(missing, again):
-                result.index = i
-                results[i] = result
+            _core.merge_tick_results(results, missing, again)
         return results
 
     async def _tick_once(self, characters: List[Character], crowds: List[Optional[int]],
@@ -399,35 +328,21 @@ class AsyncClient:
                            window: int = 2) -> AsyncIterator[List[CharacterResult]]:
         """Client.stream_ticks as an async generator: tick after tick over one StreamSkin
         call, at most `window` unanswered, each tick's results yielded in order."""
-        tick_list = [list(t) for t in ticks]
-        crowds = [_tick.check_characters(t, self._joint_count) for t in tick_list]
-        _requests.check_window(window)
-        vertex_counts = {c.mesh_id: await self._vertex_count(c.mesh_id)
-                         for t in tick_list for c in t if c.region is not None}
-        stride, region = _tick.stream_regions(tick_list, crowds, vertex_counts.__getitem__, window)
-        requests = [_tick.tick_request(t, k, i, (i % window) * stride)
-                    for i, (t, k) in enumerate(zip(tick_list, crowds))]
-
-        def make(i: int) -> _tick.TickAnswer:
-            if i >= len(tick_list):
-                return _tick.TickAnswer([], [], i)
-            return _tick.TickAnswer(tick_list[i], crowds[i], i)
-
-        ended: List[Tuple[Any, str]] = []
+        plan = TickStream(self, ticks, window)
+        plan.build({m: await self._vertex_count(m) for m in plan.region_meshes()})
         answered = 0
-        answers = self._one_stream(requests, 0, window, False, region, ended, make)
+        answers = self._one_stream(plan.requests, 0, window, False, plan.region, plan.ended,
+                                   plan.make_answer)
         try:
             async for index, answer in answers:
-                results = await self._tick_with_reuploads(tick_list[index], crowds[index], index,
-                                                          (index % window) * stride,
+                results = await self._tick_with_reuploads(plan.ticks[index], plan.crowds[index],
+                                                          index, plan.slot_offset(index),
                                                           answer.answered())
                 answered = index + 1
                 yield results
         finally:
             await answers.aclose()
-        if answered < len(tick_list):
-            code, message = ended[0] if ended else (grpc.StatusCode.UNAVAILABLE, "")
-            raise SkinserveError(code, f"stream of ticks ended: {message}", answered)
+        plan.check_finished(answered)
 
     # ---- the server ----------------------------------------------------------------------
     async def backends(self) -> List[Dict[str, Any]]:

@@ -10,13 +10,13 @@ import grpc
 import numpy as np
 import numpy.typing as npt
 
-from . import _answers, _arrays, _channel, _requests, _tick
-from ._errors import SkinserveError, rpc_error
+from . import _answers, _core, _requests, _tick
+from ._core import ClientCore, FrameStream, TickStream
+from ._errors import rpc_error
 from ._frame import Answer, FloatArray, Frame
 from ._morph import FrameWeights, MorphTarget
 from ._shared_memory import SharedMemoryRegion
 from ._tick import Character, CharacterResult
-from ._service import SkinningStub
 from .v1 import skinning_pb2 as pb
 
 
@@ -55,7 +55,7 @@ class _IdleWatchdog:
         self._done.set()
 
 
-class Client:
+class Client(ClientCore):
     """A connection to skinserve at `target` ("host:port", or any gRPC target such as
     "dns:///skinserve.default.svc:50051", balanced with round_robin).
 
@@ -77,25 +77,7 @@ class Client:
     skinserve.AsyncClient has the same methods for asyncio.
     """
 
-    def __init__(self, target: str, max_reuploads: int = 8, max_reconnects: int = 3,
-                 tls_ca: Optional[str] = None, tls_cert: Optional[str] = None,
-                 tls_key: Optional[str] = None, tls_server_name: Optional[str] = None,
-                 timeout: Optional[float] = 30.0, upload_timeout: Optional[float] = 300.0,
-                 stream_idle_timeout: Optional[float] = 30.0,
-                 keepalive: Optional[float] = 10.0, keepalive_timeout: float = 5.0) -> None:
-        self.target = target
-        self.max_reuploads, self.max_reconnects = max_reuploads, max_reconnects
-        self.timeout, self.upload_timeout = timeout, upload_timeout
-        self.stream_idle_timeout = stream_idle_timeout
-        credentials = _channel.credentials(tls_ca, tls_cert, tls_key, tls_server_name)
-        options = _channel.options(keepalive, keepalive_timeout, tls_server_name)
-        if credentials is None:
-            self._channel = grpc.insecure_channel(target, options=options)
-        else:
-            self._channel = grpc.secure_channel(target, credentials, options=options)
-        self._stub = SkinningStub(self._channel)
-        # mesh id -> (requests to upload it again, joint count, vertex count)
-        self._meshes: Dict[str, Tuple[List[pb.UploadMeshRequest], int, int]] = {}
+    _grpc = grpc
 
     def close(self) -> None:
         self._channel.close()
@@ -132,10 +114,7 @@ class Client:
         requests = _requests.upload_requests(positions, joints, weights, normals,
                                              normalize_weights, joint_count,
                                              morph_targets, tangents, rest_encoding)
-        info = self._upload(requests)
-        self._meshes[info.mesh_id] = (requests, requests[0].header.joint_count,
-                                      requests[0].header.vertex_count)
-        return str(info.mesh_id)
+        return self._remember(requests, self._upload(requests))
 
     def _upload(self, requests: List[pb.UploadMeshRequest]) -> pb.MeshInfo:
         try:
@@ -145,23 +124,18 @@ class Client:
         except grpc.RpcError as e:
             raise rpc_error(e) from None
 
-    def _reupload(self, mesh_id: str, error: SkinserveError) -> None:
-        if mesh_id not in self._meshes:
-            raise error  # not uploaded through this client: nothing to send again
-        self._upload(self._meshes[mesh_id][0])
-
-    def _joint_count(self, mesh_id: str) -> Optional[int]:
-        known = self._meshes.get(mesh_id)
-        return known[1] if known else None
-
     def _vertex_count(self, mesh_id: str) -> int:
-        if mesh_id in self._meshes:
-            return self._meshes[mesh_id][2]
+        known = self._known_vertex_count(mesh_id)
+        if known is not None:
+            return known
+        return int(self._unary(self._stub.GetMesh,
+                               pb.GetMeshRequest(mesh_id=mesh_id)).vertex_count)
+
+    def _unary(self, method: Any, request: Any) -> Any:
         try:
-            info = self._stub.GetMesh(pb.GetMeshRequest(mesh_id=mesh_id), timeout=self.timeout)
+            return method(request, timeout=self.timeout)
         except grpc.RpcError as e:
             raise rpc_error(e) from None
-        return int(info.vertex_count)
 
     # ---- shared memory (same host) ------------------------------------------------------
     def register_region(self, region: SharedMemoryRegion,
@@ -171,37 +145,22 @@ class Client:
         `name` (default: its key). The region is this process's: frames naming it are
         skinned straight into it. Returns the server's RegionInfo."""
         name = name or region.key
-        try:
-            info: pb.RegionInfo = self._stub.RegisterRegion(pb.RegisterRegionRequest(
-                name=name, key=region.key, byte_size=region.byte_size), timeout=self.timeout)
-        except grpc.RpcError as e:
-            raise rpc_error(e) from None
+        info: pb.RegionInfo = self._unary(self._stub.RegisterRegion, pb.RegisterRegionRequest(
+            name=name, key=region.key, byte_size=region.byte_size))
         region.name = name
         return info
 
     def unregister_region(self, region_or_name: Union[SharedMemoryRegion, str]) -> None:
         """Returns once the server has unmapped the region: it writes there no more."""
-        region: Optional[SharedMemoryRegion] = None
-        if isinstance(region_or_name, SharedMemoryRegion):
-            region, name = region_or_name, region_or_name.name
-        else:
-            name = region_or_name
-        try:
-            self._stub.UnregisterRegion(pb.UnregisterRegionRequest(name=name),
-                                        timeout=self.timeout)
-        except grpc.RpcError as e:
-            raise rpc_error(e) from None
+        region, name = self._region_and_name(region_or_name)
+        self._unary(self._stub.UnregisterRegion, pb.UnregisterRegionRequest(name=name))
         if region is not None:
             region.name = None
 
     def regions(self) -> List[Dict[str, Any]]:
         """This process's registered regions (the server shows each client its own): a list
         of dicts (name, key, byte_size, ...)."""
-        try:
-            response = self._stub.ListRegions(pb.ListRegionsRequest(), timeout=self.timeout)
-        except grpc.RpcError as e:
-            raise rpc_error(e) from None
-        return _answers.regions(response)
+        return _answers.regions(self._unary(self._stub.ListRegions, pb.ListRegionsRequest()))
 
     # ---- frames -------------------------------------------------------------------------
     @overload
@@ -253,9 +212,8 @@ class Client:
         morph_weights: the frame's morph target weights, sparse: {target: weight} (targets
         left out weigh 0), for every instance of a crowd; or a sequence of K such mappings,
         one per instance of a crowd of K >= 2."""
-        crowd = _arrays.check_palette("palette", palette, self._joint_count(mesh_id))
-        request = _requests.skin_request(mesh_id, palette, crowd, frame, backend, want_normals,
-                                         encoding, region, offset, morph_weights, want_tangents)
+        crowd, request = self._skin_request(mesh_id, palette, backend, want_normals, encoding,
+                                            frame, region, offset, morph_weights, want_tangents)
         for attempt in range(self.max_reuploads + 1):
             result = Frame(crowd)
             try:
@@ -263,10 +221,7 @@ class Client:
                     result.add_part(part, want_normals, region)
                 return result.result(want_normals, want_tangents)
             except grpc.RpcError as e:
-                error = rpc_error(e, frame)
-                if e.code() != grpc.StatusCode.NOT_FOUND or attempt == self.max_reuploads:
-                    raise error from None
-                self._reupload(mesh_id, error)
+                self._upload(self._retry_frame(e, attempt, frame, mesh_id))
         raise AssertionError("unreachable")
 
     @overload
@@ -321,47 +276,21 @@ class Client:
 
         want_tangents: yields (positions, normals, tangents), as skin.
         """
-        palettes = list(palettes)
-        joints = self._joint_count(mesh_id)
-        crowds = [_arrays.check_palette(f"palettes[{i}]", palette, joints)
-                  for i, palette in enumerate(palettes)]
-        _requests.check_window(window)
-        _requests.check_encoding(encoding)
-        weights = _requests.stream_weights(morph_weights, len(palettes))
-        stride = 0
-        if region is not None:
-            stride = _requests.region_stride(self._vertex_count(mesh_id), crowds,
-                                             want_normals, encoding, window, region,
-                                             want_tangents)
-        requests = [_requests.skin_request(mesh_id, p, k, i, backend, want_normals, encoding,
-                                           region, (i % window) * stride, w, want_tangents)
-                    for i, (p, k, w) in enumerate(zip(palettes, crowds, weights))]
-        next_frame, reuploads, reconnects = 0, 0, 0
-        while next_frame < len(requests):
-            restart: Optional[SkinserveError] = None
-            ended: List[Tuple[Any, str]] = []
-            with contextlib.closing(self._one_stream(requests, next_frame, window,
+        frames = FrameStream(self, mesh_id, palettes, backend, want_normals, encoding, window,
+                             region, morph_weights, want_tangents)
+        frames.build(self._vertex_count(mesh_id) if region is not None else 0)
+        while not frames.done:
+            ended = frames.open()
+            with contextlib.closing(self._one_stream(frames.requests, frames.next_frame, window,
                                                      want_normals, region, ended)) as answers:
                 for index, frame in answers:
-                    if frame.error is None:
-                        next_frame = index + 1
-                        yield frame.result(want_normals, want_tangents)
-                        continue
-                    code, message = frame.error
-                    error = SkinserveError(code, message, index)
-                    if code != grpc.StatusCode.NOT_FOUND or reuploads >= self.max_reuploads:
-                        raise error
-                    restart = error
-                    break
-            if restart is not None:  # resume from the frame that was NOT_FOUND
-                reuploads += 1
-                self._reupload(mesh_id, restart)
-            elif next_frame < len(requests):  # the stream ended UNAVAILABLE or idle early
-                reconnects += 1
-                if reconnects > self.max_reconnects:
-                    code, message = ended[0] if ended else (grpc.StatusCode.UNAVAILABLE, "")
-                    raise SkinserveError(code, f"stream ended {reconnects} times, the last: "
-                                         f"{message}", next_frame)
+                    answer = frames.answer(index, frame)
+                    if answer is None:
+                        break  # NOT_FOUND: upload the mesh again and resume from the frame
+                    yield answer
+            again = frames.closed()
+            if again is not None:
+                self._upload(again)
 
     def _one_stream(self, requests: List[pb.SkinRequest], first: int, window: int,
                     want_normals: bool, region: Optional[SharedMemoryRegion],
@@ -405,11 +334,7 @@ class Client:
         sender = threading.Thread(target=send, daemon=True)
         sender.start()
 
-        def new_frame(i: int) -> Any:  # the frame answering requests[i]; past the end, one never filled
-            if make_frame is not None:
-                return make_frame(i)
-            return Frame((requests[i].instances or None) if i < len(requests) else None)
-
+        new_frame = _core.new_frame(requests, make_frame)
         frame, index = new_frame(first), first
         try:
             for part in call:
@@ -430,9 +355,7 @@ class Client:
                     frame = new_frame(index)
         except grpc.RpcError as e:
             if watchdog.fired:
-                ended.append((grpc.StatusCode.DEADLINE_EXCEEDED,
-                              f"no answer for {self.stream_idle_timeout} s with frames in "
-                              "flight (stream_idle_timeout)"))
+                ended.append(self._stream_idle_ended())
             elif e.code() == grpc.StatusCode.UNAVAILABLE:
                 ended.append((e.code(), e.details()))
             else:
@@ -463,16 +386,14 @@ class Client:
         if results is None:
             results = self._tick_once(characters, crowds, frame, slot_offset)
         for _ in range(self.max_reuploads):
-            missing = _tick.not_found(characters, results, self._meshes)
+            missing, uploads = self._tick_reuploads(characters, results)
             if not missing:
                 break
-            for mesh_id in {characters[i].mesh_id for i in missing}:
-                self._upload(self._meshes[mesh_id][0])
+            for requests in uploads:
+                self._upload(requests)
             again = self._tick_once([characters[i] for i in missing],
                                     [crowds[i] for i in missing], frame, slot_offset)
-            for i, result in zip(missing, again):
-                result.index = i
-                results[i] = result
+            _core.merge_tick_results(results, missing, again)
         return results
 
     def _tick_once(self, characters: List[Character], crowds: List[Optional[int]],
@@ -495,45 +416,25 @@ class Client:
         offset + (i % window) * the ticks' furthest range end (the region must hold `window`
         of those); the arrays view it until the next tick is taken. A tick refused whole, or
         a stream that ends (UNAVAILABLE, idle), raises SkinserveError."""
-        tick_list = [list(t) for t in ticks]
-        crowds = [_tick.check_characters(t, self._joint_count) for t in tick_list]
-        _requests.check_window(window)
-        stride, region = _tick.stream_regions(tick_list, crowds, self._vertex_count, window)
-        requests = [_tick.tick_request(t, k, i, (i % window) * stride)
-                    for i, (t, k) in enumerate(zip(tick_list, crowds))]
-
-        def make(i: int) -> _tick.TickAnswer:
-            if i >= len(tick_list):
-                return _tick.TickAnswer([], [], i)
-            return _tick.TickAnswer(tick_list[i], crowds[i], i)
-
-        ended: List[Tuple[Any, str]] = []
+        plan = TickStream(self, ticks, window)
+        plan.build({m: self._vertex_count(m) for m in plan.region_meshes()})
         answered = 0
-        with contextlib.closing(self._one_stream(requests, 0, window, False, region, ended,
-                                                 make)) as answers:
+        with contextlib.closing(self._one_stream(plan.requests, 0, window, False,
+                                                 plan.region, plan.ended,
+                                                 plan.make_answer)) as answers:
             for index, answer in answers:
-                results = self._tick_with_reuploads(tick_list[index], crowds[index], index,
-                                                    (index % window) * stride,
-                                                    answer.answered())
+                results = self._tick_with_reuploads(plan.ticks[index], plan.crowds[index], index,
+                                                    plan.slot_offset(index), answer.answered())
                 answered = index + 1
                 yield results
-        if answered < len(tick_list):
-            code, message = ended[0] if ended else (grpc.StatusCode.UNAVAILABLE, "")
-            raise SkinserveError(code, f"stream of ticks ended: {message}", answered)
+        plan.check_finished(answered)
 
     # ---- the server ----------------------------------------------------------------------
     def backends(self) -> List[Dict[str, Any]]:
         """The server's backends: a list of dicts (id, description, available, ...)."""
-        try:
-            response = self._stub.ListBackends(pb.ListBackendsRequest(), timeout=self.timeout)
-        except grpc.RpcError as e:
-            raise rpc_error(e) from None
-        return _answers.backends(response)
+        return _answers.backends(self._unary(self._stub.ListBackends, pb.ListBackendsRequest()))
 
     def stats(self) -> Dict[str, Any]:
         """The server's counters: a dict, with "backends" a dict by backend id."""
-        try:
-            s = self._stub.GetServerStats(pb.GetServerStatsRequest(), timeout=self.timeout)
-        except grpc.RpcError as e:
-            raise rpc_error(e) from None
-        return _answers.stats(s)
+        return _answers.stats(self._unary(self._stub.GetServerStats,
+                                          pb.GetServerStatsRequest()))

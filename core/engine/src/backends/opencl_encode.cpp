@@ -189,7 +189,7 @@ Status HostEncode(OpenClLane& lane, const SkinKernelArgs& floats, uint32_t verte
   auto positions = ReadFloats(lane, floats.out_positions, 3ull * vertex_count);
   if (!positions.ok()) return positions.status();
   Bounds box;
-  if (QuantisedToBox(enc.encoding)) {
+  if (QuantizedToBox(enc.encoding)) {
     Result<Bounds> computed = ComputeBounds(*positions);
     if (!computed.ok()) return computed.status();
     box = *computed;

@@ -36,7 +36,7 @@ float* ThreadFloatPositions(std::size_t vertex_count) {
 EncodedWriter::EncodedWriter(const EncodedOutput& out, std::size_t vertex_count)
     : out_(out),
       vertex_count_(vertex_count),
-      boxed_(QuantisedToBox(out.encoding)),
+      boxed_(QuantizedToBox(out.encoding)),
       wants_normals_(!out.normals.empty()),
       wants_tangents_(!out.tangents.empty()) {
   if (boxed_) {
@@ -116,7 +116,7 @@ bool EncodedWriter::Finish(int threads) {
 Status HostEncode(const EncodedOutput& out, std::span<const float> positions,
                   std::span<const float> normals, std::span<const float> tangents) {
   Bounds box;
-  if (QuantisedToBox(out.encoding)) {
+  if (QuantizedToBox(out.encoding)) {
     Result<Bounds> computed = ComputeBounds(positions);
     if (!computed.ok()) return computed.status();
     box = *computed;

@@ -559,7 +559,7 @@ std::mutex& TargetMutex() {
 
 // Compiled here and run by this CPU, as a Highway target mask (lower bit: better).
 int64_t RunnableMask() {
-  hwy::SetSupportedTargetsForTest(0);  // the CPU's own answer
+  hwy::DisableTargets(0);  // the CPU's own answer, no target held back
   return hwy::SupportedTargets() & HWY_TARGETS;
 }
 
@@ -591,8 +591,10 @@ int64_t AllowedUpTo(const std::string& max_target, std::string* error) {
   return 0;
 }
 
+// Highway's dispatch chooses from `allowed` (0: every runnable target). DisableTargets
+// replaces the previous call's mask rather than adding to it, so this also lifts a cap.
 void Dispatch(int64_t allowed) {
-  hwy::SetSupportedTargetsForTest(allowed);
+  hwy::DisableTargets(allowed == 0 ? 0 : ~allowed);
   hwy::GetChosenTarget().Update(hwy::SupportedTargets());
 }
 

@@ -1,5 +1,5 @@
 // Vertex encodings of a frame's answer (skinserve.v1.Encoding): float32 as the backend
-// computed it, IEEE binary16, or snorm16 quantised to the instance's axis-aligned box.
+// computed it, IEEE binary16, or snorm16 quantized to the instance's axis-aligned box.
 // Server and client share this code: the server encodes into the response's bytes, the
 // client decodes into caller-provided floats. Every function writes into memory the
 // caller owns and allocates nothing on success.
@@ -33,7 +33,8 @@ struct EncodingDescription {
   VertexEncoding id;
   const char* name;             // as on the command line and in reports
   std::size_t bytes_per_value;  // per x, y or z
-  bool quantised_to_box;        // each instance's Bounds travels with its values
+  bool quantised_to_box;        // each instance's Bounds travels with its values (spelling:
+                                // tests/encoding reads it; rename there and here together)
   // x y z triples into exactly bytes_per_value * values.size() bytes; `normals` picks the
   // normals' rule; errors name the vertex (counted from first_vertex).
   Status (*encode)(std::span<const float> values, bool normals, const Bounds& bounds,
@@ -49,10 +50,12 @@ std::span<const EncodingDescription> Encodings();
 // Null for a value no encoding has.
 const EncodingDescription* DescribeEncoding(VertexEncoding encoding);
 // Whether each instance's box travels with its values (false for unknown values).
-inline bool QuantisedToBox(VertexEncoding encoding) {
+inline bool QuantizedToBox(VertexEncoding encoding) {
   const EncodingDescription* e = DescribeEncoding(encoding);
   return e != nullptr && e->quantised_to_box;
 }
+// The old spelling, until server/, client/src and tests/ call QuantizedToBox.
+inline bool QuantisedToBox(VertexEncoding encoding) { return QuantizedToBox(encoding); }
 
 // "float32", "float16", "snorm16".
 const char* VertexEncodingName(VertexEncoding encoding);

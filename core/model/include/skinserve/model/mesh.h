@@ -19,7 +19,7 @@ inline constexpr uint32_t kMaxInfluences = 8;       // B: influences per vertex,
 inline constexpr uint32_t kMaxJointsLimit = 65535;  // joint indices are uint16
 inline constexpr float kWeightSumTolerance = 1e-3f;
 // A tangent's xyz is a unit vector within this (|length - 1|): loose enough for tangents an
-// exporter quantised to 8 bits, tight enough to catch a missing normalisation.
+// exporter quantized to 8 bits, tight enough to catch a missing normalisation.
 inline constexpr float kTangentLengthTolerance = 1e-2f;
 
 // Limits an operator sets; checked before anything is allocated.

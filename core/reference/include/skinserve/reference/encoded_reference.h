@@ -25,7 +25,7 @@ struct EncodedDeviation {
 };
 
 // One instance's decoded positions (and normals, may be empty to skip them) in `encoding`,
-// quantised to `bounds` for snorm16 (as the response carried it), against the reference of
+// quantized to `bounds` for snorm16 (as the response carried it), against the reference of
 // `method`, of the rest arrays morphed by `morph` (none: as they are).
 EncodedDeviation CompareEncodedWithReference(const Mesh& mesh, std::span<const float> palette,
                                              VertexEncoding encoding, const Bounds& bounds,
