@@ -72,8 +72,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   DoneListener listener;
   server::FrameJob job(&listener, &budget);
   server::RegionHandle region;
-  Status status =
-      job.Prepare(wire, engine, "serial", /*regions=*/server::RegionCaller{}, &region);
+  Status status = job.Prepare(wire, engine, "serial", /*regions=*/server::RegionCaller{}, &region);
   if (status.ok()) status = engine.Submit(&job);
   if (status.ok()) {
     listener.Wait();
