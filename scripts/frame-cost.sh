@@ -43,11 +43,9 @@ done
 mkdir -p "$out"
 # shellcheck source-path=SCRIPTDIR source=lib/port-file.sh
 source "$root/scripts/lib/port-file.sh"
-{
-  date -u +%Y-%m-%dT%H:%MZ
-  lscpu | grep -E 'Model name|^CPU\(s\)|L3' || true
-  git -C "$root" rev-parse --short HEAD 2>/dev/null || true
-} >"$out/machine.txt"
+# shellcheck source-path=SCRIPTDIR source=lib/machine-info.sh
+source "$root/scripts/lib/machine-info.sh"
+write_machine_info "$out/machine.txt" "$root"
 : >"$out/command.txt"
 rm -f "$out/summary.csv" "$out/summary.txt"
 

@@ -41,12 +41,9 @@ done
 mkdir -p "$out"
 # shellcheck source-path=SCRIPTDIR source=lib/port-file.sh
 source "$root/scripts/lib/port-file.sh"
-{
-  date -u +%Y-%m-%dT%H:%MZ
-  lscpu | grep -E 'Model name|^CPU\(s\)|L3' || true
-  nvidia-smi --query-gpu=name,driver_version --format=csv,noheader 2>/dev/null || true
-  git -C "$root" rev-parse --short HEAD 2>/dev/null || true
-} >"$out/machine.txt"
+# shellcheck source-path=SCRIPTDIR source=lib/machine-info.sh
+source "$root/scripts/lib/machine-info.sh"
+write_machine_info "$out/machine.txt" "$root"
 echo "scripts/small-frames.sh OUT --backend $backend --threads $threads --server-cpus $server_cpus" \
   "--load-cpus $load_cpus --streams $streams --tick $tick --tick-streams $tick_streams" \
   "--repeats $repeats --capacities $capacities${base:+ --base BASE}" >"$out/command.txt"
