@@ -1,5 +1,5 @@
 /* Dual-quaternion skinning (docs/backends/dual-quaternion.md), with the semantics of the
- * CPU loops (core/engine/src/backends/scalar_dual_quaternion_skinning.h): per vertex the B
+ * CPU loops (core/engine/src/backends/scalar/scalar_dual_quaternion_skinning.h): per vertex the B
  * unit dual quaternions are blended, each one's sign chosen against the first influence
  * (q and -q are the same rotation), normalised by the real part's length and applied to
  * the position; the normal and the tangent's xyz are rotated by the blended rotation and

@@ -1,5 +1,5 @@
 /* Morph targets (docs/serving/morph-targets.md) on the device, before skinning, with the
- * semantics of the CPU backends' morph stage (core/engine/src/backends/morph_stage.h): a
+ * semantics of the CPU backends' morph stage (core/engine/src/backends/common/morph_stage.h): a
  * frame's rest arrays are the mesh's plus sum_t w_t * delta_t over its active targets, each
  * vertex's deltas added in the frame's order of its targets. These kernels write them into
  * the frame's morphed buffers, which the skinning kernels (skin_*, dqs_*) then read in place

@@ -11,8 +11,8 @@
 #include <string>
 #include <thread>
 
-#include "server_options.h"
-#include "skin_server.h"
+#include "options/server_options.h"
+#include "rpc/skin_server.h"
 #include "skinserve/cli/config_file.h"
 #include "skinserve/cli/version.h"
 

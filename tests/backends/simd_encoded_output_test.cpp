@@ -14,7 +14,7 @@
 #include <limits>
 #include <tuple>
 
-#include "backends/simd_encoded_output.h"  // core/engine/src: the fallback counter
+#include "backends/simd/simd_encoded_output.h"  // core/engine/src: the fallback counter
 #include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/engine/simd_targets.h"
 #include "skinserve/reference/encoded_reference.h"

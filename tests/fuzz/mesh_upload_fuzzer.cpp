@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "fuzz_engine.h"
-#include "mesh_assembly.h"
+#include "rpc/mesh_assembly.h"
 
 using namespace skinserve;
 

@@ -15,9 +15,9 @@
 #include <map>
 #include <mutex>
 
-#include "frame_job.h"
+#include "frames/frame_job.h"
+#include "frames/inflight_budget.h"
 #include "fuzz_engine.h"
-#include "inflight_budget.h"
 #include "skinserve/reference/synthetic.h"
 
 using namespace skinserve;

@@ -13,7 +13,7 @@
 #include <tuple>
 #include <vector>
 
-#include "backends/opencl_quantized.h"
+#include "backends/opencl/opencl_quantized.h"
 #include "opencl_test_support.h"
 #include "quantized_reference.h"
 #include "reference_cases.h"

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "backends/backend_factories.h"
-#include "backends/opencl_runtime.h"
+#include "backends/common/backend_factories.h"
+#include "backends/opencl/opencl_runtime.h"
 #include "opencl_test_support.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/model/aligned_buffer.h"

@@ -3,8 +3,8 @@
 #include <cstdlib>
 #include <sstream>
 
-#include "backends/backend_factories.h"
-#include "backends/opencl_backends.h"
+#include "backends/common/backend_factories.h"
+#include "backends/opencl/opencl_backends.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "backends/opencl_runtime.h"
+#include "backends/opencl/opencl_runtime.h"
 #include "skinserve/engine/backend.h"
 #include "skinserve/model/mesh.h"
 

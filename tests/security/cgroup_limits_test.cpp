@@ -1,6 +1,6 @@
 // ReadCgroupLimits on cgroup file systems laid out as a container sees them (v2 and v1),
 // written into a temporary folder.
-#include "cgroup_limits.h"
+#include "options/cgroup_limits.h"
 
 #include <gtest/gtest.h>
 

@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-#include "skin_server.h"
+#include "rpc/skin_server.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
 

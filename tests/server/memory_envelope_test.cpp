@@ -2,11 +2,11 @@
 // and the given budgets leave, each counted with its copies; budgets that do not fit are
 // refused naming every term; the backends decide a stored mesh's copies; and a server
 // whose budgets do not fit its memory does not start.
-#include "memory_envelope.h"
+#include "options/memory_envelope.h"
 
 #include <gtest/gtest.h>
 
-#include "server_options.h"
+#include "options/server_options.h"
 
 namespace skinserve::server {
 namespace {

@@ -2,14 +2,14 @@
 // header declares; every growth is charged to the upload budget first; a refusal takes
 // nothing and names the budget; the charge returns when the assembly stores, fails or is
 // dropped.
-#include "mesh_assembly.h"
+#include "rpc/mesh_assembly.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstring>
 
-#include "open_uploads.h"
+#include "rpc/open_uploads.h"
 #include "skinserve/reference/synthetic.h"
 
 namespace skinserve::testing {

@@ -16,7 +16,7 @@
 #include <string>
 #include <thread>
 
-#include "metrics_server.h"
+#include "observability/metrics_server.h"
 
 namespace skinserve::testing {
 namespace {

@@ -2,7 +2,7 @@
 // fstat, the SIGBUS guard put back) and after that only check, frame by frame, that it
 // still stands: an unregister, a truncation caught by the guard, another name, another
 // owner all end the cached hold with the status a fresh lookup would give.
-#include "region_handle.h"
+#include "shm/region_handle.h"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -12,8 +12,8 @@
 #include <cstring>
 #include <filesystem>
 
-#include "mapped_region.h"
-#include "sigbus_guard.h"
+#include "shm/mapped_region.h"
+#include "shm/sigbus_guard.h"
 
 // clang spells "built with ASan" __has_feature(address_sanitizer); gcc __SANITIZE_ADDRESS__.
 #if defined(__has_feature)

@@ -2,7 +2,7 @@
 // not, against its limit before the parse; the parsed size is bounded by what the scan
 // charges (protobuf's own SpaceUsedLong is the independent measure); a refused request
 // names its field, its count and its limit; a large request's storage and charge go.
-#include "skin_request_reader.h"
+#include "frames/skin_request_reader.h"
 
 #include <grpcpp/impl/codegen/proto_utils.h>
 #include <gtest/gtest.h>

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "metrics_frames.h"
+#include "observability/metrics_frames.h"
 #include "skinserve/client/shared_memory_region.h"
 #include "skinserve/client/tick.h"
 #include "skinserve/model/palette.h"

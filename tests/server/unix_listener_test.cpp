@@ -1,4 +1,4 @@
-// unix: addresses are accepted by the server itself (server/unix_listener.h), so that it
+// unix: addresses are accepted by the server itself (server/rpc/unix_listener.h), so that it
 // knows each client's credentials; the rest must stay as it was with gRPC's own listener:
 // a stale socket file is replaced, the file goes at shutdown, both spellings of the
 // address work, an address that cannot be bound is a start-up error naming it, and TCP
@@ -14,7 +14,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "skin_server.h"
+#include "rpc/skin_server.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
 

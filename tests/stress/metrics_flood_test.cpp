@@ -24,7 +24,7 @@
 #include <thread>
 #include <vector>
 
-#include "metrics_port_limits.h"
+#include "observability/metrics_port_limits.h"
 #include "process_probe.h"
 #include "server_child.h"
 #include "skinserve/client/channel.h"

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "backends/backend_factories.h"
+#include "backends/common/backend_factories.h"
 
 namespace skinserve {
 

@@ -1,0 +1,407 @@
+// `opencl`: the paper's plain OpenCL path. The mesh is copied into device buffers once (its
+// tangents and morph targets too); each frame writes the palette (and its active morph weights) to
+// the device and reads the result back. A frame with an active target runs the morph kernel first,
+// and the skinning kernels read its morphed rest arrays (opencl_morph.h).
+//
+// On a device with memory of its own (a discrete GPU) every frame crosses PCIe, so:
+//  - the palette and the results travel through page-locked (pinned) host memory of the
+//    frame's lane, which the DMA engine reads and writes at the link's speed (pageable
+//    memory makes the driver stage each transfer through its own pinned buffers);
+//  - the frame runs in chunks: chunk k's kernel on the lane's compute queue, its read-back
+//    on the lane's transfer queue after that kernel's event, so the read-back of one chunk
+//    overlaps the kernel of the next, and the host copies chunk k out of pinned memory
+//    while chunk k + 1 is still crossing the link, with the engine's threads that no other
+//    frame's copy-out is using (one frame alone: all of them; see Lease::copy_threads);
+//  - frames of several compute threads run on different lanes at once, so one frame's
+//    read-back also overlaps another's upload and kernels.
+// On a device that shares host memory (PoCL) the frame is one write, one kernel and one
+// read straight from and into the caller's memory: staging would only add a copy.
+#include <omp.h>
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+#include "backends/common/dual_quaternion_palette.h"
+#include "backends/opencl/opencl_backends.h"
+#include "backends/opencl/opencl_encode.h"
+#include "backends/opencl/opencl_morph.h"
+#include "backends/opencl/opencl_quantized.h"
+#include "skinserve/model/palette.h"
+
+namespace skinserve {
+namespace {
+
+struct OpenClPreparedMesh final : PreparedMesh {
+  using PreparedMesh::PreparedMesh;
+  ClBuffer positions, normals, tangents, joints, weights;
+  OpenClMorphTargets morph;
+};
+
+// Copies `bytes` with up to `threads` threads (large copies only).
+void ParallelCopy(void* to, const void* from, std::size_t bytes, int threads) {
+  constexpr std::size_t kPerThreadMin = 1u << 20;
+  const int use = static_cast<int>(
+      std::clamp<std::size_t>(bytes / kPerThreadMin, 1, static_cast<std::size_t>(threads)));
+  if (use == 1) {
+    std::memcpy(to, from, bytes);
+    return;
+  }
+  const std::size_t piece = (bytes / use + 63) / 64 * 64;
+#pragma omp parallel for num_threads(use) schedule(static)
+  for (int t = 0; t < use; ++t) {
+    const std::size_t begin = std::min(bytes, piece * t), end = std::min(bytes, begin + piece);
+    std::memcpy(static_cast<char*>(to) + begin, static_cast<const char*>(from) + begin,
+                end - begin);
+  }
+}
+
+class OpenClCopyBackend final : public Backend {
+ public:
+  OpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime, std::shared_ptr<OpenClEncoder> encoder)
+      : runtime_(std::move(runtime)),
+        encoder_(std::move(encoder)),
+        info_(OpenClBackendInfo(
+            *runtime_, "opencl",
+            runtime_->staging() ? "OpenCL kernel; palette written and result read back per frame "
+                                  "through pinned memory, in overlapped chunks"
+                                : "OpenCL kernel; palette written and result read back per frame",
+            // Staged: a frame waits on the device and then copies with the threads other
+            // frames leave free, so it holds one compute thread of the engine.
+            runtime_->staging() ? 1 : runtime_->compute_units())) {}
+  const BackendInfo& info() const override { return info_; }
+
+  Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
+    auto prepared = std::make_unique<OpenClPreparedMesh>(mesh);
+    if (mesh->quantized_rest() != nullptr) {  // the integers only (opencl_quantized.h)
+      if (Status s = PrepareQuantizedMesh(
+              *runtime_, *mesh, CL_MEM_COPY_HOST_PTR, &prepared->positions, &prepared->normals,
+              &prepared->tangents, &prepared->joints, &prepared->weights);
+          !s.ok()) {
+        return s;
+      }
+      return std::unique_ptr<PreparedMesh>(std::move(prepared));
+    }
+    constexpr cl_mem_flags kCopyIn = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
+    struct Plan {
+      const char* what;
+      ClBuffer* buffer;
+      std::size_t bytes;
+      const void* host;
+    };
+    std::vector<Plan> plan = {
+        {"positions", &prepared->positions, mesh->positions().size_bytes(),
+         mesh->positions().data()},
+        {"joints", &prepared->joints, mesh->joints().size_bytes(), mesh->joints().data()},
+        {"weights", &prepared->weights, mesh->weights().size_bytes(), mesh->weights().data()}};
+    if (mesh->has_normals()) {
+      plan.push_back(
+          {"normals", &prepared->normals, mesh->normals().size_bytes(), mesh->normals().data()});
+    }
+    if (mesh->has_tangents()) {
+      plan.push_back({"tangents", &prepared->tangents, mesh->tangents().size_bytes(),
+                      mesh->tangents().data()});
+    }
+    for (const Plan& p : plan) {
+      auto buffer = runtime_->CreateBuffer(p.what, kCopyIn, p.bytes, p.host);
+      if (!buffer.ok()) return buffer.status();
+      *p.buffer = std::move(buffer).value();
+    }
+    auto morph = CreateMorphTargets(*runtime_, *mesh, CL_MEM_COPY_HOST_PTR);
+    if (!morph.ok()) return morph.status();
+    prepared->morph = std::move(morph).value();
+    return std::unique_ptr<PreparedMesh>(std::move(prepared));
+  }
+
+  Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
+    return SkinWithKernelPalette(info_.id, base, frame, [&](const SkinFrame& in_kernel_layout) {
+      return SkinPalette(base, in_kernel_layout);
+    });
+  }
+
+ private:
+  // Skin() with frame.palette in the layout of frame.method's kernels.
+  Status SkinPalette(const PreparedMesh& base, const SkinFrame& frame) {
+    const auto& prepared = static_cast<const OpenClPreparedMesh&>(base);
+    if (Status s = CheckOpenClOutputs(prepared.mesh(), frame); !s.ok()) return s;
+    const bool with_normals = frame.wants_normals();
+    const bool with_tangents = frame.wants_tangents();
+    auto lane = runtime_->AcquireLane();
+    if (Status s = Reserve(*lane, frame, prepared.mesh().vertex_count()); !s.ok()) return s;
+    ClEvents kernels, transfers;
+    SkinKernelArgs args = Args(*lane, prepared, frame.method, with_normals, with_tangents);
+    Status status = Morph(*lane, prepared, frame, &args, kernels, transfers);
+    if (status.ok() && frame.encoded.active()) {
+      status = SkinEncoded(*lane, prepared, frame, args, kernels, transfers);
+    } else if (status.ok()) {
+      status = runtime_->staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame, args,
+                                                kernels, transfers)
+                                   : SkinDirect(*lane, prepared, frame, args, kernels, transfers);
+    }
+    if (!status.ok()) {
+      // Enqueued commands may still use the lane's buffers (and, direct, the caller's
+      // memory): the lane is idle before it is handed on.
+      clFinish(lane->compute);
+      clFinish(lane->transfer);
+      return status;
+    }
+    return RecordDeviceTiming(kernels, transfers, frame.device_timing);
+  }
+
+  // The lane's device buffers (and pinned staging) large enough for `frame`.
+  Status Reserve(OpenClLane& lane, const SkinFrame& frame, uint32_t vertex_count) {
+    const std::size_t out_bytes = 3ull * vertex_count * sizeof(float);
+    const std::size_t tangent_bytes = 4ull * vertex_count * sizeof(float);
+    if (Status s = runtime_->GrowBuffer("palette", CL_MEM_READ_ONLY, frame.palette.size_bytes(),
+                                        &lane.palette, &lane.palette_bytes);
+        !s.ok()) {
+      return s;
+    }
+    if (Status s = runtime_->GrowBuffer("output positions", CL_MEM_READ_WRITE, out_bytes,
+                                        &lane.out_positions, &lane.positions_bytes);
+        !s.ok()) {
+      return s;
+    }
+    if (frame.wants_normals()) {
+      if (Status s = runtime_->GrowBuffer("output normals", CL_MEM_READ_WRITE, out_bytes,
+                                          &lane.out_normals, &lane.normals_bytes);
+          !s.ok()) {
+        return s;
+      }
+    }
+    if (frame.wants_tangents()) {
+      if (Status s = runtime_->GrowBuffer("output tangents", CL_MEM_READ_WRITE, tangent_bytes,
+                                          &lane.out_tangents, &lane.tangents_bytes);
+          !s.ok()) {
+        return s;
+      }
+    }
+    if (!runtime_->staging()) return Status::Ok();
+    if (Status s = runtime_->GrowPinned(lane.compute, "pinned palette", frame.palette.size_bytes(),
+                                        &lane.pinned_palette);
+        !s.ok()) {
+      return s;
+    }
+    // Encoded frames read back through the encoder's own pinned buffers.
+    if (frame.encoded.active()) return Status::Ok();
+    if (Status s = runtime_->GrowPinned(lane.compute, "pinned positions", out_bytes,
+                                        &lane.pinned_positions);
+        !s.ok()) {
+      return s;
+    }
+    if (!frame.normals.empty()) {
+      if (Status s =
+              runtime_->GrowPinned(lane.compute, "pinned normals", out_bytes, &lane.pinned_normals);
+          !s.ok()) {
+        return s;
+      }
+    }
+    if (!frame.tangents.empty()) {
+      return runtime_->GrowPinned(lane.compute, "pinned tangents", frame.tangents.size_bytes(),
+                                  &lane.pinned_tangents);
+    }
+    return Status::Ok();
+  }
+
+  SkinKernelArgs Args(const OpenClLane& lane, const OpenClPreparedMesh& prepared,
+                      SkinningMethod method, bool with_normals, bool with_tangents) const {
+    SkinKernelArgs args{.method = method,
+                        .palette = lane.palette.get(),
+                        .joints = prepared.joints.get(),
+                        .weights = prepared.weights.get(),
+                        .positions = prepared.positions.get(),
+                        .out_positions = lane.out_positions.get()};
+    if (with_normals) {
+      args.normals = prepared.normals.get();
+      args.out_normals = lane.out_normals.get();
+    }
+    if (with_tangents) {
+      args.tangents = prepared.tangents.get();
+      args.out_tangents = lane.out_tangents.get();
+    }
+    return args;
+  }
+
+  // A frame with an active target: its weights written to the lane and the morph kernel
+  // enqueued, both on the compute queue ahead of the skinning, which then reads the lane's
+  // morphed rest arrays (`args` points at them). Other frames: nothing.
+  Status Morph(OpenClLane& lane, const OpenClPreparedMesh& prepared, const SkinFrame& frame,
+               SkinKernelArgs* args, ClEvents& kernels, ClEvents& transfers) {
+    if (!MorphsOnDevice(frame, prepared.morph)) return Status::Ok();
+    const std::size_t bytes = frame.morph_weights.size_bytes();
+    if (Status s = runtime_->GrowBuffer("morph weights", CL_MEM_READ_ONLY, bytes,
+                                        &lane.morph_weights, &lane.morph_weights_bytes);
+        !s.ok()) {
+      return s;
+    }
+    // Non-blocking: the frame's weights, like its palette, are in use only within Skin(),
+    // which waits for the whole frame (or, after an error, for the lane's queues).
+    if (cl_int err =
+            clEnqueueWriteBuffer(lane.compute, lane.morph_weights.get(), CL_FALSE, 0, bytes,
+                                 frame.morph_weights.data(), 0, nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueWriteBuffer(morph weights)", err);
+    }
+    return EnqueueFrameMorph(*runtime_, lane, prepared.mesh(), prepared.morph,
+                             lane.morph_weights.get(), frame, args, kernels);
+  }
+
+  // One in-order queue: write, run, read in sequence; the last read blocks, so the
+  // caller's palette and outputs are in use only within this call.
+  Status SkinDirect(OpenClLane& lane, const OpenClPreparedMesh& prepared, const SkinFrame& frame,
+                    const SkinKernelArgs& args, ClEvents& kernels, ClEvents& transfers) {
+    const bool with_normals = !frame.normals.empty();
+    if (Status s = EnqueueWholeFrame(lane, prepared, frame, args, kernels, transfers); !s.ok()) {
+      return s;
+    }
+    if (with_normals) {
+      if (cl_int err = clEnqueueReadBuffer(lane.compute, lane.out_normals.get(), CL_FALSE, 0,
+                                           frame.normals.size_bytes(), frame.normals.data(), 0,
+                                           nullptr, transfers.Next());
+          err != CL_SUCCESS) {
+        return ClError("clEnqueueReadBuffer(normals)", err);
+      }
+    }
+    if (!frame.tangents.empty()) {
+      if (cl_int err = clEnqueueReadBuffer(lane.compute, lane.out_tangents.get(), CL_FALSE, 0,
+                                           frame.tangents.size_bytes(), frame.tangents.data(), 0,
+                                           nullptr, transfers.Next());
+          err != CL_SUCCESS) {
+        return ClError("clEnqueueReadBuffer(tangents)", err);
+      }
+    }
+    if (cl_int err = clEnqueueReadBuffer(lane.compute, lane.out_positions.get(), CL_TRUE, 0,
+                                         frame.positions.size_bytes(), frame.positions.data(), 0,
+                                         nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueReadBuffer(positions)", err);
+    }
+    return Status::Ok();
+  }
+
+  // Encoded output: the palette in, the whole frame's kernel, then the encoder's kernels
+  // on the same queue and only the encoded bytes back (opencl_encode.h).
+  Status SkinEncoded(OpenClLane& lane, const OpenClPreparedMesh& prepared, const SkinFrame& frame,
+                     const SkinKernelArgs& args, ClEvents& kernels, ClEvents& transfers) {
+    if (Status s = EnqueueWholeFrame(lane, prepared, frame, args, kernels, transfers); !s.ok()) {
+      return s;
+    }
+    return encoder_->Encode(lane, args, prepared.mesh().vertex_count(), frame,
+                            /*zero_copy=*/false, kernels, transfers);
+  }
+
+  // On the compute queue: the palette in (through the lane's pinned memory when the
+  // runtime stages), then the whole frame's kernel - the direct and the encoded paths.
+  Status EnqueueWholeFrame(OpenClLane& lane, const OpenClPreparedMesh& prepared,
+                           const SkinFrame& frame, const SkinKernelArgs& args, ClEvents& kernels,
+                           ClEvents& transfers) {
+    const void* palette = frame.palette.data();
+    if (runtime_->staging()) {
+      std::memcpy(lane.pinned_palette.host, frame.palette.data(), frame.palette.size_bytes());
+      palette = lane.pinned_palette.host;
+    }
+    if (cl_int err =
+            clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
+                                 frame.palette.size_bytes(), palette, 0, nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueWriteBuffer(palette)", err);
+    }
+    const Mesh& mesh = prepared.mesh();
+    return runtime_->EnqueueSkin(lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
+  }
+
+  // Pinned staging, chunks, two queues: see the top of this file.
+  Status SkinStaged(OpenClLane& lane, int copy_threads, const OpenClPreparedMesh& prepared,
+                    const SkinFrame& frame, const SkinKernelArgs& args, ClEvents& kernels,
+                    ClEvents& transfers) {
+    const Mesh& mesh = prepared.mesh();
+    const uint32_t vertices = mesh.vertex_count();
+    std::memcpy(lane.pinned_palette.host, frame.palette.data(), frame.palette.size_bytes());
+    if (cl_int err = clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
+                                          frame.palette.size_bytes(), lane.pinned_palette.host, 0,
+                                          nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueWriteBuffer(palette)", err);
+    }
+    // The frame's outputs: each read back chunk by chunk into its pinned buffer, then copied
+    // out to the caller's array.
+    struct Output {
+      const char* what;
+      cl_mem from;
+      void* pinned;
+      float* to;
+      std::size_t floats_per_vertex;
+    };
+    std::vector<Output> outputs = {{"clEnqueueReadBuffer(positions)", lane.out_positions.get(),
+                                    lane.pinned_positions.host, frame.positions.data(), 3}};
+    if (!frame.normals.empty()) {
+      outputs.push_back({"clEnqueueReadBuffer(normals)", lane.out_normals.get(),
+                         lane.pinned_normals.host, frame.normals.data(), 3});
+    }
+    if (!frame.tangents.empty()) {
+      outputs.push_back({"clEnqueueReadBuffer(tangents)", lane.out_tangents.get(),
+                         lane.pinned_tangents.host, frame.tangents.data(), 4});
+    }
+    const uint32_t align = OpenClRuntime::kChunkAlignment;
+    const uint32_t most = static_cast<uint32_t>(runtime_->max_chunks());
+    // Chunks start at multiples of `align` (the runtime rounds min_chunk_vertices up too).
+    const uint32_t per_chunk = std::max(runtime_->min_chunk_vertices(),
+                                        ((vertices + most - 1) / most + align - 1) / align * align);
+    struct Chunk {
+      uint32_t first, end;
+      std::vector<cl_event> reads;
+    };
+    std::vector<Chunk> chunks;
+    for (uint32_t first = 0; first < vertices; first += per_chunk) {
+      Chunk chunk{first, std::min(vertices, first + per_chunk), {}};
+      cl_event* kernel = kernels.Next();
+      if (Status s = runtime_->EnqueueSkin(lane, mesh, args, chunk.first, chunk.end, kernel);
+          !s.ok()) {
+        return s;
+      }
+      for (const Output& out : outputs) {
+        const std::size_t offset = out.floats_per_vertex * chunk.first * sizeof(float),
+                          bytes = out.floats_per_vertex * (chunk.end - chunk.first) * sizeof(float);
+        cl_event* event = transfers.Next();
+        if (cl_int err =
+                clEnqueueReadBuffer(lane.transfer, out.from, CL_FALSE, offset, bytes,
+                                    static_cast<char*>(out.pinned) + offset, 1, kernel, event);
+            err != CL_SUCCESS) {
+          return ClError(out.what, err);
+        }
+        chunk.reads.push_back(*event);
+      }
+      chunks.push_back(std::move(chunk));
+      // Submit now, so the device starts on this chunk while the next is enqueued.
+      clFlush(lane.compute);
+      clFlush(lane.transfer);
+    }
+    for (const Chunk& chunk : chunks) {
+      if (cl_int err =
+              clWaitForEvents(static_cast<cl_uint>(chunk.reads.size()), chunk.reads.data());
+          err != CL_SUCCESS) {
+        return ClError("clWaitForEvents(read-back)", err);
+      }
+      for (const Output& out : outputs) {
+        const std::size_t offset = out.floats_per_vertex * chunk.first * sizeof(float),
+                          bytes = out.floats_per_vertex * (chunk.end - chunk.first) * sizeof(float);
+        ParallelCopy(reinterpret_cast<char*>(out.to) + offset,
+                     static_cast<const char*>(out.pinned) + offset, bytes, copy_threads);
+      }
+    }
+    return Status::Ok();
+  }
+
+  std::shared_ptr<OpenClRuntime> runtime_;
+  std::shared_ptr<OpenClEncoder> encoder_;
+  BackendInfo info_;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> MakeOpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime,
+                                               std::shared_ptr<OpenClEncoder> encoder) {
+  return std::make_unique<OpenClCopyBackend>(std::move(runtime), std::move(encoder));
+}
+
+}  // namespace skinserve

@@ -1,0 +1,76 @@
+#include "observability/server_snapshot.h"
+
+namespace skinserve::server {
+namespace {
+
+void ToWire(const DurationHistogram& h, v1::DurationHistogram* wire) {
+  uint64_t cumulative = 0;
+  for (std::size_t i = 0; i < DurationHistogram::kBounds.size(); ++i) {
+    cumulative += h.buckets[i];
+    wire->add_upper_bounds(DurationHistogram::kBounds[i]);
+    wire->add_bucket_counts(cumulative);
+  }
+  wire->set_count(h.count);
+  wire->set_sum_seconds(h.sum_seconds);
+}
+
+}  // namespace
+
+v1::ServerStats ToWire(const ServerSnapshot& s) {
+  v1::ServerStats wire;
+  wire.set_version(s.version);
+  wire.set_serving(s.serving);
+  const EngineStats& e = s.engine;
+  for (const BackendStats& b : e.backends) {
+    v1::BackendStats* out = wire.add_backends();
+    out->set_id(b.id);
+    out->set_frames(b.frames);
+    out->set_vertices(b.vertices);
+    out->set_errors(b.errors);
+    out->set_compute_ns_total(b.compute_ns_total);
+    if (auto f = s.frames.find(b.id); f != s.frames.end()) {
+      for (const auto& [code, n] : f->second.errors_by_code)
+        (*out->mutable_errors_by_code())[code] = n;
+      ToWire(f->second.queue, out->mutable_queue());
+      ToWire(f->second.compute, out->mutable_compute());
+      ToWire(f->second.encode, out->mutable_encode());
+      ToWire(f->second.server, out->mutable_server());
+    }
+  }
+  wire.set_queue_depth(e.queue_depth);
+  wire.set_queue_capacity(e.queue_capacity);
+  wire.set_compute_threads(e.compute_threads);
+  wire.set_peak_busy_threads(e.peak_busy_threads);
+  wire.set_inline_frames(e.inline_frames);
+  wire.set_ticks(s.ticks.ticks);
+  wire.set_tick_characters(s.ticks.characters);
+  wire.set_meshes(e.meshes);
+  wire.set_mesh_bytes(e.mesh_bytes);
+  wire.set_mesh_budget_bytes(e.mesh_budget_bytes);
+  wire.set_evictions(e.evictions);
+  wire.set_rejected_queue_full(e.rejected_queue_full);
+  wire.set_open_streams(s.open_streams);
+  wire.set_ended_streams_idle(s.streams_ended_idle);
+  wire.set_inflight_budget_bytes(s.inflight.budget_bytes);
+  wire.set_inflight_bytes(s.inflight.bytes);
+  wire.set_rejected_inflight_budget(s.inflight.refused);
+  if (s.shared_memory) {
+    wire.set_regions(s.regions.regions);
+    wire.set_region_bytes(s.regions.mapped_bytes);
+    wire.set_region_budget_bytes(s.regions.budget_bytes);
+    wire.set_region_frames(s.regions.frames);
+    wire.set_rejected_regions(s.regions.rejected);
+  }
+  const UploadStats& u = s.uploads;
+  wire.set_upload_budget_bytes(u.budget_bytes);
+  wire.set_upload_bytes(u.bytes);
+  wire.set_open_uploads(u.open);
+  wire.set_rejected_uploads_max_uploads(u.refused_max_uploads);
+  wire.set_rejected_uploads_per_connection(u.refused_per_connection);
+  wire.set_rejected_uploads_budget(u.refused_budget);
+  wire.set_cancelled_uploads_idle(u.cancelled_idle);
+  wire.set_cancelled_uploads_deadline(u.cancelled_deadline);
+  return wire;
+}
+
+}  // namespace skinserve::server

@@ -1,0 +1,41 @@
+// ServerSnapshot: everything the server reports about itself, taken in one place
+// (SkinningService::Snapshot) and rendered twice: as Prometheus text on /metrics
+// (metrics_text.cpp) and as the ServerStats message of GetServerStats (ToWire below).
+// Whatever one of them shows, the other shows too.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include "observability/metrics_frames.h"
+#include "rpc/open_uploads.h"
+#include "shm/region_registry.h"
+#include "skinserve/engine/engine.h"
+#include "skinserve/v1/skinning.pb.h"
+
+namespace skinserve::server {
+
+struct InflightStats {
+  uint64_t budget_bytes = 0;
+  uint64_t bytes = 0;
+  uint64_t refused = 0;  // frames refused for want of budget
+};
+
+struct ServerSnapshot {
+  std::string version;
+  bool serving = false;  // false while starting and while draining
+  std::size_t open_streams = 0;
+  uint64_t streams_ended_idle = 0;  // by the server's --stream-idle-seconds
+  InflightStats inflight;
+  UploadStats uploads;
+  bool shared_memory = false;  // --shm-dir set; then `regions` holds
+  RegionStats regions;
+  EngineStats engine;                                 // empty while starting
+  std::map<std::string, BackendFrameMetrics> frames;  // per-frame histograms, by backend
+  TickCounts ticks;                                   // ticks and their characters read
+};
+
+v1::ServerStats ToWire(const ServerSnapshot& snapshot);
+
+}  // namespace skinserve::server

@@ -1,0 +1,82 @@
+#include "security/authz_policy_file.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <fstream>
+#include <sstream>
+
+namespace skinserve::server {
+
+Result<std::unique_ptr<PolicyFile>> PolicyFile::Load(const std::string& path,
+                                                     std::chrono::milliseconds refresh) {
+  std::unique_ptr<PolicyFile> file(new PolicyFile(path, refresh));
+  auto loaded = file->Reload();
+  if (!loaded.ok()) return loaded.status();
+  file->watcher_ = std::thread([f = file.get()] { f->Watch(); });
+  return file;
+}
+
+PolicyFile::~PolicyFile() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_one();
+  if (watcher_.joinable()) watcher_.join();
+}
+
+Result<bool> PolicyFile::Reload() {
+  std::ifstream in(path_);
+  if (!in) return InvalidArgument(fmt::format("--authz-policy '{}': cannot read the file", path_));
+  std::stringstream text;
+  text << in.rdbuf();
+  {
+    std::lock_guard lock(mutex_);
+    if (policy_ != nullptr && text.str() == text_) return false;
+    text_ = text.str();
+  }
+  auto policy = AuthorizationPolicy::Parse(text.str());
+  if (!policy.ok()) {
+    return InvalidArgument(
+        fmt::format("--authz-policy '{}': {}", path_, policy.status().message()));
+  }
+  auto parsed = std::make_shared<const AuthorizationPolicy>(std::move(policy).value());
+  spdlog::info("--authz-policy '{}': policy '{}' in force ({} allow rules, {} deny rules)", path_,
+               parsed->name(), parsed->allow_rules(), parsed->deny_rules());
+  std::lock_guard lock(mutex_);
+  policy_ = std::move(parsed);
+  return true;
+}
+
+void PolicyFile::Watch() {
+  std::unique_lock lock(mutex_);
+  while (!wake_.wait_for(lock, refresh_, [this] { return stop_; })) {
+    lock.unlock();
+    if (auto reloaded = Reload(); !reloaded.ok()) {
+      spdlog::error("{}; the last good policy stays in force", reloaded.status().message());
+    }
+    lock.lock();
+  }
+}
+
+std::shared_ptr<const AuthorizationPolicy> PolicyFile::current() const {
+  std::lock_guard lock(mutex_);
+  return policy_;
+}
+
+Status PolicyFile::Check(const grpc::ServerContextBase& context, std::string_view path) const {
+  const std::shared_ptr<const AuthorizationPolicy> policy = current();
+  const std::shared_ptr<const grpc::AuthContext> auth = context.auth_context();
+  const Peer peer = Peer::Of(auth.get());
+  const AuthorizationPolicy::Decision decision = policy->Evaluate(peer, path);
+  if (decision.allowed) return Status::Ok();
+  return {StatusCode::kPermissionDenied,
+          fmt::format("{} is not allowed for {} by the authorization policy '{}' ({}; "
+                      "--authz-policy)",
+                      path, peer.Describe(), policy->name(),
+                      decision.rule.empty() ? "no allow rule matches"
+                                            : "deny rule '" + decision.rule + "'")};
+}
+
+}  // namespace skinserve::server

@@ -1,0 +1,48 @@
+// PolicyFile: the --authz-policy file, read at start (a policy that does not parse is a
+// start-up error) and re-read on a timer, so a mounted ConfigMap's edit takes effect
+// without a restart. An edit that does not parse is logged and the last good policy stays
+// in force, as gRPC's own file watcher does. Each call is checked once, when it starts: a
+// stream opened before an edit is not cut by it.
+#pragma once
+
+#include <grpcpp/server_context.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "security/authz_policy.h"
+
+namespace skinserve::server {
+
+class PolicyFile {
+ public:
+  static Result<std::unique_ptr<PolicyFile>> Load(const std::string& path,
+                                                  std::chrono::milliseconds refresh);
+  ~PolicyFile();
+
+  // OK, or PERMISSION_DENIED naming the method, the caller and the policy.
+  Status Check(const grpc::ServerContextBase& context, std::string_view path) const;
+  std::shared_ptr<const AuthorizationPolicy> current() const;
+
+ private:
+  PolicyFile(std::string path, std::chrono::milliseconds refresh)
+      : path_(std::move(path)), refresh_(refresh) {}
+  void Watch();
+  // Reads and parses the file; true when it changed and parsed (then it is in force).
+  Result<bool> Reload();
+
+  const std::string path_;
+  const std::chrono::milliseconds refresh_;
+  mutable std::mutex mutex_;
+  std::shared_ptr<const AuthorizationPolicy> policy_;
+  std::string text_;  // the file as last read (parsed or not), to notice changes
+  std::condition_variable wake_;
+  bool stop_ = false;
+  std::thread watcher_;
+};
+
+}  // namespace skinserve::server
