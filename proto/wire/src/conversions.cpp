@@ -56,6 +56,8 @@ Status FromGrpc(const grpc::Status& status) {
       return FailedPrecondition(status.error_message());
     case grpc::StatusCode::UNAVAILABLE:
       return Unavailable(status.error_message());
+    case grpc::StatusCode::INTERNAL:
+      return Internal(status.error_message());
     case grpc::StatusCode::DEADLINE_EXCEEDED:
       return DeadlineExceeded(status.error_message());
     case grpc::StatusCode::CANCELLED:
