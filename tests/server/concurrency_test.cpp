@@ -1,4 +1,5 @@
-// Many streams at once, full queues and cancelled streams, against a real server.
+// Many streams at once and full queues, against a real server. (A cancelled stream:
+// tests/server/rpc/stream_skin_reactor_test.cpp.)
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -85,39 +86,6 @@ TEST(ConcurrencyTest, AFullQueueAnswersResourceExhaustedAndNeverHangs) {
   EXPECT_EQ(other.load(), 0);
   EXPECT_GE(ok.load(), 1);
   EXPECT_EQ(t.client->GetServerStats()->rejected_queue_full(), static_cast<uint64_t>(exhausted));
-}
-
-TEST(ConcurrencyTest, ACancelledStreamFreesItsResources) {
-  TestServer t;
-  auto info = t.client->Upload(MakeSyntheticMesh({.vertex_count = 200'000, .influences = 2}));
-  ASSERT_TRUE(info.ok());
-  {
-    grpc::ClientContext context;
-    auto stream = t.client->stub().StreamSkin(&context);
-    v1::SkinRequest request;
-    request.set_mesh_id(info->mesh_id());
-    request.set_backend("serial");
-    request.set_palette(wire::EncodeFloats(MakeSyntheticPalette(77, 1, 0)));
-    for (int i = 0; i < 8; ++i) {
-      request.set_frame(i);
-      ASSERT_TRUE(stream->Write(request));
-    }
-    v1::SkinResponse part;
-    ASSERT_TRUE(stream->Read(&part));  // the stream is live and working
-    EXPECT_EQ(t.client->GetServerStats()->open_streams(), 1u);
-    context.TryCancel();
-    EXPECT_EQ(stream->Finish().error_code(), grpc::StatusCode::CANCELLED);
-  }
-  // The server lets go of the stream (its queued frames finish and are dropped).
-  for (int i = 0; i < 100 && t.client->GetServerStats()->open_streams() != 0; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  EXPECT_EQ(t.client->GetServerStats()->open_streams(), 0u);
-  // And keeps serving.
-  client::FrameResult result;
-  EXPECT_TRUE(
-      t.client->Skin(info->mesh_id(), "sse", MakeSyntheticPalette(77, 1, 0), 0, false, &result)
-          .ok());
 }
 
 }  // namespace
