@@ -118,24 +118,10 @@ Status StreamFrames(SkinClient& client, const StreamOptions& options, const Pale
   const std::size_t window = static_cast<std::size_t>(std::max(options.window, 1));
   if (Status s = CheckRegionSlots(options, window); !s.ok()) return s;
   FramePath path(options, palette, sink);
-  StreamSession session(client,
-                        {.first = options.first_frame,
-                         .count = options.frames,
-                         .window = options.window,
-                         .max_reconnects = options.max_reconnects,
-                         .max_reuploads = options.max_reuploads,
-                         .stop = options.stop,
-                         .unit = "frame"},
-                        path);
+  StreamSession session(
+      client, SessionOptionsOf(options, options.first_frame, options.frames, "frame"), path);
   const Status status = session.Run();
-  if (summary_out != nullptr) {
-    const SessionCounts& c = session.counts();
-    *summary_out = {.sent = c.sent,
-                    .answered = c.answered,
-                    .failed = c.failed,
-                    .reconnects = c.reconnects,
-                    .reuploads = c.reuploads};
-  }
+  if (summary_out != nullptr) CopyCounts(session.counts(), summary_out);
   return status;
 }
 

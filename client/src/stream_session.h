@@ -73,6 +73,30 @@ struct SessionCounts {
   uint64_t reuploads = 0;  // re-uploads that went through
 };
 
+// The session's options from StreamOptions or TickStreamOptions (the fields they share);
+// `first` and `count` number the units.
+template <typename Options>
+SessionOptions SessionOptionsOf(const Options& o, uint64_t first, uint64_t count,
+                                std::string_view unit) {
+  return {.first = first,
+          .count = count,
+          .window = o.window,
+          .max_reconnects = o.max_reconnects,
+          .max_reuploads = o.max_reuploads,
+          .stop = o.stop,
+          .unit = unit};
+}
+
+// Copies the session's counts into StreamSummary or TickStreamSummary.
+template <typename Summary>
+void CopyCounts(const SessionCounts& c, Summary* summary) {
+  summary->sent = c.sent;
+  summary->answered = c.answered;
+  summary->failed = c.failed;
+  summary->reconnects = c.reconnects;
+  summary->reuploads = c.reuploads;
+}
+
 class StreamSession;
 
 // What differs between frames and ticks.

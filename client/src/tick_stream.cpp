@@ -123,21 +123,9 @@ Status StreamTicks(SkinClient& client, const TickStreamOptions& options, const T
   TickStreamSummary summary;
   TickPath path(options, source, sink, &summary);
   StreamSession session(client,
-                        {.first = options.first_tick,
-                         .count = options.ticks,
-                         .window = options.window,
-                         .max_reconnects = options.max_reconnects,
-                         .max_reuploads = options.max_reuploads,
-                         .stop = options.stop,
-                         .unit = "tick"},
-                        path);
+                        SessionOptionsOf(options, options.first_tick, options.ticks, "tick"), path);
   const Status status = session.Run();
-  const SessionCounts& c = session.counts();
-  summary.sent = c.sent;
-  summary.answered = c.answered;
-  summary.failed = c.failed;
-  summary.reconnects = c.reconnects;
-  summary.reuploads = c.reuploads;
+  CopyCounts(session.counts(), &summary);
   if (summary_out != nullptr) *summary_out = summary;
   return status;
 }
