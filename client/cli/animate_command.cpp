@@ -127,202 +127,277 @@ class FrameGather {
   const std::atomic<bool>* stop_;
 };
 
-int Animate(const CommonOptions& common, const AnimateOptions& o) {
-  if (Status s = CheckOptions(o); !s.ok()) return Report(s);
-  auto asked = ParseRestEncodingOption(o.rest_encoding);
-  if (!asked.ok()) return Report(asked.status());
+// The character and what is drawn of it: its meshes, the clip and how many frames of it.
+struct Scene {
+  Character character;
+  std::vector<CharacterMesh> meshes;
+  const AnimationClip* clip = nullptr;
+  uint64_t frames = 0;
+  std::optional<render::Camera> camera;  // --render
+
+  // Frame i's palette for `mesh`: sampled as frames are sent (a long clip of a big skeleton
+  // would not fit in memory).
+  Result<std::vector<float>> Palette(uint64_t i, const CharacterMesh& mesh, double fps) const {
+    return MeshPalette(character, SampleClip(character, *clip, i / fps), mesh);
+  }
+};
+
+Result<std::unique_ptr<Scene>> LoadScene(const AnimateOptions& o) {
+  auto scene = std::make_unique<Scene>();  // the clip points into its character: never moved
   auto character = ImportCharacter(o.file);
-  if (!character.ok()) return Report(character.status());
+  if (!character.ok()) return character.status();
+  scene->character = std::move(*character);
   if (o.primitive >= 0) {
-    if (auto picked = PickPrimitive(*character, o.primitive, o.file); !picked.ok()) {
-      return Report(picked.status());
+    if (auto picked = PickPrimitive(scene->character, o.primitive, o.file); !picked.ok()) {
+      return picked.status();
     }
   }
-  auto built = CharacterMeshes(*character, o.primitive);
-  if (!built.ok()) return Report(built.status());
-  const std::vector<CharacterMesh>& meshes = *built;
-  auto clip = PickClip(*character, o.clip, o.file);
-  if (!clip.ok()) return Report(clip.status());
-
+  auto built = CharacterMeshes(scene->character, o.primitive);
+  if (!built.ok()) return built.status();
+  scene->meshes = std::move(*built);
+  auto clip = PickClip(scene->character, o.clip, o.file);
+  if (!clip.ok()) return clip.status();
+  scene->clip = *clip;
   // Frame i shows time i / fps; `seconds` of them, at least one.
-  const double seconds = o.seconds > 0 ? o.seconds : (*clip)->duration;
-  const uint64_t frames = std::max<uint64_t>(1, std::llround(seconds * o.fps));
-  // Sampled as frames are sent (a long clip of a big skeleton would not fit in memory);
-  // frame 0 first, so that a palette error shows before anything is uploaded.
-  auto palette_at = [&](uint64_t i, const CharacterMesh& mesh) {
-    return MeshPalette(*character, SampleClip(*character, **clip, i / o.fps), mesh);
-  };
-  for (const CharacterMesh& mesh : meshes) {
-    if (auto first = palette_at(0, mesh); !first.ok()) return Report(first.status());
+  const double seconds = o.seconds > 0 ? o.seconds : scene->clip->duration;
+  scene->frames = std::max<uint64_t>(1, std::llround(seconds * o.fps));
+  // Frame 0 first, so that a palette error shows before anything is uploaded.
+  for (const CharacterMesh& mesh : scene->meshes) {
+    if (auto first = scene->Palette(0, mesh, o.fps); !first.ok()) return first.status();
   }
-  std::optional<render::Camera> camera;
   if (o.render) {
-    const std::vector<Pose> poses = render::ClipPoses(*character, **clip, o.fps, frames);
-    auto framing = render::CharacterCamera(*character, meshes, poses, o.width, o.height);
-    if (!framing.ok()) return Report(framing.status());
-    camera = *framing;
+    const std::vector<Pose> poses =
+        render::ClipPoses(scene->character, *scene->clip, o.fps, scene->frames);
+    auto framing =
+        render::CharacterCamera(scene->character, scene->meshes, poses, o.width, o.height);
+    if (!framing.ok()) return framing.status();
+    scene->camera = *framing;
   }
-  std::error_code error;
-  std::filesystem::create_directories(o.out, error);
-  if (error) {
-    return Report(Internal(fmt::format("--out {}: cannot create: {}", o.out, error.message())));
-  }
+  return scene;
+}
 
-  // One client per mesh (each remembers its mesh, to upload it again to a replica that
-  // lacks it), on one channel.
+// One client per mesh (each remembers its mesh, to upload it again to a replica that
+// lacks it), on one channel, and the mesh's id on the server.
+struct MeshClient {
+  std::unique_ptr<client::SkinClient> client;
+  std::string mesh_id;
+};
+
+Result<std::vector<MeshClient>> UploadMeshes(const CommonOptions& common, const Scene& scene,
+                                             std::optional<RestEncoding> asked) {
   auto channel = common.Channel();
-  if (!channel.ok()) return Report(channel.status());
-  std::vector<std::unique_ptr<client::SkinClient>> clients;
-  std::vector<std::string> mesh_ids;
+  if (!channel.ok()) return channel.status();
   std::vector<RestEncodingChoice> rest;
-  for (const CharacterMesh& mesh : meshes) {
-    auto choice = MeshRestEncoding(*character, mesh, *asked);
-    if (!choice.ok()) return Report(choice.status());
+  for (const CharacterMesh& mesh : scene.meshes) {
+    auto choice = MeshRestEncoding(scene.character, mesh, asked);
+    if (!choice.ok()) return choice.status();
     rest.push_back(*std::move(choice));
   }
-  for (std::size_t m = 0; m < meshes.size(); ++m) {
-    const CharacterMesh& mesh = meshes[m];
-    clients.push_back(std::make_unique<client::SkinClient>(*channel, common.Limits()));
-    auto info = clients.back()->Upload(mesh.arrays, {.rest_encoding = rest[m].encoding});
+  std::vector<MeshClient> clients;
+  for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
+    const CharacterMesh& mesh = scene.meshes[m];
+    auto c = std::make_unique<client::SkinClient>(*channel, common.Limits());
+    auto info = c->Upload(mesh.arrays, {.rest_encoding = rest[m].encoding});
     if (!info.ok()) {
-      return Report(
-          Status(info.status().code(), fmt::format("{}: {}", mesh.name, info.status().message())));
+      return Status(info.status().code(),
+                    fmt::format("{}: {}", mesh.name, info.status().message()));
     }
-    mesh_ids.push_back(info->mesh_id());
+    clients.push_back({std::move(c), info->mesh_id()});
     fmt::print("{}: {}  {} vertices, {} joints, {} triangles, {} primitive(s)\n", mesh.name,
                info->mesh_id(), info->vertex_count(), info->joint_count(), mesh.indices.size() / 3,
                mesh.parts.size());
     fmt::print("  rest stream {}: {}\n", RestEncodingName(rest[m].encoding), rest[m].reason);
   }
-  fmt::print("clip '{}' ({:.3f} s)\n", (*clip)->name, (*clip)->duration);
+  return clients;
+}
 
-  // Files are written as each frame's last answer arrives; the first failure (a
-  // palette's, a frame's or a file's) stops sending and is reported.
-  std::atomic<bool> stop{false};
-  std::mutex error_mutex;
-  Status first_error;
-  std::atomic<uint64_t> written_obj{0}, written_png{0};
-  std::atomic<int64_t> compute_ns{0};
-  std::atomic<uint64_t> frames_done{0};
-  ProgressLine progress("animate", frames);
-  FrameGather gather(meshes.size(), 2 * static_cast<uint64_t>(o.window), &stop);
-  auto fail = [&](Status s) {
+// Streams every mesh's frames, one thread each, and writes each frame's files as its last
+// answer arrives; the first failure (a palette's, a frame's or a file's) stops sending and
+// is reported.
+class AnimateRun {
+ public:
+  AnimateRun(const AnimateOptions& o, const Scene& scene)
+      : o_(o),
+        scene_(scene),
+        progress_("animate", scene.frames),
+        gather_(scene.meshes.size(), 2 * static_cast<uint64_t>(o.window), &stop_) {}
+
+  // Streams and writes every frame; the error of the first mesh whose stream failed, else
+  // the first failure.
+  Status Run(std::vector<MeshClient>& clients) {
+    const std::size_t meshes = scene_.meshes.size();
+    summaries_.resize(meshes);
+    std::vector<Status> streamed(meshes);
+    const auto started = std::chrono::steady_clock::now();
+    std::vector<std::thread> threads;
+    for (std::size_t m = 0; m < meshes; ++m) {
+      threads.emplace_back([&, m] { streamed[m] = StreamMesh(m, clients[m]); });
+    }
+    for (std::thread& t : threads) t.join();
+    progress_.Finish();
+    elapsed_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    for (std::size_t m = 0; m < meshes; ++m) {
+      if (!streamed[m].ok()) {
+        return Status(streamed[m].code(),
+                      fmt::format("{}: {}", scene_.meshes[m].name, streamed[m].message()));
+      }
+    }
+    return first_error_;
+  }
+  // After Run: whether every mesh had every frame answered.
+  Status CheckAnswered() const {
+    for (std::size_t m = 0; m < scene_.meshes.size(); ++m) {
+      if (summaries_[m].answered != scene_.frames) {
+        return Internal(fmt::format("{}: {} of {} frames answered", scene_.meshes[m].name,
+                                    summaries_[m].answered, scene_.frames));
+      }
+    }
+    return Status::Ok();
+  }
+  double elapsed() const { return elapsed_; }
+  uint64_t written_obj() const { return written_obj_.load(); }
+  uint64_t written_png() const { return written_png_.load(); }
+  int64_t compute_ns() const { return compute_ns_.load(); }
+
+ private:
+  Status StreamMesh(std::size_t m, MeshClient& mesh_client);
+  void Answered(std::size_t m, client::FrameResult& result);
+  void WriteFrame(std::vector<client::FrameResult>& parts);
+  void Fail(Status s) {
     {
-      std::lock_guard lock(error_mutex);
-      if (first_error.ok()) first_error = std::move(s);
+      std::lock_guard lock(error_mutex_);
+      if (first_error_.ok()) first_error_ = std::move(s);
     }
-    stop = true;
-    gather.Stop();
-  };
-  auto write_frame = [&](std::vector<client::FrameResult>& parts) {
-    const uint64_t frame = parts.front().frame;
-    std::vector<render::ObjMesh> obj;
-    std::vector<render::RenderPart> render_parts;
-    for (std::size_t m = 0; m < meshes.size(); ++m) {
-      render::ObjMesh mesh{.positions = parts[m].positions,
-                           .normals = parts[m].normals,
-                           .indices = meshes[m].indices,
-                           .groups = {}};
-      for (const PrimitiveSpan& part : meshes[m].parts) {
-        mesh.groups.push_back({part.name, part.first_index, part.index_count});
-      }
-      obj.push_back(std::move(mesh));
-      render_parts.push_back({parts[m].positions, parts[m].normals, meshes[m].indices});
-    }
-    Status s = render::WriteObj(render::FrameFileName(o.out, frame, "obj"), obj);
-    if (!s.ok()) return fail(s);
-    ++written_obj;
-    if (!camera) return;
-    // Unlabelled: the frames play as a sequence; the contact sheet labels its cells.
-    s = render::RenderPng(render::FrameFileName(o.out, frame, "png"), *camera, render_parts);
-    if (!s.ok()) return fail(s);
-    ++written_png;
-  };
-
-  std::vector<client::StreamSummary> summaries(meshes.size());
-  std::vector<Status> streamed(meshes.size());
-  const auto started = std::chrono::steady_clock::now();
-  std::vector<std::thread> threads;
-  for (std::size_t m = 0; m < meshes.size(); ++m) {
-    threads.emplace_back([&, m] {
-      client::StreamOptions stream{.mesh_id = mesh_ids[m],
-                                   .backend = o.backend,
-                                   .want_normals = !meshes[m].arrays.normals.empty(),
-                                   .method = o.method,
-                                   .frames = frames,
-                                   .window = o.window,
-                                   .stop = &stop};
-      // The mesh's morph target weights, sampled with the palette's pose.
-      std::vector<MorphWeight> morph;
-      if (!meshes[m].morph_sources.empty()) {
-        stream.morph_weights = [&, m](uint64_t f) {
-          MeshMorphWeights(meshes[m], SampleClip(*character, **clip, f / o.fps), &morph);
-          return std::span<const MorphWeight>(morph);
-        };
-      }
-      streamed[m] = client::StreamFrames(
-          *clients[m], stream,
-          [&](uint64_t f) {
-            gather.WaitToSend(f);
-            if (stop) return std::vector<float>();  // never sent: the stream stops first
-            auto palette = palette_at(f, meshes[m]);
-            if (palette.ok()) return std::move(*palette);
-            fail(palette.status());  // the server rejects the empty palette; we stop sending
-            return std::vector<float>();
-          },
-          [&](client::FrameResult& result, std::chrono::nanoseconds) {
-            if (!result.status.ok()) {
-              return fail(
-                  Status(result.status.code(), fmt::format("{}: frame {}: {}", meshes[m].name,
-                                                           result.frame, result.status.message())));
-            }
-            compute_ns += static_cast<int64_t>(result.timing.compute_ns());
-            auto whole = gather.Add(m, std::move(result));
-            if (whole && !stop) {
-              write_frame(*whole);
-              progress.Update(++frames_done);
-            }
-          },
-          &summaries[m]);
-    });
-  }
-  for (std::thread& t : threads) t.join();
-  progress.Finish();
-  const double elapsed =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  for (std::size_t m = 0; m < meshes.size(); ++m) {
-    if (!streamed[m].ok()) {
-      return Report(
-          Status(streamed[m].code(), fmt::format("{}: {}", meshes[m].name, streamed[m].message())));
-    }
-  }
-  if (!first_error.ok()) return Report(first_error);
-  for (std::size_t m = 0; m < meshes.size(); ++m) {
-    if (summaries[m].answered != frames) {
-      return Report(Internal(fmt::format("{}: {} of {} frames answered", meshes[m].name,
-                                         summaries[m].answered, frames)));
-    }
+    stop_ = true;
+    gather_.Stop();
   }
 
+  const AnimateOptions& o_;
+  const Scene& scene_;
+  std::atomic<bool> stop_{false};
+  std::mutex error_mutex_;
+  Status first_error_;
+  std::atomic<uint64_t> written_obj_{0}, written_png_{0};
+  std::atomic<int64_t> compute_ns_{0};
+  std::atomic<uint64_t> frames_done_{0};
+  ProgressLine progress_;
+  FrameGather gather_;
+  std::vector<client::StreamSummary> summaries_;
+  double elapsed_ = 0;
+};
+
+Status AnimateRun::StreamMesh(std::size_t m, MeshClient& mesh_client) {
+  const CharacterMesh& mesh = scene_.meshes[m];
+  client::StreamOptions stream{.mesh_id = mesh_client.mesh_id,
+                               .backend = o_.backend,
+                               .want_normals = !mesh.arrays.normals.empty(),
+                               .method = o_.method,
+                               .frames = scene_.frames,
+                               .window = o_.window,
+                               .stop = &stop_};
+  // The mesh's morph target weights, sampled with the palette's pose.
+  std::vector<MorphWeight> morph;
+  if (!mesh.morph_sources.empty()) {
+    stream.morph_weights = [&](uint64_t f) {
+      MeshMorphWeights(mesh, SampleClip(scene_.character, *scene_.clip, f / o_.fps), &morph);
+      return std::span<const MorphWeight>(morph);
+    };
+  }
+  return client::StreamFrames(
+      *mesh_client.client, stream,
+      [&](uint64_t f) {
+        gather_.WaitToSend(f);
+        if (stop_) return std::vector<float>();  // never sent: the stream stops first
+        auto palette = scene_.Palette(f, mesh, o_.fps);
+        if (palette.ok()) return std::move(*palette);
+        Fail(palette.status());  // the server rejects the empty palette; we stop sending
+        return std::vector<float>();
+      },
+      [&](client::FrameResult& result, std::chrono::nanoseconds) { Answered(m, result); },
+      &summaries_[m]);
+}
+
+void AnimateRun::Answered(std::size_t m, client::FrameResult& result) {
+  if (!result.status.ok()) {
+    return Fail(Status(result.status.code(), fmt::format("{}: frame {}: {}", scene_.meshes[m].name,
+                                                         result.frame, result.status.message())));
+  }
+  compute_ns_ += static_cast<int64_t>(result.timing.compute_ns());
+  auto whole = gather_.Add(m, std::move(result));
+  if (whole && !stop_) {
+    WriteFrame(*whole);
+    progress_.Update(++frames_done_);
+  }
+}
+
+void AnimateRun::WriteFrame(std::vector<client::FrameResult>& parts) {
+  const uint64_t frame = parts.front().frame;
+  std::vector<render::ObjMesh> obj;
+  std::vector<render::RenderPart> render_parts;
+  for (std::size_t m = 0; m < scene_.meshes.size(); ++m) {
+    render::ObjMesh mesh{.positions = parts[m].positions,
+                         .normals = parts[m].normals,
+                         .indices = scene_.meshes[m].indices,
+                         .groups = {}};
+    for (const PrimitiveSpan& part : scene_.meshes[m].parts) {
+      mesh.groups.push_back({part.name, part.first_index, part.index_count});
+    }
+    obj.push_back(std::move(mesh));
+    render_parts.push_back({parts[m].positions, parts[m].normals, scene_.meshes[m].indices});
+  }
+  Status s = render::WriteObj(render::FrameFileName(o_.out, frame, "obj"), obj);
+  if (!s.ok()) return Fail(s);
+  ++written_obj_;
+  if (!scene_.camera) return;
+  // Unlabelled: the frames play as a sequence; the contact sheet labels its cells.
+  s = render::RenderPng(render::FrameFileName(o_.out, frame, "png"), *scene_.camera, render_parts);
+  if (!s.ok()) return Fail(s);
+  ++written_png_;
+}
+
+// The contact sheet (with --render) and the run's summary line.
+int FinishAnimate(const AnimateOptions& o, const Scene& scene, const AnimateRun& run) {
   std::string sheet_note;
-  if (camera) {
+  if (scene.camera) {
     std::vector<render::SheetFrame> sheet;
-    for (std::size_t i : render::EvenlySpaced(frames, static_cast<std::size_t>(o.sheet_frames))) {
+    for (std::size_t i :
+         render::EvenlySpaced(scene.frames, static_cast<std::size_t>(o.sheet_frames))) {
       sheet.push_back({render::FrameFileName(o.out, i, "png"), FrameLabel(i, o.fps)});
     }
     const std::string path = o.out + "/contact-sheet.png";
     if (Status s = render::WriteContactSheet(path, sheet, o.sheet); !s.ok()) return Report(s);
     sheet_note =
-        fmt::format(", {} PNG frames and {} ({} frames)", written_png.load(), path, sheet.size());
+        fmt::format(", {} PNG frames and {} ({} frames)", run.written_png(), path, sheet.size());
   }
+  const uint64_t frames = scene.frames;
   fmt::print(
       "{} frames ({:.3f} s at {} fps), {} mesh(es) on {}: {:.2f} s, {:.1f} frames/s with files "
       "written, server compute {:.3f} ms/frame\nwrote {} OBJ frames{} in {}\n",
-      frames, static_cast<double>(frames) / o.fps, o.fps, meshes.size(),
-      o.backend.empty() ? "the default backend" : o.backend, elapsed, frames / elapsed,
-      static_cast<double>(compute_ns.load()) / 1e6 / static_cast<double>(frames),
-      written_obj.load(), sheet_note, o.out);
+      frames, static_cast<double>(frames) / o.fps, o.fps, scene.meshes.size(),
+      o.backend.empty() ? "the default backend" : o.backend, run.elapsed(), frames / run.elapsed(),
+      static_cast<double>(run.compute_ns()) / 1e6 / static_cast<double>(frames), run.written_obj(),
+      sheet_note, o.out);
   return 0;
+}
+
+int Animate(const CommonOptions& common, const AnimateOptions& o) {
+  if (Status s = CheckOptions(o); !s.ok()) return Report(s);
+  auto asked = ParseRestEncodingOption(o.rest_encoding);
+  if (!asked.ok()) return Report(asked.status());
+  auto scene = LoadScene(o);
+  if (!scene.ok()) return Report(scene.status());
+  std::error_code error;
+  std::filesystem::create_directories(o.out, error);
+  if (error) {
+    return Report(Internal(fmt::format("--out {}: cannot create: {}", o.out, error.message())));
+  }
+  auto clients = UploadMeshes(common, **scene, *asked);
+  if (!clients.ok()) return Report(clients.status());
+  fmt::print("clip '{}' ({:.3f} s)\n", (*scene)->clip->name, (*scene)->clip->duration);
+  AnimateRun run(o, **scene);
+  if (Status s = run.Run(*clients); !s.ok()) return Report(s);
+  if (Status s = run.CheckAnswered(); !s.ok()) return Report(s);
+  return FinishAnimate(o, **scene, run);
 }
 
 }  // namespace

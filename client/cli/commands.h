@@ -5,6 +5,7 @@
 #include <google/protobuf/message.h>
 #include <CLI/CLI.hpp>
 
+#include <memory>
 #include <string>
 
 #include "connection_flags.h"
@@ -38,6 +39,15 @@ struct MeshOptionsCli {
   SyntheticMeshSpec spec{.vertex_count = 100'000, .influences = 2};
   void Add(CLI::App* command);
 };
+
+// A client on the command's channel with a synthetic mesh made from `spec` and uploaded:
+// what skin, stream and verify start from.
+struct SyntheticUpload {
+  std::unique_ptr<client::SkinClient> client;
+  MeshArrays arrays;
+  std::string mesh_id;
+};
+Result<SyntheticUpload> UploadSynthetic(const CommonOptions& common, const SyntheticMeshSpec& spec);
 
 void AddHealthCommand(CLI::App& app, CommonOptions& common);
 void AddBackendsCommand(CLI::App& app, CommonOptions& common);

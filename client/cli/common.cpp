@@ -43,6 +43,19 @@ void AddCommonOptions(CLI::App& app, CommonOptions& common) {
       ->capture_default_str();
 }
 
+Result<SyntheticUpload> UploadSynthetic(const CommonOptions& common,
+                                        const SyntheticMeshSpec& spec) {
+  auto channel = common.Channel();
+  if (!channel.ok()) return channel.status();
+  SyntheticUpload upload{.client = std::make_unique<client::SkinClient>(*channel, common.Limits()),
+                         .arrays = MakeSyntheticMesh(spec),
+                         .mesh_id = ""};
+  auto info = upload.client->Upload(upload.arrays);
+  if (!info.ok()) return info.status();
+  upload.mesh_id = info->mesh_id();
+  return upload;
+}
+
 void MeshOptionsCli::Add(CLI::App* command) {
   command->add_option("--vertices", spec.vertex_count, "synthetic mesh: vertex count")
       ->capture_default_str();

@@ -22,19 +22,14 @@ void AddStreamCommand(CLI::App& app, CommonOptions& common) {
       ->capture_default_str();
   AddMethodOption(command, &options->method);
   command->callback([&common, mesh, options] {
-    auto channel = common.Channel();
-    if (!channel.ok()) {
-      common.exit_code = Report(channel.status());
+    auto uploaded = UploadSynthetic(common, mesh->spec);
+    if (!uploaded.ok()) {
+      common.exit_code = Report(uploaded.status());
       return;
     }
-    client::SkinClient client(*channel, common.Limits());
-    const MeshArrays arrays = MakeSyntheticMesh(mesh->spec);
-    auto info = client.Upload(arrays);
-    if (!info.ok()) {
-      common.exit_code = Report(info.status());
-      return;
-    }
-    options->mesh_id = info->mesh_id();
+    client::SkinClient& client = *uploaded->client;
+    const MeshArrays& arrays = uploaded->arrays;
+    options->mesh_id = uploaded->mesh_id;
     options->want_normals = mesh->spec.normals;
     options->want_tangents = mesh->spec.tangents;
     std::vector<std::vector<float>> palettes;

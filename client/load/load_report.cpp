@@ -173,46 +173,50 @@ std::string SpeedupPlotPath(const std::string& plot_path) {
   return path;
 }
 
-Status WritePlot(const std::string& path, const std::vector<RunResult>& results) {
-  if (system("command -v gnuplot >/dev/null 2>&1") != 0) {
-    return FailedPrecondition("--plot needs gnuplot (Debian package gnuplot-nox)");
-  }
-  char data_path[] = "/tmp/skinserve-plot-XXXXXX";
-  const int fd = mkstemp(data_path);
-  if (fd < 0) return Internal("--plot: cannot create a temporary file");
-  close(fd);
-  std::set<std::pair<uint32_t, uint32_t>> workloads;
-  std::vector<std::string> backends;  // in the order they ran
-  for (const RunResult& r : results) {
-    workloads.insert({r.vertices, r.bones});
-    if (std::find(backends.begin(), backends.end(), r.backend) == backends.end()) {
-      backends.push_back(r.backend);
+namespace {
+
+// What a plot shows: the workloads (vertices, bones) and the backends in the order they ran.
+struct PlotAxes {
+  explicit PlotAxes(const std::vector<RunResult>& rows) : results(rows) {
+    for (const RunResult& r : rows) {
+      workloads.insert({r.vertices, r.bones});
+      if (std::find(backends.begin(), backends.end(), r.backend) == backends.end()) {
+        backends.push_back(r.backend);
+      }
     }
   }
-  const auto find = [&](const std::string& backend, uint32_t v, uint32_t b) -> const RunResult* {
+  const RunResult* Find(const std::string& backend, uint32_t v, uint32_t b) const {
     for (const RunResult& r : results) {
       if (r.backend == backend && r.vertices == v && r.bones == b) return &r;
     }
     return nullptr;
-  };
-  // Throughput bars: one cluster per workload, one bar per backend. A sweep spans two
-  // orders of magnitude of frames/s, hence the log scale there.
+  }
+
+  const std::vector<RunResult>& results;
+  std::set<std::pair<uint32_t, uint32_t>> workloads;
+  std::vector<std::string> backends;
+};
+
+// Throughput bars: one cluster per workload, one bar per backend. A sweep spans two orders
+// of magnitude of frames/s, hence the log scale there.
+std::string ThroughputPlot(const PlotAxes& axes, const std::string& path,
+                           const std::string& data_path) {
   {
     std::ofstream data(data_path);
     data << "workload";
-    for (const std::string& backend : backends) data << " \"" << backend << "\"";
+    for (const std::string& backend : axes.backends) data << " \"" << backend << "\"";
     data << "\n";
-    for (const auto& [v, b] : workloads) {
+    for (const auto& [v, b] : axes.workloads) {
       data << fmt::format("\"{}k/{}\"", v / 1000, b);
-      for (const std::string& backend : backends) {
-        const RunResult* r = find(backend, v, b);
+      for (const std::string& backend : axes.backends) {
+        const RunResult* r = axes.Find(backend, v, b);
         data << fmt::format(" {:.3f}", r != nullptr ? r->frames_per_second() : 0.0);
       }
       data << "\n";
     }
   }
-  const bool sweep = workloads.size() > 1;
-  std::string script = fmt::format(
+  const bool sweep = axes.workloads.size() > 1;
+  return fmt::format(
       "set terminal pngcairo size 1200,700 font ',10'\nset output '{}'\n"
       "set title 'skinserve: frames per second through the service, per workload "
       "(vertices/bones; higher is better)'\n"
@@ -221,36 +225,55 @@ Status WritePlot(const std::string& path, const std::vector<RunResult>& results)
       "set key outside right top\n"
       "plot for [i=2:{}] '{}' using i:xtic(1) title columnheader(i)\n",
       path, sweep ? " (log scale)" : "", sweep ? "set logscale y" : "set yrange [0:*]",
-      backends.size() + 1, data_path);
-  std::string heat_data;
-  if (sweep) {
-    // The sweep's heat map: backends x (vertices, bones), colour = speedup over serial.
-    heat_data = std::string(data_path) + "-heat";
-    std::ofstream heat(heat_data);
-    std::string xtics, ytics;
-    int x = 0;
-    for (const auto& [v, b] : workloads) {
-      xtics += fmt::format("{}\"{}k/{}\" {}", x ? ", " : "", v / 1000, b, x);
-      for (std::size_t y = 0; y < backends.size(); ++y) {
-        if (const RunResult* r = find(backends[y], v, b)) {
-          const double serial = SerialFramesPerSecond(results, *r);
-          heat << fmt::format("{} {} {:.3f}\n", x, y,
-                              serial > 0 ? r->frames_per_second() / serial : 0);
-        }
+      axes.backends.size() + 1, data_path);
+}
+
+// The sweep's heat map: backends x (vertices, bones), colour = speedup over serial.
+std::string SpeedupPlot(const PlotAxes& axes, const std::string& path,
+                        const std::string& heat_data) {
+  std::ofstream heat(heat_data);
+  std::string xtics, ytics;
+  int x = 0;
+  for (const auto& [v, b] : axes.workloads) {
+    xtics += fmt::format("{}\"{}k/{}\" {}", x ? ", " : "", v / 1000, b, x);
+    for (std::size_t y = 0; y < axes.backends.size(); ++y) {
+      if (const RunResult* r = axes.Find(axes.backends[y], v, b)) {
+        const double serial = SerialFramesPerSecond(axes.results, *r);
+        heat << fmt::format("{} {} {:.3f}\n", x, y,
+                            serial > 0 ? r->frames_per_second() / serial : 0);
       }
-      ++x;
     }
-    for (std::size_t y = 0; y < backends.size(); ++y) {
-      ytics += fmt::format("{}\"{}\" {}", y ? ", " : "", backends[y], y);
-    }
-    script += fmt::format(
-        "reset\nset terminal pngcairo size 1200,700 font ',10'\nset output '{}'\n"
-        "set title 'speedup over serial through the service (vertices/bones)'\n"
-        "set xtics ({}) rotate by -45\nset ytics ({})\nset cblabel 'x serial'\n"
-        "set palette rgbformulae 33,13,10\nset view map\nset xrange [-0.5:{}]\n"
-        "set yrange [-0.5:{}]\nunset key\nplot '{}' using 1:2:3 with image, '' using "
-        "1:2:(sprintf('%.1f',$3)) with labels font ',8'\n",
-        SpeedupPlotPath(path), xtics, ytics, x - 0.5, backends.size() - 0.5, heat_data);
+    ++x;
+  }
+  for (std::size_t y = 0; y < axes.backends.size(); ++y) {
+    ytics += fmt::format("{}\"{}\" {}", y ? ", " : "", axes.backends[y], y);
+  }
+  return fmt::format(
+      "reset\nset terminal pngcairo size 1200,700 font ',10'\nset output '{}'\n"
+      "set title 'speedup over serial through the service (vertices/bones)'\n"
+      "set xtics ({}) rotate by -45\nset ytics ({})\nset cblabel 'x serial'\n"
+      "set palette rgbformulae 33,13,10\nset view map\nset xrange [-0.5:{}]\n"
+      "set yrange [-0.5:{}]\nunset key\nplot '{}' using 1:2:3 with image, '' using "
+      "1:2:(sprintf('%.1f',$3)) with labels font ',8'\n",
+      SpeedupPlotPath(path), xtics, ytics, x - 0.5, axes.backends.size() - 0.5, heat_data);
+}
+
+}  // namespace
+
+Status WritePlot(const std::string& path, const std::vector<RunResult>& results) {
+  if (system("command -v gnuplot >/dev/null 2>&1") != 0) {
+    return FailedPrecondition("--plot needs gnuplot (Debian package gnuplot-nox)");
+  }
+  char data_path[] = "/tmp/skinserve-plot-XXXXXX";
+  const int fd = mkstemp(data_path);
+  if (fd < 0) return Internal("--plot: cannot create a temporary file");
+  close(fd);
+  const PlotAxes axes(results);
+  std::string script = ThroughputPlot(axes, path, data_path);
+  std::string heat_data;
+  if (axes.workloads.size() > 1) {
+    heat_data = std::string(data_path) + "-heat";
+    script += SpeedupPlot(axes, path, heat_data);
   }
   FILE* gnuplot = popen("gnuplot", "w");
   if (gnuplot == nullptr) return Internal("--plot: cannot run gnuplot");

@@ -329,23 +329,76 @@ class Recorder {
   Clock::time_point last_answer_{};
 };
 
-// Keeps `window` frames in flight. Time-bounded: until `stop`, counting the answers that
-// arrive after the warm-up. Frame-count: unmeasured frames until `warm`, then exactly
-// `config.frames` measured ones.
-void ClosedLoopStream(const RunConfig& config, const Workload& workload, const std::string& mesh_id,
+// A stream's client: its own channel, the meshes it may upload again where a replica lacks
+// one, and its region (RunConfig::shared_memory).
+class StreamClient {
+ public:
+  StreamClient(const RunConfig& config, const std::vector<UploadedMesh>& meshes, int connection)
+      : client_(client::MakeChannel(config.target, config.channel, connection), config.limits) {
+    for (const UploadedMesh& m : meshes) {
+      client_.Remember(m.mesh_id, m.workload->arrays, {.rest_encoding = m.workload->rest_encoding});
+    }
+    region_.emplace(config, *meshes.front().workload, client_);
+  }
+  client::SkinClient& client() { return client_; }
+  const StreamRegion& region() const { return *region_; }
+
+ private:
+  client::SkinClient client_;
+  std::optional<StreamRegion> region_;  // unregistered before the client goes
+};
+
+// One phase of a closed loop: counts its measured sends and says whether an answer (or a
+// send) now is measured: all of a measured phase's in frame-count runs, those after the
+// warm-up in time-bounded ones.
+struct Phase {
+  bool measured_phase;
+  bool count_by_time;
+  Recorder& recorder;
+  uint64_t measured_sent = 0;
+
+  bool Measured() const { return measured_phase && (!count_by_time || recorder.Measuring()); }
+};
+
+// Runs a closed loop's phases. Time-bounded: one until `stop`, counting the answers that
+// arrive after the warm-up. Frame-count: unmeasured units until `warm`, then exactly
+// `config.frames` measured ones numbered after them. `stream(phase, until, first, count,
+// &sent)` streams units [first, first + count) until `until` and returns its status.
+template <typename StreamPhase>
+void RunClosedLoop(const RunConfig& config, const std::atomic<bool>& stop,
+                   const std::atomic<bool>& warm, Recorder& recorder, StreamPhase stream) {
+  const auto run = [&](bool measured_phase, const std::atomic<bool>* until, uint64_t first,
+                       uint64_t count, uint64_t* sent) {
+    Phase phase{measured_phase, config.frames == 0, recorder};
+    const Status status = stream(phase, until, first, count, sent);
+    if (measured_phase) recorder.AddSentAndDropped(phase.measured_sent, 0);
+    if (!status.ok()) recorder.RecordStreamError(status);
+    return status.ok();
+  };
+  constexpr uint64_t kEndless = UINT64_MAX / 2;
+  if (config.frames == 0) {
+    run(true, &stop, 0, kEndless, nullptr);
+    return;
+  }
+  uint64_t warmup_sent = 0;
+  if (config.warmup_seconds > 0 && !run(false, &warm, 0, kEndless, &warmup_sent)) return;
+  recorder.StartMeasuring(Clock::now());
+  run(true, nullptr, warmup_sent, config.frames, nullptr);
+}
+
+// Keeps `window` frames in flight (StreamFrames), in the phases of RunClosedLoop.
+void ClosedLoopStream(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
                       int connection, const std::atomic<bool>& stop, const std::atomic<bool>& warm,
                       Recorder& recorder) {
-  client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
-                            config.limits);
-  // Re-uploads where a replica lacks the mesh.
-  client.Remember(mesh_id, workload.arrays, {.rest_encoding = workload.rest_encoding});
-  const StreamRegion region(config, workload, client);
+  const Workload& workload = *meshes.front().workload;
+  StreamClient stream_client(config, meshes, connection);
+  const StreamRegion& region = stream_client.region();
   if (!region.status().ok()) {
     recorder.RecordStreamError(region.status());
     return;
   }
   FramePalette palette(workload, config.instances);
-  client::StreamOptions options{.mesh_id = mesh_id,
+  client::StreamOptions options{.mesh_id = meshes.front().mesh_id,
                                 .backend = config.backend,
                                 .want_normals = workload.normals,
                                 .want_tangents = workload.tangents,
@@ -354,9 +407,7 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
                                 .instances = config.instances,
                                 .output = region.output(),
                                 .early_parts = config.early_parts,
-                                .frames = UINT64_MAX / 2,
-                                .window = config.window,
-                                .stop = &stop};
+                                .window = config.window};
   // Morph weights: a single instance's straight from the workload, a crowd's per instance.
   FrameMorph morph(workload, config.instances);
   if (!workload.morph_weights.empty() && config.instances <= 1) {
@@ -364,40 +415,26 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
   } else if (!workload.morph_weights.empty()) {
     options.instance_morph_weights = [&](uint64_t f) { return morph(f); };
   }
-  const auto run = [&](bool measured_phase, uint64_t* sent) {
-    const bool count_by_time = config.frames == 0;
-    uint64_t measured_sent = 0;
-    client::StreamSummary summary;
-    Status status = client::StreamFrames(
-        client, options,
-        [&](uint64_t f) {
-          if (measured_phase && (!count_by_time || recorder.Measuring())) ++measured_sent;
-          return palette(f);
-        },
-        [&](client::FrameResult& r, std::chrono::nanoseconds latency) {
-          const bool measured = measured_phase && (!count_by_time || recorder.Measuring());
-          recorder.Record(r, latency.count() / 1e6, false, measured);
-        },
-        &summary);
-    if (measured_phase) recorder.AddSentAndDropped(measured_sent, 0);
-    if (sent != nullptr) *sent = summary.sent;
-    if (!status.ok()) recorder.RecordStreamError(status);
-    return status.ok();
-  };
-  if (config.frames == 0) {
-    run(true, nullptr);
-    return;
-  }
-  uint64_t warmup_sent = 0;
-  if (config.warmup_seconds > 0) {
-    options.stop = &warm;
-    if (!run(false, &warmup_sent)) return;
-  }
-  recorder.StartMeasuring(Clock::now());
-  options.stop = nullptr;
-  options.first_frame = warmup_sent;
-  options.frames = config.frames;
-  run(true, nullptr);
+  RunClosedLoop(config, stop, warm, recorder,
+                [&](Phase& phase, const std::atomic<bool>* until, uint64_t first, uint64_t count,
+                    uint64_t* sent) {
+                  options.stop = until;
+                  options.first_frame = first;
+                  options.frames = count;
+                  client::StreamSummary summary;
+                  const Status status = client::StreamFrames(
+                      stream_client.client(), options,
+                      [&](uint64_t f) {
+                        if (phase.Measured()) ++phase.measured_sent;
+                        return palette(f);
+                      },
+                      [&](client::FrameResult& r, std::chrono::nanoseconds latency) {
+                        recorder.Record(r, latency.count() / 1e6, false, phase.Measured());
+                      },
+                      &summary);
+                  if (sent != nullptr) *sent = summary.sent;
+                  return status;
+                });
 }
 
 // ClosedLoopStream for ticks: `window` ticks in flight (StreamTicks), each of every mesh's
@@ -405,56 +442,357 @@ void ClosedLoopStream(const RunConfig& config, const Workload& workload, const s
 void ClosedLoopTickStream(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
                           int connection, const std::atomic<bool>& stop,
                           const std::atomic<bool>& warm, Recorder& recorder) {
-  client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
-                            config.limits);
-  for (const UploadedMesh& m : meshes) {  // re-uploads where a replica lacks a mesh
-    client.Remember(m.mesh_id, m.workload->arrays, {.rest_encoding = m.workload->rest_encoding});
-  }
-  const StreamRegion region(config, *meshes.front().workload, client);
+  StreamClient stream_client(config, meshes, connection);
+  const StreamRegion& region = stream_client.region();
   if (!region.status().ok()) {
     recorder.RecordStreamError(region.status());
     return;
   }
   TickFiller fill(meshes, {config.backend, config.encoding, config.instances}, region.output(),
                   region.character_stride());
-  client::TickStreamOptions options{.ticks = UINT64_MAX / 2,
-                                    .window = config.window,
-                                    .region_stride = region.output().stride,
-                                    .stop = &stop};
-  const auto run = [&](bool measured_phase, uint64_t* sent) {
-    const bool count_by_time = config.frames == 0;
-    uint64_t measured_sent = 0;
-    client::TickStreamSummary summary;
-    Status status = client::StreamTicks(
-        client, options,
-        [&](uint64_t f, client::Tick* tick) {
-          if (measured_phase && (!count_by_time || recorder.Measuring())) ++measured_sent;
-          fill(f, tick);
-        },
-        [&](client::TickResult& r, std::chrono::nanoseconds latency) {
-          const bool measured = measured_phase && (!count_by_time || recorder.Measuring());
-          recorder.RecordTick(r, latency.count() / 1e6, false, measured);
-        },
-        &summary);
-    if (measured_phase) recorder.AddSentAndDropped(measured_sent, 0);
-    if (sent != nullptr) *sent = summary.sent;
-    if (!status.ok()) recorder.RecordStreamError(status);
-    return status.ok();
+  client::TickStreamOptions options{.window = config.window,
+                                    .region_stride = region.output().stride};
+  RunClosedLoop(config, stop, warm, recorder,
+                [&](Phase& phase, const std::atomic<bool>* until, uint64_t first, uint64_t count,
+                    uint64_t* sent) {
+                  options.stop = until;
+                  options.first_tick = first;
+                  options.ticks = count;
+                  client::TickStreamSummary summary;
+                  const Status status = client::StreamTicks(
+                      stream_client.client(), options,
+                      [&](uint64_t f, client::Tick* tick) {
+                        if (phase.Measured()) ++phase.measured_sent;
+                        fill(f, tick);
+                      },
+                      [&](client::TickResult& r, std::chrono::nanoseconds latency) {
+                        recorder.RecordTick(r, latency.count() / 1e6, false, phase.Measured());
+                      },
+                      &summary);
+                  if (sent != nullptr) *sent = summary.sent;
+                  return status;
+                });
+}
+
+// What differs between frames and ticks in an open loop: unit k's request in its window slot
+// (its range of the region), and the gathering and recording of the oldest unit's answer.
+class OpenLoopUnits {
+ public:
+  virtual ~OpenLoopUnits() = default;
+  // Valid until the next call.
+  virtual const v1::SkinRequest& Prepare(uint64_t k, std::size_t slot) = 0;
+  // The answer of the unit in `slot` begins; AddPart is true once it is complete.
+  virtual void BeginAnswer(std::size_t slot) = 0;
+  virtual bool AddPart(const grpc::ByteBuffer& bytes) = 0;
+  // Records the complete answer and ends it.
+  virtual void Record(Recorder& recorder, double latency_ms, bool late, bool measured,
+                      double lag_ms) = 0;
+};
+
+class OpenLoopFrames final : public OpenLoopUnits {
+ public:
+  OpenLoopFrames(const RunConfig& config, const UploadedMesh& mesh,
+                 const client::RegionOutput& output)
+      : config_(config),
+        workload_(*mesh.workload),
+        output_(output),
+        palette_(workload_, config.instances),
+        morph_(workload_, config.instances) {
+    // Reused: only the frame number, the palette and the slot's offset change.
+    request_.set_mesh_id(mesh.mesh_id);
+    request_.set_backend(config.backend);
+    request_.set_want_normals(workload_.normals);
+    request_.set_want_tangents(workload_.tangents);
+    request_.set_encoding(static_cast<v1::Encoding>(config.encoding));
+    request_.set_instances(config.instances);
+    request_.set_pack_instances(true);  // FrameAssembler takes packed parts
+    request_.set_method(wire::ToWire(workload_.method));
+    if (output.enabled()) request_.mutable_output()->set_region(output.name);
+    request_.set_early_parts(config.early_parts);
+  }
+
+  const v1::SkinRequest& Prepare(uint64_t k, std::size_t slot) override {
+    if (output_.enabled()) request_.mutable_output()->set_offset(slot * output_.stride);
+    request_.set_frame(k);
+    wire::EncodeFloats(palette_(k), request_.mutable_palette());
+    if (!workload_.morph_weights.empty() && config_.instances <= 1) {
+      wire::MorphWeightsToWire(workload_.Morph(k), &request_);
+    } else if (!workload_.morph_weights.empty()) {
+      wire::InstanceMorphWeightsToWire(morph_(k), &request_);
+    }
+    return request_;
+  }
+  void BeginAnswer(std::size_t) override { assembler_.emplace(&output_); }
+  bool AddPart(const grpc::ByteBuffer& bytes) override {
+    return assembler_->Add(bytes, &part_, &result_);
+  }
+  void Record(Recorder& recorder, double latency_ms, bool late, bool measured,
+              double lag_ms) override {
+    recorder.Record(result_, latency_ms, late, measured, lag_ms);
+    assembler_.reset();
+  }
+
+ private:
+  const RunConfig& config_;
+  const Workload& workload_;
+  const client::RegionOutput& output_;
+  FramePalette palette_;
+  FrameMorph morph_;
+  v1::SkinRequest request_;
+  // One part reader and one result for the whole run (their buffers are reused).
+  wire::RawPart part_;
+  std::optional<client::FrameAssembler> assembler_;
+  client::FrameResult result_;
+};
+
+// Each unit a tick of every mesh's character, its slot of the region holding them all.
+class OpenLoopTicks final : public OpenLoopUnits {
+ public:
+  OpenLoopTicks(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
+                const StreamRegion& region)
+      : output_(region.output()),
+        fill_(meshes, {config.backend, config.encoding, config.instances}, region.output(),
+              region.character_stride()),
+        ticks_(static_cast<std::size_t>(std::max(config.window, 1))) {}
+
+  const v1::SkinRequest& Prepare(uint64_t k, std::size_t slot) override {
+    // The slot is this tick's until its answer: the reader reads it then.
+    client::Tick& tick = ticks_[slot];
+    tick.Clear();
+    tick.set_frame(k);
+    fill_(k, &tick);
+    tick.ToWire(&request_, slot * output_.stride);
+    return request_;
+  }
+  void BeginAnswer(std::size_t slot) override { assembler_.emplace(ticks_[slot], &result_); }
+  bool AddPart(const grpc::ByteBuffer& bytes) override { return assembler_->Add(bytes, &part_); }
+  void Record(Recorder& recorder, double latency_ms, bool late, bool measured,
+              double lag_ms) override {
+    recorder.RecordTick(result_, latency_ms, late, measured, lag_ms);
+    assembler_.reset();
+  }
+
+ private:
+  const client::RegionOutput& output_;
+  TickFiller fill_;
+  std::vector<client::Tick> ticks_;  // the tick sent in each slot
+  v1::SkinRequest request_;
+  wire::RawPart part_;
+  std::optional<client::TickAssembler> assembler_;
+  client::TickResult result_;
+};
+
+// One open-loop stream (OpenLoopStream): its schedule, and the ring of units in flight that
+// the sending thread and the reader share.
+class OpenLoop {
+ public:
+  OpenLoop(const RunConfig& config, int stream_index, Clock::time_point start,
+           Clock::time_point end, client::SkinClient& client, OpenLoopUnits& units,
+           Recorder& recorder)
+      : config_(config),
+        start_(start),
+        end_(end),
+        client_(client),
+        units_(units),
+        recorder_(recorder),
+        stream_(client.StreamSkinRaw(&context_)),
+        watchdog_(&context_, config.limits.stream_idle),
+        period_(std::chrono::duration_cast<Clock::duration>(
+            std::chrono::duration<double>(1.0 / config.rate))),
+        warmup_frames_(config.frames > 0
+                           ? static_cast<uint64_t>(std::ceil(config.warmup_seconds * config.rate))
+                           : 0),
+        last_frame_(config.frames > 0 ? warmup_frames_ + config.frames : UINT64_MAX),
+        schedule_(config.arrivals, config.rate, stream_index, config.streams, config.arrivals_seed),
+        ring_(static_cast<std::size_t>(std::max(config.window, 1))) {}
+
+  void Run(const std::vector<UploadedMesh>& meshes, const std::atomic<bool>& stop) {
+    ProbeMeshes(meshes);
+    SkipPassed();
+    std::thread reader([&] { Read(); });
+    Send(stop);
+    stream_->WritesDone();
+    reader.join();
+    Finish();
+  }
+
+ private:
+  struct Scheduled {
+    Clock::time_point due, sent;
+    bool measured;
   };
-  if (config.frames == 0) {
-    run(true, nullptr);
-    return;
+
+  void ProbeMeshes(const std::vector<UploadedMesh>& meshes);
+  // Frame k's time; frame-count runs start measuring at the first measured frame's.
+  void ScheduleNext() {
+    due_ = start_ + std::chrono::duration_cast<Clock::duration>(
+                        std::chrono::duration<double>(schedule_.Next()));
+    if (config_.frames > 0 && k_ == warmup_frames_) recorder_.StartMeasuring(due_);
   }
-  uint64_t warmup_sent = 0;
-  if (config.warmup_seconds > 0) {
-    options.stop = &warm;
-    if (!run(false, &warmup_sent)) return;
+  bool Measured() const {
+    return config_.frames > 0 ? k_ >= warmup_frames_ : recorder_.Measuring(due_);
   }
-  recorder.StartMeasuring(Clock::now());
-  options.stop = nullptr;
-  options.first_tick = warmup_sent;
-  options.ticks = config.frames;
-  run(true, nullptr);
+  void SkipPassed();
+  void Read();
+  void Send(const std::atomic<bool>& stop);
+  bool TakeSlot(std::size_t* slot, bool counted, Clock::time_point sent_at);
+  void Finish();
+
+  const RunConfig& config_;
+  const Clock::time_point start_, end_;
+  client::SkinClient& client_;
+  OpenLoopUnits& units_;
+  Recorder& recorder_;
+  grpc::ClientContext context_;
+  std::unique_ptr<client::SkinClient::RawStream> stream_;
+  client::IdleWatchdog watchdog_;
+  const Clock::duration period_;
+  const uint64_t warmup_frames_, last_frame_;
+  ArrivalSchedule schedule_;
+  uint64_t k_ = 0;
+  Clock::time_point due_;
+  uint64_t sent_ = 0, dropped_ = 0;  // measured frames only
+  std::mutex mutex_;
+  // Sent, unanswered, oldest first: a ring of `window` slots (never more are in flight).
+  std::vector<Scheduled> ring_;
+  std::size_t ring_head_ = 0, in_flight_ = 0;
+};
+
+// Before the schedule starts, make sure this stream's replica holds the mesh: one frame
+// outside the schedule, re-uploading on NOT_FOUND (round_robin may place the upload on
+// another replica, hence the retries). It asks for `passthrough`, so that it never counts
+// as a frame of the backend under test on the server either. Ticks: each mesh's.
+void OpenLoop::ProbeMeshes(const std::vector<UploadedMesh>& meshes) {
+  for (std::size_t m = 0, attempt = 0; m < meshes.size() && attempt < 8; ++attempt) {
+    v1::SkinRequest probe;
+    probe.set_mesh_id(meshes[m].mesh_id);
+    probe.set_backend("passthrough");
+    probe.set_frame(UINT64_MAX);
+    // one instance, float32
+    probe.set_palette(wire::EncodeFloats(meshes[m].workload->Palette(0)));
+    if (!stream_->Write(probe)) break;
+    client::FrameResult result;
+    client::FrameAssembler assembler;
+    wire::RawPart part;
+    grpc::ByteBuffer bytes;
+    bool complete = false;
+    watchdog_.Awaiting(true);
+    while (!complete && stream_->Read(&bytes)) complete = assembler.Add(bytes, &part, &result);
+    watchdog_.Awaiting(false);
+    if (!complete) break;
+    if (result.status.code() != StatusCode::kNotFound) {
+      ++m, attempt = 0;
+    } else if (!client_.Reupload(meshes[m].mesh_id).ok()) {
+      break;
+    }
+  }
+}
+
+// The schedule began at `start` for every stream alike: frames whose time passed while
+// this one opened were not delivered.
+void OpenLoop::SkipPassed() {
+  const Clock::time_point ready = Clock::now();
+  for (ScheduleNext(); k_ < last_frame_ && due_ + period_ < ready && due_ < end_; ScheduleNext()) {
+    dropped_ += Measured();
+    ++k_;
+  }
+}
+
+// The reader thread: answers come in order, each the oldest unit's in flight.
+void OpenLoop::Read() {
+  grpc::ByteBuffer bytes;
+  bool answering = false;
+  while (stream_->Read(&bytes)) {
+    watchdog_.Answered();
+    if (!answering) {
+      std::lock_guard lock(mutex_);
+      units_.BeginAnswer(ring_head_);
+      answering = true;
+    }
+    if (!units_.AddPart(bytes)) continue;
+    const Clock::time_point answered = Clock::now();
+    Scheduled frame;
+    {
+      std::lock_guard lock(mutex_);
+      frame = ring_[ring_head_];
+    }
+    const auto latency = answered - frame.due;
+    const double latency_ms = std::chrono::duration<double, std::milli>(latency).count();
+    const double lag_ms = std::chrono::duration<double, std::milli>(frame.sent - frame.due).count();
+    units_.Record(recorder_, latency_ms, latency > period_, frame.measured, lag_ms);
+    answering = false;
+    {  // only now may the frame's slot (and its range of a region) take the next frame
+      std::lock_guard lock(mutex_);
+      ring_head_ = (ring_head_ + 1) % ring_.size();
+      --in_flight_;
+      watchdog_.Awaiting(in_flight_ > 0);
+    }
+  }
+}
+
+// Takes a slot for frame k, or drops it (false) when `window` frames are in flight.
+bool OpenLoop::TakeSlot(std::size_t* slot, bool counted, Clock::time_point sent_at) {
+  std::lock_guard lock(mutex_);
+  if (in_flight_ >= ring_.size()) {
+    dropped_ += counted;
+    return false;
+  }
+  // Frames in flight take the ring's slots in turn: each its own range of the region.
+  *slot = (ring_head_ + in_flight_++) % ring_.size();
+  ring_[*slot] = {due_, sent_at, counted};
+  watchdog_.Awaiting(true);
+  return true;
+}
+
+// Sends each frame at its time; the gaps between measured sends feed the run's send timing.
+void OpenLoop::Send(const std::atomic<bool>& stop) {
+  uint64_t late_sends = 0, gaps = 0;
+  double gap_ms_sum = 0, gap_ms_sq_sum = 0;
+  Clock::time_point previous_send{};  // of the last measured frame sent, if it was the last
+  for (; k_ < last_frame_ && due_ < end_ && !stop.load(); ++k_, ScheduleNext()) {
+    std::this_thread::sleep_until(due_);
+    if (stop.load()) break;
+    const bool counted = Measured();
+    const Clock::time_point sent_at = Clock::now();
+    std::size_t slot = 0;
+    if (!TakeSlot(&slot, counted, sent_at)) {
+      previous_send = {};
+      continue;
+    }
+    const v1::SkinRequest& request = units_.Prepare(k_, slot);
+    if (counted) {
+      ++sent_;
+      late_sends += sent_at - due_ > std::chrono::duration<double, std::milli>(kLateSendMs);
+      if (previous_send != Clock::time_point{}) {
+        const double gap =
+            std::chrono::duration<double, std::milli>(sent_at - previous_send).count();
+        ++gaps;
+        gap_ms_sum += gap;
+        gap_ms_sq_sum += gap * gap;
+      }
+    }
+    previous_send = counted ? sent_at : Clock::time_point{};
+    if (!stream_->Write(request)) break;
+  }
+  recorder_.AddSendTiming(late_sends, gaps, gap_ms_sum, gap_ms_sq_sum);
+}
+
+void OpenLoop::Finish() {
+  Status status = wire::FromGrpc(stream_->Finish());
+  if (watchdog_.fired()) {
+    status = DeadlineExceeded(
+        fmt::format("no answer for {:.1f} s with frames in flight (--stream-idle-seconds)",
+                    watchdog_.limit().count() / 1000.0));
+  }
+  {
+    std::lock_guard lock(mutex_);
+    // Sent but never answered: failed, not lost.
+    for (std::size_t i = 0; i < in_flight_; ++i) {
+      recorder_.RecordStreamError(status.ok() ? Internal("unanswered") : status);
+    }
+  }
+  if (!status.ok() && in_flight_ == 0) recorder_.RecordStreamError(status);
+  recorder_.AddSentAndDropped(sent_, dropped_);
 }
 
 // Sends frame k at its time in the stream's ArrivalSchedule (constant: start + (k + stagger) /
@@ -471,215 +809,20 @@ void ClosedLoopTickStream(const RunConfig& config, const std::vector<UploadedMes
 void OpenLoopStream(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
                     int stream_index, int connection, const std::atomic<bool>& stop,
                     Clock::time_point start, Clock::time_point end, Recorder& recorder) {
-  const Workload& workload = *meshes.front().workload;
-  const std::string& mesh_id = meshes.front().mesh_id;
-  const bool ticks = config.characters_per_tick > 0;
-  client::SkinClient client(client::MakeChannel(config.target, config.channel, connection),
-                            config.limits);
-  for (const UploadedMesh& m : meshes) {
-    client.Remember(m.mesh_id, m.workload->arrays, {.rest_encoding = m.workload->rest_encoding});
-  }
-  const StreamRegion region(config, workload, client);
+  StreamClient stream_client(config, meshes, connection);
+  const StreamRegion& region = stream_client.region();
   if (!region.status().ok()) {
     recorder.RecordStreamError(region.status());
     return;
   }
-  const client::RegionOutput& output = region.output();
-  grpc::ClientContext context;
-  auto stream = client.StreamSkinRaw(&context);
-  client::IdleWatchdog watchdog(&context, config.limits.stream_idle);
-  // Before the schedule starts, make sure this stream's replica holds the mesh: one frame
-  // outside the schedule, re-uploading on NOT_FOUND (round_robin may place the upload on
-  // another replica, hence the retries). It asks for `passthrough`, so that it never counts
-  // as a frame of the backend under test on the server either. Ticks: each mesh's.
-  for (std::size_t m = 0, attempt = 0; m < meshes.size() && attempt < 8; ++attempt) {
-    v1::SkinRequest probe;
-    probe.set_mesh_id(meshes[m].mesh_id);
-    probe.set_backend("passthrough");
-    probe.set_frame(UINT64_MAX);
-    // one instance, float32
-    probe.set_palette(wire::EncodeFloats(meshes[m].workload->Palette(0)));
-    if (!stream->Write(probe)) break;
-    client::FrameResult result;
-    client::FrameAssembler assembler;
-    wire::RawPart part;
-    grpc::ByteBuffer bytes;
-    bool complete = false;
-    watchdog.Awaiting(true);
-    while (!complete && stream->Read(&bytes)) complete = assembler.Add(bytes, &part, &result);
-    watchdog.Awaiting(false);
-    if (!complete) break;
-    if (result.status.code() != StatusCode::kNotFound) {
-      ++m, attempt = 0;
-    } else if (!client.Reupload(meshes[m].mesh_id).ok()) {
-      break;
-    }
+  std::unique_ptr<OpenLoopUnits> units;
+  if (config.characters_per_tick > 0) {
+    units = std::make_unique<OpenLoopTicks>(config, meshes, region);
+  } else {
+    units = std::make_unique<OpenLoopFrames>(config, meshes.front(), region.output());
   }
-  const auto period =
-      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / config.rate));
-  const uint64_t warmup_frames =
-      config.frames > 0 ? static_cast<uint64_t>(std::ceil(config.warmup_seconds * config.rate)) : 0;
-  const uint64_t last_frame = config.frames > 0 ? warmup_frames + config.frames : UINT64_MAX;
-  ArrivalSchedule schedule(config.arrivals, config.rate, stream_index, config.streams,
-                           config.arrivals_seed);
-  uint64_t k = 0;
-  Clock::time_point due;
-  // Frame k's time; frame-count runs start measuring at the first measured frame's.
-  const auto schedule_next = [&] {
-    due = start + std::chrono::duration_cast<Clock::duration>(
-                      std::chrono::duration<double>(schedule.Next()));
-    if (config.frames > 0 && k == warmup_frames) recorder.StartMeasuring(due);
-  };
-  const auto measured = [&] {
-    return config.frames > 0 ? k >= warmup_frames : recorder.Measuring(due);
-  };
-  // The schedule began at `start` for every stream alike: frames whose time passed while
-  // this one opened were not delivered.
-  const Clock::time_point ready = Clock::now();
-  uint64_t sent = 0, dropped = 0;  // measured frames only
-  for (schedule_next(); k < last_frame && due + period < ready && due < end; schedule_next()) {
-    dropped += measured();
-    ++k;
-  }
-  struct Scheduled {
-    Clock::time_point due, sent;
-    bool measured;
-  };
-  std::mutex mutex;
-  // Sent, unanswered, oldest first: a ring of `window` slots (never more are in flight).
-  std::vector<Scheduled> ring(static_cast<std::size_t>(std::max(config.window, 1)));
-  std::size_t ring_head = 0, in_flight = 0;
-  // Ticks: the tick sent in each slot, which its answer's assembler reads.
-  std::vector<client::Tick> tick_slots(ticks ? ring.size() : 0);
-
-  std::thread reader([&] {
-    // One part reader and one result for the whole run (their buffers are reused).
-    wire::RawPart part;
-    grpc::ByteBuffer bytes;
-    client::FrameResult result;
-    client::FrameAssembler assembler(&output);
-    client::TickResult tick_result;
-    std::optional<client::TickAssembler> tick_assembler;
-    while (stream->Read(&bytes)) {
-      watchdog.Answered();
-      if (ticks && !tick_assembler) {  // the oldest tick in flight: answers come in order
-        std::lock_guard lock(mutex);
-        tick_assembler.emplace(tick_slots[ring_head], &tick_result);
-      }
-      if (ticks ? !tick_assembler->Add(bytes, &part) : !assembler.Add(bytes, &part, &result)) {
-        continue;
-      }
-      const Clock::time_point answered = Clock::now();
-      Scheduled frame;
-      {
-        std::lock_guard lock(mutex);
-        frame = ring[ring_head];
-      }
-      const auto latency = answered - frame.due;
-      const double latency_ms = std::chrono::duration<double, std::milli>(latency).count();
-      const double lag_ms =
-          std::chrono::duration<double, std::milli>(frame.sent - frame.due).count();
-      if (ticks) {
-        recorder.RecordTick(tick_result, latency_ms, latency > period, frame.measured, lag_ms);
-      } else {
-        recorder.Record(result, latency_ms, latency > period, frame.measured, lag_ms);
-      }
-      {  // only now may the frame's slot (and its range of a region) take the next frame
-        std::lock_guard lock(mutex);
-        ring_head = (ring_head + 1) % ring.size();
-        --in_flight;
-        watchdog.Awaiting(in_flight > 0);
-      }
-      assembler = client::FrameAssembler(&output);
-      tick_assembler.reset();
-    }
-  });
-  FramePalette palette(workload, config.instances);
-  FrameMorph morph(workload, config.instances);
-  TickFiller fill(meshes, {config.backend, config.encoding, config.instances}, output,
-                  region.character_stride());
-  v1::SkinRequest request;  // reused: only the frame number and the palette change
-  if (!ticks) request.set_mesh_id(mesh_id);
-  if (!ticks) {
-    request.set_backend(config.backend);
-    request.set_want_normals(workload.normals);
-    request.set_want_tangents(workload.tangents);
-    request.set_encoding(static_cast<v1::Encoding>(config.encoding));
-    request.set_instances(config.instances);
-    request.set_pack_instances(true);  // FrameAssembler takes packed parts
-    request.set_method(wire::ToWire(workload.method));
-    if (output.enabled()) request.mutable_output()->set_region(output.name);
-    request.set_early_parts(config.early_parts);
-  }
-  uint64_t late_sends = 0, gaps = 0;
-  double gap_ms_sum = 0, gap_ms_sq_sum = 0;
-  Clock::time_point previous_send{};  // of the last measured frame sent, if it was the last
-  for (; k < last_frame && due < end && !stop.load(); ++k, schedule_next()) {
-    std::this_thread::sleep_until(due);
-    if (stop.load()) break;
-    const bool counted = measured();
-    const Clock::time_point sent_at = Clock::now();
-    std::size_t slot = 0;
-    {
-      std::lock_guard lock(mutex);
-      if (in_flight >= ring.size()) {
-        dropped += counted;
-        previous_send = {};
-        continue;
-      }
-      slot = (ring_head + in_flight++) % ring.size();
-      ring[slot] = {due, sent_at, counted};
-      watchdog.Awaiting(true);
-      // Frames in flight take the ring's slots in turn: each its own range of the region.
-      if (output.enabled()) request.mutable_output()->set_offset(slot * output.stride);
-    }
-    request.set_frame(k);
-    if (ticks) {  // the slot is this tick's until its answer: the reader reads it then
-      client::Tick& tick = tick_slots[slot];
-      tick.Clear();
-      tick.set_frame(k);
-      fill(k, &tick);
-      tick.ToWire(&request, slot * output.stride);
-    } else {
-      wire::EncodeFloats(palette(k), request.mutable_palette());
-      if (!workload.morph_weights.empty() && config.instances <= 1) {
-        wire::MorphWeightsToWire(workload.Morph(k), &request);
-      } else if (!workload.morph_weights.empty()) {
-        wire::InstanceMorphWeightsToWire(morph(k), &request);
-      }
-    }
-    if (counted) {
-      ++sent;
-      late_sends += sent_at - due > std::chrono::duration<double, std::milli>(kLateSendMs);
-      if (previous_send != Clock::time_point{}) {
-        const double gap =
-            std::chrono::duration<double, std::milli>(sent_at - previous_send).count();
-        ++gaps;
-        gap_ms_sum += gap;
-        gap_ms_sq_sum += gap * gap;
-      }
-    }
-    previous_send = counted ? sent_at : Clock::time_point{};
-    if (!stream->Write(request)) break;
-  }
-  recorder.AddSendTiming(late_sends, gaps, gap_ms_sum, gap_ms_sq_sum);
-  stream->WritesDone();
-  reader.join();
-  Status status = wire::FromGrpc(stream->Finish());
-  if (watchdog.fired()) {
-    status = DeadlineExceeded(
-        fmt::format("no answer for {:.1f} s with frames in flight (--stream-idle-seconds)",
-                    watchdog.limit().count() / 1000.0));
-  }
-  {
-    std::lock_guard lock(mutex);
-    // Sent but never answered: failed, not lost.
-    for (std::size_t i = 0; i < in_flight; ++i) {
-      recorder.RecordStreamError(status.ok() ? Internal("unanswered") : status);
-    }
-  }
-  if (!status.ok() && in_flight == 0) recorder.RecordStreamError(status);
-  recorder.AddSentAndDropped(sent, dropped);
+  OpenLoop(config, stream_index, start, end, stream_client.client(), *units, recorder)
+      .Run(meshes, stop);
 }
 
 }  // namespace
@@ -712,8 +855,7 @@ RunResult RunLoad(const RunConfig& config, const std::vector<UploadedMesh>& mesh
       } else if (config.characters_per_tick > 0) {
         ClosedLoopTickStream(config, meshes, connection, stop, warm, recorder);
       } else {
-        ClosedLoopStream(config, *meshes.front().workload, meshes.front().mesh_id, connection, stop,
-                         warm, recorder);
+        ClosedLoopStream(config, meshes, connection, stop, warm, recorder);
       }
       --running;
     });

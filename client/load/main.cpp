@@ -12,6 +12,7 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <optional>
 #include <sstream>
 
 #include "connection_flags.h"
@@ -181,186 +182,221 @@ Result<std::unique_ptr<RunMeshes>> LoadAndUpload(client::SkinClient& client, con
   return run;
 }
 
-int RunMain(const Options& o) {
-  client::SkinClient client(client::MakeChannel(o.run.target, o.run.channel), o.run.limits);
+bool Serving(client::SkinClient& client, const std::string& target) {
   if (Status s = client::WaitUntilServing(client.channel(), std::chrono::seconds(10)); !s.ok()) {
-    fmt::print(stderr, "error: {}: {}\n", o.run.target, s.ToString());
+    fmt::print(stderr, "error: {}: {}\n", target, s.ToString());
     if (const std::string hint = client::ConnectionHint(s); !hint.empty()) {
       fmt::print(stderr, "hint: {}\n", hint);
     }
-    return 1;
+    return false;
   }
-  // Whether frames carry morph weights: a glTF character's are known once it is loaded.
-  bool morph = o.morph.targets > 0 && o.morph.active > 0;
-  if (!o.mesh.empty()) {
-    auto probe = LoadWorkload(o, o.vertices, o.bones, o.seed);
-    if (!probe.ok()) return fmt::print(stderr, "error: {}\n", probe.status().ToString()), 1;
-    fmt::print(stderr, "note: rest encoding {} for {}: {}\n",
-               RestEncodingName(probe->rest_encoding), o.mesh, probe->rest_encoding_reason);
-    morph = std::any_of(probe->morph_weights.begin(), probe->morph_weights.end(),
-                        [](const std::vector<MorphWeight>& w) { return HasActiveMorph(w); });
-  }
-  auto backends = ResolveBackends(client, o.backends, *ParseMethod(o.method), morph);
-  if (!backends.ok()) {
-    fmt::print(stderr, "error: {}\n", backends.status().ToString());
-    return 1;
-  }
-  std::vector<std::pair<uint32_t, uint32_t>> grid = {{o.vertices, o.bones}};
+  return true;
+}
+
+// Whether frames carry morph weights: a glTF character's are known once it is loaded (its
+// rest encoding is told then too).
+Result<bool> FramesCarryMorph(const Options& o) {
+  if (o.mesh.empty()) return o.morph.targets > 0 && o.morph.active > 0;
+  auto probe = LoadWorkload(o, o.vertices, o.bones, o.seed);
+  if (!probe.ok()) return probe.status();
+  fmt::print(stderr, "note: rest encoding {} for {}: {}\n", RestEncodingName(probe->rest_encoding),
+             o.mesh, probe->rest_encoding_reason);
+  return std::any_of(probe->morph_weights.begin(), probe->morph_weights.end(),
+                     [](const std::vector<MorphWeight>& w) { return HasActiveMorph(w); });
+}
+
+using Grid = std::vector<std::pair<uint32_t, uint32_t>>;  // vertices x bones
+
+// The mesh shapes to run: the one asked for, or --sweep paper's 16.
+Result<Grid> SweepGrid(const Options& o) {
+  Grid grid = {{o.vertices, o.bones}};
   if (o.sweep == "paper") {
     grid.clear();
     for (uint32_t v : {25'000u, 100'000u, 400'000u, 1'600'000u}) {
       for (uint32_t b = 1; b <= 4; ++b) grid.push_back({v, b});
     }
   } else if (!o.sweep.empty()) {
-    fmt::print(stderr, "error: --sweep knows only 'paper'\n");
-    return 2;
+    return InvalidArgument("--sweep knows only 'paper'");
   }
+  return grid;
+}
 
-  std::vector<double> rates = {o.run.rate};
-  if (!o.measurement.rate_range.empty()) {
-    auto range = ParseRateRange(o.measurement.rate_range);
-    if (!range.ok()) return fmt::print(stderr, "error: {}\n", range.status().message()), 2;
-    rates = *range;
-  }
-  MeasureOptions measure = o.measurement.measure;
-  if (o.measurement.latency_limit_ms > 0) measure.latency_limit_ms = o.measurement.latency_limit_ms;
-  const auto measure_failed = [](const Status& s) {
-    fmt::print(stderr, "error: {}\n", s.ToString());
-    return 1;
-  };
+// --rate, or each rate of --rate-range.
+Result<std::vector<double>> Rates(const Options& o) {
+  if (o.measurement.rate_range.empty()) return std::vector<double>{o.run.rate};
+  return ParseRateRange(o.measurement.rate_range);
+}
 
-  std::vector<RunResult> results;
-  if (o.capacity) {
-    // Open loop at the given rate, per mode; grow the stream count until p99 exceeds one
-    // frame or a frame is dropped or fails, then bisect. Characters = streams x instances
-    // (x N with ticks of N).
-    auto loaded = LoadAndUpload(client, o, o.vertices, o.bones, o.seed);
-    if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
-    const Workload& w = (*loaded)->workloads.front();
-    const std::vector<UploadedMesh>& meshes = (*loaded)->meshes;
-    // Characters a stream holds: its ticks' characters (1 without ticks) x each one's crowd.
-    const int per_tick = static_cast<int>(std::max(o.run.characters_per_tick, 1u));
-    const double budget_ms = measure.latency_limit_ms.value_or(1000.0 / o.run.rate);
-    measure.latency_limit_ms = budget_ms;
-    const std::string at = fmt::format("p{:g}", measure.percentile);
-    const std::string backend = backends->empty() ? "" : backends->front();
-    const bool cpu = !measure.metrics_url.empty();  // the server CPU columns
-    std::vector<Mode> modes;
-    for (const std::string& text : SplitList(o.modes)) {
-      auto mode = ParseMode(text);
-      if (!mode.ok()) return fmt::print(stderr, "error: --modes: {}\n", mode.status().message()), 2;
-      modes.push_back(*mode);
+int MeasureFailed(const Status& s) {
+  fmt::print(stderr, "error: {}\n", s.ToString());
+  return 1;
+}
+
+// What every capacity search of a run shares: the meshes, the backend and the bound held.
+struct CapacityPlan {
+  const Options& o;
+  const Workload& w;
+  const std::vector<UploadedMesh>& meshes;
+  std::string backend;
+  MeasureOptions measure;
+  int per_tick;      // characters a tick (1 without ticks)
+  double budget_ms;  // the latency bound at the percentile
+  std::string at;    // the percentile's name, "p99"
+  bool cpu;          // the server CPU columns
+  bool ticks() const { return o.run.characters_per_tick > 0; }
+};
+
+void PrintCapacityHeader(const CapacityPlan& p, const Mode& mode, const std::string& plane) {
+  fmt::print(
+      "capacity of {} at {:.0f} {} per stream, {} vertices x {} bones, {}, {}{} instance(s) "
+      "per {}, {} data plane: {} <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
+      "{:>9} {:>9} {:>8} {:>8} {:>7}{}\n",
+      p.backend, p.o.run.rate, p.ticks() ? "ticks/s" : "fps", p.w.vertices, p.w.bones,
+      VertexEncodingName(mode.encoding),
+      p.ticks() ? fmt::format("ticks of {} characters (distinct meshes), ", p.per_tick) : "",
+      mode.instances, p.ticks() ? "character" : "stream", plane, p.at, p.budget_ms, "streams",
+      "characters", p.ticks() ? "ticks/s" : "frames/s", p.at + " ms", "max ms", "late", "dropped",
+      "holds", p.cpu ? ServerCpuHeader() : "");
+}
+
+// One probe of a capacity search: `streams` streams of `mode` over `plane`, its row printed
+// and kept; whether the bound held.
+Result<bool> ProbeCapacity(const CapacityPlan& p, const Mode& mode, const std::string& plane,
+                           int streams, std::vector<RunResult>* results) {
+  RunConfig config = p.o.run;
+  config.backend = p.backend;
+  config.streams = streams;
+  config.encoding = mode.encoding;
+  config.instances = mode.instances;
+  config.shared_memory = plane == "shm";
+  const std::string label = plane == "shm" ? mode.Name() + "+shm" : mode.Name();
+  auto measured = Measure(config, p.meshes,
+                          MakeProgress(fmt::format("{} {} streams", label, streams)), p.measure);
+  if (!measured.ok()) return measured.status();
+  RunResult r = std::move(measured).value();
+  const LatencySummary l = Summarize(r.latencies_ms, r.percentile);
+  const bool holds = r.within_limit() && r.dropped == 0 && !r.failed() && r.frames > 0;
+  fmt::print("{:>8} {:>10} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}{}\n", streams,
+             streams * p.per_tick * static_cast<int>(mode.instances), r.frames_per_second(),
+             l.at_percentile, l.max, r.late, r.dropped, holds ? "yes" : "no",
+             p.cpu ? ServerCpuCells(r) : "");
+  results->push_back(std::move(r));
+  return holds;
+}
+
+// Grows the stream count (doubling up to --capacity-max-streams) until the bound breaks,
+// then bisects: {the most streams that held, the fewest that did not (0: none)}.
+Result<std::pair<int, int>> SearchCapacity(const CapacityPlan& p, const Mode& mode,
+                                           const std::string& plane,
+                                           std::vector<RunResult>* results) {
+  int good = 0, bad = 0;
+  for (int n = 1; n <= p.o.capacity_max_streams; n *= 2) {
+    const Result<bool> holds = ProbeCapacity(p, mode, plane, n, results);
+    if (!holds.ok()) return holds.status();
+    if (!*holds) {
+      bad = n;
+      break;
     }
-    if (modes.empty()) modes.push_back({*ParseVertexEncoding(o.encoding), o.run.instances});
-    std::vector<std::pair<std::string, int>> held;  // characters per mode and data plane
-    for (const Mode& mode : modes) {
+    good = n;
+  }
+  while (bad > 0 && bad - good > 1) {
+    const int mid = (good + bad) / 2;
+    const Result<bool> holds = ProbeCapacity(p, mode, plane, mid, results);
+    if (!holds.ok()) return holds.status();
+    (*holds ? good : bad) = mid;
+  }
+  return std::pair{good, bad};
+}
+
+// --capacity: open loop at the given rate, per mode and data plane; grow the stream count
+// until the percentile exceeds one frame or a frame is dropped or fails, then bisect.
+// Characters = streams x instances (x N with ticks of N).
+int RunCapacity(client::SkinClient& client, const Options& o,
+                const std::vector<std::string>& backends, MeasureOptions measure,
+                std::vector<RunResult>* results) {
+  auto loaded = LoadAndUpload(client, o, o.vertices, o.bones, o.seed);
+  if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
+  std::vector<Mode> modes;
+  for (const std::string& text : SplitList(o.modes)) {
+    auto mode = ParseMode(text);
+    if (!mode.ok()) return fmt::print(stderr, "error: --modes: {}\n", mode.status().message()), 2;
+    modes.push_back(*mode);
+  }
+  if (modes.empty()) modes.push_back({*ParseVertexEncoding(o.encoding), o.run.instances});
+  measure.latency_limit_ms = measure.latency_limit_ms.value_or(1000.0 / o.run.rate);
+  const CapacityPlan p{.o = o,
+                       .w = (*loaded)->workloads.front(),
+                       .meshes = (*loaded)->meshes,
+                       .backend = backends.empty() ? "" : backends.front(),
+                       .measure = measure,
+                       .per_tick = static_cast<int>(std::max(o.run.characters_per_tick, 1u)),
+                       .budget_ms = *measure.latency_limit_ms,
+                       .at = fmt::format("p{:g}", measure.percentile),
+                       .cpu = !measure.metrics_url.empty()};
+  std::vector<std::pair<std::string, int>> held;  // characters per mode and data plane
+  for (const Mode& mode : modes) {
+    for (const std::string& plane : SplitList(o.data_planes)) {
+      const std::string label = plane == "shm" ? mode.Name() + "+shm" : mode.Name();
+      PrintCapacityHeader(p, mode, plane);
+      const auto found = SearchCapacity(p, mode, plane, results);
+      if (!found.ok()) return MeasureFailed(found.status());
+      const auto [good, bad] = *found;
+      const int characters = good * p.per_tick * static_cast<int>(mode.instances);
+      fmt::print(
+          "capacity: {} characters ({} streams x {}{} instances, {:.0f} {}, {}, {}{})\n",
+          characters, good, p.ticks() ? fmt::format("{} characters a tick x ", p.per_tick) : "",
+          mode.instances, o.run.rate, p.ticks() ? "ticks/s" : "fps", p.backend, label,
+          bad == 0 ? fmt::format(", the most streams tried: {}", o.capacity_max_streams) : "");
+      held.push_back({label, characters});
+    }
+  }
+  if (held.size() > 1) {
+    fmt::print("\ncharacters held at {:.0f} {} ({} <= {:.1f} ms, nothing dropped), {}:\n",
+               o.run.rate, p.ticks() ? "ticks/s" : "fps", p.at, p.budget_ms, p.backend);
+    for (const auto& [label, characters] : held) fmt::print("  {:<18} {:>6}\n", label, characters);
+  }
+  return 0;
+}
+
+// One row per mesh shape, backend, data plane and rate; then the tables.
+int RunGrid(client::SkinClient& client, const Options& o, const std::vector<std::string>& backends,
+            const Grid& grid, const std::vector<double>& rates, const MeasureOptions& measure,
+            std::vector<RunResult>* results) {
+  for (const auto& [v, b] : grid) {
+    auto loaded = LoadAndUpload(client, o, v, b, o.seed + v + b);
+    if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
+    const std::vector<UploadedMesh>& meshes = (*loaded)->meshes;
+    for (const std::string& backend : backends) {
       for (const std::string& plane : SplitList(o.data_planes)) {
-        const std::string label = plane == "shm" ? mode.Name() + "+shm" : mode.Name();
-        fmt::print(
-            "capacity of {} at {:.0f} {} per stream, {} vertices x {} bones, {}, {}{} instance(s) "
-            "per {}, {} data plane: {} <= {:.1f} ms, nothing dropped\n{:>8} {:>10} {:>9} "
-            "{:>9} {:>9} {:>8} {:>8} {:>7}{}\n",
-            backend, o.run.rate, o.run.characters_per_tick > 0 ? "ticks/s" : "fps", w.vertices,
-            w.bones, VertexEncodingName(mode.encoding),
-            o.run.characters_per_tick > 0
-                ? fmt::format("ticks of {} characters (distinct meshes), ", per_tick)
-                : "",
-            mode.instances, o.run.characters_per_tick > 0 ? "character" : "stream", plane, at,
-            budget_ms, "streams", "characters",
-            o.run.characters_per_tick > 0 ? "ticks/s" : "frames/s", at + " ms", "max ms", "late",
-            "dropped", "holds", cpu ? ServerCpuHeader() : "");
-        Status probe_error;
-        auto probe = [&](int streams) {
+        for (const double rate : rates) {
           RunConfig config = o.run;
           config.backend = backend;
-          config.streams = streams;
-          config.encoding = mode.encoding;
-          config.instances = mode.instances;
           config.shared_memory = plane == "shm";
-          auto measured = Measure(
-              config, meshes, MakeProgress(fmt::format("{} {} streams", label, streams)), measure);
-          if (!measured.ok()) {
-            probe_error = measured.status();
-            return std::optional<bool>();
-          }
-          RunResult r = std::move(measured).value();
-          const LatencySummary l = Summarize(r.latencies_ms, r.percentile);
-          const bool holds = r.within_limit() && r.dropped == 0 && !r.failed() && r.frames > 0;
-          fmt::print("{:>8} {:>10} {:>9.1f} {:>9.2f} {:>9.2f} {:>8} {:>8} {:>7}{}\n", streams,
-                     streams * per_tick * static_cast<int>(mode.instances), r.frames_per_second(),
-                     l.at_percentile, l.max, r.late, r.dropped, holds ? "yes" : "no",
-                     cpu ? ServerCpuCells(r) : "");
-          results.push_back(std::move(r));
-          return std::optional<bool>(holds);
-        };
-        int good = 0, bad = 0;
-        for (int n = 1; n <= o.capacity_max_streams; n *= 2) {
-          const std::optional<bool> holds = probe(n);
-          if (!holds) return measure_failed(probe_error);
-          if (!*holds) {
-            bad = n;
-            break;
-          }
-          good = n;
-        }
-        while (bad > 0 && bad - good > 1) {
-          const int mid = (good + bad) / 2;
-          const std::optional<bool> holds = probe(mid);
-          if (!holds) return measure_failed(probe_error);
-          (*holds ? good : bad) = mid;
-        }
-        const int characters = good * per_tick * static_cast<int>(mode.instances);
-        fmt::print(
-            "capacity: {} characters ({} streams x {}{} instances, {:.0f} {}, {}, {}{})\n",
-            characters, good,
-            o.run.characters_per_tick > 0 ? fmt::format("{} characters a tick x ", per_tick) : "",
-            mode.instances, o.run.rate, o.run.characters_per_tick > 0 ? "ticks/s" : "fps", backend,
-            label,
-            bad == 0 ? fmt::format(", the most streams tried: {}", o.capacity_max_streams) : "");
-        held.push_back({label, characters});
-      }
-    }
-    if (held.size() > 1) {
-      fmt::print("\ncharacters held at {:.0f} {} ({} <= {:.1f} ms, nothing dropped), {}:\n",
-                 o.run.rate, o.run.characters_per_tick > 0 ? "ticks/s" : "fps", at, budget_ms,
-                 backend);
-      for (const auto& [label, characters] : held) {
-        fmt::print("  {:<18} {:>6}\n", label, characters);
-      }
-    }
-  } else {
-    for (const auto& [v, b] : grid) {
-      auto loaded = LoadAndUpload(client, o, v, b, o.seed + v + b);
-      if (!loaded.ok()) return fmt::print(stderr, "error: {}\n", loaded.status().ToString()), 1;
-      const std::vector<UploadedMesh>& meshes = (*loaded)->meshes;
-      for (const std::string& backend : *backends) {
-        for (const std::string& plane : SplitList(o.data_planes)) {
-          for (const double rate : rates) {
-            RunConfig config = o.run;
-            config.backend = backend;
-            config.shared_memory = plane == "shm";
-            config.rate = rate;
-            auto row =
-                Measure(config, meshes,
-                        MakeProgress(fmt::format("{} {} {}x{}{}", backend, plane, v, b,
-                                                 rate > 0 ? fmt::format(" {:g}/s", rate) : "")),
-                        measure);
-            if (!row.ok()) return measure_failed(row.status());
-            results.push_back(std::move(row).value());
-            // perf_analyzer's --latency-threshold: higher rates would only be further over.
-            if (rates.size() > 1 && !results.back().within_limit()) break;
-          }
+          config.rate = rate;
+          auto row =
+              Measure(config, meshes,
+                      MakeProgress(fmt::format("{} {} {}x{}{}", backend, plane, v, b,
+                                               rate > 0 ? fmt::format(" {:g}/s", rate) : "")),
+                      measure);
+          if (!row.ok()) return MeasureFailed(row.status());
+          results->push_back(std::move(row).value());
+          // perf_analyzer's --latency-threshold: higher rates would only be further over.
+          if (rates.size() > 1 && !results->back().within_limit()) break;
         }
       }
-      // A sweep stores 16 meshes; free each when done with it.
-      if (grid.size() > 1) {
-        for (const UploadedMesh& m : meshes) (void)client.DeleteMesh(m.mesh_id);
-      }
     }
-    PrintTable(results, rates.front() > 0);
-    if (grid.size() > 1) PrintSpeedupTables(results);
+    // A sweep stores 16 meshes; free each when done with it.
+    if (grid.size() > 1) {
+      for (const UploadedMesh& m : meshes) (void)client.DeleteMesh(m.mesh_id);
+    }
   }
+  PrintTable(*results, rates.front() > 0);
+  if (grid.size() > 1) PrintSpeedupTables(*results);
+  return 0;
+}
 
+// The exit status the rows give (1 on a failed row or a mismatch), and the report files.
+int WriteReports(const Options& o, const std::vector<RunResult>& results, bool sweep) {
   int code = 0;
   for (const RunResult& r : results) {
     if (r.failed() && !o.capacity) code = 1;  // capacity probes past the limit may fail
@@ -374,27 +410,43 @@ int RunMain(const Options& o) {
       code = 1;
     } else {
       fmt::print("wrote {}\n", path);
-      if (write == &WritePlot && grid.size() > 1) fmt::print("wrote {}\n", SpeedupPlotPath(path));
+      if (write == &WritePlot && sweep) fmt::print("wrote {}\n", SpeedupPlotPath(path));
     }
   }
   return code;
 }
 
-}  // namespace
-}  // namespace skinserve::load
+int RunMain(const Options& o) {
+  client::SkinClient client(client::MakeChannel(o.run.target, o.run.channel), o.run.limits);
+  if (!Serving(client, o.run.target)) return 1;
+  const Result<bool> morph = FramesCarryMorph(o);
+  if (!morph.ok()) return fmt::print(stderr, "error: {}\n", morph.status().ToString()), 1;
+  auto backends = ResolveBackends(client, o.backends, *ParseMethod(o.method), *morph);
+  if (!backends.ok()) {
+    fmt::print(stderr, "error: {}\n", backends.status().ToString());
+    return 1;
+  }
+  const Result<Grid> grid = SweepGrid(o);
+  if (!grid.ok()) return fmt::print(stderr, "error: {}\n", grid.status().message()), 2;
+  const Result<std::vector<double>> rates = Rates(o);
+  if (!rates.ok()) return fmt::print(stderr, "error: {}\n", rates.status().message()), 2;
+  MeasureOptions measure = o.measurement.measure;
+  if (o.measurement.latency_limit_ms > 0) measure.latency_limit_ms = o.measurement.latency_limit_ms;
+  std::vector<RunResult> results;
+  const int failed = o.capacity ? RunCapacity(client, o, *backends, measure, &results)
+                                : RunGrid(client, o, *backends, *grid, *rates, measure, &results);
+  if (failed != 0) return failed;
+  return WriteReports(o, results, grid->size() > 1);
+}
 
-int main(int argc, char** argv) {
-  using namespace skinserve::load;
-  Options o;
-  CLI::App app{
-      "skinserve-load: throughput, latency and capacity of each backend through the "
-      "real service"};
+// Where the server is and how long calls may take.
+void AddConnectionOptions(CLI::App& app, Options& o) {
   app.add_option("--target", o.run.target,
                  "gRPC target; several servers: ipv4:127.0.0.1:50051,127.0.0.1:50052 "
                  "(round_robin)")
       ->envname("SKINSERVE_TARGET")
       ->capture_default_str();
-  skinserve::client::AddConnectionFlags(app, o.connection);
+  client::AddConnectionFlags(app, o.connection);
   app.add_option("--deadline-seconds", o.deadline_seconds,
                  "deadline of each unary call (uploads: 300 s) (0: none)")
       ->check(CLI::NonNegativeNumber)
@@ -404,6 +456,10 @@ int main(int argc, char** argv) {
                  "frames failed DEADLINE_EXCEEDED (0: wait for ever)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+}
+
+// The backends and the mesh they skin: its shape, normals, tangents, method, morph targets.
+void AddMeshOptions(CLI::App& app, Options& o) {
   app.add_option("--backends", o.backends, "comma-separated ids, or 'all' (as the server lists)")
       ->capture_default_str();
   app.add_option("--vertices", o.vertices, "synthetic mesh: vertices")->capture_default_str();
@@ -422,7 +478,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--morph-targets", o.morph.targets,
                  "synthetic mesh: this many random morph targets (0: none)")
-      ->check(CLI::Range(0u, skinserve::kMaxMorphTargets))
+      ->check(CLI::Range(0u, kMaxMorphTargets))
       ->capture_default_str();
   app.add_option("--morph-coverage", o.morph.coverage,
                  "--morph-targets: the fraction of the vertices each target moves")
@@ -434,6 +490,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--seed", o.seed, "synthetic mesh and palettes seed; Poisson arrivals' too")
       ->capture_default_str();
+}
+
+// How each run drives the server: streams, window, duration or frames, rate, checks, encodings,
+// ticks and crowds.
+void AddRunOptions(CLI::App& app, Options& o) {
   app.add_option("--streams", o.run.streams, "concurrent streams")->capture_default_str();
   app.add_option("--window", o.run.window, "frames in flight per stream")->capture_default_str();
   app.add_option("--streams-per-connection", o.run.streams_per_connection,
@@ -480,6 +541,10 @@ int main(int argc, char** argv) {
                  "crowd batches: K palettes per request, K characters per stream")
       ->check(CLI::Range(1u, 1u << 16))
       ->capture_default_str();
+}
+
+// What is searched or swept (--capacity, --sweep, --modes, --mesh) and over which data planes.
+void AddSearchOptions(CLI::App& app, Options& o) {
   app.add_option("--modes", o.modes,
                  "--capacity: one search per mode, ENCODING[xK] comma-separated, e.g. "
                  "float32,snorm16x16 (default: --encoding with --instances)");
@@ -518,18 +583,12 @@ int main(int argc, char** argv) {
   app.add_option("--shm-dir", o.run.shm_dir,
                  "where the streams' regions are made: the server's --shm-dir")
       ->capture_default_str();
-  AddMeasurementFlags(app, o.measurement);
-  app.add_option("--json", o.json, "write results as JSON");
-  app.add_option("--csv", o.csv, "write results as CSV");
-  app.add_option("--plot", o.plot, "write a PNG chart (gnuplot)");
-  skinserve::cli::AddVersionFlag(app, "skinserve-load");
-  skinserve::cli::AddConfigFile(app, "SKINSERVE_LOAD_CONFIG");
-  if (const auto exit_code = skinserve::cli::ParseCommandLine(app, argc, argv)) return *exit_code;
-  // Frames arrive all the time: keep their buffers mapped (client/malloc_tuning.h).
-  if (!skinserve::client::TuneMallocForStreaming()) {
-    fmt::print(stderr, "warning: glibc refused the malloc settings for streaming\n");
-  }
-  o.run.encoding = *skinserve::ParseVertexEncoding(o.encoding);
+}
+
+// Completes `o` after parsing (encodings, arrivals, the channel, the limits, --capacity's
+// defaults); an exit status when the options do not go together.
+std::optional<int> FinishOptions(const CLI::App& app, Options& o) {
+  o.run.encoding = *ParseVertexEncoding(o.encoding);
   o.run.arrivals = *ParseArrivals(o.measurement.arrivals);
   o.run.arrivals_seed = o.seed;
   if (o.run.frames > 0 && o.measurement.measure.max_trials > 1) {
@@ -553,13 +612,41 @@ int main(int argc, char** argv) {
     return 2;
   }
   o.run.channel = *channel;
-  o.run.limits.deadline = skinserve::client::FlagMilliseconds(o.deadline_seconds);
-  o.run.limits.stream_idle = skinserve::client::FlagMilliseconds(o.stream_idle_seconds);
+  o.run.limits.deadline = client::FlagMilliseconds(o.deadline_seconds);
+  o.run.limits.stream_idle = client::FlagMilliseconds(o.stream_idle_seconds);
   if (o.capacity) {
     if (o.run.rate <= 0) o.run.rate = 60;
     if (app.count("--vertices") == 0) o.vertices = 25'000;
     // The fastest CPU loop, on every CPU (sse-openmp is x86 only): what an operator serves.
     if (o.backends == "all") o.backends = "simd-openmp";
   }
+  return std::nullopt;
+}
+
+}  // namespace
+}  // namespace skinserve::load
+
+int main(int argc, char** argv) {
+  using namespace skinserve::load;
+  Options o;
+  CLI::App app{
+      "skinserve-load: throughput, latency and capacity of each backend through the "
+      "real service"};
+  AddConnectionOptions(app, o);
+  AddMeshOptions(app, o);
+  AddRunOptions(app, o);
+  AddSearchOptions(app, o);
+  AddMeasurementFlags(app, o.measurement);
+  app.add_option("--json", o.json, "write results as JSON");
+  app.add_option("--csv", o.csv, "write results as CSV");
+  app.add_option("--plot", o.plot, "write a PNG chart (gnuplot)");
+  skinserve::cli::AddVersionFlag(app, "skinserve-load");
+  skinserve::cli::AddConfigFile(app, "SKINSERVE_LOAD_CONFIG");
+  if (const auto exit_code = skinserve::cli::ParseCommandLine(app, argc, argv)) return *exit_code;
+  // Frames arrive all the time: keep their buffers mapped (client/malloc_tuning.h).
+  if (!skinserve::client::TuneMallocForStreaming()) {
+    fmt::print(stderr, "warning: glibc refused the malloc settings for streaming\n");
+  }
+  if (const auto exit_code = FinishOptions(app, o)) return *exit_code;
   return RunMain(o);
 }

@@ -18,20 +18,11 @@ std::vector<std::string> BackendLabel(const RunResult& r) {
   return {"backend=\"" + r.backend + "\""};
 }
 
-std::vector<ReportColumn> MakeColumns() {
-  using R = const RunResult&;
-  using All = const std::vector<RunResult>&;
-  const auto latency = [](double LatencySummary::*member) {
-    return [member](R r, All) { return json(Summarize(r.latencies_ms, r.percentile).*member); };
-  };
-  const auto mean = [](double RunResult::*sum) {
-    return [sum](R r, All) { return json(r.mean(r.*sum)); };
-  };
-  const auto metric = [](const char* family) {
-    return [family](R r, All) {
-      return OrNull(r.metrics_scraped, SumSeries(r.server_metrics, family, BackendLabel(r)));
-    };
-  };
+using R = const RunResult&;
+using All = const std::vector<RunResult>&;
+
+// What was run: the mesh, the answers asked for, the streams and the offered rate.
+std::vector<ReportColumn> RunColumns() {
   return {
       {"backend", [](R r, All) { return json(r.backend); }},
       {"vertices", [](R r, All) { return json(r.vertices); }},
@@ -47,12 +38,27 @@ std::vector<ReportColumn> MakeColumns() {
       {"rate", [](R r, All) { return json(r.rate); }},
       {"offered_frames_per_second", [](R r, All) { return json(r.rate * r.streams); }},
       {"arrivals", [](R r, All) { return OrNull(!r.arrivals.empty(), r.arrivals); }},
+  };
+}
+
+// What came back per second.
+std::vector<ReportColumn> ThroughputColumns() {
+  return {
       {"frames", [](R r, All) { return json(r.frames); }},
       {"seconds", [](R r, All) { return json(r.seconds); }},
       {"frames_per_second", [](R r, All) { return json(r.frames_per_second()); }},
       {"characters_per_second", [](R r, All) { return json(r.characters_per_second()); }},
       {"vertices_per_second", [](R r, All) { return json(r.vertices_per_second()); }},
       {"megabytes_per_second", [](R r, All) { return json(r.megabytes_per_second()); }},
+  };
+}
+
+// The latency percentiles and the limit they are held to.
+std::vector<ReportColumn> LatencyColumns() {
+  const auto latency = [](double LatencySummary::*member) {
+    return [member](R r, All) { return json(Summarize(r.latencies_ms, r.percentile).*member); };
+  };
+  return {
       {"latency_ms/p50", latency(&LatencySummary::p50)},
       {"latency_ms/p90", latency(&LatencySummary::p90)},
       {"latency_ms/p99", latency(&LatencySummary::p99)},
@@ -65,6 +71,15 @@ std::vector<ReportColumn> MakeColumns() {
        }},
       {"within_limit",
        [](R r, All) { return OrNull(r.latency_limit_ms.has_value(), r.within_limit()); }},
+  };
+}
+
+// Where a frame's time went: the server's timings and the latency breakdown.
+std::vector<ReportColumn> BreakdownColumns() {
+  const auto mean = [](double RunResult::*sum) {
+    return [sum](R r, All) { return json(r.mean(r.*sum)); };
+  };
+  return {
       {"server_ms/queue", mean(&RunResult::server_queue_ms_sum)},
       {"server_ms/compute", mean(&RunResult::server_compute_ms_sum)},
       {"server_ms/encode", mean(&RunResult::server_encode_ms_sum)},
@@ -79,6 +94,12 @@ std::vector<ReportColumn> MakeColumns() {
          for (double l : r.latencies_ms) sum += l;
          return json(r.mean(sum));
        }},
+  };
+}
+
+// Errors, checks, sends and drops, trials, and the speedup over serial.
+std::vector<ReportColumn> CountColumns() {
+  return {
       {"errors", [](R r, All) { return json(r.errors); }},
       {"checked", [](R r, All) { return json(r.checked); }},
       {"mismatches", [](R r, All) { return json(r.mismatches); }},
@@ -95,6 +116,17 @@ std::vector<ReportColumn> MakeColumns() {
          const double serial = SerialFramesPerSecond(all, r);
          return OrNull(serial > 0, serial > 0 ? r.frames_per_second() / serial : 0);
        }},
+  };
+}
+
+// The server's own counts (--metrics-url).
+std::vector<ReportColumn> ServerCpuColumns() {
+  const auto metric = [](const char* family) {
+    return [family](R r, All) {
+      return OrNull(r.metrics_scraped, SumSeries(r.server_metrics, family, BackendLabel(r)));
+    };
+  };
+  return {
       // --metrics-url: process_cpu_seconds_total's increase over the measured part, and the
       // frames the server answered between the same scrapes (every backend).
       {"server_cpu_seconds",
@@ -115,6 +147,15 @@ std::vector<ReportColumn> MakeColumns() {
       {"server_metrics/deltas",
        [](R r, All) { return OrNull(r.metrics_scraped, json(r.server_metrics)); }},
   };
+}
+
+std::vector<ReportColumn> MakeColumns() {
+  std::vector<ReportColumn> columns;
+  for (auto group : {RunColumns, ThroughputColumns, LatencyColumns, BreakdownColumns, CountColumns,
+                     ServerCpuColumns}) {
+    for (ReportColumn& column : group()) columns.push_back(std::move(column));
+  }
+  return columns;
 }
 
 }  // namespace

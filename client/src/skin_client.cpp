@@ -126,111 +126,109 @@ Status DecodeRegionFrame(FrameResult* result) {
   return Status::Ok();
 }
 
-// `part` is the header; `sizes` the bytes of its vertex fields.
-template <typename Decode>
-bool FrameAssembler::AddPart(const v1::SkinResponse& part, FieldSizes sizes, const Decode& decode,
-                             FrameResult* result) {
-  const std::size_t positions_size = sizes.positions, normals_size = sizes.normals;
-  const uint32_t instances = std::max(part.instances(), 1u);  // 0: a server before crowds
+namespace {
+
+Status PartError(const v1::SkinResponse& part) {
+  return wire::FromGrpc(
+      grpc::Status(static_cast<grpc::StatusCode>(part.error().code()), part.error().message()));
+}
+
+// A frame's first part that ends it: the server's error, or an encoding this client does not
+// know.
+Status FirstPartProblem(const v1::SkinResponse& part) {
+  if (part.has_error()) return PartError(part);
+  if (!v1::Encoding_IsValid(part.encoding())) {
+    return Internal(fmt::format("frame {}: unknown encoding {}", part.frame(),
+                                static_cast<int>(part.encoding())));
+  }
+  return Status::Ok();
+}
+
+Status VertexLimitProblem(const v1::SkinResponse& part, uint32_t instances) {
+  const uint64_t vertices = uint64_t{instances} * part.total_vertices();
+  if (vertices <= kMaxFrameVertices) return Status::Ok();
+  return Internal(
+      fmt::format("frame {}: {} instances x {} vertices is more than the client accepts ({})",
+                  part.frame(), instances, part.total_vertices(), kMaxFrameVertices));
+}
+
+// Where a part lies in its frame, for messages.
+std::string PartPlace(const v1::SkinResponse& part) {
+  return fmt::format("frame {}, instance {}, vertices [{}, +{})", part.frame(), part.instance(),
+                     part.first_vertex(), part.vertex_count());
+}
+
+// A part's shape against its frame's first part's (`normals`, `tangents`: the first part had
+// them; `sizes`: this part's bytes of normals and tangents).
+Status ShapeProblem(const v1::SkinResponse& part, const FrameResult& frame, bool normals,
+                    bool tangents, std::size_t normals_size, std::size_t tangents_size) {
+  const uint32_t instances = std::max(part.instances(), 1u);
   const auto encoding = static_cast<VertexEncoding>(part.encoding());
-  if (!started_) {
-    started_ = true;
-    result->frame = part.frame();
-    result->status = Status::Ok();
-    result->timing = part.timing();
-    result->region_positions = result->region_normals = result->region_tangents = {};
-    if (part.has_error()) {
-      return Fail(part, result,
-                  wire::FromGrpc(grpc::Status(static_cast<grpc::StatusCode>(part.error().code()),
-                                              part.error().message())));
-    }
-    if (!v1::Encoding_IsValid(part.encoding())) {
-      return Fail(part, result,
-                  Internal(fmt::format("frame {}: unknown encoding {}", part.frame(),
-                                       static_cast<int>(part.encoding()))));
-    }
-    if (part.has_region_write()) return AddRegionPart(part, result);
-    const uint64_t vertices = uint64_t{instances} * part.total_vertices();
-    if (vertices > kMaxFrameVertices) {
-      return Fail(
-          part, result,
-          Internal(fmt::format("frame {}: {} instances x {} vertices is more than the "
-                               "client accepts ({})",
-                               part.frame(), instances, part.total_vertices(), kMaxFrameVertices)));
-    }
-    result->vertices = part.total_vertices();
-    result->instances = instances;
-    result->encoding = encoding;
-    normals_ = normals_size > 0;
-    tangents_ = sizes.tangents > 0;
-    result->positions.resize(3 * vertices);  // same size as last frame: no work
-    result->normals.resize(normals_ ? 3 * vertices : 0);
-    result->tangents.resize(tangents_ ? 4 * vertices : 0);
-    result->bounds.assign(instances, Bounds{});
+  if (part.frame() == frame.frame && part.total_vertices() == frame.vertices &&
+      instances == frame.instances && encoding == frame.encoding && normals == (normals_size > 0) &&
+      tangents == (tangents_size > 0)) {
+    return Status::Ok();
   }
-  if (failed_) return part.last();
-  if (part.has_error()) {  // after early parts: the frame failed, drop what came before
-    return Fail(part, result,
-                wire::FromGrpc(grpc::Status(static_cast<grpc::StatusCode>(part.error().code()),
-                                            part.error().message())));
-  }
-  // Early parts (SkinRequest.early_parts): only the final part carries the timings.
-  if (part.last()) result->timing = part.timing();
-  const auto where = [&] {
-    return fmt::format("frame {}, instance {}, vertices [{}, +{})", part.frame(), part.instance(),
-                       part.first_vertex(), part.vertex_count());
-  };
-  if (part.frame() != result->frame || part.total_vertices() != result->vertices ||
-      instances != result->instances || encoding != result->encoding ||
-      normals_ != (normals_size > 0) || tangents_ != (sizes.tangents > 0)) {
-    return Fail(part, result,
-                Internal(fmt::format("{}: the part does not match its frame's first part "
-                                     "(frame {}, {} x {} vertices, {}, normals {}, tangents {})",
-                                     where(), result->frame, result->instances, result->vertices,
-                                     VertexEncodingName(result->encoding), normals_, tangents_)));
-  }
-  // A packed part holds `packed` whole instances; else one instance's vertex range.
-  const uint32_t packed = std::max(part.instance_count(), 1u);
-  if (part.instance() != next_instance_ || part.first_vertex() != next_vertex_ ||
+  return Internal(fmt::format(
+      "{}: the part does not match its frame's first part (frame {}, {} x {} vertices, {}, "
+      "normals {}, tangents {})",
+      PartPlace(part), frame.frame, frame.instances, frame.vertices,
+      VertexEncodingName(frame.encoding), normals, tangents));
+}
+
+// A part's range: the next of its frame (instance `next_instance`, vertex `next_vertex`);
+// a packed part (`packed` instances) holds whole instances.
+Status RangeProblem(const v1::SkinResponse& part, const FrameResult& frame, uint32_t packed,
+                    uint32_t next_instance, uint32_t next_vertex) {
+  if (part.instance() != next_instance || part.first_vertex() != next_vertex ||
       part.vertex_count() == 0 ||
-      uint64_t{part.first_vertex()} + part.vertex_count() > result->vertices ||
-      (packed > 1 && (part.first_vertex() != 0 || part.vertex_count() != result->vertices ||
-                      uint64_t{part.instance()} + packed > result->instances))) {
-    return Fail(part, result,
-                Internal(fmt::format("{}: out of order or out of range: instance {} vertex {} "
-                                     "was due, {} vertices per instance, {} instance(s) in the "
-                                     "part of {}",
-                                     where(), next_instance_, next_vertex_, result->vertices,
-                                     packed, result->instances)));
+      uint64_t{part.first_vertex()} + part.vertex_count() > frame.vertices ||
+      (packed > 1 && (part.first_vertex() != 0 || part.vertex_count() != frame.vertices ||
+                      uint64_t{part.instance()} + packed > frame.instances))) {
+    return Internal(fmt::format(
+        "{}: out of order or out of range: instance {} vertex {} was due, {} vertices per "
+        "instance, {} instance(s) in the part of {}",
+        PartPlace(part), next_instance, next_vertex, frame.vertices, packed, frame.instances));
   }
-  if (packed > 1 && QuantisedToBox(encoding) &&
+  if (packed > 1 && QuantisedToBox(frame.encoding) &&
       part.instance_bounds_size() != static_cast<int>(packed)) {
-    return Fail(part, result,
-                Internal(fmt::format("{}: {} instances in the part but {} instance_bounds", where(),
-                                     packed, part.instance_bounds_size())));
+    return Internal(fmt::format("{}: {} instances in the part but {} instance_bounds",
+                                PartPlace(part), packed, part.instance_bounds_size()));
   }
+  return Status::Ok();
+}
+
+// Each vertex field holds exactly the part's vertices.
+Status SizeProblem(const v1::SkinResponse& part, VertexEncoding encoding, uint32_t packed,
+                   bool normals, bool tangents, std::size_t positions_size,
+                   std::size_t normals_size, std::size_t tangents_size) {
+  const std::size_t expected = packed * 3ull * part.vertex_count() * EncodedBytesPerValue(encoding);
+  if (positions_size != expected || (normals && normals_size != expected)) {
+    const bool positions = positions_size != expected;
+    return Internal(fmt::format(
+        "{}: {}: {} bytes, expected {} ({} values of {})", PartPlace(part),
+        positions ? "positions" : "normals", positions ? positions_size : normals_size, expected,
+        expected / EncodedBytesPerValue(encoding), VertexEncodingName(encoding)));
+  }
+  const std::size_t tangent_bytes =
+      packed * kValuesPerTangent * part.vertex_count() * EncodedBytesPerValue(encoding);
+  if (tangents && tangents_size != tangent_bytes) {
+    return Internal(fmt::format("{}: tangents: {} bytes, expected {} (4 values a vertex of {})",
+                                PartPlace(part), tangents_size, tangent_bytes,
+                                VertexEncodingName(encoding)));
+  }
+  return Status::Ok();
+}
+
+// Decodes each instance of a part (checked) into the frame's arrays.
+template <typename Decode>
+Status DecodeInstances(const v1::SkinResponse& part, uint32_t packed, bool normals, bool tangents,
+                       const Decode& decode, FrameResult* result) {
+  const VertexEncoding encoding = result->encoding;
   const std::size_t count = 3ull * part.vertex_count();
   const std::size_t instance_bytes = count * EncodedBytesPerValue(encoding);
-  // Each vertex field holds exactly the part's vertices.
-  const std::size_t expected = packed * instance_bytes;
-  if (positions_size != expected || (normals_ && normals_size != expected)) {
-    const bool positions = positions_size != expected;
-    return Fail(
-        part, result,
-        Internal(fmt::format(
-            "{}: {}: {} bytes, expected {} ({} values of {})", where(),
-            positions ? "positions" : "normals", positions ? positions_size : normals_size,
-            expected, expected / EncodedBytesPerValue(encoding), VertexEncodingName(encoding))));
-  }
   const std::size_t tangent_count = kValuesPerTangent * part.vertex_count();
   const std::size_t tangent_instance_bytes = tangent_count * EncodedBytesPerValue(encoding);
-  if (tangents_ && sizes.tangents != packed * tangent_instance_bytes) {
-    return Fail(
-        part, result,
-        Internal(fmt::format("{}: tangents: {} bytes, expected {} (4 values a vertex of {})",
-                             where(), sizes.tangents, packed * tangent_instance_bytes,
-                             VertexEncodingName(encoding))));
-  }
   for (uint32_t k = 0; k < packed; ++k) {
     const uint32_t instance = part.instance() + k;
     const Bounds bounds =
@@ -240,27 +238,85 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, FieldSizes sizes, con
     if (part.first_vertex() == 0) {
       instance_bounds = bounds;
     } else if (bounds != instance_bounds) {
-      return Fail(part, result,
-                  Internal(fmt::format("{}: bounds differ from the instance's "
-                                       "first part",
-                                       where())));
+      return Internal(
+          fmt::format("{}: bounds differ from the instance's first part", PartPlace(part)));
     }
     const std::size_t offset = 3 * (uint64_t{instance} * result->vertices + part.first_vertex());
     Status decoded = decode(0, k * instance_bytes, encoding, bounds,
                             std::span<float>(result->positions).subspan(offset, count));
-    if (decoded.ok() && normals_) {
+    if (decoded.ok() && normals) {
       decoded = decode(1, k * instance_bytes, encoding, bounds,
                        std::span<float>(result->normals).subspan(offset, count));
     }
-    if (decoded.ok() && tangents_) {
+    if (decoded.ok() && tangents) {
       decoded = decode(2, k * tangent_instance_bytes, encoding, bounds,
                        std::span<float>(result->tangents)
                            .subspan(offset / kValuesPerVertex * kValuesPerTangent, tangent_count));
     }
-    if (!decoded.ok()) {
-      return Fail(part, result, Internal(fmt::format("{}: {}", where(), decoded.message())));
-    }
+    if (!decoded.ok()) return Internal(fmt::format("{}: {}", PartPlace(part), decoded.message()));
   }
+  return Status::Ok();
+}
+
+// A part that ends (or does not end) the frame where it should not.
+Status EndProblem(const v1::SkinResponse& part, const FrameResult& frame, uint32_t next_instance,
+                  uint32_t next_vertex) {
+  if (part.last() && next_instance != frame.instances) {
+    return Internal(fmt::format("frame {}: ended at instance {} vertex {} of {} x {} vertices",
+                                part.frame(), next_instance, next_vertex, frame.instances,
+                                frame.vertices));
+  }
+  if (!part.last() && next_instance == frame.instances) {
+    return Internal(
+        fmt::format("{}: the frame is complete but the part is not marked last", PartPlace(part)));
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+// `part` is the header; `sizes` the bytes of its vertex fields.
+template <typename Decode>
+bool FrameAssembler::AddPart(const v1::SkinResponse& part, FieldSizes sizes, const Decode& decode,
+                             FrameResult* result) {
+  const uint32_t instances = std::max(part.instances(), 1u);  // 0: a server before crowds
+  if (!started_) {
+    started_ = true;
+    result->frame = part.frame();
+    result->status = Status::Ok();
+    result->timing = part.timing();
+    result->region_positions = result->region_normals = result->region_tangents = {};
+    if (Status s = FirstPartProblem(part); !s.ok()) return Fail(part, result, std::move(s));
+    if (part.has_region_write()) return AddRegionPart(part, result);
+    if (Status s = VertexLimitProblem(part, instances); !s.ok()) {
+      return Fail(part, result, std::move(s));
+    }
+    const uint64_t vertices = uint64_t{instances} * part.total_vertices();
+    result->vertices = part.total_vertices();
+    result->instances = instances;
+    result->encoding = static_cast<VertexEncoding>(part.encoding());
+    normals_ = sizes.normals > 0;
+    tangents_ = sizes.tangents > 0;
+    result->positions.resize(3 * vertices);  // same size as last frame: no work
+    result->normals.resize(normals_ ? 3 * vertices : 0);
+    result->tangents.resize(tangents_ ? 4 * vertices : 0);
+    result->bounds.assign(instances, Bounds{});
+  }
+  if (failed_) return part.last();
+  // After early parts: the frame failed, drop what came before.
+  if (part.has_error()) return Fail(part, result, PartError(part));
+  // Early parts (SkinRequest.early_parts): only the final part carries the timings.
+  if (part.last()) result->timing = part.timing();
+  // A packed part holds `packed` whole instances; else one instance's vertex range.
+  const uint32_t packed = std::max(part.instance_count(), 1u);
+  Status s = ShapeProblem(part, *result, normals_, tangents_, sizes.normals, sizes.tangents);
+  if (s.ok()) s = RangeProblem(part, *result, packed, next_instance_, next_vertex_);
+  if (s.ok()) {
+    s = SizeProblem(part, result->encoding, packed, normals_, tangents_, sizes.positions,
+                    sizes.normals, sizes.tangents);
+  }
+  if (s.ok()) s = DecodeInstances(part, packed, normals_, tangents_, decode, result);
+  if (!s.ok()) return Fail(part, result, std::move(s));
   // A packed part covers its instances whole: the range ends at the last vertex too.
   next_vertex_ += part.vertex_count();
   if (next_vertex_ == result->vertices) {
@@ -268,17 +324,8 @@ bool FrameAssembler::AddPart(const v1::SkinResponse& part, FieldSizes sizes, con
     next_vertex_ = 0;
   }
   if (in_tick_) return next_instance_ == result->instances;  // the tick's final part ends it
-  if (part.last() && next_instance_ != result->instances) {
-    return Fail(part, result,
-                Internal(fmt::format("frame {}: ended at instance {} vertex {} of {} x {} "
-                                     "vertices",
-                                     part.frame(), next_instance_, next_vertex_, result->instances,
-                                     result->vertices)));
-  }
-  if (!part.last() && next_instance_ == result->instances) {
-    return Fail(part, result,
-                Internal(fmt::format("{}: the frame is complete but the part is not marked last",
-                                     where())));
+  if (s = EndProblem(part, *result, next_instance_, next_vertex_); !s.ok()) {
+    return Fail(part, result, std::move(s));
   }
   return part.last();
 }

@@ -1,25 +1,16 @@
-// StreamTicks: StreamFrames' loop for ticks. Each tick in flight keeps its own Tick (the
-// window's slot), whose characters' outputs its answer is checked against.
+// StreamTicks: the stream session (stream_session.h) for ticks. Each tick in flight keeps
+// its own Tick (the window's slot), whose characters' outputs its answer is checked against.
 #include <fmt/format.h>
 
-#include <deque>
+#include <optional>
 #include <set>
 #include <vector>
 
-#include "skinserve/client/idle_watchdog.h"
 #include "skinserve/client/tick.h"
+#include "stream_session.h"
 
 namespace skinserve::client {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-struct TickInFlight {
-  uint64_t frame = 0;
-  Clock::time_point sent;
-  int uploads_before = 0;  // re-uploads done when it was sent
-  std::size_t slot = 0;
-};
 
 bool HasRegionCharacter(const Tick& tick) {
   for (const TickCharacter& c : tick.characters()) {
@@ -39,155 +30,102 @@ std::set<std::string> LostMeshes(const Tick& tick, const TickResult& result) {
   return lost;
 }
 
+// A tick's request, answer and re-upload for the session.
+class TickPath final : public StreamPath {
+ public:
+  TickPath(const TickStreamOptions& options, const TickSource& source, const TickSink& sink,
+           TickStreamSummary* summary)
+      : options_(options),
+        source_(source),
+        sink_(sink),
+        summary_(summary),
+        ticks_(static_cast<std::size_t>(std::max(options.window, 1))) {}
+
+  Status Prepare(uint64_t frame, std::size_t slot) override {
+    Tick& tick = ticks_[slot];
+    tick.Clear();
+    tick.set_frame(frame);
+    source_(frame, &tick);
+    if (HasRegionCharacter(tick) && ticks_.size() > 1 && options_.region_stride == 0) {
+      return InvalidArgument(
+          "TickStreamOptions.region_stride is 0 with a window above 1: ticks in flight would "
+          "share the region's bytes");
+    }
+    tick.ToWire(&request_, slot * options_.region_stride);
+    return Status::Ok();
+  }
+  const v1::SkinRequest& request() const override { return request_; }
+
+  void BeginAnswer(const InFlight& head) override {
+    assembler_.emplace(ticks_[head.slot], &result_);
+  }
+  bool AddPart(const grpc::ByteBuffer& part) override { return assembler_->Add(part, &part_); }
+
+  Settled Settle(const InFlight& head, StreamSession& session) override {
+    assembler_.reset();
+    // Characters whose mesh the server lost: their meshes go again first (the session's
+    // re-upload rule), then the tick.
+    const std::set<std::string> lost =
+        result_.status.ok() ? LostMeshes(ticks_[head.slot], result_) : std::set<std::string>();
+    if (!lost.empty()) {
+      if (session.SentBeforeReupload(head)) return Settled::kResend;
+      if (session.MayReupload() && Reupload(lost, session)) return Settled::kResend;
+    }
+    Count(result_);
+    sink_(result_, SessionClock::now() - head.sent);
+    return result_.status.ok() ? Settled::kAnswered : Settled::kFailed;
+  }
+
+  void Fail(const InFlight& f, const Status& why) override {
+    TickResult failed;
+    failed.frame = f.frame;
+    failed.status = why;
+    failed.characters.resize(ticks_[f.slot].size());
+    for (FrameResult& r : failed.characters) r.frame = f.frame, r.status = why;
+    Count(failed);
+    sink_(failed, SessionClock::now() - f.sent);
+  }
+
+ private:
+  // One attempt of max_reuploads for all of `lost`; whether the tick is worth sending again.
+  static bool Reupload(const std::set<std::string>& lost, StreamSession& session) {
+    session.CountReuploadAttempt();
+    bool again = true;
+    for (const std::string& mesh_id : lost) {
+      const Status s = session.client().Reupload(mesh_id);
+      if (s.ok()) session.CountReuploaded();
+      if (!WorthResending(s)) again = false;
+    }
+    return again;
+  }
+
+  void Count(const TickResult& r) {
+    const std::size_t failed = r.failed();
+    summary_->characters_failed += failed;
+    summary_->characters_answered += r.characters.size() - failed;
+  }
+
+  const TickStreamOptions& options_;
+  const TickSource& source_;
+  const TickSink& sink_;
+  TickStreamSummary* summary_;  // its characters' counts
+  std::vector<Tick> ticks_;     // each slot's tick, kept for its answer
+  v1::SkinRequest request_;     // reused: its characters' messages keep their storage
+  RawPart part_;
+  std::optional<TickAssembler> assembler_;
+  TickResult result_;
+};
+
 }  // namespace
 
 Status StreamTicks(SkinClient& client, const TickStreamOptions& options, const TickSource& source,
                    const TickSink& sink, TickStreamSummary* summary_out) {
   TickStreamSummary summary;
-  const uint64_t end = options.first_tick + options.ticks;
-  uint64_t next = options.first_tick;
-  std::deque<uint64_t> resend;  // ticks to send again after a re-upload
-  const std::size_t window = static_cast<std::size_t>(std::max(options.window, 1));
-  std::vector<Tick> ticks(window);  // each slot's tick, kept for its answer
-  std::deque<TickInFlight> in_flight;
-  std::vector<std::size_t> free_slots;
-  for (std::size_t s = window; s-- > 0;) free_slots.push_back(s);
-  int reuploads = 0;
-  Status status;
-  v1::SkinRequest request;  // reused: its characters' messages keep their storage
-  RawPart part;
-  grpc::ByteBuffer bytes;
-  TickResult result;
-
-  const auto count = [&](const TickResult& r) {
-    const std::size_t failed = r.failed();
-    summary.characters_failed += failed;
-    summary.characters_answered += r.characters.size() - failed;
-  };
-  const auto report_failed = [&](const TickInFlight& f, const Status& why) {
-    TickResult failed;
-    failed.frame = f.frame;
-    failed.status = why;
-    failed.characters.resize(ticks[f.slot].size());
-    for (FrameResult& r : failed.characters) r.frame = f.frame, r.status = why;
-    ++summary.failed;
-    count(failed);
-    sink(failed, Clock::now() - f.sent);
-  };
-
-  int reconnects_in_a_row = 0;
-  uint64_t answered_at_reconnect = 0;
-  auto more_new = [&] { return next < end && !(options.stop != nullptr && options.stop->load()); };
-  while (more_new() || !resend.empty()) {
-    grpc::ClientContext context;
-    auto stream = client.StreamSkinRaw(&context);
-    IdleWatchdog watchdog(&context, client.limits().stream_idle);
-    bool broken = false, writes_closed = false;
-    uint64_t heard = 0;
-    auto fill = [&]() -> Status {
-      while (!broken && !writes_closed && in_flight.size() < window &&
-             (!resend.empty() || more_new())) {
-        const bool again = !resend.empty();
-        const uint64_t frame = again ? resend.front() : next;
-        const std::size_t slot = free_slots.back();
-        Tick& tick = ticks[slot];
-        tick.Clear();
-        tick.set_frame(frame);
-        source(frame, &tick);
-        if (HasRegionCharacter(tick) && window > 1 && options.region_stride == 0) {
-          return InvalidArgument(
-              "TickStreamOptions.region_stride is 0 with a window above 1: ticks in flight would "
-              "share the region's bytes");
-        }
-        free_slots.pop_back();
-        tick.ToWire(&request, slot * options.region_stride);
-        in_flight.push_back({frame, Clock::now(), reuploads, slot});
-        if (again) {
-          resend.pop_front();
-        } else {
-          ++next;
-          ++summary.sent;
-        }
-        if (!stream->Write(request)) writes_closed = true;
-      }
-      watchdog.Awaiting(!in_flight.empty());
-      return Status::Ok();
-    };
-    const auto abandon = [&](Status s) {
-      context.TryCancel();
-      (void)stream->Finish();
-      return s;
-    };
-    if (Status s = fill(); !s.ok()) return abandon(s);
-    while (!broken && !in_flight.empty()) {
-      const TickInFlight head = in_flight.front();
-      bool complete = false;
-      {
-        TickAssembler assembler(ticks[head.slot], &result);
-        while (!complete && stream->Read(&bytes)) {
-          watchdog.Answered();
-          complete = assembler.Add(bytes, &part);
-        }
-      }
-      if (!complete) {
-        broken = true;
-        break;
-      }
-      in_flight.pop_front();
-      ++heard;
-      // Characters whose mesh the server lost: a tick sent before the last re-upload just
-      // goes again; else their meshes go again first, at most max_reuploads times.
-      const std::set<std::string> lost =
-          result.status.ok() ? LostMeshes(ticks[head.slot], result) : std::set<std::string>();
-      bool again = !lost.empty() && head.uploads_before < reuploads;
-      if (!lost.empty() && !again && reuploads < options.max_reuploads) {
-        ++reuploads;
-        again = true;
-        for (const std::string& mesh_id : lost) {
-          const Status s = client.Reupload(mesh_id);
-          summary.reuploads += s.ok() ? 1 : 0;
-          if (!s.ok() && s.code() != StatusCode::kUnavailable) again = false;
-        }
-      }
-      if (again) {
-        resend.push_back(head.frame);
-      } else {
-        if (result.status.ok()) {
-          ++summary.answered;
-        } else {
-          ++summary.failed;
-        }
-        count(result);
-        sink(result, Clock::now() - head.sent);
-      }
-      free_slots.push_back(head.slot);
-      if (Status s = fill(); !s.ok()) return abandon(s);
-    }
-    if (!writes_closed) stream->WritesDone();
-    status = wire::FromGrpc(stream->Finish());
-    if (watchdog.fired()) {
-      status = DeadlineExceeded(
-          fmt::format("no answer for {:.1f} s with {} tick(s) in flight: the stream's idle limit "
-                      "(CallLimits::stream_idle; --stream-idle-seconds)",
-                      watchdog.limit().count() / 1000.0, in_flight.size()));
-    }
-    if (!broken && !writes_closed && status.ok()) continue;
-    if (status.ok()) status = Internal("the stream ended with ticks unanswered");
-    if (summary.answered > answered_at_reconnect) reconnects_in_a_row = 0;
-    const bool reconnect = (status.code() == StatusCode::kUnavailable || watchdog.fired()) &&
-                           reconnects_in_a_row < options.max_reconnects;
-    if (reconnect && heard == 0) {  // it never got going: its ticks go on the next stream
-      for (auto it = in_flight.rbegin(); it != in_flight.rend(); ++it) resend.push_front(it->frame);
-    } else {
-      for (const TickInFlight& f : in_flight) report_failed(f, status);
-    }
-    for (const TickInFlight& f : in_flight) free_slots.push_back(f.slot);
-    in_flight.clear();
-    if (!reconnect) break;
-    ++reconnects_in_a_row;
-    ++summary.reconnects;
-    answered_at_reconnect = summary.answered;
-  }
+  TickPath path(options, source, sink, &summary);
+  StreamSession session(client,
+                        SessionOptionsOf(options, options.first_tick, options.ticks, "tick"), path);
+  const Status status = session.Run();
+  CopyCounts(session.counts(), &summary);
   if (summary_out != nullptr) *summary_out = summary;
   return status;
 }

@@ -367,20 +367,16 @@ double ProcessCpuSeconds(pid_t pid) {
 // is >= 1. The compute column is wall time on the compute thread, and on a busy machine
 // that thread's preemption counts in it: simd measured 0.92 here under other builds.)
 TEST(LoadIntegrationTest, ServerCpuPerFrameAgreesWithTheKernelsCountOfTheServersCpu) {
-  const int metrics_port = FreePort();
-  ServerProcess server(
-      0, {"--threads", "1", "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port)});
+  MeteredServer metered;
+  ServerProcess& server = metered.server();
   ASSERT_TRUE(server.ready());
   const double cpu_before = ProcessCpuSeconds(server.pid());
-  const std::string csv = UniqueJsonPath() + ".csv";
-  std::string json;
+  std::string csv, json;
   int code = 0;
-  const nlohmann::json doc = RunLoad(
-      "--target " + server.target() +
-          " --backends simd --vertices 25000 --bones 2 --instances 2 --streams 1 --window 2"
-          " --duration 2 --warmup 0 --csv " +
-          csv + " --metrics-url http://127.0.0.1:" + std::to_string(metrics_port) + "/metrics",
-      &code, &json);
+  const nlohmann::json doc = metered.RunLoad(
+      "--backends simd --vertices 25000 --bones 2 --instances 2 --streams 1 --window 2"
+      " --duration 2 --warmup 0",
+      &code, &csv, &json);
   const double cpu_spent = ProcessCpuSeconds(server.pid()) - cpu_before;
   EXPECT_EQ(code, 0);
   ASSERT_EQ(doc["results"].size(), 1u) << doc.dump();
@@ -404,12 +400,9 @@ TEST(LoadIntegrationTest, ServerCpuPerFrameAgreesWithTheKernelsCountOfTheServers
   // With a warm-up the first scrape comes as it ends: the server's frames between the scrapes
   // are the measured ones, give or take those answered while a scrape was on its way (a
   // quarter here: the warm-up's frames would double them).
-  const nlohmann::json warm =
-      RunLoad("--target " + server.target() +
-                  " --backends simd --vertices 25000 --streams 1 --window 2 --duration 1 --warmup 1"
-                  " --metrics-url http://127.0.0.1:" +
-                  std::to_string(metrics_port) + "/metrics",
-              &code);
+  const nlohmann::json warm = metered.RunLoad(
+      "--backends simd --vertices 25000 --streams 1 --window 2 --duration 1 --warmup 1", &code,
+      nullptr, nullptr);
   EXPECT_EQ(code, 0);
   ASSERT_EQ(warm["results"].size(), 1u) << warm.dump();
   const double warm_frames = warm["results"][0]["frames"].get<double>();

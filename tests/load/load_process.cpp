@@ -40,6 +40,25 @@ ServerProcess::ServerProcess(int streams_per_connection, std::vector<std::string
   EXPECT_TRUE(child_.ready()) << child_.error();
 }
 
+MeteredServer::MeteredServer()
+    : metrics_port_(FreePort()),
+      server_(
+          0, {"--threads", "1", "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port_)}) {
+}
+
+nlohmann::json MeteredServer::RunLoad(const std::string& args, int* exit_code, std::string* csv,
+                                      std::string* json) {
+  std::string csv_arg;
+  if (csv != nullptr) {
+    *csv = UniqueJsonPath() + ".csv";
+    csv_arg = " --csv " + *csv;
+  }
+  return testing::RunLoad("--target " + server_.target() + " " + args + csv_arg +
+                              " --metrics-url http://127.0.0.1:" + std::to_string(metrics_port_) +
+                              "/metrics",
+                          exit_code, json);
+}
+
 std::map<std::string, uint64_t> ServerProcess::FramesServed() const {
   client::SkinClient c(client::MakeChannel(target()));
   std::map<std::string, uint64_t> frames;

@@ -33,6 +33,22 @@ class ServerProcess {
   ServerChild child_;
 };
 
+// A server on one compute thread with its metrics on a loopback port: a load run against it
+// (RunLoad here) scrapes them for the server CPU columns and writes a CSV beside its report.
+class MeteredServer {
+ public:
+  MeteredServer();
+  ServerProcess& server() { return server_; }
+  // Runs skinserve-load with `args` against the server; `csv` (no CSV when null) and `json`
+  // (may be null) are told where its CSV and its report went.
+  nlohmann::json RunLoad(const std::string& args, int* exit_code, std::string* csv,
+                         std::string* json);
+
+ private:
+  int metrics_port_;
+  ServerProcess server_;
+};
+
 // Runs skinserve-load with `args` and returns its --json report (empty when none was
 // written); `json_path`, when given, is told where the report went, and `output`, when
 // given, receives its standard output (else discarded).

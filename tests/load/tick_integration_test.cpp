@@ -44,20 +44,33 @@ class ShmServer {
   ServerProcess server_;
 };
 
+// Ticks over both data planes of a fresh ShmServer, closed loop unless told otherwise,
+// every character checked.
+class TickLoadTest : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(shm_.server().ready()); }
+  // skinserve-load with ticks of `characters` characters and `args`.
+  nlohmann::json RunTicks(int characters, const std::string& args, int* code,
+                          std::string* output = nullptr) {
+    return RunLoad(fmt::format("{} --data-planes grpc,shm --check-every 1 --warmup 0"
+                               " --characters-per-tick {} {}",
+                               shm_.LoadTarget(), characters, args),
+                   code, nullptr, output);
+  }
+  ShmServer shm_;
+};
+
 // Ticks of 4 characters (4 distinct meshes, each a crowd of 2 in snorm16 with normals) on
 // three backends over both data planes, closed loop: every character of every tick is
 // checked against its own mesh's reference and agrees; the server skinned each character as
 // a frame of its backend; the 4 meshes were uploaded once each.
-TEST(TickLoadTest, EveryCharacterOfEveryTickMatchesItsReferenceOverBothPlanes) {
-  ShmServer shm;
-  ASSERT_TRUE(shm.server().ready());
+TEST_F(TickLoadTest, EveryCharacterOfEveryTickMatchesItsReferenceOverBothPlanes) {
   int code = 0;
   const nlohmann::json doc =
-      RunLoad(shm.LoadTarget() +
-                  " --data-planes grpc,shm --check-every 1 --warmup 0 --characters-per-tick 4"
-                  " --backends serial,simd-openmp,opencl --vertices 3000 --bones 3 --normals"
-                  " --streams 2 --window 2 --frames 5 --encoding snorm16 --instances 2",
-              &code);
+      RunTicks(4,
+               "--backends serial,simd-openmp,opencl --vertices 3000 --bones 3 --normals"
+               " --streams 2 --window 2 --frames 5 --encoding snorm16 --instances 2",
+               &code);
   EXPECT_EQ(code, 0);
   ASSERT_EQ(doc["results"].size(), 6u) << doc.dump();
   std::map<std::string, uint64_t> characters;
@@ -72,9 +85,9 @@ TEST(TickLoadTest, EveryCharacterOfEveryTickMatchesItsReferenceOverBothPlanes) {
         << r.dump();
     characters[r["backend"]] += r["frames"].get<uint64_t>() * 4;
   }
-  const auto served = shm.server().FramesServed();
+  const auto served = shm_.server().FramesServed();
   for (const auto& [backend, count] : characters) EXPECT_EQ(count, served.at(backend)) << backend;
-  client::SkinClient c(client::MakeChannel(shm.server().target()));
+  client::SkinClient c(client::MakeChannel(shm_.server().target()));
   auto stats = c.GetServerStats();
   ASSERT_TRUE(stats.ok());
   EXPECT_EQ(stats->meshes(), 4u) << "4 distinct meshes, each uploaded once";
@@ -84,16 +97,13 @@ TEST(TickLoadTest, EveryCharacterOfEveryTickMatchesItsReferenceOverBothPlanes) {
 
 // Open loop with morph targets (each character its own weights per tick): every tick sent
 // is answered, every character checked and right, over both planes.
-TEST(TickLoadTest, OpenLoopTicksWithMorphWeightsAreAnsweredAndRight) {
-  ShmServer shm;
-  ASSERT_TRUE(shm.server().ready());
+TEST_F(TickLoadTest, OpenLoopTicksWithMorphWeightsAreAnsweredAndRight) {
   int code = 0;
   const nlohmann::json doc =
-      RunLoad(shm.LoadTarget() +
-                  " --data-planes grpc,shm --check-every 1 --warmup 0 --characters-per-tick 4"
-                  " --backends simd --vertices 2000 --bones 2 --morph-targets 8 --morph-active 3"
-                  " --rate 30 --streams 2 --frames 6",
-              &code);
+      RunTicks(4,
+               "--backends simd --vertices 2000 --bones 2 --morph-targets 8 --morph-active 3"
+               " --rate 30 --streams 2 --frames 6",
+               &code);
   EXPECT_EQ(code, 0);
   ASSERT_EQ(doc["results"].size(), 2u) << doc.dump();
   FramesReported(doc);  // no errors, no mismatches
@@ -107,15 +117,10 @@ TEST(TickLoadTest, OpenLoopTicksWithMorphWeightsAreAnsweredAndRight) {
 
 // --capacity with ticks counts characters: every probe row holds streams x 3 characters,
 // and the verdict of each data plane is its streams x 3.
-TEST(TickLoadTest, CapacityCountsCharactersOfTicks) {
-  ShmServer shm;
-  ASSERT_TRUE(shm.server().ready());
+TEST_F(TickLoadTest, CapacityCountsCharactersOfTicks) {
   int code = 0;
   std::string output;
-  RunLoad(shm.LoadTarget() +
-              " --data-planes grpc,shm --check-every 1 --warmup 0 --characters-per-tick 3"
-              " --capacity --vertices 2000 --capacity-max-streams 2 --duration 0.5",
-          &code, nullptr, &output);
+  RunTicks(3, "--capacity --vertices 2000 --capacity-max-streams 2 --duration 0.5", &code, &output);
   EXPECT_EQ(code, 0) << output;
   const std::regex probe(R"(^\s+(\d+)\s+(\d+)\s+\d+\.\d)");
   const std::regex verdict(R"(^capacity: (\d+) characters \((\d+) streams x 3 characters a tick)");
@@ -138,20 +143,15 @@ TEST(TickLoadTest, CapacityCountsCharactersOfTicks) {
 // Server CPU per character divides by the tick's characters: the server counts each
 // character as a frame (server_frames = ticks x 4), per frame is per tick, per character a
 // quarter of it; the CSV carries what the JSON does, characters_per_tick included.
-TEST(TickLoadTest, ServerCpuPerCharacterDividesByTheTicksCharacters) {
-  const int metrics_port = FreePort();
-  ServerProcess server(
-      0, {"--threads", "1", "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port)});
-  ASSERT_TRUE(server.ready());
-  const std::string csv = UniqueJsonPath() + ".csv";
-  std::string json;
+TEST(TickLoadMetricsTest, ServerCpuPerCharacterDividesByTheTicksCharacters) {
+  MeteredServer metered;
+  ASSERT_TRUE(metered.server().ready());
+  std::string csv, json;
   int code = 0;
-  const nlohmann::json doc = RunLoad(
-      "--target " + server.target() +
-          " --characters-per-tick 4 --backends simd --vertices 5000 --streams 1 --window 2"
-          " --frames 20 --warmup 0 --csv " +
-          csv + " --metrics-url http://127.0.0.1:" + std::to_string(metrics_port) + "/metrics",
-      &code, &json);
+  const nlohmann::json doc = metered.RunLoad(
+      "--characters-per-tick 4 --backends simd --vertices 5000 --streams 1 --window 2"
+      " --frames 20 --warmup 0",
+      &code, &csv, &json);
   EXPECT_EQ(code, 0);
   ASSERT_EQ(doc["results"].size(), 1u) << doc.dump();
   const auto& r = doc["results"][0];
