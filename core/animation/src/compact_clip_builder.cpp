@@ -8,6 +8,7 @@
 
 #include "clip_id.h"
 #include "quantize.h"
+#include "sampling_plan.h"
 #include "skinserve/animation/compact_clip.h"
 
 namespace skinserve::animation {
@@ -242,6 +243,7 @@ Result<CompactClip> BuildCompactClip(const RawClip& raw, const Skeleton& skeleto
     clip.tracks.push_back(out);
   }
   clip.id = ClipId(clip.Serialize());
+  clip.plan = std::make_shared<const SamplingPlan>(MakeSamplingPlan(clip));
   return clip;
 }
 

@@ -7,6 +7,8 @@
 
 #include "quantize.h"
 #include "quaternion.h"
+#include "sample_rotations4.h"
+#include "sampling_plan.h"
 
 namespace skinserve::animation {
 namespace {
@@ -124,6 +126,49 @@ float* Target(const CompactTrack& track, Transform& t) {
   }
 }
 
+void SampleConstants(const SamplingPlan& plan, std::span<Transform> output) {
+  for (const SamplingPlan::Constant& c : plan.constants) {
+    Transform& t = output[c.joint];
+    switch (static_cast<TrackPath>(c.path)) {
+      case TrackPath::kRotation:
+        std::copy_n(c.value, 4, t.rotation);
+        break;
+      case TrackPath::kTranslation:
+        std::copy_n(c.value, 3, t.translation);
+        break;
+      default:
+        std::copy_n(c.value, 3, t.scale);
+    }
+  }
+}
+
+// LINEAR 16-bit translations and scales keyed at every clip time: as SampleTrack does them.
+void SampleVectors(const CompactClip& clip, const SamplingPlan& plan, const Segment& s,
+                   std::span<Transform> output) {
+  for (const SamplingPlan::Vector& v : plan.vectors) {
+    const uint16_t* a = &clip.words[v.words + 3 * s.k];
+    const uint16_t* b = &clip.words[v.words + 3 * s.next];
+    Transform& t = output[v.joint];
+    float* out =
+        static_cast<TrackPath>(v.path) == TrackPath::kTranslation ? t.translation : t.scale;
+    for (int c = 0; c < 3; ++c) {
+      const float va = detail::DequantizeRange(a[c], v.min[c], v.step[c]);
+      out[c] = va + s.u * (detail::DequantizeRange(b[c], v.min[c], v.step[c]) - va);
+    }
+  }
+}
+
+void SampleOne(const CompactClip& clip, const CompactTrack& track, const Segment& global, float t,
+               std::span<Transform> output, std::span<float> morph_weights) {
+  float* out = track.path == TrackPath::kWeights ? &morph_weights[track.weight_offset]
+                                                 : Target(track, output[track.joint]);
+  if (track.format == TrackFormat::kConstant || track.key_times == kAllKeyTimes) {
+    SampleTrack(clip, track, global, out);
+  } else {
+    SampleTrack(clip, track, FindTrackSegment(clip, track, global, t), out);
+  }
+}
+
 }  // namespace
 
 Status SamplingJob::Validate() const {
@@ -160,15 +205,18 @@ Status SamplingJob::Run() const {
   }
   const Segment global = FindClipSegment(*clip, t);
   std::copy(skeleton->rest.begin(), skeleton->rest.end(), output.begin());
-  for (const CompactTrack& track : clip->tracks) {
-    float* out = track.path == TrackPath::kWeights ? &morph_weights[track.weight_offset]
-                                                   : Target(track, output[track.joint]);
-    if (track.format == TrackFormat::kConstant || track.key_times == kAllKeyTimes) {
-      SampleTrack(*clip, track, global, out);
-    } else {
-      SampleTrack(*clip, track, FindTrackSegment(*clip, track, global, t), out);
+  if (clip->plan == nullptr) {  // a clip not made by BuildCompactClip: one track at a time
+    for (const CompactTrack& track : clip->tracks) {
+      SampleOne(*clip, track, global, t, output, morph_weights);
     }
+    return Status::Ok();
   }
+  const SamplingPlan& plan = *clip->plan;
+  SampleConstants(plan, output);
+  detail::SampleRotations4(*clip, plan, global.k, global.next, global.u, output);
+  SampleVectors(*clip, plan, global, output);
+  for (uint32_t i : plan.others)
+    SampleOne(*clip, clip->tracks[i], global, t, output, morph_weights);
   return Status::Ok();
 }
 
