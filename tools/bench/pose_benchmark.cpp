@@ -28,12 +28,13 @@ void PoseBenchmark(benchmark::State& state, uint32_t joints, bool blend) {
   std::vector<float> wa(clip.weight_count), wb(clip.weight_count), weights(clip.weight_count);
   std::vector<Affine> model(joints);
   std::vector<float> palette(12ull * rig.skeleton.palette_size());
+  SamplingContext context_a, context_b;  // one a layer, as a character playing two clips
   float t = 0;
   for (auto _ : state) {
-    Status s = SamplingJob{&rig.skeleton, &clip, t, TimeMode::kLoop, a, wa}.Run();
+    Status s = SamplingJob{&rig.skeleton, &clip, t, TimeMode::kLoop, a, wa, &context_a}.Run();
     std::span<const Transform> local = a;
     if (blend && s.ok()) {
-      s = SamplingJob{&rig.skeleton, &clip, t + 0.7f, TimeMode::kLoop, b, wb}.Run();
+      s = SamplingJob{&rig.skeleton, &clip, t + 0.7f, TimeMode::kLoop, b, wb, &context_b}.Run();
       const BlendLayer layers[] = {{a, 0.3f, false, wa}, {b, 0.7f, false, wb}};
       if (s.ok()) s = BlendingJob{layers, blended, weights}.Run();
       local = blended;

@@ -52,13 +52,35 @@ Quat4 Slerp4(const Quat4& a, const Quat4& b, float u) {
   return {q.x * inv, q.y * inv, q.z * inv, q.w * inv};
 }
 
+Quat4 LoadQuat4(const float* p) { return {Load4(p), Load4(p + 4), Load4(p + 8), Load4(p + 12)}; }
+void StoreQuat4(const Quat4& q, float* p) {
+  Store4(q.x, p);
+  Store4(q.y, p + 4);
+  Store4(q.z, p + 8);
+  Store4(q.w, p + 12);
+}
+
 }  // namespace
 
-void SampleRotations4(const CompactClip& clip, const SamplingPlan& plan, uint32_t k, uint32_t next,
-                      float u, std::span<Transform> output) {
-  for (const SamplingPlan::RotationGroup& g : plan.rotations) {
-    const Quat4 a = DecodeKeys(clip, g, k);
-    Quat4 q = next == k ? a : Slerp4(a, DecodeKeys(clip, g, next), u);
+void SampleRotations4(const CompactClip& clip, std::span<const SamplingPlan::RotationGroup> groups,
+                      uint32_t k, uint32_t next, float u, std::span<Transform> output,
+                      RotationKeys keys) {
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    const SamplingPlan::RotationGroup& g = groups[i];
+    float* cache = keys.cache == nullptr ? nullptr : keys.cache + 32 * i;
+    Quat4 a, b;
+    if (keys.state == RotationKeys::kCached) {
+      a = LoadQuat4(cache);
+      b = LoadQuat4(cache + 16);
+    } else {
+      a = keys.state == RotationKeys::kShift ? LoadQuat4(cache + 16) : DecodeKeys(clip, g, k);
+      b = next == k ? a : DecodeKeys(clip, g, next);
+      if (cache != nullptr) {
+        StoreQuat4(a, cache);
+        StoreQuat4(b, cache + 16);
+      }
+    }
+    Quat4 q = next == k ? a : Slerp4(a, b, u);
     Transpose(q.x, q.y, q.z, q.w);  // now one quaternion a vector
     const F4 rows[4] = {q.x, q.y, q.z, q.w};
     for (uint32_t lane = 0; lane < g.lanes; ++lane)

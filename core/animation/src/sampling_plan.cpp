@@ -7,9 +7,10 @@ bool EveryKey(const CompactTrack& t) {
   return t.key_times == kAllKeyTimes && t.interpolation == Interpolation::kLinear;
 }
 
-void AddRotation(const CompactClip& clip, const CompactTrack& t, SamplingPlan& plan) {
-  if (plan.rotations.empty() || plan.rotations.back().lanes == 4) plan.rotations.emplace_back();
-  SamplingPlan::RotationGroup& g = plan.rotations.back();
+void AddRotation(const CompactClip& clip, const CompactTrack& t,
+                 std::vector<SamplingPlan::RotationGroup>& groups) {
+  if (groups.empty() || groups.back().lanes == 4) groups.emplace_back();
+  SamplingPlan::RotationGroup& g = groups.back();
   const uint32_t lane = g.lanes++;
   g.joint[lane] = t.joint;
   g.words[lane] = t.words;
@@ -20,21 +21,44 @@ void AddRotation(const CompactClip& clip, const CompactTrack& t, SamplingPlan& p
   }
 }
 
+// A last group's empty lanes repeat its first track (decoded and slerped like the others,
+// never written), so the 4-wide code needs no lane checks.
+void PadLastGroup(std::vector<SamplingPlan::RotationGroup>& groups) {
+  if (groups.empty()) return;
+  SamplingPlan::RotationGroup& g = groups.back();
+  for (uint32_t lane = g.lanes; lane < 4; ++lane) {
+    g.joint[lane] = g.joint[0];
+    g.words[lane] = g.words[0];
+    g.largest[lane] = g.largest[0];
+    for (int c = 0; c < 3; ++c) {
+      g.min[lane][c] = g.min[0][c];
+      g.step[lane][c] = g.step[0][c];
+    }
+  }
+}
+
 }  // namespace
 
 SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
   SamplingPlan plan;
+  std::vector<uint8_t> paths(clip.joint_count, 0);  // bit per TrackPath a track sets
   for (uint32_t i = 0; i < clip.tracks.size(); ++i) {
     const CompactTrack& t = clip.tracks[i];
     const uint8_t path = static_cast<uint8_t>(t.path);
+    if (t.path != TrackPath::kWeights) paths[t.joint] |= static_cast<uint8_t>(1u << path);
     if (t.path == TrackPath::kWeights) {
       plan.others.push_back(i);
     } else if (t.format == TrackFormat::kConstant) {
-      SamplingPlan::Constant c{t.joint, path, {0, 0, 0, 0}};
+      const uint8_t offset =
+          t.path == TrackPath::kTranslation ? 0 : (t.path == TrackPath::kRotation ? 3 : 7);
+      SamplingPlan::Constant c{t.joint, offset, {0, 0, 0, 0}};
       for (uint32_t k = 0; k < t.width; ++k) c.value[k] = clip.floats[t.floats + k];
       plan.constants.push_back(c);
     } else if (t.format == TrackFormat::kSmallestThree16 && EveryKey(t)) {
-      AddRotation(clip, t, plan);
+      AddRotation(clip, t, plan.rotations);
+    } else if (t.format == TrackFormat::kSmallestThree16 && t.key_times == kAllKeyTimes &&
+               t.interpolation == Interpolation::kStep) {
+      AddRotation(clip, t, plan.step_rotations);
     } else if (t.format == TrackFormat::kRange16 && EveryKey(t) && t.path != TrackPath::kRotation) {
       SamplingPlan::Vector v{t.joint, path, t.words, {}, {}};
       for (int c = 0; c < 3; ++c) {
@@ -46,20 +70,11 @@ SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
       plan.others.push_back(i);
     }
   }
-  // A last group's empty lanes repeat its first track (decoded and slerped like the others,
-  // never written), so the 4-wide code needs no lane checks.
-  if (!plan.rotations.empty()) {
-    SamplingPlan::RotationGroup& g = plan.rotations.back();
-    for (uint32_t lane = g.lanes; lane < 4; ++lane) {
-      g.joint[lane] = g.joint[0];
-      g.words[lane] = g.words[0];
-      g.largest[lane] = g.largest[0];
-      for (int c = 0; c < 3; ++c) {
-        g.min[lane][c] = g.min[0][c];
-        g.step[lane][c] = g.step[0][c];
-      }
-    }
+  for (uint32_t j = 0; j < clip.joint_count; ++j) {
+    if (paths[j] != 7) plan.rest_joints.push_back(static_cast<uint16_t>(j));
   }
+  PadLastGroup(plan.rotations);
+  PadLastGroup(plan.step_rotations);
   return plan;
 }
 

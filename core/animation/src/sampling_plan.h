@@ -1,8 +1,8 @@
 // SamplingPlan: how SamplingJob walks a clip, derived from its tracks when it is built
 // (no bytes of its own: Serialize() and the id leave it out). Constant tracks are copied,
-// LINEAR smallest-three rotations keyed at every clip time are decoded and slerped 4 at a
-// time (SoA), LINEAR 16-bit vectors keyed at every time are lerped in one tight loop; the
-// rest (STEP, CUBICSPLINE, weights, tracks with their own key times) one track at a time.
+// LINEAR and STEP smallest-three rotations keyed at every clip time are decoded (and
+// slerped) 4 at a time (SoA), LINEAR 16-bit vectors keyed at every time are lerped in one tight
+// loop; the rest (STEP, CUBICSPLINE, weights, tracks with their own key times) one track at a time.
 #pragma once
 
 #include <cstdint>
@@ -15,7 +15,7 @@ namespace skinserve::animation {
 struct SamplingPlan {
   struct Constant {
     uint16_t joint = 0;
-    uint8_t path = 0;  // TrackPath: translation, rotation or scale
+    uint8_t offset = 0;  // of the value in the Transform's floats: 0, 3 (rotation) or 7
     float value[4] = {0, 0, 0, 0};
   };
   // Four rotation tracks (a last group may hold fewer: `lanes`).
@@ -34,8 +34,12 @@ struct SamplingPlan {
     float min[3] = {0, 0, 0};
     float step[3] = {0, 0, 0};
   };
+  // Joints some of whose translation, rotation and scale no track sets: they start from
+  // the skeleton's rest (the others are written whole by their tracks).
+  std::vector<uint16_t> rest_joints;
   std::vector<Constant> constants;
   std::vector<RotationGroup> rotations;
+  std::vector<RotationGroup> step_rotations;  // STEP: the key at or before the time
   std::vector<Vector> vectors;
   std::vector<uint32_t> others;  // track indices
 };
