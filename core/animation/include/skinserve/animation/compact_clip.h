@@ -3,6 +3,8 @@
 //
 // How each track is stored (TrackFormat) and the error of a stored key against the float
 // key it came from (the bound; tests/animation/compact_clip_test.cpp checks it):
+//  - left out: a joint's track whose every key is within kConstantTolerance (as kConstant)
+//    of the skeleton's rest value (a bone's length, a scale of 1): the joint samples its rest.
 //  - kConstant: every key within kConstantTolerance (relative to max(1, |value|), or that
 //    angle in radians for rotations) of the first: one float value, no times.
 //  - kRange16: each component 16-bit quantized against the track's range [min, max] of
