@@ -3,6 +3,7 @@
 // local-to-model and the palette; rotations (the 3x3 parts) within 1e-4.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -69,6 +70,33 @@ std::array<double, 3> BindPosition(const Mat4& ibm) {  // column-major
   return b;
 }
 
+// Every joint's model matrix and palette entry of `pose` against the reference at t.
+void ExpectPoseMatches(const PoseCase& c, const RuntimePose& pose, double t, Worst& worst) {
+  const std::vector<double> ref = RefModel(c, t);
+  const std::size_t joints = c.skeleton.joint_count();
+  const double origin[3] = {0, 0, 0};
+  for (std::size_t j = 0; j < joints; ++j) {
+    const std::string what = c.label + " t " + std::to_string(t) + " joint " + std::to_string(j);
+    worst.position =
+        std::max(worst.position, ExpectPointNear(pose.model[j].m, &ref[12 * j], origin, what));
+    ExpectRotationNear(pose.model[j].m, &ref[12 * j], what, worst);
+  }
+  for (std::size_t p = 0; p < c.skeleton.palette_size(); ++p) {
+    const std::string what = c.label + " t " + std::to_string(t) + " palette " + std::to_string(p);
+    const std::array<double, 3> bind = BindPosition(c.ref.inverse_bind[p]);
+    worst.palette = std::max(
+        worst.palette,
+        ExpectPointNear(&pose.palette[12 * p], &ref[12 * (joints + p)], bind.data(), what));
+    ExpectRotationNear(&pose.palette[12 * p], &ref[12 * (joints + p)], what, worst);
+  }
+  const std::vector<double> weights = RefWeightsAt(c, t);
+  ASSERT_EQ(pose.weights.size(), weights.size()) << c.label;
+  for (std::size_t i = 0; i < weights.size(); ++i) {
+    worst.weight = std::max(worst.weight, std::fabs(pose.weights[i] - weights[i]));
+    EXPECT_NEAR(pose.weights[i], weights[i], 1e-4) << c.label << " t " << t << " weight " << i;
+  }
+}
+
 void ExpectCaseMatches(const PoseCase& c) {
   ASSERT_FALSE(c.skeleton.parents.empty()) << c.label;
   auto clip = animation::BuildCompactClip(c.raw, c.skeleton);
@@ -76,31 +104,7 @@ void ExpectCaseMatches(const PoseCase& c) {
   Worst worst;
   for (double time : SampleTimes(c)) {
     const float t = static_cast<float>(time);
-    const RuntimePose pose = RunPose(c, *clip, t);
-    const std::vector<double> ref = RefModel(c, t);
-    const std::size_t joints = c.skeleton.joint_count();
-    const double origin[3] = {0, 0, 0};
-    for (std::size_t j = 0; j < joints; ++j) {
-      const std::string what = c.label + " t " + std::to_string(t) + " joint " + std::to_string(j);
-      worst.position =
-          std::max(worst.position, ExpectPointNear(pose.model[j].m, &ref[12 * j], origin, what));
-      ExpectRotationNear(pose.model[j].m, &ref[12 * j], what, worst);
-    }
-    for (std::size_t p = 0; p < c.skeleton.palette_size(); ++p) {
-      const std::string what =
-          c.label + " t " + std::to_string(t) + " palette " + std::to_string(p);
-      const std::array<double, 3> bind = BindPosition(c.ref.inverse_bind[p]);
-      worst.palette = std::max(
-          worst.palette,
-          ExpectPointNear(&pose.palette[12 * p], &ref[12 * (joints + p)], bind.data(), what));
-      ExpectRotationNear(&pose.palette[12 * p], &ref[12 * (joints + p)], what, worst);
-    }
-    const std::vector<double> weights = RefWeightsAt(c, t);
-    ASSERT_EQ(pose.weights.size(), weights.size()) << c.label;
-    for (std::size_t i = 0; i < weights.size(); ++i) {
-      worst.weight = std::max(worst.weight, std::fabs(pose.weights[i] - weights[i]));
-      EXPECT_NEAR(pose.weights[i], weights[i], 1e-4) << c.label << " t " << t << " weight " << i;
-    }
+    ExpectPoseMatches(c, RunPose(c, *clip, t), t, worst);
     if (::testing::Test::HasFailure()) break;  // one time's failures say enough
   }
   std::printf(
@@ -122,6 +126,48 @@ TEST(PoseAccuracy, WalkingFaceWithMorphWeightsWithinTargetOfGltf) {
 }
 TEST(PoseAccuracy, Synthetic77JointsWithinTargetOfChannels) {
   ExpectCaseMatches(SyntheticCase(77));
+}
+
+// One SamplingContext through times that move forward by less than a key, stay, jump back,
+// jump ahead, clamp at both ends, and through another clip in between: the cache and the
+// segment hint never change what is sampled.
+TEST(PoseAccuracy, SamplingContextFollowsAnyTimes) {
+  const PoseCase c = SyntheticCase(77);
+  const PoseCase other = SyntheticCase(77);
+  auto clip = animation::BuildCompactClip(c.raw, c.skeleton);
+  animation::RawClip shifted = other.raw;  // another clip for the same skeleton
+  for (animation::RawTrack& t : shifted.tracks) std::reverse(t.values.begin(), t.values.end());
+  ASSERT_TRUE(clip.ok());
+  auto other_clip = animation::BuildCompactClip(shifted, c.skeleton);
+  ASSERT_TRUE(other_clip.ok());
+  animation::SamplingContext context;
+  Worst worst;
+  const double d = c.ref_clip.duration;
+  std::vector<double> times;
+  for (int i = 0; i < 50; ++i) times.push_back(i / 60.0);  // forward, 2 samples a key
+  for (double t : {0.5, 0.5, 0.1, 1.9, 1.2, d, 3 * d, -1.0, 0.0, 0.02}) times.push_back(t);
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    const float t = static_cast<float>(times[i]);
+    if (i == 20) RunPose(c, *other_clip, t, animation::TimeMode::kClamp, &context);  // same keys
+    const RuntimePose pose = RunPose(c, *clip, t, animation::TimeMode::kClamp, &context);
+    ExpectPoseMatches(c, pose, std::clamp(double{t}, 0.0, d), worst);
+    if (::testing::Test::HasFailure()) break;
+  }
+}
+
+// A clip made by hand, without BuildCompactClip's sampling plan, samples one track at a time
+// to the same target.
+TEST(PoseAccuracy, ClipWithoutPlanWithinTarget) {
+  const PoseCase c = SyntheticCase(77);
+  auto clip = animation::BuildCompactClip(c.raw, c.skeleton);
+  ASSERT_TRUE(clip.ok());
+  clip->plan.reset();
+  Worst worst;
+  for (double time : SampleTimes(c)) {
+    const float t = static_cast<float>(time);
+    ExpectPoseMatches(c, RunPose(c, *clip, t), t, worst);
+    if (::testing::Test::HasFailure()) break;
+  }
 }
 
 // Looping: time t + k * duration samples as t; clamped: past the end holds the last keys.

@@ -108,13 +108,14 @@ PoseCase SyntheticCase(uint32_t joints) {
 }
 
 RuntimePose RunPose(const PoseCase& c, const animation::CompactClip& clip, float time,
-                    animation::TimeMode mode) {
+                    animation::TimeMode mode, animation::SamplingContext* context) {
   RuntimePose pose;
   std::vector<animation::Transform> local(c.skeleton.joint_count());
   pose.model.resize(c.skeleton.joint_count());
   pose.palette.resize(12 * c.skeleton.palette_size());
   pose.weights.resize(clip.weight_count);
-  const animation::SamplingJob sampling{&c.skeleton, &clip, time, mode, local, pose.weights};
+  const animation::SamplingJob sampling{&c.skeleton, &clip,        time,   mode,
+                                        local,       pose.weights, context};
   EXPECT_TRUE(sampling.Run().ok());
   const animation::LocalToModelJob ltm{&c.skeleton, local, pose.model};
   EXPECT_TRUE(ltm.Run().ok());

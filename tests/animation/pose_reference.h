@@ -44,7 +44,8 @@ struct RuntimePose {
   std::vector<float> weights;
 };
 RuntimePose RunPose(const PoseCase& c, const animation::CompactClip& clip, float time,
-                    animation::TimeMode mode = animation::TimeMode::kClamp);
+                    animation::TimeMode mode = animation::TimeMode::kClamp,
+                    animation::SamplingContext* context = nullptr);
 
 // The reference at `t` (clamped): model matrices of the skeleton's joints, then the
 // palette, 12 doubles each, row-major; morph weights in the clip's track order.

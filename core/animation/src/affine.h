@@ -1,19 +1,25 @@
 // Row-major 3x4 affine products shared by the jobs.
 #pragma once
 
+#include "float4.h"
 #include "skinserve/animation/transform.h"
 
 namespace skinserve::animation {
 
-// out = a * b (out must not alias a or b). Inline: it is most of local-to-model's time.
-inline void MultiplyAffine(const Affine& a, const Affine& b, Affine& out) {
+// out = a * b (out may alias neither). Row r of out is a row-weighted sum of b's rows, four
+// floats at a time, plus a's translation in the last lane.
+inline void MultiplyAffine(const float* a, const float* b, float* out) {
+  using namespace detail;
+  const F4 b0 = Load4(&b[0]), b1 = Load4(&b[4]), b2 = Load4(&b[8]);
   for (int r = 0; r < 3; ++r) {
-    const float* ar = &a.m[4 * r];
-    for (int c = 0; c < 4; ++c) {
-      out.m[4 * r + c] = ar[0] * b.m[c] + ar[1] * b.m[4 + c] + ar[2] * b.m[8 + c];
-    }
-    out.m[4 * r + 3] += ar[3];
+    const float* ar = &a[4 * r];
+    const F4 row = Broadcast(&ar[0]) * b0 + Broadcast(&ar[1]) * b1 + Broadcast(&ar[2]) * b2 +
+                   Set4(0, 0, 0, ar[3]);
+    Store4(row, &out[4 * r]);
   }
+}
+inline void MultiplyAffine(const Affine& a, const Affine& b, Affine& out) {
+  MultiplyAffine(a.m, b.m, out.m);
 }
 
 }  // namespace skinserve::animation

@@ -4,40 +4,43 @@
 
 #include <cmath>
 
+#include "float4.h"
 #include "quaternion.h"
 
 namespace skinserve::animation {
 namespace {
 
+// A Transform's 10 floats as three overlapping 4-float loads: t xyz + qx, q xyzw, qw + s xyz.
+// Stored back translation, then scale, then rotation, the rotation's lanes win the overlap.
 void BlendNormal(std::span<const BlendLayer> layers, float total, std::span<Transform> out) {
-  const BlendLayer* first = nullptr;
+  using detail::F4;
+  const float* pose[kMaxBlendLayers];
+  float weight[kMaxBlendLayers];
+  std::size_t n = 0;
   for (const BlendLayer& l : layers) {
-    if (!l.additive && l.weight > 0) {
-      first = &l;
-      break;
-    }
+    if (l.additive || l.weight <= 0) continue;
+    pose[n] = l.pose.data()->translation;
+    weight[n++] = l.weight / total;
   }
+  static_assert(sizeof(Transform) == 10 * sizeof(float));
   for (std::size_t j = 0; j < out.size(); ++j) {
-    Transform acc;
-    acc.translation[0] = acc.translation[1] = acc.translation[2] = 0;
-    acc.rotation[3] = 0;
-    acc.scale[0] = acc.scale[1] = acc.scale[2] = 0;
-    const float* reference = first->pose[j].rotation;
-    for (const BlendLayer& l : layers) {
-      if (l.additive || l.weight <= 0) continue;
-      const Transform& t = l.pose[j];
-      const float w = l.weight / total;
+    const float* reference = pose[0] + 10 * j + 3;  // the first layer's rotation
+    F4 t = detail::Splat(0), q = detail::Splat(0), s = detail::Splat(0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const float* f = pose[i] + 10 * j;
+      const F4 w = detail::Splat(weight[i]);
       // The shortest path: a quaternion on the other hemisphere than the first layer's
       // is the same rotation negated.
-      const float wq = detail::Dot4(reference, t.rotation) < 0 ? -w : w;
-      for (int c = 0; c < 3; ++c) {
-        acc.translation[c] += w * t.translation[c];
-        acc.scale[c] += w * t.scale[c];
-      }
-      for (int c = 0; c < 4; ++c) acc.rotation[c] += wq * t.rotation[c];
+      const F4 wq = detail::Splat(detail::Dot4(reference, f + 3) < 0 ? -weight[i] : weight[i]);
+      t = t + w * detail::Load4(f);
+      q = q + wq * detail::Load4(f + 3);
+      s = s + w * detail::Load4(f + 6);
     }
-    detail::Normalize4(acc.rotation);
-    out[j] = acc;
+    float* o = out[j].translation;
+    detail::Store4(t, o);
+    detail::Store4(s, o + 6);
+    detail::Store4(q, o + 3);
+    detail::Normalize4(o + 3);
   }
 }
 

@@ -8,6 +8,7 @@
 
 #include "clip_id.h"
 #include "quantize.h"
+#include "sampling_plan.h"
 #include "skinserve/animation/compact_clip.h"
 
 namespace skinserve::animation {
@@ -68,13 +69,13 @@ Status ValidateTrack(const RawTrack& t, std::size_t i, const Skeleton& skeleton)
   return Status::Ok();
 }
 
-// True when every key is within kConstantTolerance of the first (cubic: tangents ~0 too).
-bool IsConstant(const RawTrack& t) {
+// True when every key is within kConstantTolerance of v0 (relative to max(1, |v0|), or that
+// angle for rotations); CUBICSPLINE: and every tangent within it of 0.
+bool AllKeysNear(const RawTrack& t, const float* v0) {
   const bool cubic = t.interpolation == Interpolation::kCubicSpline;
   const std::size_t w = t.width, stride = w * (cubic ? 3 : 1), first = cubic ? w : 0;
   for (std::size_t k = 0; k < t.times.size(); ++k) {
     const float* v = &t.values[k * stride + first];
-    const float* v0 = &t.values[first];
     if (t.path == TrackPath::kRotation) {
       double dot = 0, l0 = 0, l1 = 0;
       for (int c = 0; c < 4; ++c) {
@@ -99,6 +100,21 @@ bool IsConstant(const RawTrack& t) {
     }
   }
   return true;
+}
+
+bool IsConstant(const RawTrack& t) {
+  return AllKeysNear(t, &t.values[t.interpolation == Interpolation::kCubicSpline ? t.width : 0]);
+}
+
+// A constant track at the joint's rest value samples as no track at all (the sampler starts
+// from the rest): a bone's length, a scale of 1. Stored as nothing.
+bool IsAtRest(const RawTrack& t, const Skeleton& skeleton) {
+  if (t.path == TrackPath::kWeights) return false;
+  const Transform& rest = skeleton.rest[t.target];
+  const float* v0 = t.path == TrackPath::kTranslation
+                        ? rest.translation
+                        : (t.path == TrackPath::kRotation ? rest.rotation : rest.scale);
+  return AllKeysNear(t, v0);
 }
 
 void StoreConstant(const RawTrack& t, CompactClip& clip, CompactTrack& out) {
@@ -218,6 +234,7 @@ Result<CompactClip> BuildCompactClip(const RawClip& raw, const Skeleton& skeleto
   if (Status s = StoreTimes(raw, constant, clip); !s.ok()) return s;
   for (std::size_t i = 0; i < raw.tracks.size(); ++i) {
     const RawTrack& t = raw.tracks[i];
+    if (constant[i] && IsAtRest(t, skeleton)) continue;
     CompactTrack out;
     out.path = t.path;
     out.interpolation = t.interpolation;
@@ -242,6 +259,7 @@ Result<CompactClip> BuildCompactClip(const RawClip& raw, const Skeleton& skeleto
     clip.tracks.push_back(out);
   }
   clip.id = ClipId(clip.Serialize());
+  clip.plan = std::make_shared<const SamplingPlan>(MakeSamplingPlan(clip));
   return clip;
 }
 

@@ -2,32 +2,46 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "affine.h"
+#include "float4.h"
 
 namespace skinserve::animation {
 namespace {
 
-// T * R * S as a row-major 3x4.
-Affine ToAffine(const Transform& t) {
-  const float x = t.rotation[0], y = t.rotation[1], z = t.rotation[2], w = t.rotation[3];
-  const float xx = x * x, yy = y * y, zz = z * z, xy = x * y, xz = x * z, yz = y * z;
-  const float wx = w * x, wy = w * y, wz = w * z;
-  const float* s = t.scale;
-  Affine a;
-  float* m = a.m;
-  m[0] = (1 - 2 * (yy + zz)) * s[0];
-  m[1] = 2 * (xy - wz) * s[1];
-  m[2] = 2 * (xz + wy) * s[2];
-  m[3] = t.translation[0];
-  m[4] = 2 * (xy + wz) * s[0];
-  m[5] = (1 - 2 * (xx + zz)) * s[1];
-  m[6] = 2 * (yz - wx) * s[2];
-  m[7] = t.translation[1];
-  m[8] = 2 * (xz - wy) * s[0];
-  m[9] = 2 * (yz + wx) * s[1];
-  m[10] = (1 - 2 * (xx + yy)) * s[2];
-  m[11] = t.translation[2];
-  return a;
+using detail::F4;
+
+// Four joints' T * R * S as row-major 3x4s, computed side by side (SoA): each Transform is
+// read as three overlapping 4-float loads (t xyz + qx, q xyzw, qw + s xyz), transposed to
+// one lane a joint, and the matrices transposed back to rows.
+void ToAffine4(const Transform* t, Affine* out) {
+  static_assert(sizeof(Transform) == 10 * sizeof(float));
+  const float* f[4];
+  for (int i = 0; i < 4; ++i) f[i] = t[i].translation;
+  F4 tx = detail::Load4(f[0]), ty = detail::Load4(f[1]), tz = detail::Load4(f[2]),
+     t3 = detail::Load4(f[3]);
+  detail::Transpose(tx, ty, tz, t3);  // lanes: tx ty tz of each joint
+  F4 x = detail::Load4(f[0] + 3), y = detail::Load4(f[1] + 3), z = detail::Load4(f[2] + 3),
+     w = detail::Load4(f[3] + 3);
+  detail::Transpose(x, y, z, w);
+  F4 s0 = detail::Load4(f[0] + 6), sx = detail::Load4(f[1] + 6), sy = detail::Load4(f[2] + 6),
+     sz = detail::Load4(f[3] + 6);
+  detail::Transpose(s0, sx, sy, sz);  // s0: qw again
+  const F4 one = detail::Splat(1), two = detail::Splat(2);
+  const F4 xx = x * x, yy = y * y, zz = z * z, xy = x * y, xz = x * z, yz = y * z;
+  const F4 wx = w * x, wy = w * y, wz = w * z;
+  F4 r0[4] = {(one - two * (yy + zz)) * sx, two * (xy - wz) * sy, two * (xz + wy) * sz, tx};
+  F4 r1[4] = {two * (xy + wz) * sx, (one - two * (xx + zz)) * sy, two * (yz - wx) * sz, ty};
+  F4 r2[4] = {two * (xz - wy) * sx, two * (yz + wx) * sy, (one - two * (xx + yy)) * sz, tz};
+  detail::Transpose(r0[0], r0[1], r0[2], r0[3]);  // now r0[i] is joint i's first row
+  detail::Transpose(r1[0], r1[1], r1[2], r1[3]);
+  detail::Transpose(r2[0], r2[1], r2[2], r2[3]);
+  for (int i = 0; i < 4; ++i) {
+    detail::Store4(r0[i], &out[i].m[0]);
+    detail::Store4(r1[i], &out[i].m[4]);
+    detail::Store4(r2[i], &out[i].m[8]);
+  }
 }
 
 }  // namespace
@@ -46,12 +60,26 @@ Status LocalToModelJob::Validate() const {
 Status LocalToModelJob::Run() const {
   if (Status s = Validate(); !s.ok()) return s;
   const std::size_t n = local.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    const int parent = skeleton->parents[i];
-    if (parent < 0) {
-      model[i] = ToAffine(local[i]);
-    } else {
-      MultiplyAffine(model[static_cast<std::size_t>(parent)], ToAffine(local[i]), model[i]);
+  const int16_t* parents = skeleton->parents.data();
+  Affine block[4];
+  for (std::size_t first = 0; first < n; first += 4) {
+    const std::size_t count = std::min<std::size_t>(4, n - first);
+    if (count == 4) {
+      ToAffine4(&local[first], block);
+    } else {  // the last few joints, padded with identities
+      Transform padded[4];
+      std::copy_n(&local[first], count, padded);
+      ToAffine4(padded, block);
+    }
+    // Parents come before children, so each joint's parent is final here (even when it
+    // is in this block: the joints are composed in order).
+    for (std::size_t i = 0; i < count; ++i) {
+      const int parent = parents[first + i];
+      if (parent < 0) {
+        model[first + i] = block[i];
+      } else {
+        MultiplyAffine(model[static_cast<std::size_t>(parent)], block[i], model[first + i]);
+      }
     }
   }
   return Status::Ok();

@@ -2,8 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <algorithm>
-
 #include "affine.h"
 
 namespace skinserve::animation {
@@ -26,9 +24,8 @@ Status PaletteJob::Run() const {
   if (Status s = Validate(); !s.ok()) return s;
   const std::size_t n = skeleton->palette_size();
   for (std::size_t p = 0; p < n; ++p) {
-    Affine m;
-    MultiplyAffine(model[skeleton->palette_joints[p]], skeleton->inverse_bind[p], m);
-    std::copy_n(m.m, 12, &palette[12 * p]);
+    MultiplyAffine(model[skeleton->palette_joints[p]].m, skeleton->inverse_bind[p].m,
+                   &palette[12 * p]);
   }
   return Status::Ok();
 }

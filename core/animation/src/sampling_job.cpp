@@ -7,6 +7,8 @@
 
 #include "quantize.h"
 #include "quaternion.h"
+#include "sample_rotations4.h"
+#include "sampling_plan.h"
 
 namespace skinserve::animation {
 namespace {
@@ -20,18 +22,29 @@ struct Segment {
 };
 
 // Where the clip's key times bracket t: the segment every track keyed at all of them
-// shares (most tracks), so it is found once a sample.
-Segment FindClipSegment(const CompactClip& clip, float t) {
+// shares (most tracks), so it is found once a sample. `hint`: the segment of the last call
+// (time moving forward is in it or the next: no search), checked, so any hint is safe.
+Segment FindClipSegment(const CompactClip& clip, float t, uint32_t hint) {
   Segment s;
-  const auto after = std::upper_bound(clip.times.begin(), clip.times.end(), t);
-  if (after == clip.times.begin() || after == clip.times.end()) {
-    s.k = s.next = after == clip.times.begin() ? 0 : static_cast<uint32_t>(clip.times.size()) - 1;
+  const std::vector<float>& times = clip.times;
+  const std::size_t n = times.size();
+  std::size_t after = 0;  // the first key after t
+  if (hint + 1 < n && times[hint] <= t && t < times[hint + 1]) {
+    after = hint + 1;
+  } else if (hint + 2 < n && times[hint + 1] <= t && t < times[hint + 2]) {
+    after = hint + 2;
+  } else {
+    after =
+        static_cast<std::size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin());
+  }
+  if (after == 0 || after == n) {
+    s.k = s.next = after == 0 ? 0 : static_cast<uint32_t>(n) - 1;
     return s;
   }
-  s.k = static_cast<uint32_t>(after - clip.times.begin()) - 1;
+  s.k = static_cast<uint32_t>(after) - 1;
   s.next = s.k + 1;
-  s.seconds = clip.times[s.next] - clip.times[s.k];
-  s.u = std::clamp((t - clip.times[s.k]) / s.seconds, 0.0f, 1.0f);
+  s.seconds = times[s.next] - times[s.k];
+  s.u = std::clamp((t - times[s.k]) / s.seconds, 0.0f, 1.0f);
   return s;
 }
 
@@ -124,7 +137,78 @@ float* Target(const CompactTrack& track, Transform& t) {
   }
 }
 
+void SampleConstants(const SamplingPlan& plan, std::span<Transform> output) {
+  static_assert(sizeof(Transform) == 10 * sizeof(float));
+  for (const SamplingPlan::Constant& c : plan.constants) {
+    float* f = output[c.joint].translation + c.offset;  // element by element: no memmove call
+    f[0] = c.value[0];
+    f[1] = c.value[1];
+    f[2] = c.value[2];
+    if (c.offset == 3) f[3] = c.value[3];  // a rotation
+  }
+}
+
+// LINEAR 16-bit translations and scales keyed at every clip time: as SampleTrack does them.
+void SampleVectors(const CompactClip& clip, const SamplingPlan& plan, const Segment& s,
+                   std::span<Transform> output) {
+  for (const SamplingPlan::Vector& v : plan.vectors) {
+    const uint16_t* a = &clip.words[v.words + 3 * s.k];
+    const uint16_t* b = &clip.words[v.words + 3 * s.next];
+    Transform& t = output[v.joint];
+    float* out =
+        static_cast<TrackPath>(v.path) == TrackPath::kTranslation ? t.translation : t.scale;
+    for (int c = 0; c < 3; ++c) {
+      const float va = detail::DequantizeRange(a[c], v.min[c], v.step[c]);
+      out[c] = va + s.u * (detail::DequantizeRange(b[c], v.min[c], v.step[c]) - va);
+    }
+  }
+}
+
+void SampleOne(const CompactClip& clip, const CompactTrack& track, const Segment& global, float t,
+               std::span<Transform> output, std::span<float> morph_weights) {
+  float* out = track.path == TrackPath::kWeights ? &morph_weights[track.weight_offset]
+                                                 : Target(track, output[track.joint]);
+  if (track.format == TrackFormat::kConstant || track.key_times == kAllKeyTimes) {
+    SampleTrack(clip, track, global, out);
+  } else {
+    SampleTrack(clip, track, FindTrackSegment(clip, track, global, t), out);
+  }
+}
+
+// Where the rotation keys of the segment come from: the context's cache as it stands,
+// shifted by one segment, or decoded afresh (and then kept there).
+detail::RotationKeys CachedKeys(const CompactClip& clip, const Segment& s,
+                                SamplingContext* context) {
+  if (context == nullptr) return {};
+  detail::RotationKeys keys;
+  if (context->plan != clip.plan) {
+    context->plan = clip.plan;
+    context->valid = false;
+    context->keys.resize(32 * clip.plan->rotations.size());
+  }
+  keys.cache = context->keys.data();
+  if (!context->valid) {
+    keys.state = detail::RotationKeys::kDecode;
+  } else if (s.k == context->k && s.next == context->next) {
+    keys.state = detail::RotationKeys::kCached;
+  } else if (s.k == context->next && s.next == s.k + 1) {
+    keys.state = detail::RotationKeys::kShift;
+  } else {
+    keys.state = detail::RotationKeys::kDecode;
+  }
+  context->k = s.k;
+  context->next = s.next;
+  context->valid = true;
+  return keys;
+}
+
 }  // namespace
+
+void SamplingContext::Reset() {
+  plan.reset();
+  valid = false;
+  keys.clear();
+}
 
 Status SamplingJob::Validate() const {
   if (skeleton == nullptr) return InvalidArgument("sampling: skeleton is missing");
@@ -158,17 +242,25 @@ Status SamplingJob::Run() const {
   } else {
     t = std::clamp(t, 0.0f, clip->duration);
   }
-  const Segment global = FindClipSegment(*clip, t);
-  std::copy(skeleton->rest.begin(), skeleton->rest.end(), output.begin());
-  for (const CompactTrack& track : clip->tracks) {
-    float* out = track.path == TrackPath::kWeights ? &morph_weights[track.weight_offset]
-                                                   : Target(track, output[track.joint]);
-    if (track.format == TrackFormat::kConstant || track.key_times == kAllKeyTimes) {
-      SampleTrack(*clip, track, global, out);
-    } else {
-      SampleTrack(*clip, track, FindTrackSegment(*clip, track, global, t), out);
+  if (clip->plan == nullptr) {  // a clip not made by BuildCompactClip: one track at a time
+    const Segment global = FindClipSegment(*clip, t, 0);
+    std::copy(skeleton->rest.begin(), skeleton->rest.end(), output.begin());
+    for (const CompactTrack& track : clip->tracks) {
+      SampleOne(*clip, track, global, t, output, morph_weights);
     }
+    return Status::Ok();
   }
+  const SamplingPlan& plan = *clip->plan;
+  const bool same_clip = context != nullptr && context->plan == clip->plan;
+  const Segment global = FindClipSegment(*clip, t, same_clip && context->valid ? context->k : 0);
+  for (uint16_t j : plan.rest_joints) output[j] = skeleton->rest[j];
+  SampleConstants(plan, output);
+  detail::SampleRotations4(*clip, plan.rotations, global.k, global.next, global.u, output,
+                           CachedKeys(*clip, global, context));
+  detail::SampleRotations4(*clip, plan.step_rotations, global.k, global.k, 0, output, {});
+  SampleVectors(*clip, plan, global, output);
+  for (uint32_t i : plan.others)
+    SampleOne(*clip, clip->tracks[i], global, t, output, morph_weights);
   return Status::Ok();
 }
 

@@ -3,6 +3,8 @@
 //
 // How each track is stored (TrackFormat) and the error of a stored key against the float
 // key it came from (the bound; tests/animation/compact_clip_test.cpp checks it):
+//  - left out: a joint's track whose every key is within kConstantTolerance (as kConstant)
+//    of the skeleton's rest value (a bone's length, a scale of 1): the joint samples its rest.
 //  - kConstant: every key within kConstantTolerance (relative to max(1, |value|), or that
 //    angle in radians for rotations) of the first: one float value, no times.
 //  - kRange16: each component 16-bit quantized against the track's range [min, max] of
@@ -18,6 +20,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -33,6 +36,8 @@ inline constexpr float kConstantTolerance = 1e-6f;
 inline constexpr float kRotationKeyErrorRadians = 7.5e-5f;
 inline constexpr uint32_t kMaxClipKeyTimes = 65535;  // indices are 16-bit
 inline constexpr uint32_t kAllKeyTimes = 0xffffffffu;
+
+struct SamplingPlan;  // core/animation/src/sampling_plan.h
 
 enum class TrackFormat : uint8_t { kConstant, kRange16, kSmallestThree16 };
 
@@ -63,6 +68,10 @@ struct CompactClip {
   std::vector<uint16_t> words;
   std::vector<uint8_t> largest;  // smallest-three: 4 two-bit indices a byte
   std::string id;                // SHA-256 of Serialize(), lowercase hex
+  // How SamplingJob walks the tracks (which it takes 4 at a time), made by
+  // BuildCompactClip from the fields above; not part of the bytes. A clip without one
+  // samples one track at a time.
+  std::shared_ptr<const SamplingPlan> plan;
 
   // The canonical little-endian bytes: what the id hashes and what the clip costs.
   std::vector<uint8_t> Serialize() const;

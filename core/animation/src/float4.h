@@ -1,0 +1,99 @@
+// Four floats side by side: SSE2 on x86-64 (its baseline, as ozz's SSE2 runtime), plain
+// arrays elsewhere. The pose jobs work on 4 joints or 4 tracks at a time with it (SoA).
+#pragma once
+
+#include <cmath>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+namespace skinserve::animation::detail {
+
+#if defined(__SSE2__)
+struct F4 {
+  __m128 v;
+};
+inline F4 Load4(const float* p) { return {_mm_loadu_ps(p)}; }
+inline void Store4(F4 a, float* p) { _mm_storeu_ps(p, a.v); }
+inline F4 Splat(float x) { return {_mm_set1_ps(x)}; }
+inline F4 Set4(float a, float b, float c, float d) { return {_mm_setr_ps(a, b, c, d)}; }
+inline F4 operator+(F4 a, F4 b) { return {_mm_add_ps(a.v, b.v)}; }
+inline F4 operator-(F4 a, F4 b) { return {_mm_sub_ps(a.v, b.v)}; }
+inline F4 operator*(F4 a, F4 b) { return {_mm_mul_ps(a.v, b.v)}; }
+inline F4 Max(F4 a, F4 b) { return {_mm_max_ps(a.v, b.v)}; }
+inline F4 Sqrt(F4 a) { return {_mm_sqrt_ps(a.v)}; }
+inline F4 Div(F4 a, F4 b) { return {_mm_div_ps(a.v, b.v)}; }
+// -1 where a < 0, else 1.
+inline F4 SignOf(F4 a) {
+  const __m128 negative = _mm_and_ps(a.v, _mm_set1_ps(-0.0f));
+  return {_mm_or_ps(_mm_set1_ps(1.0f), negative)};
+}
+// True when every lane of a is greater than b.
+inline bool AllGreater(F4 a, F4 b) { return _mm_movemask_ps(_mm_cmpgt_ps(a.v, b.v)) == 0xf; }
+// Lane i of x, y, z, w becomes row i (a 4x4 transpose): SoA to AoS.
+inline void Transpose(F4& x, F4& y, F4& z, F4& w) { _MM_TRANSPOSE4_PS(x.v, y.v, z.v, w.v); }
+// Per lane: a where a == b lanes hold (m), else b.
+inline F4 Equal(F4 a, F4 b) { return {_mm_cmpeq_ps(a.v, b.v)}; }
+inline F4 Select(F4 m, F4 a, F4 b) {
+  return {_mm_or_ps(_mm_and_ps(m.v, a.v), _mm_andnot_ps(m.v, b.v))};
+}
+inline F4 Broadcast(const float* p) { return {_mm_set1_ps(*p)}; }
+#else
+struct F4 {
+  float v[4];
+};
+inline F4 Load4(const float* p) { return {{p[0], p[1], p[2], p[3]}}; }
+inline void Store4(F4 a, float* p) {
+  for (int i = 0; i < 4; ++i) p[i] = a.v[i];
+}
+inline F4 Splat(float x) { return {{x, x, x, x}}; }
+inline F4 Set4(float a, float b, float c, float d) { return {{a, b, c, d}}; }
+#define SKINSERVE_F4_OP(name, expr)              \
+  inline F4 name(F4 a, F4 b) {                   \
+    F4 r;                                        \
+    for (int i = 0; i < 4; ++i) r.v[i] = (expr); \
+    return r;                                    \
+  }
+SKINSERVE_F4_OP(operator+, a.v[i] + b.v[i])
+SKINSERVE_F4_OP(operator-, a.v[i] - b.v[i])
+SKINSERVE_F4_OP(operator*, a.v[i] * b.v[i])
+SKINSERVE_F4_OP(Max, a.v[i] > b.v[i] ? a.v[i] : b.v[i])
+SKINSERVE_F4_OP(Div, a.v[i] / b.v[i])
+#undef SKINSERVE_F4_OP
+inline F4 Sqrt(F4 a) {
+  for (float& x : a.v) x = std::sqrt(x);
+  return a;
+}
+inline F4 SignOf(F4 a) {
+  for (float& x : a.v) x = std::signbit(x) ? -1.0f : 1.0f;
+  return a;
+}
+inline bool AllGreater(F4 a, F4 b) {
+  for (int i = 0; i < 4; ++i) {
+    if (!(a.v[i] > b.v[i])) return false;
+  }
+  return true;
+}
+inline void Transpose(F4& x, F4& y, F4& z, F4& w) {
+  F4* rows[4] = {&x, &y, &z, &w};
+  for (int r = 0; r < 4; ++r) {
+    for (int c = r + 1; c < 4; ++c) {
+      const float t = rows[r]->v[c];
+      rows[r]->v[c] = rows[c]->v[r];
+      rows[c]->v[r] = t;
+    }
+  }
+}
+inline F4 Broadcast(const float* p) { return Splat(*p); }
+inline F4 Equal(F4 a, F4 b) {
+  for (int i = 0; i < 4; ++i) a.v[i] = a.v[i] == b.v[i] ? 1.0f : 0.0f;
+  return a;
+}
+inline F4 Select(F4 m, F4 a, F4 b) {
+  for (int i = 0; i < 4; ++i) a.v[i] = m.v[i] != 0 ? a.v[i] : b.v[i];
+  return a;
+}
+#endif
+
+}  // namespace skinserve::animation::detail

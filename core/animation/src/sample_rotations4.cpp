@@ -1,0 +1,91 @@
+#include "sample_rotations4.h"
+
+#include "float4.h"
+
+namespace skinserve::animation::detail {
+namespace {
+
+struct Quat4 {  // four quaternions, one a lane
+  F4 x, y, z, w;
+};
+
+// Key k of the group's four tracks: the three stored slots dequantized one lane at a time
+// (each track has its own ranges and largest index), the largest rebuilt and placed 4-wide.
+Quat4 DecodeKeys(const CompactClip& clip, const SamplingPlan::RotationGroup& g, uint32_t k) {
+  alignas(16) float slot[3][4];
+  alignas(16) float largest[4];
+  for (int lane = 0; lane < 4; ++lane) {
+    const uint16_t* q = &clip.words[g.words[lane] + 3 * k];
+    for (int c = 0; c < 3; ++c) slot[c][lane] = g.min[lane][c] + g.step[lane][c] * q[c];
+    const uint32_t at = g.largest[lane] + k;
+    largest[lane] = static_cast<float>((clip.largest[at / 4] >> (2 * (at % 4))) & 3);
+  }
+  const F4 s0 = Load4(slot[0]), s1 = Load4(slot[1]), s2 = Load4(slot[2]);
+  const F4 big = Sqrt(Max(Splat(0), Splat(1) - (s0 * s0 + s1 * s1 + s2 * s2)));
+  const F4 l = Load4(largest);
+  const F4 is0 = Equal(l, Splat(0)), is1 = Equal(l, Splat(1)), is2 = Equal(l, Splat(2)),
+           is3 = Equal(l, Splat(3));
+  // The largest at its index, the three others in order around it.
+  return {Select(is0, big, s0), Select(is0, s0, Select(is1, big, s1)),
+          Select(is2, big, Select(is3, s2, s1)), Select(is3, big, s2)};
+}
+
+// quaternion.h's Slerp (Eberly's series, 4 terms when every lane's keys are < 0.4 rad
+// apart, else 8), one lane a track.
+Quat4 Slerp4(const Quat4& a, const Quat4& b, float u) {
+  constexpr float kMu = 1.85298109240830f;
+  const F4 dot = a.x * b.x + a.y * b.y + a.z * b.z + a.w * b.w;
+  const F4 sign = SignOf(dot);
+  const F4 xm1 = sign * dot - Splat(1);
+  const float d = 1.0f - u, uu = u * u, dd = d * d;
+  const int terms = AllGreater(xm1, Splat(-0.02f)) ? 4 : 8;
+  F4 fu = Splat(1), fd = Splat(1);
+  for (int i = terms; i >= 1; --i) {
+    const float m = i == 8 ? kMu : 1.0f;
+    const float ui = m / (i * (2.0f * i + 1.0f)), vi = m * i / (2.0f * i + 1.0f);
+    fu = Splat(1) + fu * (Splat(ui * uu - vi) * xm1);
+    fd = Splat(1) + fd * (Splat(ui * dd - vi) * xm1);
+  }
+  const F4 wa = Splat(d) * fd, wb = sign * Splat(u) * fu;
+  Quat4 q{wa * a.x + wb * b.x, wa * a.y + wb * b.y, wa * a.z + wb * b.z, wa * a.w + wb * b.w};
+  const F4 inv = Div(Splat(1), Sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w));
+  return {q.x * inv, q.y * inv, q.z * inv, q.w * inv};
+}
+
+Quat4 LoadQuat4(const float* p) { return {Load4(p), Load4(p + 4), Load4(p + 8), Load4(p + 12)}; }
+void StoreQuat4(const Quat4& q, float* p) {
+  Store4(q.x, p);
+  Store4(q.y, p + 4);
+  Store4(q.z, p + 8);
+  Store4(q.w, p + 12);
+}
+
+}  // namespace
+
+void SampleRotations4(const CompactClip& clip, std::span<const SamplingPlan::RotationGroup> groups,
+                      uint32_t k, uint32_t next, float u, std::span<Transform> output,
+                      RotationKeys keys) {
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    const SamplingPlan::RotationGroup& g = groups[i];
+    float* cache = keys.cache == nullptr ? nullptr : keys.cache + 32 * i;
+    Quat4 a, b;
+    if (keys.state == RotationKeys::kCached) {
+      a = LoadQuat4(cache);
+      b = LoadQuat4(cache + 16);
+    } else {
+      a = keys.state == RotationKeys::kShift ? LoadQuat4(cache + 16) : DecodeKeys(clip, g, k);
+      b = next == k ? a : DecodeKeys(clip, g, next);
+      if (cache != nullptr) {
+        StoreQuat4(a, cache);
+        StoreQuat4(b, cache + 16);
+      }
+    }
+    Quat4 q = next == k ? a : Slerp4(a, b, u);
+    Transpose(q.x, q.y, q.z, q.w);  // now one quaternion a vector
+    const F4 rows[4] = {q.x, q.y, q.z, q.w};
+    for (uint32_t lane = 0; lane < g.lanes; ++lane)
+      Store4(rows[lane], output[g.joint[lane]].rotation);
+  }
+}
+
+}  // namespace skinserve::animation::detail

@@ -1,0 +1,81 @@
+#include "sampling_plan.h"
+
+namespace skinserve::animation {
+namespace {
+
+bool EveryKey(const CompactTrack& t) {
+  return t.key_times == kAllKeyTimes && t.interpolation == Interpolation::kLinear;
+}
+
+void AddRotation(const CompactClip& clip, const CompactTrack& t,
+                 std::vector<SamplingPlan::RotationGroup>& groups) {
+  if (groups.empty() || groups.back().lanes == 4) groups.emplace_back();
+  SamplingPlan::RotationGroup& g = groups.back();
+  const uint32_t lane = g.lanes++;
+  g.joint[lane] = t.joint;
+  g.words[lane] = t.words;
+  g.largest[lane] = t.largest;
+  for (int s = 0; s < 3; ++s) {
+    g.min[lane][s] = clip.floats[t.floats + 2 * s];
+    g.step[lane][s] = clip.floats[t.floats + 2 * s + 1];
+  }
+}
+
+// A last group's empty lanes repeat its first track (decoded and slerped like the others,
+// never written), so the 4-wide code needs no lane checks.
+void PadLastGroup(std::vector<SamplingPlan::RotationGroup>& groups) {
+  if (groups.empty()) return;
+  SamplingPlan::RotationGroup& g = groups.back();
+  for (uint32_t lane = g.lanes; lane < 4; ++lane) {
+    g.joint[lane] = g.joint[0];
+    g.words[lane] = g.words[0];
+    g.largest[lane] = g.largest[0];
+    for (int c = 0; c < 3; ++c) {
+      g.min[lane][c] = g.min[0][c];
+      g.step[lane][c] = g.step[0][c];
+    }
+  }
+}
+
+}  // namespace
+
+SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
+  SamplingPlan plan;
+  std::vector<uint8_t> paths(clip.joint_count, 0);  // bit per TrackPath a track sets
+  for (uint32_t i = 0; i < clip.tracks.size(); ++i) {
+    const CompactTrack& t = clip.tracks[i];
+    const uint8_t path = static_cast<uint8_t>(t.path);
+    if (t.path != TrackPath::kWeights) paths[t.joint] |= static_cast<uint8_t>(1u << path);
+    if (t.path == TrackPath::kWeights) {
+      plan.others.push_back(i);
+    } else if (t.format == TrackFormat::kConstant) {
+      const uint8_t offset =
+          t.path == TrackPath::kTranslation ? 0 : (t.path == TrackPath::kRotation ? 3 : 7);
+      SamplingPlan::Constant c{t.joint, offset, {0, 0, 0, 0}};
+      for (uint32_t k = 0; k < t.width; ++k) c.value[k] = clip.floats[t.floats + k];
+      plan.constants.push_back(c);
+    } else if (t.format == TrackFormat::kSmallestThree16 && EveryKey(t)) {
+      AddRotation(clip, t, plan.rotations);
+    } else if (t.format == TrackFormat::kSmallestThree16 && t.key_times == kAllKeyTimes &&
+               t.interpolation == Interpolation::kStep) {
+      AddRotation(clip, t, plan.step_rotations);
+    } else if (t.format == TrackFormat::kRange16 && EveryKey(t) && t.path != TrackPath::kRotation) {
+      SamplingPlan::Vector v{t.joint, path, t.words, {}, {}};
+      for (int c = 0; c < 3; ++c) {
+        v.min[c] = clip.floats[t.floats + 2 * c];
+        v.step[c] = clip.floats[t.floats + 2 * c + 1];
+      }
+      plan.vectors.push_back(v);
+    } else {
+      plan.others.push_back(i);
+    }
+  }
+  for (uint32_t j = 0; j < clip.joint_count; ++j) {
+    if (paths[j] != 7) plan.rest_joints.push_back(static_cast<uint16_t>(j));
+  }
+  PadLastGroup(plan.rotations);
+  PadLastGroup(plan.step_rotations);
+  return plan;
+}
+
+}  // namespace skinserve::animation

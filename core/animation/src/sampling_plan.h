@@ -1,0 +1,49 @@
+// SamplingPlan: how SamplingJob walks a clip, derived from its tracks when it is built
+// (no bytes of its own: Serialize() and the id leave it out). Constant tracks are copied,
+// LINEAR and STEP smallest-three rotations keyed at every clip time are decoded (and
+// slerped) 4 at a time (SoA), LINEAR 16-bit vectors keyed at every time are lerped in one tight
+// loop; the rest (STEP, CUBICSPLINE, weights, tracks with their own key times) one track at a time.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "skinserve/animation/compact_clip.h"
+
+namespace skinserve::animation {
+
+struct SamplingPlan {
+  struct Constant {
+    uint16_t joint = 0;
+    uint8_t offset = 0;  // of the value in the Transform's floats: 0, 3 (rotation) or 7
+    float value[4] = {0, 0, 0, 0};
+  };
+  // Four rotation tracks (a last group may hold fewer: `lanes`).
+  struct RotationGroup {
+    uint32_t lanes = 0;
+    uint16_t joint[4] = {0, 0, 0, 0};
+    uint32_t words[4] = {0, 0, 0, 0};    // CompactTrack::words
+    uint32_t largest[4] = {0, 0, 0, 0};  // CompactTrack::largest
+    float min[4][3] = {};                // per lane, per stored slot: the range's start
+    float step[4][3] = {};
+  };
+  struct Vector {
+    uint16_t joint = 0;
+    uint8_t path = 0;
+    uint32_t words = 0;
+    float min[3] = {0, 0, 0};
+    float step[3] = {0, 0, 0};
+  };
+  // Joints some of whose translation, rotation and scale no track sets: they start from
+  // the skeleton's rest (the others are written whole by their tracks).
+  std::vector<uint16_t> rest_joints;
+  std::vector<Constant> constants;
+  std::vector<RotationGroup> rotations;
+  std::vector<RotationGroup> step_rotations;  // STEP: the key at or before the time
+  std::vector<Vector> vectors;
+  std::vector<uint32_t> others;  // track indices
+};
+
+SamplingPlan MakeSamplingPlan(const CompactClip& clip);
+
+}  // namespace skinserve::animation
