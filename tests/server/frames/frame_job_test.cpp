@@ -214,5 +214,22 @@ TEST_F(FrameJobTest, AMeshDeletedUnderACachedPlanFailsTheNextFrameAndIsNotKept) 
   ExpectReference(Skin(job, plan, request), a, 3);
 }
 
+// The mesh's entry outlives its deletion while another frame pins it: the cached plan can
+// still reach it, and must see that it is no longer stored.
+TEST_F(FrameJobTest, AMeshDeletedWhileAnotherFramePinsItFailsACachedPlansNextFrame) {
+  const std::string a = AddMesh(400, 8);
+  StreamPlan plan, other_plan;
+  FrameJob job(&listener_, &budget_), other(&listener_, &budget_);
+  v1::SkinRequest request = Request(a, 0);
+  ExpectReference(Skin(job, plan, request), a, 0);
+  v1::SkinRequest pinning = Request(a, 1);
+  ASSERT_TRUE(other_plan.PlanFrame(pinning, "simd", *engine_, &other).ok());  // pins the mesh
+  ASSERT_TRUE(engine_->DeleteMesh(a));
+  request = Request(a, 2);
+  const client::FrameResult r = Skin(job, plan, request);
+  EXPECT_EQ(r.status.code(), StatusCode::kNotFound) << r.status.ToString();
+  other.Fail(Internal("not skinned"));  // lets go of it
+}
+
 }  // namespace
 }  // namespace skinserve::testing
