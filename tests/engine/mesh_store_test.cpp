@@ -48,7 +48,11 @@ TEST(MeshStoreTest, AMeshUsedThroughAKeptPlanCountsAsRecentlyUsed) {
   ASSERT_TRUE(store.Insert(a, &already).ok());
   std::weak_ptr<MeshStore::Entry> kept = store.Acquire(a->id());  // as a kept plan holds it
   ASSERT_TRUE(store.Insert(b, &already).ok());                    // b is more recent than a
-  kept.lock()->MarkUsed();                                        // a frame reused a's plan
+  {
+    const MeshStore::Lease used = kept.lock();  // a frame reused a's plan
+    ASSERT_NE(used, nullptr);
+    used->MarkUsed();
+  }
   ASSERT_TRUE(store.Insert(c, &already).ok());
   EXPECT_NE(store.Acquire(a->id()), nullptr) << "the mesh a kept plan used was evicted";
   EXPECT_EQ(store.Acquire(b->id()), nullptr);
