@@ -15,21 +15,25 @@
 namespace skinserve::server {
 namespace {
 
-// Room for one part's header: the fields besides the vertex data take at most ~160
-// bytes (varints, the timings, a snorm16 box), and the two tags with their lengths 12;
-// a packed part adds each instance's box (32 bytes with its tag and length).
-constexpr std::size_t kHeaderRoom = 256;
-constexpr std::size_t kBoundsRoom = 40;
-
-constexpr std::size_t RoundUp(std::size_t n) {
-  return (n + kBufferAlignment - 1) / kBufferAlignment * kBufferAlignment;
-}
-
 // Grows `buffer` to hold `count` values (never shrinks, so alternating sizes do not
 // re-zero it) and returns the first `count`.
 std::span<float> Reuse(std::vector<float>& buffer, std::size_t count) {
   if (buffer.size() < count) buffer.resize(count);
   return {buffer.data(), count};
+}
+
+// The palette's floats in `bytes` (little-endian float32, the wire's), read in place: a
+// string's storage comes from operator new (aligned for any scalar) or, for fewer than 16
+// bytes, sits inside the string object. Should it ever be misaligned for a float, the
+// values are copied into `fallback` instead.
+std::span<const float> PaletteFloats(const std::string& bytes, std::vector<float>* fallback) {
+  const std::size_t count = bytes.size() / sizeof(float);
+  if (reinterpret_cast<std::uintptr_t>(bytes.data()) % alignof(float) == 0) {
+    return {reinterpret_cast<const float*>(bytes.data()), count};
+  }
+  fallback->resize(count);
+  std::memcpy(fallback->data(), bytes.data(), count * sizeof(float));
+  return *fallback;
 }
 
 Status InstanceError(const Status& status, uint32_t instance, uint32_t instances) {
@@ -58,164 +62,119 @@ FrameJob::PartRange FrameJob::RangeOf(std::size_t part) const {
   return r;
 }
 
-Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
-                         const std::string& default_backend, const RegionCaller& regions,
-                         RegionHandle* region) {
-  if (Status s = Begin(wire.frame(), wire.backend().empty() ? default_backend : wire.backend());
-      !s.ok()) {
-    return s;
+Status FrameJob::Prepare(v1::SkinRequest& wire, Engine& engine, const std::string& default_backend,
+                         const RegionCaller& regions, StreamPlan* plan) {
+  const std::string& backend = wire.backend().empty() ? default_backend : wire.backend();
+  if (Status s = Begin(wire.frame(), backend); !s.ok()) return s;
+  // The stream's plan: checked and laid out once, reused while the settings stay (no
+  // lookup); the mesh is pinned from here until the frame is done.
+  if (Status s = plan->PlanFrame(wire, backend, engine, this); !s.ok()) return s;
+  ApplyLayout(plan->layout());
+  if (region_part_) {
+    if (Status s = PinRegion(wire.output(), regions, plan->region()); !s.ok()) return s;
   }
-  // The engine checks the backend, the method, the mesh and the batch once, and pins the
-  // mesh: its shape sizes the buffers below, and Submit looks nothing up again.
-  request.mesh_id.assign(wire.mesh_id());
-  request.backend.assign(wire.backend().empty() ? default_backend : wire.backend());
-  Result<SkinningMethod> method = FromWire(wire.method());
-  if (!method.ok()) return method.status();
-  request.method = *method;
-  request.instances = std::max<uint32_t>(wire.instances(), 1);
+  if (Status s = ChargeBuffers(wire.palette().size()); !s.ok()) return s;
+  if (Status s = TakeInputs(wire); !s.ok()) return s;
+  SetOutputs();
+  return Status::Ok();
+}
+
+void FrameJob::ApplyLayout(const FrameLayout& l) {
+  layout_ = l;
+  vertices_ = l.vertices;
+  instances_ = l.instances;
+  want_normals_ = l.want_normals;
+  want_tangents_ = l.want_tangents;
+  encoding_ = l.encoding;
+  boxed_ = l.boxed;
+  device_encoded_ = l.device_encoded;
+  box_scratch_ = l.box_scratch;
+  vertices_per_part_ = l.vertices_per_part;
+  parts_per_instance_ = l.parts_per_instance;
+  part_count_ = l.part_count;
+  instances_per_part_ = l.instances_per_part;
+  header_room_ = l.header_room;
+  normals_offset_ = l.normals_offset;
+  tangents_offset_ = l.tangents_offset;
+  headers_offset_ = l.headers_offset;
+  wire_used_ = l.wire_used;
+  region_part_ = l.in_region;
+  region_positions_ = l.region.positions_offset;
+  region_normals_ = l.region.normals_offset;
+  region_tangents_ = l.region.tangents_offset;
+  region_end_ = l.region.end_offset;
+  early_ = l.early;
+  if (early_) instance_ready_.assign(instances_, 0);  // keeps its capacity
+}
+
+Status FrameJob::ChargeBuffers(std::size_t palette_bytes) {
+  // What this frame holds while in flight; the job keeps its buffers, so only growth is
+  // charged.
+  const uint64_t need = palette_bytes + layout_.floats_kept + std::max(wire_used_, wire_.size());
+  if (need > charged_) {
+    if (Status s = budget_->TryCharge(need - charged_); !s.ok()) return s;
+    charged_ = need;
+  }
+  encode_ns_.store(0);
+  if (headers_.size() < part_count_) headers_.resize(part_count_);
+  if (bounds_.size() < instances_) bounds_.resize(instances_);
+  if (wire_.size() < wire_used_) wire_ = AlignedBuffer<std::byte>(wire_used_);
+  return Status::Ok();
+}
+
+Status FrameJob::TakeInputs(v1::SkinRequest& wire) {
   if (Status s = MorphWeightsFromWire(wire, &morph_); !s.ok()) return s;
-  request.morph_weights = morph_;  // checked against the mesh by Engine::Submit
+  request.morph_weights = morph_;  // checked against the mesh by the engine
   if (Status s = InstanceMorphWeightsFromWire(wire, &instance_morph_, &instance_morph_views_);
       !s.ok()) {
     return s;
   }
   request.instance_morph_weights = instance_morph_views_;
-  if (Status s = engine.Plan(this); !s.ok()) return s;
-  vertices_ = plan().vertex_count;
-  want_normals_ = wire.want_normals();
-  if (want_normals_ && !plan().has_normals) {
-    return InvalidArgument("want_normals is set but mesh " + wire.mesh_id() + " has no normals");
+  // The palette's bytes change hands: the job takes the request's string (parsed from the
+  // wire, the one copy) and gives its last one back for the next parse to fill, so the
+  // engine reads the floats where the parse put them.
+  std::string& bytes = *wire.mutable_palette();
+  if (bytes.size() % sizeof(float) != 0) {
+    return InvalidArgument(
+        fmt::format("palette holds {} bytes, not a whole number of float32 values", bytes.size()));
   }
-  want_tangents_ = wire.want_tangents();
-  if (want_tangents_) {
-    if (!want_normals_) {
-      return InvalidArgument("want_tangents is set without want_normals; ask for normals too");
-    }
-    if (!plan().has_tangents) {
-      return InvalidArgument("want_tangents is set but mesh " + wire.mesh_id() +
-                             " has no tangents (MeshHeader.has_tangents)");
-    }
-    if (!plan().backend_tangents) {
-      return FailedPrecondition(fmt::format(
-          "want_tangents is set but backend '{}' does not skin tangents (BackendInfo.tangents); "
-          "ask without tangents or choose a backend whose BackendInfo.tangents is set",
-          request.backend));
-    }
-  }
-  Result<VertexEncoding> encoding = FromWire(wire.encoding());
-  if (!encoding.ok()) return encoding.status();
-  encoding_ = *encoding;
-  boxed_ = QuantisedToBox(encoding_);
-  instances_ = request.instances;
+  palette_bytes_.swap(bytes);
+  request.palette = PaletteFloats(palette_bytes_, &palette_);
+  return Status::Ok();
+}
 
-  const uint64_t values = 3ull * vertices_ * instances_;
-  const uint64_t arrays = want_normals_ ? 2 : 1;
-  const uint64_t tangent_values = want_tangents_ ? kValuesPerTangent * vertices_ * instances_ : 0;
-  const bool float32 = encoding_ == VertexEncoding::kFloat32;
-  const std::size_t vertex_bytes =
-      (arrays * 3 + (want_tangents_ ? kValuesPerTangent : 0)) * EncodedBytesPerValue(encoding_);
-  vertices_per_part_ =
-      static_cast<uint32_t>(std::max<std::size_t>(1, kMaxPartPayloadBytes / vertex_bytes));
-  parts_per_instance_ =
-      std::max<std::size_t>(1, (vertices_ + vertices_per_part_ - 1) / vertices_per_part_);
-  part_count_ = parts_per_instance_ * instances_;
-  // Packed: as many whole instances per part as fit in 1 MiB.
-  instances_per_part_ = 1;
-  if (wire.pack_instances() && parts_per_instance_ == 1 && vertices_ > 0) {
-    instances_per_part_ = static_cast<uint32_t>(
-        std::min<std::size_t>(instances_, kMaxPartPayloadBytes / (vertex_bytes * vertices_)));
-    instances_per_part_ = std::max<uint32_t>(instances_per_part_, 1);
-    part_count_ = (instances_ + instances_per_part_ - 1) / instances_per_part_;
-  }
-  header_room_ =
-      kHeaderRoom + (boxed_ && instances_per_part_ > 1 ? kBoundsRoom * instances_per_part_ : 0);
-  const std::size_t payload = values * EncodedBytesPerValue(encoding_);
-  normals_offset_ = RoundUp(payload);  // the positions start the buffer
-  tangents_offset_ = normals_offset_ + (want_normals_ ? RoundUp(payload) : 0);
-  headers_offset_ = tangents_offset_ + RoundUp(static_cast<std::size_t>(tangent_values) *
-                                               EncodedBytesPerValue(encoding_));
-  region_part_ = wire.has_output();
-  if (region_part_) {  // the vertices go into the region: the wire carries one header
-    if (Status s = PrepareRegion(wire.output(), regions, region); !s.ok()) return s;
-    part_count_ = 1;
-    instances_per_part_ = 1;
-    header_room_ =
-        kHeaderRoom + wire.output().region().size() + (boxed_ ? kBoundsRoom * instances_ : 0);
-    normals_offset_ = tangents_offset_ = headers_offset_ = 0;
-  }
-  wire_used_ = headers_offset_ + part_count_ * header_room_;
-  early_ = wire.early_parts() && !region_part_ && part_count_ > 1 && instances_ > 1;
-  if (early_) instance_ready_.assign(instances_, 0);  // keeps its capacity
-
-  // Encoded instance by instance: skinned into the compute thread's scratch, kept in its
-  // core's cache, unless an instance is too large for it.
-  // Tangents are never skinned into scratch (the engine's rule): such frames keep floats.
-  // A backend that writes this encoding itself (on its device: only the encoded bytes come
-  // back) skins straight into the wire buffer or the region, and sends the boxes it found.
-  device_encoded_ = !float32 && plan().BackendWrites(encoding_);
-  // snorm16 written by a host backend (simd): it keeps the positions as floats until it has
-  // their box, in this job's buffer, so that they are counted below.
-  box_scratch_ = device_encoded_ && boxed_ && plan().backend_box_scratch;
-  const bool scratch =
-      !float32 && !device_encoded_ && !want_tangents_ &&
-      ScratchFloatsPerInstance(vertices_, want_normals_) <= kMaxScratchFloatsPerInstance;
-  // What this frame holds while in flight; the job keeps its buffers, so only growth is
-  // charged.
-  uint64_t floats_kept = 0;
-  if (box_scratch_) {
-    floats_kept = values * sizeof(float);
-  } else if (!float32 && !scratch && !device_encoded_) {
-    floats_kept = (arrays * values + tangent_values) * sizeof(float);
-  }
-  const uint64_t need = wire.palette().size() + floats_kept + std::max(wire_used_, wire_.size());
-  if (need > charged_) {
-    if (Status s = budget_->TryCharge(need - charged_); !s.ok()) return s;
-    charged_ = need;
-  }
-
-  if (Status s = DecodeFloats(wire.palette(), "palette", &palette_); !s.ok()) return s;
-  request.palette = palette_;
-  encode_ns_.store(0);
-  if (headers_.size() < part_count_) headers_.resize(part_count_);
-  if (bounds_.size() < instances_) bounds_.resize(instances_);
-
-  if (wire_.size() < wire_used_) wire_ = AlignedBuffer<std::byte>(wire_used_);
+void FrameJob::SetOutputs() {
+  const FrameLayout& l = layout_;
   request.encoded = {};
+  request.positions = {};
+  request.normals = {};
+  request.tangents = {};
   if (device_encoded_) {
-    request.positions = {};
-    request.normals = {};
-    request.tangents = {};
-    const std::size_t tangent_bytes = tangent_values * EncodedBytesPerValue(encoding_);
+    const std::size_t tangent_bytes = l.tangent_values * EncodedBytesPerValue(encoding_);
     request.encoded = {
         .encoding = encoding_,
-        .positions = {PositionsOut(), payload},
+        .positions = {PositionsOut(), l.payload},
         .normals =
-            want_normals_ ? std::span<std::byte>(NormalsOut(), payload) : std::span<std::byte>(),
+            want_normals_ ? std::span<std::byte>(NormalsOut(), l.payload) : std::span<std::byte>(),
         .tangents = want_tangents_ ? std::span<std::byte>(TangentsOut(), tangent_bytes)
                                    : std::span<std::byte>(),
         .bounds = boxed_ ? bounds_.data() : nullptr,
-        .box_scratch = box_scratch_ ? Reuse(positions_, values) : std::span<float>()};
-  } else if (float32) {  // skinned straight into the wire buffer or the region, aligned for SIMD
-    const auto floats = [&](std::byte* out) {
-      return std::span<float>(reinterpret_cast<float*>(out), values);
+        .box_scratch = box_scratch_ ? Reuse(positions_, l.values) : std::span<float>()};
+  } else if (encoding_ == VertexEncoding::kFloat32) {
+    // Skinned straight into the wire buffer or the region, aligned for SIMD.
+    const auto floats = [](std::byte* out, uint64_t count) {
+      return std::span<float>(reinterpret_cast<float*>(out), count);
     };
-    request.positions = floats(PositionsOut());
-    request.normals = want_normals_ ? floats(NormalsOut()) : std::span<float>();
-    request.tangents =
-        want_tangents_ ? std::span<float>(reinterpret_cast<float*>(TangentsOut()), tangent_values)
-                       : std::span<float>();
-  } else if (scratch) {
-    request.positions = {};
-    request.normals = {};
-    request.tangents = {};
-  } else {
-    request.positions = Reuse(positions_, values);
-    request.normals = want_normals_ ? Reuse(normals_, values) : std::span<float>();
-    request.tangents = want_tangents_ ? Reuse(tangents_, tangent_values) : std::span<float>();
+    request.positions = floats(PositionsOut(), l.values);
+    if (want_normals_) request.normals = floats(NormalsOut(), l.values);
+    if (want_tangents_) request.tangents = floats(TangentsOut(), l.tangent_values);
+  } else if (!l.scratch) {
+    request.positions = Reuse(positions_, l.values);
+    if (want_normals_) request.normals = Reuse(normals_, l.values);
+    if (want_tangents_) request.tangents = Reuse(tangents_, l.tangent_values);
   }
-  request.skin_into_scratch = scratch;
-  request.scratch_normals = scratch && want_normals_;
-  return Status::Ok();
+  request.skin_into_scratch = l.scratch;
+  request.scratch_normals = l.scratch && want_normals_;
 }
 
 Status FrameJob::Begin(uint64_t frame, const std::string& backend) {
@@ -241,23 +200,14 @@ void FrameJob::Refuse(uint64_t frame, const std::string& backend, Status status)
   Fail(std::move(status));
 }
 
-Status FrameJob::PrepareRegion(const v1::OutputRegion& output, const RegionCaller& regions,
-                               RegionHandle* handle) {
-  // Looked up, checked and guarded once per stream and region (RegionHandle).
+Status FrameJob::PinRegion(const v1::OutputRegion& output, const RegionCaller& regions,
+                           RegionHandle* handle) {
+  // Looked up, checked and guarded once per stream and region (RegionHandle); the range
+  // is checked every frame, against the region that stands now.
   Result<std::shared_ptr<MappedRegion>> region = handle->Resolve(output.region(), regions);
   if (!region.ok()) return region.status();
   const uint64_t size = (*region)->byte_size();
   const uint64_t offset = output.offset();
-  if (offset % wire::kRegionAlignment != 0) {
-    return InvalidArgument(fmt::format("output.offset = {} in region '{}' is not a multiple of {}",
-                                       offset, output.region(), wire::kRegionAlignment));
-  }
-  const wire::RegionLayout layout =
-      wire::LayoutInRegion(offset, vertices_, instances_, encoding_, want_normals_, want_tangents_);
-  region_positions_ = layout.positions_offset;
-  region_normals_ = layout.normals_offset;
-  region_tangents_ = layout.tangents_offset;
-  region_end_ = layout.end_offset;
   const uint64_t limit =
       output.byte_size() == 0 ? size : std::min(size, offset + std::min(output.byte_size(), size));
   if (offset > size || region_end_ > limit) {

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "frames/inflight_budget.h"
+#include "frames/stream_plan.h"
 #include "observability/metrics_frames.h"
 #include "rpc/stream_answer.h"
 #include "shm/mapped_region.h"
@@ -35,8 +36,6 @@
 #include "skinserve/v1/skinning.pb.h"
 
 namespace skinserve::server {
-
-inline constexpr std::size_t kMaxPartPayloadBytes = 1 << 20;
 
 class FrameJob final : public SkinJob, public StreamAnswer {
  public:
@@ -62,13 +61,15 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   FrameJob(Listener* listener, InflightBudget* budget) : listener_(listener), budget_(budget) {}
   ~FrameJob() override;
 
-  // Prepares `request` for the engine: checks what the server must know before sizing
-  // buffers (mesh, encoding, batch limits, budget, the output region's range), decodes
-  // the palette and sizes the outputs. Then Engine::Run(this). Non-OK: the frame
-  // failed before the engine. `regions.regions` is null when shared memory is off;
-  // `region` is the stream's hold on the region its frames write into.
-  Status Prepare(const v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
-                 const RegionCaller& regions, RegionHandle* region);
+  // Prepares `request` for the engine: plans it with the stream's `plan` (built when its
+  // settings change, else reused: stream_plan.h), pins the output region and checks the
+  // frame's range in it, charges the buffers to the budget, takes the frame's inputs
+  // (morph weights; the palette's bytes, swapped out of `request` so that they are not
+  // copied again) and points the outputs at the wire buffer or the region. Then
+  // Engine::Run(this). Non-OK: the frame failed before the engine. `regions.regions` is
+  // null when shared memory is off.
+  Status Prepare(v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
+                 const RegionCaller& regions, StreamPlan* plan);
   // The frame failed before the engine: it is answered with `status`.
   void Fail(Status status);
   // A frame refused before its request was parsed (SkinRequestReader): answered with
@@ -112,9 +113,19 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   Status Begin(uint64_t frame, const std::string& backend);
   Status EncodeInstance(uint32_t i, std::span<const float> positions,
                         std::span<const float> normals);
-  // Checks the request's output range against its region and pins the region.
-  Status PrepareRegion(const v1::OutputRegion& output, const RegionCaller& regions,
-                       RegionHandle* handle);
+  // Prepare's steps. The plan's layout, copied: a later frame may change the plan while
+  // this one is in flight.
+  void ApplyLayout(const FrameLayout& layout);
+  // Resolves the request's region through the stream's handle, checks the frame's range
+  // against it and pins it.
+  Status PinRegion(const v1::OutputRegion& output, const RegionCaller& regions,
+                   RegionHandle* handle);
+  // Charges what the frame holds to the in-flight budget and grows the buffers.
+  Status ChargeBuffers(std::size_t palette_bytes);
+  // The morph weights and the palette, into the engine's request.
+  Status TakeInputs(v1::SkinRequest& wire);
+  // The engine's outputs: the wire buffer, the region, the job's floats or scratch.
+  void SetOutputs();
   // The frame's output: the wire buffer, or the region's bytes.
   std::byte* PositionsOut();
   std::byte* NormalsOut();
@@ -144,6 +155,10 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   bool boxed_ = false;           // each instance's box travels with it (snorm16)
   bool device_encoded_ = false;  // the backend writes the encoding (BackendInfo.encoded_outputs)
   bool box_scratch_ = false;     // ...snorm16 on the host: positions_ is its box_scratch
+  FrameLayout layout_;           // the plan's, for the frame in flight
+  // The palette's bytes as parsed (the engine reads them in place), swapped with the
+  // request's string every frame; palette_ only if they were ever misaligned for floats.
+  std::string palette_bytes_;
   std::vector<float> palette_;
   std::vector<MorphWeight> morph_;  // the frame's morph weights, capacity reused
   // A crowd's per-instance morph weights, back to back, and one view per instance.

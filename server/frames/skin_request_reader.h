@@ -68,6 +68,8 @@ class SkinRequestReader {
   // budget cannot hold the parsed message.
   Status Read(grpc::ByteBuffer* bytes);
   const v1::SkinRequest& request() const { return request_; }
+  // The frame's job takes the palette's bytes out of it (FrameJob::Prepare).
+  v1::SkinRequest* mutable_request() { return &request_; }
   const SkinRequestScan& scan() const { return scan_; }
   // After the frame was prepared (it copies what it keeps): lets go of a large request's
   // storage and its charge.

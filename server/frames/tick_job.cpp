@@ -42,8 +42,8 @@ Status CheckCharacterFields(const v1::SkinRequest& character) {
 
 TickJob::~TickJob() { DropWire(); }
 
-bool TickJob::Start(const v1::SkinRequest& request, Engine& engine,
-                    const std::string& default_backend, const RegionCaller& regions) {
+bool TickJob::Start(v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
+                    const RegionCaller& regions) {
   frame_ = request.frame();
   count_ = static_cast<uint32_t>(request.characters_size());
   status_ = Status::Ok();
@@ -64,15 +64,16 @@ bool TickJob::Start(const v1::SkinRequest& request, Engine& engine,
     characters_.push_back(
         std::make_unique<FrameJob>(static_cast<FrameJob::Listener*>(this), budget_));
   }
-  if (character_regions_.size() < count_) character_regions_.resize(count_);
+  while (character_plans_.size() < count_)
+    character_plans_.push_back(std::make_unique<StreamPlan>());
   if (order_.size() < count_) order_.resize(count_);
   pending_.store(count_ + 1);
   // Every character prepared first, then all submitted: the compute threads take them side
   // by side.
   for (uint32_t i = 0; i < count_; ++i) {
     characters_[i]->SetTickCharacter(i, frame_);
-    if (!PrepareCharacter(i, request.characters(static_cast<int>(i)), engine, default_backend,
-                          regions)) {
+    if (!PrepareCharacter(i, *request.mutable_characters(static_cast<int>(i)), engine,
+                          default_backend, regions)) {
       characters_[i]->set_done();
       CharacterDone(i);  // never the last: Start holds one
     }
@@ -99,7 +100,7 @@ bool TickJob::Start(const v1::SkinRequest& request, Engine& engine,
   return false;
 }
 
-bool TickJob::PrepareCharacter(uint32_t i, const v1::SkinRequest& character, Engine& engine,
+bool TickJob::PrepareCharacter(uint32_t i, v1::SkinRequest& character, Engine& engine,
                                const std::string& default_backend, const RegionCaller& regions) {
   FrameJob& job = *characters_[i];
   const std::string& backend = character.backend().empty() ? default_backend : character.backend();
@@ -107,7 +108,8 @@ bool TickJob::PrepareCharacter(uint32_t i, const v1::SkinRequest& character, Eng
     job.Refuse(frame_, backend, std::move(s));
     return false;
   }
-  if (Status s = job.Prepare(character, engine, default_backend, regions, &character_regions_[i]);
+  if (Status s =
+          job.Prepare(character, engine, default_backend, regions, character_plans_[i].get());
       !s.ok()) {
     job.Fail(std::move(s));
     return false;

@@ -21,6 +21,7 @@
 
 #include "frames/frame_job.h"
 #include "frames/inflight_budget.h"
+#include "frames/stream_plan.h"
 #include "rpc/stream_answer.h"
 #include "shm/region_registry.h"
 #include "skinserve/engine/engine.h"
@@ -40,7 +41,7 @@ class TickJob final : public StreamAnswer, private FrameJob::Listener {
   // engine. True: characters are in the engine and OnFrameDone will come. False: the tick
   // is answered already (it failed whole, or every character failed before the engine)
   // and no call will come.
-  bool Start(const v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
+  bool Start(v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
              const RegionCaller& regions);
 
   bool done() const override { return done_; }
@@ -62,7 +63,7 @@ class TickJob final : public StreamAnswer, private FrameJob::Listener {
   // The tick fails whole with `status` (its answer one error part).
   void FailTick(Status status);
   // Prepares character i; false: it failed alone (answered with its error).
-  bool PrepareCharacter(uint32_t i, const v1::SkinRequest& character, Engine& engine,
+  bool PrepareCharacter(uint32_t i, v1::SkinRequest& character, Engine& engine,
                         const std::string& default_backend, const RegionCaller& regions);
   // Character `i` failed in Start (the listener's lock is held: it is not told): it joins
   // the finish order. Never the tick's last, since Start holds one.
@@ -77,8 +78,9 @@ class TickJob final : public StreamAnswer, private FrameJob::Listener {
   FrameJob::Listener* const listener_;
   InflightBudget* const budget_;
   std::vector<std::unique_ptr<FrameJob>> characters_;  // [0, count_) in use; kept for reuse
-  // Character i's hold on the region it writes into, kept from tick to tick.
-  std::vector<RegionHandle> character_regions_;
+  // Character i's plan (and its hold on the region it writes into), kept from tick to tick
+  // and reused while that character's settings stay.
+  std::vector<std::unique_ptr<StreamPlan>> character_plans_;
   SkinGroup group_;                  // the characters submitted, one queue place together
   std::vector<uint32_t> submitted_;  // group_.jobs[k] is character submitted_[k]
   std::vector<Status> verdicts_;     // the engine's verdict on group_.jobs[k]

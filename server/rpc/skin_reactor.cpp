@@ -11,17 +11,17 @@ SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
     : job_(static_cast<FrameJob::Listener*>(this), budget) {
   grpc::ByteBuffer bytes(request_bytes);  // reading consumes it
   Status status = Unavailable("the server is starting: backends are being built");
-  RegionHandle region;  // one frame: resolved for it alone
+  StreamPlan plan;  // one frame: planned (and its region resolved) for it alone
   if (engine != nullptr) {
     // Held (and charged) only until the job took what it keeps.
     SkinRequestReader reader(budget, WithMaxInstances(limits, engine));
     status = reader.Read(&bytes);
     if (status.ok() && reader.request().characters_size() > 0) {  // a tick: tick_job.h
-      StartTick(reader.request(), *engine, default_backend, regions, budget);
+      StartTick(*reader.mutable_request(), *engine, default_backend, regions, budget);
       return;
     }
     status = status.ok()
-                 ? job_.Prepare(reader.request(), *engine, default_backend, regions, &region)
+                 ? job_.Prepare(*reader.mutable_request(), *engine, default_backend, regions, &plan)
                  : status;
   }
   if (status.ok()) {
@@ -36,7 +36,7 @@ SkinReactor::SkinReactor(Engine* engine, const std::string& default_backend,
   }
 }
 
-void SkinReactor::StartTick(const v1::SkinRequest& request, Engine& engine,
+void SkinReactor::StartTick(v1::SkinRequest& request, Engine& engine,
                             const std::string& default_backend, const RegionCaller& regions,
                             InflightBudget* budget) {
   tick_ = std::make_unique<TickJob>(static_cast<FrameJob::Listener*>(this), budget);

@@ -33,7 +33,7 @@ class SkinReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
   void HoldForWire() override { refs_.fetch_add(1); }
   void ReleaseForWire() override { Unref(); }
   // The request is a tick: its TickJob answers the call.
-  void StartTick(const v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
+  void StartTick(v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
                  const RegionCaller& regions, InflightBudget* budget);
   void WriteNextLocked();
   void FinishLocked(const grpc::Status& status);

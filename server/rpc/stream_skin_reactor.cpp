@@ -79,7 +79,8 @@ FrameJob* StreamSkinReactor::PrepareRead(bool ok) {
     PumpLocked();
     return nullptr;
   }
-  Status status = job.Prepare(reader_.request(), *engine_, default_backend_, regions_, &region_);
+  Status status =
+      job.Prepare(*reader_.mutable_request(), *engine_, default_backend_, regions_, &plan_);
   reader_.Trim();      // the job took what it keeps
   if (!status.ok()) {  // answered with its error
     job.Fail(std::move(status));
@@ -97,7 +98,7 @@ void StreamSkinReactor::StartTickLocked() {
   in_flight_jobs_[(oldest_ + in_flight_) % window_] = &tick;
   ++in_flight_;
   refs_.fetch_add(1);
-  if (!tick.Start(reader_.request(), *engine_, default_backend_, regions_)) {
+  if (!tick.Start(*reader_.mutable_request(), *engine_, default_backend_, regions_)) {
     refs_.fetch_sub(1);  // answered already: no callback comes
     tick.set_done();
   }

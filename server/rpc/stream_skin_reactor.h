@@ -26,6 +26,7 @@
 
 #include "frames/frame_job.h"
 #include "frames/skin_request_reader.h"
+#include "frames/stream_plan.h"
 #include "frames/tick_job.h"
 #include "rpc/open_streams.h"
 #include "skinserve/engine/engine.h"
@@ -83,7 +84,7 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   OpenStreams* open_streams_;
   InflightBudget* budget_;
   const RegionCaller regions_;  // the registry (null: shared memory is off) and the caller
-  RegionHandle region_;         // the region this stream's frames write into (under mutex_)
+  StreamPlan plan_;             // the stream's frame plan and its region handle (under mutex_)
 
   std::mutex mutex_;
   grpc::ByteBuffer request_bytes_;

@@ -39,6 +39,29 @@ TEST(MeshStoreTest, EvictsLeastRecentlyUsedFirst) {
   EXPECT_EQ(store.evictions(), 1u);
 }
 
+// A kept plan (Engine::Reuse) uses a mesh without Acquire: MarkUsed makes it count as
+// recently used at the next eviction, and an entry knows when it left the store.
+TEST(MeshStoreTest, AMeshUsedThroughAKeptPlanCountsAsRecentlyUsed) {
+  MeshStore store(2 * kMeshBytes, 1);
+  bool already;
+  auto a = MeshWithSeed(1), b = MeshWithSeed(2), c = MeshWithSeed(3);
+  ASSERT_TRUE(store.Insert(a, &already).ok());
+  std::weak_ptr<MeshStore::Entry> kept = store.Acquire(a->id());  // as a kept plan holds it
+  ASSERT_TRUE(store.Insert(b, &already).ok());                    // b is more recent than a
+  {
+    const MeshStore::Lease used = kept.lock();  // a frame reused a's plan
+    ASSERT_NE(used, nullptr);
+    used->MarkUsed();
+  }
+  ASSERT_TRUE(store.Insert(c, &already).ok());
+  EXPECT_NE(store.Acquire(a->id()), nullptr) << "the mesh a kept plan used was evicted";
+  EXPECT_EQ(store.Acquire(b->id()), nullptr);
+  MeshStore::Lease pinned = store.Acquire(c->id());
+  EXPECT_TRUE(pinned->stored());
+  ASSERT_TRUE(store.Erase(c->id()));
+  EXPECT_FALSE(pinned->stored()) << "an erased entry a frame still pins says it is stored";
+}
+
 TEST(MeshStoreTest, NeverEvictsAPinnedMesh) {
   MeshStore store(kMeshBytes, 1);
   bool already;

@@ -71,8 +71,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static server::InflightBudget budget(256ull << 20);
   DoneListener listener;
   server::FrameJob job(&listener, &budget);
-  server::RegionHandle region;
-  Status status = job.Prepare(wire, engine, "serial", /*regions=*/server::RegionCaller{}, &region);
+  server::StreamPlan plan;
+  Status status = job.Prepare(wire, engine, "serial", /*regions=*/server::RegionCaller{}, &plan);
   if (status.ok()) status = engine.Submit(&job);
   if (status.ok()) {
     listener.Wait();

@@ -203,7 +203,7 @@ TEST(CrowdMorphServiceTest, BadInstanceWeightsAreRefusedNamingTheFieldOrInstance
   };
   expect(skin({{}, {}}, {}, 3), "instance_morph_weights holds 2 entries");
   expect(skin({{{1, 1.0f}}}, {}, 1), "instance_morph_weights holds 1 entries");
-  expect(skin({{}, {}}, {{1, 1.0f}}, 2), "instance_morph_weights and morph_targets");
+  expect(skin({{}, {}}, {{1, 1.0f}}, 2), "instance_morph_weights and morph_weights are both set");
   expect(skin({{}, {}, {{kTargets, 1.0f}}}, {}, 3),
          "instance 2: morph_weights[0]: target 12 is not below the mesh's morph_target_count 12");
   expect(skin({{{2, 1.0f}, {2, 0.5f}}, {}}, {}, 2), "instance 0: morph_weights[1]: target 2");

@@ -115,9 +115,9 @@ class Engine::Impl {
     return Status::Ok();
   }
 
-  // Everything a frame needs checked before it is queued.
-  Status Check(const SkinRequest& request, const Mesh& mesh, uint32_t instances) const {
-    if (Status s = CheckBatch(mesh.vertex_count(), instances); !s.ok()) return s;
+  // The rest of a planned frame (its batch limits were Plan's): the palette's size, the
+  // outputs' sizes and shape once for the whole batch, then each instance's palette values.
+  static Status Check(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
     const std::size_t per_instance = 12ull * mesh.joint_count();
     if (instances > 1 && request.palette.size() != per_instance * instances) {
       const std::size_t whole = request.palette.size() / std::max<std::size_t>(per_instance, 1);
@@ -133,9 +133,16 @@ class Engine::Impl {
                             request.palette.size(), mesh.joint_count(), instances,
                             per_instance * instances, instances));
     }
+    Status outputs = request.skin_into_scratch  ? CheckScratch(request, mesh)
+                     : request.encoded.active() ? CheckEncodedSizes(request, mesh, instances)
+                                                : CheckFloatSizes(request, mesh, instances);
+    if (!outputs.ok()) return outputs;
+    return CheckPalettes(request, mesh, instances);
+  }
+
+  // Check() for float outputs: K instances' arrays, and what the mesh can give.
+  static Status CheckFloatSizes(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
     const std::size_t outputs = 3ull * mesh.vertex_count();
-    if (request.skin_into_scratch) return CheckScratch(request, mesh, instances);
-    if (request.encoded.active()) return CheckEncodedSizes(request, mesh, instances);
     if (request.positions.size() != outputs * instances) {
       return InvalidArgument(fmt::format(
           "positions output holds {} floats; expected 3 * vertex_count * instances = {}",
@@ -152,8 +159,17 @@ class Engine::Impl {
           fmt::format("tangents output holds {} floats; expected 4 * vertex_count * instances = {}",
                       request.tangents.size(), 4ull * mesh.vertex_count() * instances));
     }
+    return CheckOutputsAgainstMesh(!request.normals.empty(), !request.tangents.empty(), mesh);
+  }
+
+  // Each instance's palette values (its size was checked for the whole batch).
+  static Status CheckPalettes(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
+    const std::size_t per_instance = 12ull * mesh.joint_count();
     for (uint32_t i = 0; i < instances; ++i) {
-      if (Status s = InstanceFrame(request, mesh, i).Validate(mesh); !s.ok()) {
+      const std::span<const float> palette =
+          instances == 1 ? request.palette
+                         : request.palette.subspan(i * per_instance, per_instance);
+      if (Status s = ValidateFramePalette(palette, request.method, mesh.joint_count()); !s.ok()) {
         if (instances == 1) return s;
         return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
       }
@@ -207,7 +223,7 @@ class Engine::Impl {
   }
 
   // Check() for skin_into_scratch: no output arrays; the instance fits the scratch.
-  static Status CheckScratch(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
+  static Status CheckScratch(const SkinRequest& request, const Mesh& mesh) {
     if (!request.tangents.empty()) {
       return InvalidArgument(
           "skin_into_scratch: tangents are not skinned into scratch; ask for them with outputs");
@@ -217,25 +233,12 @@ class Engine::Impl {
           "skin_into_scratch: positions and normals must be empty (each instance is skinned "
           "into its compute thread's scratch)");
     }
-    if (request.scratch_normals && !mesh.has_normals()) {
-      return InvalidArgument("normals were requested but the mesh has none");
-    }
+    if (Status s = CheckOutputsAgainstMesh(request.scratch_normals, false, mesh); !s.ok()) return s;
     const std::size_t floats = ScratchFloats(request, mesh);
     if (floats > kMaxScratchFloatsPerInstance) {
       return InvalidArgument(fmt::format(
           "skin_into_scratch: an instance of {} vertices needs {} floats, over the limit of {}",
           mesh.vertex_count(), floats, kMaxScratchFloatsPerInstance));
-    }
-    for (uint32_t i = 0; i < instances; ++i) {
-      SkinFrame frame = InstanceFrame(request, mesh, i);
-      Status s = ValidatePalette(frame.palette, mesh.joint_count());
-      if (s.ok() && frame.method == SkinningMethod::kDualQuaternion) {
-        s = ValidateRigidPalette(frame.palette);
-      }
-      if (!s.ok()) {
-        if (instances == 1) return s;
-        return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
-      }
     }
     return Status::Ok();
   }
@@ -266,13 +269,11 @@ class Engine::Impl {
           "encoded output's box_scratch holds {} floats; {} instances of {} vertices need {}",
           e.box_scratch.size(), instances, mesh.vertex_count(), box_floats));
     }
-    for (uint32_t i = 0; i < instances; ++i) {
-      if (Status s = InstanceFrame(request, mesh, i).Validate(mesh); !s.ok()) {
-        if (instances == 1) return s;
-        return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
-      }
+    if (QuantizedToBox(e.encoding) && e.bounds == nullptr) {
+      return InvalidArgument(fmt::format("encoded.bounds is null; {} needs each instance's box",
+                                         VertexEncodingName(e.encoding)));
     }
-    return Status::Ok();
+    return CheckOutputsAgainstMesh(!e.normals.empty(), !e.tangents.empty(), mesh);
   }
 
   static std::size_t ScratchFloats(const SkinRequest& request, const Mesh& mesh) {
@@ -335,6 +336,7 @@ class Engine::Impl {
     job->backend_index_ = *backend_index;
     job->lease_ = std::move(entry);
     job->plan_ = {.planned = true,
+                  .instances = std::max<uint32_t>(request.instances, 1),
                   .vertex_count = mesh.vertex_count(),
                   .joint_count = mesh.joint_count(),
                   .has_normals = mesh.has_normals(),
@@ -344,6 +346,19 @@ class Engine::Impl {
                   .backend_encodings = EncodingMask(backends_[*backend_index]->info()),
                   .backend_box_scratch = backends_[*backend_index]->info().encoded_box_scratch};
     return Status::Ok();
+  }
+
+  bool Reuse(const KeptPlan& kept, SkinJob* job) {
+    if (!kept.kept()) return false;
+    std::shared_ptr<void> lease = kept.mesh_.lock();
+    if (lease == nullptr) return false;  // deleted or evicted, and no frame holds it
+    auto& entry = *static_cast<MeshStore::Entry*>(lease.get());
+    if (!entry.stored()) return false;  // deleted or evicted while a frame held it
+    entry.MarkUsed();
+    job->lease_ = std::move(lease);
+    job->plan_ = kept.plan_;
+    job->backend_index_ = kept.backend_index_;
+    return true;
   }
 
   Status Submit(SkinJob* job, void (*run)(void*, uint32_t, int), bool allow_inline = false) {
@@ -419,6 +434,11 @@ class Engine::Impl {
     auto& entry = *static_cast<MeshStore::Entry*>(job->lease_.get());
     const Mesh& mesh = *entry.mesh();
     const uint32_t instances = std::max<uint32_t>(request.instances, 1);
+    if (instances != job->plan_.instances) {  // the batch limits held for the planned size
+      return InvalidArgument(
+          fmt::format("instances = {} differs from the {} the frame was planned with", instances,
+                      job->plan_.instances));
+    }
     const BackendInfo& info = backends_[job->backend_index_]->info();
     if (Status s = CheckMorph(request, mesh, info, instances); !s.ok()) return s;
     if (Status s = CheckTangentSupport(
@@ -614,6 +634,14 @@ Status Engine::CheckBatch(uint32_t vertex_count, uint32_t instances) const {
 bool Engine::DeleteMesh(const std::string& id) { return impl_->store_.Erase(id); }
 
 Status Engine::Plan(SkinJob* job) { return impl_->Plan(job); }
+
+void Engine::Keep(const SkinJob& job, KeptPlan* kept) const {
+  kept->mesh_ = job.lease_;
+  kept->plan_ = job.plan_;
+  kept->backend_index_ = job.backend_index_;
+}
+
+bool Engine::Reuse(const KeptPlan& kept, SkinJob* job) { return impl_->Reuse(kept, job); }
 
 Status Engine::Submit(SkinJob* job) { return impl_->Submit(job, &Engine::RunPart); }
 

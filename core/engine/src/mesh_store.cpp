@@ -33,15 +33,15 @@ Status MeshStore::Insert(std::shared_ptr<const Mesh> mesh, bool* already_stored)
     return Status::Ok();
   }
   *already_stored = false;
+  if (bytes_ + bytes > budget_bytes_) PromoteUsedLocked();
   // Evict from the least recently used end, skipping pinned entries (use_count > 1: a
   // lease is out). A stale count only errs towards keeping a mesh.
   for (auto it = lru_.end(); bytes_ + bytes > budget_bytes_ && it != lru_.begin();) {
     --it;
     auto slot = slots_.find(*it);
     if (slot->second.entry.use_count() > 1) continue;
-    bytes_ -= slot->second.entry->mesh()->byte_size();
-    slots_.erase(slot);
-    it = lru_.erase(it);
+    ++it;  // RemoveLocked erases the slot's place in lru_
+    RemoveLocked(slot);
     ++evictions_;
   }
   if (bytes_ + bytes > budget_bytes_) {
@@ -68,10 +68,26 @@ bool MeshStore::Erase(const std::string& id) {
   std::lock_guard lock(mutex_);
   auto it = slots_.find(id);
   if (it == slots_.end()) return false;
+  RemoveLocked(it);
+  return true;
+}
+
+void MeshStore::RemoveLocked(std::unordered_map<std::string, Slot>::iterator it) {
+  it->second.entry->stored_.store(false, std::memory_order_release);
   bytes_ -= it->second.entry->mesh()->byte_size();
   lru_.erase(it->second.lru);
   slots_.erase(it);
-  return true;
+}
+
+void MeshStore::PromoteUsedLocked() {
+  for (auto it = lru_.begin(); it != lru_.end();) {
+    const auto next = std::next(it);
+    Entry& entry = *slots_.at(*it).entry;
+    if (entry.used_.exchange(false, std::memory_order_relaxed)) {
+      lru_.splice(lru_.begin(), lru_, it);
+    }
+    it = next;
+  }
 }
 
 std::size_t MeshStore::count() const {

@@ -2,6 +2,7 @@
 // never touches a mesh a frame is using, and each backend's prepared copy of each mesh.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <list>
 #include <memory>
@@ -24,13 +25,24 @@ class MeshStore {
     Entry(std::shared_ptr<const Mesh> mesh, std::size_t backend_count)
         : mesh_(std::move(mesh)), prepared_(backend_count) {}
     const std::shared_ptr<const Mesh>& mesh() const { return mesh_; }
+    // False once the mesh was deleted or evicted: a kept plan (Engine::Reuse) that still
+    // holds the entry must not skin it any more.
+    bool stored() const { return stored_.load(std::memory_order_acquire); }
+    // A kept plan used the entry without Acquire: it counts as recently used at the next
+    // eviction (a second chance, instead of a move in the LRU list under the store's lock).
+    void MarkUsed() {
+      if (!used_.load(std::memory_order_relaxed)) used_.store(true, std::memory_order_relaxed);
+    }
     // The backend's resident copy, prepared once (later callers wait for the first);
     // `*built` is set when this call prepared it.
     Result<const PreparedMesh*> Prepared(std::size_t backend_index, Backend& backend,
                                          bool* built = nullptr);
 
    private:
+    friend class MeshStore;
     std::shared_ptr<const Mesh> mesh_;
+    std::atomic<bool> stored_{true};
+    std::atomic<bool> used_{false};
     std::mutex prepare_mutex_;
     std::vector<std::unique_ptr<PreparedMesh>> prepared_;
   };
@@ -63,6 +75,12 @@ class MeshStore {
   const uint64_t budget_bytes_;
   const std::size_t backend_count_;
   mutable std::mutex mutex_;
+  // Moves the entries kept plans used since the last eviction (Entry::MarkUsed) to the
+  // most recent end. Under mutex_.
+  void PromoteUsedLocked();
+  // Forgets slot `it` (erased or evicted). Under mutex_.
+  void RemoveLocked(std::unordered_map<std::string, Slot>::iterator it);
+
   std::unordered_map<std::string, Slot> slots_;
   std::list<std::string> lru_;
   uint64_t bytes_ = 0;

@@ -37,12 +37,32 @@ Status CheckTangentSupport(const BackendInfo& info, bool tangents_requested) {
       info.id));
 }
 
-Status SkinFrame::Validate(const Mesh& mesh) const {
-  if (Status s = ValidatePalette(palette, mesh.joint_count()); !s.ok()) return s;
-  if (method == SkinningMethod::kDualQuaternion) {
-    if (Status s = ValidateRigidPalette(palette); !s.ok()) return s;
+Status ValidateFramePalette(std::span<const float> palette, SkinningMethod method,
+                            uint32_t joint_count) {
+  if (Status s = ValidatePalette(palette, joint_count); !s.ok()) return s;
+  if (method == SkinningMethod::kDualQuaternion) return ValidateRigidPalette(palette);
+  return Status::Ok();
+}
+
+Status CheckOutputsAgainstMesh(bool normals, bool tangents, const Mesh& mesh) {
+  if (normals && !mesh.has_normals()) {
+    return InvalidArgument("normals were requested but the mesh has none");
   }
+  if (tangents && !mesh.has_tangents()) {
+    return InvalidArgument("tangents were requested but the mesh has none");
+  }
+  if (tangents && !normals) {
+    return InvalidArgument("tangents were requested without normals; ask for normals too");
+  }
+  return Status::Ok();
+}
+
+Status SkinFrame::Validate(const Mesh& mesh) const {
+  if (Status s = ValidateFramePalette(palette, method, mesh.joint_count()); !s.ok()) return s;
   if (Status s = ValidateMorphWeights(morph_weights, mesh.morph_target_count()); !s.ok()) return s;
+  if (Status s = CheckOutputsAgainstMesh(wants_normals(), wants_tangents(), mesh); !s.ok()) {
+    return s;
+  }
   if (encoded.active()) return ValidateEncoded(mesh);
   const std::size_t expected = 3ull * mesh.vertex_count();
   if (positions.size() != expected) {
@@ -50,28 +70,15 @@ Status SkinFrame::Validate(const Mesh& mesh) const {
         fmt::format("positions output holds {} floats; expected 3 * vertex_count = {}",
                     positions.size(), expected));
   }
-  if (!normals.empty()) {
-    if (!mesh.has_normals()) {
-      return InvalidArgument("normals were requested but the mesh has none");
-    }
-    if (normals.size() != expected) {
-      return InvalidArgument(
-          fmt::format("normals output holds {} floats; expected 3 * vertex_count = {}",
-                      normals.size(), expected));
-    }
+  if (!normals.empty() && normals.size() != expected) {
+    return InvalidArgument(
+        fmt::format("normals output holds {} floats; expected 3 * vertex_count = {}",
+                    normals.size(), expected));
   }
-  if (!tangents.empty()) {
-    if (!mesh.has_tangents()) {
-      return InvalidArgument("tangents were requested but the mesh has none");
-    }
-    if (normals.empty()) {
-      return InvalidArgument("tangents were requested without normals; ask for normals too");
-    }
-    if (tangents.size() != 4ull * mesh.vertex_count()) {
-      return InvalidArgument(
-          fmt::format("tangents output holds {} floats; expected 4 * vertex_count = {}",
-                      tangents.size(), 4ull * mesh.vertex_count()));
-    }
+  if (!tangents.empty() && tangents.size() != 4ull * mesh.vertex_count()) {
+    return InvalidArgument(
+        fmt::format("tangents output holds {} floats; expected 4 * vertex_count = {}",
+                    tangents.size(), 4ull * mesh.vertex_count()));
   }
   return Status::Ok();
 }
@@ -92,25 +99,15 @@ Status SkinFrame::ValidateEncoded(const Mesh& mesh) const {
     return InvalidArgument(fmt::format("encoded positions hold {} bytes; expected {} ({} vertices)",
                                        encoded.positions.size(), expected, v));
   }
-  if (!encoded.normals.empty()) {
-    if (!mesh.has_normals()) return InvalidArgument("normals were requested but the mesh has none");
-    if (encoded.normals.size() != expected) {
-      return InvalidArgument(fmt::format("encoded normals hold {} bytes; expected {}",
-                                         encoded.normals.size(), expected));
-    }
+  if (!encoded.normals.empty() && encoded.normals.size() != expected) {
+    return InvalidArgument(fmt::format("encoded normals hold {} bytes; expected {}",
+                                       encoded.normals.size(), expected));
   }
-  if (!encoded.tangents.empty()) {
-    if (!mesh.has_tangents()) {
-      return InvalidArgument("tangents were requested but the mesh has none");
-    }
-    if (encoded.normals.empty()) {
-      return InvalidArgument("tangents were requested without normals; ask for normals too");
-    }
-    if (encoded.tangents.size() != EncodedTangentBytes(encoded.encoding, v)) {
-      return InvalidArgument(fmt::format("encoded tangents hold {} bytes; expected {}",
-                                         encoded.tangents.size(),
-                                         EncodedTangentBytes(encoded.encoding, v)));
-    }
+  if (!encoded.tangents.empty() &&
+      encoded.tangents.size() != EncodedTangentBytes(encoded.encoding, v)) {
+    return InvalidArgument(fmt::format("encoded tangents hold {} bytes; expected {}",
+                                       encoded.tangents.size(),
+                                       EncodedTangentBytes(encoded.encoding, v)));
   }
   if (QuantizedToBox(encoded.encoding) && encoded.bounds == nullptr) {
     return InvalidArgument(fmt::format("encoded.bounds is null; {} needs the instance's box",

@@ -173,10 +173,6 @@ Status MorphWeightsFromWire(const v1::SkinRequest& request, std::vector<MorphWei
         fmt::format("morph_targets holds {} entries but morph_weights {}; they pair up one to one",
                     targets, weights));
   }
-  if (static_cast<uint32_t>(targets) > kMaxMorphTargets) {
-    return InvalidArgument(fmt::format(
-        "morph_targets holds {} entries; at most {} (one per target)", targets, kMaxMorphTargets));
-  }
   out->resize(static_cast<std::size_t>(targets));
   for (int i = 0; i < targets; ++i) {
     (*out)[i] = {request.morph_targets(i), request.morph_weights(i)};
@@ -189,18 +185,6 @@ Status InstanceMorphWeightsFromWire(const v1::SkinRequest& request, std::vector<
   instances->clear();
   const int entries = request.instance_morph_weights_size();
   if (entries == 0) return Status::Ok();
-  const uint32_t expected = std::max<uint32_t>(request.instances(), 1);
-  if (expected < 2 || static_cast<uint32_t>(entries) != expected) {
-    return InvalidArgument(fmt::format(
-        "instance_morph_weights holds {} entries; a crowd batch needs exactly one per instance "
-        "(instances = {}, at least 2)",
-        entries, request.instances()));
-  }
-  if (request.morph_targets_size() > 0 || request.morph_weights_size() > 0) {
-    return InvalidArgument(
-        "instance_morph_weights and morph_targets/morph_weights are both set; send the "
-        "weights either per instance or for the whole frame");
-  }
   std::size_t total = 0;
   for (int k = 0; k < entries; ++k) {
     const v1::MorphWeights& w = request.instance_morph_weights(k);
@@ -209,12 +193,6 @@ Status InstanceMorphWeightsFromWire(const v1::SkinRequest& request, std::vector<
           "instance_morph_weights[{}]: targets holds {} entries but weights {}; they pair up one "
           "to one",
           k, w.targets_size(), w.weights_size()));
-    }
-    if (static_cast<uint32_t>(w.targets_size()) > kMaxMorphTargets) {
-      return InvalidArgument(
-          fmt::format("instance_morph_weights[{}]: targets holds {} entries; at most {} (one per "
-                      "target)",
-                      k, w.targets_size(), kMaxMorphTargets));
     }
     total += static_cast<std::size_t>(w.targets_size());
   }

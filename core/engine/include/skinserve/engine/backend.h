@@ -129,6 +129,16 @@ struct SkinFrame {
   Status ValidateEncoded(const Mesh& mesh) const;
 };
 
+// One instance's palette for `method`: ValidatePalette, and for dual quaternions
+// ValidateRigidPalette. The one place both SkinFrame::Validate and the engine's checks
+// (Engine::Submit) look at palette values.
+Status ValidateFramePalette(std::span<const float> palette, SkinningMethod method,
+                            uint32_t joint_count);
+// The outputs a mesh can give: normals need the mesh's normals; tangents need the mesh's
+// tangents and normals asked for too. INVALID_ARGUMENT saying which. Used by
+// SkinFrame::Validate and by the engine's checks of a whole batch.
+Status CheckOutputsAgainstMesh(bool normals, bool tangents, const Mesh& mesh);
+
 // OK unless `weights` has a non-zero weight and the backend does not apply morph targets:
 // then FAILED_PRECONDITION naming the backend and those that do. Backends without morph
 // targets call it first in Skin(), so a frame's morphs are never dropped silently.

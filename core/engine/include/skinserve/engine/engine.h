@@ -114,6 +114,7 @@ using SkinDone = std::function<void(Status, FrameTiming)>;
 // stays stored (pinned), until the frame is done or the plan is dropped.
 struct FramePlan {
   bool planned = false;
+  uint32_t instances = 1;  // the batch Plan checked (SkinRequest::instances, 0 read as 1)
   uint32_t vertex_count = 0;
   uint32_t joint_count = 0;
   bool has_normals = false;
@@ -135,6 +136,27 @@ inline uint32_t EncodingMask(const BackendInfo& info) {
   for (VertexEncoding e : info.encoded_outputs) mask |= 1u << static_cast<unsigned>(e);
   return mask;
 }
+
+// A plan its caller keeps across frames (a stream's: server/frames/stream_plan.h): what
+// Engine::Plan checked and found for one mesh, backend, method and batch size, with the
+// mesh held weakly, so that a quiet stream never holds up deleting or evicting it.
+// Engine::Keep fills it from a planned job; Engine::Reuse hands it to the next job with no
+// lookup and no lock.
+class KeptPlan {
+ public:
+  bool kept() const { return plan_.planned; }
+  const FramePlan& plan() const { return plan_; }
+  void Reset() {
+    mesh_.reset();
+    plan_ = {};
+  }
+
+ private:
+  friend class Engine;
+  std::weak_ptr<void> mesh_;  // the mesh store's entry
+  FramePlan plan_;
+  std::size_t backend_index_ = 0;
+};
 
 // A frame the caller owns and reuses frame after frame, so that the steady-state path
 // allocates nothing: fill `request`, Engine::Submit(job); OnInstanceSkinned runs once per
@@ -262,6 +284,14 @@ class Engine {
   // job->plan(). A caller that plans looks the mesh up once: Submit uses the plan.
   // Allocates nothing.
   Status Plan(SkinJob* job);
+  // Keeps the plan of `job` (planned: Plan returned OK, not yet submitted) in `kept`.
+  void Keep(const SkinJob& job, KeptPlan* kept) const;
+  // Plans `job` from `kept` as Plan would have, without looking anything up: pins the
+  // kept mesh unless it was deleted or evicted since (then false, the job unplanned, and
+  // Plan(job) finds out afresh). The caller sees to it that job->request's mesh_id,
+  // backend, method and instances are those `kept` was planned with (Submit refuses a
+  // batch size that differs).
+  bool Reuse(const KeptPlan& kept, SkinJob* job);
   // Plans the job unless it was planned, checks the rest of the request (palette and
   // output sizes, for dual-quaternion a joint that is not rigid, morph weights:
   // INVALID_ARGUMENT naming the instance or the field; morph weights for a backend without

@@ -45,16 +45,17 @@ v1::Encoding ToWire(VertexEncoding encoding);
 
 // A frame's sparse morph weights (SkinRequest.morph_targets and .morph_weights), into
 // `out` (its capacity reused). INVALID_ARGUMENT naming the fields when their lengths
-// differ or exceed kMaxMorphTargets (checked before anything is copied); the values are
-// the engine's to check (ValidateMorphWeights).
+// differ (the one rule of the wire's own); how many there may be is the request reader's
+// to check before the parse (skin_request_reader.h), the values the engine's
+// (ValidateMorphWeights).
 Status MorphWeightsFromWire(const v1::SkinRequest& request, std::vector<MorphWeight>* out);
 // Sets the request's morph fields to `weights` (all of them: zeros are sent as given).
 void MorphWeightsToWire(std::span<const MorphWeight> weights, v1::SkinRequest* request);
 // A crowd's per-instance weights (SkinRequest.instance_morph_weights): all instances' entries
 // back to back in `flat` (its capacity reused) and one view per instance in `instances`;
-// both empty when the field is. INVALID_ARGUMENT naming the field when the entry count is
-// not `instances` (at least 2), when morph_targets/morph_weights are set too, or when an
-// entry's lengths differ or exceed kMaxMorphTargets; the values are the engine's to check.
+// both empty when the field is. INVALID_ARGUMENT naming the entry when its lengths differ;
+// the entry count against the batch, the field set together with morph_weights and the
+// values are the engine's to check (Engine::Submit), the lengths' limits the reader's.
 Status InstanceMorphWeightsFromWire(const v1::SkinRequest& request, std::vector<MorphWeight>* flat,
                                     std::vector<std::span<const MorphWeight>>* instances);
 // Sets SkinRequest.instance_morph_weights to one entry per element of `instances`.
