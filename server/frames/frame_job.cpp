@@ -167,13 +167,21 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
   } else if (!float32 && !scratch && !device_encoded_) {
     floats_kept = (arrays * values + tangent_values) * sizeof(float);
   }
-  const uint64_t need = wire.palette().size() + floats_kept + std::max(wire_used_, wire_.size());
+  const uint64_t palette_bytes =
+      wire.has_pose() ? 12ull * sizeof(float) * plan().joint_count : wire.palette().size();
+  const uint64_t need = palette_bytes + floats_kept + std::max(wire_used_, wire_.size());
   if (need > charged_) {
     if (Status s = budget_->TryCharge(need - charged_); !s.ok()) return s;
     charged_ = need;
   }
 
-  if (Status s = DecodeFloats(wire.palette(), "palette", &palette_); !s.ok()) return s;
+  // A pose (SkinRequest.pose) becomes the palette here (frames/pose_request.h).
+  if (Status s = wire.has_pose()
+                     ? pose_.Evaluate(wire, engine.animations(), plan().joint_count, &palette_)
+                     : DecodeFloats(wire.palette(), "palette", &palette_);
+      !s.ok()) {
+    return s;
+  }
   request.palette = palette_;
   encode_ns_.store(0);
   if (headers_.size() < part_count_) headers_.resize(part_count_);

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "frames/inflight_budget.h"
+#include "frames/pose_request.h"
 #include "observability/metrics_frames.h"
 #include "rpc/stream_answer.h"
 #include "shm/mapped_region.h"
@@ -145,6 +146,7 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   bool device_encoded_ = false;  // the backend writes the encoding (BackendInfo.encoded_outputs)
   bool box_scratch_ = false;     // ...snorm16 on the host: positions_ is its box_scratch
   std::vector<float> palette_;
+  PoseEvaluator pose_;              // turns SkinRequest.pose into palette_
   std::vector<MorphWeight> morph_;  // the frame's morph weights, capacity reused
   // A crowd's per-instance morph weights, back to back, and one view per instance.
   std::vector<MorphWeight> instance_morph_;
