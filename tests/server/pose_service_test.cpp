@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "pose_reference.h"
+#include "skinserve/client/tick.h"
 #include "skinserve/model/palette.h"
 #include "skinserve/reference/synthetic.h"
 #include "skinserve/wire/animation_conversions.h"
@@ -200,26 +201,15 @@ struct Rig {
   std::string skeleton_id, clip_id, mesh_id;
 };
 
+// Through the client library (SkinClient::UploadSkeleton, UploadClip).
 Status UploadRig(client::SkinClient& client, const PoseCase& c, std::string* skeleton_id,
                  std::string* clip_id) {
-  v1::UploadSkeletonRequest skeleton;
-  wire::SkeletonToWire(c.skeleton, &skeleton);
-  grpc::ClientContext sk_context;
-  v1::SkeletonInfo sk_info;
-  if (Status s = wire::FromGrpc(client.stub().UploadSkeleton(&sk_context, skeleton, &sk_info));
-      !s.ok()) {
-    return s;
-  }
-  *skeleton_id = sk_info.skeleton_id();
-  v1::UploadClipRequest clip;
-  wire::ClipToWire(c.raw, *skeleton_id, &clip);
-  grpc::ClientContext clip_context;
-  v1::ClipInfo clip_info;
-  if (Status s = wire::FromGrpc(client.stub().UploadClip(&clip_context, clip, &clip_info));
-      !s.ok()) {
-    return s;
-  }
-  *clip_id = clip_info.clip_id();
+  auto skeleton = client.UploadSkeleton(c.skeleton);
+  if (!skeleton.ok()) return skeleton.status();
+  *skeleton_id = skeleton->skeleton_id();
+  auto clip = client.UploadClip(c.raw, *skeleton_id);
+  if (!clip.ok()) return clip.status();
+  *clip_id = clip->clip_id();
   return Status::Ok();
 }
 
@@ -280,7 +270,7 @@ TEST(PoseServiceTest, StreamedPosesMatchTheReferenceOnEveryBackend) {
     grpc::ClientContext context;
     auto stream = t.client->stub().StreamSkin(&context);
     const std::vector<Layer> layers = {{.time = 0.4, .weight = 1},
-                                       {.time = 1.3123, .weight = 1, .loop = true}};
+                                       {.time = 2.3123, .weight = 3, .loop = true}};
     for (uint64_t f = 0; f < 3; ++f) {
       std::vector<Layer> at = layers;
       for (Layer& l : at) l.time += 0.1 * static_cast<double>(f);
@@ -340,6 +330,52 @@ TEST(PoseServiceTest, ATickMixesPoseAndPaletteCharacters) {
   EXPECT_NE(a.headers[3].error().message().find("character 3: pose.layers[0].weight = -1"),
             std::string::npos)
       << a.headers[3].error().message();
+}
+
+// The same through the client library: Tick::AddPose beside Tick::Add, SkinTick, and
+// SkinClient::SkinPose for one frame.
+TEST(PoseServiceTest, TheClientLibrarySendsPoses) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  const std::vector<client::PoseLayer> walk = {{.clip_id = rig.clip_id, .time = 0.9f}};
+  const std::vector<client::PoseLayer> blend = {
+      {.clip_id = rig.clip_id, .time = 0.2f, .weight = 1},
+      {.clip_id = rig.clip_id, .time = 2.7123f, .weight = 3, .loop = true}};
+  const std::vector<float> palette = MakeSyntheticPalette(kJoints, 4, 2);
+  client::Tick tick;
+  tick.set_frame(3);
+  tick.AddPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = walk});
+  tick.Add(rig.mesh_id, palette);
+  tick.AddPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = blend});
+  client::TickResult result;
+  ASSERT_TRUE(t.client->SkinTick(tick, &result).ok()) << result.status.ToString();
+  ASSERT_EQ(result.characters.size(), 3u);
+  for (const auto& r : result.characters) ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+  ExpectPositionsNear(rig.mesh, result.characters[0].positions,
+                      RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, {{.time = 0.9}})),
+                      "client tick pose");
+  const std::vector<double> palette64(palette.begin(), palette.end());
+  ExpectPositionsNear(rig.mesh, result.characters[1].positions,
+                      RefSkinPositions(rig.mesh, palette64), "client tick palette");
+  const std::vector<Layer> blend_ref = {{.time = 0.2, .weight = 1},
+                                        {.time = 2.7123, .weight = 3, .loop = true}};
+  ExpectPositionsNear(rig.mesh, result.characters[2].positions,
+                      RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, blend_ref)),
+                      "client tick blend");
+  client::FrameResult frame;
+  ASSERT_TRUE(t.client
+                  ->SkinPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = blend}, 5,
+                             {.backend = "sse"}, &frame)
+                  .ok())
+      << frame.status.ToString();
+  ExpectPositionsNear(rig.mesh, frame.positions,
+                      RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, blend_ref)),
+                      "client SkinPose");
+  auto deleted = t.client->DeleteClip(rig.clip_id);
+  ASSERT_TRUE(deleted.ok() && *deleted);
+  const Status gone = t.client->SkinPose(
+      rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = walk}, 6, {}, &frame);
+  EXPECT_EQ(gone.code(), StatusCode::kNotFound) << gone.ToString();
 }
 
 // The status of a one-frame pose request after `edit`.
