@@ -26,8 +26,10 @@ asyncio (AsyncClient), with the same methods.
 
     # Animation on the server: a skeleton and clips once, then poses instead of palettes.
     skeleton_id = client.upload_skeleton(parents, rest, palette_joints, inverse_bind)
-    clip_id = client.upload_clip(skeleton_id, [skinserve.ClipTrack("rotation", 1, times, quats)]).clip_id
-    vertices = client.skin_pose(mesh_id, skinserve.Pose(skeleton_id, [skinserve.PoseLayer(clip_id, 0.5)]))
+    track = skinserve.ClipTrack("rotation", 1, times, quats)   # joint 1's keys, x y z w
+    clip_id = client.upload_clip(skeleton_id, [track]).clip_id
+    pose = skinserve.Pose(skeleton_id, [skinserve.PoseLayer(clip_id, 0.5)])
+    vertices = client.skin_pose(mesh_id, pose)                 # the server's palette
 
     async with skinserve.AsyncClient("127.0.0.1:50051") as client:
         vertices = await client.skin(mesh_id, palette)
