@@ -1,8 +1,8 @@
 # `cmake --install build --prefix P`: the programs in P/bin, and the C++ client library as a
 # package another project finds with find_package(skinserve CONFIG) (target
 # skinserve::client) or pkg-config (skinserve-client): its headers, the headers they include
-# (the wire codec, the data model, the encodings, the generated protobuf/gRPC code) and the
-# static libraries it links (docs/client-library.md).
+# (the wire codec, the data model, the encodings, the animation runtime's types, the
+# generated protobuf/gRPC code) and the static libraries it links (docs/client-library.md).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
@@ -10,7 +10,7 @@ install(TARGETS skinserve skinserve-cli skinserve-load RUNTIME DESTINATION ${CMA
 
 # The client and the libraries of ours it links, exported as skinserve::<name>.
 set(SKINSERVE_CLIENT_LIBRARIES skinserve_client skinserve_wire skinserve_proto
-                               skinserve_encoding skinserve_model)
+                               skinserve_encoding skinserve_animation skinserve_model)
 foreach(library IN LISTS SKINSERVE_CLIENT_LIBRARIES)
   string(REPLACE "skinserve_" "" export_name ${library})
   set_target_properties(${library} PROPERTIES EXPORT_NAME ${export_name})
@@ -18,7 +18,8 @@ endforeach()
 install(TARGETS ${SKINSERVE_CLIENT_LIBRARIES} EXPORT skinserveTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
-foreach(headers client/include proto/wire/include core/model/include core/encoding/include)
+foreach(headers client/include proto/wire/include core/model/include core/encoding/include
+                core/animation/include)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${headers}/skinserve
           DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} FILES_MATCHING PATTERN "*.h")
 endforeach()

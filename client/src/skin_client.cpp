@@ -565,6 +565,12 @@ Result<v1::ListRegionsResponse> SkinClient::ListRegions() {
   return response;
 }
 
+Status SkinClient::SkinPose(const std::string& mesh_id, const Pose& pose, uint64_t frame,
+                            SkinOptions options, FrameResult* result) {
+  options.pose = pose;
+  return Skin(mesh_id, {}, frame, options, result);
+}
+
 Status SkinClient::Skin(const std::string& mesh_id, const std::string& backend,
                         std::span<const float> palette, uint64_t frame, bool want_normals,
                         FrameResult* result, SkinningMethod method) {
@@ -592,6 +598,7 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   request.set_early_parts(options.early_parts);
   wire::MorphWeightsToWire(options.morph_weights, &request);
   wire::InstanceMorphWeightsToWire(options.instance_morph_weights, &request);
+  PoseToWire(options.pose, &request);
   if (options.output.enabled()) {
     request.mutable_output()->set_region(options.output.name);
     request.mutable_output()->set_offset(options.output.offset);

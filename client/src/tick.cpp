@@ -34,6 +34,7 @@ void CharacterToWire(const TickCharacter& c, uint64_t slot_offset, v1::SkinReque
   request->set_early_parts(o.early_parts);
   wire::MorphWeightsToWire(o.morph_weights, request);
   wire::InstanceMorphWeightsToWire(o.instance_morph_weights, request);
+  PoseToWire(o.pose, request);
   if (o.output.enabled()) {
     request->mutable_output()->set_region(o.output.name);
     request->mutable_output()->set_offset(o.output.offset + slot_offset);
@@ -50,6 +51,11 @@ std::size_t Tick::Add(const std::string& mesh_id, std::span<const float> palette
   c.palette = palette;
   c.options = options;
   return size_++;
+}
+
+std::size_t Tick::AddPose(const std::string& mesh_id, const Pose& pose, SkinOptions options) {
+  options.pose = pose;
+  return Add(mesh_id, {}, options);
 }
 
 void Tick::ToWire(v1::SkinRequest* request, uint64_t slot_offset) const {

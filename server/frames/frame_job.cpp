@@ -73,8 +73,11 @@ Status FrameJob::Prepare(v1::SkinRequest& wire, Engine& engine, const std::strin
   if (region_part_) {
     if (Status s = PinRegion(wire.output(), regions, plan->region()); !s.ok()) return s;
   }
-  if (Status s = ChargeBuffers(wire.palette().size()); !s.ok()) return s;
-  if (Status s = TakeInputs(wire); !s.ok()) return s;
+  // A pose (SkinRequest.pose) is turned into a palette of the mesh's joints here.
+  const uint64_t palette_bytes =
+      wire.has_pose() ? 12ull * sizeof(float) * this->plan().joint_count : wire.palette().size();
+  if (Status s = ChargeBuffers(palette_bytes); !s.ok()) return s;
+  if (Status s = TakeInputs(wire, engine); !s.ok()) return s;
   SetOutputs();
   return Status::Ok();
 }
@@ -122,7 +125,7 @@ Status FrameJob::ChargeBuffers(std::size_t palette_bytes) {
   return Status::Ok();
 }
 
-Status FrameJob::TakeInputs(v1::SkinRequest& wire) {
+Status FrameJob::TakeInputs(v1::SkinRequest& wire, Engine& engine) {
   if (Status s = MorphWeightsFromWire(wire, &morph_); !s.ok()) return s;
   request.morph_weights = morph_;  // checked against the mesh by the engine
   if (Status s = InstanceMorphWeightsFromWire(wire, &instance_morph_, &instance_morph_views_);
@@ -130,6 +133,14 @@ Status FrameJob::TakeInputs(v1::SkinRequest& wire) {
     return s;
   }
   request.instance_morph_weights = instance_morph_views_;
+  if (wire.has_pose()) {  // sampled, blended and posed here (frames/pose_request.h)
+    if (Status s = pose_.Evaluate(wire, engine.animations(), plan().joint_count, &palette_);
+        !s.ok()) {
+      return s;
+    }
+    request.palette = palette_;
+    return Status::Ok();
+  }
   // The palette's bytes change hands: the job takes the request's string (parsed from the
   // wire, the one copy) and gives its last one back for the next parse to fill, so the
   // engine reads the floats where the parse put them.

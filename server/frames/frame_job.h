@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "frames/inflight_budget.h"
+#include "frames/pose_request.h"
 #include "frames/stream_plan.h"
 #include "observability/metrics_frames.h"
 #include "rpc/stream_answer.h"
@@ -123,7 +124,7 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   // Charges what the frame holds to the in-flight budget and grows the buffers.
   Status ChargeBuffers(std::size_t palette_bytes);
   // The morph weights and the palette, into the engine's request.
-  Status TakeInputs(v1::SkinRequest& wire);
+  Status TakeInputs(v1::SkinRequest& wire, Engine& engine);
   // The engine's outputs: the wire buffer, the region, the job's floats or scratch.
   void SetOutputs();
   // The frame's output: the wire buffer, or the region's bytes.
@@ -160,6 +161,7 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   // request's string every frame; palette_ only if they were ever misaligned for floats.
   std::string palette_bytes_;
   std::vector<float> palette_;
+  PoseEvaluator pose_;              // turns SkinRequest.pose into palette_
   std::vector<MorphWeight> morph_;  // the frame's morph weights, capacity reused
   // A crowd's per-instance morph weights, back to back, and one view per instance.
   std::vector<MorphWeight> instance_morph_;

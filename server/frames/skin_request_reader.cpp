@@ -18,6 +18,11 @@ constexpr int kMorphTargetsField = 12;
 constexpr int kMorphWeightsField = 13;
 constexpr int kInstanceMorphWeightsField = 14;
 constexpr int kCharactersField = 16;
+constexpr int kPoseField = 17;
+// Pose's layers, and how many a pose may hold (animation::kMaxBlendLayers; PoseEvaluator
+// names the same limit).
+constexpr int kPoseLayersField = 2;
+constexpr uint64_t kMaxPoseLayers = 8;
 // MorphWeights' fields.
 constexpr int kTargetsField = 1;
 constexpr int kWeightsField = 2;
@@ -26,6 +31,10 @@ constexpr int kWeightsField = 2;
 // bound its 4-byte elements. A message entry costs its object and its pointer.
 constexpr uint64_t kBytesPerRepeatedValue = 8;
 constexpr uint64_t kBytesPerMessageEntry = sizeof(v1::MorphWeights) + 2 * sizeof(void*);
+// A pose's layer: its object, its pointer and its clip id's string object; the pose itself.
+constexpr uint64_t kBytesPerPoseLayer =
+    sizeof(v1::PoseLayer) + sizeof(std::string) + 2 * sizeof(void*);
+constexpr uint64_t kBytesPerPose = sizeof(v1::Pose) + sizeof(std::string);
 // The request's own objects: the message, its output region and the string objects of
 // its four string fields (their bytes count in the wire size).
 constexpr uint64_t kBytesPerRequest =
@@ -112,7 +121,30 @@ struct Counts {
   uint64_t values = 0;      // repeated scalar values
   uint64_t entries = 0;     // MorphWeights entries
   uint64_t characters = 0;  // nested SkinRequests, at every depth
+  uint64_t poses = 0;       // Pose messages and their layers
+  uint64_t pose_layers = 0;
 };
+
+// A Pose (SkinRequest.pose): its layers counted against kMaxPoseLayers.
+Status ScanPose(CodedInputStream* in, const Where& where, SkinRequestScan* scan, Counts* counts) {
+  uint32_t length = 0;
+  if (!in->ReadVarint32(&length)) return Malformed(scan);
+  const CodedInputStream::Limit limit = in->PushLimit(static_cast<int>(length));
+  uint64_t layers = 0;
+  while (uint32_t tag = in->ReadTag()) {
+    if (WireFormatLite::GetTagFieldNumber(tag) == kPoseLayersField && ++layers > kMaxPoseLayers) {
+      return InvalidArgument(fmt::format("{} has more than {} entries; at most {} are blended",
+                                         where.Name("pose.layers"), kMaxPoseLayers,
+                                         kMaxPoseLayers));
+    }
+    if (!WireFormatLite::SkipField(in, tag)) return Malformed(scan);
+  }
+  if (!in->ConsumedEntireMessage()) return Malformed(scan);
+  in->PopLimit(limit);
+  counts->poses += 1;
+  counts->pose_layers += layers;
+  return Status::Ok();
+}
 
 Status ScanFields(CodedInputStream* in, const SkinRequestLimits& limits, const Where& where,
                   SkinRequestScan* scan, Counts* counts);
@@ -174,6 +206,8 @@ Status ScanFields(CodedInputStream* in, const SkinRequestLimits& limits, const W
       const Where inner = top ? Where{.character = static_cast<int64_t>(characters++)}
                               : Where{where.character, static_cast<int64_t>(characters++)};
       if (Status s = ScanCharacter(in, limits, inner, scan, counts); !s.ok()) return s;
+    } else if (field == kPoseField && delimited) {
+      if (Status s = ScanPose(in, where, scan, counts); !s.ok()) return s;
     } else {
       ok = WireFormatLite::SkipField(in, tag);
     }
@@ -215,7 +249,8 @@ Status ScanSkinRequest(grpc::ByteBuffer* bytes, const SkinRequestLimits& limits,
   }
   scan->parsed_bytes = kBytesPerRequest * (1 + counts.characters) + size +
                        kBytesPerRepeatedValue * counts.values +
-                       kBytesPerMessageEntry * (counts.entries + counts.characters);
+                       kBytesPerMessageEntry * (counts.entries + counts.characters) +
+                       kBytesPerPose * counts.poses + kBytesPerPoseLayer * counts.pose_layers;
   return Status::Ok();
 }
 

@@ -92,6 +92,13 @@ MemoryEnvelope ServerOptions::Envelope() const {
                             .copies = 2,
                             .share = 0.20,
                             .why = "the arrays, and the mesh built while they are held"});
+  envelope.terms.push_back(
+      {.what = "skeletons and clips",
+       .flag = "--clip-budget-mb",
+       .budget_bytes = clip_budget_mb << 20,
+       .copies = 1,
+       .share = 0.05,
+       .why = "their compact bytes; the store's maps a few hundred bytes each"});
   if (!shm_dir.empty()) {
     envelope.terms.push_back({.what = "shared-memory regions",
                               .flag = "--shm-budget-mb",
@@ -173,6 +180,7 @@ EngineOptions ServerOptions::ToEngineOptions() const {
   engine.compute_threads = ComputeThreads();
   engine.queue_capacity = queue;
   engine.mesh_budget_bytes = Envelope().term("--mesh-budget-mb").budget_bytes;
+  engine.clip_budget_bytes = Envelope().term("--clip-budget-mb").budget_bytes;
   engine.mesh.limits.max_vertices = max_vertices;
   engine.mesh.limits.max_joints = max_joints;
   engine.enabled_backends = backends;
@@ -216,6 +224,13 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "memory for stored meshes, MiB; least recently used meshes are evicted beyond "
                  "(0: its share of the memory envelope, see --memory-envelope)")
       ->envname("SKINSERVE_MESH_BUDGET_MB")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--clip-budget-mb", o.clip_budget_mb,
+                 "memory for uploaded skeletons and compact clips (SkinRequest.pose), MiB; "
+                 "uploads beyond it are refused with RESOURCE_EXHAUSTED (0: its share of the "
+                 "memory envelope)")
+      ->envname("SKINSERVE_CLIP_BUDGET_MB")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--max-vertices", o.max_vertices, "largest vertex count a mesh may have")

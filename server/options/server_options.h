@@ -22,6 +22,8 @@ struct ServerOptions {
   std::vector<std::string> backends;  // empty: all
   std::string default_backend = "sse-openmp";
   uint64_t mesh_budget_mb = 0;  // 0: its share of the memory envelope
+  // Skeletons and compact clips (UploadSkeleton, UploadClip); uploads beyond are refused.
+  uint64_t clip_budget_mb = 64;  // 0: its share of the memory envelope
   uint32_t max_vertices = 4'000'000;
   uint32_t max_joints = 1024;
   std::size_t queue = 256;

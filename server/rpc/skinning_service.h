@@ -26,7 +26,10 @@ using SkinningCallbackService = v1::Skinning::WithCallbackMethod_UploadMesh<
                     v1::Skinning::WithCallbackMethod_RegisterRegion<
                         v1::Skinning::WithCallbackMethod_UnregisterRegion<
                             v1::Skinning::WithCallbackMethod_ListRegions<
-                                v1::Skinning::Service>>>>>>>>>>;
+                                v1::Skinning::WithCallbackMethod_UploadSkeleton<
+                                    v1::Skinning::WithCallbackMethod_UploadClip<
+                                        v1::Skinning::WithCallbackMethod_DeleteClip<
+                                            v1::Skinning::Service>>>>>>>>>>>>>;
 
 class SkinningService final : public SkinningCallbackService {
  public:
@@ -87,6 +90,16 @@ class SkinningService final : public SkinningCallbackService {
   grpc::ServerUnaryReactor* ListRegions(grpc::CallbackServerContext* context,
                                         const v1::ListRegionsRequest* request,
                                         v1::ListRegionsResponse* response) override;
+  // The animation RPCs (rpc/animation_uploads.cpp): the engine's AnimationStore.
+  grpc::ServerUnaryReactor* UploadSkeleton(grpc::CallbackServerContext* context,
+                                           const v1::UploadSkeletonRequest* request,
+                                           v1::SkeletonInfo* response) override;
+  grpc::ServerUnaryReactor* UploadClip(grpc::CallbackServerContext* context,
+                                       const v1::UploadClipRequest* request,
+                                       v1::ClipInfo* response) override;
+  grpc::ServerUnaryReactor* DeleteClip(grpc::CallbackServerContext* context,
+                                       const v1::DeleteClipRequest* request,
+                                       v1::DeleteClipResponse* response) override;
 
  private:
   // OK when there is no policy or it allows `method` ("UploadMesh") for this call's peer.

@@ -62,6 +62,7 @@ class Engine::Impl {
         backends_(std::move(backends)),
         counters_(backends_.size()),
         store_(options.mesh_budget_bytes, backends_.size()),
+        animations_(options.clip_budget_bytes),
         pool_(threads, options.queue_capacity, options.split_min_vertices) {
     options_.compute_threads = threads;
   }
@@ -504,6 +505,7 @@ class Engine::Impl {
   std::vector<std::unique_ptr<Backend>> backends_;
   std::vector<Counters> counters_;
   MeshStore store_;
+  animation::AnimationStore animations_;
   std::atomic<bool> shut_down_{false};
   std::atomic<uint64_t> rejected_{0};
   ComputePool pool_;  // last: its threads stop before the rest is destroyed
@@ -547,6 +549,9 @@ Engine::Engine(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Engine::~Engine() { Shutdown(); }
 
 const EngineOptions& Engine::options() const { return impl_->options_; }
+
+animation::AnimationStore& Engine::animations() { return impl_->animations_; }
+const animation::AnimationStore& Engine::animations() const { return impl_->animations_; }
 
 std::vector<BackendInfo> Engine::Backends() const {
   std::vector<BackendInfo> infos;

@@ -23,7 +23,9 @@ TEST(MemoryEnvelopeTest, DerivedBudgetsShareWhatTheFootprintLeavesCountedWithThe
   const MemoryEnvelope e = WithMemory(4096).Envelope();
   EXPECT_EQ(e.memory_bytes, 4096 * kMiB);
   EXPECT_EQ(e.memory_source, "--memory-limit-mb");
-  const double left = 4096 * 0.9 * kMiB - 256.0 * kMiB;
+  // --clip-budget-mb is given by default (64 MiB): it comes off first, as given budgets do.
+  EXPECT_FALSE(e.term("--clip-budget-mb").derived);
+  const double left = 4096 * 0.9 * kMiB - 256.0 * kMiB - 64.0 * kMiB;
   // Every backend enabled: a mesh, opencl's buffers and simd's copies, 2.5 times its bytes.
   EXPECT_EQ(e.term("--mesh-budget-mb").copies, 2.5);
   EXPECT_EQ(e.term("--upload-budget-mb").copies, 2);
@@ -37,7 +39,11 @@ TEST(MemoryEnvelopeTest, DerivedBudgetsShareWhatTheFootprintLeavesCountedWithThe
     EXPECT_EQ(t.budget_bytes % kMiB, 0u) << flag << ": not whole MiB";
   }
   EXPECT_LE(e.sum_bytes(), e.limit_bytes());
-  EXPECT_GE(e.sum_bytes(), e.limit_bytes() - 4 * kMiB) << "the derived budgets leave memory unused";
+  // Each derived budget is whole MiB (rounded down): it leaves less than its copies in MiB.
+  double rounding = 0;
+  for (const EnvelopeTerm& t : e.terms) rounding += t.derived ? t.copies * kMiB : 0;
+  EXPECT_GE(static_cast<double>(e.sum_bytes()), static_cast<double>(e.limit_bytes()) - rounding)
+      << "the derived budgets leave memory unused";
   EXPECT_TRUE(e.Check().ok());
   // The server's getters hand out the envelope's budgets.
   ServerOptions options = WithMemory(4096);
@@ -46,6 +52,7 @@ TEST(MemoryEnvelopeTest, DerivedBudgetsShareWhatTheFootprintLeavesCountedWithThe
   EXPECT_EQ(options.ToRegionLimits().budget_bytes, e.term("--shm-budget-mb").budget_bytes);
   EXPECT_EQ(options.ToEngineOptions().mesh_budget_bytes, e.term("--mesh-budget-mb").budget_bytes);
   EXPECT_EQ(options.GrpcMemoryBytes(), e.term("--grpc-memory-mb").budget_bytes);
+  EXPECT_EQ(options.ToEngineOptions().clip_budget_bytes, 64 * kMiB);
 }
 
 TEST(MemoryEnvelopeTest, GivenBudgetsComeFirstAndTheRestShareWhatIsLeft) {
@@ -58,7 +65,7 @@ TEST(MemoryEnvelopeTest, GivenBudgetsComeFirstAndTheRestShareWhatIsLeft) {
   EXPECT_FALSE(e.term("--mesh-budget-mb").derived);
   EXPECT_EQ(e.term("--mesh-budget-mb").held_bytes(), 2000 * kMiB);
   EXPECT_THROW(e.term("--shm-budget-mb"), std::logic_error);
-  const double left = 4096 * 0.9 * kMiB - 256.0 * kMiB - 2000.0 * kMiB;
+  const double left = 4096 * 0.9 * kMiB - 256.0 * kMiB - 2000.0 * kMiB - 64.0 * kMiB;
   EXPECT_NEAR(static_cast<double>(e.term("--inflight-budget-mb").budget_bytes), left * 0.20 / 0.50,
               kMiB);
   EXPECT_NEAR(static_cast<double>(e.term("--upload-budget-mb").budget_bytes),
@@ -74,14 +81,14 @@ TEST(MemoryEnvelopeTest, BudgetsThatDoNotFitAreRefusedNamingEveryTermAndTheSum) 
   const MemoryEnvelope e = options.Envelope();
   const Status status = e.Check();
   ASSERT_EQ(status.code(), StatusCode::kInvalidArgument);
-  for (const char* named :
-       {"--mesh-budget-mb 1024 MiB x 2.5", "--inflight-budget-mb 16 MiB",
-        "--upload-budget-mb 16 MiB", "--shm-budget-mb 16 MiB", "--grpc-memory-mb 16 MiB",
-        "the process itself", "2896 MiB", "90% of the 3072 MiB it may use"}) {
+  for (const char* named : {"--mesh-budget-mb 1024 MiB x 2.5", "--inflight-budget-mb 16 MiB",
+                            "--upload-budget-mb 16 MiB", "--shm-budget-mb 16 MiB",
+                            "--grpc-memory-mb 16 MiB", "--clip-budget-mb 64 MiB",
+                            "the process itself", "2960 MiB", "90% of the 3072 MiB it may use"}) {
     EXPECT_NE(status.message().find(named), std::string::npos)
         << "'" << named << "' not in: " << status.message();
   }
-  options.mesh_budget_mb = 900;  // 2250 + 256 + 80 of derived minimums = 2586 <= 2764
+  options.mesh_budget_mb = 900;  // 2250 + 256 + 64 + 80 of derived minimums = 2650 <= 2764
   EXPECT_TRUE(options.Envelope().Check().ok()) << options.Envelope().Describe();
 }
 

@@ -14,6 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "skinserve/animation/raw_clip.h"
+#include "skinserve/animation/skeleton.h"
+#include "skinserve/client/pose.h"
 #include "skinserve/client/shared_memory_region.h"
 #include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/model/mesh.h"
@@ -166,6 +169,9 @@ struct SkinOptions {
   // Crowds: each instance's own weights (SkinRequest.instance_morph_weights), one entry per
   // instance, instead of morph_weights; caller-owned, read during the call. Empty: none.
   std::span<const std::vector<MorphWeight>> instance_morph_weights;
+  // Instead of a palette (which is then empty): clip layers the server samples, blends and
+  // turns into the palette (SkinRequest.pose, docs/serving/animation.md). One instance.
+  Pose pose;
 };
 
 // How long this client waits. Every call has a deadline; a stream (StreamFrames) has an
@@ -242,6 +248,16 @@ class SkinClient {
   // for a mesh this client uploaded has its mesh uploaded again and the tick is sent once
   // more.
   Status SkinTick(const Tick& tick, TickResult* result);
+  // One frame of a pose instead of a palette (options.pose is set from `pose`).
+  Status SkinPose(const std::string& mesh_id, const Pose& pose, uint64_t frame, SkinOptions options,
+                  FrameResult* result);
+
+  // Animation on the server (docs/serving/animation.md#uploads): a skeleton, then clips
+  // built for it, each content-addressed (the same content again stores nothing new).
+  Result<v1::SkeletonInfo> UploadSkeleton(const animation::Skeleton& skeleton);
+  Result<v1::ClipInfo> UploadClip(const animation::RawClip& clip, const std::string& skeleton_id);
+  // Whether the server held the clip.
+  Result<bool> DeleteClip(const std::string& clip_id);
 
  private:
   Status SkinOnce(const v1::SkinRequest& request, const RegionOutput& output, RawPart* part,

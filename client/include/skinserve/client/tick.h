@@ -36,6 +36,9 @@ class Tick {
   // weights) are the caller's and must stay valid until the tick is sent.
   std::size_t Add(const std::string& mesh_id, std::span<const float> palette,
                   const SkinOptions& options = {});
+  // A character whose palette the server computes from `pose` (SkinRequest.pose; its clip
+  // ids and layers are the caller's, read when the tick is sent).
+  std::size_t AddPose(const std::string& mesh_id, const Pose& pose, SkinOptions options = {});
   void Clear() { size_ = 0; }  // keeps frame()
   // The tick's number (SkinRequest.frame), echoed in its answer.
   void set_frame(uint64_t frame) { frame_ = frame; }

@@ -24,6 +24,13 @@ asyncio (AsyncClient), with the same methods.
     for r in results:
         print(r.index, r.error or r.positions.shape)
 
+    # Animation on the server: a skeleton and clips once, then poses instead of palettes.
+    skeleton_id = client.upload_skeleton(parents, rest, palette_joints, inverse_bind)
+    track = skinserve.ClipTrack("rotation", 1, times, quats)   # joint 1's keys, x y z w
+    clip_id = client.upload_clip(skeleton_id, [track]).clip_id
+    pose = skinserve.Pose(skeleton_id, [skinserve.PoseLayer(clip_id, 0.5)])
+    vertices = client.skin_pose(mesh_id, pose)                 # the server's palette
+
     async with skinserve.AsyncClient("127.0.0.1:50051") as client:
         vertices = await client.skin(mesh_id, palette)
         async for vertices in client.stream(mesh_id, palettes):
@@ -34,8 +41,10 @@ from ._client import Client
 from ._encoding import decode_values
 from ._errors import SkinserveError
 from ._morph import FrameWeights, MorphTarget, Weights
+from ._pose import ClipTrack, Pose, PoseLayer
 from ._shared_memory import SharedMemoryRegion
 from ._tick import Character, CharacterResult
 
-__all__ = ["AsyncClient", "Character", "CharacterResult", "Client", "FrameWeights",
-           "MorphTarget", "SkinserveError", "SharedMemoryRegion", "Weights", "decode_values"]
+__all__ = ["AsyncClient", "Character", "CharacterResult", "ClipTrack", "Client", "FrameWeights",
+           "MorphTarget", "Pose", "PoseLayer", "SkinserveError", "SharedMemoryRegion", "Weights",
+           "decode_values"]

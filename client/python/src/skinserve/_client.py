@@ -10,11 +10,12 @@ import grpc
 import numpy as np
 import numpy.typing as npt
 
-from . import _answers, _core, _requests, _tick
+from . import _answers, _core, _pose, _requests, _tick
 from ._core import ClientCore, FrameStream, TickStream
 from ._errors import rpc_error
 from ._frame import Answer, FloatArray, Frame
 from ._morph import FrameWeights, MorphTarget
+from ._pose import ClipTrack, Pose
 from ._shared_memory import SharedMemoryRegion
 from ._tick import Character, CharacterResult
 from .v1 import skinning_pb2 as pb
@@ -220,6 +221,42 @@ class Client(ClientCore):
                 for part in self._stub.Skin(request, timeout=self.timeout):
                     result.add_part(part, want_normals, region)
                 return result.result(want_normals, want_tangents)
+            except grpc.RpcError as e:
+                self._upload(self._retry_frame(e, attempt, frame, mesh_id))
+        raise AssertionError("unreachable")
+
+    # ---- animation on the server (docs/serving/animation.md) ---------------------------
+    def upload_skeleton(self, parents: npt.NDArray[np.int16], rest: npt.NDArray[np.float32],
+                        palette_joints: npt.NDArray[np.uint16],
+                        inverse_bind: npt.NDArray[np.float32],
+                        names: Optional[Sequence[str]] = None) -> str:
+        """A skeleton (see skinserve.skeleton_request); returns its skeleton_id."""
+        request = _pose.skeleton_request(parents, rest, palette_joints, inverse_bind, names)
+        return str(self._unary(self._stub.UploadSkeleton, request).skeleton_id)
+
+    def upload_clip(self, skeleton_id: str, tracks: Sequence[ClipTrack], name: str = "",
+                    duration: float = 0.0) -> pb.ClipInfo:
+        """A clip for a stored skeleton; its ClipInfo (clip_id, bytes stored)."""
+        info: pb.ClipInfo = self._unary(self._stub.UploadClip,
+                                        _pose.clip_request(skeleton_id, tracks, name, duration))
+        return info
+
+    def delete_clip(self, clip_id: str) -> bool:
+        return bool(self._unary(self._stub.DeleteClip,
+                                pb.DeleteClipRequest(clip_id=clip_id)).deleted)
+
+    def skin_pose(self, mesh_id: str, pose: Pose, backend: Optional[str] = None,
+                  want_normals: bool = False, encoding: str = "float32",
+                  frame: int = 0) -> Answer:
+        """One frame whose palette the server computes from `pose`: positions (V, 3), or
+        (positions, normals) with want_normals."""
+        request = _pose.pose_request(mesh_id, pose, frame, backend, want_normals, encoding)
+        for attempt in range(self.max_reuploads + 1):
+            result = Frame(None)
+            try:
+                for part in self._stub.Skin(request, timeout=self.timeout):
+                    result.add_part(part, want_normals, None)
+                return result.result(want_normals, False)
             except grpc.RpcError as e:
                 self._upload(self._retry_frame(e, attempt, frame, mesh_id))
         raise AssertionError("unreachable")

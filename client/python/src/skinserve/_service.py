@@ -27,6 +27,9 @@ METHODS: Dict[str, Tuple[bool, bool, Type[Message], Type[Message]]] = {
     "UnregisterRegion": (False, False, pb.UnregisterRegionRequest,
                          pb.UnregisterRegionResponse),
     "ListRegions": (False, False, pb.ListRegionsRequest, pb.ListRegionsResponse),
+    "UploadSkeleton": (False, False, pb.UploadSkeletonRequest, pb.SkeletonInfo),
+    "UploadClip": (False, False, pb.UploadClipRequest, pb.ClipInfo),
+    "DeleteClip": (False, False, pb.DeleteClipRequest, pb.DeleteClipResponse),
 }
 
 
@@ -67,3 +70,6 @@ class SkinningStub:
     RegisterRegion: Any
     UnregisterRegion: Any
     ListRegions: Any
+    UploadSkeleton: Any
+    UploadClip: Any
+    DeleteClip: Any

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "skinserve/animation/animation_store.h"
 #include "skinserve/engine/backend.h"
 #include "skinserve/model/mesh.h"
 #include "skinserve/model/status.h"
@@ -26,7 +27,9 @@ struct EngineOptions {
   // each thread gets at least this many vertices (waking a team costs ~10-50 us; a
   // 25k-vertex, 2-bone frame takes ~50 us on one thread).
   uint64_t split_min_vertices = 50'000;
-  uint64_t mesh_budget_bytes = 4ull << 30;    // LRU eviction beyond this
+  uint64_t mesh_budget_bytes = 4ull << 30;  // LRU eviction beyond this
+  // Skeletons and compact clips (animations()): uploads beyond it are refused.
+  uint64_t clip_budget_bytes = 64ull << 20;
   MeshOptions mesh;                           // limits and weight policy on ingest
   std::vector<std::string> enabled_backends;  // ids; empty: all
   // The OpenCL backends' device: "" (the first CPU device, else the first device), "cpu",
@@ -316,6 +319,11 @@ class Engine {
   Status Submit(SkinRequest request, SkinDone done);
   // Submit and wait: for tools and tests.
   Status SkinBlocking(SkinRequest request, FrameTiming* timing = nullptr);
+
+  // The skeletons and clips that frames' poses name (SkinRequest.pose), content-addressed
+  // and within options().clip_budget_bytes, beside the meshes.
+  animation::AnimationStore& animations();
+  const animation::AnimationStore& animations() const;
 
   EngineStats Stats() const;
   // Refuses new frames with UNAVAILABLE and waits for the queued ones to finish.

@@ -1,0 +1,119 @@
+"""Poses on the server through the Python clients, blocking and asyncio: a two-joint
+skeleton and a clip uploaded (the root walks 1 m along x in 1 s, the child turns 90 degrees
+about z), frames that name clip layers instead of a palette, every answer against a
+float64 evaluation written here from the clip's definition (the root at (t, 0, 0), the
+child's angle 90 t degrees: LINEAR rotation keys are slerped, at a constant rate), the
+layers blended as docs/serving/animation.md states, then linear blend skinning in float64
+(reference.skin). Tolerance: the compact store's key error (<= 7.5e-5 rad, 1.5e-5 m over
+this 1 m range) moving points up to ~3 m from the joints, plus float32 rounding."""
+import asyncio
+import math
+
+import grpc
+import numpy as np
+import pytest
+
+import skinserve
+from reference import max_error, random_mesh, skin
+
+TOLERANCE = 5e-4
+IDENTITY = (0.0, 0.0, 0.0, 1.0)
+
+
+def turn(degrees):
+    half = math.radians(degrees) / 2
+    return (0.0, 0.0, math.sin(half), math.cos(half))
+
+
+def upload_rig(client):
+    rest = np.array([[0, 0, 0, *IDENTITY, 1, 1, 1], [0, 1, 0, *IDENTITY, 1, 1, 1]], np.float32)
+    inverse_bind = np.zeros((2, 3, 4), np.float32)
+    inverse_bind[:, :, :3] = np.eye(3)
+    inverse_bind[1, 1, 3] = -1  # the child's rest model is a translation by (0, 1, 0)
+    skeleton_id = client.upload_skeleton(np.array([-1, 0], np.int16), rest,
+                                         np.array([0, 1], np.uint16), inverse_bind)
+    times = np.array([0, 1], np.float32)
+    tracks = [skinserve.ClipTrack("translation", 0, times, np.array([[0, 0, 0], [1, 0, 0]])),
+              skinserve.ClipTrack("rotation", 1, times, np.array([IDENTITY, turn(90)]))]
+    info = client.upload_clip(skeleton_id, tracks, name="walk-turn")
+    return skeleton_id, info
+
+
+def quat_matrix(q):
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def reference_palette(layers):
+    """layers: (time in [0, 1], weight); normalised weights, rotations summed and
+    normalised (all on one hemisphere here), model matrices, times the inverse binds."""
+    total = sum(w for _, w in layers)
+    root = sum(w / total * t for t, w in layers)
+    q = np.sum([w / total * np.array(turn(90 * t)) for t, w in layers], axis=0)
+    q /= np.linalg.norm(q)
+    def affine(rotation, translation):
+        m = np.eye(4)
+        m[:3, :3], m[:3, 3] = rotation, translation
+        return m
+    model0 = affine(np.eye(3), (root, 0, 0))
+    model1 = model0 @ affine(np.eye(3), (0, 1, 0)) @ affine(quat_matrix(q), (0, 0, 0))
+    palette1 = model1 @ affine(np.eye(3), (0, -1, 0))
+    return np.stack([model0[:3], palette1[:3]])
+
+
+def check(answer, mesh, layers):
+    positions, joint_ids, weights, _ = mesh
+    want, _ = skin(positions, joint_ids, weights, None, reference_palette(layers))
+    assert max_error(answer, want) <= TOLERANCE
+
+
+def test_poses_match_the_float64_evaluation_of_the_clip(client, rng):
+    skeleton_id, info = upload_rig(client)
+    assert info.joint_count == 2 and info.tracks == 2 and not info.already_stored
+    mesh = random_mesh(rng, 500, 2, 2)
+    mesh_id = client.upload(*mesh[:3])
+    clip = info.clip_id
+    for layers, want in [
+            ([skinserve.PoseLayer(clip, 0.3)], [(0.3, 1)]),
+            ([skinserve.PoseLayer(clip, 1.7)], [(1.0, 1)]),                # clamped
+            ([skinserve.PoseLayer(clip, 1.25, loop=True)], [(0.25, 1)]),   # looped
+            ([skinserve.PoseLayer(clip, 0.2, 1), skinserve.PoseLayer(clip, 0.6, 3)],
+             [(0.2, 1), (0.6, 3)])]:
+        check(client.skin_pose(mesh_id, skinserve.Pose(skeleton_id, layers), backend="serial"),
+              mesh, want)
+    # The same skeleton and clip again: stored once.
+    assert upload_rig(client)[1].already_stored
+
+
+def test_bad_poses_are_named(client, rng):
+    skeleton_id, info = upload_rig(client)
+    mesh_id = client.upload(*random_mesh(rng, 50, 2, 2)[:3])
+    with pytest.raises(skinserve.SkinserveError) as e:
+        client.skin_pose(mesh_id, skinserve.Pose(skeleton_id, [skinserve.PoseLayer("nope", 0)]))
+    assert e.value.code == grpc.StatusCode.NOT_FOUND
+    assert "pose.layers[0].clip_id 'nope'" in e.value.message
+    with pytest.raises(skinserve.SkinserveError) as e:
+        client.skin_pose(mesh_id, skinserve.Pose(
+            skeleton_id, [skinserve.PoseLayer(info.clip_id, 0.1, weight=-1)]))
+    assert e.value.code == grpc.StatusCode.INVALID_ARGUMENT
+    assert "pose.layers[0].weight = -1" in e.value.message
+    assert client.delete_clip(info.clip_id)
+    assert not client.delete_clip(info.clip_id)
+
+
+def test_asyncio_poses(server, rng):
+    async def main():
+        async with skinserve.AsyncClient(server.target) as client:
+            # The rig through the blocking client's request builders (both share them).
+            with skinserve.Client(server.target) as blocking:
+                skeleton_id, info = upload_rig(blocking)
+            mesh = random_mesh(rng, 300, 2, 2)
+            mesh_id = await client.upload(*mesh[:3])
+            layers = [skinserve.PoseLayer(info.clip_id, 0.4, 2),
+                      skinserve.PoseLayer(info.clip_id, 0.9, 1)]
+            check(await client.skin_pose(mesh_id, skinserve.Pose(skeleton_id, layers)), mesh,
+                  [(0.4, 2), (0.9, 1)])
+            assert await client.delete_clip(info.clip_id)
+    asyncio.run(asyncio.wait_for(main(), timeout=120))

@@ -1,0 +1,546 @@
+// Poses on the server (SkinRequest.pose) through a real server over loopback: a skeleton
+// and clips uploaded, frames and ticks naming clip layers, every skinned vertex checked
+// against a float64 evaluation of the ORIGINAL clip channels (tests/animation's reference:
+// glTF's formulas in double, with its own slerp, Hermite and hierarchy; it never reads the
+// compact store), blended here in double, skinned here in double. Bad ids, times and
+// weights are named; a bad upload stores nothing; the clip budget refuses with
+// RESOURCE_EXHAUSTED and keeps nothing of the refused clip.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "pose_reference.h"
+#include "skinserve/client/tick.h"
+#include "skinserve/model/palette.h"
+#include "skinserve/reference/synthetic.h"
+#include "skinserve/wire/animation_conversions.h"
+#include "test_server.h"
+
+namespace skinserve::testing {
+namespace {
+
+constexpr uint32_t kJoints = 77;
+
+// Local TRS of every reference node at `t` (clamped), the clip's channels applied to the
+// rest pose, in double.
+struct Local {
+  double t[3], r[4], s[3];
+};
+
+std::vector<Local> RefLocal(const PoseCase& c, double t) {
+  std::vector<Local> local(c.ref.nodes.size());
+  for (std::size_t n = 0; n < local.size(); ++n) {
+    const RefNode& node = c.ref.nodes[n];
+    std::copy_n(node.t, 3, local[n].t);
+    std::copy_n(node.r, 4, local[n].r);
+    std::copy_n(node.s, 3, local[n].s);
+  }
+  for (const RefChannel& ch : c.ref_clip.channels) {
+    const std::vector<double> v = RefSample(ch, t);
+    Local& l = local[static_cast<std::size_t>(ch.node)];
+    double* out = ch.path == "translation" ? l.t : ch.path == "rotation" ? l.r : l.s;
+    std::copy(v.begin(), v.end(), out);
+  }
+  return local;
+}
+
+// A layer as the test asks the server for it. Looped times stay off keys: the server wraps
+// them in float32, which may land either side of a STEP key that double lands on.
+struct Layer {
+  double time = 0;
+  double weight = 1;
+  bool loop = false;
+};
+
+// The blend of the spec (normalised weights, rotations onto the first layer's hemisphere
+// and normalised), then model matrices root down and the palette, in double (12 a joint).
+std::vector<double> RefBlendedPalette(const PoseCase& c, const std::vector<Layer>& layers) {
+  double total = 0;
+  for (const Layer& l : layers) total += l.weight;
+  std::vector<Local> blended(c.ref.nodes.size(), Local{{0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0}});
+  std::vector<Local> first;
+  for (const Layer& l : layers) {
+    // The time the server gets (float32): on a key, a STEP track takes that key's value.
+    double t = static_cast<float>(l.time);
+    if (l.loop) t -= c.ref_clip.duration * std::floor(t / c.ref_clip.duration);
+    const std::vector<Local> local = RefLocal(c, t);
+    if (first.empty()) first = local;
+    const double w = l.weight / total;
+    for (std::size_t n = 0; n < local.size(); ++n) {
+      double dot = 0;
+      for (int i = 0; i < 4; ++i) dot += local[n].r[i] * first[n].r[i];
+      const double sign = dot < 0 ? -1 : 1;
+      for (int i = 0; i < 3; ++i) blended[n].t[i] += w * local[n].t[i];
+      for (int i = 0; i < 3; ++i) blended[n].s[i] += w * local[n].s[i];
+      for (int i = 0; i < 4; ++i) blended[n].r[i] += sign * w * local[n].r[i];
+    }
+  }
+  std::vector<Mat4> model(blended.size());
+  for (std::size_t n = 0; n < blended.size(); ++n) {
+    Local& b = blended[n];
+    const double norm =
+        std::sqrt(b.r[0] * b.r[0] + b.r[1] * b.r[1] + b.r[2] * b.r[2] + b.r[3] * b.r[3]);
+    for (double& q : b.r) q /= norm;
+    const Mat4 m = Compose(b.t, b.r, b.s);
+    const int parent = c.ref.nodes[n].parent;  // parents come first in the synthetic rig
+    if (parent < 0) {
+      model[n] = m;
+      continue;
+    }
+    const Mat4& p = model[static_cast<std::size_t>(parent)];
+    for (int col = 0; col < 4; ++col)
+      for (int row = 0; row < 4; ++row) {
+        double sum = 0;
+        for (int k = 0; k < 4; ++k) sum += p[4 * k + row] * m[4 * col + k];
+        model[n][static_cast<std::size_t>(4 * col + row)] = sum;
+      }
+  }
+  std::vector<double> palette;
+  for (std::size_t j = 0; j < c.ref.joints.size(); ++j) {
+    const Mat4& m = model[static_cast<std::size_t>(c.ref.joints[j])];
+    const Mat4& ib = c.ref.inverse_bind[j];
+    for (int row = 0; row < 3; ++row)
+      for (int col = 0; col < 4; ++col) {
+        double sum = 0;
+        for (int k = 0; k < 4; ++k) sum += m[4 * k + row] * ib[4 * col + k];
+        palette.push_back(sum);
+      }
+  }
+  return palette;
+}
+
+// Linear blend skinning of the mesh's positions with a double palette.
+std::vector<double> RefSkinPositions(const MeshArrays& mesh, const std::vector<double>& palette) {
+  std::vector<double> out(3ull * mesh.vertex_count, 0.0);
+  for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
+    const float* p = &mesh.positions[3ull * v];
+    for (uint32_t i = 0; i < mesh.influences; ++i) {
+      const double w = mesh.weights[v * mesh.influences + i];
+      const double* m = &palette[12ull * mesh.joints[v * mesh.influences + i]];
+      for (int r = 0; r < 3; ++r)
+        out[3ull * v + r] +=
+            w * (m[4 * r] * p[0] + m[4 * r + 1] * p[1] + m[4 * r + 2] * p[2] + m[4 * r + 3]);
+    }
+  }
+  return out;
+}
+
+// The server's positions against the reference: each vertex within 2e-5 + 3e-4 (|rest| +
+// |posed|) (the runtime's joints are within 0.01 mm + 1e-4 relative and its rotations'
+// elements within 1e-4 of the float64 clip; float32 skinning adds rounding). A pose a
+// thirtieth of a second off (one key) misses by millimetres.
+void ExpectPositionsNear(const MeshArrays& mesh, const std::vector<float>& got,
+                         const std::vector<double>& want, const std::string& what) {
+  ASSERT_EQ(got.size(), want.size()) << what;
+  double worst = 0;
+  for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
+    double d2 = 0, rest2 = 0, posed2 = 0;
+    for (int i = 0; i < 3; ++i) {
+      const double d = got[3ull * v + i] - want[3ull * v + i];
+      d2 += d * d;
+      rest2 += double{mesh.positions[3ull * v + i]} * mesh.positions[3ull * v + i];
+      posed2 += want[3ull * v + i] * want[3ull * v + i];
+    }
+    const double bound = 2e-5 + 3e-4 * (std::sqrt(rest2) + std::sqrt(posed2));
+    worst = std::max(worst, std::sqrt(d2) / bound);
+    if (std::sqrt(d2) > bound) {
+      ADD_FAILURE() << what << ": vertex " << v << " off by " << std::sqrt(d2) << " (bound "
+                    << bound << ")";
+      return;
+    }
+  }
+  ::testing::Test::RecordProperty(what, std::to_string(worst));
+}
+
+v1::PoseLayer* AddLayer(v1::Pose* pose, const std::string& clip, const Layer& l) {
+  v1::PoseLayer* layer = pose->add_layers();
+  layer->set_clip_id(clip);
+  layer->set_time(static_cast<float>(l.time));
+  layer->set_weight(static_cast<float>(l.weight));
+  layer->set_loop(l.loop);
+  return layer;
+}
+
+// One Skin call's answer: positions per character (a plain frame: character 0), the
+// frame's status, and a tick's per-character headers.
+struct Answer {
+  Status status;
+  std::map<uint32_t, std::vector<float>> positions;
+  std::vector<v1::SkinResponse> headers;
+};
+
+Answer SkinRaw(client::SkinClient& c, const v1::SkinRequest& request) {
+  Answer a;
+  grpc::ClientContext context;
+  auto reader = c.stub().Skin(&context, request);
+  v1::SkinResponse part;
+  while (reader->Read(&part)) {
+    if (part.has_tick()) {  // a tick's final part: no vertex data
+      a.headers.assign(part.tick().characters().begin(), part.tick().characters().end());
+      continue;
+    }
+    std::vector<float>& out = a.positions[part.character()];
+    out.resize(3ull * part.total_vertices() * std::max<uint32_t>(1, part.instances()));
+    if (!part.positions().empty()) {
+      std::memcpy(&out[3ull * part.first_vertex()], part.positions().data(),
+                  part.positions().size());
+    }
+  }
+  a.status = wire::FromGrpc(reader->Finish());
+  return a;
+}
+
+struct Rig {
+  PoseCase c;
+  MeshArrays mesh;
+  std::string skeleton_id, clip_id, mesh_id;
+};
+
+// Through the client library (SkinClient::UploadSkeleton, UploadClip).
+Status UploadRig(client::SkinClient& client, const PoseCase& c, std::string* skeleton_id,
+                 std::string* clip_id) {
+  auto skeleton = client.UploadSkeleton(c.skeleton);
+  if (!skeleton.ok()) return skeleton.status();
+  *skeleton_id = skeleton->skeleton_id();
+  auto clip = client.UploadClip(c.raw, *skeleton_id);
+  if (!clip.ok()) return clip.status();
+  *clip_id = clip->clip_id();
+  return Status::Ok();
+}
+
+Rig MakeRig(client::SkinClient& client) {
+  Rig rig{.c = SyntheticCase(kJoints),
+          .mesh = MakeSyntheticMesh(
+              {.vertex_count = 3000, .influences = 4, .joint_count = kJoints, .seed = 7})};
+  EXPECT_TRUE(UploadRig(client, rig.c, &rig.skeleton_id, &rig.clip_id).ok());
+  auto info = client.Upload(rig.mesh);
+  EXPECT_TRUE(info.ok()) << info.status().ToString();
+  if (info.ok()) rig.mesh_id = info->mesh_id();
+  return rig;
+}
+
+v1::SkinRequest PoseRequest(const Rig& rig, const std::vector<Layer>& layers) {
+  v1::SkinRequest request;
+  request.set_mesh_id(rig.mesh_id);
+  request.set_backend("serial");
+  request.mutable_pose()->set_skeleton_id(rig.skeleton_id);
+  for (const Layer& l : layers) AddLayer(request.mutable_pose(), rig.clip_id, l);
+  return request;
+}
+
+TEST(PoseServiceTest, PosesMatchTheFloat64EvaluationOfTheClip) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  const double d = rig.c.ref_clip.duration;
+  // One layer: on a key, between keys, before the clip, after it (clamped), looped past it.
+  const std::vector<std::vector<Layer>> cases = {
+      {{.time = 0.5}},
+      {{.time = 0.7371}},
+      {{.time = -0.3}},
+      {{.time = d + 0.4}},
+      {{.time = d + 0.61, .loop = true}},
+      {{.time = 2 * d + 0.2137, .loop = true}},
+      // Two and three layers of one clip at different times: weights normalised.
+      {{.time = 0.25, .weight = 0.3}, {.time = 1.1, .weight = 0.9}},
+      {{.time = 0.1, .weight = 2},
+       {.time = d * 0.5, .weight = 1},
+       {.time = d + 0.3123, .weight = 1, .loop = true}},
+  };
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const std::string what = "case " + std::to_string(i);
+    const Answer a = SkinRaw(*t.client, PoseRequest(rig, cases[i]));
+    ASSERT_TRUE(a.status.ok()) << what << ": " << a.status.ToString();
+    ExpectPositionsNear(rig.mesh, a.positions.at(0),
+                        RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, cases[i])), what);
+  }
+}
+
+TEST(PoseServiceTest, StreamedPosesMatchTheReferenceOnEveryBackend) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  auto backends = t.client->ListBackends();
+  ASSERT_TRUE(backends.ok());
+  for (const auto& b : backends->backends()) {
+    if (!b.available() || b.id() == "passthrough") continue;
+    grpc::ClientContext context;
+    auto stream = t.client->stub().StreamSkin(&context);
+    const std::vector<Layer> layers = {{.time = 0.4, .weight = 1},
+                                       {.time = 2.3123, .weight = 3, .loop = true}};
+    for (uint64_t f = 0; f < 3; ++f) {
+      std::vector<Layer> at = layers;
+      for (Layer& l : at) l.time += 0.1 * static_cast<double>(f);
+      v1::SkinRequest request = PoseRequest(rig, at);
+      request.set_backend(b.id());
+      request.set_frame(f);
+      ASSERT_TRUE(stream->Write(request));
+      std::vector<float> positions(3ull * rig.mesh.vertex_count);
+      v1::SkinResponse part;
+      do {
+        ASSERT_TRUE(stream->Read(&part));
+        ASSERT_FALSE(part.has_error()) << b.id() << ": " << part.error().message();
+        std::memcpy(&positions[3ull * part.first_vertex()], part.positions().data(),
+                    part.positions().size());
+      } while (!part.last());
+      ExpectPositionsNear(rig.mesh, positions,
+                          RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, at)),
+                          b.id() + " frame " + std::to_string(f));
+    }
+    stream->WritesDone();
+    EXPECT_TRUE(stream->Finish().ok());
+  }
+}
+
+TEST(PoseServiceTest, ATickMixesPoseAndPaletteCharacters) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  v1::SkinRequest tick;
+  tick.set_frame(9);
+  const std::vector<Layer> walk = {{.time = 0.9}};
+  const std::vector<Layer> blend = {{.time = 0.2, .weight = 0.5}, {.time = 1.7, .weight = 0.5}};
+  const std::vector<float> palette = MakeSyntheticPalette(kJoints, 3, 9);
+  *tick.add_characters() = PoseRequest(rig, walk);
+  v1::SkinRequest* plain = tick.add_characters();
+  plain->set_mesh_id(rig.mesh_id);
+  plain->set_backend("serial");
+  plain->set_palette(wire::EncodeFloats(palette));
+  *tick.add_characters() = PoseRequest(rig, blend);
+  v1::SkinRequest bad = PoseRequest(rig, {{.time = 0.3, .weight = -1}});
+  *tick.add_characters() = bad;
+  const Answer a = SkinRaw(*t.client, tick);
+  ASSERT_TRUE(a.status.ok()) << a.status.ToString();
+  ASSERT_EQ(a.headers.size(), 4u);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_FALSE(a.headers[c].has_error()) << a.headers[c].error().message();
+  ExpectPositionsNear(rig.mesh, a.positions.at(0),
+                      RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, walk)), "pose character");
+  ExpectPositionsNear(rig.mesh, a.positions.at(2),
+                      RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, blend)),
+                      "blend character");
+  const std::vector<double> palette64(palette.begin(), palette.end());
+  ExpectPositionsNear(rig.mesh, a.positions.at(1), RefSkinPositions(rig.mesh, palette64),
+                      "palette character");
+  // The bad one failed alone, named.
+  ASSERT_TRUE(a.headers[3].has_error());
+  EXPECT_EQ(a.headers[3].error().code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(a.headers[3].error().message().find("character 3: pose.layers[0].weight = -1"),
+            std::string::npos)
+      << a.headers[3].error().message();
+}
+
+// The same through the client library: Tick::AddPose beside Tick::Add, SkinTick, and
+// SkinClient::SkinPose for one frame.
+TEST(PoseServiceTest, TheClientLibrarySendsPoses) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  const std::vector<client::PoseLayer> walk = {{.clip_id = rig.clip_id, .time = 0.9f}};
+  const std::vector<client::PoseLayer> blend = {
+      {.clip_id = rig.clip_id, .time = 0.2f, .weight = 1},
+      {.clip_id = rig.clip_id, .time = 2.7123f, .weight = 3, .loop = true}};
+  const std::vector<float> palette = MakeSyntheticPalette(kJoints, 4, 2);
+  client::Tick tick;
+  tick.set_frame(3);
+  tick.AddPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = walk});
+  tick.Add(rig.mesh_id, palette);
+  tick.AddPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = blend});
+  client::TickResult result;
+  ASSERT_TRUE(t.client->SkinTick(tick, &result).ok()) << result.status.ToString();
+  ASSERT_EQ(result.characters.size(), 3u);
+  for (const auto& r : result.characters) ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+  ExpectPositionsNear(rig.mesh, result.characters[0].positions,
+                      RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, {{.time = 0.9}})),
+                      "client tick pose");
+  const std::vector<double> palette64(palette.begin(), palette.end());
+  ExpectPositionsNear(rig.mesh, result.characters[1].positions,
+                      RefSkinPositions(rig.mesh, palette64), "client tick palette");
+  const std::vector<Layer> blend_ref = {{.time = 0.2, .weight = 1},
+                                        {.time = 2.7123, .weight = 3, .loop = true}};
+  ExpectPositionsNear(rig.mesh, result.characters[2].positions,
+                      RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, blend_ref)),
+                      "client tick blend");
+  client::FrameResult frame;
+  ASSERT_TRUE(t.client
+                  ->SkinPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = blend}, 5,
+                             {.backend = "sse"}, &frame)
+                  .ok())
+      << frame.status.ToString();
+  ExpectPositionsNear(rig.mesh, frame.positions,
+                      RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, blend_ref)),
+                      "client SkinPose");
+  auto deleted = t.client->DeleteClip(rig.clip_id);
+  ASSERT_TRUE(deleted.ok() && *deleted);
+  const Status gone = t.client->SkinPose(
+      rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = walk}, 6, {}, &frame);
+  EXPECT_EQ(gone.code(), StatusCode::kNotFound) << gone.ToString();
+}
+
+// The status of a one-frame pose request after `edit`.
+Status PoseStatus(client::SkinClient& client, const Rig& rig,
+                  const std::function<void(v1::SkinRequest*)>& edit) {
+  v1::SkinRequest request = PoseRequest(rig, {{.time = 0.5}, {.time = 1.0}});
+  edit(&request);
+  return SkinRaw(client, request).status;
+}
+
+void ExpectNamed(const Status& s, StatusCode code, const std::string& text) {
+  EXPECT_EQ(s.code(), code) << s.ToString();
+  EXPECT_NE(s.message().find(text), std::string::npos) << s.message();
+}
+
+TEST(PoseServiceTest, BadPosesAreNamed) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  auto& c = *t.client;
+  ExpectNamed(PoseStatus(c, rig,
+                         [](v1::SkinRequest* r) {
+                           r->mutable_pose()->mutable_layers(1)->set_clip_id("nope");
+                         }),
+              StatusCode::kNotFound, "pose.layers[1].clip_id 'nope' is not stored");
+  ExpectNamed(
+      PoseStatus(c, rig,
+                 [](v1::SkinRequest* r) { r->mutable_pose()->mutable_layers(0)->set_time(NAN); }),
+      StatusCode::kInvalidArgument, "pose.layers[0].time = nan");
+  ExpectNamed(PoseStatus(c, rig,
+                         [](v1::SkinRequest* r) {
+                           r->mutable_pose()->mutable_layers(0)->set_time(INFINITY);
+                         }),
+              StatusCode::kInvalidArgument, "pose.layers[0].time = inf");
+  ExpectNamed(PoseStatus(c, rig,
+                         [](v1::SkinRequest* r) {
+                           r->mutable_pose()->mutable_layers(1)->set_weight(-0.5f);
+                         }),
+              StatusCode::kInvalidArgument, "pose.layers[1].weight = -0.5");
+  ExpectNamed(
+      PoseStatus(c, rig,
+                 [](v1::SkinRequest* r) { r->mutable_pose()->mutable_layers(1)->set_weight(NAN); }),
+      StatusCode::kInvalidArgument, "pose.layers[1].weight = nan");
+  ExpectNamed(PoseStatus(c, rig,
+                         [](v1::SkinRequest* r) {
+                           r->mutable_pose()->mutable_layers(0)->set_weight(0);
+                           r->mutable_pose()->mutable_layers(1)->set_weight(0);
+                         }),
+              StatusCode::kInvalidArgument,
+              "pose.layers: the weights of the layers that are not additive sum to 0");
+  ExpectNamed(
+      PoseStatus(c, rig, [](v1::SkinRequest* r) { r->mutable_pose()->set_skeleton_id("nope"); }),
+      StatusCode::kNotFound, "pose.skeleton_id 'nope' is not stored");
+  ExpectNamed(PoseStatus(c, rig, [](v1::SkinRequest* r) { r->mutable_pose()->clear_layers(); }),
+              StatusCode::kInvalidArgument, "pose.layers has 0 entries; 1..8");
+  ExpectNamed(PoseStatus(c, rig,
+                         [&](v1::SkinRequest* r) {
+                           for (int i = 0; i < 8; ++i)
+                             AddLayer(r->mutable_pose(), rig.clip_id, {.time = 0.1});
+                         }),
+              StatusCode::kInvalidArgument, "pose.layers has more than 8 entries");
+  ExpectNamed(
+      PoseStatus(c, rig,
+                 [](v1::SkinRequest* r) { r->set_palette(std::string(48 * kJoints, '\0')); }),
+      StatusCode::kInvalidArgument, "palette and pose are both set");
+  ExpectNamed(PoseStatus(c, rig, [](v1::SkinRequest* r) { r->set_instances(2); }),
+              StatusCode::kInvalidArgument, "pose is set with instances = 2");
+  // A mesh of another joint count than the skeleton's palette.
+  const MeshArrays other = MakeSyntheticMesh({.vertex_count = 100, .joint_count = 20, .seed = 3});
+  auto other_info = c.Upload(other);
+  ASSERT_TRUE(other_info.ok());
+  ExpectNamed(
+      PoseStatus(c, rig, [&](v1::SkinRequest* r) { r->set_mesh_id(other_info->mesh_id()); }),
+      StatusCode::kInvalidArgument, "has a palette of 77 entries; mesh");
+}
+
+Status UploadClip(client::SkinClient& c, const v1::UploadClipRequest& clip, v1::ClipInfo* info) {
+  grpc::ClientContext context;
+  return wire::FromGrpc(c.stub().UploadClip(&context, clip, info));
+}
+
+TEST(PoseServiceTest, BadUploadsAreNamedAndStoreNothing) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  auto& c = *t.client;
+  v1::UploadSkeletonRequest skeleton;
+  wire::SkeletonToWire(rig.c.skeleton, &skeleton);
+  {
+    v1::UploadSkeletonRequest bad = skeleton;
+    const int16_t cycle = 5;
+    std::memcpy(bad.mutable_parents()->data() + 2 * 3, &cycle, 2);  // joint 3's parent after it
+    grpc::ClientContext context;
+    v1::SkeletonInfo info;
+    ExpectNamed(wire::FromGrpc(c.stub().UploadSkeleton(&context, bad, &info)),
+                StatusCode::kInvalidArgument, "skeleton.parents[3] = 5");
+    v1::UploadSkeletonRequest short_rest = skeleton;
+    short_rest.mutable_rest()->resize(short_rest.rest().size() - 4);
+    grpc::ClientContext context2;
+    ExpectNamed(wire::FromGrpc(c.stub().UploadSkeleton(&context2, short_rest, &info)),
+                StatusCode::kInvalidArgument, "rest holds");
+  }
+  v1::UploadClipRequest clip;
+  wire::ClipToWire(rig.c.raw, rig.skeleton_id, &clip);
+  v1::ClipInfo info;
+  {
+    v1::UploadClipRequest bad = clip;
+    bad.mutable_tracks(4)->set_target(kJoints);
+    ExpectNamed(UploadClip(c, bad, &info), StatusCode::kInvalidArgument,
+                "tracks[4] (rotation).target = 77 is not a joint");
+    bad = clip;
+    const float nan = NAN;
+    std::memcpy(bad.mutable_tracks(2)->mutable_values()->data() + 4, &nan, 4);
+    ExpectNamed(UploadClip(c, bad, &info), StatusCode::kInvalidArgument,
+                "tracks[2] (scale).values[1] is not finite");
+    bad = clip;
+    bad.mutable_tracks(1)->set_interpolation(static_cast<v1::ClipInterpolation>(9));
+    ExpectNamed(UploadClip(c, bad, &info), StatusCode::kInvalidArgument,
+                "tracks[1].interpolation = 9");
+    bad = clip;
+    bad.set_skeleton_id("nope");
+    ExpectNamed(UploadClip(c, bad, &info), StatusCode::kNotFound, "skeleton_id 'nope'");
+  }
+  // The same clip again is stored once.
+  ASSERT_TRUE(UploadClip(c, clip, &info).ok());
+  EXPECT_TRUE(info.already_stored());
+  EXPECT_EQ(info.clip_id(), rig.clip_id);
+  // Stored at a quarter of its float bytes or less.
+  EXPECT_LE(4 * info.bytes(), info.raw_bytes()) << info.bytes() << " of " << info.raw_bytes();
+}
+
+TEST(PoseServiceTest, ClipsOverTheBudgetAreRefusedWhole) {
+  server::ServerOptions options;
+  options.clip_budget_mb = 1;
+  TestServer t(options);
+  auto& c = *t.client;
+  // Distinct rigs (a seed each) until the budget refuses one.
+  std::vector<std::string> clips;
+  Status refused;
+  PoseCase refused_case;
+  for (uint32_t seed = 1; seed < 200 && refused.ok(); ++seed) {
+    PoseCase pc;
+    const animation::SyntheticRig synthetic = animation::MakeSyntheticRig(kJoints, seed, 4.0f);
+    pc.skeleton = synthetic.skeleton;
+    pc.raw = synthetic.clip;
+    std::string skeleton_id, clip_id;
+    refused = UploadRig(c, pc, &skeleton_id, &clip_id);
+    if (refused.ok()) clips.push_back(clip_id);
+    refused_case = pc;
+  }
+  ASSERT_FALSE(refused.ok()) << "1 MiB held " << clips.size() << " clips";
+  ASSERT_GE(clips.size(), 2u);
+  ExpectNamed(refused, StatusCode::kResourceExhausted, "--clip-budget-mb");
+  // Nothing of the refused clip is held: deleting two stored clips (of about its size)
+  // makes room for it.
+  for (int i = 0; i < 2; ++i) {
+    grpc::ClientContext context;
+    v1::DeleteClipRequest del;
+    del.set_clip_id(clips[static_cast<std::size_t>(i)]);
+    v1::DeleteClipResponse deleted;
+    ASSERT_TRUE(c.stub().DeleteClip(&context, del, &deleted).ok());
+    EXPECT_TRUE(deleted.deleted());
+  }
+  std::string skeleton_id, clip_id;
+  const Status again = UploadRig(c, refused_case, &skeleton_id, &clip_id);
+  EXPECT_TRUE(again.ok()) << again.ToString();
+}
+
+}  // namespace
+}  // namespace skinserve::testing
