@@ -65,7 +65,8 @@ Status PoseEvaluator::SampleLayer(const v1::PoseLayer& layer, std::size_t i,
       .time = layer.time(),
       .mode = layer.loop() ? animation::TimeMode::kLoop : animation::TimeMode::kClamp,
       .output = layer_poses_[i],
-      .morph_weights = layer_morph_[i]};
+      .morph_weights = layer_morph_[i],
+      .context = &contexts_[i]};
   if (Status s = sampling.Run(); !s.ok()) {
     return Status(s.code(), fmt::format("{}: {}", field, s.message()));
   }
@@ -103,6 +104,7 @@ Status PoseEvaluator::Compute(const v1::SkinRequest& request,
   clips_.resize(count);
   if (layer_poses_.size() < count) layer_poses_.resize(count);
   if (layer_morph_.size() < count) layer_morph_.resize(count);
+  if (contexts_.size() < count) contexts_.resize(count);
   layers_.resize(count);
   double normal_weights = 0;
   for (std::size_t i = 0; i < count; ++i) {

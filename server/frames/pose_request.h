@@ -11,6 +11,7 @@
 
 #include "skinserve/animation/animation_store.h"
 #include "skinserve/animation/blending_job.h"
+#include "skinserve/animation/sampling_job.h"
 #include "skinserve/animation/transform.h"
 #include "skinserve/model/status.h"
 #include "skinserve/v1/skinning.pb.h"
@@ -37,6 +38,9 @@ class PoseEvaluator {
   std::vector<std::shared_ptr<const animation::CompactClip>> clips_;  // the frame's, held
   std::vector<std::vector<animation::Transform>> layer_poses_;
   std::vector<std::vector<float>> layer_morph_;
+  // One per layer: the stream's next frame usually samples the same clip a little later,
+  // so the key search and the decoded keys carry over (SamplingContext).
+  std::vector<animation::SamplingContext> contexts_;
   std::vector<animation::BlendLayer> layers_;
   std::vector<animation::Transform> blended_;
   std::vector<animation::Affine> model_;
