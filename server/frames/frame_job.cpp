@@ -105,7 +105,7 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
   Result<VertexEncoding> encoding = FromWire(wire.encoding());
   if (!encoding.ok()) return encoding.status();
   encoding_ = *encoding;
-  boxed_ = QuantisedToBox(encoding_);
+  boxed_ = QuantizedToBox(encoding_);
   instances_ = request.instances;
 
   const uint64_t values = 3ull * vertices_ * instances_;
