@@ -8,6 +8,7 @@
 #include <limits>
 #include <string_view>
 
+#include "backends/opencl/opencl_program.h"
 #include "skinserve/kernels/embedded_kernels.h"
 
 namespace skinserve {
@@ -68,23 +69,12 @@ OpenClEncoder::~OpenClEncoder() {
 }
 
 Status OpenClEncoder::Build() {
-  const char* source = kernels::kEncodeOutputSource.data();
-  const std::size_t length = kernels::kEncodeOutputSource.size();
-  cl_int err = CL_SUCCESS;
-  program_ = clCreateProgramWithSource(runtime_->context(), 1, &source, &length, &err);
-  if (err != CL_SUCCESS) return ClError("clCreateProgramWithSource(encode_output)", err);
-  cl_device_id device = runtime_->device();
-  err = clBuildProgram(program_, 1, &device, "", nullptr, nullptr);
-  if (err == CL_SUCCESS) return Warm();
-  std::size_t log_size = 0;
-  std::string log;
-  if (clGetProgramBuildInfo(program_, device, CL_PROGRAM_BUILD_LOG, 0, nullptr, &log_size) ==
-      CL_SUCCESS) {
-    log.resize(log_size);
-    clGetProgramBuildInfo(program_, device, CL_PROGRAM_BUILD_LOG, log_size, log.data(), nullptr);
-  }
-  return FailedPrecondition(fmt::format(
-      "clBuildProgram(encode_output.cl) failed: {} ({}); log:\n{}", ClErrorName(err), err, log));
+  const std::string_view sources[] = {kernels::kEncodeOutputSource};
+  auto program =
+      BuildClProgram(runtime_->context(), runtime_->device(), sources, "", "encode_output.cl");
+  if (!program.ok()) return program.status();
+  program_ = *program;
+  return Warm();
 }
 
 // Runs every kernel once on one work-group of zeros: PoCL compiles a kernel for its

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "backends/opencl/opencl_program.h"
 #include "backends/opencl/opencl_quantized.h"
 #include "skinserve/kernels/embedded_kernels.h"
 
@@ -388,35 +389,13 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
 }
 
 Status OpenClRuntime::Build(const std::string& options) {
-  // One program: the dual-quaternion kernels use the linear file's work-item macros.
-  const char* sources[] = {kernels::kLinearBlendSkinningSource.data(),
-                           kernels::kDualQuaternionSkinningSource.data(),
-                           kernels::kMorphTargetsSource.data()};
-  const std::size_t lengths[] = {kernels::kLinearBlendSkinningSource.size(),
-                                 kernels::kDualQuaternionSkinningSource.size(),
-                                 kernels::kMorphTargetsSource.size()};
-  cl_int err = CL_SUCCESS;
-  program_ = clCreateProgramWithSource(context_, 3, sources, lengths, &err);
-  if (err != CL_SUCCESS) return ClError("clCreateProgramWithSource", err);
-  err = clBuildProgram(program_, 1, &device_, options.c_str(), nullptr, nullptr);
-  if (err != CL_SUCCESS) {
-    std::size_t log_size = 0;
-    std::string log;
-    cl_int log_err =
-        clGetProgramBuildInfo(program_, device_, CL_PROGRAM_BUILD_LOG, 0, nullptr, &log_size);
-    if (log_err == CL_SUCCESS) {
-      log.resize(log_size);
-      log_err = clGetProgramBuildInfo(program_, device_, CL_PROGRAM_BUILD_LOG, log_size, log.data(),
-                                      nullptr);
-    }
-    if (log_err != CL_SUCCESS) {
-      log = fmt::format("(no log: clGetProgramBuildInfo failed: {} ({}))", ClErrorName(log_err),
-                        log_err);
-    }
-    while (!log.empty() && log.back() == '\0') log.pop_back();
-    return FailedPrecondition(
-        fmt::format("clBuildProgram failed: {} ({}); build log:\n{}", ClErrorName(err), err, log));
-  }
+  // One program: the dual-quaternion kernels use the linear file's arguments.
+  const std::string_view sources[] = {kernels::kLinearBlendSkinningSource,
+                                      kernels::kDualQuaternionSkinningSource,
+                                      kernels::kMorphTargetsSource};
+  auto program = BuildSkinningProgram(context_, device_, sources, options, "skinning");
+  if (!program.ok()) return program.status();
+  program_ = *program;
   return Status::Ok();
 }
 
