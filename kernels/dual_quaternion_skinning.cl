@@ -8,16 +8,16 @@
  * The palette is the frame's DualQuaternionPalette, converted on the host once per frame:
  * 8 floats per joint, the rotation (x, y, z, w) then the dual part (x, y, z, w).
  *
- * Built in one program after linear_blend_skinning.cl, whose work-item shape it shares
- * (SKIN_VERTEX, SKIN_KEEP, SKIN_ARGS: 4 vertices per item, the last item clamping to the
- * last vertex), so the host enqueues dqs_b*, dqs_normals_b* and dqs_tangents_b* exactly as
+ * Built in one program after skinning_common.cl and linear_blend_skinning.cl, whose
+ * work-item shape it shares (SKIN_VERTEX, SKIN_KEEP, SKIN_TILES_*, SKIN_ARGS: 4 vertices
+ * per item, the last item clamping to the last vertex), so the host enqueues dqs_b*, dqs_normals_b* and dqs_tangents_b* exactly as
  * skin_b*, skin_normals_b* and skin_tangents_b*. Full precision maths only (sqrt and a true division, never native_ or
  * half_), to match a float64 reference to 1e-5.
  */
 
 /* The normalised blend of vertex v's B dual quaternions: rotation r, dual part e, from a
  * palette in either address space (__local: the *_local_* kernels, see
- * linear_blend_skinning.cl's StagePalette). */
+ * skinning_common.cl's StagePalette). */
 /* Joint j's 8 floats as two aligned float4 loads (as SKIN_JOINT_ROWS01). */
 #define DQS_JOINT(SPACE, quaternions, j)                   \
   (float8)(((const SPACE float4*)(quaternions))[2 * (uint)(j)], \
@@ -102,25 +102,19 @@ DEFINE_BLEND_DUAL_QUATERNIONS(BlendLocalDualQuaternions, __local)
 
 #define DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(B)                                            \
   __kernel void dqs_local_b##B(SKIN_ARGS, SKIN_LOCAL_ARGS) {                               \
-    StagePalette(palette, staged, palette_floats);                                         \
-    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                 \
-      const uint tile_base = SKIN_TILE_BASE(tile);                                         \
+    SKIN_TILES_BEGIN                                                                       \
       DQS_BODY(B, DQS_NO_NORMAL, BlendLocalDualQuaternions, staged, SKIN_TILE_VERTEX)      \
-    }                                                                                      \
+    SKIN_TILES_END                                                                         \
   }                                                                                        \
   __kernel void dqs_normals_local_b##B(SKIN_ARGS, SKIN_NORMAL_ARGS, SKIN_LOCAL_ARGS) {     \
-    StagePalette(palette, staged, palette_floats);                                         \
-    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                 \
-      const uint tile_base = SKIN_TILE_BASE(tile);                                         \
+    SKIN_TILES_BEGIN                                                                       \
       DQS_BODY(B, DQS_NORMAL, BlendLocalDualQuaternions, staged, SKIN_TILE_VERTEX)         \
-    }                                                                                      \
+    SKIN_TILES_END                                                                         \
   }                                                                                        \
   __kernel void dqs_tangents_local_b##B(SKIN_ARGS, SKIN_TANGENT_ARGS, SKIN_LOCAL_ARGS) {   \
-    StagePalette(palette, staged, palette_floats);                                         \
-    for (uint tile = 0; tile < SKIN_LOCAL_TILES; ++tile) {                                 \
-      const uint tile_base = SKIN_TILE_BASE(tile);                                         \
+    SKIN_TILES_BEGIN                                                                       \
       DQS_BODY(B, DQS_NORMAL_TANGENT, BlendLocalDualQuaternions, staged, SKIN_TILE_VERTEX) \
-    }                                                                                      \
+    SKIN_TILES_END                                                                         \
   }
 #else
 #define DEFINE_LOCAL_DUAL_QUATERNION_KERNELS(B)

@@ -516,7 +516,7 @@ void AddRunOptions(CLI::App& app, Options& o) {
                  "compare every Nth answer with a local float64 reference (0: never)")
       ->capture_default_str();
   app.add_option("--encoding", o.encoding,
-                 "answers in float32 (as computed), float16 or snorm16 (quantised to each "
+                 "answers in float32 (as computed), float16 or snorm16 (quantized to each "
                  "instance's box); checks allow the encoding's stated error")
       ->check(CLI::IsMember({"float32", "float16", "snorm16"}))
       ->capture_default_str();

@@ -66,7 +66,7 @@ bool FrameAssembler::AddRegionPart(const v1::SkinResponse& part, FrameResult* re
         write.end_offset(), instances, part.total_vertices(), VertexEncodingName(encoding),
         mapping.size()));
   }
-  if (QuantisedToBox(encoding) && part.instance_bounds_size() != static_cast<int>(instances)) {
+  if (QuantizedToBox(encoding) && part.instance_bounds_size() != static_cast<int>(instances)) {
     return fail(
         fmt::format("{} instances but {} instance_bounds", instances, part.instance_bounds_size()));
   }
@@ -77,7 +77,7 @@ bool FrameAssembler::AddRegionPart(const v1::SkinResponse& part, FrameResult* re
   result->normals.clear();
   result->tangents.clear();
   result->bounds.assign(instances, Bounds{});
-  for (uint32_t k = 0; QuantisedToBox(encoding) && k < instances; ++k) {
+  for (uint32_t k = 0; QuantizedToBox(encoding) && k < instances; ++k) {
     result->bounds[k] = FromWire(part.instance_bounds(static_cast<int>(k)));
   }
   result->region_positions = mapping.subspan(layout.positions_offset, array_bytes);
@@ -190,7 +190,7 @@ Status RangeProblem(const v1::SkinResponse& part, const FrameResult& frame, uint
         "instance, {} instance(s) in the part of {}",
         PartPlace(part), next_instance, next_vertex, frame.vertices, packed, frame.instances));
   }
-  if (packed > 1 && QuantisedToBox(frame.encoding) &&
+  if (packed > 1 && QuantizedToBox(frame.encoding) &&
       part.instance_bounds_size() != static_cast<int>(packed)) {
     return Internal(fmt::format("{}: {} instances in the part but {} instance_bounds",
                                 PartPlace(part), packed, part.instance_bounds_size()));
@@ -232,7 +232,7 @@ Status DecodeInstances(const v1::SkinResponse& part, uint32_t packed, bool norma
   for (uint32_t k = 0; k < packed; ++k) {
     const uint32_t instance = part.instance() + k;
     const Bounds bounds =
-        FromWire(packed > 1 && QuantisedToBox(encoding) ? part.instance_bounds(static_cast<int>(k))
+        FromWire(packed > 1 && QuantizedToBox(encoding) ? part.instance_bounds(static_cast<int>(k))
                                                         : part.bounds());
     Bounds& instance_bounds = result->bounds[instance];
     if (part.first_vertex() == 0) {

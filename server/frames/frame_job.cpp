@@ -8,7 +8,7 @@
 
 #include <grpcpp/impl/codegen/proto_utils.h>
 
-#include "rpc/engine_messages.h"
+#include "rpc/server_messages.h"
 #include "skinserve/wire/part_framing.h"
 #include "skinserve/wire/region_layout.h"
 

@@ -3,7 +3,7 @@
 #include <fmt/format.h>
 
 #include "frames/frame_job.h"
-#include "rpc/engine_messages.h"
+#include "rpc/server_messages.h"
 
 namespace skinserve::server {
 

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "rpc/engine_messages.h"
+#include "rpc/server_messages.h"
 
 namespace skinserve::server {
 namespace {
@@ -113,7 +113,7 @@ Status LayOutFrame(const v1::SkinRequest& request, const FramePlan& plan, FrameL
   Result<VertexEncoding> encoding = FromWire(request.encoding());
   if (!encoding.ok()) return encoding.status();
   l.encoding = *encoding;
-  l.boxed = QuantisedToBox(l.encoding);
+  l.boxed = QuantizedToBox(l.encoding);
   l.vertices = plan.vertex_count;
   l.instances = plan.instances;
   l.want_normals = request.want_normals();

@@ -4,7 +4,7 @@
 #include <grpcpp/impl/codegen/proto_utils.h>
 
 #include "observability/metrics_frames.h"
-#include "rpc/engine_messages.h"
+#include "rpc/server_messages.h"
 
 namespace skinserve::server {
 namespace {

@@ -1,7 +1,7 @@
 // ServerSnapshot: everything the server reports about itself, taken in one place
 // (SkinningService::Snapshot) and rendered twice: as Prometheus text on /metrics
-// (metrics_text.cpp) and as the ServerStats message of GetServerStats (ToWire below).
-// Whatever one of them shows, the other shows too.
+// (metrics_text.cpp) and as the ServerStats message of GetServerStats (ToWire,
+// rpc/server_messages.h). Whatever one of them shows, the other shows too.
 #pragma once
 
 #include <cstdint>
@@ -12,7 +12,6 @@
 #include "rpc/open_uploads.h"
 #include "shm/region_registry.h"
 #include "skinserve/engine/engine.h"
-#include "skinserve/v1/skinning.pb.h"
 
 namespace skinserve::server {
 
@@ -35,7 +34,5 @@ struct ServerSnapshot {
   std::map<std::string, BackendFrameMetrics> frames;  // per-frame histograms, by backend
   TickCounts ticks;                                   // ticks and their characters read
 };
-
-v1::ServerStats ToWire(const ServerSnapshot& snapshot);
 
 }  // namespace skinserve::server

@@ -4,7 +4,7 @@
 // store builds and checks everything before it stores anything.
 #include <fmt/format.h>
 
-#include "rpc/engine_messages.h"
+#include "rpc/server_messages.h"
 #include "rpc/skinning_service.h"
 #include "skinserve/wire/animation_conversions.h"
 
@@ -20,26 +20,6 @@ grpc::ServerUnaryReactor* Finished(grpc::CallbackServerContext* context, const S
 const Status& WarmingUp() {
   static const Status status = Unavailable("the server is starting: backends are being built");
   return status;
-}
-
-void ToWire(const animation::SkeletonInfo& info, v1::SkeletonInfo* wire) {
-  wire->set_skeleton_id(info.id);
-  wire->set_joint_count(info.joint_count);
-  wire->set_palette_size(info.palette_size);
-  wire->set_bytes(info.bytes);
-  wire->set_already_stored(info.already_stored);
-}
-
-void ToWire(const animation::ClipInfo& info, v1::ClipInfo* wire) {
-  wire->set_clip_id(info.id);
-  wire->set_name(info.name);
-  wire->set_duration(info.duration);
-  wire->set_joint_count(info.joint_count);
-  wire->set_weight_count(info.weight_count);
-  wire->set_tracks(info.tracks);
-  wire->set_bytes(info.bytes);
-  wire->set_raw_bytes(info.raw_bytes);
-  wire->set_already_stored(info.already_stored);
 }
 
 }  // namespace

@@ -2,7 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "rpc/engine_messages.h"
+#include "rpc/server_messages.h"
 
 namespace skinserve::server {
 

@@ -1,7 +1,7 @@
 #include "rpc/skin_reactor.h"
 
 #include "frames/skin_request_reader.h"
-#include "rpc/engine_messages.h"
+#include "rpc/server_messages.h"
 
 namespace skinserve::server {
 

@@ -2,8 +2,8 @@
 
 #include <fmt/format.h>
 
-#include "rpc/engine_messages.h"
 #include "rpc/mesh_upload_reactor.h"
+#include "rpc/server_messages.h"
 #include "rpc/skin_reactor.h"
 #include "rpc/stream_skin_reactor.h"
 
@@ -27,14 +27,6 @@ class Refused final : public Reactor {
 const Status kWarmingUp = Unavailable("the server is starting: backends are being built");
 const Status kNoSharedMemory =
     FailedPrecondition("this server's shared memory is off (--shm-dir is empty)");
-
-void ToWire(const RegionInfo& info, v1::RegionInfo* wire) {
-  wire->set_name(info.name);
-  wire->set_key(info.key);
-  wire->set_byte_size(info.byte_size);
-  wire->set_frames_written(info.frames_written);
-  wire->set_idle_seconds(info.idle_seconds);
-}
 
 }  // namespace
 

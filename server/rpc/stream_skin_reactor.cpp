@@ -3,7 +3,7 @@
 #include <fmt/format.h>
 #include <grpcpp/impl/codegen/proto_utils.h>
 
-#include "rpc/engine_messages.h"
+#include "rpc/server_messages.h"
 
 namespace skinserve::server {
 

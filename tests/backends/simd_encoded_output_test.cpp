@@ -81,7 +81,7 @@ Encoded HostEncoded(Backend& backend, const PreparedMesh& prepared, const FrameI
   e.positions.resize(EncodedBytes(encoding, v));
   e.normals.resize(o.normals ? e.positions.size() : 0);
   e.tangents.resize(o.tangents ? EncodedTangentBytes(encoding, v) : 0);
-  if (QuantisedToBox(encoding)) {
+  if (QuantizedToBox(encoding)) {
     Result<Bounds> box = ComputeBounds(p);
     if (!box.ok()) {
       e.status = box.status();
@@ -118,7 +118,7 @@ Encoded BackendEncoded(Backend& backend, const PreparedMesh& prepared, const Fra
   const Status valid = skin.Validate(*in.mesh);
   EXPECT_TRUE(valid.ok()) << valid.ToString();
   e.status = backend.Skin(prepared, skin);
-  if (!QuantisedToBox(encoding)) e.box = Bounds{};
+  if (!QuantizedToBox(encoding)) e.box = Bounds{};
   return e;
 }
 

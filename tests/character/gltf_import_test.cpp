@@ -228,9 +228,9 @@ std::vector<uint8_t> Bytes(const void* data, std::size_t size) {
   return {p, p + size};
 }
 
-// Quantised weights (UNSIGNED_BYTE and UNSIGNED_SHORT, normalized), UNSIGNED_SHORT joints
+// Quantized weights (UNSIGNED_BYTE and UNSIGNED_SHORT, normalized), UNSIGNED_SHORT joints
 // and a second set of four influences: read per spec and renormalised per vertex.
-TEST(GltfImportTest, QuantisedWeightsShortJointsAndEightInfluences) {
+TEST(GltfImportTest, QuantizedWeightsShortJointsAndEightInfluences) {
   REQUIRE_ASSET("RiggedSimple.glb");
   Glb glb = ParseGlb(ReadBytes(AssetPath("RiggedSimple.glb")));
   const RefCharacter ref = ReadReference(glb);

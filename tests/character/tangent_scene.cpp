@@ -65,7 +65,7 @@ TangentScenePrimitive FloatPrimitive(Glb& glb, json* out) {
   p.normals = Unit({0, 0, 1, 0.3, 0.1, 0.9, -0.5, 0.5, 0.7, 0.2, -0.8, 0.4, 1, 0, 0}, 3);
   attributes["NORMAL"] = p.normal_accessor = FloatAccessor(glb, p.normals, "VEC3", 5);
   // Unit xyz scaled by 1 + {0, 0.004, -0.006, 0.0099, -0.0099}: what exporters' rounding
-  // and 8-bit quantisation leave; w near +-1 at vertices 2 and 3.
+  // and 8-bit quantization leave; w near +-1 at vertices 2 and 3.
   const std::vector<double> xyz =
       Unit({1, 0, 0, 0.2, 0.9, -0.3, 0.6, -0.6, 0.5, -0.1, 0.3, 0.9, 0, 1, 0.2}, 3);
   const double scale[5] = {1, 1.004, 0.994, 1.0099, 0.9901};

@@ -122,7 +122,7 @@ TEST_P(VertexEncodingTest, TheTableDescribesEveryEncodingOnce) {
       std::vector<float> values(3 * 1001);
       for (float& v : values) v = normals ? unit(rng) : wide(rng);
       Bounds box;
-      if (e.quantised_to_box && !normals) box = ComputeBounds(values).value();
+      if (e.quantized_to_box && !normals) box = ComputeBounds(values).value();
       std::vector<std::byte> bytes(values.size() * e.bytes_per_value);
       ASSERT_TRUE(e.encode(values, normals, box, bytes, 0).ok()) << e.name;
       std::vector<float> decoded(values.size());
@@ -136,7 +136,7 @@ TEST_P(VertexEncodingTest, TheTableDescribesEveryEncodingOnce) {
   }
   EXPECT_EQ(index, 3);
   EXPECT_EQ(DescribeEncoding(static_cast<VertexEncoding>(3)), nullptr);
-  EXPECT_FALSE(QuantisedToBox(static_cast<VertexEncoding>(7)));
+  EXPECT_FALSE(QuantizedToBox(static_cast<VertexEncoding>(7)));
 }
 
 TEST_P(VertexEncodingTest, HalfToFloatIsExactForEveryHalf) {

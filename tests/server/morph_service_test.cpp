@@ -232,7 +232,7 @@ TEST(MorphServiceTest, StreamedFramesCarryTheirOwnWeights) {
   EXPECT_EQ(checked, 8u);
 }
 
-TEST(MorphServiceTest, Snorm16FramesMatchWithinTheQuantisationStep) {
+TEST(MorphServiceTest, Snorm16FramesMatchWithinTheQuantizationStep) {
   TestServer t;
   const MeshArrays arrays = MorphArrays();
   auto info = t.client->Upload(arrays);

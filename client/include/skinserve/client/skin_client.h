@@ -51,7 +51,7 @@ struct FrameResult {
   // x y z w, instance after instance: 4 * vertices each (SkinOptions::want_tangents; w is
   // exactly +1 or -1), or empty when not asked for.
   std::vector<float> tangents;
-  std::vector<Bounds> bounds;  // per instance: the box snorm16 positions were quantised to
+  std::vector<Bounds> bounds;  // per instance: the box snorm16 positions were quantized to
   v1::ServerTiming timing;
   // A frame written into a shared-memory region (SkinOptions::output): `positions` and
   // `normals` (and `tangents`) stay empty and these view the region instead, every instance

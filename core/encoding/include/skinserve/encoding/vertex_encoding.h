@@ -33,8 +33,7 @@ struct EncodingDescription {
   VertexEncoding id;
   const char* name;             // as on the command line and in reports
   std::size_t bytes_per_value;  // per x, y or z
-  bool quantised_to_box;        // each instance's Bounds travels with its values (spelling:
-                                // tests/encoding reads it; rename there and here together)
+  bool quantized_to_box;        // each instance's Bounds travels with its values
   // x y z triples into exactly bytes_per_value * values.size() bytes; `normals` picks the
   // normals' rule; errors name the vertex (counted from first_vertex).
   Status (*encode)(std::span<const float> values, bool normals, const Bounds& bounds,
@@ -52,10 +51,8 @@ const EncodingDescription* DescribeEncoding(VertexEncoding encoding);
 // Whether each instance's box travels with its values (false for unknown values).
 inline bool QuantizedToBox(VertexEncoding encoding) {
   const EncodingDescription* e = DescribeEncoding(encoding);
-  return e != nullptr && e->quantised_to_box;
+  return e != nullptr && e->quantized_to_box;
 }
-// The old spelling, until server/, client/src and tests/ call QuantizedToBox.
-inline bool QuantisedToBox(VertexEncoding encoding) { return QuantizedToBox(encoding); }
 
 // "float32", "float16", "snorm16".
 const char* VertexEncodingName(VertexEncoding encoding);

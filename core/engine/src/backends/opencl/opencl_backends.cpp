@@ -81,15 +81,4 @@ std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(const OpenClRuntimeOpti
   }
 }
 
-Status CheckOpenClOutputs(const Mesh& mesh, const SkinFrame& frame) {
-  if (frame.wants_normals() && !mesh.has_normals()) {
-    return InvalidArgument("normals requested, but the mesh has none");
-  }
-  if (frame.wants_tangents() && (!mesh.has_tangents() || !frame.wants_normals())) {
-    return InvalidArgument(
-        "tangents requested, but the mesh has none or normals are not asked for");
-  }
-  return Status::Ok();
-}
-
 }  // namespace skinserve

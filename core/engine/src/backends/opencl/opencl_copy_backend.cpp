@@ -22,21 +22,11 @@
 #include <cstring>
 #include <vector>
 
-#include "backends/common/dual_quaternion_palette.h"
+#include "backends/opencl/opencl_backend_base.h"
 #include "backends/opencl/opencl_backends.h"
-#include "backends/opencl/opencl_encode.h"
-#include "backends/opencl/opencl_morph.h"
-#include "backends/opencl/opencl_quantized.h"
-#include "skinserve/model/palette.h"
 
 namespace skinserve {
 namespace {
-
-struct OpenClPreparedMesh final : PreparedMesh {
-  using PreparedMesh::PreparedMesh;
-  ClBuffer positions, normals, tangents, joints, weights;
-  OpenClMorphTargets morph;
-};
 
 // Copies `bytes` with up to `threads` threads (large copies only).
 void ParallelCopy(void* to, const void* from, std::size_t bytes, int threads) {
@@ -56,85 +46,38 @@ void ParallelCopy(void* to, const void* from, std::size_t bytes, int threads) {
   }
 }
 
-class OpenClCopyBackend final : public Backend {
+class OpenClCopyBackend final : public OpenClBackendBase {
  public:
-  OpenClCopyBackend(std::shared_ptr<OpenClRuntime> runtime, std::shared_ptr<OpenClEncoder> encoder)
-      : runtime_(std::move(runtime)),
-        encoder_(std::move(encoder)),
-        info_(OpenClBackendInfo(
-            *runtime_, "opencl",
-            runtime_->staging() ? "OpenCL kernel; palette written and result read back per frame "
-                                  "through pinned memory, in overlapped chunks"
-                                : "OpenCL kernel; palette written and result read back per frame",
-            // Staged: a frame waits on the device and then copies with the threads other
-            // frames leave free, so it holds one compute thread of the engine.
-            runtime_->staging() ? 1 : runtime_->compute_units())) {}
-  const BackendInfo& info() const override { return info_; }
-
-  Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
-    auto prepared = std::make_unique<OpenClPreparedMesh>(mesh);
-    if (mesh->quantized_rest() != nullptr) {  // the integers only (opencl_quantized.h)
-      if (Status s = PrepareQuantizedMesh(
-              *runtime_, *mesh, CL_MEM_COPY_HOST_PTR, &prepared->positions, &prepared->normals,
-              &prepared->tangents, &prepared->joints, &prepared->weights);
-          !s.ok()) {
-        return s;
-      }
-      return std::unique_ptr<PreparedMesh>(std::move(prepared));
-    }
-    constexpr cl_mem_flags kCopyIn = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-    struct Plan {
-      const char* what;
-      ClBuffer* buffer;
-      std::size_t bytes;
-      const void* host;
-    };
-    std::vector<Plan> plan = {
-        {"positions", &prepared->positions, mesh->positions().size_bytes(),
-         mesh->positions().data()},
-        {"joints", &prepared->joints, mesh->joints().size_bytes(), mesh->joints().data()},
-        {"weights", &prepared->weights, mesh->weights().size_bytes(), mesh->weights().data()}};
-    if (mesh->has_normals()) {
-      plan.push_back(
-          {"normals", &prepared->normals, mesh->normals().size_bytes(), mesh->normals().data()});
-    }
-    if (mesh->has_tangents()) {
-      plan.push_back({"tangents", &prepared->tangents, mesh->tangents().size_bytes(),
-                      mesh->tangents().data()});
-    }
-    for (const Plan& p : plan) {
-      auto buffer = runtime_->CreateBuffer(p.what, kCopyIn, p.bytes, p.host);
-      if (!buffer.ok()) return buffer.status();
-      *p.buffer = std::move(buffer).value();
-    }
-    auto morph = CreateMorphTargets(*runtime_, *mesh, CL_MEM_COPY_HOST_PTR);
-    if (!morph.ok()) return morph.status();
-    prepared->morph = std::move(morph).value();
-    return std::unique_ptr<PreparedMesh>(std::move(prepared));
-  }
-
-  Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
-    return SkinWithKernelPalette(info_.id, base, frame, [&](const SkinFrame& in_kernel_layout) {
-      return SkinPalette(base, in_kernel_layout);
-    });
-  }
+  OpenClCopyBackend(const std::shared_ptr<OpenClRuntime>& runtime,
+                    std::shared_ptr<OpenClEncoder> encoder)
+      : OpenClBackendBase(
+            runtime, std::move(encoder), CL_MEM_COPY_HOST_PTR,
+            OpenClBackendInfo(
+                *runtime, "opencl",
+                runtime->staging()
+                    ? "OpenCL kernel; palette written and result read back per frame "
+                      "through pinned memory, in overlapped chunks"
+                    : "OpenCL kernel; palette written and result read back per frame",
+                // Staged: a frame waits on the device and then copies with the threads other
+                // frames leave free, so it holds one compute thread of the engine.
+                runtime->staging() ? 1 : runtime->compute_units())) {}
 
  private:
-  // Skin() with frame.palette in the layout of frame.method's kernels.
-  Status SkinPalette(const PreparedMesh& base, const SkinFrame& frame) {
-    const auto& prepared = static_cast<const OpenClPreparedMesh&>(base);
-    if (Status s = CheckOpenClOutputs(prepared.mesh(), frame); !s.ok()) return s;
+  Status SkinPalette(const OpenClPreparedMesh& prepared, const SkinFrame& frame) override {
     const bool with_normals = frame.wants_normals();
     const bool with_tangents = frame.wants_tangents();
-    auto lane = runtime_->AcquireLane();
+    auto lane = runtime().AcquireLane();
     if (Status s = Reserve(*lane, frame, prepared.mesh().vertex_count()); !s.ok()) return s;
     ClEvents kernels, transfers;
-    SkinKernelArgs args = Args(*lane, prepared, frame.method, with_normals, with_tangents);
+    SkinKernelArgs args =
+        KernelArgs(prepared, frame.method, lane->palette.get(), lane->out_positions.get(),
+                   with_normals ? lane->out_normals.get() : nullptr,
+                   with_tangents ? lane->out_tangents.get() : nullptr);
     Status status = Morph(*lane, prepared, frame, &args, kernels, transfers);
     if (status.ok() && frame.encoded.active()) {
       status = SkinEncoded(*lane, prepared, frame, args, kernels, transfers);
     } else if (status.ok()) {
-      status = runtime_->staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame, args,
+      status = runtime().staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame, args,
                                                 kernels, transfers)
                                    : SkinDirect(*lane, prepared, frame, args, kernels, transfers);
     }
@@ -151,75 +94,37 @@ class OpenClCopyBackend final : public Backend {
   // The lane's device buffers (and pinned staging) large enough for `frame`.
   Status Reserve(OpenClLane& lane, const SkinFrame& frame, uint32_t vertex_count) {
     const std::size_t out_bytes = 3ull * vertex_count * sizeof(float);
-    const std::size_t tangent_bytes = 4ull * vertex_count * sizeof(float);
-    if (Status s = runtime_->GrowBuffer("palette", CL_MEM_READ_ONLY, frame.palette.size_bytes(),
+    if (Status s = runtime().GrowBuffer("palette", CL_MEM_READ_ONLY, frame.palette.size_bytes(),
                                         &lane.palette, &lane.palette_bytes);
         !s.ok()) {
       return s;
     }
-    if (Status s = runtime_->GrowBuffer("output positions", CL_MEM_READ_WRITE, out_bytes,
-                                        &lane.out_positions, &lane.positions_bytes);
-        !s.ok()) {
-      return s;
-    }
-    if (frame.wants_normals()) {
-      if (Status s = runtime_->GrowBuffer("output normals", CL_MEM_READ_WRITE, out_bytes,
-                                          &lane.out_normals, &lane.normals_bytes);
-          !s.ok()) {
-        return s;
-      }
-    }
-    if (frame.wants_tangents()) {
-      if (Status s = runtime_->GrowBuffer("output tangents", CL_MEM_READ_WRITE, tangent_bytes,
-                                          &lane.out_tangents, &lane.tangents_bytes);
-          !s.ok()) {
-        return s;
-      }
-    }
-    if (!runtime_->staging()) return Status::Ok();
-    if (Status s = runtime_->GrowPinned(lane.compute, "pinned palette", frame.palette.size_bytes(),
+    if (Status s = GrowLaneOutputs(lane, frame, vertex_count); !s.ok()) return s;
+    if (!runtime().staging()) return Status::Ok();
+    if (Status s = runtime().GrowPinned(lane.compute, "pinned palette", frame.palette.size_bytes(),
                                         &lane.pinned_palette);
         !s.ok()) {
       return s;
     }
     // Encoded frames read back through the encoder's own pinned buffers.
     if (frame.encoded.active()) return Status::Ok();
-    if (Status s = runtime_->GrowPinned(lane.compute, "pinned positions", out_bytes,
+    if (Status s = runtime().GrowPinned(lane.compute, "pinned positions", out_bytes,
                                         &lane.pinned_positions);
         !s.ok()) {
       return s;
     }
     if (!frame.normals.empty()) {
       if (Status s =
-              runtime_->GrowPinned(lane.compute, "pinned normals", out_bytes, &lane.pinned_normals);
+              runtime().GrowPinned(lane.compute, "pinned normals", out_bytes, &lane.pinned_normals);
           !s.ok()) {
         return s;
       }
     }
     if (!frame.tangents.empty()) {
-      return runtime_->GrowPinned(lane.compute, "pinned tangents", frame.tangents.size_bytes(),
+      return runtime().GrowPinned(lane.compute, "pinned tangents", frame.tangents.size_bytes(),
                                   &lane.pinned_tangents);
     }
     return Status::Ok();
-  }
-
-  SkinKernelArgs Args(const OpenClLane& lane, const OpenClPreparedMesh& prepared,
-                      SkinningMethod method, bool with_normals, bool with_tangents) const {
-    SkinKernelArgs args{.method = method,
-                        .palette = lane.palette.get(),
-                        .joints = prepared.joints.get(),
-                        .weights = prepared.weights.get(),
-                        .positions = prepared.positions.get(),
-                        .out_positions = lane.out_positions.get()};
-    if (with_normals) {
-      args.normals = prepared.normals.get();
-      args.out_normals = lane.out_normals.get();
-    }
-    if (with_tangents) {
-      args.tangents = prepared.tangents.get();
-      args.out_tangents = lane.out_tangents.get();
-    }
-    return args;
   }
 
   // A frame with an active target: its weights written to the lane and the morph kernel
@@ -229,7 +134,7 @@ class OpenClCopyBackend final : public Backend {
                SkinKernelArgs* args, ClEvents& kernels, ClEvents& transfers) {
     if (!MorphsOnDevice(frame, prepared.morph)) return Status::Ok();
     const std::size_t bytes = frame.morph_weights.size_bytes();
-    if (Status s = runtime_->GrowBuffer("morph weights", CL_MEM_READ_ONLY, bytes,
+    if (Status s = runtime().GrowBuffer("morph weights", CL_MEM_READ_ONLY, bytes,
                                         &lane.morph_weights, &lane.morph_weights_bytes);
         !s.ok()) {
       return s;
@@ -242,7 +147,7 @@ class OpenClCopyBackend final : public Backend {
         err != CL_SUCCESS) {
       return ClError("clEnqueueWriteBuffer(morph weights)", err);
     }
-    return EnqueueFrameMorph(*runtime_, lane, prepared.mesh(), prepared.morph,
+    return EnqueueFrameMorph(runtime(), lane, prepared.mesh(), prepared.morph,
                              lane.morph_weights.get(), frame, args, kernels);
   }
 
@@ -286,7 +191,7 @@ class OpenClCopyBackend final : public Backend {
     if (Status s = EnqueueWholeFrame(lane, prepared, frame, args, kernels, transfers); !s.ok()) {
       return s;
     }
-    return encoder_->Encode(lane, args, prepared.mesh().vertex_count(), frame,
+    return encoder().Encode(lane, args, prepared.mesh().vertex_count(), frame,
                             /*zero_copy=*/false, kernels, transfers);
   }
 
@@ -296,7 +201,7 @@ class OpenClCopyBackend final : public Backend {
                            const SkinFrame& frame, const SkinKernelArgs& args, ClEvents& kernels,
                            ClEvents& transfers) {
     const void* palette = frame.palette.data();
-    if (runtime_->staging()) {
+    if (runtime().staging()) {
       std::memcpy(lane.pinned_palette.host, frame.palette.data(), frame.palette.size_bytes());
       palette = lane.pinned_palette.host;
     }
@@ -307,7 +212,7 @@ class OpenClCopyBackend final : public Backend {
       return ClError("clEnqueueWriteBuffer(palette)", err);
     }
     const Mesh& mesh = prepared.mesh();
-    return runtime_->EnqueueSkin(lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
+    return runtime().EnqueueSkin(lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
   }
 
   // Pinned staging, chunks, two queues: see the top of this file.
@@ -343,9 +248,9 @@ class OpenClCopyBackend final : public Backend {
                          lane.pinned_tangents.host, frame.tangents.data(), 4});
     }
     const uint32_t align = OpenClRuntime::kChunkAlignment;
-    const uint32_t most = static_cast<uint32_t>(runtime_->max_chunks());
+    const uint32_t most = static_cast<uint32_t>(runtime().max_chunks());
     // Chunks start at multiples of `align` (the runtime rounds min_chunk_vertices up too).
-    const uint32_t per_chunk = std::max(runtime_->min_chunk_vertices(),
+    const uint32_t per_chunk = std::max(runtime().min_chunk_vertices(),
                                         ((vertices + most - 1) / most + align - 1) / align * align);
     struct Chunk {
       uint32_t first, end;
@@ -355,7 +260,7 @@ class OpenClCopyBackend final : public Backend {
     for (uint32_t first = 0; first < vertices; first += per_chunk) {
       Chunk chunk{first, std::min(vertices, first + per_chunk), {}};
       cl_event* kernel = kernels.Next();
-      if (Status s = runtime_->EnqueueSkin(lane, mesh, args, chunk.first, chunk.end, kernel);
+      if (Status s = runtime().EnqueueSkin(lane, mesh, args, chunk.first, chunk.end, kernel);
           !s.ok()) {
         return s;
       }
@@ -391,10 +296,6 @@ class OpenClCopyBackend final : public Backend {
     }
     return Status::Ok();
   }
-
-  std::shared_ptr<OpenClRuntime> runtime_;
-  std::shared_ptr<OpenClEncoder> encoder_;
-  BackendInfo info_;
 };
 
 }  // namespace

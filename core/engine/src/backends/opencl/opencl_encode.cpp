@@ -6,8 +6,11 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
+#include <span>
 #include <string_view>
 
+#include "backends/opencl/opencl_program.h"
 #include "skinserve/kernels/embedded_kernels.h"
 
 namespace skinserve {
@@ -68,23 +71,12 @@ OpenClEncoder::~OpenClEncoder() {
 }
 
 Status OpenClEncoder::Build() {
-  const char* source = kernels::kEncodeOutputSource.data();
-  const std::size_t length = kernels::kEncodeOutputSource.size();
-  cl_int err = CL_SUCCESS;
-  program_ = clCreateProgramWithSource(runtime_->context(), 1, &source, &length, &err);
-  if (err != CL_SUCCESS) return ClError("clCreateProgramWithSource(encode_output)", err);
-  cl_device_id device = runtime_->device();
-  err = clBuildProgram(program_, 1, &device, "", nullptr, nullptr);
-  if (err == CL_SUCCESS) return Warm();
-  std::size_t log_size = 0;
-  std::string log;
-  if (clGetProgramBuildInfo(program_, device, CL_PROGRAM_BUILD_LOG, 0, nullptr, &log_size) ==
-      CL_SUCCESS) {
-    log.resize(log_size);
-    clGetProgramBuildInfo(program_, device, CL_PROGRAM_BUILD_LOG, log_size, log.data(), nullptr);
-  }
-  return FailedPrecondition(fmt::format(
-      "clBuildProgram(encode_output.cl) failed: {} ({}); log:\n{}", ClErrorName(err), err, log));
+  const std::string_view sources[] = {kernels::kEncodeOutputSource};
+  auto program =
+      BuildClProgram(runtime_->context(), runtime_->device(), sources, "", "encode_output.cl");
+  if (!program.ok()) return program.status();
+  program_ = *program;
+  return Warm();
 }
 
 // Runs every kernel once on one work-group of zeros: PoCL compiles a kernel for its
@@ -222,6 +214,19 @@ Status Enqueue(OpenClLane& lane, cl_kernel kernel, std::size_t count, const char
 
 }  // namespace
 
+// One array of the encoded output: where its floats are on the device (`in`, then, once
+// its kernel is enqueued, its bytes), where they go, and the lane's buffers for them.
+struct OpenClEncoder::EncodedArray {
+  const char* what;
+  cl_mem in;
+  std::span<std::byte> to;
+  std::size_t values;
+  bool positions;
+  ClBuffer* buffer;
+  std::size_t* capacity;
+  PinnedBuffer* pinned;
+};
+
 Status OpenClEncoder::Encode(OpenClLane& lane, const SkinKernelArgs& floats, uint32_t vertex_count,
                              const SkinFrame& frame, bool zero_copy, ClEvents& kernels,
                              ClEvents& transfers) {
@@ -240,85 +245,117 @@ Status OpenClEncoder::Encode(OpenClLane& lane, const SkinKernelArgs& floats, uin
       err != CL_SUCCESS) {
     return ClError("clEnqueueFillBuffer(encode flag)", err);
   }
-  cl_mem bad = state.bad.get();
-
-  // snorm16: the box of the skinned positions, from the groups' partial rows.
-  float centre[3] = {}, scale[3] = {};
+  Snorm16Box box;
   if (snorm16) {
-    const std::size_t groups =
-        std::clamp<std::size_t>((vertex_count + kGroup - 1) / kGroup, 1, kMaxGroups);
-    const std::size_t row_bytes = groups * kRowFloats * sizeof(float);
-    if (Status s = runtime_->GrowBuffer("encode box rows", CL_MEM_READ_WRITE, row_bytes,
-                                        &state.partial, &state.partial_bytes);
-        !s.ok()) {
-      return s;
-    }
-    cl_mem positions = floats.out_positions, partial = state.partial.get();
-    const cl_uint vertices = vertex_count;
-    if (Status s = SetArg(state.bounds, 0, sizeof(cl_mem), &positions); !s.ok()) return s;
-    if (Status s = SetArg(state.bounds, 1, sizeof(cl_uint), &vertices); !s.ok()) return s;
-    if (Status s = SetArg(state.bounds, 2, sizeof(cl_mem), &partial); !s.ok()) return s;
-    const std::size_t global = groups * kGroup, local = kGroup;
-    if (cl_int err = clEnqueueNDRangeKernel(lane.compute, state.bounds, 1, nullptr, &global, &local,
-                                            0, nullptr, kernels.Next());
-        err != CL_SUCCESS) {
-      return ClError("clEnqueueNDRangeKernel(bounds_partial)", err);
-    }
-    state.partial_rows.resize(groups * kRowFloats);
-    if (cl_int err = clEnqueueReadBuffer(lane.compute, partial, CL_TRUE, 0, row_bytes,
-                                         state.partial_rows.data(), 0, nullptr, transfers.Next());
-        err != CL_SUCCESS) {
-      return ClError("clEnqueueReadBuffer(encode box rows)", err);
-    }
-    Bounds box;
-    bool finite = true;
-    for (std::size_t g = 0; g < groups; ++g) {
-      const float* row = &state.partial_rows[g * kRowFloats];
-      for (int a = 0; a < 3; ++a) {
-        box.min[a] = g == 0 ? row[a] : std::fmin(box.min[a], row[a]);
-        box.max[a] = g == 0 ? row[3 + a] : std::fmax(box.max[a], row[3 + a]);
-      }
-      finite = finite && row[6] == 0.0f;
-    }
+    auto device_box =
+        DeviceBox(lane, state, floats.out_positions, vertex_count, kernels, transfers);
+    if (!device_box.ok()) return device_box.status();
     // Not finite (the host's error names the vertex), or an axis too thin for a float scale
-    // (the host encodes in double): the host encoder takes the frame.
-    if (!finite || !Snorm16Axes(box, centre, scale)) {
+    // (the host encoder works in double): the host encoder takes the frame.
+    if (!device_box->has_value() || !Snorm16Axes(**device_box, box.centre, box.scale)) {
       return HostEncode(lane, floats, vertex_count, frame);
     }
-    *enc.bounds = box;
+    *enc.bounds = **device_box;
   }
+  std::vector<EncodedArray> arrays = EncodedArrays(state, floats, enc, vertex_count);
+  std::vector<ClBuffer> wrapped;  // zero copy: this frame's buffers around the caller's memory
+  if (Status s = EnqueueEncodeKernels(lane, state, snorm16 ? &box : nullptr, zero_copy, arrays,
+                                      &wrapped, kernels);
+      !s.ok()) {
+    return s;
+  }
+  if (Status s = EnqueueReadBack(lane, zero_copy, arrays, transfers); !s.ok()) return s;
+  // The flag last, in order on the compute queue: the one wait.
+  cl_int refused = 0;
+  if (cl_int err = clEnqueueReadBuffer(lane.compute, state.bad.get(), CL_TRUE, 0, sizeof(refused),
+                                       &refused, 0, nullptr, nullptr);
+      err != CL_SUCCESS) {
+    return ClError("clEnqueueReadBuffer(encode flag)", err);
+  }
+  if (refused != 0) {
+    Status s = HostEncode(lane, floats, vertex_count, frame);
+    return s.ok() ? Internal("the device refused a value to encode that the host encoder takes")
+                  : s;
+  }
+  if (!zero_copy && runtime_->staging()) {
+    for (const EncodedArray& a : arrays) std::memcpy(a.to.data(), a.pinned->host, a.to.size());
+  }
+  return Status::Ok();
+}
 
-  // Where the bytes go: the caller's memory in place, or the lane's device buffers.
-  struct Output {
-    const char* what;
-    cl_mem in;
-    std::span<std::byte> to;
-    std::size_t values;
-    bool positions;
-    ClBuffer* buffer;
-    std::size_t* capacity;
-    PinnedBuffer* pinned;
-  };
-  std::vector<Output> outputs = {{"encoded positions", floats.out_positions, enc.positions,
-                                  3ull * vertex_count, true, &state.positions,
-                                  &state.positions_bytes, &state.pinned_positions}};
+Result<std::optional<Bounds>> OpenClEncoder::DeviceBox(OpenClLane& lane, LaneState& state,
+                                                       cl_mem positions, uint32_t vertex_count,
+                                                       ClEvents& kernels, ClEvents& transfers) {
+  const std::size_t groups =
+      std::clamp<std::size_t>((vertex_count + kGroup - 1) / kGroup, 1, kMaxGroups);
+  const std::size_t row_bytes = groups * kRowFloats * sizeof(float);
+  if (Status s = runtime_->GrowBuffer("encode box rows", CL_MEM_READ_WRITE, row_bytes,
+                                      &state.partial, &state.partial_bytes);
+      !s.ok()) {
+    return s;
+  }
+  cl_mem partial = state.partial.get();
+  const cl_uint vertices = vertex_count;
+  if (Status s = SetArg(state.bounds, 0, sizeof(cl_mem), &positions); !s.ok()) return s;
+  if (Status s = SetArg(state.bounds, 1, sizeof(cl_uint), &vertices); !s.ok()) return s;
+  if (Status s = SetArg(state.bounds, 2, sizeof(cl_mem), &partial); !s.ok()) return s;
+  const std::size_t global = groups * kGroup, local = kGroup;
+  if (cl_int err = clEnqueueNDRangeKernel(lane.compute, state.bounds, 1, nullptr, &global, &local,
+                                          0, nullptr, kernels.Next());
+      err != CL_SUCCESS) {
+    return ClError("clEnqueueNDRangeKernel(bounds_partial)", err);
+  }
+  state.partial_rows.resize(groups * kRowFloats);
+  if (cl_int err = clEnqueueReadBuffer(lane.compute, partial, CL_TRUE, 0, row_bytes,
+                                       state.partial_rows.data(), 0, nullptr, transfers.Next());
+      err != CL_SUCCESS) {
+    return ClError("clEnqueueReadBuffer(encode box rows)", err);
+  }
+  Bounds box;
+  bool finite = true;
+  for (std::size_t g = 0; g < groups; ++g) {
+    const float* row = &state.partial_rows[g * kRowFloats];
+    for (int a = 0; a < 3; ++a) {
+      box.min[a] = g == 0 ? row[a] : std::fmin(box.min[a], row[a]);
+      box.max[a] = g == 0 ? row[3 + a] : std::fmax(box.max[a], row[3 + a]);
+    }
+    finite = finite && row[6] == 0.0f;
+  }
+  if (!finite) return std::optional<Bounds>();
+  return std::optional<Bounds>(box);
+}
+
+std::vector<OpenClEncoder::EncodedArray> OpenClEncoder::EncodedArrays(LaneState& state,
+                                                                      const SkinKernelArgs& floats,
+                                                                      const EncodedOutput& enc,
+                                                                      uint32_t vertex_count) {
+  std::vector<EncodedArray> arrays = {{"encoded positions", floats.out_positions, enc.positions,
+                                       3ull * vertex_count, true, &state.positions,
+                                       &state.positions_bytes, &state.pinned_positions}};
   if (!enc.normals.empty()) {
-    outputs.push_back({"encoded normals", floats.out_normals, enc.normals, 3ull * vertex_count,
-                       false, &state.normals, &state.normals_bytes, &state.pinned_normals});
+    arrays.push_back({"encoded normals", floats.out_normals, enc.normals, 3ull * vertex_count,
+                      false, &state.normals, &state.normals_bytes, &state.pinned_normals});
   }
   if (!enc.tangents.empty()) {
-    outputs.push_back({"encoded tangents", floats.out_tangents, enc.tangents, 4ull * vertex_count,
-                       false, &state.tangents, &state.tangents_bytes, &state.pinned_tangents});
+    arrays.push_back({"encoded tangents", floats.out_tangents, enc.tangents, 4ull * vertex_count,
+                      false, &state.tangents, &state.tangents_bytes, &state.pinned_tangents});
   }
-  std::vector<ClBuffer> wrapped;  // zero copy: this frame's buffers around the caller's memory
-  wrapped.reserve(outputs.size());
-  for (Output& out : outputs) {
+  return arrays;
+}
+
+Status OpenClEncoder::EnqueueEncodeKernels(OpenClLane& lane, LaneState& state,
+                                           const Snorm16Box* box, bool zero_copy,
+                                           std::vector<EncodedArray>& arrays,
+                                           std::vector<ClBuffer>* wrapped, ClEvents& kernels) {
+  wrapped->reserve(arrays.size());
+  cl_mem bad = state.bad.get();
+  for (EncodedArray& out : arrays) {
     cl_mem target = nullptr;
     if (zero_copy) {
       auto created = runtime_->CreateBuffer(out.what, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,
                                             out.to.size(), out.to.data());
       if (!created.ok()) return created.status();
-      target = wrapped.emplace_back(std::move(created).value()).get();
+      target = wrapped->emplace_back(std::move(created).value()).get();
     } else {
       if (Status s = runtime_->GrowBuffer(out.what, CL_MEM_READ_WRITE, out.to.size(), out.buffer,
                                           out.capacity);
@@ -328,15 +365,15 @@ Status OpenClEncoder::Encode(OpenClLane& lane, const SkinKernelArgs& floats, uin
       target = out.buffer->get();
     }
     const cl_uint count = static_cast<cl_uint>(out.values);
-    cl_kernel kernel = !snorm16        ? state.half
+    cl_kernel kernel = box == nullptr  ? state.half
                        : out.positions ? state.snorm16_positions
                                        : state.snorm16_unit;
     if (Status s = SetArg(kernel, 0, sizeof(cl_mem), &out.in); !s.ok()) return s;
     if (Status s = SetArg(kernel, 1, sizeof(cl_uint), &count); !s.ok()) return s;
-    if (snorm16 && out.positions) {
+    if (box != nullptr && out.positions) {
       for (int a = 0; a < 3; ++a) {
-        if (Status s = SetArg(kernel, 2 + a, sizeof(float), &centre[a]); !s.ok()) return s;
-        if (Status s = SetArg(kernel, 5 + a, sizeof(float), &scale[a]); !s.ok()) return s;
+        if (Status s = SetArg(kernel, 2 + a, sizeof(float), &box->centre[a]); !s.ok()) return s;
+        if (Status s = SetArg(kernel, 5 + a, sizeof(float), &box->scale[a]); !s.ok()) return s;
       }
       if (Status s = SetArg(kernel, 8, sizeof(cl_mem), &target); !s.ok()) return s;
     } else {
@@ -346,9 +383,12 @@ Status OpenClEncoder::Encode(OpenClLane& lane, const SkinKernelArgs& floats, uin
     if (Status s = Enqueue(lane, kernel, out.values, out.what, kernels); !s.ok()) return s;
     out.in = target;  // from here on: where the bytes are on the device
   }
+  return Status::Ok();
+}
 
-  // The bytes to the host, in order on the compute queue; then the flag, and one wait.
-  for (Output& out : outputs) {
+Status OpenClEncoder::EnqueueReadBack(OpenClLane& lane, bool zero_copy,
+                                      std::vector<EncodedArray>& arrays, ClEvents& transfers) {
+  for (EncodedArray& out : arrays) {
     if (zero_copy) {
       cl_int err = CL_SUCCESS;
       void* mapped = clEnqueueMapBuffer(lane.compute, out.in, CL_FALSE, CL_MAP_READ, 0,
@@ -371,20 +411,6 @@ Status OpenClEncoder::Encode(OpenClLane& lane, const SkinKernelArgs& floats, uin
         err != CL_SUCCESS) {
       return ClError("clEnqueueReadBuffer(encoded output)", err);
     }
-  }
-  cl_int refused = 0;
-  if (cl_int err = clEnqueueReadBuffer(lane.compute, bad, CL_TRUE, 0, sizeof(refused), &refused, 0,
-                                       nullptr, nullptr);
-      err != CL_SUCCESS) {
-    return ClError("clEnqueueReadBuffer(encode flag)", err);
-  }
-  if (refused != 0) {
-    Status s = HostEncode(lane, floats, vertex_count, frame);
-    return s.ok() ? Internal("the device refused a value to encode that the host encoder takes")
-                  : s;
-  }
-  if (!zero_copy && runtime_->staging()) {
-    for (const Output& out : outputs) std::memcpy(out.to.data(), out.pinned->host, out.to.size());
   }
   return Status::Ok();
 }

@@ -7,10 +7,12 @@
 
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
 #include "backends/opencl/opencl_runtime.h"
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/engine/backend.h"
 
 namespace skinserve {
@@ -39,9 +41,31 @@ class OpenClEncoder {
 
  private:
   struct LaneState;
+  struct EncodedArray;
+  // snorm16's box as the device kernels take it: per axis the centre and 32767 / half-extent.
+  struct Snorm16Box {
+    float centre[3] = {}, scale[3] = {};
+  };
   Status Build();
   Status Warm();
   Result<LaneState*> StateOf(OpenClLane& lane);
+  // snorm16: the box of the skinned `positions`, combined from the work-groups' partial rows
+  // (read back, blocking); nullopt when a value is not finite.
+  Result<std::optional<Bounds>> DeviceBox(OpenClLane& lane, LaneState& state, cl_mem positions,
+                                          uint32_t vertex_count, ClEvents& kernels,
+                                          ClEvents& transfers);
+  // The frame's encoded arrays: positions, and normals and tangents where it asks for them.
+  static std::vector<EncodedArray> EncodedArrays(LaneState& state, const SkinKernelArgs& floats,
+                                                 const EncodedOutput& enc, uint32_t vertex_count);
+  // Each array's encode kernel (float16 when `box` is null, else snorm16 with it), writing
+  // the caller's memory in place (zero_copy: through `wrapped`) or the lane's buffers.
+  Status EnqueueEncodeKernels(OpenClLane& lane, LaneState& state, const Snorm16Box* box,
+                              bool zero_copy, std::vector<EncodedArray>& arrays,
+                              std::vector<ClBuffer>* wrapped, ClEvents& kernels);
+  // The bytes to the host, in order on the compute queue: maps (zero_copy) or reads
+  // (through the lane's pinned memory when the runtime stages).
+  Status EnqueueReadBack(OpenClLane& lane, bool zero_copy, std::vector<EncodedArray>& arrays,
+                         ClEvents& transfers);
 
   std::shared_ptr<OpenClRuntime> runtime_;
   std::mutex mutex_;

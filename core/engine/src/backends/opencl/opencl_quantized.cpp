@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "backends/common/quantized_palette.h"
+#include "backends/opencl/opencl_program.h"
 #include "skinserve/kernels/embedded_kernels.h"
 
 namespace skinserve {
@@ -128,32 +129,14 @@ OpenClQuantizedKernels::~OpenClQuantizedKernels() {
 Result<cl_program> OpenClQuantizedKernels::Program(bool joints16, bool weights16) {
   cl_program& program = programs_[joints16][weights16];
   if (program != nullptr) return program;
-  // linear_blend_skinning.cl first: quantized_skinning.cl uses its macros and Blended.
-  const char* sources[] = {kernels::kLinearBlendSkinningSource.data(),
-                           kernels::kQuantizedSkinningSource.data()};
-  const std::size_t lengths[] = {kernels::kLinearBlendSkinningSource.size(),
-                                 kernels::kQuantizedSkinningSource.size()};
-  cl_int err = CL_SUCCESS;
-  cl_program built = clCreateProgramWithSource(context_, 2, sources, lengths, &err);
-  if (err != CL_SUCCESS) return ClError("clCreateProgramWithSource(quantized)", err);
   const std::string options =
       fmt::format("{} -DQSKIN_JOINT={} -DQSKIN_WEIGHT={} -DQSKIN_WEIGHT_STEPS={}", build_options_,
                   joints16 ? "ushort" : "uchar", weights16 ? "ushort" : "uchar",
                   weights16 ? kWeightSteps16 : kWeightSteps8);
-  err = clBuildProgram(built, 1, &device_, options.c_str(), nullptr, nullptr);
-  if (err != CL_SUCCESS) {
-    std::size_t size = 0;
-    std::string log;
-    if (clGetProgramBuildInfo(built, device_, CL_PROGRAM_BUILD_LOG, 0, nullptr, &size) ==
-        CL_SUCCESS) {
-      log.resize(size);
-      clGetProgramBuildInfo(built, device_, CL_PROGRAM_BUILD_LOG, size, log.data(), nullptr);
-    }
-    clReleaseProgram(built);
-    return FailedPrecondition(fmt::format(
-        "clBuildProgram(quantized) failed: {} ({}); build log:\n{}", ClErrorName(err), err, log));
-  }
-  program = built;
+  const std::string_view sources[] = {kernels::kQuantizedSkinningSource};
+  auto built = BuildSkinningProgram(context_, device_, sources, options, "quantized");
+  if (!built.ok()) return built.status();
+  program = *built;
   return program;
 }
 

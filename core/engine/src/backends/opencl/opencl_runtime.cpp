@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "backends/opencl/opencl_program.h"
 #include "backends/opencl/opencl_quantized.h"
 #include "skinserve/kernels/embedded_kernels.h"
 
@@ -298,42 +299,63 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
                                 "clGetPlatformInfo(CL_PLATFORM_VERSION)");
   if (!version.ok()) return version.status();
   runtime->platform_version_ = ShortVersion(*version);
+  if (Status s = runtime->ReadDeviceShape(options); !s.ok()) return s;
+  if (Status s = runtime->BuildPrograms(); !s.ok()) return s;
+  const int lanes = options.lanes > 0 ? options.lanes : (runtime->staging_ ? 4 : 1);
+  runtime->threads_ = threads;
+  runtime->SetChunks(options);
+  if (Status s = runtime->CreateLanes(lanes); !s.ok()) return s;
+  if (runtime->local_palette()) {
+    if (Status s = runtime->FitLocalPalette(options); !s.ok()) return s;
+  }
+  if (Status s = runtime->Warm(); !s.ok()) return s;
+  return runtime;
+}
+
+// The device's compute units and vector width, and what follows from its type and
+// `options`: staging, the coalesced order, local memory for the palette, the local tiles.
+Status OpenClRuntime::ReadDeviceShape(const OpenClRuntimeOptions& options) {
   cl_uint units = 1, width = 1;
-  if (Status s = DeviceUint(picked->device, CL_DEVICE_MAX_COMPUTE_UNITS,
+  if (Status s = DeviceUint(device_, CL_DEVICE_MAX_COMPUTE_UNITS,
                             "clGetDeviceInfo(CL_DEVICE_MAX_COMPUTE_UNITS)", &units);
       !s.ok()) {
     return s;
   }
-  if (Status s = DeviceUint(picked->device, CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT,
+  if (Status s = DeviceUint(device_, CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT,
                             "clGetDeviceInfo(CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT)", &width);
       !s.ok()) {
     return s;
   }
-  runtime->compute_units_ = static_cast<int>(units);
-  runtime->vector_width_ = static_cast<int>(width);
-  runtime->staging_ = !runtime->is_cpu_ || options.force_staging;
-  runtime->coalesced_ = !runtime->is_cpu_ || options.force_coalesced;
+  compute_units_ = static_cast<int>(units);
+  vector_width_ = static_cast<int>(width);
+  staging_ = !is_cpu_ || options.force_staging;
+  coalesced_ = !is_cpu_ || options.force_coalesced;
   // The local-palette kernels: on the coalesced path, unless turned off, up to the
   // device's local memory, less what the kernels use themselves, and at most the caller's
-  // limit (both applied once the kernels exist).
-  if (runtime->coalesced_ && options.local_palette == OpenClRuntimeOptions::LocalPalette::kAuto) {
+  // limit (both applied once the kernels exist: FitLocalPalette).
+  if (coalesced_ && options.local_palette == OpenClRuntimeOptions::LocalPalette::kAuto) {
     cl_ulong local_bytes = 0;
-    if (Status s = DeviceUint(picked->device, CL_DEVICE_LOCAL_MEM_SIZE,
+    if (Status s = DeviceUint(device_, CL_DEVICE_LOCAL_MEM_SIZE,
                               "clGetDeviceInfo(CL_DEVICE_LOCAL_MEM_SIZE)", &local_bytes);
         !s.ok()) {
       return s;
     }
-    runtime->local_palette_bytes_ = static_cast<std::size_t>(local_bytes);
+    local_palette_bytes_ = static_cast<std::size_t>(local_bytes);
   }
-  runtime->local_tiles_ = options.local_tiles;
+  local_tiles_ = options.local_tiles;
   if (const char* tiles = std::getenv("SKINSERVE_OPENCL_LOCAL_TILES");
-      runtime->local_tiles_ <= 0 && tiles != nullptr) {
-    runtime->local_tiles_ = std::atoi(tiles);
+      local_tiles_ <= 0 && tiles != nullptr) {
+    local_tiles_ = std::atoi(tiles);
   }
-  if (runtime->local_tiles_ <= 0) runtime->local_tiles_ = kDefaultLocalTiles;
+  if (local_tiles_ <= 0) local_tiles_ = kDefaultLocalTiles;
+  return Status::Ok();
+}
 
+// The context, the skinning program and the quantized kernels' builder, for the shape
+// ReadDeviceShape found.
+Status OpenClRuntime::BuildPrograms() {
   cl_int err = CL_SUCCESS;
-  runtime->context_ = clCreateContext(nullptr, 1, &runtime->device_, nullptr, nullptr, &err);
+  context_ = clCreateContext(nullptr, 1, &device_, nullptr, nullptr, &err);
   if (err != CL_SUCCESS) return ClError("clCreateContext", err);
   // On a GPU, consecutive work-items take consecutive vertices (coalesced loads and
   // stores), and the *_local_* kernels stage the palette in local memory; on a CPU, each
@@ -342,81 +364,57 @@ Result<std::shared_ptr<OpenClRuntime>> OpenClRuntime::Create(const OpenClRuntime
       "-cl-std=CL1.2 -DSKIN_VERTICES_PER_ITEM={} -DSKIN_ITEMS_PER_GROUP={} "
       "-DSKIN_COALESCED={} -DSKIN_LOCAL_PALETTE={} -DSKIN_LOCAL_TILES={} "
       "-DMORPH_VERTICES_PER_ITEM={}",
-      kVerticesPerItem, kItemsPerGroup, runtime->coalesced_ ? 1 : 0,
-      runtime->local_palette() ? 1 : 0, runtime->local_tiles_, kMorphVerticesPerItem);
-  if (Status s = runtime->Build(build_options); !s.ok()) return s;
-  runtime->quantized_ = std::make_unique<OpenClQuantizedKernels>(
-      runtime->context_, runtime->device_, build_options, runtime->local_tiles_);
-  const int lanes = options.lanes > 0 ? options.lanes : (runtime->staging_ ? 4 : 1);
-  runtime->threads_ = threads;
-  runtime->max_chunks_ = options.max_chunks;
+      kVerticesPerItem, kItemsPerGroup, coalesced_ ? 1 : 0, local_palette() ? 1 : 0, local_tiles_,
+      kMorphVerticesPerItem);
+  if (Status s = Build(build_options); !s.ok()) return s;
+  quantized_ =
+      std::make_unique<OpenClQuantizedKernels>(context_, device_, build_options, local_tiles_);
+  return Status::Ok();
+}
+
+void OpenClRuntime::SetChunks(const OpenClRuntimeOptions& options) {
+  max_chunks_ = options.max_chunks;
   if (const char* chunks = std::getenv("SKINSERVE_OPENCL_CHUNKS");
-      runtime->max_chunks_ <= 0 && chunks != nullptr) {
-    runtime->max_chunks_ = std::atoi(chunks);
+      max_chunks_ <= 0 && chunks != nullptr) {
+    max_chunks_ = std::atoi(chunks);
   }
-  if (runtime->max_chunks_ <= 0) runtime->max_chunks_ = kDefaultChunks;
-  runtime->min_chunk_vertices_ =
-      std::max<uint32_t>(options.min_chunk_vertices, 1) + kChunkAlignment - 1;
-  runtime->min_chunk_vertices_ -= runtime->min_chunk_vertices_ % kChunkAlignment;
-  if (Status s = runtime->CreateLanes(lanes); !s.ok()) return s;
-  if (runtime->local_palette()) {
-    // What the local kernels use of local memory themselves (the staged palette, their
-    // one __local argument, counts as 0 until set) is not the palette's.
-    cl_ulong own = 0;
-    for (const auto& method : runtime->lanes_.front()->kernels[1]) {
-      for (const auto& row : method) {
-        for (cl_kernel kernel : row) {
-          cl_ulong bytes = 0;
-          if (cl_int info_err =
-                  clGetKernelWorkGroupInfo(kernel, runtime->device_, CL_KERNEL_LOCAL_MEM_SIZE,
-                                           sizeof(bytes), &bytes, nullptr);
-              info_err != CL_SUCCESS) {
-            return ClError("clGetKernelWorkGroupInfo(CL_KERNEL_LOCAL_MEM_SIZE)", info_err);
-          }
-          own = std::max(own, bytes);
+  if (max_chunks_ <= 0) max_chunks_ = kDefaultChunks;
+  min_chunk_vertices_ = std::max<uint32_t>(options.min_chunk_vertices, 1) + kChunkAlignment - 1;
+  min_chunk_vertices_ -= min_chunk_vertices_ % kChunkAlignment;
+}
+
+// What the local kernels use of local memory themselves (the staged palette, their one
+// __local argument, counts as 0 until set) is not the palette's; then the caller's limit.
+Status OpenClRuntime::FitLocalPalette(const OpenClRuntimeOptions& options) {
+  cl_ulong own = 0;
+  for (const auto& method : lanes_.front()->kernels[1]) {
+    for (const auto& row : method) {
+      for (cl_kernel kernel : row) {
+        cl_ulong bytes = 0;
+        if (cl_int info_err = clGetKernelWorkGroupInfo(kernel, device_, CL_KERNEL_LOCAL_MEM_SIZE,
+                                                       sizeof(bytes), &bytes, nullptr);
+            info_err != CL_SUCCESS) {
+          return ClError("clGetKernelWorkGroupInfo(CL_KERNEL_LOCAL_MEM_SIZE)", info_err);
         }
+        own = std::max(own, bytes);
       }
     }
-    runtime->local_palette_bytes_ -= std::min<std::size_t>(runtime->local_palette_bytes_, own);
-    if (options.local_palette_max_bytes > 0) {
-      runtime->local_palette_bytes_ =
-          std::min(runtime->local_palette_bytes_, options.local_palette_max_bytes);
-    }
   }
-  if (Status s = runtime->Warm(); !s.ok()) return s;
-  return runtime;
+  local_palette_bytes_ -= std::min<std::size_t>(local_palette_bytes_, own);
+  if (options.local_palette_max_bytes > 0) {
+    local_palette_bytes_ = std::min(local_palette_bytes_, options.local_palette_max_bytes);
+  }
+  return Status::Ok();
 }
 
 Status OpenClRuntime::Build(const std::string& options) {
-  // One program: the dual-quaternion kernels use the linear file's work-item macros.
-  const char* sources[] = {kernels::kLinearBlendSkinningSource.data(),
-                           kernels::kDualQuaternionSkinningSource.data(),
-                           kernels::kMorphTargetsSource.data()};
-  const std::size_t lengths[] = {kernels::kLinearBlendSkinningSource.size(),
-                                 kernels::kDualQuaternionSkinningSource.size(),
-                                 kernels::kMorphTargetsSource.size()};
-  cl_int err = CL_SUCCESS;
-  program_ = clCreateProgramWithSource(context_, 3, sources, lengths, &err);
-  if (err != CL_SUCCESS) return ClError("clCreateProgramWithSource", err);
-  err = clBuildProgram(program_, 1, &device_, options.c_str(), nullptr, nullptr);
-  if (err != CL_SUCCESS) {
-    std::size_t log_size = 0;
-    std::string log;
-    cl_int log_err =
-        clGetProgramBuildInfo(program_, device_, CL_PROGRAM_BUILD_LOG, 0, nullptr, &log_size);
-    if (log_err == CL_SUCCESS) {
-      log.resize(log_size);
-      log_err = clGetProgramBuildInfo(program_, device_, CL_PROGRAM_BUILD_LOG, log_size, log.data(),
-                                      nullptr);
-    }
-    if (log_err != CL_SUCCESS) {
-      log = fmt::format("(no log: clGetProgramBuildInfo failed: {} ({}))", ClErrorName(log_err),
-                        log_err);
-    }
-    while (!log.empty() && log.back() == '\0') log.pop_back();
-    return FailedPrecondition(
-        fmt::format("clBuildProgram failed: {} ({}); build log:\n{}", ClErrorName(err), err, log));
-  }
+  // One program: the dual-quaternion kernels use the linear file's arguments.
+  const std::string_view sources[] = {kernels::kLinearBlendSkinningSource,
+                                      kernels::kDualQuaternionSkinningSource,
+                                      kernels::kMorphTargetsSource};
+  auto program = BuildSkinningProgram(context_, device_, sources, options, "skinning");
+  if (!program.ok()) return program.status();
+  program_ = *program;
   return Status::Ok();
 }
 
@@ -728,95 +726,128 @@ Status OpenClRuntime::EnqueueMorph(OpenClLane& lane, uint32_t vertex_count,
 // PoCL compiles a kernel's work-group function on its first launch (per work-group
 // size), other drivers finish their own work on first use: do that now, for every kernel
 // on every lane, so no client's first frame pays for it.
-Status OpenClRuntime::Warm() {
-  MeshArrays arrays{.vertex_count = 1,
-                    .influences = kMaxInfluences,
-                    .joint_count = 1,
-                    .positions = {0, 0, 0},
-                    .normals = {0, 0, 1},
-                    .joints = std::vector<uint16_t>(kMaxInfluences, 0),
-                    .weights = std::vector<float>(kMaxInfluences, 1.0f / kMaxInfluences)};
-  const std::vector<float> palette = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
-  constexpr cl_mem_flags kIn = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
-  auto pal = CreateBuffer("warm palette", kIn, palette.size() * sizeof(float), palette.data());
-  auto pos = CreateBuffer("warm positions", kIn, 3 * sizeof(float), arrays.positions.data());
-  auto nrm = CreateBuffer("warm normals", kIn, 3 * sizeof(float), arrays.normals.data());
-  auto jnt =
-      CreateBuffer("warm joints", kIn, kMaxInfluences * sizeof(uint16_t), arrays.joints.data());
-  auto wgt =
-      CreateBuffer("warm weights", kIn, kMaxInfluences * sizeof(float), arrays.weights.data());
-  auto out = CreateBuffer("warm output", CL_MEM_WRITE_ONLY, 3 * sizeof(float), nullptr);
-  auto out_n = CreateBuffer("warm output", CL_MEM_WRITE_ONLY, 3 * sizeof(float), nullptr);
-  const float tangent[] = {1, 0, 0, 1};
-  auto tan = CreateBuffer("warm tangents", kIn, sizeof(tangent), tangent);
-  auto out_t = CreateBuffer("warm output", CL_MEM_WRITE_ONLY, sizeof(tangent), nullptr);
+// The warm-up's one-vertex mesh, palette, outputs and morph target on the device: large
+// enough for every kernel, every B.
+struct OpenClRuntime::WarmUpBuffers {
+  ClBuffer palette, positions, normals, joints, weights, out, out_normals, tangents, out_tangents;
+  ClBuffer morph_offsets, morph_indices, morph_deltas, morph_weights, morphed, morphed_normals,
+      morphed_tangents;
+};
+
+Result<std::unique_ptr<OpenClRuntime::WarmUpBuffers>> OpenClRuntime::CreateWarmUpBuffers() {
+  const float palette[] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  const float position[] = {0, 0, 0}, normal[] = {0, 0, 1}, tangent[] = {1, 0, 0, 1};
+  const std::vector<uint16_t> joints(kMaxInfluences, 0);
+  const std::vector<float> weights(kMaxInfluences, 1.0f / kMaxInfluences);
   // One target moving the vertex by zero, active with weight 1.
   const uint32_t morph_offsets[] = {0, 1}, morph_indices[] = {0};
   const float zero_delta[] = {0, 0, 0};
   const MorphWeight morph_weight[] = {{0, 1.0f}};
-  auto offs = CreateBuffer("warm morph offsets", kIn, sizeof(morph_offsets), morph_offsets);
-  auto idx = CreateBuffer("warm morph indices", kIn, sizeof(morph_indices), morph_indices);
-  auto dlt = CreateBuffer("warm morph deltas", kIn, sizeof(zero_delta), zero_delta);
-  auto mw = CreateBuffer("warm morph weights", kIn, sizeof(morph_weight), morph_weight);
-  auto morphed = CreateBuffer("warm morphed", CL_MEM_READ_WRITE, 3 * sizeof(float), nullptr);
-  auto morphed_n = CreateBuffer("warm morphed", CL_MEM_READ_WRITE, 3 * sizeof(float), nullptr);
-  auto morphed_t = CreateBuffer("warm morphed", CL_MEM_READ_WRITE, sizeof(tangent), nullptr);
-  for (const auto* r : {&pal, &pos, &nrm, &jnt, &wgt, &out, &out_n, &tan, &out_t, &offs, &idx, &dlt,
-                        &mw, &morphed, &morphed_n, &morphed_t}) {
-    if (!r->ok()) return r->status();
+  constexpr cl_mem_flags kIn = CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR;
+  auto buffers = std::make_unique<WarmUpBuffers>();
+  struct Plan {
+    const char* what;
+    ClBuffer* buffer;
+    cl_mem_flags flags;
+    std::size_t bytes;
+    const void* host;
+  };
+  WarmUpBuffers& w = *buffers;
+  const Plan plan[] = {
+      {"warm palette", &w.palette, kIn, sizeof(palette), palette},
+      {"warm positions", &w.positions, kIn, sizeof(position), position},
+      {"warm normals", &w.normals, kIn, sizeof(normal), normal},
+      {"warm joints", &w.joints, kIn, kMaxInfluences * sizeof(uint16_t), joints.data()},
+      {"warm weights", &w.weights, kIn, kMaxInfluences * sizeof(float), weights.data()},
+      {"warm output", &w.out, CL_MEM_WRITE_ONLY, sizeof(position), nullptr},
+      {"warm output", &w.out_normals, CL_MEM_WRITE_ONLY, sizeof(normal), nullptr},
+      {"warm tangents", &w.tangents, kIn, sizeof(tangent), tangent},
+      {"warm output", &w.out_tangents, CL_MEM_WRITE_ONLY, sizeof(tangent), nullptr},
+      {"warm morph offsets", &w.morph_offsets, kIn, sizeof(morph_offsets), morph_offsets},
+      {"warm morph indices", &w.morph_indices, kIn, sizeof(morph_indices), morph_indices},
+      {"warm morph deltas", &w.morph_deltas, kIn, sizeof(zero_delta), zero_delta},
+      {"warm morph weights", &w.morph_weights, kIn, sizeof(morph_weight), morph_weight},
+      {"warm morphed", &w.morphed, CL_MEM_READ_WRITE, sizeof(position), nullptr},
+      {"warm morphed", &w.morphed_normals, CL_MEM_READ_WRITE, sizeof(normal), nullptr},
+      {"warm morphed", &w.morphed_tangents, CL_MEM_READ_WRITE, sizeof(tangent), nullptr}};
+  for (const Plan& p : plan) {
+    auto buffer = CreateBuffer(p.what, p.flags, p.bytes, p.host);
+    if (!buffer.ok()) return buffer.status();
+    *p.buffer = std::move(buffer).value();
   }
+  return buffers;
+}
+
+Status OpenClRuntime::Warm() {
+  auto buffers = CreateWarmUpBuffers();
+  if (!buffers.ok()) return buffers.status();
   for (auto& lane : lanes_) {
-    // Each B needs its own mesh shape; the buffers above are large enough for every B.
-    for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
-      arrays.influences = b;
-      arrays.joints.assign(b, 0);
-      arrays.weights.assign(b, 1.0f / static_cast<float>(b));
-      auto mesh = Mesh::Create(arrays);
-      if (!mesh.ok()) return mesh.status();
-      // (The identity's first 8 floats read as a unit dual quaternion too.)
-      for (SkinningMethod method : {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion}) {
-        SkinKernelArgs args{.method = method,
-                            .palette = pal->get(),
-                            .joints = jnt->get(),
-                            .weights = wgt->get(),
-                            .positions = pos->get(),
-                            .out_positions = out->get()};
-        // Both variants where the local ones are built: a frame may take either; each with
-        // positions alone, with normals, with normals and tangents.
-        for (bool local : {false, true}) {
-          if (local && !local_palette()) continue;
-          for (int outputs = 0; outputs < 3; ++outputs) {
-            args.normals = outputs >= 1 ? nrm->get() : nullptr;
-            args.out_normals = outputs >= 1 ? out_n->get() : nullptr;
-            args.tangents = outputs == 2 ? tan->get() : nullptr;
-            args.out_tangents = outputs == 2 ? out_t->get() : nullptr;
-            if (Status s = EnqueueSkinKernel(*lane, **mesh, args, 0, 1, local, nullptr); !s.ok()) {
-              return s;
-            }
+    if (Status s = WarmSkinKernels(*lane, **buffers); !s.ok()) return s;
+    if (Status s = WarmMorphKernels(*lane, **buffers); !s.ok()) return s;
+    if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS) {
+      return ClError("clFinish(warm-up)", err);
+    }
+  }
+  return Status::Ok();
+}
+
+Status OpenClRuntime::WarmSkinKernels(OpenClLane& lane, const WarmUpBuffers& w) {
+  MeshArrays arrays{.vertex_count = 1,
+                    .influences = kMaxInfluences,
+                    .joint_count = 1,
+                    .positions = {0, 0, 0},
+                    .normals = {0, 0, 1}};
+  // Each B needs its own mesh shape; the buffers are large enough for every B.
+  for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
+    arrays.influences = b;
+    arrays.joints.assign(b, 0);
+    arrays.weights.assign(b, 1.0f / static_cast<float>(b));
+    auto mesh = Mesh::Create(arrays);
+    if (!mesh.ok()) return mesh.status();
+    // (The identity's first 8 floats read as a unit dual quaternion too.)
+    for (SkinningMethod method : {SkinningMethod::kLinear, SkinningMethod::kDualQuaternion}) {
+      SkinKernelArgs args{.method = method,
+                          .palette = w.palette.get(),
+                          .joints = w.joints.get(),
+                          .weights = w.weights.get(),
+                          .positions = w.positions.get(),
+                          .out_positions = w.out.get()};
+      // Both variants where the local ones are built: a frame may take either; each with
+      // positions alone, with normals, with normals and tangents.
+      for (bool local : {false, true}) {
+        if (local && !local_palette()) continue;
+        for (int outputs = 0; outputs < 3; ++outputs) {
+          args.normals = outputs >= 1 ? w.normals.get() : nullptr;
+          args.out_normals = outputs >= 1 ? w.out_normals.get() : nullptr;
+          args.tangents = outputs == 2 ? w.tangents.get() : nullptr;
+          args.out_tangents = outputs == 2 ? w.out_tangents.get() : nullptr;
+          if (Status s = EnqueueSkinKernel(lane, **mesh, args, 0, 1, local, nullptr); !s.ok()) {
+            return s;
           }
         }
       }
     }
-    MorphKernelArgs morph{.positions = pos->get(),
-                          .offsets = offs->get(),
-                          .indices = idx->get(),
-                          .position_deltas = dlt->get(),
-                          .weights = mw->get(),
-                          .weight_count = 1,
-                          .morphed_positions = morphed->get()};
-    for (bool normals : {false, true}) {
-      for (bool tangents : {false, true}) {
-        morph.normals = normals ? nrm->get() : nullptr;
-        morph.normal_deltas = normals ? dlt->get() : nullptr;
-        morph.morphed_normals = normals ? morphed_n->get() : nullptr;
-        morph.tangents = tangents ? tan->get() : nullptr;
-        morph.tangent_deltas = tangents ? dlt->get() : nullptr;
-        morph.morphed_tangents = tangents ? morphed_t->get() : nullptr;
-        if (Status s = EnqueueMorph(*lane, 1, morph, nullptr); !s.ok()) return s;
-      }
-    }
-    if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS) {
-      return ClError("clFinish(warm-up)", err);
+  }
+  return Status::Ok();
+}
+
+Status OpenClRuntime::WarmMorphKernels(OpenClLane& lane, const WarmUpBuffers& w) {
+  MorphKernelArgs morph{.positions = w.positions.get(),
+                        .offsets = w.morph_offsets.get(),
+                        .indices = w.morph_indices.get(),
+                        .position_deltas = w.morph_deltas.get(),
+                        .weights = w.morph_weights.get(),
+                        .weight_count = 1,
+                        .morphed_positions = w.morphed.get()};
+  for (bool normals : {false, true}) {
+    for (bool tangents : {false, true}) {
+      morph.normals = normals ? w.normals.get() : nullptr;
+      morph.normal_deltas = normals ? w.morph_deltas.get() : nullptr;
+      morph.morphed_normals = normals ? w.morphed_normals.get() : nullptr;
+      morph.tangents = tangents ? w.tangents.get() : nullptr;
+      morph.tangent_deltas = tangents ? w.morph_deltas.get() : nullptr;
+      morph.morphed_tangents = tangents ? w.morphed_tangents.get() : nullptr;
+      if (Status s = EnqueueMorph(lane, 1, morph, nullptr); !s.ok()) return s;
     }
   }
   return Status::Ok();

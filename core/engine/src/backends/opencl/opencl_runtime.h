@@ -281,12 +281,23 @@ class OpenClRuntime {
 
  private:
   OpenClRuntime() = default;
+  // Create's steps, in order.
+  Status ReadDeviceShape(const OpenClRuntimeOptions& options);
+  Status BuildPrograms();
   Status Build(const std::string& options);
+  void SetChunks(const OpenClRuntimeOptions& options);
+  Status FitLocalPalette(const OpenClRuntimeOptions& options);
   Status CreateLanes(int count);
   // Sets the kernel's arguments and enqueues it (the *_local_* kernel when `local`).
   Status EnqueueSkinKernel(OpenClLane& lane, const Mesh& mesh, const SkinKernelArgs& args,
                            uint32_t first, uint32_t end, bool local, cl_event* event);
+  // Runs every kernel once per lane on a one-vertex mesh (PoCL compiles a kernel for its
+  // work-group size at its first launch, which would otherwise land in the first frames).
+  struct WarmUpBuffers;
   Status Warm();
+  Result<std::unique_ptr<WarmUpBuffers>> CreateWarmUpBuffers();
+  Status WarmSkinKernels(OpenClLane& lane, const WarmUpBuffers& buffers);
+  Status WarmMorphKernels(OpenClLane& lane, const WarmUpBuffers& buffers);
   void Release(OpenClLane* lane);
 
   cl_device_id device_ = nullptr;

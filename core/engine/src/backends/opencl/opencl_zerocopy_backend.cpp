@@ -19,138 +19,68 @@
 // weights; a frame with an active target runs the morph kernel into the lane's morphed
 // buffers (device memory, grown like the copy backend's per-lane buffers), which
 // the skinning kernel then reads (opencl_morph.h).
-#include "backends/common/dual_quaternion_palette.h"
+#include "backends/opencl/opencl_backend_base.h"
 #include "backends/opencl/opencl_backends.h"
-#include "backends/opencl/opencl_encode.h"
-#include "backends/opencl/opencl_morph.h"
-#include "backends/opencl/opencl_quantized.h"
 
 namespace skinserve {
 namespace {
 
-struct ZeroCopyPreparedMesh final : PreparedMesh {
-  using PreparedMesh::PreparedMesh;
-  ClBuffer positions, normals, tangents, joints, weights;
-  OpenClMorphTargets morph;
-};
+// `what` over `bytes` of host memory at `host`, in place (CL_MEM_USE_HOST_PTR) with `access`.
+Status WrapHostMemory(OpenClRuntime& runtime, const char* what, cl_mem_flags access,
+                      std::size_t bytes, const void* host, ClBuffer* buffer) {
+  auto created = runtime.CreateBuffer(what, access | CL_MEM_USE_HOST_PTR, bytes, host);
+  if (!created.ok()) return created.status();
+  *buffer = std::move(created).value();
+  return Status::Ok();
+}
 
-class OpenClZeroCopyBackend final : public Backend {
+class OpenClZeroCopyBackend final : public OpenClBackendBase {
  public:
-  OpenClZeroCopyBackend(std::shared_ptr<OpenClRuntime> runtime,
+  OpenClZeroCopyBackend(const std::shared_ptr<OpenClRuntime>& runtime,
                         std::shared_ptr<OpenClEncoder> encoder)
-      : runtime_(std::move(runtime)),
-        encoder_(std::move(encoder)),
-        info_(OpenClBackendInfo(*runtime_, "opencl-zerocopy",
-                                "OpenCL kernel on host memory in place, no copies",
-                                runtime_->is_cpu() ? runtime_->compute_units() : 1)) {}
-  const BackendInfo& info() const override { return info_; }
+      : OpenClBackendBase(runtime, std::move(encoder), CL_MEM_USE_HOST_PTR,
+                          OpenClBackendInfo(*runtime, "opencl-zerocopy",
+                                            "OpenCL kernel on host memory in place, no copies",
+                                            runtime->is_cpu() ? runtime->compute_units() : 1)) {}
 
-  Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) override {
-    // The prepared mesh holds the Mesh alive, and with it the memory these buffers wrap.
-    auto prepared = std::make_unique<ZeroCopyPreparedMesh>(mesh);
-    if (mesh->quantized_rest() != nullptr) {  // the integers only (opencl_quantized.h)
-      if (Status s = PrepareQuantizedMesh(
-              *runtime_, *mesh, CL_MEM_USE_HOST_PTR, &prepared->positions, &prepared->normals,
-              &prepared->tangents, &prepared->joints, &prepared->weights);
+ private:
+  Status SkinPalette(const OpenClPreparedMesh& prepared, const SkinFrame& frame) override {
+    const bool with_normals = frame.wants_normals();
+    const bool with_tangents = frame.wants_tangents();
+    if (frame.encoded.active()) return SkinEncoded(prepared, frame);
+    // Wrapping host memory is cheap (well under a microsecond on PoCL): per call, so
+    // concurrent calls never share an output buffer.
+    ClBuffer palette, out_positions, out_normals, out_tangents, morph_weights;
+    if (Status s = WrapInputs(prepared, frame, &palette, &morph_weights); !s.ok()) return s;
+    if (Status s =
+            WrapHostMemory(runtime(), "output positions", CL_MEM_WRITE_ONLY,
+                           frame.positions.size_bytes(), frame.positions.data(), &out_positions);
+        !s.ok()) {
+      return s;
+    }
+    if (with_normals) {
+      if (Status s = WrapHostMemory(runtime(), "output normals", CL_MEM_WRITE_ONLY,
+                                    frame.normals.size_bytes(), frame.normals.data(), &out_normals);
           !s.ok()) {
         return s;
       }
-      return std::unique_ptr<PreparedMesh>(std::move(prepared));
-    }
-    auto wrap = [&](const char* what, ClBuffer* buffer, auto span) -> Status {
-      auto created = runtime_->CreateBuffer(what, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
-                                            span.size_bytes(), span.data());
-      if (!created.ok()) return created.status();
-      *buffer = std::move(created).value();
-      return Status::Ok();
-    };
-    if (Status s = wrap("positions", &prepared->positions, mesh->positions()); !s.ok()) return s;
-    if (Status s = wrap("joints", &prepared->joints, mesh->joints()); !s.ok()) return s;
-    if (Status s = wrap("weights", &prepared->weights, mesh->weights()); !s.ok()) return s;
-    if (mesh->has_normals()) {
-      if (Status s = wrap("normals", &prepared->normals, mesh->normals()); !s.ok()) return s;
-    }
-    if (mesh->has_tangents()) {
-      if (Status s = wrap("tangents", &prepared->tangents, mesh->tangents()); !s.ok()) return s;
-    }
-    auto morph = CreateMorphTargets(*runtime_, *mesh, CL_MEM_USE_HOST_PTR);
-    if (!morph.ok()) return morph.status();
-    prepared->morph = std::move(morph).value();
-    return std::unique_ptr<PreparedMesh>(std::move(prepared));
-  }
-
-  Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
-    return SkinWithKernelPalette(info_.id, base, frame, [&](const SkinFrame& in_kernel_layout) {
-      return SkinPalette(base, in_kernel_layout);
-    });
-  }
-
- private:
-  // Skin() with frame.palette in the layout of frame.method's kernels.
-  Status SkinPalette(const PreparedMesh& base, const SkinFrame& frame) {
-    const auto& prepared = static_cast<const ZeroCopyPreparedMesh&>(base);
-    if (Status s = CheckOpenClOutputs(prepared.mesh(), frame); !s.ok()) return s;
-    const bool with_normals = frame.wants_normals();
-    const bool with_tangents = frame.wants_tangents();
-    if (frame.encoded.active()) return SkinEncoded(prepared, frame, with_normals, with_tangents);
-    // Wrapping host memory is cheap (well under a microsecond on PoCL): per call, so
-    // concurrent calls never share an output buffer.
-    auto palette = runtime_->CreateBuffer("palette", CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
-                                          frame.palette.size_bytes(), frame.palette.data());
-    if (!palette.ok()) return palette.status();
-    auto out_positions =
-        runtime_->CreateBuffer("output positions", CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,
-                               frame.positions.size_bytes(), frame.positions.data());
-    if (!out_positions.ok()) return out_positions.status();
-    ClBuffer out_normals;
-    if (with_normals) {
-      auto created =
-          runtime_->CreateBuffer("output normals", CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,
-                                 frame.normals.size_bytes(), frame.normals.data());
-      if (!created.ok()) return created.status();
-      out_normals = std::move(created).value();
-    }
-    ClBuffer out_tangents;
-    if (with_tangents) {
-      auto created =
-          runtime_->CreateBuffer("output tangents", CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,
-                                 frame.tangents.size_bytes(), frame.tangents.data());
-      if (!created.ok()) return created.status();
-      out_tangents = std::move(created).value();
-    }
-    SkinKernelArgs args{.method = frame.method,
-                        .palette = palette->get(),
-                        .joints = prepared.joints.get(),
-                        .weights = prepared.weights.get(),
-                        .positions = prepared.positions.get(),
-                        .out_positions = out_positions->get()};
-    if (with_normals) {
-      args.normals = prepared.normals.get();
-      args.out_normals = out_normals.get();
     }
     if (with_tangents) {
-      args.tangents = prepared.tangents.get();
-      args.out_tangents = out_tangents.get();
+      if (Status s =
+              WrapHostMemory(runtime(), "output tangents", CL_MEM_WRITE_ONLY,
+                             frame.tangents.size_bytes(), frame.tangents.data(), &out_tangents);
+          !s.ok()) {
+        return s;
+      }
     }
-    ClBuffer morph_weights;
-    if (MorphsOnDevice(frame, prepared.morph)) {
-      auto wrapped =
-          runtime_->CreateBuffer("morph weights", CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
-                                 frame.morph_weights.size_bytes(), frame.morph_weights.data());
-      if (!wrapped.ok()) return wrapped.status();
-      morph_weights = std::move(wrapped).value();
-    }
-    auto lane = runtime_->AcquireLane();
+    SkinKernelArgs args = KernelArgs(prepared, frame.method, palette.get(), out_positions.get(),
+                                     out_normals.get(), out_tangents.get());
+    auto lane = runtime().AcquireLane();
     ClEvents kernels, transfers;
-    // In order on the compute queue: the morph (a frame with an active target), then the skin.
-    Status status = EnqueueFrameMorph(*runtime_, *lane, prepared.mesh(), prepared.morph,
-                                      morph_weights.get(), frame, &args, kernels);
+    Status status =
+        EnqueueMorphAndSkin(*lane, prepared, frame, morph_weights.get(), &args, kernels);
     if (status.ok()) {
-      status = runtime_->EnqueueSkin(*lane, prepared.mesh(), args, 0,
-                                     prepared.mesh().vertex_count(), kernels.Next());
-    }
-    if (status.ok()) {
-      status = SyncToHost(*lane, out_positions->get(), frame.positions.size_bytes(), transfers);
+      status = SyncToHost(*lane, out_positions.get(), frame.positions.size_bytes(), transfers);
     }
     if (status.ok() && with_normals) {
       status = SyncToHost(*lane, out_normals.get(), frame.normals.size_bytes(), transfers);
@@ -161,57 +91,50 @@ class OpenClZeroCopyBackend final : public Backend {
     return Finish(*lane, status, frame, kernels, transfers);
   }
 
+  // The frame's palette and (a frame with an active target) its morph weights, in place.
+  Status WrapInputs(const OpenClPreparedMesh& prepared, const SkinFrame& frame, ClBuffer* palette,
+                    ClBuffer* morph_weights) {
+    if (Status s = WrapHostMemory(runtime(), "palette", CL_MEM_READ_ONLY,
+                                  frame.palette.size_bytes(), frame.palette.data(), palette);
+        !s.ok()) {
+      return s;
+    }
+    if (!MorphsOnDevice(frame, prepared.morph)) return Status::Ok();
+    return WrapHostMemory(runtime(), "morph weights", CL_MEM_READ_ONLY,
+                          frame.morph_weights.size_bytes(), frame.morph_weights.data(),
+                          morph_weights);
+  }
+
+  // In order on the compute queue: the morph (a frame with an active target), then the skin.
+  Status EnqueueMorphAndSkin(OpenClLane& lane, const OpenClPreparedMesh& prepared,
+                             const SkinFrame& frame, cl_mem morph_weights, SkinKernelArgs* args,
+                             ClEvents& kernels) {
+    const Mesh& mesh = prepared.mesh();
+    if (Status s = EnqueueFrameMorph(runtime(), lane, mesh, prepared.morph, morph_weights, frame,
+                                     args, kernels);
+        !s.ok()) {
+      return s;
+    }
+    return runtime().EnqueueSkin(lane, mesh, *args, 0, mesh.vertex_count(), kernels.Next());
+  }
+
   // Encoded output: the floats go to the lane's device buffers, and the encoder's kernels
   // write the caller's encoded arrays in place (opencl_encode.h).
-  Status SkinEncoded(const ZeroCopyPreparedMesh& prepared, const SkinFrame& frame,
-                     bool with_normals, bool with_tangents) {
-    auto palette = runtime_->CreateBuffer("palette", CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
-                                          frame.palette.size_bytes(), frame.palette.data());
-    if (!palette.ok()) return palette.status();
-    ClBuffer morph_weights;
-    if (MorphsOnDevice(frame, prepared.morph)) {
-      auto wrapped =
-          runtime_->CreateBuffer("morph weights", CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
-                                 frame.morph_weights.size_bytes(), frame.morph_weights.data());
-      if (!wrapped.ok()) return wrapped.status();
-      morph_weights = std::move(wrapped).value();
-    }
+  Status SkinEncoded(const OpenClPreparedMesh& prepared, const SkinFrame& frame) {
+    ClBuffer palette, morph_weights;
+    if (Status s = WrapInputs(prepared, frame, &palette, &morph_weights); !s.ok()) return s;
     const Mesh& mesh = prepared.mesh();
-    const std::size_t floats = 3ull * mesh.vertex_count() * sizeof(float);
-    auto lane = runtime_->AcquireLane();
-    Status status = runtime_->GrowBuffer("output positions", CL_MEM_READ_WRITE, floats,
-                                         &lane->out_positions, &lane->positions_bytes);
-    if (status.ok() && with_normals) {
-      status = runtime_->GrowBuffer("output normals", CL_MEM_READ_WRITE, floats, &lane->out_normals,
-                                    &lane->normals_bytes);
-    }
-    if (status.ok() && with_tangents) {
-      status = runtime_->GrowBuffer("output tangents", CL_MEM_READ_WRITE, floats / 3 * 4,
-                                    &lane->out_tangents, &lane->tangents_bytes);
-    }
-    if (!status.ok()) return status;
-    SkinKernelArgs args{.method = frame.method,
-                        .palette = palette->get(),
-                        .joints = prepared.joints.get(),
-                        .weights = prepared.weights.get(),
-                        .positions = prepared.positions.get(),
-                        .out_positions = lane->out_positions.get()};
-    if (with_normals) {
-      args.normals = prepared.normals.get();
-      args.out_normals = lane->out_normals.get();
-    }
-    if (with_tangents) {
-      args.tangents = prepared.tangents.get();
-      args.out_tangents = lane->out_tangents.get();
-    }
+    auto lane = runtime().AcquireLane();
+    if (Status s = GrowLaneOutputs(*lane, frame, mesh.vertex_count()); !s.ok()) return s;
+    SkinKernelArgs args =
+        KernelArgs(prepared, frame.method, palette.get(), lane->out_positions.get(),
+                   frame.wants_normals() ? lane->out_normals.get() : nullptr,
+                   frame.wants_tangents() ? lane->out_tangents.get() : nullptr);
     ClEvents kernels, transfers;
-    status = EnqueueFrameMorph(*runtime_, *lane, mesh, prepared.morph, morph_weights.get(), frame,
-                               &args, kernels);
+    Status status =
+        EnqueueMorphAndSkin(*lane, prepared, frame, morph_weights.get(), &args, kernels);
     if (status.ok()) {
-      status = runtime_->EnqueueSkin(*lane, mesh, args, 0, mesh.vertex_count(), kernels.Next());
-    }
-    if (status.ok()) {
-      status = encoder_->Encode(*lane, args, mesh.vertex_count(), frame, /*zero_copy=*/true,
+      status = encoder().Encode(*lane, args, mesh.vertex_count(), frame, /*zero_copy=*/true,
                                 kernels, transfers);
     }
     return Finish(*lane, status, frame, kernels, transfers);
@@ -241,10 +164,6 @@ class OpenClZeroCopyBackend final : public Backend {
     if (err != CL_SUCCESS) return ClError("clEnqueueUnmapMemObject(output)", err);
     return Status::Ok();
   }
-
-  std::shared_ptr<OpenClRuntime> runtime_;
-  std::shared_ptr<OpenClEncoder> encoder_;
-  BackendInfo info_;
 };
 
 }  // namespace

@@ -1,4 +1,4 @@
-#include "observability/server_snapshot.h"
+#include "rpc/server_messages.h"
 
 namespace skinserve::server {
 namespace {
@@ -15,6 +15,40 @@ void ToWire(const DurationHistogram& h, v1::DurationHistogram* wire) {
 }
 
 }  // namespace
+
+v1::MeshInfo ToWire(const MeshInfo& info) {
+  v1::MeshInfo wire;
+  wire.set_mesh_id(info.id);
+  wire.set_vertex_count(info.vertex_count);
+  wire.set_influences(info.influences);
+  wire.set_joint_count(info.joint_count);
+  wire.set_has_normals(info.has_normals);
+  wire.set_bytes(info.bytes);
+  wire.set_normalized_vertices(info.normalized_vertices);
+  wire.set_already_stored(info.already_stored);
+  wire.set_morph_target_count(info.morph_target_count);
+  wire.set_rest_encoding(ToWire(info.rest_encoding));
+  wire.set_has_tangents(info.has_tangents);
+  return wire;
+}
+
+v1::BackendInfo ToWire(const BackendInfo& info) {
+  v1::BackendInfo wire;
+  wire.set_id(info.id);
+  wire.set_description(info.description);
+  wire.set_available(info.available);
+  wire.set_unavailable_reason(info.unavailable_reason);
+  wire.set_device(info.device);
+  wire.set_simd_width(info.simd_width);
+  wire.set_simd_target(info.simd_target);
+  wire.set_threads(info.threads);
+  for (SkinningMethod method : info.methods) wire.add_methods(ToWire(method));
+  wire.set_morph_targets(info.morph_targets);
+  wire.set_quantized_rest(info.quantized_rest);
+  wire.set_tangents(info.tangents);
+  for (VertexEncoding encoding : info.encoded_outputs) wire.add_encoded_outputs(ToWire(encoding));
+  return wire;
+}
 
 v1::ServerStats ToWire(const ServerSnapshot& s) {
   v1::ServerStats wire;
@@ -71,6 +105,34 @@ v1::ServerStats ToWire(const ServerSnapshot& s) {
   wire.set_cancelled_uploads_idle(u.cancelled_idle);
   wire.set_cancelled_uploads_deadline(u.cancelled_deadline);
   return wire;
+}
+
+void ToWire(const RegionInfo& info, v1::RegionInfo* wire) {
+  wire->set_name(info.name);
+  wire->set_key(info.key);
+  wire->set_byte_size(info.byte_size);
+  wire->set_frames_written(info.frames_written);
+  wire->set_idle_seconds(info.idle_seconds);
+}
+
+void ToWire(const animation::SkeletonInfo& info, v1::SkeletonInfo* wire) {
+  wire->set_skeleton_id(info.id);
+  wire->set_joint_count(info.joint_count);
+  wire->set_palette_size(info.palette_size);
+  wire->set_bytes(info.bytes);
+  wire->set_already_stored(info.already_stored);
+}
+
+void ToWire(const animation::ClipInfo& info, v1::ClipInfo* wire) {
+  wire->set_clip_id(info.id);
+  wire->set_name(info.name);
+  wire->set_duration(info.duration);
+  wire->set_joint_count(info.joint_count);
+  wire->set_weight_count(info.weight_count);
+  wire->set_tracks(info.tracks);
+  wire->set_bytes(info.bytes);
+  wire->set_raw_bytes(info.raw_bytes);
+  wire->set_already_stored(info.already_stored);
 }
 
 }  // namespace skinserve::server

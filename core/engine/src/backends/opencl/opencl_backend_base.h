@@ -1,0 +1,62 @@
+// Internal: what the two OpenCL backends share. Both hold the mesh in the same five buffers
+// (and its morph targets), take the same palette layout, check the same outputs and enqueue
+// the same kernels; they differ only in how their buffers meet host memory: `opencl`
+// copies the mesh in once and the frame in and out (opencl_copy_backend.cpp),
+// `opencl-zerocopy` wraps the caller's memory in place (opencl_zerocopy_backend.cpp).
+#pragma once
+
+#include <memory>
+
+#include "backends/opencl/opencl_encode.h"
+#include "backends/opencl/opencl_morph.h"
+#include "backends/opencl/opencl_runtime.h"
+#include "skinserve/engine/backend.h"
+
+namespace skinserve {
+
+// A mesh on the device: its float or quantized arrays (opencl_quantized.h) and its morph
+// targets; normals and tangents only where the mesh has them.
+struct OpenClPreparedMesh final : PreparedMesh {
+  using PreparedMesh::PreparedMesh;
+  ClBuffer positions, normals, tangents, joints, weights;
+  OpenClMorphTargets morph;
+};
+
+class OpenClBackendBase : public Backend {
+ public:
+  const BackendInfo& info() const override { return info_; }
+  // The mesh's buffers, created with `mesh_host_memory` (the prepared mesh holds the Mesh
+  // alive, and with it any memory the buffers wrap).
+  Result<std::unique_ptr<PreparedMesh>> Prepare(std::shared_ptr<const Mesh> mesh) final;
+  // The frame's palette in the kernels' layout (a quantized mesh's box folded in, or dual
+  // quaternions), its outputs checked against the mesh, then SkinPalette.
+  Status Skin(const PreparedMesh& base, const SkinFrame& frame) final;
+
+ protected:
+  // `mesh_host_memory`: CL_MEM_COPY_HOST_PTR or CL_MEM_USE_HOST_PTR.
+  OpenClBackendBase(std::shared_ptr<OpenClRuntime> runtime, std::shared_ptr<OpenClEncoder> encoder,
+                    cl_mem_flags mesh_host_memory, BackendInfo info);
+
+  // Skin() with frame.palette in the layout of frame.method's kernels and outputs the mesh has.
+  virtual Status SkinPalette(const OpenClPreparedMesh& prepared, const SkinFrame& frame) = 0;
+
+  // The lane's device output buffers large enough for the outputs `frame` asks for.
+  Status GrowLaneOutputs(OpenClLane& lane, const SkinFrame& frame, uint32_t vertex_count) const;
+
+  // The skinning kernel's arguments: the mesh's buffers, the frame's palette and outputs;
+  // a null `out_normals` (`out_tangents`) leaves the normals (tangents) out.
+  static SkinKernelArgs KernelArgs(const OpenClPreparedMesh& prepared, SkinningMethod method,
+                                   cl_mem palette, cl_mem out_positions, cl_mem out_normals,
+                                   cl_mem out_tangents);
+
+  OpenClRuntime& runtime() const { return *runtime_; }
+  OpenClEncoder& encoder() const { return *encoder_; }
+
+ private:
+  std::shared_ptr<OpenClRuntime> runtime_;
+  std::shared_ptr<OpenClEncoder> encoder_;
+  cl_mem_flags mesh_host_memory_;
+  BackendInfo info_;
+};
+
+}  // namespace skinserve
