@@ -55,6 +55,9 @@ BUILD_PACKAGES+=(help2man)
 # from protobuf-compiler's protoc, run on Debian's protobuf; mypy --strict on it, packaging
 # to compare its pinned ranges with what is installed.
 TEST_PACKAGES+=(python3-protobuf python3-wheel python3-packaging python3-mypy)
+# Short functions (issue 45): conventions.function_length finds every function with
+# universal-ctags.
+TEST_PACKAGES+=(universal-ctags)
 
 # Proof under stress: clang with its sanitizer and libFuzzer runtimes, libomp for TSan
 # (its libarcher), iproute2 for the network-fault test's namespaces and netem.

@@ -61,17 +61,18 @@ std::string BackendLabel(const std::string& id) {
   return fmt::format("backend=\"{}\"", Escape(id));
 }
 
-}  // namespace
-
-std::string RenderPrometheusText(const ServerSnapshot& s) {
-  Writer w;
+// Which build runs, and whether it takes calls.
+void WriteBuildAndServing(Writer& w, const ServerSnapshot& s) {
   w.Header("skinserve_build_info", "gauge", "Always 1; the labels say which build runs.");
   w.Sample("skinserve_build_info", fmt::format("version=\"{}\"", Escape(s.version)), 1);
   w.Header("skinserve_serving", "gauge",
            "1 while the server takes new calls; 0 while it starts (backends being built) or "
            "drains.");
   w.Sample("skinserve_serving", "", s.serving ? 1 : 0);
+}
 
+// Per backend: frames, vertices, compute time and errors; then the ticks.
+void WriteBackendCounters(Writer& w, const ServerSnapshot& s) {
   const EngineStats& e = s.engine;
   w.Header("skinserve_frames_total", "counter", "Frames skinned, by backend.");
   for (const BackendStats& b : e.backends) {
@@ -106,6 +107,10 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
   w.Header("skinserve_tick_characters_total", "counter",
            "Characters of the ticks read; each is also counted as a frame of its backend.");
   w.Sample("skinserve_tick_characters_total", "", static_cast<double>(s.ticks.characters));
+}
+
+// Per backend: where answered frames' time went.
+void WriteFrameHistograms(Writer& w, const ServerSnapshot& s) {
   struct Histo {
     const char* name;
     const char* help;
@@ -130,7 +135,10 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
     for (const auto& [backend, f] : s.frames)
       w.Histogram(h.name, BackendLabel(backend), f.*h.member);
   }
+}
 
+// Open streams, and the uploads in progress with their memory and refusals.
+void WriteStreamsAndUploads(Writer& w, const ServerSnapshot& s) {
   w.Header("skinserve_open_streams", "gauge", "StreamSkin calls in progress.");
   w.Sample("skinserve_open_streams", "", static_cast<double>(s.open_streams));
   w.Header("skinserve_streams_ended_idle_total", "counter",
@@ -159,6 +167,11 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
     w.Sample("skinserve_upload_refusals_total", fmt::format("reason=\"{}\"", reason),
              static_cast<double>(n));
   }
+}
+
+// The engine: stored meshes, its queue and its threads; then the frames in flight.
+void WriteEngineAndInflight(Writer& w, const ServerSnapshot& s) {
+  const EngineStats& e = s.engine;
   w.Header("skinserve_meshes", "gauge", "Meshes stored.");
   w.Sample("skinserve_meshes", "", static_cast<double>(e.meshes));
   w.Header("skinserve_mesh_bytes", "gauge", "Memory held by stored meshes.");
@@ -191,6 +204,10 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
   w.Header("skinserve_inflight_rejections_total", "counter",
            "Frames refused for want of in-flight budget.");
   w.Sample("skinserve_inflight_rejections_total", "", static_cast<double>(s.inflight.refused));
+}
+
+// The shared-memory regions (when shared memory is on).
+void WriteRegions(Writer& w, const ServerSnapshot& s) {
   if (s.shared_memory) {
     const RegionStats& r = s.regions;
     w.Header("skinserve_regions", "gauge", "Shared-memory regions registered.");
@@ -207,9 +224,21 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
              "Registrations refused for a limit (budget, regions, per connection).");
     w.Sample("skinserve_region_rejections_total", "", static_cast<double>(r.rejected));
   }
+}
+
+}  // namespace
+
+std::string RenderPrometheusText(const ServerSnapshot& s) {
+  Writer w;
+  WriteBuildAndServing(w, s);
+  WriteBackendCounters(w, s);
+  WriteFrameHistograms(w, s);
+  WriteStreamsAndUploads(w, s);
+  WriteEngineAndInflight(w, s);
+  WriteRegions(w, s);
   // Last: a scrape that ends with it is whole (tests/ops/metrics-test.sh checks that).
   w.Header("skinserve_compute_threads", "gauge", "Compute threads skinning frames.");
-  w.Sample("skinserve_compute_threads", "", static_cast<double>(e.compute_threads));
+  w.Sample("skinserve_compute_threads", "", static_cast<double>(s.engine.compute_threads));
   return w.Take();
 }
 

@@ -188,7 +188,10 @@ EngineOptions ServerOptions::ToEngineOptions() const {
   return engine;
 }
 
-void AddServerOptions(CLI::App& app, ServerOptions& o) {
+namespace {
+
+// Where it listens and what computes: the addresses, the compute threads and the backends.
+void AddComputeOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--listen", o.listen,
                  "addresses to serve gRPC on, comma-separated: host:port, and unix:PATH for "
                  "clients on this host (e.g. 0.0.0.0:50051,unix:/run/skinserve/grpc.sock)")
@@ -210,6 +213,10 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--default-backend", o.default_backend, "backend used when a request names none")
       ->envname("SKINSERVE_DEFAULT_BACKEND")
       ->capture_default_str();
+}
+
+// The memory envelope, and the stored meshes that take its largest share.
+void AddMemoryOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--memory-limit-mb", o.memory_limit_mb,
                  "the memory this server may use, MiB, that its budgets must fit together with "
                  "the copies they do not count (0: the cgroup's memory limit, else physical "
@@ -241,6 +248,10 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_MAX_JOINTS")
       ->check(CLI::Range(1, 65535))
       ->capture_default_str();
+}
+
+// Frames and streams: the queue, the stream window, ticks, frames in flight and open streams.
+void AddFrameOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--queue", o.queue,
                  "frames that may wait for a compute thread; beyond, RESOURCE_EXHAUSTED")
       ->envname("SKINSERVE_QUEUE")
@@ -291,6 +302,10 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_STREAM_IDLE_SECONDS")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+}
+
+// Uploads in progress: their memory, how many, and how long they may take.
+void AddUploadOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--upload-budget-mb", o.upload_budget_mb,
                  "memory for the arrays of uploads in progress, all together, MiB; taken as "
                  "chunks arrive (a header costs nothing; an upload holds up to 1.5 times its "
@@ -324,6 +339,10 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_UPLOAD_DEADLINE_SECONDS")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+}
+
+// Operations: logs, the OpenCL device, draining, the port file and the metrics endpoint.
+void AddOperationOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error or off")
       ->envname("SKINSERVE_LOG_LEVEL")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
@@ -351,6 +370,11 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--metrics-listen", o.metrics_listen,
                  "address:port to serve Prometheus metrics on (GET /metrics); empty: off")
       ->envname("SKINSERVE_METRICS_LISTEN");
+}
+
+// The same-host data plane (docs/serving/shared-memory.md): where clients' regions live, what
+// they may map together, how many, when an unused one is dropped, and over which transports.
+void AddSharedMemoryOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--shm-dir", o.shm_dir,
                  "directory of the shared-memory regions clients on this host may register "
                  "(their files must be inside it); empty: shared memory off")
@@ -385,6 +409,11 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "address, owned by their process, mapping files their uid owns")
       ->envname("SKINSERVE_SHM_OVER_TCP")
       ->capture_default_str();
+}
+
+// Transport security and authorization (docs/security.md): TLS files, the authorization
+// policy, how often each is re-read, and reflection.
+void AddSecurityOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--tls-cert", o.tls_cert,
                  "PEM certificate chain of the server: TLS on every host:port address (unix: "
                  "addresses stay plaintext, guarded by their folder's permissions); re-read when "
@@ -417,6 +446,11 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "service's methods to anyone who may call it")
       ->envname("SKINSERVE_REFLECTION")
       ->capture_default_str();
+}
+
+// Connection hygiene (docs/deployment/scale-out.md#connections, docs/security.md#connections):
+// keepalive, connection age, idle and handshake limits, and gRPC's own memory quota.
+void AddConnectionOptions(CLI::App& app, ServerOptions& o) {
   app.add_option("--keepalive-seconds", o.keepalive_seconds,
                  "ping an idle connection after this long, to find peers that are gone")
       ->envname("SKINSERVE_KEEPALIVE_SECONDS")
@@ -459,6 +493,20 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
       ->envname("SKINSERVE_GRPC_MEMORY_MB")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+}
+
+}  // namespace
+
+// In the order --help lists them.
+void AddServerOptions(CLI::App& app, ServerOptions& o) {
+  AddComputeOptions(app, o);
+  AddMemoryOptions(app, o);
+  AddFrameOptions(app, o);
+  AddUploadOptions(app, o);
+  AddOperationOptions(app, o);
+  AddSharedMemoryOptions(app, o);
+  AddSecurityOptions(app, o);
+  AddConnectionOptions(app, o);
 }
 
 }  // namespace skinserve::server

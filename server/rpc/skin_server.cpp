@@ -73,6 +73,43 @@ std::string DescribeSecurity(const ServerOptions& options) {
                      options.tls_refresh_seconds);
 }
 
+// The channel's settings: reflection or not, keepalive, the connection limits, the largest
+// message and the connections' age.
+void ConfigureBuilder(const ServerOptions& options, grpc::ServerBuilder& builder) {
+  if (!options.reflection) builder.SetOption(std::make_unique<WithoutReflection>());
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, Milliseconds(options.keepalive_seconds));
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS,
+                             Milliseconds(options.keepalive_timeout_seconds));
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
+                             kMinClientPingIntervalMs);
+  AddConnectionLimits(options, &builder);
+  // A tick may exceed gRPC's default 4 MiB message (its scan refuses what is over
+  // --max-tick-bytes, and a plain frame over 4 MiB, before the parse).
+  builder.SetMaxReceiveMessageSize(
+      static_cast<int>(std::max<uint64_t>(options.max_tick_bytes, kMaxFrameRequestBytes)));
+  if (options.max_connection_age_seconds > 0) {
+    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS,
+                               Milliseconds(options.max_connection_age_seconds));
+    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS,
+                               Milliseconds(options.max_connection_age_grace_seconds));
+  }
+}
+
+void LogListening(const ServerOptions& options, int port) {
+  spdlog::info(
+      "listening on {} (port {}; TCP {}{}, unix: plaintext; shared-memory regions {}; "
+      "reflection {}); building backends",
+      fmt::join(options.listen, ", "), port, DescribeSecurity(options),
+      options.authz_policy.empty()
+          ? ""
+          : fmt::format(", authorization policy {} re-read every {} s", options.authz_policy,
+                        options.authz_refresh_seconds),
+      options.shm_dir.empty() ? "off"
+      : options.shm_over_tcp  ? "on unix: and mutual-TLS TCP"
+                              : "on unix: only",
+      options.reflection ? "on" : "off");
+}
+
 }  // namespace
 
 void SkinServer::SetReady(bool ready) {
@@ -114,17 +151,12 @@ Status SkinServer::ListenOn(const ServerOptions& options,
   return Status::Ok();
 }
 
-Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& options) {
-  spdlog::set_level(spdlog::level::from_str(options.log_level));
-  SetLogFormat(options.log_format);
-  const MemoryEnvelope envelope = options.Envelope();
-  if (Status s = envelope.Check(); !s.ok()) return s;
-  spdlog::info("memory envelope:\n{}", envelope.Describe());
-  std::unique_ptr<SkinServer> server(new SkinServer());
+Result<std::shared_ptr<grpc::ServerCredentials>> SkinServer::CreateService(
+    const ServerOptions& options) {
   if (!options.shm_dir.empty()) {
     auto regions = RegionRegistry::Create(options.ToRegionLimits());
     if (!regions.ok()) return regions.status();
-    server->regions_ = std::move(regions).value();
+    regions_ = std::move(regions).value();
   }
   auto tcp_credentials = MakeTcpCredentials(options);
   if (!tcp_credentials.ok()) return tcp_credentials.status();
@@ -133,64 +165,17 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
         options.authz_policy,
         std::chrono::milliseconds(static_cast<int64_t>(options.authz_refresh_seconds * 1000)));
     if (!policy.ok()) return policy.status();
-    server->policy_ = std::move(policy).value();
+    policy_ = std::move(policy).value();
   }
-  server->service_ = std::make_unique<SkinningService>(
+  service_ = std::make_unique<SkinningService>(
       options.default_backend, options.stream_window, options.ToStreamLimits(),
-      options.InflightBudgetBytes(), options.ToUploadLimits(), server->regions_.get(),
-      server->policy_.get(),
-      RegionAccessPolicy{.unix_peers = &server->unix_peers_, .over_tcp = options.shm_over_tcp});
-  server->service_->SetRequestLimits(options.ToRequestLimits());
-  grpc::EnableDefaultHealthCheckService(true);
-  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
-  grpc::ServerBuilder builder;
-  if (!options.reflection) builder.SetOption(std::make_unique<WithoutReflection>());
-  auto ms = [](double seconds) { return static_cast<int>(std::min(seconds * 1000, 2.0e9)); };
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, ms(options.keepalive_seconds));
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, ms(options.keepalive_timeout_seconds));
-  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
-                             kMinClientPingIntervalMs);
-  AddConnectionLimits(options, &builder);
-  // A tick may exceed gRPC's default 4 MiB message (its scan refuses what is over
-  // --max-tick-bytes, and a plain frame over 4 MiB, before the parse).
-  builder.SetMaxReceiveMessageSize(
-      static_cast<int>(std::max<uint64_t>(options.max_tick_bytes, kMaxFrameRequestBytes)));
-  if (options.max_connection_age_seconds > 0) {
-    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS,
-                               ms(options.max_connection_age_seconds));
-    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS,
-                               ms(options.max_connection_age_grace_seconds));
-  }
-  if (options.listen.empty()) return InvalidArgument("--listen names no address");
-  if (Status s = server->ListenOn(options, *tcp_credentials, builder); !s.ok()) return s;
-  // Readiness ("" and the service's name) waits for the engine; liveness answers SERVING
-  // from now until the process stops, draining included
-  // (docs/deployment/kubernetes.md#probes).
-  server->SetReady(false);
-  server->server_->GetHealthCheckService()->SetServingStatus(kLivenessService, true);
-  spdlog::info(
-      "listening on {} (port {}; TCP {}{}, unix: plaintext; shared-memory regions {}; "
-      "reflection {}); building backends",
-      fmt::join(options.listen, ", "), server->port_, DescribeSecurity(options),
-      options.authz_policy.empty()
-          ? ""
-          : fmt::format(", authorization policy {} re-read every {} s", options.authz_policy,
-                        options.authz_refresh_seconds),
-      options.shm_dir.empty() ? "off"
-      : options.shm_over_tcp  ? "on unix: and mutual-TLS TCP"
-                              : "on unix: only",
-      options.reflection ? "on" : "off");
-  // The per-frame histograms feed GetServerStats as well as /metrics: always on.
-  FrameMetrics::Enable();
-  if (!options.metrics_listen.empty()) {
-    auto metrics = MetricsServer::Start(options.metrics_listen,
-                                        [s = server.get()] { return s->RenderMetrics(); });
-    if (!metrics.ok()) return metrics.status();
-    server->metrics_ = std::move(metrics).value();
-    spdlog::info("metrics on http://{}/metrics (port {})", options.metrics_listen,
-                 server->metrics_->port());
-  }
+      options.InflightBudgetBytes(), options.ToUploadLimits(), regions_.get(), policy_.get(),
+      RegionAccessPolicy{.unix_peers = &unix_peers_, .over_tcp = options.shm_over_tcp});
+  service_->SetRequestLimits(options.ToRequestLimits());
+  return tcp_credentials;
+}
 
+Status SkinServer::StartEngine(const ServerOptions& options) {
   spdlog::info("{}", options.DescribeSizing());
   EngineOptions engine_options = options.ToEngineOptions();
   // A frame into a region relies on the SIGBUS guard; a backend preparing a mesh may have
@@ -198,8 +183,8 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
   engine_options.after_prepare = [] { SigbusGuard::Install(); };
   auto engine = Engine::Create(engine_options);
   if (!engine.ok()) return engine.status();
-  server->engine_ = std::move(engine).value();
-  const auto backends = server->engine_->Backends();
+  engine_ = std::move(engine).value();
+  const auto backends = engine_->Backends();
   const bool default_ok = std::any_of(backends.begin(), backends.end(), [&](const auto& b) {
     return b.id == options.default_backend && b.available;
   });
@@ -214,12 +199,47 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
       spdlog::warn("backend {:<16} unavailable: {}", b.id, b.unavailable_reason);
     }
   }
-  server->service_->SetEngine(server->engine_.get());
+  service_->SetEngine(engine_.get());
   if (FrameMetrics* frames = FrameMetrics::Installed()) {
     std::vector<std::string> ids;
     for (const BackendInfo& b : backends) ids.push_back(b.id);
     frames->SetBackends(ids);
   }
+  return Status::Ok();
+}
+
+Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& options) {
+  spdlog::set_level(spdlog::level::from_str(options.log_level));
+  SetLogFormat(options.log_format);
+  const MemoryEnvelope envelope = options.Envelope();
+  if (Status s = envelope.Check(); !s.ok()) return s;
+  spdlog::info("memory envelope:\n{}", envelope.Describe());
+  std::unique_ptr<SkinServer> server(new SkinServer());
+  auto tcp_credentials = server->CreateService(options);
+  if (!tcp_credentials.ok()) return tcp_credentials.status();
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  ConfigureBuilder(options, builder);
+  if (options.listen.empty()) return InvalidArgument("--listen names no address");
+  if (Status s = server->ListenOn(options, *tcp_credentials, builder); !s.ok()) return s;
+  // Readiness ("" and the service's name) waits for the engine; liveness answers SERVING
+  // from now until the process stops, draining included
+  // (docs/deployment/kubernetes.md#probes).
+  server->SetReady(false);
+  server->server_->GetHealthCheckService()->SetServingStatus(kLivenessService, true);
+  LogListening(options, server->port_);
+  // The per-frame histograms feed GetServerStats as well as /metrics: always on.
+  FrameMetrics::Enable();
+  if (!options.metrics_listen.empty()) {
+    auto metrics = MetricsServer::Start(options.metrics_listen,
+                                        [s = server.get()] { return s->RenderMetrics(); });
+    if (!metrics.ok()) return metrics.status();
+    server->metrics_ = std::move(metrics).value();
+    spdlog::info("metrics on http://{}/metrics (port {})", options.metrics_listen,
+                 server->metrics_->port());
+  }
+  if (Status s = server->StartEngine(options); !s.ok()) return s;
   server->SetReady(true);
   server->service_->SetServing(true);
   spdlog::info("serving");

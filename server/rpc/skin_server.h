@@ -43,6 +43,11 @@ class SkinServer {
   Status ListenOn(const ServerOptions& options,
                   const std::shared_ptr<grpc::ServerCredentials>& tcp_credentials,
                   grpc::ServerBuilder& builder);
+  // The shared-memory regions, the TCP credentials and the authorization policy, in that
+  // order, then service_ over them; the credentials are ListenOn's.
+  Result<std::shared_ptr<grpc::ServerCredentials>> CreateService(const ServerOptions& options);
+  // Builds engine_ and gives it to service_; the default backend must be one it has.
+  Status StartEngine(const ServerOptions& options);
   std::string RenderMetrics() const;         // on the metrics server's threads
   std::unique_ptr<RegionRegistry> regions_;  // null: shared memory off; outlives service_
   std::unique_ptr<PolicyFile> policy_;       // null: no --authz-policy; outlives service_

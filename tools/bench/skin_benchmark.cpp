@@ -431,53 +431,52 @@ void MemoryBandwidth(benchmark::State& state) {
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * 2 * kFloats * sizeof(float)));
 }
 
-}  // namespace
-}  // namespace skinserve::bench
-
-int main(int argc, char** argv) {
-  using namespace skinserve;
-  using namespace skinserve::bench;
-  Options options;
+// Parses the command line into `options`; false, the error printed, on a bad value.
+bool ParseCommandLine(int* argc, char** argv, Options* options) {
   try {
-    options = ParseOptions(&argc, argv);
+    *options = ParseOptions(argc, argv);
   } catch (const std::invalid_argument& e) {  // std::stoul on a malformed list, or a value
     fmt::print(stderr,
                "skinserve-bench: {} (--vertices= and --bones= take comma-separated counts, "
                "--methods= linear and dual-quaternion, --vertex-order= sorted or shuffled)\n",
                e.what());
-    return 2;
+    return false;
   } catch (const std::exception&) {  // std::stoul out of range
     fmt::print(stderr, "skinserve-bench: --vertices= and --bones= take comma-separated counts\n");
-    return 2;
+    return false;
   }
-  Cache().set_sorted_by_joints(options.sorted_by_joints);
   const auto bad_bones = [](uint32_t b) { return b < 1 || b > kMaxInfluences; };
-  if (std::count(options.vertices.begin(), options.vertices.end(), 0u) != 0 ||
-      std::any_of(options.bones.begin(), options.bones.end(), bad_bones)) {
+  if (std::count(options->vertices.begin(), options->vertices.end(), 0u) != 0 ||
+      std::any_of(options->bones.begin(), options->bones.end(), bad_bones)) {
     fmt::print(stderr, "skinserve-bench: vertex counts must be >= 1 and bones 1..{}\n",
                kMaxInfluences);
-    return 2;
+    return false;
   }
   // Every speedup in the tables is against serial: measure it even when not asked for.
-  if (options.paper_tables && !options.backends.empty() &&
-      std::count(options.backends.begin(), options.backends.end(), "serial") == 0) {
-    options.backends.push_back("serial");
+  if (options->paper_tables && !options->backends.empty() &&
+      std::count(options->backends.begin(), options->backends.end(), "serial") == 0) {
+    options->backends.push_back("serial");
   }
-  const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  static std::vector<std::unique_ptr<Backend>> backends =
-      CreateAllBackends(threads, options.opencl_device);
+  return true;
+}
+
+// What the rows time: each measured backend under its id, and "opencl-global".
+using Rows = std::vector<std::pair<std::string, Backend*>>;
+
+// The backends asked for and available, in `backends`' order, into `measured` and `rows`;
+// with --opencl-global-palette, `opencl` once more from a runtime that keeps the palette
+// in global memory, after `opencl`'s row. False, the error printed, when a backend the
+// options need is unavailable.
+bool SelectRows(const Options& options, const std::vector<std::unique_ptr<Backend>>& backends,
+                int threads, std::vector<std::string>* measured, Rows* rows) {
   if (!options.opencl_device.empty()) {
     for (const auto& backend : backends) {
       if (backend->info().id == "opencl" && !backend->info().available) {
         fmt::print(stderr, "skinserve-bench: {}\n", backend->info().unavailable_reason);
-        return 2;
+        return false;
       }
     }
   }
-
-  std::vector<std::string> measured;
-  // What the rows time: each measured backend under its id, and "opencl-global".
-  std::vector<std::pair<std::string, Backend*>> rows;
   for (const auto& backend : backends) {
     const BackendInfo& info = backend->info();
     const bool wanted = options.backends.empty() ||
@@ -487,12 +486,12 @@ int main(int argc, char** argv) {
       fmt::print(stderr, "skipping {}: {}\n", info.id, info.unavailable_reason);
       continue;
     }
-    measured.push_back(info.id);
-    rows.emplace_back(info.id, backend.get());
+    measured->push_back(info.id);
+    rows->emplace_back(info.id, backend.get());
   }
-  static std::vector<std::unique_ptr<Backend>> global_palette;
+  static std::vector<std::unique_ptr<Backend>> global_palette;  // lives through the run
   if (options.opencl_global_palette &&
-      std::count(measured.begin(), measured.end(), "opencl") != 0) {
+      std::count(measured->begin(), measured->end(), "opencl") != 0) {
     global_palette = MakeOpenClBackends(
         OpenClRuntimeOptions{.threads = threads,
                              .device = options.opencl_device,
@@ -501,15 +500,25 @@ int main(int argc, char** argv) {
     if (!global.info().available) {
       fmt::print(stderr, "skinserve-bench: --opencl-global-palette: {}\n",
                  global.info().unavailable_reason);
-      return 2;
+      return false;
     }
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      if (rows[i].first == "opencl") {
-        rows.insert(rows.begin() + static_cast<std::ptrdiff_t>(i) + 1, {"opencl-global", &global});
+    for (std::size_t i = 0; i < rows->size(); ++i) {
+      if ((*rows)[i].first == "opencl") {
+        rows->insert(rows->begin() + static_cast<std::ptrdiff_t>(i) + 1,
+                     {"opencl-global", &global});
         break;
       }
     }
   }
+  return true;
+}
+
+const char* SkinRowPrefix(bool normals, bool tangents) {
+  return tangents ? "BM_SkinTangents" : (normals ? "BM_SkinNormals" : "BM_Skin");
+}
+
+// BM_Skin[Normals|Tangents][DualQuaternion]/<backend>/<vertices>/<bones>: the float rows.
+void RegisterSkinRows(const Options& options, const Rows& rows) {
   for (int outputs = 0; outputs < 3; ++outputs) {  // positions, + normals, + tangents
     const bool normals = outputs >= 1, tangents = outputs == 2;
     if (options.paper_tables && normals && !options.normals_in_tables) continue;
@@ -521,10 +530,8 @@ int main(int argc, char** argv) {
           for (SkinningMethod method : options.methods) {
             if (!backend->info().Supports(method)) continue;
             const bool dqs = method == SkinningMethod::kDualQuaternion;
-            const std::string name =
-                fmt::format("{}{}/{}/{}/{}",
-                            tangents ? "BM_SkinTangents" : (normals ? "BM_SkinNormals" : "BM_Skin"),
-                            dqs ? "DualQuaternion" : "", id, v, b);
+            const std::string name = fmt::format("{}{}/{}/{}/{}", SkinRowPrefix(normals, tangents),
+                                                 dqs ? "DualQuaternion" : "", id, v, b);
             benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend, v, b, normals,
                                          method, RestEncoding::kFloat32, tangents)
                 ->UseRealTime()
@@ -534,6 +541,12 @@ int main(int argc, char** argv) {
       }
     }
   }
+}
+
+// --quantized: BM_Skin[Normals|Tangents]Quantized[Weights8]/<backend>/<vertices>/<bones>.
+void RegisterQuantizedRows(const Options& options,
+                           const std::vector<std::unique_ptr<Backend>>& backends,
+                           const std::vector<std::string>& measured) {
   for (int outputs = 0; outputs < 3; ++outputs) {  // positions, + normals, + tangents
     if (!options.quantized) break;
     const bool normals = outputs >= 1, tangents = outputs == 2;
@@ -546,10 +559,8 @@ int main(int argc, char** argv) {
           for (auto [kind, rest] :
                {std::pair{"Quantized", RestEncoding::kQuantized16},
                 std::pair{"QuantizedWeights8", RestEncoding::kQuantized8Weights}}) {
-            const std::string name =
-                fmt::format("{}{}/{}/{}/{}",
-                            tangents ? "BM_SkinTangents" : (normals ? "BM_SkinNormals" : "BM_Skin"),
-                            kind, backend->info().id, v, b);
+            const std::string name = fmt::format("{}{}/{}/{}/{}", SkinRowPrefix(normals, tangents),
+                                                 kind, backend->info().id, v, b);
             benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend.get(), v, b, normals,
                                          SkinningMethod::kLinear, rest, tangents)
                 ->UseRealTime()
@@ -559,41 +570,57 @@ int main(int argc, char** argv) {
       }
     }
   }
+}
+
+// One row's BM_Skin[Normals]HostEncoded<Encoding>/..., and BM_Skin[Normals]Encoded<Encoding>/...
+// (with --streams=N, BM_SkinStreamsEncoded<Encoding>/...) when its backend writes the encoding
+// itself.
+void RegisterEncodedRow(const Options& options, const std::string& id, Backend* backend,
+                        VertexEncoding encoding, bool normals, uint32_t v, uint32_t b) {
+  const char* encoding_name = encoding == VertexEncoding::kFloat16 ? "Float16" : "Snorm16";
+  auto* host = benchmark::RegisterBenchmark(
+      fmt::format("{}HostEncoded{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", encoding_name,
+                  id, v, b)
+          .c_str(),
+      SkinHostEncodedBenchmark, backend, v, b, normals, encoding);
+  host->UseRealTime()->Unit(benchmark::kMicrosecond);
+  if (options.process_cpu_time) host->MeasureProcessCPUTime();
+  if (!backend->info().WritesEncoding(encoding)) return;
+  const std::string kind = std::string("Encoded") + encoding_name;
+  const std::string name =
+      fmt::format("{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", kind, id, v, b);
+  auto* direct = benchmark::RegisterBenchmark(name.c_str(), SkinEncodedBenchmark, backend, v, b,
+                                              normals, encoding);
+  direct->UseRealTime()->Unit(benchmark::kMicrosecond);
+  if (options.process_cpu_time) direct->MeasureProcessCPUTime();
+  if (options.streams > 1 && !normals) {
+    benchmark::RegisterBenchmark(fmt::format("BM_SkinStreams{}/{}/{}/{}", kind, id, v, b).c_str(),
+                                 SkinEncodedBenchmark, backend, v, b, false, encoding)
+        ->Threads(options.streams)
+        ->UseRealTime()
+        ->Unit(benchmark::kMicrosecond);
+  }
+}
+
+// --encoding=: the encoded rows of every row, encoding, output, vertex count and bones.
+void RegisterEncodedRows(const Options& options, const Rows& rows) {
   for (VertexEncoding encoding : options.encodings) {
     for (bool normals : {false, true}) {
       for (uint32_t v : options.vertices) {
         for (uint32_t b : options.bones) {
           for (const auto& [id, backend] : rows) {
-            const char* encoding_name =
-                encoding == VertexEncoding::kFloat16 ? "Float16" : "Snorm16";
-            auto* host = benchmark::RegisterBenchmark(
-                fmt::format("{}HostEncoded{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin",
-                            encoding_name, id, v, b)
-                    .c_str(),
-                SkinHostEncodedBenchmark, backend, v, b, normals, encoding);
-            host->UseRealTime()->Unit(benchmark::kMicrosecond);
-            if (options.process_cpu_time) host->MeasureProcessCPUTime();
-            if (!backend->info().WritesEncoding(encoding)) continue;
-            const std::string kind = std::string("Encoded") + encoding_name;
-            const std::string name = fmt::format(
-                "{}{}/{}/{}/{}", normals ? "BM_SkinNormals" : "BM_Skin", kind, id, v, b);
-            auto* direct = benchmark::RegisterBenchmark(name.c_str(), SkinEncodedBenchmark, backend,
-                                                        v, b, normals, encoding);
-            direct->UseRealTime()->Unit(benchmark::kMicrosecond);
-            if (options.process_cpu_time) direct->MeasureProcessCPUTime();
-            if (options.streams > 1 && !normals) {
-              benchmark::RegisterBenchmark(
-                  fmt::format("BM_SkinStreams{}/{}/{}/{}", kind, id, v, b).c_str(),
-                  SkinEncodedBenchmark, backend, v, b, false, encoding)
-                  ->Threads(options.streams)
-                  ->UseRealTime()
-                  ->Unit(benchmark::kMicrosecond);
-            }
+            RegisterEncodedRow(options, id, backend, encoding, normals, v, b);
           }
         }
       }
     }
   }
+}
+
+// --morph: BM_SkinMorph[Normals]/<backend>/<vertices>/<bones>/active:0 and active:4.
+void RegisterMorphRows(const Options& options,
+                       const std::vector<std::unique_ptr<Backend>>& backends,
+                       const std::vector<std::string>& measured) {
   for (bool normals : {false, true}) {
     if (!options.morph) break;
     for (uint32_t v : options.vertices) {
@@ -614,30 +641,34 @@ int main(int argc, char** argv) {
       }
     }
   }
-  const bool opencl_measured = std::count(measured.begin(), measured.end(), "opencl") +
-                                   std::count(measured.begin(), measured.end(), "opencl-zerocopy") >
-                               0;
-  if (opencl_measured && options.streams > 1) {
-    for (uint32_t v : options.vertices) {
-      for (uint32_t b : options.bones) {
-        for (const auto& [id, backend] : rows) {
-          if (id.rfind("opencl", 0) != 0) continue;
-          const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
-          benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend, v, b, false,
-                                       SkinningMethod::kLinear, RestEncoding::kFloat32, false)
-              ->Threads(options.streams)
-              ->UseRealTime()
-              ->Unit(benchmark::kMicrosecond);
-        }
+}
+
+// --streams=N: BM_SkinStreams/<backend>/<vertices>/<bones> for the OpenCL rows.
+void RegisterStreamRows(const Options& options, const Rows& rows) {
+  for (uint32_t v : options.vertices) {
+    for (uint32_t b : options.bones) {
+      for (const auto& [id, backend] : rows) {
+        if (id.rfind("opencl", 0) != 0) continue;
+        const std::string name = fmt::format("BM_SkinStreams/{}/{}/{}", id, v, b);
+        benchmark::RegisterBenchmark(name.c_str(), SkinBenchmark, backend, v, b, false,
+                                     SkinningMethod::kLinear, RestEncoding::kFloat32, false)
+            ->Threads(options.streams)
+            ->UseRealTime()
+            ->Unit(benchmark::kMicrosecond);
       }
     }
   }
+}
+
+// The bounds: with OpenCL measured, the device's (PCIe each way, device copy, pinned
+// copy-out) from a runtime of its own; then the pose rows and the memory bandwidth.
+void RegisterBoundRows(bool opencl_measured, int threads, const std::string& opencl_device) {
   auto best = [](const std::vector<double>& values) {
     return *std::max_element(values.begin(), values.end());
   };
   static std::shared_ptr<OpenClRuntime> bound_runtime;
   if (opencl_measured) {
-    auto runtime = OpenClRuntime::Create({.threads = threads, .device = options.opencl_device});
+    auto runtime = OpenClRuntime::Create({.threads = threads, .device = opencl_device});
     if (runtime.ok()) {
       bound_runtime = *runtime;
       for (auto [name, bound] : {std::pair{"BM_PcieHostToDevice", DeviceBound::kHostToDevice},
@@ -663,10 +694,13 @@ int main(int argc, char** argv) {
   benchmark::RegisterBenchmark("BM_MemoryBandwidth", MemoryBandwidth)
       ->UseRealTime()
       ->Unit(benchmark::kMillisecond)
-      ->ComputeStatistics("max", [](const std::vector<double>& values) {
-        return *std::max_element(values.begin(), values.end());
-      });
+      ->ComputeStatistics("max", best);
+}
 
+// Runs the registered rows: Google Benchmark's own reporter for --benchmark_format=json|csv,
+// else the console with, after the runs, the paper tables (--paper-tables), the device
+// bounds and the quantized rows' shares (--quantized).
+int RunRows(const Options& options, int argc, char** argv, const Rows& rows) {
   // Our defaults go first, so that the same flags given on the command line win.
   std::string repetitions = "--benchmark_repetitions=3",
               aggregates = "--benchmark_report_aggregates_only=true";
@@ -706,4 +740,31 @@ int main(int argc, char** argv) {
   if (options.quantized) reporter.PrintQuantizedShares();
   benchmark::Shutdown();
   return 0;
+}
+
+}  // namespace
+}  // namespace skinserve::bench
+
+int main(int argc, char** argv) {
+  using namespace skinserve;
+  using namespace skinserve::bench;
+  Options options;
+  if (!ParseCommandLine(&argc, argv, &options)) return 2;
+  Cache().set_sorted_by_joints(options.sorted_by_joints);
+  const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  static std::vector<std::unique_ptr<Backend>> backends =
+      CreateAllBackends(threads, options.opencl_device);
+  std::vector<std::string> measured;
+  Rows rows;
+  if (!SelectRows(options, backends, threads, &measured, &rows)) return 2;
+  RegisterSkinRows(options, rows);
+  RegisterQuantizedRows(options, backends, measured);
+  RegisterEncodedRows(options, rows);
+  RegisterMorphRows(options, backends, measured);
+  const bool opencl_measured = std::count(measured.begin(), measured.end(), "opencl") +
+                                   std::count(measured.begin(), measured.end(), "opencl-zerocopy") >
+                               0;
+  if (opencl_measured && options.streams > 1) RegisterStreamRows(options, rows);
+  RegisterBoundRows(opencl_measured, threads, options.opencl_device);
+  return RunRows(options, argc, argv, rows);
 }

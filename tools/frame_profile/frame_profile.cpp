@@ -154,6 +154,77 @@ void PrintRow(const char* side, const Sample& d, double frames, bool allocations
              d.cpu_seconds / frames * 1e6);
 }
 
+// Frame f's K palettes back to back, from a few distinct poses.
+std::vector<std::vector<float>> FramePalettes(const Options& o) {
+  std::vector<std::vector<float>> palettes(8);
+  for (std::size_t p = 0; p < palettes.size(); ++p) {
+    for (uint32_t k = 0; k < o.instances; ++k) {
+      const std::vector<float> one = MakeSyntheticPalette(o.joints, 11, p * 31 + k);
+      palettes[p].insert(palettes[p].end(), one.begin(), one.end());
+    }
+  }
+  return palettes;
+}
+
+// Uploads the mesh, streams the frames, and prints the per-frame table of both sides
+// sampled after the warm-up; 1 (the error printed) when a frame fails.
+int Profile(client::SkinClient& client, const Options& o, VertexEncoding encoding, pid_t pid,
+            const std::string& counters) {
+  const MeshArrays mesh = MakeSyntheticMesh({.vertex_count = o.vertices,
+                                             .influences = o.bones,
+                                             .joint_count = o.joints,
+                                             .normals = o.normals,
+                                             .seed = 11});
+  auto info = client.Upload(mesh);
+  if (!info.ok()) return fmt::print(stderr, "error: {}\n", info.status().ToString()), 1;
+  const std::vector<std::vector<float>> palettes = FramePalettes(o);
+  ServerProbe server(pid, counters);
+  Sample client_start, server_start, client_end, server_end;
+  uint64_t answered = 0, failed = 0, wrong_size = 0;
+  const std::size_t expected = 3ull * o.vertices * o.instances;
+  client::StreamSummary summary;
+  Status streamed = client::StreamFrames(
+      client,
+      {.mesh_id = info->mesh_id(),
+       .backend = o.backend,
+       .want_normals = o.normals,
+       .encoding = encoding,
+       .instances = o.instances,
+       .frames = o.warmup + o.frames,
+       .window = o.window},
+      [&](uint64_t f) -> const std::vector<float>& { return palettes[f % palettes.size()]; },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) {
+        if (!r.status.ok()) {
+          if (failed++ == 0) fmt::print(stderr, "frame failed: {}\n", r.status.ToString());
+          return;
+        }
+        wrong_size += r.positions.size() != expected;
+        if (++answered == o.warmup) {
+          server_start = server.Read();
+          client_start = ClientSample();
+        }
+      },
+      &summary);
+  client_end = ClientSample();
+  server_end = server.Read();
+  if (!streamed.ok() || failed > 0 || wrong_size > 0 || answered <= o.warmup) {
+    fmt::print(stderr, "error: {} ({} frames failed, {} of the wrong size)\n", streamed.ToString(),
+               failed, wrong_size);
+    return 1;
+  }
+  const double measured = static_cast<double>(answered - o.warmup);
+  fmt::print(
+      "per frame, {:.0f} frames after {} warm-up: {} vertices x {} bones{}, {}, {} "
+      "instance(s), backend {}, window {}, client malloc {}\n",
+      measured, o.warmup, o.vertices, o.bones, o.normals ? " + normals" : "", o.encoding,
+      o.instances, o.backend, o.window, o.malloc);
+  fmt::print("{:<8} {:>14} {:>14} {:>16} {:>14}\n", "side", "minor faults", "allocations",
+             "alloc bytes", "CPU us");
+  PrintRow("client", client_end - client_start, measured, true);
+  PrintRow("server", server_end - server_start, measured, server.counting());
+  return 0;
+}
+
 int Run(const Options& o) {
   const auto encoding = ParseVertexEncoding(o.encoding);
   if (!encoding) return fmt::print(stderr, "error: --encoding {} is unknown\n", o.encoding), 2;
@@ -175,68 +246,7 @@ int Run(const Options& o) {
       fmt::print(stderr, "error: {}: {}\n", target, s.ToString());
       code = 1;
     } else {
-      code = [&] {
-        const MeshArrays mesh = MakeSyntheticMesh({.vertex_count = o.vertices,
-                                                   .influences = o.bones,
-                                                   .joint_count = o.joints,
-                                                   .normals = o.normals,
-                                                   .seed = 11});
-        auto info = client.Upload(mesh);
-        if (!info.ok()) return fmt::print(stderr, "error: {}\n", info.status().ToString()), 1;
-        // Frame f's K palettes back to back, from a few distinct poses.
-        std::vector<std::vector<float>> palettes(8);
-        for (std::size_t p = 0; p < palettes.size(); ++p) {
-          for (uint32_t k = 0; k < o.instances; ++k) {
-            const std::vector<float> one = MakeSyntheticPalette(o.joints, 11, p * 31 + k);
-            palettes[p].insert(palettes[p].end(), one.begin(), one.end());
-          }
-        }
-        ServerProbe server(pid, counters);
-        Sample client_start, server_start, client_end, server_end;
-        uint64_t answered = 0, failed = 0, wrong_size = 0;
-        const std::size_t expected = 3ull * o.vertices * o.instances;
-        client::StreamSummary summary;
-        Status streamed = client::StreamFrames(
-            client,
-            {.mesh_id = info->mesh_id(),
-             .backend = o.backend,
-             .want_normals = o.normals,
-             .encoding = *encoding,
-             .instances = o.instances,
-             .frames = o.warmup + o.frames,
-             .window = o.window},
-            [&](uint64_t f) -> const std::vector<float>& { return palettes[f % palettes.size()]; },
-            [&](client::FrameResult& r, std::chrono::nanoseconds) {
-              if (!r.status.ok()) {
-                if (failed++ == 0) fmt::print(stderr, "frame failed: {}\n", r.status.ToString());
-                return;
-              }
-              wrong_size += r.positions.size() != expected;
-              if (++answered == o.warmup) {
-                server_start = server.Read();
-                client_start = ClientSample();
-              }
-            },
-            &summary);
-        client_end = ClientSample();
-        server_end = server.Read();
-        if (!streamed.ok() || failed > 0 || wrong_size > 0 || answered <= o.warmup) {
-          fmt::print(stderr, "error: {} ({} frames failed, {} of the wrong size)\n",
-                     streamed.ToString(), failed, wrong_size);
-          return 1;
-        }
-        const double measured = static_cast<double>(answered - o.warmup);
-        fmt::print(
-            "per frame, {:.0f} frames after {} warm-up: {} vertices x {} bones{}, {}, {} "
-            "instance(s), backend {}, window {}, client malloc {}\n",
-            measured, o.warmup, o.vertices, o.bones, o.normals ? " + normals" : "", o.encoding,
-            o.instances, o.backend, o.window, o.malloc);
-        fmt::print("{:<8} {:>14} {:>14} {:>16} {:>14}\n", "side", "minor faults", "allocations",
-                   "alloc bytes", "CPU us");
-        PrintRow("client", client_end - client_start, measured, true);
-        PrintRow("server", server_end - server_start, measured, server.counting());
-        return 0;
-      }();
+      code = Profile(client, o, *encoding, pid, counters);
     }
   }
   if (started) {

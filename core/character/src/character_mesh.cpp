@@ -80,6 +80,105 @@ std::size_t SkinJoints(const Character& character, int skin) {
   return character.skins[static_cast<std::size_t>(skin)].joints.size();
 }
 
+// Which primitives go together: same skin, same presence of normals and of tangents
+// (tangents come only with normals); meshes in order of their first primitive.
+using MeshKey = std::tuple<int, bool, bool>;  // skin, normals, tangents
+struct MeshGroups {
+  std::vector<MeshKey> keys;  // in order of their first primitive
+  std::map<MeshKey, std::vector<int>> members;
+  bool has(int skin, bool normals, bool tangents) const {
+    return members.count({skin, normals, tangents}) > 0;
+  }
+};
+
+MeshGroups GroupPrimitives(const std::vector<SkinnedPrimitive>& primitives, int only) {
+  auto taken = [&](std::size_t i) { return only < 0 || static_cast<std::size_t>(only) == i; };
+  // Rigid parts go with the first skin taken (-1: none).
+  int rigid_skin = -1;
+  for (std::size_t i = 0; i < primitives.size() && rigid_skin < 0; ++i) {
+    if (taken(i) && !primitives[i].rigid()) rigid_skin = primitives[i].skin;
+  }
+  MeshGroups groups;
+  for (std::size_t i = 0; i < primitives.size(); ++i) {
+    if (!taken(i)) continue;
+    const int skin = primitives[i].rigid() ? rigid_skin : primitives[i].skin;
+    const MeshKey key{skin, !primitives[i].arrays.normals.empty(),
+                      !primitives[i].arrays.tangents.empty()};
+    if (groups.members.find(key) == groups.members.end()) groups.keys.push_back(key);
+    groups.members[key].push_back(static_cast<int>(i));
+  }
+  return groups;
+}
+
+// The skin's name (or "skins[i]", or "rigid parts"); the skin's parts split on normals:
+// "(normals)" / "(no normals)"; those with normals split on tangents too: "(tangents)" /
+// "(no tangents)".
+std::string MeshName(const Character& character, const MeshKey& key, const MeshGroups& groups) {
+  const auto [skin, normals, tangents] = key;
+  std::string name;
+  if (skin < 0) {
+    name = "rigid parts";
+  } else if (static_cast<std::size_t>(skin) < character.skins.size() &&
+             !character.skins[static_cast<std::size_t>(skin)].name.empty()) {
+    name = character.skins[static_cast<std::size_t>(skin)].name;
+  } else {
+    name = fmt::format("skins[{}]", skin);
+  }
+  if (groups.has(skin, !normals, false) || groups.has(skin, !normals, true)) {
+    name += normals ? " (normals)" : " (no normals)";
+  }
+  if (normals && groups.has(skin, true, !tangents)) {
+    name += tangents ? " (tangents)" : " (no tangents)";
+  }
+  return name;
+}
+
+// One mesh of `members`, the primitives of one group: their vertices, joints (the skin's,
+// then one per rigid part's node) and morph targets, within a mesh's limits.
+Result<CharacterMesh> BuildMesh(const Character& character, const std::vector<int>& members,
+                                int skin, std::string name) {
+  const auto& primitives = character.primitives;
+  CharacterMesh mesh;
+  mesh.skin = skin;
+  mesh.name = std::move(name);
+  uint64_t vertices = 0;
+  // A mesh's targets move normals (tangents) for all or none of them.
+  bool morph_normals = false, morph_tangents = false;
+  for (int i : members) {
+    const SkinnedPrimitive& p = primitives[static_cast<std::size_t>(i)];
+    vertices += p.arrays.vertex_count;
+    morph_normals |= !p.arrays.morph_normal_deltas.empty();
+    morph_tangents |= !p.arrays.morph_tangent_deltas.empty();
+    mesh.arrays.influences = std::max(mesh.arrays.influences, p.arrays.influences);
+    if (p.rigid() && std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) ==
+                         mesh.rigid_nodes.end()) {
+      mesh.rigid_nodes.push_back(p.node);
+    }
+  }
+  if (vertices > std::numeric_limits<uint32_t>::max()) {
+    return InvalidArgument(
+        fmt::format("{}: its primitives hold {} vertices; a mesh holds at "
+                    "most {}",
+                    mesh.name, vertices, std::numeric_limits<uint32_t>::max()));
+  }
+  const std::size_t skin_joints = SkinJoints(character, mesh.skin);
+  const std::size_t joints = skin_joints + mesh.rigid_nodes.size();
+  if (joints > kMaxJointsLimit) {
+    return InvalidArgument(fmt::format(
+        "{}: its skin's {} joints and {} rigid part nodes make {} palette entries; at most {}",
+        mesh.name, skin_joints, mesh.rigid_nodes.size(), joints, kMaxJointsLimit));
+  }
+  mesh.arrays.joint_count = static_cast<uint32_t>(joints);
+  for (int i : members) {
+    const SkinnedPrimitive& p = primitives[static_cast<std::size_t>(i)];
+    const auto place = static_cast<std::size_t>(
+        std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) -
+        mesh.rigid_nodes.begin());
+    Append(p, i, static_cast<uint16_t>(skin_joints + place), morph_normals, morph_tangents, &mesh);
+  }
+  return mesh;
+}
+
 }  // namespace
 
 Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, int only) {
@@ -88,88 +187,13 @@ Result<std::vector<CharacterMesh>> CharacterMeshes(const Character& character, i
     return InvalidArgument(
         fmt::format("primitive {} is not below the {} primitive(s)", only, primitives.size()));
   }
-  auto taken = [&](std::size_t i) { return only < 0 || static_cast<std::size_t>(only) == i; };
-  // Rigid parts go with the first skin taken (-1: none).
-  int rigid_skin = -1;
-  for (std::size_t i = 0; i < primitives.size() && rigid_skin < 0; ++i) {
-    if (taken(i) && !primitives[i].rigid()) rigid_skin = primitives[i].skin;
-  }
-  // Which primitives go together: same skin, same presence of normals and of tangents
-  // (tangents come only with normals); meshes in order of their first primitive.
-  using Key = std::tuple<int, bool, bool>;  // skin, normals, tangents
-  std::vector<Key> keys;
-  std::map<Key, std::vector<int>> groups;
-  for (std::size_t i = 0; i < primitives.size(); ++i) {
-    if (!taken(i)) continue;
-    const int skin = primitives[i].rigid() ? rigid_skin : primitives[i].skin;
-    const Key key{skin, !primitives[i].arrays.normals.empty(),
-                  !primitives[i].arrays.tangents.empty()};
-    if (groups.find(key) == groups.end()) keys.push_back(key);
-    groups[key].push_back(static_cast<int>(i));
-  }
-  auto has_group = [&](int skin, bool normals, bool tangents) {
-    return groups.count({skin, normals, tangents}) > 0;
-  };
-
+  const MeshGroups groups = GroupPrimitives(primitives, only);
   std::vector<CharacterMesh> meshes;
-  for (const Key& key : keys) {
-    const std::vector<int>& members = groups[key];
-    const auto [skin, normals, tangents] = key;
-    CharacterMesh mesh;
-    mesh.skin = skin;
-    if (mesh.skin < 0) {
-      mesh.name = "rigid parts";
-    } else if (static_cast<std::size_t>(mesh.skin) < character.skins.size() &&
-               !character.skins[static_cast<std::size_t>(mesh.skin)].name.empty()) {
-      mesh.name = character.skins[static_cast<std::size_t>(mesh.skin)].name;
-    } else {
-      mesh.name = fmt::format("skins[{}]", mesh.skin);
-    }
-    // The skin's parts split on normals: "(normals)" / "(no normals)"; those with normals
-    // split on tangents too: "(tangents)" / "(no tangents)".
-    if (has_group(skin, !normals, false) || has_group(skin, !normals, true)) {
-      mesh.name += normals ? " (normals)" : " (no normals)";
-    }
-    if (normals && has_group(skin, true, !tangents)) {
-      mesh.name += tangents ? " (tangents)" : " (no tangents)";
-    }
-    uint64_t vertices = 0;
-    // A mesh's targets move normals (tangents) for all or none of them.
-    bool morph_normals = false, morph_tangents = false;
-    for (int i : members) {
-      const SkinnedPrimitive& p = primitives[static_cast<std::size_t>(i)];
-      vertices += p.arrays.vertex_count;
-      morph_normals |= !p.arrays.morph_normal_deltas.empty();
-      morph_tangents |= !p.arrays.morph_tangent_deltas.empty();
-      mesh.arrays.influences = std::max(mesh.arrays.influences, p.arrays.influences);
-      if (p.rigid() && std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) ==
-                           mesh.rigid_nodes.end()) {
-        mesh.rigid_nodes.push_back(p.node);
-      }
-    }
-    if (vertices > std::numeric_limits<uint32_t>::max()) {
-      return InvalidArgument(
-          fmt::format("{}: its primitives hold {} vertices; a mesh holds at "
-                      "most {}",
-                      mesh.name, vertices, std::numeric_limits<uint32_t>::max()));
-    }
-    const std::size_t skin_joints = SkinJoints(character, mesh.skin);
-    const std::size_t joints = skin_joints + mesh.rigid_nodes.size();
-    if (joints > kMaxJointsLimit) {
-      return InvalidArgument(fmt::format(
-          "{}: its skin's {} joints and {} rigid part nodes make {} palette entries; at most {}",
-          mesh.name, skin_joints, mesh.rigid_nodes.size(), joints, kMaxJointsLimit));
-    }
-    mesh.arrays.joint_count = static_cast<uint32_t>(joints);
-    for (int i : members) {
-      const SkinnedPrimitive& p = primitives[static_cast<std::size_t>(i)];
-      const auto place = static_cast<std::size_t>(
-          std::find(mesh.rigid_nodes.begin(), mesh.rigid_nodes.end(), p.node) -
-          mesh.rigid_nodes.begin());
-      Append(p, i, static_cast<uint16_t>(skin_joints + place), morph_normals, morph_tangents,
-             &mesh);
-    }
-    meshes.push_back(std::move(mesh));
+  for (const MeshKey& key : groups.keys) {
+    auto mesh = BuildMesh(character, groups.members.at(key), std::get<0>(key),
+                          MeshName(character, key, groups));
+    if (!mesh.ok()) return mesh.status();
+    meshes.push_back(std::move(mesh).value());
   }
   return meshes;
 }

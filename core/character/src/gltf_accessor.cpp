@@ -156,11 +156,9 @@ uint32_t ReadIndex(const uint8_t* p, int component_type) {
   }
 }
 
-}  // namespace
-
-Result<AccessorReader> AccessorReader::Open(const tinygltf::Model& model, int index,
-                                            const std::string& what, int type,
-                                            std::initializer_list<int> component_types) {
+// The accessor exists, has `type`, one of `component_types` and at least one element.
+Status CheckAccessor(const tinygltf::Model& model, int index, const std::string& what, int type,
+                     std::initializer_list<int> component_types) {
   if (index < 0 || static_cast<std::size_t>(index) >= model.accessors.size()) {
     return InvalidArgument(fmt::format("{}: accessor {} does not exist (the file has {})", what,
                                        index, model.accessors.size()));
@@ -180,7 +178,75 @@ Result<AccessorReader> AccessorReader::Open(const tinygltf::Model& model, int in
     return InvalidArgument(
         fmt::format("{}: accessor {} has count 0; the minimum is 1", what, index));
   }
+  return Status::Ok();
+}
 
+// An accessor's sparse substitution: element indices[k] reads values + k * element size.
+struct SparseSubstitution {
+  std::vector<uint32_t> indices;
+  const uint8_t* values = nullptr;
+};
+
+// Sparse substitution (glTF 2.0 3.6.2.3): `count` strictly increasing indices, each
+// below the accessor's count, and as many tightly packed values of the accessor's type.
+Result<SparseSubstitution> ReadSparse(const tinygltf::Model& model, const tinygltf::Accessor& a,
+                                      int index, std::size_t element_size, const std::string& what,
+                                      const std::string& label) {
+  const auto& sparse = a.sparse;
+  SparseSubstitution out;
+  if (sparse.count < 1 || static_cast<std::size_t>(sparse.count) > a.count) {
+    return InvalidArgument(fmt::format("{}: accessor {} sparse.count is {}; must be 1..{}", what,
+                                       index, sparse.count, a.count));
+  }
+  const int index_type = sparse.indices.componentType;
+  if (index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT) {
+    return InvalidArgument(fmt::format(
+        "{}: accessor {} sparse.indices.componentType is {} ({}); allowed: UNSIGNED_BYTE, "
+        "UNSIGNED_SHORT, UNSIGNED_INT",
+        what, index, index_type, ComponentTypeName(index_type)));
+  }
+  if (sparse.indices.byteOffset < 0 || sparse.values.byteOffset < 0) {
+    return InvalidArgument(
+        fmt::format("{}: accessor {} sparse byteOffset is negative", what, index));
+  }
+  const auto n = static_cast<std::size_t>(sparse.count);
+  const std::size_t index_size = ComponentSize(index_type);
+  auto indices = ViewBytes(model, sparse.indices.bufferView,
+                           static_cast<std::size_t>(sparse.indices.byteOffset), index_size,
+                           index_size, n, what, label + " sparse.indices");
+  if (!indices.ok()) return indices.status();
+  auto values =
+      ViewBytes(model, sparse.values.bufferView, static_cast<std::size_t>(sparse.values.byteOffset),
+                element_size, element_size, n, what, label + " sparse.values");
+  if (!values.ok()) return values.status();
+  out.indices.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const uint32_t e = ReadIndex(*indices + k * index_size, index_type);
+    if (e >= a.count) {
+      return InvalidArgument(
+          fmt::format("{}: accessor {} sparse.indices[{}] = {} is not below its count {}", what,
+                      index, k, e, a.count));
+    }
+    if (k > 0 && e <= out.indices[k - 1]) {
+      return InvalidArgument(fmt::format(
+          "{}: accessor {} sparse.indices[{}] = {} does not increase (the one before is {})", what,
+          index, k, e, out.indices[k - 1]));
+    }
+    out.indices[k] = e;
+  }
+  out.values = *values;
+  return out;
+}
+
+}  // namespace
+
+Result<AccessorReader> AccessorReader::Open(const tinygltf::Model& model, int index,
+                                            const std::string& what, int type,
+                                            std::initializer_list<int> component_types) {
+  if (Status s = CheckAccessor(model, index, what, type, component_types); !s.ok()) return s;
+  const tinygltf::Accessor& a = model.accessors[static_cast<std::size_t>(index)];
   AccessorReader r;
   r.index_ = index;
   r.count_ = a.count;
@@ -209,52 +275,10 @@ Result<AccessorReader> AccessorReader::Open(const tinygltf::Model& model, int in
   }
 
   if (!a.sparse.isSparse) return r;
-  // Sparse substitution (glTF 2.0 3.6.2.3): `count` strictly increasing indices, each
-  // below the accessor's count, and as many tightly packed values of the accessor's type.
-  const auto& sparse = a.sparse;
-  if (sparse.count < 1 || static_cast<std::size_t>(sparse.count) > a.count) {
-    return InvalidArgument(fmt::format("{}: accessor {} sparse.count is {}; must be 1..{}", what,
-                                       index, sparse.count, a.count));
-  }
-  const int index_type = sparse.indices.componentType;
-  if (index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
-      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
-      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT) {
-    return InvalidArgument(fmt::format(
-        "{}: accessor {} sparse.indices.componentType is {} ({}); allowed: UNSIGNED_BYTE, "
-        "UNSIGNED_SHORT, UNSIGNED_INT",
-        what, index, index_type, ComponentTypeName(index_type)));
-  }
-  if (sparse.indices.byteOffset < 0 || sparse.values.byteOffset < 0) {
-    return InvalidArgument(
-        fmt::format("{}: accessor {} sparse byteOffset is negative", what, index));
-  }
-  const auto n = static_cast<std::size_t>(sparse.count);
-  const std::size_t index_size = ComponentSize(index_type);
-  auto indices = ViewBytes(model, sparse.indices.bufferView,
-                           static_cast<std::size_t>(sparse.indices.byteOffset), index_size,
-                           index_size, n, what, label + " sparse.indices");
-  if (!indices.ok()) return indices.status();
-  auto values =
-      ViewBytes(model, sparse.values.bufferView, static_cast<std::size_t>(sparse.values.byteOffset),
-                r.element_size_, r.element_size_, n, what, label + " sparse.values");
-  if (!values.ok()) return values.status();
-  r.sparse_indices_.resize(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    const uint32_t e = ReadIndex(*indices + k * index_size, index_type);
-    if (e >= a.count) {
-      return InvalidArgument(
-          fmt::format("{}: accessor {} sparse.indices[{}] = {} is not below its count {}", what,
-                      index, k, e, a.count));
-    }
-    if (k > 0 && e <= r.sparse_indices_[k - 1]) {
-      return InvalidArgument(fmt::format(
-          "{}: accessor {} sparse.indices[{}] = {} does not increase (the one before is {})", what,
-          index, k, e, r.sparse_indices_[k - 1]));
-    }
-    r.sparse_indices_[k] = e;
-  }
-  r.sparse_values_ = *values;
+  auto sparse = ReadSparse(model, a, index, r.element_size_, what, label);
+  if (!sparse.ok()) return sparse.status();
+  r.sparse_indices_ = std::move(sparse->indices);
+  r.sparse_values_ = sparse->values;
   return r;
 }
 

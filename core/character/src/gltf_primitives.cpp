@@ -233,13 +233,9 @@ Status ReadTangents(const tinygltf::Model& model, int accessor, const std::strin
   return Status::Ok();
 }
 
-Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& p,
-                            const std::string& what, int sets, uint32_t joint_count,
-                            SkinnedPrimitive* out) {
-  if (p.mode != TINYGLTF_MODE_TRIANGLES) {
-    return InvalidArgument(fmt::format("{}.mode is {}; only triangles ({}) are supported", what,
-                                       p.mode, TINYGLTF_MODE_TRIANGLES));
-  }
+// POSITION into out->arrays (vertex_count and positions) and out->stored.
+Status ReadPositions(const tinygltf::Model& model, const tinygltf::Primitive& p,
+                     const std::string& what, SkinnedPrimitive* out) {
   const std::optional<int> position = Attribute(p, "POSITION");
   if (!position) return InvalidArgument(what + ".attributes has no POSITION");
   // KHR_mesh_quantization: integer positions, normalized or not (a node transform or the
@@ -258,12 +254,18 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
   MeshArrays& a = out->arrays;
   out->stored.position = Stored(*positions);
   a.vertex_count = static_cast<uint32_t>(v_count);
-  a.influences = static_cast<uint32_t>(sets * kInfluencesPerSet);
-  a.joint_count = joint_count;
   a.positions.resize(3 * v_count);
   for (std::size_t v = 0; v < v_count; ++v) {
     for (int c = 0; c < 3; ++c) a.positions[3 * v + c] = positions->Value(v, c);
   }
+  return Status::Ok();
+}
+
+// NORMAL, then TANGENT (ignored, with a warning, without NORMAL), into out->arrays.
+Status ReadNormalsAndTangents(const tinygltf::Model& model, const tinygltf::Primitive& p,
+                              const std::string& what, SkinnedPrimitive* out) {
+  MeshArrays& a = out->arrays;
+  const std::size_t v_count = a.vertex_count;
   if (const std::optional<int> normal = Attribute(p, "NORMAL")) {
     // KHR_mesh_quantization: signed normalized bytes or shorts besides floats.
     auto normals = OpenAttribute(model, *normal, what + ".attributes.NORMAL", TINYGLTF_TYPE_VEC3,
@@ -294,71 +296,83 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
       return s;
     }
   }
+  return Status::Ok();
+}
 
-  // A rigid part (no skin): one influence, joint 0 (the node it follows), weight 1.
-  if (sets == 0) {
-    a.influences = 1;
-    a.joints.assign(v_count, 0);
-    a.weights.assign(v_count, 1.0f);
-  }
+// JOINTS_set and WEIGHTS_set into influences 4 * set .. 4 * set + 3 of every vertex of
+// out->arrays (joints and weights already sized); each joint below `joint_count`, each
+// weight finite and >= 0.
+Status ReadInfluenceSet(const tinygltf::Model& model, const tinygltf::Primitive& p,
+                        const std::string& what, int set, uint32_t joint_count,
+                        SkinnedPrimitive* out) {
+  MeshArrays& a = out->arrays;
+  const std::size_t v_count = a.vertex_count;
   const std::size_t b = a.influences;
-  a.joints.resize(b * v_count);
-  a.weights.resize(b * v_count);
-  for (int set = 0; set < sets; ++set) {
-    const std::string joints_name = fmt::format("{}.attributes.JOINTS_{}", what, set);
-    const std::string weights_name = fmt::format("{}.attributes.WEIGHTS_{}", what, set);
-    auto joints = OpenAttribute(
-        model, *Attribute(p, fmt::format("JOINTS_{}", set)), joints_name, TINYGLTF_TYPE_VEC4,
-        {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT}, v_count);
-    if (!joints.ok()) return joints.status();
-    // The spec requires integer weights to be normalized; they are read as such either way,
-    // and the sum is renormalised below, so the flag cannot change the result.
-    auto weights = OpenAttribute(
-        model, *Attribute(p, fmt::format("WEIGHTS_{}", set)), weights_name, TINYGLTF_TYPE_VEC4,
-        {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-         TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
-        v_count);
-    if (!weights.ok()) return weights.status();
-    out->stored.weights =
-        set == 0 ? Stored(*weights) : WiderWeights(out->stored.weights, Stored(*weights));
-    for (std::size_t v = 0; v < v_count; ++v) {
-      for (int c = 0; c < kInfluencesPerSet; ++c) {
-        const std::size_t k = v * b + static_cast<std::size_t>(set * kInfluencesPerSet + c);
-        const uint32_t joint = joints->Uint(v, c);
-        if (joint >= joint_count) {
-          return InvalidArgument(
-              fmt::format("{}: vertex {} influence {} is joint {}, past the skin's {} joints",
-                          joints_name, v, c, joint, joint_count));
-        }
-        const float w = weights->Normalized(v, c);
-        if (!std::isfinite(w) || w < 0.0f) {
-          return InvalidArgument(
-              fmt::format("{}: vertex {} influence {} is {}; weights must be finite and >= 0",
-                          weights_name, v, c, w));
-        }
-        a.joints[k] = static_cast<uint16_t>(joint);
-        a.weights[k] = w;
+  const std::string joints_name = fmt::format("{}.attributes.JOINTS_{}", what, set);
+  const std::string weights_name = fmt::format("{}.attributes.WEIGHTS_{}", what, set);
+  auto joints = OpenAttribute(
+      model, *Attribute(p, fmt::format("JOINTS_{}", set)), joints_name, TINYGLTF_TYPE_VEC4,
+      {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT}, v_count);
+  if (!joints.ok()) return joints.status();
+  // The spec requires integer weights to be normalized; they are read as such either way,
+  // and the sum is renormalised below, so the flag cannot change the result.
+  auto weights = OpenAttribute(
+      model, *Attribute(p, fmt::format("WEIGHTS_{}", set)), weights_name, TINYGLTF_TYPE_VEC4,
+      {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+       TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+      v_count);
+  if (!weights.ok()) return weights.status();
+  out->stored.weights =
+      set == 0 ? Stored(*weights) : WiderWeights(out->stored.weights, Stored(*weights));
+  for (std::size_t v = 0; v < v_count; ++v) {
+    for (int c = 0; c < kInfluencesPerSet; ++c) {
+      const std::size_t k = v * b + static_cast<std::size_t>(set * kInfluencesPerSet + c);
+      const uint32_t joint = joints->Uint(v, c);
+      if (joint >= joint_count) {
+        return InvalidArgument(
+            fmt::format("{}: vertex {} influence {} is joint {}, past the skin's {} joints",
+                        joints_name, v, c, joint, joint_count));
       }
+      const float w = weights->Normalized(v, c);
+      if (!std::isfinite(w) || w < 0.0f) {
+        return InvalidArgument(
+            fmt::format("{}: vertex {} influence {} is {}; weights must be finite and >= 0",
+                        weights_name, v, c, w));
+      }
+      a.joints[k] = static_cast<uint16_t>(joint);
+      a.weights[k] = w;
     }
   }
-  // Every vertex's weights are divided by their sum. The spec asks for a sum of 1, but
-  // quantized (UNSIGNED_BYTE) weights and exporters' rounding miss it by more than
-  // Mesh::Create's kWeightSumTolerance (1e-3), which it rejects by default; dividing here
-  // makes the importer's output pass that validator, and leaves a weight sum of exactly 1
-  // up to float rounding, so skinning never scales a vertex.
-  for (std::size_t v = 0; sets > 0 && v < v_count; ++v) {
+  return Status::Ok();
+}
+
+// Every vertex's weights are divided by their sum. The spec asks for a sum of 1, but
+// quantized (UNSIGNED_BYTE) weights and exporters' rounding miss it by more than
+// Mesh::Create's kWeightSumTolerance (1e-3), which it rejects by default; dividing here
+// makes the importer's output pass that validator, and leaves a weight sum of exactly 1
+// up to float rounding, so skinning never scales a vertex.
+Status NormalizeWeightSums(const std::string& what, MeshArrays* a) {
+  const std::size_t b = a->influences;
+  for (std::size_t v = 0; v < a->vertex_count; ++v) {
     double sum = 0;
-    for (std::size_t i = 0; i < b; ++i) sum += a.weights[v * b + i];
+    for (std::size_t i = 0; i < b; ++i) sum += a->weights[v * b + i];
     if (!(sum > 0)) {
       return InvalidArgument(fmt::format(
           "{}.attributes.WEIGHTS_n: vertex {} has all weights zero; each vertex needs one > 0",
           what, v));
     }
     for (std::size_t i = 0; i < b; ++i) {
-      a.weights[v * b + i] = static_cast<float>(a.weights[v * b + i] / sum);
+      a->weights[v * b + i] = static_cast<float>(a->weights[v * b + i] / sum);
     }
   }
+  return Status::Ok();
+}
 
+// The triangles' indices into out->indices (without indices: the vertices in order), each
+// below the vertex count, a multiple of 3 in all.
+Status ReadIndices(const tinygltf::Model& model, const tinygltf::Primitive& p,
+                   const std::string& what, SkinnedPrimitive* out) {
+  const std::size_t v_count = out->arrays.vertex_count;
   if (p.indices >= 0) {
     auto indices = AccessorReader::Open(
         model, p.indices, what + ".indices", TINYGLTF_TYPE_SCALAR,
@@ -382,7 +396,39 @@ Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primit
     return InvalidArgument(
         fmt::format("{}: {} triangle indices is not a multiple of 3", what, out->indices.size()));
   }
+  return Status::Ok();
+}
 
+Status ReadSkinnedPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& p,
+                            const std::string& what, int sets, uint32_t joint_count,
+                            SkinnedPrimitive* out) {
+  if (p.mode != TINYGLTF_MODE_TRIANGLES) {
+    return InvalidArgument(fmt::format("{}.mode is {}; only triangles ({}) are supported", what,
+                                       p.mode, TINYGLTF_MODE_TRIANGLES));
+  }
+  if (Status s = ReadPositions(model, p, what, out); !s.ok()) return s;
+  MeshArrays& a = out->arrays;
+  const std::size_t v_count = a.vertex_count;
+  a.influences = static_cast<uint32_t>(sets * kInfluencesPerSet);
+  a.joint_count = joint_count;
+  if (Status s = ReadNormalsAndTangents(model, p, what, out); !s.ok()) return s;
+
+  // A rigid part (no skin): one influence, joint 0 (the node it follows), weight 1.
+  if (sets == 0) {
+    a.influences = 1;
+    a.joints.assign(v_count, 0);
+    a.weights.assign(v_count, 1.0f);
+  }
+  const std::size_t b = a.influences;
+  a.joints.resize(b * v_count);
+  a.weights.resize(b * v_count);
+  for (int set = 0; set < sets; ++set) {
+    if (Status s = ReadInfluenceSet(model, p, what, set, joint_count, out); !s.ok()) return s;
+  }
+  if (sets > 0) {
+    if (Status s = NormalizeWeightSums(what, &a); !s.ok()) return s;
+  }
+  if (Status s = ReadIndices(model, p, what, out); !s.ok()) return s;
   if (Status s = ReadMorphTargets(model, p, what, &a); !s.ok()) return s;
 
   // The engine's own validator, with no operator limits: what it rejects here (e.g. a zero

@@ -103,8 +103,8 @@ std::string ContentId(const Mesh& mesh) {
   return hex;
 }
 
-// Validates the morph arrays of `arrays` (sizes already checked by CheckMorphHeader).
-Status CheckMorphArrays(const MeshArrays& arrays, uint64_t deltas) {
+// The morph arrays' sizes against the sum of the targets' sizes, `deltas`.
+Status CheckMorphArraySizes(const MeshArrays& arrays, uint64_t deltas) {
   if (Status s = CheckArraySize("morph_indices", arrays.morph_indices.size(), deltas,
                                 "the sum of morph_target_sizes");
       !s.ok()) {
@@ -129,60 +129,78 @@ Status CheckMorphArrays(const MeshArrays& arrays, uint64_t deltas) {
       return s;
     }
   }
-  // Position deltas are bounded relative to the mesh: beyond kMorphDeltaRange times its
-  // extent a delta is an exporter's error, not a shape.
-  float lo[3] = {arrays.positions[0], arrays.positions[1], arrays.positions[2]};
+  return Status::Ok();
+}
+
+// Position deltas are bounded relative to the mesh: beyond kMorphDeltaRange times its
+// extent a delta is an exporter's error, not a shape.
+double MorphPositionLimit(std::span<const float> positions) {
+  float lo[3] = {positions[0], positions[1], positions[2]};
   float hi[3] = {lo[0], lo[1], lo[2]};
-  for (std::size_t i = 0; i < arrays.positions.size(); ++i) {
-    lo[i % 3] = std::min(lo[i % 3], arrays.positions[i]);
-    hi[i % 3] = std::max(hi[i % 3], arrays.positions[i]);
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    lo[i % 3] = std::min(lo[i % 3], positions[i]);
+    hi[i % 3] = std::max(hi[i % 3], positions[i]);
   }
   double diagonal = 0;
   for (int a = 0; a < 3; ++a) diagonal += (double{hi[a]} - lo[a]) * (double{hi[a]} - lo[a]);
-  const double position_limit = kMorphDeltaRange * std::max(1.0, std::sqrt(diagonal));
+  return kMorphDeltaRange * std::max(1.0, std::sqrt(diagonal));
+}
+
+// Target t's deltas, [first, last) of the morph arrays: vertices in range and ascending,
+// deltas finite and within their limits.
+Status CheckMorphTarget(const MeshArrays& arrays, std::size_t t, uint64_t first, uint64_t last,
+                        double position_limit) {
+  for (uint64_t k = first; k < last; ++k) {
+    const uint32_t vertex = arrays.morph_indices[k];
+    if (vertex >= arrays.vertex_count) {
+      return InvalidArgument(
+          fmt::format("morph_indices[target {}, delta {}] = {} is not below vertex_count {}", t,
+                      k - first, vertex, arrays.vertex_count));
+    }
+    if (k > first && vertex <= arrays.morph_indices[k - 1]) {
+      return InvalidArgument(fmt::format(
+          "morph_indices[target {}, delta {}] = {} does not ascend (the one before is {}); "
+          "each target lists its vertices once, in ascending order",
+          t, k - first, vertex, arrays.morph_indices[k - 1]));
+    }
+    for (int a = 0; a < 3; ++a) {
+      const float d = arrays.morph_position_deltas[3 * k + a];
+      if (!std::isfinite(d) || std::fabs(d) > position_limit) {
+        return InvalidArgument(fmt::format(
+            "morph_position_deltas[target {}, delta {}].{} = {} must be finite and within "
+            "+-{:g} ({} times the mesh's extent, at least 1)",
+            t, k - first, "xyz"[a], d, position_limit, kMorphDeltaRange));
+      }
+      if (arrays.morph_normal_deltas.empty()) continue;
+      const float n = arrays.morph_normal_deltas[3 * k + a];
+      if (!std::isfinite(n) || std::fabs(n) > kMaxMorphNormalDelta) {
+        return InvalidArgument(
+            fmt::format("morph_normal_deltas[target {}, delta {}].{} = {} must be finite and "
+                        "within +-{}",
+                        t, k - first, "xyz"[a], n, kMaxMorphNormalDelta));
+      }
+    }
+    for (int a = 0; a < 3 && !arrays.morph_tangent_deltas.empty(); ++a) {
+      const float d = arrays.morph_tangent_deltas[3 * k + a];
+      if (!std::isfinite(d) || std::fabs(d) > kMaxMorphNormalDelta) {
+        return InvalidArgument(
+            fmt::format("morph_tangent_deltas[target {}, delta {}].{} = {} must be finite and "
+                        "within +-{}",
+                        t, k - first, "xyz"[a], d, kMaxMorphNormalDelta));
+      }
+    }
+  }
+  return Status::Ok();
+}
+
+// Validates the morph arrays of `arrays` (their header already checked by CheckMorphHeader).
+Status CheckMorphArrays(const MeshArrays& arrays, uint64_t deltas) {
+  if (Status s = CheckMorphArraySizes(arrays, deltas); !s.ok()) return s;
+  const double position_limit = MorphPositionLimit(arrays.positions);
   uint64_t first = 0;
   for (std::size_t t = 0; t < arrays.morph_target_sizes.size(); ++t) {
     const uint64_t last = first + arrays.morph_target_sizes[t];
-    for (uint64_t k = first; k < last; ++k) {
-      const uint32_t vertex = arrays.morph_indices[k];
-      if (vertex >= arrays.vertex_count) {
-        return InvalidArgument(
-            fmt::format("morph_indices[target {}, delta {}] = {} is not below vertex_count {}", t,
-                        k - first, vertex, arrays.vertex_count));
-      }
-      if (k > first && vertex <= arrays.morph_indices[k - 1]) {
-        return InvalidArgument(fmt::format(
-            "morph_indices[target {}, delta {}] = {} does not ascend (the one before is {}); "
-            "each target lists its vertices once, in ascending order",
-            t, k - first, vertex, arrays.morph_indices[k - 1]));
-      }
-      for (int a = 0; a < 3; ++a) {
-        const float d = arrays.morph_position_deltas[3 * k + a];
-        if (!std::isfinite(d) || std::fabs(d) > position_limit) {
-          return InvalidArgument(fmt::format(
-              "morph_position_deltas[target {}, delta {}].{} = {} must be finite and within "
-              "+-{:g} ({} times the mesh's extent, at least 1)",
-              t, k - first, "xyz"[a], d, position_limit, kMorphDeltaRange));
-        }
-        if (arrays.morph_normal_deltas.empty()) continue;
-        const float n = arrays.morph_normal_deltas[3 * k + a];
-        if (!std::isfinite(n) || std::fabs(n) > kMaxMorphNormalDelta) {
-          return InvalidArgument(
-              fmt::format("morph_normal_deltas[target {}, delta {}].{} = {} must be finite and "
-                          "within +-{}",
-                          t, k - first, "xyz"[a], n, kMaxMorphNormalDelta));
-        }
-      }
-      for (int a = 0; a < 3 && !arrays.morph_tangent_deltas.empty(); ++a) {
-        const float d = arrays.morph_tangent_deltas[3 * k + a];
-        if (!std::isfinite(d) || std::fabs(d) > kMaxMorphNormalDelta) {
-          return InvalidArgument(
-              fmt::format("morph_tangent_deltas[target {}, delta {}].{} = {} must be finite and "
-                          "within +-{}",
-                          t, k - first, "xyz"[a], d, kMaxMorphNormalDelta));
-        }
-      }
-    }
+    if (Status s = CheckMorphTarget(arrays, t, first, last, position_limit); !s.ok()) return s;
     first = last;
   }
   return Status::Ok();
@@ -285,12 +303,12 @@ uint64_t Mesh::byte_size() const {
                       has_tangents(), has_morph_tangents());
 }
 
-Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
-                                                 const MeshOptions& options) {
+namespace {
+
+// The vertex arrays' sizes against vertex_count and influences (tangents need normals).
+Status CheckVertexArraySizes(const MeshArrays& arrays) {
   const uint64_t v = arrays.vertex_count;
   const uint64_t b = arrays.influences;
-  const uint64_t j = arrays.joint_count;
-  if (Status s = CheckMeshHeader(v, b, j, options.limits); !s.ok()) return s;
   if (Status s = CheckArraySize("positions", arrays.positions.size(), 3 * v, "3 * vertex_count");
       !s.ok()) {
     return s;
@@ -322,12 +340,14 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
       !s.ok()) {
     return s;
   }
-  if (Status s = CheckMorphHeader(arrays.morph_target_sizes, v, !arrays.normals.empty(),
-                                  !arrays.morph_normal_deltas.empty(), options.limits,
-                                  !arrays.tangents.empty(), !arrays.morph_tangent_deltas.empty());
-      !s.ok()) {
-    return s;
-  }
+  return Status::Ok();
+}
+
+// The vertex arrays' values: finite positions and normals, no zero normal, unit tangents,
+// joints below joint_count.
+Status CheckVertexValues(const MeshArrays& arrays) {
+  const uint64_t b = arrays.influences;
+  const uint64_t j = arrays.joint_count;
   if (Status s = CheckFinite3("positions", arrays.positions); !s.ok()) return s;
   if (Status s = CheckFinite3("normals", arrays.normals); !s.ok()) return s;
   for (uint64_t i = 0; i < arrays.normals.size() / 3; ++i) {
@@ -344,21 +364,14 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
                       k % b, arrays.joints[k], j));
     }
   }
+  return Status::Ok();
+}
 
-  if (Status s = CheckRestEncoding(options.rest_encoding, arrays.morph_target_sizes.size());
-      !s.ok()) {
-    return s;
-  }
-  uint64_t deltas = 0;
-  for (uint32_t size : arrays.morph_target_sizes) deltas += size;
-  if (Status s = CheckMorphArrays(arrays, deltas); !s.ok()) return s;
-
-  std::shared_ptr<Mesh> mesh(new Mesh());
-  mesh->vertex_count_ = static_cast<uint32_t>(v);
-  mesh->influences_ = static_cast<uint32_t>(b);
-  mesh->joint_count_ = static_cast<uint32_t>(j);
-  mesh->weights_ = AlignedBuffer<float>(std::span<const float>(arrays.weights));
-  float* weights = mesh->weights_.data();
+// Each vertex's `b` weights finite, >= 0 and not all zero, then divided by their sum; a sum
+// farther than kWeightSumTolerance from 1 is refused under WeightPolicy::kReject, else
+// counted in `normalized`.
+Status NormalizeWeights(float* weights, uint64_t v, uint64_t b, WeightPolicy policy,
+                        uint32_t* normalized) {
   for (uint64_t vertex = 0; vertex < v; ++vertex) {
     float* w = weights + vertex * b;
     double sum = 0;
@@ -375,16 +388,53 @@ Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
           fmt::format("weights[vertex {}] are all zero; each vertex needs a weight > 0", vertex));
     }
     if (std::abs(sum - 1.0) > kWeightSumTolerance) {
-      if (options.weight_policy == WeightPolicy::kReject) {
+      if (policy == WeightPolicy::kReject) {
         return InvalidArgument(fmt::format(
             "weights[vertex {}] sum to {}; they must sum to 1 within {} (or upload with the "
             "normalize weight policy)",
             vertex, sum, kWeightSumTolerance));
       }
-      ++mesh->normalized_vertices_;
+      ++*normalized;
     }
     // Within tolerance too: an exact sum keeps the blended matrix affine.
     for (uint64_t i = 0; i < b; ++i) w[i] = static_cast<float>(w[i] / sum);
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<std::shared_ptr<const Mesh>> Mesh::Create(const MeshArrays& arrays,
+                                                 const MeshOptions& options) {
+  const uint64_t v = arrays.vertex_count;
+  const uint64_t b = arrays.influences;
+  const uint64_t j = arrays.joint_count;
+  if (Status s = CheckMeshHeader(v, b, j, options.limits); !s.ok()) return s;
+  if (Status s = CheckVertexArraySizes(arrays); !s.ok()) return s;
+  if (Status s = CheckMorphHeader(arrays.morph_target_sizes, v, !arrays.normals.empty(),
+                                  !arrays.morph_normal_deltas.empty(), options.limits,
+                                  !arrays.tangents.empty(), !arrays.morph_tangent_deltas.empty());
+      !s.ok()) {
+    return s;
+  }
+  if (Status s = CheckVertexValues(arrays); !s.ok()) return s;
+  if (Status s = CheckRestEncoding(options.rest_encoding, arrays.morph_target_sizes.size());
+      !s.ok()) {
+    return s;
+  }
+  uint64_t deltas = 0;
+  for (uint32_t size : arrays.morph_target_sizes) deltas += size;
+  if (Status s = CheckMorphArrays(arrays, deltas); !s.ok()) return s;
+
+  std::shared_ptr<Mesh> mesh(new Mesh());
+  mesh->vertex_count_ = static_cast<uint32_t>(v);
+  mesh->influences_ = static_cast<uint32_t>(b);
+  mesh->joint_count_ = static_cast<uint32_t>(j);
+  mesh->weights_ = AlignedBuffer<float>(std::span<const float>(arrays.weights));
+  if (Status s = NormalizeWeights(mesh->weights_.data(), v, b, options.weight_policy,
+                                  &mesh->normalized_vertices_);
+      !s.ok()) {
+    return s;
   }
   mesh->positions_ = AlignedBuffer<float>(std::span<const float>(arrays.positions));
   mesh->normals_ = AlignedBuffer<float>(std::span<const float>(arrays.normals));

@@ -94,17 +94,11 @@ uint64_t QuantizedRest::byte_size() const {
          joints16.size() * 2 + weights8.size() + weights16.size() * 2;
 }
 
-QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t influences,
-                       uint32_t joint_count, std::span<float> positions, std::span<float> normals,
-                       std::span<float> tangents, std::span<const uint16_t> joints,
-                       std::span<float> weights) {
-  QuantizedRest rest;
-  rest.encoding = encoding;
-  rest.influences = influences;
-  const std::size_t v_count = vertex_count;
-  const uint32_t b = influences;
+namespace {
 
-  // Positions: the box, then one step per axis rounded up so that 65535 steps cover it.
+// Positions: the box, then one step per axis rounded up so that 65535 steps cover it;
+// `positions` becomes what the steps decode to.
+void QuantizePositions(std::span<float> positions, std::size_t v_count, QuantizedRest* rest) {
   float lo[3] = {positions[0], positions[1], positions[2]};
   float hi[3] = {lo[0], lo[1], lo[2]};
   for (std::size_t i = 0; i < positions.size(); ++i) {
@@ -117,52 +111,51 @@ QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t in
     if (double{scale} * kPositionSteps < extent) {
       scale = std::nextafter(scale, std::numeric_limits<float>::infinity());
     }
-    rest.offset[a] = lo[a];
-    rest.scale[a] = std::max(scale, kSmallestScale);
+    rest->offset[a] = lo[a];
+    rest->scale[a] = std::max(scale, kSmallestScale);
   }
-  rest.positions = AlignedBuffer<uint16_t>(3 * v_count);
+  rest->positions = AlignedBuffer<uint16_t>(3 * v_count);
   for (std::size_t i = 0; i < 3 * v_count; ++i) {
     const int a = static_cast<int>(i % 3);
-    const double q = std::round((double{positions[i]} - rest.offset[a]) / rest.scale[a]);
-    rest.positions[i] = static_cast<uint16_t>(std::clamp(q, 0.0, double{kPositionSteps}));
-    positions[i] = static_cast<float>(rest.offset[a] + double{rest.scale[a]} * rest.positions[i]);
+    const double q = std::round((double{positions[i]} - rest->offset[a]) / rest->scale[a]);
+    rest->positions[i] = static_cast<uint16_t>(std::clamp(q, 0.0, double{kPositionSteps}));
+    positions[i] =
+        static_cast<float>(rest->offset[a] + double{rest->scale[a]} * rest->positions[i]);
   }
+}
 
-  // Normals: the unit direction in snorm16 (skinning renormalises, so only it matters).
+// Normals: the unit direction in snorm16 (skinning renormalises, so only it matters).
+// Tangents: xyz as the normals, w (+1 or -1) as +-32767. Each becomes what it decodes to.
+void QuantizeDirections(std::span<float> normals, std::span<float> tangents, std::size_t v_count,
+                        QuantizedRest* rest) {
   if (!normals.empty()) {
-    rest.normals = AlignedBuffer<int16_t>(3 * v_count);
+    rest->normals = AlignedBuffer<int16_t>(3 * v_count);
     for (std::size_t v = 0; v < v_count; ++v) {
-      QuantizeDirection(&normals[3 * v], &rest.normals[3 * v]);
+      QuantizeDirection(&normals[3 * v], &rest->normals[3 * v]);
     }
   }
-
-  // Tangents: xyz as the normals, w (+1 or -1) as +-32767.
   if (!tangents.empty()) {
-    rest.tangents = AlignedBuffer<int16_t>(4 * v_count);
+    rest->tangents = AlignedBuffer<int16_t>(4 * v_count);
     for (std::size_t v = 0; v < v_count; ++v) {
       float* t = &tangents[4 * v];
-      QuantizeDirection(t, &rest.tangents[4 * v]);
-      rest.tangents[4 * v + 3] = static_cast<int16_t>(t[3] < 0 ? -kNormalSteps : kNormalSteps);
+      QuantizeDirection(t, &rest->tangents[4 * v]);
+      rest->tangents[4 * v + 3] = static_cast<int16_t>(t[3] < 0 ? -kNormalSteps : kNormalSteps);
       t[3] = t[3] < 0 ? -1.0f : 1.0f;
     }
   }
+}
 
-  if (joint_count <= 256) {
-    rest.joints8 = AlignedBuffer<uint8_t>(joints.size());
-    for (std::size_t i = 0; i < joints.size(); ++i) {
-      rest.joints8[i] = static_cast<uint8_t>(joints[i]);
-    }
-  } else {
-    rest.joints16 = AlignedBuffer<uint16_t>(joints);
-  }
-
+// The first B - 1 weights of every vertex in 8 or 16 bits (the last is 1 - their sum);
+// `weights` becomes what they decode to.
+void QuantizeAllWeights(RestEncoding encoding, std::span<float> weights, std::size_t v_count,
+                        uint32_t b, QuantizedRest* rest) {
   const uint32_t steps = WeightSteps(encoding);
   const bool eight = encoding == RestEncoding::kQuantized8Weights;
   if (b > 1) {
     if (eight) {
-      rest.weights8 = AlignedBuffer<uint8_t>(v_count * (b - 1));
+      rest->weights8 = AlignedBuffer<uint8_t>(v_count * (b - 1));
     } else {
-      rest.weights16 = AlignedBuffer<uint16_t>(v_count * (b - 1));
+      rest->weights16 = AlignedBuffer<uint16_t>(v_count * (b - 1));
     }
   }
   for (std::size_t v = 0; v < v_count; ++v) {
@@ -172,9 +165,9 @@ QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t in
     double sum = 0;
     for (uint32_t i = 0; i + 1 < b; ++i) {
       if (eight) {
-        rest.weights8[v * (b - 1) + i] = static_cast<uint8_t>(q[i]);
+        rest->weights8[v * (b - 1) + i] = static_cast<uint8_t>(q[i]);
       } else {
-        rest.weights16[v * (b - 1) + i] = static_cast<uint16_t>(q[i]);
+        rest->weights16[v * (b - 1) + i] = static_cast<uint16_t>(q[i]);
       }
       const double decoded = double{static_cast<double>(q[i])} / steps;
       w[i] = static_cast<float>(decoded);
@@ -182,6 +175,28 @@ QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t in
     }
     w[b - 1] = static_cast<float>(1.0 - sum);
   }
+}
+
+}  // namespace
+
+QuantizedRest Quantize(RestEncoding encoding, uint32_t vertex_count, uint32_t influences,
+                       uint32_t joint_count, std::span<float> positions, std::span<float> normals,
+                       std::span<float> tangents, std::span<const uint16_t> joints,
+                       std::span<float> weights) {
+  QuantizedRest rest;
+  rest.encoding = encoding;
+  rest.influences = influences;
+  QuantizePositions(positions, vertex_count, &rest);
+  QuantizeDirections(normals, tangents, vertex_count, &rest);
+  if (joint_count <= 256) {
+    rest.joints8 = AlignedBuffer<uint8_t>(joints.size());
+    for (std::size_t i = 0; i < joints.size(); ++i) {
+      rest.joints8[i] = static_cast<uint8_t>(joints[i]);
+    }
+  } else {
+    rest.joints16 = AlignedBuffer<uint16_t>(joints);
+  }
+  QuantizeAllWeights(encoding, weights, vertex_count, influences, &rest);
   return rest;
 }
 
