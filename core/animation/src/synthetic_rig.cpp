@@ -88,6 +88,44 @@ RawTrack RotationTrack(uint32_t joint, Interpolation interp, const Quat& rest, c
   return track;
 }
 
+// Translation: constant (the bone), except the root walking forward.
+RawTrack TranslationTrack(uint32_t j, const Transform& rest, uint32_t keys, double dt) {
+  RawTrack translation{TrackPath::kTranslation, Interpolation::kLinear, j, 3, {}, {}};
+  for (uint32_t k = 0; k < keys; ++k) {
+    const double time = k * dt;
+    float v[3] = {rest.translation[0], rest.translation[1], rest.translation[2]};
+    if (j == 0) {
+      v[0] = static_cast<float>(0.05 * std::sin(2 * std::numbers::pi * time));
+      v[1] = static_cast<float>(1.0 + 0.03 * std::sin(4 * std::numbers::pi * time));
+      v[2] = static_cast<float>(0.7 * time);
+    }
+    AddKeys(translation, time, v);
+  }
+  return translation;
+}
+
+// Scale: 1, except one joint (`pulsing`) pulsing by 10%.
+RawTrack ScaleTrack(uint32_t j, bool pulsing, uint32_t keys, double dt) {
+  RawTrack scale{TrackPath::kScale, Interpolation::kLinear, j, 3, {}, {}};
+  for (uint32_t k = 0; k < keys; ++k) {
+    const float p = pulsing ? static_cast<float>(1.0 + 0.1 * std::sin(3.0 * k * dt)) : 1.0f;
+    const float v[3] = {p, p, p};
+    AddKeys(scale, k * dt, v);
+  }
+  return scale;
+}
+
+// Four morph weights, each a phase-shifted sine in [0, 1].
+RawTrack WeightsTrack(uint32_t keys, double dt) {
+  RawTrack weights{TrackPath::kWeights, Interpolation::kLinear, 0, 4, {}, {}};
+  for (uint32_t k = 0; k < keys; ++k) {
+    float v[4];
+    for (int c = 0; c < 4; ++c) v[c] = static_cast<float>(0.5 + 0.5 * std::sin(2.0 * k * dt + c));
+    AddKeys(weights, k * dt, v);
+  }
+  return weights;
+}
+
 }  // namespace
 
 SyntheticRig MakeSyntheticRig(uint32_t joints, uint32_t seed, float seconds,
@@ -135,41 +173,15 @@ SyntheticRig MakeSyntheticRig(uint32_t joints, uint32_t seed, float seconds,
       ibm.m[e] = static_cast<float>(inverse[static_cast<std::size_t>(e)]);
     s.inverse_bind.push_back(ibm);
 
-    // Translation: constant (the bone), except the root walking forward.
-    RawTrack translation{TrackPath::kTranslation, Interpolation::kLinear, j, 3, {}, {}};
-    for (uint32_t k = 0; k < keys; ++k) {
-      const double time = k * dt;
-      float v[3] = {rest_t.translation[0], rest_t.translation[1], rest_t.translation[2]};
-      if (j == 0) {
-        v[0] = static_cast<float>(0.05 * std::sin(2 * std::numbers::pi * time));
-        v[1] = static_cast<float>(1.0 + 0.03 * std::sin(4 * std::numbers::pi * time));
-        v[2] = static_cast<float>(0.7 * time);
-      }
-      AddKeys(translation, time, v);
-    }
-    rig.clip.tracks.push_back(std::move(translation));
+    rig.clip.tracks.push_back(TranslationTrack(j, rest_t, keys, dt));
     const Swing swing{unit(), uniform(0.1, 0.8), uniform(0.5, 1.5), uniform(0, 6.28)};
     const Interpolation interp =
         j % 7 == 3 ? Interpolation::kCubicSpline
                    : (j % 11 == 5 ? Interpolation::kStep : Interpolation::kLinear);
     rig.clip.tracks.push_back(RotationTrack(j, interp, rest, swing, keys, dt));
-    // Scale: 1, except one joint pulsing by 10%.
-    RawTrack scale{TrackPath::kScale, Interpolation::kLinear, j, 3, {}, {}};
-    for (uint32_t k = 0; k < keys; ++k) {
-      const float p =
-          j == joints / 2 ? static_cast<float>(1.0 + 0.1 * std::sin(3.0 * k * dt)) : 1.0f;
-      const float v[3] = {p, p, p};
-      AddKeys(scale, k * dt, v);
-    }
-    rig.clip.tracks.push_back(std::move(scale));
+    rig.clip.tracks.push_back(ScaleTrack(j, j == joints / 2, keys, dt));
   }
-  RawTrack weights{TrackPath::kWeights, Interpolation::kLinear, 0, 4, {}, {}};
-  for (uint32_t k = 0; k < keys; ++k) {
-    float v[4];
-    for (int c = 0; c < 4; ++c) v[c] = static_cast<float>(0.5 + 0.5 * std::sin(2.0 * k * dt + c));
-    AddKeys(weights, k * dt, v);
-  }
-  rig.clip.tracks.push_back(std::move(weights));
+  rig.clip.tracks.push_back(WeightsTrack(keys, dt));
   return rig;
 }
 
