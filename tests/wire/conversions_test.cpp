@@ -201,7 +201,10 @@ TEST(ConversionsTest, MorphWeightsRoundTripAndReplaceWhatWasThere) {
   EXPECT_TRUE(back.empty());
 }
 
-TEST(ConversionsTest, MorphWeightsThatDoNotPairUpOrExceedTheTargetsAreRefusedNamingTheFields) {
+// The wire's one rule for morph weights: targets and weights pair up. Their counts and
+// values against the mesh and the crowd are the engine's (CheckMorph: one place per check,
+// docs/serving/frame-profile.md#checks), tested in tests/engine.
+TEST(ConversionsTest, MorphWeightsThatDoNotPairUpAreRefusedNamingTheFields) {
   std::vector<MorphWeight> out(2, MorphWeight{7, 7.0f});  // what a refusal must leave alone
   v1::SkinRequest request;
   request.add_morph_targets(1);
@@ -209,14 +212,8 @@ TEST(ConversionsTest, MorphWeightsThatDoNotPairUpOrExceedTheTargetsAreRefusedNam
   request.add_morph_weights(0.5f);
   ExpectStatus(wire::MorphWeightsFromWire(request, &out), StatusCode::kInvalidArgument,
                "morph_targets holds 2 entries but morph_weights 1");
-  request.Clear();
-  for (uint32_t i = 0; i <= kMaxMorphTargets; ++i) {
-    request.add_morph_targets(i);
-    request.add_morph_weights(0.1f);
-  }
-  ExpectStatus(wire::MorphWeightsFromWire(request, &out), StatusCode::kInvalidArgument,
-               "morph_targets holds 1025 entries; at most 1024");
   EXPECT_EQ(out.size(), 2u) << "copied before the check";
+  EXPECT_EQ(out[0].target, 7u) << "copied before the check";
 }
 
 TEST(ConversionsTest, InstanceMorphWeightsRoundTripOneViewPerInstance) {
@@ -244,39 +241,14 @@ TEST(ConversionsTest, InstanceMorphWeightsRoundTripOneViewPerInstance) {
 TEST(ConversionsTest, MalformedInstanceMorphWeightsAreRefusedNamingTheFieldAndTheInstance) {
   std::vector<MorphWeight> flat;
   std::vector<std::span<const MorphWeight>> views;
-  const auto refused = [&](const v1::SkinRequest& request, const std::string& needle) {
-    ExpectStatus(wire::InstanceMorphWeightsFromWire(request, &flat, &views),
-                 StatusCode::kInvalidArgument, needle);
-  };
   const std::vector<std::vector<MorphWeight>> two = {{{0, 1.0f}}, {{1, 1.0f}}};
   v1::SkinRequest request;
-  request.set_instances(3);
-  wire::InstanceMorphWeightsToWire(two, &request);
-  refused(request,
-          "instance_morph_weights holds 2 entries; a crowd batch needs exactly one per "
-          "instance (instances = 3, at least 2)");
-  request.set_instances(0);  // a single instance: no crowd to weigh per instance
-  wire::InstanceMorphWeightsToWire(std::span(two).first(1), &request);
-  refused(request, "(instances = 0, at least 2)");
-
   request.set_instances(2);
   wire::InstanceMorphWeightsToWire(two, &request);
-  request.add_morph_targets(0);
-  request.add_morph_weights(1.0f);
-  refused(request, "instance_morph_weights and morph_targets/morph_weights are both set");
-
-  request.clear_morph_targets();
-  request.clear_morph_weights();
   request.mutable_instance_morph_weights(1)->add_targets(4);
-  refused(request, "instance_morph_weights[1]: targets holds 2 entries but weights 1");
-
-  wire::InstanceMorphWeightsToWire(two, &request);
-  v1::MorphWeights* first = request.mutable_instance_morph_weights(0);
-  for (uint32_t i = 0; i < kMaxMorphTargets; ++i) {
-    first->add_targets(i);
-    first->add_weights(0.1f);
-  }
-  refused(request, "instance_morph_weights[0]: targets holds 1025 entries; at most 1024");
+  ExpectStatus(wire::InstanceMorphWeightsFromWire(request, &flat, &views),
+               StatusCode::kInvalidArgument,
+               "instance_morph_weights[1]: targets holds 2 entries but weights 1");
   EXPECT_TRUE(views.empty()) << "a refused field left views behind";
 }
 
