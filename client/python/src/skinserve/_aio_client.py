@@ -145,6 +145,13 @@ class AsyncClient(ClientCore):
         want_tangents answers (positions, normals, tangents)."""
         crowd, request = self._skin_request(mesh_id, palette, backend, want_normals, encoding,
                                             frame, region, offset, morph_weights, want_tangents)
+        return await self._skin_call(request, crowd, region, want_normals, want_tangents)
+
+    async def _skin_call(self, request: pb.SkinRequest, crowd: Optional[int],
+                   region: Optional[SharedMemoryRegion], want_normals: bool,
+                   want_tangents: bool) -> Answer:
+        """One Skin call and its answer; a mesh the server lost is uploaded again and the
+        frame sent again, up to max_reuploads times (skin and skin_pose share it)."""
         for attempt in range(self.max_reuploads + 1):
             result = Frame(crowd)
             try:
@@ -152,7 +159,7 @@ class AsyncClient(ClientCore):
                     result.add_part(part, want_normals, region)
                 return result.result(want_normals, want_tangents)
             except grpc.RpcError as e:
-                await self._upload(self._retry_frame(e, attempt, frame, mesh_id))
+                await self._upload(self._retry_frame(e, attempt, request.frame, request.mesh_id))
         raise AssertionError("unreachable")
 
     # ---- animation on the server (docs/serving/animation.md) ---------------------------
@@ -181,15 +188,7 @@ class AsyncClient(ClientCore):
                         frame: int = 0) -> Answer:
         """Client.skin_pose."""
         request = _pose.pose_request(mesh_id, pose, frame, backend, want_normals, encoding)
-        for attempt in range(self.max_reuploads + 1):
-            result = Frame(None)
-            try:
-                async for part in self._stub.Skin(request, timeout=self.timeout):
-                    result.add_part(part, want_normals, None)
-                return result.result(want_normals, False)
-            except grpc.RpcError as e:
-                await self._upload(self._retry_frame(e, attempt, frame, mesh_id))
-        raise AssertionError("unreachable")
+        return await self._skin_call(request, None, None, want_normals, False)
 
     @overload
     def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
