@@ -104,5 +104,45 @@ TEST(PartFramingTest, AHeaderThatDoesNotFitIsAnErrorNamingTheSizes) {
   EXPECT_TRUE(WritePartFraming(header, size, 1000, /*normals=*/false, room).ok());
 }
 
+// Unknown groups (no SkinResponse field is one, but the wire allows them): RawPart copies
+// them into the header field by field and must accept and refuse exactly what protobuf's
+// parser does, at every depth. Found by raw_part_fuzzer: an overlong (6-byte) tag inside a
+// group, which protobuf refuses, was rewritten canonically and accepted.
+TEST(PartFramingTest, UnknownGroupsAreTakenAndRefusedAsProtobufDoes) {
+  const std::string header = Header().SerializeAsString();
+  const std::string group_start = "\xa3\x01", group_end = "\xa4\x01";  // field 20
+  const std::string positions = std::string("\x32\x0c") + Bytes(12, 7);
+  const struct {
+    const char* what;
+    std::string inner;
+    bool taken;  // by protobuf: checked, so that the cases cover both answers
+  } cases[] = {
+      {"varint, fixed32, bytes and a nested group",
+       std::string("\x08\x96\x01\x15\x01\x02\x03\x04\x1a\x02hi\x23\x08\x01\x24"), true},
+      {"an empty group", "", true},
+      {"an overlong tag (6 bytes)", std::string("\xa1\xa1\xa1\xa1\xa1\x50") + "12345678", false},
+      {"an overlong length (6 bytes)", std::string("\x1a\x82\x80\x80\x80\x80\x00hi"), false},
+      {"an end of another group", "\x24", false},
+      {"a tag 0", std::string("\x00", 1), false},
+      {"no end", "\x08\x01", false},
+  };
+  for (const auto& c : cases) {
+    const bool ends = std::string(c.what) != "no end";
+    const std::string message =
+        header + group_start + c.inner + (ends ? group_end : "") + positions;
+    v1::SkinResponse parsed;
+    const bool protobuf_ok = parsed.ParseFromString(message);
+    ASSERT_EQ(protobuf_ok, c.taken) << c.what;
+    const grpc::Slice slice(message.data(), message.size());
+    const grpc::ByteBuffer bytes(&slice, 1);
+    RawPart raw;
+    ASSERT_EQ(raw.Parse(bytes), protobuf_ok) << c.what;
+    if (!protobuf_ok) continue;
+    EXPECT_EQ(raw.positions_size(), parsed.positions().size()) << c.what;
+    parsed.clear_positions();
+    EXPECT_EQ(raw.header().SerializeAsString(), parsed.SerializeAsString()) << c.what;
+  }
+}
+
 }  // namespace
 }  // namespace skinserve::wire

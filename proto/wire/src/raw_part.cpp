@@ -21,6 +21,66 @@ google::protobuf::ArenaOptions OverBlock(char* block, std::size_t size) {
   return options;
 }
 
+using google::protobuf::io::CodedInputStream;
+using google::protobuf::io::CodedOutputStream;
+
+// protobuf's parser takes a tag or a length of at most 5 bytes (CodedInputStream reads up
+// to 10 and drops the excess): refuse what it refuses, at every depth.
+bool ReadTag(CodedInputStream& input, uint32_t* tag) {
+  const int at = input.CurrentPosition();
+  *tag = input.ReadTag();
+  return input.CurrentPosition() - at <= 5;
+}
+
+// A length no longer than protobuf takes and no larger than the `total` bytes can hold.
+bool ReadLength(CodedInputStream& input, std::size_t total, uint32_t* length) {
+  const int at = input.CurrentPosition();
+  return input.ReadVarint32(length) && input.CurrentPosition() - at <= 5 &&
+         *length <= total - static_cast<std::size_t>(input.CurrentPosition());
+}
+
+// Deeper groups than protobuf's recursion limit (100) are refused by the header's parse
+// below; this bound only keeps the copy's own recursion finite.
+constexpr int kDeepestGroup = 128;
+
+// Copies one kept (header) field from `input` to `out`. Groups are copied field by field
+// with the same checks as the top level: WireFormatLite::SkipField would rewrite an
+// overlong tag inside a group as a canonical one, which protobuf refuses.
+bool CopyKeptField(CodedInputStream& input, uint32_t tag, std::size_t total, CodedOutputStream& out,
+                   std::string& scratch, int depth = 0) {
+  switch (WireFormatLite::GetTagWireType(tag)) {
+    case WireFormatLite::WIRETYPE_LENGTH_DELIMITED: {
+      uint32_t length = 0;
+      if (!ReadLength(input, total, &length)) return false;
+      scratch.resize(length);  // one string reused (SkipField would use a fresh one)
+      if (!input.ReadRaw(scratch.data(), static_cast<int>(length))) return false;
+      out.WriteTag(tag);
+      out.WriteVarint32(length);
+      out.WriteRaw(scratch.data(), static_cast<int>(length));
+      return true;
+    }
+    case WireFormatLite::WIRETYPE_START_GROUP: {
+      if (depth >= kDeepestGroup) return false;
+      out.WriteTag(tag);
+      while (true) {
+        uint32_t inner = 0;
+        if (!ReadTag(input, &inner) || inner == 0) return false;
+        if (WireFormatLite::GetTagWireType(inner) == WireFormatLite::WIRETYPE_END_GROUP) {
+          if (WireFormatLite::GetTagFieldNumber(inner) != WireFormatLite::GetTagFieldNumber(tag))
+            return false;
+          out.WriteTag(inner);
+          return true;
+        }
+        if (!CopyKeptField(input, inner, total, out, scratch, depth + 1)) return false;
+      }
+    }
+    case WireFormatLite::WIRETYPE_END_GROUP:
+      return false;  // an end without its start
+    default:
+      return WireFormatLite::SkipField(&input, tag, &out);  // varints and fixed: no tags
+  }
+}
+
 }  // namespace
 
 RawPart::RawPart() : arena_(OverBlock(arena_block_, sizeof arena_block_)) {}
@@ -32,49 +92,31 @@ bool RawPart::Parse(const grpc::ByteBuffer& bytes) {
   grpc::ProtoBufferReader reader(const_cast<grpc::ByteBuffer*>(&bytes));
   if (!reader.status().ok()) return false;
   {
-    google::protobuf::io::CodedInputStream input(&reader);
-    // Bytes left in the part: no length read from it may claim more.
-    const auto remaining = [&] {
-      return bytes.Length() - static_cast<std::size_t>(input.CurrentPosition());
-    };
+    CodedInputStream input(&reader);
     google::protobuf::io::StringOutputStream header_stream(&header_bytes_);
-    google::protobuf::io::CodedOutputStream header_out(&header_stream);
-    // protobuf's parser takes a tag or a length of at most 5 bytes (CodedInputStream reads
-    // up to 10 and drops the excess): refuse what it refuses.
-    const auto varint_fits = [&](int before) { return input.CurrentPosition() - before <= 5; };
+    CodedOutputStream header_out(&header_stream);
     while (true) {
-      const int tag_at = input.CurrentPosition();
-      const uint32_t tag = input.ReadTag();
+      uint32_t tag = 0;
+      if (!ReadTag(input, &tag)) return false;
       if (tag == 0) break;
-      if (!varint_fits(tag_at)) return false;
-      if (WireFormatLite::GetTagWireType(tag) != WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
-        if (!WireFormatLite::SkipField(&input, tag, &header_out)) return false;  // kept
+      const int field = WireFormatLite::GetTagFieldNumber(tag);
+      const bool vertex_field = field == v1::SkinResponse::kPositionsFieldNumber ||
+                                field == v1::SkinResponse::kNormalsFieldNumber ||
+                                field == v1::SkinResponse::kTangentsFieldNumber;
+      if (!vertex_field ||
+          WireFormatLite::GetTagWireType(tag) != WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
+        // Kept, to be parsed below.
+        if (!CopyKeptField(input, tag, bytes.Length(), header_out, field_bytes_)) return false;
         continue;
       }
       uint32_t length = 0;
-      const int length_at = input.CurrentPosition();
-      if (!input.ReadVarint32(&length) || !varint_fits(length_at) || length > remaining()) {
-        return false;
-      }
-      const int field = WireFormatLite::GetTagFieldNumber(tag);
-      if (field == v1::SkinResponse::kPositionsFieldNumber ||
-          field == v1::SkinResponse::kNormalsFieldNumber ||
-          field == v1::SkinResponse::kTangentsFieldNumber) {
-        // A repeated field: the last one counts, as when parsing.
-        Field& f = field == v1::SkinResponse::kPositionsFieldNumber ? positions_
-                   : field == v1::SkinResponse::kNormalsFieldNumber ? normals_
-                                                                    : tangents_;
-        f = {static_cast<std::size_t>(input.CurrentPosition()), length};
-        if (!input.Skip(static_cast<int>(length))) return false;
-        continue;
-      }
-      // Kept, to be parsed below; copied through field_bytes_ (SkipField would use a fresh
-      // string for each).
-      field_bytes_.resize(length);
-      if (!input.ReadRaw(field_bytes_.data(), static_cast<int>(length))) return false;
-      header_out.WriteTag(tag);
-      header_out.WriteVarint32(length);
-      header_out.WriteRaw(field_bytes_.data(), static_cast<int>(length));
+      if (!ReadLength(input, bytes.Length(), &length)) return false;
+      // A repeated field: the last one counts, as when parsing.
+      Field& f = field == v1::SkinResponse::kPositionsFieldNumber ? positions_
+                 : field == v1::SkinResponse::kNormalsFieldNumber ? normals_
+                                                                  : tangents_;
+      f = {static_cast<std::size_t>(input.CurrentPosition()), length};
+      if (!input.Skip(static_cast<int>(length))) return false;
     }
     if (!input.ConsumedEntireMessage()) return false;
   }
