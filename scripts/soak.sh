@@ -5,7 +5,7 @@
 # with SIGKILL mid-stream at random. Samples the server's RSS, threads and open fds every
 # 5 s into $out/samples.csv. Fails on a wrong answer, a lost frame (sent, neither answered
 # nor reported failed), a frame error other than NOT_FOUND (eviction) / RESOURCE_EXHAUSTED
-# (full queue), or growth after the warm-up (the first fifth of the run, at least 30 s)
+# (full queue), more NOT_FOUND than re-uploading a lost mesh allows, or growth after the warm-up (the first fifth of the run, at least 30 s)
 # beyond: RSS +64 MiB, threads +8, fds +32 over the warm-up's maximum.
 #   scripts/soak.sh --minutes 2 [--out DIR] [--seed S]
 set -euo pipefail
@@ -135,6 +135,13 @@ for path in sorted(glob.glob(f"{out}/epoch*.json")):
 for code in codes:
     if code not in ("NOT_FOUND", "RESOURCE_EXHAUSTED"):
         problems.append(f"{codes[code]} frames failed with {code}")
+# A lost mesh goes again from the load client, once per loss: each eviction may fail at most
+# the frames in flight and those sent while it went again (2 x window + 1) on each of the 4
+# checked streams, not the rest of the run.
+not_found_limit = evictions * 4 * (2 * 4 + 1)
+if codes.get("NOT_FOUND", 0) > not_found_limit:
+    problems.append(f"{codes['NOT_FOUND']} frames failed NOT_FOUND over {evictions} evictions "
+                    f"(at most {not_found_limit}): a lost mesh was not uploaded again")
 rows = [tuple(map(int, row)) for row in list(csv.reader(open(f"{out}/samples.csv")))[1:]]
 warm = max(30, total // 5)
 early = [r for r in rows if r[0] <= warm] or rows[:1]

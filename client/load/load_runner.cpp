@@ -8,6 +8,8 @@
 #include <cmath>
 #include <mutex>
 #include <optional>
+#include <set>
+#include <string>
 #include <thread>
 
 #include "skinserve/client/channel.h"
@@ -22,6 +24,10 @@
 
 namespace skinserve::load {
 namespace {
+
+// Re-uploads of lost meshes an open-loop stream tries in a row before it gives up (as
+// client::StreamOptions::max_reuploads).
+constexpr int kMaxReuploadsInARow = 8;
 
 using Clock = std::chrono::steady_clock;
 
@@ -484,6 +490,8 @@ class OpenLoopUnits {
   // The answer of the unit in `slot` begins; AddPart is true once it is complete.
   virtual void BeginAnswer(std::size_t slot) = 0;
   virtual bool AddPart(const grpc::ByteBuffer& bytes) = 0;
+  // The meshes the complete answer says the server does not hold (NOT_FOUND).
+  virtual void LostMeshes(std::set<std::string>* lost) const = 0;
   // Records the complete answer and ends it.
   virtual void Record(Recorder& recorder, double latency_ms, bool late, bool measured,
                       double lag_ms) = 0;
@@ -526,6 +534,9 @@ class OpenLoopFrames final : public OpenLoopUnits {
   bool AddPart(const grpc::ByteBuffer& bytes) override {
     return assembler_->Add(bytes, &part_, &result_);
   }
+  void LostMeshes(std::set<std::string>* lost) const override {
+    if (result_.status.code() == StatusCode::kNotFound) lost->insert(request_.mesh_id());
+  }
   void Record(Recorder& recorder, double latency_ms, bool late, bool measured,
               double lag_ms) override {
     recorder.Record(result_, latency_ms, late, measured, lag_ms);
@@ -564,8 +575,19 @@ class OpenLoopTicks final : public OpenLoopUnits {
     tick.ToWire(&request_, slot * output_.stride);
     return request_;
   }
-  void BeginAnswer(std::size_t slot) override { assembler_.emplace(ticks_[slot], &result_); }
+  void BeginAnswer(std::size_t slot) override {
+    answering_ = slot;
+    assembler_.emplace(ticks_[slot], &result_);
+  }
   bool AddPart(const grpc::ByteBuffer& bytes) override { return assembler_->Add(bytes, &part_); }
+  void LostMeshes(std::set<std::string>* lost) const override {
+    const client::Tick& tick = ticks_[answering_];
+    for (std::size_t i = 0; i < tick.size() && i < result_.characters.size(); ++i) {
+      if (result_.characters[i].status.code() == StatusCode::kNotFound) {
+        lost->insert(tick.character(i).mesh_id);
+      }
+    }
+  }
   void Record(Recorder& recorder, double latency_ms, bool late, bool measured,
               double lag_ms) override {
     recorder.RecordTick(result_, latency_ms, late, measured, lag_ms);
@@ -576,6 +598,7 @@ class OpenLoopTicks final : public OpenLoopUnits {
   const client::RegionOutput& output_;
   TickFiller fill_;
   std::vector<client::Tick> ticks_;  // the tick sent in each slot
+  std::size_t answering_ = 0;        // the slot whose answer is being gathered
   v1::SkinRequest request_;
   wire::RawPart part_;
   std::optional<client::TickAssembler> assembler_;
@@ -620,6 +643,7 @@ class OpenLoop {
   struct Scheduled {
     Clock::time_point due, sent;
     bool measured;
+    int uploads_before;  // re-uploads done when it was sent
   };
 
   void ProbeMeshes(const std::vector<UploadedMesh>& meshes);
@@ -636,6 +660,7 @@ class OpenLoop {
   void Read();
   void Send(const std::atomic<bool>& stop);
   bool TakeSlot(std::size_t* slot, bool counted, Clock::time_point sent_at);
+  void ReuploadLost(const Scheduled& frame);
   void Finish();
 
   const RunConfig& config_;
@@ -656,6 +681,9 @@ class OpenLoop {
   // Sent, unanswered, oldest first: a ring of `window` slots (never more are in flight).
   std::vector<Scheduled> ring_;
   std::size_t ring_head_ = 0, in_flight_ = 0;
+  std::set<std::string> lost_;  // the answer's meshes the server lost
+  int reuploads_ = 0;           // re-upload attempts done (under mutex_: TakeSlot reads it)
+  int reuploads_in_a_row_ = 0;  // without an answer that found its meshes
 };
 
 // Before the schedule starts, make sure this stream's replica holds the mesh: one frame
@@ -719,6 +747,8 @@ void OpenLoop::Read() {
     const auto latency = answered - frame.due;
     const double latency_ms = std::chrono::duration<double, std::milli>(latency).count();
     const double lag_ms = std::chrono::duration<double, std::milli>(frame.sent - frame.due).count();
+    lost_.clear();
+    units_.LostMeshes(&lost_);
     units_.Record(recorder_, latency_ms, latency > period_, frame.measured, lag_ms);
     answering = false;
     {  // only now may the frame's slot (and its range of a region) take the next frame
@@ -727,7 +757,30 @@ void OpenLoop::Read() {
       --in_flight_;
       watchdog_.Awaiting(in_flight_ > 0);
     }
+    ReuploadLost(frame);
   }
+}
+
+// A mesh the server lost mid-run (evicted for another, deleted, a replica without it) goes
+// again, so that the schedule's later frames find it; the frames that met its absence stay
+// failed (NOT_FOUND) in the report. Once per loss: frames sent before the last re-upload were
+// on their way already. At most kMaxReuploadsInARow attempts without an answer between that
+// found its meshes (then the rest fail NOT_FOUND, as without re-uploads).
+void OpenLoop::ReuploadLost(const Scheduled& frame) {
+  if (lost_.empty()) {
+    reuploads_in_a_row_ = 0;
+    return;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    if (frame.uploads_before < reuploads_ || reuploads_in_a_row_ >= kMaxReuploadsInARow) return;
+  }
+  ++reuploads_in_a_row_;
+  // One that fails leaves the next frames NOT_FOUND, which the report counts.
+  for (const std::string& mesh_id : lost_) (void)client_.Reupload(mesh_id);
+  // Only now: the frames sent while the mesh was on its way may still meet its absence.
+  std::lock_guard lock(mutex_);
+  ++reuploads_;
 }
 
 // Takes a slot for frame k, or drops it (false) when `window` frames are in flight.
@@ -739,7 +792,7 @@ bool OpenLoop::TakeSlot(std::size_t* slot, bool counted, Clock::time_point sent_
   }
   // Frames in flight take the ring's slots in turn: each its own range of the region.
   *slot = (ring_head_ + in_flight_++) % ring_.size();
-  ring_[*slot] = {due_, sent_at, counted};
+  ring_[*slot] = {due_, sent_at, counted, reuploads_};
   watchdog_.Awaiting(true);
   return true;
 }

@@ -15,13 +15,16 @@
 #include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
+#include <thread>
 
 #include "load_process.h"
 #include "report_files.h"
 #include "server_child.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/skin_client.h"
+#include "workload.h"
 
 namespace skinserve::testing {
 namespace {
@@ -211,6 +214,50 @@ TEST(LoadIntegrationTest, FrameCountOpenLoopSchedulesExactlyThatManyFramesPerStr
   EXPECT_EQ(r["sent"].get<uint64_t>() + r["dropped"].get<uint64_t>(), 60u) << r.dump();
   EXPECT_EQ(r["frames"], r["sent"]) << "every frame sent was answered";
   EXPECT_EQ(server.FramesServed().at("sse"), r["frames"].get<uint64_t>());
+}
+
+// A mesh the server loses mid-run (deleted here; evicted for another in the soak) goes again
+// from the open loop, once per loss: the frames that met its absence fail NOT_FOUND (at most
+// those in flight and those sent while it went again), and the schedule's later frames are
+// answered and right.
+TEST(LoadIntegrationTest, OpenLoopUploadsALostMeshAgainAndGoesOn) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  // The load client's mesh for these flags, to know its id (ids are content hashes): a
+  // grid row's mesh is seeded --seed + vertices + bones.
+  load::Workload workload =
+      load::MakeWorkload(5000, 2, 77, /*normals=*/false, /*seed=*/3 + 5000 + 2);
+  ASSERT_TRUE(load::ChooseRestEncoding(&workload, std::nullopt).ok());
+  client::SkinClient client(client::MakeChannel(server.target()));
+  const auto info = client.Upload(*workload.arrays, {.rest_encoding = workload.rest_encoding});
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  constexpr int kWindow = 4, kLosses = 2;
+  int code = 0;
+  nlohmann::json doc;
+  std::thread run([&] {
+    doc = RunLoad("--target " + server.target() +
+                      " --backends sse --vertices 5000 --bones 2 --seed 3 --rate 100 --streams 1"
+                      " --window 4 --duration 3 --warmup 0 --check-every 2",
+                  &code);
+  });
+  for (int i = 0; i < kLosses; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+    const auto deleted = client.DeleteMesh(info->mesh_id());
+    EXPECT_TRUE(deleted.ok() && *deleted)
+        << "the run's mesh was there to delete (loss " << i << ")";
+  }
+  run.join();
+  ASSERT_EQ(doc["results"].size(), 1u) << doc.dump();
+  const auto& r = doc["results"][0];
+  const uint64_t not_found = r["errors"].value("NOT_FOUND", uint64_t{0});
+  EXPECT_GE(not_found, 1u) << "the losses were met: " << r.dump();
+  EXPECT_LE(not_found, uint64_t{kLosses * (2 * kWindow + 1)}) << r.dump();
+  EXPECT_EQ(r["errors"].size(), 1u) << "NOT_FOUND only: " << r.dump();
+  EXPECT_EQ(r["mismatches"], 0) << r.dump();
+  EXPECT_EQ(r["frames"].get<uint64_t>() + not_found, r["sent"].get<uint64_t>()) << r.dump();
+  // ~300 scheduled: nearly all of them answered, those after the last loss too.
+  EXPECT_GE(r["frames"].get<uint64_t>(), 200u) << r.dump();
+  EXPECT_GT(r["checked"].get<uint64_t>(), 100u) << r.dump();
 }
 
 TEST(LoadIntegrationTest, RoundRobinSpreadsStreamsOverTwoServers) {
