@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "compute_pool.h"
+#include "device_output_checks.h"
 #include "mesh_store.h"
 #include "skinserve/engine/backend_registry.h"
 #include "skinserve/model/aligned_buffer.h"
@@ -136,6 +137,7 @@ class Engine::Impl {
     const std::size_t outputs = 3ull * mesh.vertex_count();
     if (request.skin_into_scratch) return CheckScratch(request, mesh, instances);
     if (request.encoded.active()) return CheckEncodedSizes(request, mesh, instances);
+    if (request.device.active()) return CheckDeviceSizes(request, mesh, instances);
     if (request.positions.size() != outputs * instances) {
       return InvalidArgument(fmt::format(
           "positions output holds {} floats; expected 3 * vertex_count * instances = {}",
@@ -275,6 +277,17 @@ class Engine::Impl {
     return Status::Ok();
   }
 
+  // Check() for device output (sizes checked by CheckDeviceRequest): each instance's frame.
+  static Status CheckDeviceSizes(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
+    for (uint32_t i = 0; i < instances; ++i) {
+      if (Status s = InstanceFrame(request, mesh, i).Validate(mesh); !s.ok()) {
+        if (instances == 1) return s;
+        return Status(s.code(), fmt::format("instance {}: {}", i, s.message()));
+      }
+    }
+    return Status::Ok();
+  }
+
   static std::size_t ScratchFloats(const SkinRequest& request, const Mesh& mesh) {
     return ScratchFloatsPerInstance(mesh.vertex_count(), request.scratch_normals);
   }
@@ -309,6 +322,7 @@ class Engine::Impl {
       if (!e.box_scratch.empty())
         frame.encoded.box_scratch = e.box_scratch.subspan(i * outputs, outputs);
     }
+    frame.device = InstanceDeviceOutput(request, i);
     frame.method = request.method;
     frame.morph_weights = request.instance_morph_weights.empty()
                               ? request.morph_weights
@@ -421,12 +435,16 @@ class Engine::Impl {
     const uint32_t instances = std::max<uint32_t>(request.instances, 1);
     const BackendInfo& info = backends_[job->backend_index_]->info();
     if (Status s = CheckMorph(request, mesh, info, instances); !s.ok()) return s;
-    if (Status s = CheckTangentSupport(
-            info, !request.tangents.empty() || !request.encoded.tangents.empty());
+    if (Status s = CheckTangentSupport(info, !request.tangents.empty() ||
+                                                 !request.encoded.tangents.empty() ||
+                                                 request.device.tangents);
         !s.ok()) {
       return s;
     }
     if (Status s = CheckEncoded(request, info); !s.ok()) return s;
+    if (request.device.active()) {
+      if (Status s = CheckDeviceRequest(request, mesh, instances, info); !s.ok()) return s;
+    }
     if (Status s = Check(request, mesh, instances); !s.ok()) return s;
 
     job->engine_ = this;
@@ -527,6 +545,13 @@ Engine::Engine(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Engine::~Engine() { Shutdown(); }
 
 const EngineOptions& Engine::options() const { return impl_->options_; }
+
+Result<std::shared_ptr<DeviceMemory>> Engine::ImportDeviceMemory(const std::string& backend,
+                                                                 const DeviceMemoryImport& import) {
+  Result<std::size_t> index = impl_->FindBackend(backend);
+  if (!index.ok()) return index.status();
+  return impl_->backends_[*index]->ImportDeviceMemory(import);
+}
 
 std::vector<BackendInfo> Engine::Backends() const {
   std::vector<BackendInfo> infos;

@@ -24,6 +24,7 @@
 
 #include "backends/common/dual_quaternion_palette.h"
 #include "backends/opencl/opencl_backends.h"
+#include "backends/opencl/opencl_device_memory.h"
 #include "backends/opencl/opencl_encode.h"
 #include "backends/opencl/opencl_morph.h"
 #include "backends/opencl/opencl_quantized.h"
@@ -113,6 +114,11 @@ class OpenClCopyBackend final : public Backend {
     return std::unique_ptr<PreparedMesh>(std::move(prepared));
   }
 
+  Result<std::shared_ptr<DeviceMemory>> ImportDeviceMemory(
+      const DeviceMemoryImport& import) override {
+    return ImportOpenClDeviceMemory(*runtime_, info_.id, import);
+  }
+
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) override {
     return SkinWithKernelPalette(info_.id, base, frame, [&](const SkinFrame& in_kernel_layout) {
       return SkinPalette(base, in_kernel_layout);
@@ -131,7 +137,12 @@ class OpenClCopyBackend final : public Backend {
     ClEvents kernels, transfers;
     SkinKernelArgs args = Args(*lane, prepared, frame.method, with_normals, with_tangents);
     Status status = Morph(*lane, prepared, frame, &args, kernels, transfers);
-    if (status.ok() && frame.encoded.active()) {
+    if (status.ok() && frame.device.active()) {  // a GPU region (opencl_device_memory.h)
+      status = EnqueueWholeFrame(*lane, prepared, frame, args, kernels, transfers);
+      if (status.ok()) {
+        status = WriteDeviceOutput(*lane, args, prepared.mesh().vertex_count(), frame, transfers);
+      }
+    } else if (status.ok() && frame.encoded.active()) {
       status = SkinEncoded(*lane, prepared, frame, args, kernels, transfers);
     } else if (status.ok()) {
       status = runtime_->staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame, args,
