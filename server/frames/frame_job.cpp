@@ -136,7 +136,11 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
                                                EncodedBytesPerValue(encoding_));
   region_part_ = wire.has_output();
   if (region_part_) {  // the vertices go into the region: the wire carries one header
-    if (Status s = PrepareRegion(wire.output(), regions, region); !s.ok()) return s;
+    if (Status s = wire.output().gpu() ? PrepareGpuRegion(wire.output(), regions)
+                                       : PrepareRegion(wire.output(), regions, region);
+        !s.ok()) {
+      return s;
+    }
     part_count_ = 1;
     instances_per_part_ = 1;
     header_room_ =
@@ -181,7 +185,10 @@ Status FrameJob::Prepare(const v1::SkinRequest& wire, Engine& engine,
 
   if (wire_.size() < wire_used_) wire_ = AlignedBuffer<std::byte>(wire_used_);
   request.encoded = {};
-  if (device_encoded_) {
+  request.device = {};
+  if (gpu_region_) {  // written on the device (gpu/gpu_frame_output.cpp)
+    SetGpuOutput();
+  } else if (device_encoded_) {
     request.positions = {};
     request.normals = {};
     request.tangents = {};
@@ -233,6 +240,7 @@ Status FrameJob::Begin(uint64_t frame, const std::string& backend) {
   vertices_ = 0;
   instances_ = 1;
   region_.reset();
+  gpu_region_.reset();
   return Status::Ok();
 }
 
@@ -246,7 +254,12 @@ Status FrameJob::PrepareRegion(const v1::OutputRegion& output, const RegionCalle
   // Looked up, checked and guarded once per stream and region (RegionHandle).
   Result<std::shared_ptr<MappedRegion>> region = handle->Resolve(output.region(), regions);
   if (!region.ok()) return region.status();
-  const uint64_t size = (*region)->byte_size();
+  if (Status s = LayOutInRegion(output, (*region)->byte_size()); !s.ok()) return s;
+  region_ = std::move(region).value();
+  return Status::Ok();
+}
+
+Status FrameJob::LayOutInRegion(const v1::OutputRegion& output, uint64_t size) {
   const uint64_t offset = output.offset();
   if (offset % wire::kRegionAlignment != 0) {
     return InvalidArgument(fmt::format("output.offset = {} in region '{}' is not a multiple of {}",
@@ -271,7 +284,6 @@ Status FrameJob::PrepareRegion(const v1::OutputRegion& output, const RegionCalle
                                    output.byte_size(), output.byte_size())
                      : fmt::format("the region holds {} bytes", size)));
   }
-  region_ = std::move(region).value();
   return Status::Ok();
 }
 
@@ -290,6 +302,7 @@ std::byte* FrameJob::TangentsOut() {
 void FrameJob::Fail(Status status) {
   DropPlan();  // never submitted: the mesh is not pinned for it
   region_.reset();
+  gpu_region_.reset();
   result_ = std::move(status);
   record_.EndFailed(result_.code());
   SetErrorPart();
@@ -308,8 +321,10 @@ void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
     if (result_.ok()) result_ = region_->CheckNotBroken();
     if (result_.ok()) region_->CountFrame();
   }
+  if (gpu_region_ && result_.ok()) result_ = GpuRegionStillThere();
   if (result_.ok()) result_ = WriteHeaders();
   region_.reset();  // an unregister waiting for this frame may answer from here
+  gpu_region_.reset();
   if (result_.ok()) {
     record_.EndAnswered(timing_, encode_ns_.load());
   } else {
@@ -375,7 +390,7 @@ void FrameJob::SetCommonHeader(bool with_timing) {
 
 Status FrameJob::WriteHeaders() {
   SetCommonHeader(/*with_timing=*/true);
-  if (region_) {
+  if (region_ || gpu_region_) {
     Status s = WriteRegionHeader();
     if (s.ok()) parts_ready_.store(1, std::memory_order_release);
     return s;
@@ -447,7 +462,7 @@ Status FrameJob::WriteRegionHeader() {
     for (uint32_t k = 0; k < instances_; ++k) ToWire(bounds_[k], header_.add_instance_bounds());
   }
   v1::RegionWrite* write = header_.mutable_region_write();
-  write->set_region(region_->name());
+  write->set_region(region_ ? region_->name() : gpu_region_->name());
   write->set_positions_offset(region_positions_);
   write->set_normals_offset(region_normals_);
   write->set_instance_bytes(EncodedBytes(encoding_, vertices_));

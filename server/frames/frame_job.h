@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "frames/inflight_budget.h"
+#include "gpu/gpu_region_registry.h"
 #include "observability/metrics_frames.h"
 #include "rpc/stream_answer.h"
 #include "shm/mapped_region.h"
@@ -115,6 +116,15 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   // Checks the request's output range against its region and pins the region.
   Status PrepareRegion(const v1::OutputRegion& output, const RegionCaller& regions,
                        RegionHandle* handle);
+  // Checks the output's offset and range in a region of `size` bytes and lays the frame
+  // out there (region_positions_ ...).
+  Status LayOutInRegion(const v1::OutputRegion& output, uint64_t size);
+  // The same for a GPU region (output.gpu, gpu/gpu_frame_output.cpp): float32 only; pins it.
+  Status PrepareGpuRegion(const v1::OutputRegion& output, const RegionCaller& regions);
+  // request.device: the frame's layout in the GPU region, the host outputs empty.
+  void SetGpuOutput();
+  // After the frame: FAILED_PRECONDITION if the GPU region was unregistered meanwhile.
+  Status GpuRegionStillThere();
   // The frame's output: the wire buffer, or the region's bytes.
   std::byte* PositionsOut();
   std::byte* NormalsOut();
@@ -162,6 +172,8 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   std::shared_ptr<MappedRegion> region_;
   bool region_part_ = false;  // the answer is one header-only part (RegionWrite)
   uint64_t region_positions_ = 0, region_normals_ = 0, region_tangents_ = 0, region_end_ = 0;
+  // Frames into a GPU region (output.gpu): pinned likewise; the layout as above.
+  std::shared_ptr<GpuRegion> gpu_region_;
 
   // Part p's header sits at headers_offset_ + p * header_room_ in wire_: the serialized
   // header with the positions field's tag and length, then the normals field's.

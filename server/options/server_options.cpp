@@ -370,6 +370,21 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
                  "address, owned by their process, mapping files their uid owns")
       ->envname("SKINSERVE_SHM_OVER_TCP")
       ->capture_default_str();
+  app.add_option("--gpu-fd-socket", o.gpu_fd_socket,
+                 "Unix socket path where clients on this host hand over exported GPU buffers' "
+                 "file descriptors for GPU regions (the GpuRegions service); empty: GPU regions "
+                 "off")
+      ->envname("SKINSERVE_GPU_FD_SOCKET");
+  app.add_option("--gpu-region-budget-mb", o.gpu_region_budget_mb,
+                 "bytes all GPU regions may import together, MiB (GPU memory: not part of the "
+                 "memory envelope)")
+      ->envname("SKINSERVE_GPU_REGION_BUDGET_MB")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--gpu-max-regions", o.gpu_max_regions, "GPU regions registered at once, in all")
+      ->envname("SKINSERVE_GPU_MAX_REGIONS")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
   app.add_option("--tls-cert", o.tls_cert,
                  "PEM certificate chain of the server: TLS on every host:port address (unix: "
                  "addresses stay plaintext, guarded by their folder's permissions); re-read when "

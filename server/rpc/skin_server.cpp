@@ -98,6 +98,7 @@ Status SkinServer::ListenOn(const ServerOptions& options,
   }
   builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
   builder.RegisterService(service_.get());
+  if (gpu_regions_) builder.RegisterService(gpu_regions_->service.get());
   server_ = builder.BuildAndStart();
   for (std::size_t i = 0; i < options.listen.size(); ++i) {
     if (options.listen[i].rfind("unix:", 0) == 0) continue;
@@ -141,6 +142,10 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
       server->policy_.get(),
       RegionAccessPolicy{.unix_peers = &server->unix_peers_, .over_tcp = options.shm_over_tcp});
   server->service_->SetRequestLimits(options.ToRequestLimits());
+  auto gpu_regions = GpuRegionsOnServer::Start(options, &server->unix_peers_);
+  if (!gpu_regions.ok()) return gpu_regions.status();
+  server->gpu_regions_ = std::move(gpu_regions).value();
+  if (server->gpu_regions_) server->service_->SetGpuRegions(server->gpu_regions_->registry.get());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -215,6 +220,7 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
     }
   }
   server->service_->SetEngine(server->engine_.get());
+  if (server->gpu_regions_) server->gpu_regions_->service->SetEngine(server->engine_.get());
   if (FrameMetrics* frames = FrameMetrics::Installed()) {
     std::vector<std::string> ids;
     for (const BackendInfo& b : backends) ids.push_back(b.id);

@@ -10,6 +10,7 @@
 #include <memory>
 #include <vector>
 
+#include "gpu/gpu_regions_on_server.h"
 #include "observability/metrics_server.h"
 #include "options/server_options.h"
 #include "rpc/skinning_service.h"
@@ -43,9 +44,10 @@ class SkinServer {
   Status ListenOn(const ServerOptions& options,
                   const std::shared_ptr<grpc::ServerCredentials>& tcp_credentials,
                   grpc::ServerBuilder& builder);
-  std::string RenderMetrics() const;         // on the metrics server's threads
-  std::unique_ptr<RegionRegistry> regions_;  // null: shared memory off; outlives service_
-  std::unique_ptr<PolicyFile> policy_;       // null: no --authz-policy; outlives service_
+  std::string RenderMetrics() const;                 // on the metrics server's threads
+  std::unique_ptr<RegionRegistry> regions_;          // null: shared memory off; outlives service_
+  std::unique_ptr<GpuRegionsOnServer> gpu_regions_;  // null: GPU regions off; outlives service_
+  std::unique_ptr<PolicyFile> policy_;               // null: no --authz-policy; outlives service_
   UnixPeers unix_peers_;  // the Unix-socket clients' credentials; outlives service_
   std::unique_ptr<SkinningService> service_;
   std::unique_ptr<grpc::Server> server_;
