@@ -13,6 +13,7 @@
 #include "backends/opencl/opencl_backends.h"
 #include "backends/opencl/opencl_device_memory.h"
 #include "device_output_checks.h"
+#include "skinserve/engine/engine.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 
@@ -194,6 +195,37 @@ TEST(DeviceRequestCheckTest, RangesAndBackend) {
   std::vector<float> host(3000);
   request.positions = host;  // host and device outputs at once
   EXPECT_EQ(CheckDeviceRequest(request, *mesh, 1, opencl).code(), StatusCode::kInvalidArgument);
+}
+
+// Through the engine: a frame with device output passes its checks and reaches the
+// backend's device path (memory not of OpenCL's making stops it there, named), and a range
+// past the memory is refused before any backend runs.
+TEST(EngineDeviceOutputTest, ReachesTheBackendsDevicePath) {
+  EngineOptions options;
+  options.enabled_backends = {"opencl"};
+  options.compute_threads = 1;
+  auto engine = Engine::Create(options);
+  ASSERT_TRUE(engine.ok()) << engine.status().ToString();
+  auto mesh = (*engine)->AddMesh(MakeSyntheticMesh({.vertex_count = 1000, .normals = true}));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  const uint64_t array = 12000;
+  FakeMemory memory(4 * array, "opencl");
+  std::vector<float> palette = MakeSyntheticPalette(77, 1, 0);
+  const std::vector<float> second = MakeSyntheticPalette(77, 1, 1);
+  palette.insert(palette.end(), second.begin(), second.end());
+  SkinRequest request{.mesh_id = mesh->id, .backend = "opencl", .palette = palette, .instances = 2};
+  request.device = {.memory = &memory,
+                    .positions_offset = 0,
+                    .normals_offset = 2 * array,
+                    .instance_bytes = array,
+                    .normals = true};
+  Status s = (*engine)->SkinBlocking(request);
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(s.message().find("not made by the opencl backend"), std::string::npos) << s.message();
+  request.device.normals_offset = 2 * array + 64;  // the second instance's normals stick out
+  s = (*engine)->SkinBlocking(request);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("instance 1's output"), std::string::npos) << s.message();
 }
 
 }  // namespace

@@ -298,7 +298,7 @@ class Engine::Impl {
     const std::size_t outputs = 3ull * mesh.vertex_count();
     SkinFrame frame{request.palette.subspan(std::min(request.palette.size(), i * palette)),
                     std::span<float>(), std::span<float>(), std::span<float>(), threads};
-    if (!request.skin_into_scratch && !request.encoded.active()) {
+    if (!request.skin_into_scratch && !request.encoded.active() && !request.device.active()) {
       frame.positions = request.positions.subspan(i * outputs, outputs);
       if (!request.normals.empty()) frame.normals = request.normals.subspan(i * outputs, outputs);
       const std::size_t tangents = 4ull * mesh.vertex_count();

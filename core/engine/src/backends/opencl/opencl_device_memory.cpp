@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cstring>
+#include <mutex>
 #include <vector>
 
 namespace skinserve {
@@ -30,6 +31,9 @@ class OpenClDeviceMemory final : public DeviceMemory {
   bool imported() const { return acquire_ != nullptr; }
   clEnqueueAcquireExternalMemObjectsKHR_fn acquire() const { return acquire_; }
   clEnqueueReleaseExternalMemObjectsKHR_fn release() const { return release_; }
+  // Frames on different lanes (queues) write it one at a time: an external object is
+  // acquired by one queue until it is released.
+  std::mutex& in_use() const { return in_use_; }
 
  private:
   ClBuffer buffer_;
@@ -38,6 +42,7 @@ class OpenClDeviceMemory final : public DeviceMemory {
   // Null for memory of the runtime's own (not imported): nothing to acquire.
   const clEnqueueAcquireExternalMemObjectsKHR_fn acquire_;
   const clEnqueueReleaseExternalMemObjectsKHR_fn release_;
+  mutable std::mutex in_use_;
 };
 
 Result<std::string> DeviceText(cl_device_id device, cl_device_info what, const char* name) {
@@ -165,6 +170,7 @@ Status WriteDeviceOutput(OpenClLane& lane, const SkinKernelArgs& args, uint32_t 
     return FailedPrecondition("the frame's device memory was not made by the opencl backend");
   }
   cl_mem target = memory->buffer();
+  std::lock_guard lock(memory->in_use());
   if (memory->imported()) {
     if (cl_int err = memory->acquire()(lane.compute, 1, &target, 0, nullptr, transfers.Next());
         err != CL_SUCCESS) {
