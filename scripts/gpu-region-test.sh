@@ -6,7 +6,8 @@
 # run against the float64 reference (copied back from the GPU), then measures frames/s
 # into the GPU region against the same frames read back into a shared-memory region.
 #   scripts/gpu-region-test.sh [OUT_DIR]      (from the repository root; OUT: $OUT or ./out)
-# Exit status 0 when every run printed PASS.
+# Exit status 0 when every run printed PASS. Overrides (for a dry run elsewhere):
+# SKINSERVE_OPENCL_DEVICE (gpu), SKINSERVE_SERVER_CPUS (0,1), SKINSERVE_CLIENT_CPUS (the rest).
 set -uo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 d=${SKINSERVE_GPU_DIR:-$root/build-gpu}
@@ -21,8 +22,13 @@ for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json \
   /usr/share/vulkan/icd.d/nvidia_icd.json /etc/vulkan/icd.d/nvidia_icd.json; do
   if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then export VK_DRIVER_FILES=$icd; fi
 done
-mkdir -p /tmp/icd && echo libnvidia-opencl.so.1 >/tmp/icd/nvidia.icd
-export OCL_ICD_VENDORS=/tmp/icd
+device=${SKINSERVE_OPENCL_DEVICE:-gpu}
+if [ "$device" = gpu ]; then  # NVIDIA's OpenCL is installed but not listed for the loader
+  mkdir -p /tmp/icd && echo libnvidia-opencl.so.1 >/tmp/icd/nvidia.icd
+  export OCL_ICD_VENDORS=/tmp/icd
+fi
+server_cpus=${SKINSERVE_SERVER_CPUS:-0,1}
+client_cpus=${SKINSERVE_CLIENT_CPUS:-2-$(($(nproc) - 1))}
 {
   nvidia-smi --query-gpu=name,driver_version --format=csv 2>&1
   lscpu | grep -E 'Model name|^CPU\(s\)'
@@ -31,8 +37,8 @@ export OCL_ICD_VENDORS=/tmp/icd
 cat "$out/machine.txt"
 
 sock=$(mktemp -d /tmp/skinserve-gpu-region-XXXXXX)
-server_cmd=(taskset -c 0,1 "$d/bin/skinserve" --listen "unix:$sock/grpc.sock"
-  --gpu-fd-socket "$sock/fd.sock" --opencl-device gpu --default-backend opencl --threads 2
+server_cmd=(taskset -c "$server_cpus" "$d/bin/skinserve" --listen "unix:$sock/grpc.sock"
+  --gpu-fd-socket "$sock/fd.sock" --opencl-device "$device" --default-backend opencl --threads 2
   --backends opencl,simd-openmp --log-level info)
 echo "server: ${server_cmd[*]}" | tee "$out/command.txt"
 "${server_cmd[@]}" >"$out/server.log" 2>&1 &
@@ -49,7 +55,7 @@ fi
 status=0
 run() {  # name, then the client's flags
   local name=$1; shift
-  local cmd=(taskset -c 2-15 "$d/bin/skinserve-gpu-region" --target "unix:$sock/grpc.sock"
+  local cmd=(taskset -c "$client_cpus" "$d/bin/skinserve-gpu-region" --target "unix:$sock/grpc.sock"
     --fd-socket "$sock/fd.sock" "$@")
   echo "== $name: ${cmd[*]}" | tee -a "$out/command.txt"
   "${cmd[@]}" 2>&1 | tee "$out/$name.txt"
