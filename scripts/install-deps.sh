@@ -9,7 +9,7 @@ set -euo pipefail
 BUILD_PACKAGES=(
   build-essential cmake ninja-build pkg-config git ca-certificates ccache
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
-  ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers
+  ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers libvulkan-dev
   libglm-dev libcli11-dev libspdlog-dev libfmt-dev
   libtinygltf-dev nlohmann-json3-dev libstb-dev libcairo2-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -70,8 +70,12 @@ Status FrameJob::Prepare(v1::SkinRequest& wire, Engine& engine, const std::strin
   // lookup); the mesh is pinned from here until the frame is done.
   if (Status s = plan->PlanFrame(wire, backend, engine, this); !s.ok()) return s;
   ApplyLayout(plan->layout());
-  if (region_part_) {
-    if (Status s = PinRegion(wire.output(), regions, plan->region()); !s.ok()) return s;
+  if (region_part_) {  // a GPU region (output.gpu) or a shared-memory one
+    if (Status s = wire.output().gpu() ? PinGpuRegion(wire.output(), regions)
+                                       : PinRegion(wire.output(), regions, plan->region());
+        !s.ok()) {
+      return s;
+    }
   }
   // A pose (SkinRequest.pose) is turned into a palette of the mesh's joints here.
   const uint64_t palette_bytes =
@@ -160,7 +164,10 @@ void FrameJob::SetOutputs() {
   request.positions = {};
   request.normals = {};
   request.tangents = {};
-  if (device_encoded_) {
+  request.device = {};
+  if (gpu_region_) {  // written on the device (gpu/gpu_frame_output.cpp)
+    SetGpuOutput();
+  } else if (device_encoded_) {
     const std::size_t tangent_bytes = l.tangent_values * EncodedBytesPerValue(encoding_);
     request.encoded = {
         .encoding = encoding_,
@@ -203,6 +210,7 @@ Status FrameJob::Begin(uint64_t frame, const std::string& backend) {
   vertices_ = 0;
   instances_ = 1;
   region_.reset();
+  gpu_region_.reset();
   return Status::Ok();
 }
 
@@ -217,7 +225,12 @@ Status FrameJob::PinRegion(const v1::OutputRegion& output, const RegionCaller& r
   // is checked every frame, against the region that stands now.
   Result<std::shared_ptr<MappedRegion>> region = handle->Resolve(output.region(), regions);
   if (!region.ok()) return region.status();
-  const uint64_t size = (*region)->byte_size();
+  if (Status s = CheckRegionRange(output, (*region)->byte_size()); !s.ok()) return s;
+  region_ = std::move(region).value();
+  return Status::Ok();
+}
+
+Status FrameJob::CheckRegionRange(const v1::OutputRegion& output, uint64_t size) const {
   const uint64_t offset = output.offset();
   const uint64_t limit =
       output.byte_size() == 0 ? size : std::min(size, offset + std::min(output.byte_size(), size));
@@ -232,7 +245,6 @@ Status FrameJob::PinRegion(const v1::OutputRegion& output, const RegionCaller& r
                                    output.byte_size(), output.byte_size())
                      : fmt::format("the region holds {} bytes", size)));
   }
-  region_ = std::move(region).value();
   return Status::Ok();
 }
 
@@ -251,6 +263,7 @@ std::byte* FrameJob::TangentsOut() {
 void FrameJob::Fail(Status status) {
   DropPlan();  // never submitted: the mesh is not pinned for it
   region_.reset();
+  gpu_region_.reset();
   result_ = std::move(status);
   record_.EndFailed(result_.code());
   SetErrorPart();
@@ -269,8 +282,10 @@ void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
     if (result_.ok()) result_ = region_->CheckNotBroken();
     if (result_.ok()) region_->CountFrame();
   }
+  if (gpu_region_ && result_.ok()) result_ = GpuRegionStillThere();
   if (result_.ok()) result_ = WriteHeaders();
   region_.reset();  // an unregister waiting for this frame may answer from here
+  gpu_region_.reset();
   if (result_.ok()) {
     record_.EndAnswered(timing_, encode_ns_.load());
   } else {
@@ -336,7 +351,7 @@ void FrameJob::SetCommonHeader(bool with_timing) {
 
 Status FrameJob::WriteHeaders() {
   SetCommonHeader(/*with_timing=*/true);
-  if (region_) {
+  if (region_ || gpu_region_) {
     Status s = WriteRegionHeader();
     if (s.ok()) parts_ready_.store(1, std::memory_order_release);
     return s;
@@ -408,7 +423,7 @@ Status FrameJob::WriteRegionHeader() {
     for (uint32_t k = 0; k < instances_; ++k) ToWire(bounds_[k], header_.add_instance_bounds());
   }
   v1::RegionWrite* write = header_.mutable_region_write();
-  write->set_region(region_->name());
+  write->set_region(region_ ? region_->name() : gpu_region_->name());
   write->set_positions_offset(region_positions_);
   write->set_normals_offset(region_normals_);
   write->set_instance_bytes(EncodedBytes(encoding_, vertices_));

@@ -26,6 +26,7 @@
 #include "frames/inflight_budget.h"
 #include "frames/pose_request.h"
 #include "frames/stream_plan.h"
+#include "gpu/gpu_region_registry.h"
 #include "observability/metrics_frames.h"
 #include "rpc/stream_answer.h"
 #include "shm/mapped_region.h"
@@ -121,12 +122,21 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   // against it and pins it.
   Status PinRegion(const v1::OutputRegion& output, const RegionCaller& regions,
                    RegionHandle* handle);
+  // Checks the laid-out frame's range (region_end_) against a region of `size` bytes and
+  // the request's output.byte_size.
+  Status CheckRegionRange(const v1::OutputRegion& output, uint64_t size) const;
+  // The same for a GPU region (output.gpu, gpu/gpu_frame_output.cpp): float32 only; pins it.
+  Status PinGpuRegion(const v1::OutputRegion& output, const RegionCaller& regions);
   // Charges what the frame holds to the in-flight budget and grows the buffers.
   Status ChargeBuffers(std::size_t palette_bytes);
   // The morph weights and the palette, into the engine's request.
   Status TakeInputs(v1::SkinRequest& wire, Engine& engine);
   // The engine's outputs: the wire buffer, the region, the job's floats or scratch.
   void SetOutputs();
+  // request.device: the frame's layout in the GPU region (SetOutputs emptied the others).
+  void SetGpuOutput();
+  // After the frame: FAILED_PRECONDITION if the GPU region was unregistered meanwhile.
+  Status GpuRegionStillThere();
   // The frame's output: the wire buffer, or the region's bytes.
   std::byte* PositionsOut();
   std::byte* NormalsOut();
@@ -179,6 +189,8 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   std::shared_ptr<MappedRegion> region_;
   bool region_part_ = false;  // the answer is one header-only part (RegionWrite)
   uint64_t region_positions_ = 0, region_normals_ = 0, region_tangents_ = 0, region_end_ = 0;
+  // Frames into a GPU region (output.gpu): pinned likewise; the layout as above.
+  std::shared_ptr<GpuRegion> gpu_region_;
 
   // Part p's header sits at headers_offset_ + p * header_room_ in wire_: the serialized
   // header with the positions field's tag and length, then the normals field's.

@@ -411,6 +411,26 @@ void AddSharedMemoryOptions(CLI::App& app, ServerOptions& o) {
       ->capture_default_str();
 }
 
+// GPU regions (docs/serving/gpu-regions.md): the fd handoff socket and the limits of what
+// clients may import.
+void AddGpuRegionOptions(CLI::App& app, ServerOptions& o) {
+  app.add_option("--gpu-fd-socket", o.gpu_fd_socket,
+                 "Unix socket path where clients on this host hand over exported GPU buffers' "
+                 "file descriptors for GPU regions (the GpuRegions service); empty: GPU regions "
+                 "off")
+      ->envname("SKINSERVE_GPU_FD_SOCKET");
+  app.add_option("--gpu-region-budget-mb", o.gpu_region_budget_mb,
+                 "bytes all GPU regions may import together, MiB (GPU memory: not part of the "
+                 "memory envelope)")
+      ->envname("SKINSERVE_GPU_REGION_BUDGET_MB")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--gpu-max-regions", o.gpu_max_regions, "GPU regions registered at once, in all")
+      ->envname("SKINSERVE_GPU_MAX_REGIONS")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+}
+
 // Transport security and authorization (docs/security.md): TLS files, the authorization
 // policy, how often each is re-read, and reflection.
 void AddSecurityOptions(CLI::App& app, ServerOptions& o) {
@@ -505,6 +525,7 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
   AddUploadOptions(app, o);
   AddOperationOptions(app, o);
   AddSharedMemoryOptions(app, o);
+  AddGpuRegionOptions(app, o);
   AddSecurityOptions(app, o);
   AddConnectionOptions(app, o);
 }

@@ -70,6 +70,11 @@ struct ServerOptions {
   // Region RPCs (and frames into regions) over TCP, owned by the client certificate's
   // identity: needs mutual TLS. Off: only Unix-socket clients, owned by their process.
   bool shm_over_tcp = false;
+  // GPU regions (docs/serving/gpu-regions.md): the socket clients hand their exported GPU
+  // buffers' fds over (empty: off), the bytes all imports may hold, and how many.
+  std::string gpu_fd_socket;
+  uint64_t gpu_region_budget_mb = 8192;
+  uint32_t gpu_max_regions = 64;
   // Transport security (docs/security.md): TLS on every TCP address when a certificate is
   // given, mutual TLS when a client CA is given too; unix: addresses stay plaintext. The
   // files are re-read every tls_refresh_seconds, so mounted secrets rotate without a restart.

@@ -135,6 +135,7 @@ Status SkinServer::ListenOn(const ServerOptions& options,
   }
   builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
   builder.RegisterService(service_.get());
+  if (gpu_regions_) builder.RegisterService(gpu_regions_->service.get());
   server_ = builder.BuildAndStart();
   for (std::size_t i = 0; i < options.listen.size(); ++i) {
     if (options.listen[i].rfind("unix:", 0) == 0) continue;
@@ -172,6 +173,10 @@ Result<std::shared_ptr<grpc::ServerCredentials>> SkinServer::CreateService(
       options.InflightBudgetBytes(), options.ToUploadLimits(), regions_.get(), policy_.get(),
       RegionAccessPolicy{.unix_peers = &unix_peers_, .over_tcp = options.shm_over_tcp});
   service_->SetRequestLimits(options.ToRequestLimits());
+  auto gpu_regions = GpuRegionsOnServer::Start(options, &unix_peers_);
+  if (!gpu_regions.ok()) return gpu_regions.status();
+  gpu_regions_ = std::move(gpu_regions).value();
+  if (gpu_regions_) service_->SetGpuRegions(gpu_regions_->registry.get());
   return tcp_credentials;
 }
 
@@ -200,6 +205,7 @@ Status SkinServer::StartEngine(const ServerOptions& options) {
     }
   }
   service_->SetEngine(engine_.get());
+  if (gpu_regions_) gpu_regions_->service->SetEngine(engine_.get());
   if (FrameMetrics* frames = FrameMetrics::Installed()) {
     std::vector<std::string> ids;
     for (const BackendInfo& b : backends) ids.push_back(b.id);

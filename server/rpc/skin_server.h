@@ -10,6 +10,7 @@
 #include <memory>
 #include <vector>
 
+#include "gpu/gpu_regions_on_server.h"
 #include "observability/metrics_server.h"
 #include "options/server_options.h"
 #include "rpc/skinning_service.h"
@@ -44,13 +45,15 @@ class SkinServer {
                   const std::shared_ptr<grpc::ServerCredentials>& tcp_credentials,
                   grpc::ServerBuilder& builder);
   // The shared-memory regions, the TCP credentials and the authorization policy, in that
-  // order, then service_ over them; the credentials are ListenOn's.
+  // order, then service_ over them and the GPU regions; the credentials are ListenOn's.
   Result<std::shared_ptr<grpc::ServerCredentials>> CreateService(const ServerOptions& options);
-  // Builds engine_ and gives it to service_; the default backend must be one it has.
+  // Builds engine_ and gives it to service_ (and the GPU regions' service); the default
+  // backend must be one it has.
   Status StartEngine(const ServerOptions& options);
-  std::string RenderMetrics() const;         // on the metrics server's threads
-  std::unique_ptr<RegionRegistry> regions_;  // null: shared memory off; outlives service_
-  std::unique_ptr<PolicyFile> policy_;       // null: no --authz-policy; outlives service_
+  std::string RenderMetrics() const;                 // on the metrics server's threads
+  std::unique_ptr<RegionRegistry> regions_;          // null: shared memory off; outlives service_
+  std::unique_ptr<GpuRegionsOnServer> gpu_regions_;  // null: GPU regions off; outlives service_
+  std::unique_ptr<PolicyFile> policy_;               // null: no --authz-policy; outlives service_
   UnixPeers unix_peers_;  // the Unix-socket clients' credentials; outlives service_
   std::unique_ptr<SkinningService> service_;
   std::unique_ptr<grpc::Server> server_;

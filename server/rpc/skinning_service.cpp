@@ -37,8 +37,8 @@ Status SkinningService::Authorize(const grpc::CallbackServerContext& context,
 }
 
 RegionCaller SkinningService::RegionCallerOf(const grpc::CallbackServerContext& context) const {
-  if (regions_ == nullptr) return {};
-  return {regions_, RegionOwnerOf(context, region_access_)};
+  if (regions_ == nullptr && gpu_regions_ == nullptr) return {};
+  return {regions_, RegionOwnerOf(context, region_access_), gpu_regions_};
 }
 
 grpc::ServerReadReactor<v1::UploadMeshRequest>* SkinningService::UploadMesh(

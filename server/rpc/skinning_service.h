@@ -51,6 +51,8 @@ class SkinningService final : public SkinningCallbackService {
   void SetRequestLimits(const SkinRequestLimits& limits) { request_limits_ = limits; }
   // Until the engine is set, every RPC answers UNAVAILABLE (the server is warming up).
   void SetEngine(Engine* engine) { engine_.store(engine); }
+  // GPU regions (gpu/): frames may name them once set (before serving); null: off.
+  void SetGpuRegions(GpuRegionRegistry* gpu_regions) { gpu_regions_ = gpu_regions; }
   // Shutdown: open streams answer the frames they have read and end UNAVAILABLE; new
   // streams are refused. Unary calls and Skin finish as usual.
   void Drain() { open_streams_.DrainAll(); }
@@ -115,8 +117,9 @@ class SkinningService final : public SkinningCallbackService {
   OpenStreams open_streams_;  // the cap on streams, their idle watchdog, the drain
   InflightBudget budget_;     // the bytes of frames in flight, all streams and Skin calls
   RegionRegistry* const regions_;
-  const RegionAccessPolicy region_access_;  // who may own regions (region_owner.h)
-  const PolicyFile* const policy_;          // null: every client may call every method
+  GpuRegionRegistry* gpu_regions_ = nullptr;  // null: GPU regions off
+  const RegionAccessPolicy region_access_;    // who may own regions (region_owner.h)
+  const PolicyFile* const policy_;            // null: every client may call every method
   OpenUploads open_uploads_;  // the caps and budget of uploads, and their idle watchdog
 };
 

@@ -26,6 +26,8 @@
 
 namespace skinserve::server {
 
+class GpuRegionRegistry;
+
 struct RegionLimits {
   std::string dir = "/dev/shm";
   uint64_t budget_bytes = 0;
@@ -106,6 +108,7 @@ class RegionRegistry {
 struct RegionCaller {
   RegionRegistry* regions = nullptr;
   Result<RegionOwner> owner = PermissionDenied("this call may not use shared-memory regions");
+  GpuRegionRegistry* gpu_regions = nullptr;  // null: GPU regions are off (gpu/)
 };
 
 }  // namespace skinserve::server

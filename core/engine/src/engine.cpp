@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "compute_pool.h"
+#include "device_output_checks.h"
 #include "mesh_store.h"
 #include "skinserve/engine/backend_registry.h"
 #include "skinserve/model/aligned_buffer.h"
@@ -136,6 +137,7 @@ class Engine::Impl {
     }
     Status outputs = request.skin_into_scratch  ? CheckScratch(request, mesh)
                      : request.encoded.active() ? CheckEncodedSizes(request, mesh, instances)
+                     : request.device.active()  ? CheckDeviceOutputs(request, mesh)
                                                 : CheckFloatSizes(request, mesh, instances);
     if (!outputs.ok()) return outputs;
     return CheckPalettes(request, mesh, instances);
@@ -277,6 +279,11 @@ class Engine::Impl {
     return CheckOutputsAgainstMesh(!e.normals.empty(), !e.tangents.empty(), mesh);
   }
 
+  // Check() for device output (its ranges were CheckDeviceRequest's): what the mesh can give.
+  static Status CheckDeviceOutputs(const SkinRequest& request, const Mesh& mesh) {
+    return CheckOutputsAgainstMesh(request.device.normals, request.device.tangents, mesh);
+  }
+
   static std::size_t ScratchFloats(const SkinRequest& request, const Mesh& mesh) {
     return ScratchFloatsPerInstance(mesh.vertex_count(), request.scratch_normals);
   }
@@ -287,7 +294,7 @@ class Engine::Impl {
     const std::size_t outputs = 3ull * mesh.vertex_count();
     SkinFrame frame{request.palette.subspan(std::min(request.palette.size(), i * palette)),
                     std::span<float>(), std::span<float>(), std::span<float>(), threads};
-    if (!request.skin_into_scratch && !request.encoded.active()) {
+    if (!request.skin_into_scratch && !request.encoded.active() && !request.device.active()) {
       frame.positions = request.positions.subspan(i * outputs, outputs);
       if (!request.normals.empty()) frame.normals = request.normals.subspan(i * outputs, outputs);
       const std::size_t tangents = 4ull * mesh.vertex_count();
@@ -311,6 +318,7 @@ class Engine::Impl {
       if (!e.box_scratch.empty())
         frame.encoded.box_scratch = e.box_scratch.subspan(i * outputs, outputs);
     }
+    frame.device = InstanceDeviceOutput(request, i);
     frame.method = request.method;
     frame.morph_weights = request.instance_morph_weights.empty()
                               ? request.morph_weights
@@ -442,12 +450,16 @@ class Engine::Impl {
     }
     const BackendInfo& info = backends_[job->backend_index_]->info();
     if (Status s = CheckMorph(request, mesh, info, instances); !s.ok()) return s;
-    if (Status s = CheckTangentSupport(
-            info, !request.tangents.empty() || !request.encoded.tangents.empty());
+    if (Status s = CheckTangentSupport(info, !request.tangents.empty() ||
+                                                 !request.encoded.tangents.empty() ||
+                                                 request.device.tangents);
         !s.ok()) {
       return s;
     }
     if (Status s = CheckEncoded(request, info); !s.ok()) return s;
+    if (request.device.active()) {
+      if (Status s = CheckDeviceRequest(request, mesh, instances, info); !s.ok()) return s;
+    }
     if (Status s = Check(request, mesh, instances); !s.ok()) return s;
 
     job->engine_ = this;
@@ -552,6 +564,13 @@ const EngineOptions& Engine::options() const { return impl_->options_; }
 
 animation::AnimationStore& Engine::animations() { return impl_->animations_; }
 const animation::AnimationStore& Engine::animations() const { return impl_->animations_; }
+
+Result<std::shared_ptr<DeviceMemory>> Engine::ImportDeviceMemory(const std::string& backend,
+                                                                 const DeviceMemoryImport& import) {
+  Result<std::size_t> index = impl_->FindBackend(backend);
+  if (!index.ok()) return index.status();
+  return impl_->backends_[*index]->ImportDeviceMemory(import);
+}
 
 std::vector<BackendInfo> Engine::Backends() const {
   std::vector<BackendInfo> infos;

@@ -1,5 +1,6 @@
 #include <fmt/format.h>
 
+#include "device_output_checks.h"
 #include "skinserve/engine/backend.h"
 #include "skinserve/model/palette.h"
 
@@ -64,6 +65,7 @@ Status SkinFrame::Validate(const Mesh& mesh) const {
     return s;
   }
   if (encoded.active()) return ValidateEncoded(mesh);
+  if (device.active()) return ValidateDeviceFrame(*this, mesh);
   const std::size_t expected = 3ull * mesh.vertex_count();
   if (positions.size() != expected) {
     return InvalidArgument(

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "skinserve/encoding/vertex_encoding.h"
+#include "skinserve/engine/device_memory.h"
 #include "skinserve/model/mesh.h"
 #include "skinserve/model/morph_targets.h"
 #include "skinserve/model/skinning_method.h"
@@ -120,9 +121,16 @@ struct SkinFrame {
   // Set: the backend writes these bytes instead of positions/normals/tangents, which are
   // then empty (the backend's info() lists encoded.encoding).
   EncodedOutput encoded;
+  // Set: the backend writes float32 into this device memory it imported (device_memory.h)
+  // instead of positions/normals/tangents, which are then empty.
+  DeviceOutput device;
 
-  bool wants_normals() const { return !normals.empty() || !encoded.normals.empty(); }
-  bool wants_tangents() const { return !tangents.empty() || !encoded.tangents.empty(); }
+  bool wants_normals() const {
+    return !normals.empty() || !encoded.normals.empty() || device.normals;
+  }
+  bool wants_tangents() const {
+    return !tangents.empty() || !encoded.tangents.empty() || device.tangents;
+  }
   Status Validate(const Mesh& mesh) const;
 
  private:
@@ -169,6 +177,11 @@ class Backend {
   // queues the frame; the CPU backends also refuse others with INVALID_ARGUMENT).
   // Thread-safe: may run concurrently, also on one mesh.
   virtual Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) = 0;
+  // Imports device memory that frames then name in SkinFrame::device. The default:
+  // FAILED_PRECONDITION saying this backend cannot (only `opencl` on a device with
+  // cl_khr_external_memory_opaque_fd can).
+  virtual Result<std::shared_ptr<DeviceMemory>> ImportDeviceMemory(
+      const DeviceMemoryImport& import);
 };
 
 }  // namespace skinserve

@@ -101,6 +101,10 @@ struct SkinRequest {
   // follow instance i-1's; `bounds` points at `instances` boxes (snorm16); `box_scratch`,
   // if given, holds 3 * vertex_count floats per instance, likewise one after another.
   EncodedOutput encoded;
+  // Set: every instance is written as float32 into device memory the frame's backend
+  // imported (Engine::ImportDeviceMemory), at the offsets DeviceOutput states; positions,
+  // normals, tangents and encoded stay empty.
+  DeviceOutput device;
 };
 
 inline constexpr std::size_t kMaxScratchFloatsPerInstance = std::size_t{1} << 20;  // 4 MiB
@@ -326,6 +330,11 @@ class Engine {
   const animation::AnimationStore& animations() const;
 
   EngineStats Stats() const;
+  // Imports device memory into backend `backend` (an enabled, available one) for frames'
+  // SkinRequest::device: the backend's ImportDeviceMemory, or INVALID_ARGUMENT naming the
+  // backend when it is unknown or unavailable.
+  Result<std::shared_ptr<DeviceMemory>> ImportDeviceMemory(const std::string& backend,
+                                                           const DeviceMemoryImport& import);
   // Refuses new frames with UNAVAILABLE and waits for the queued ones to finish.
   void Shutdown();
 

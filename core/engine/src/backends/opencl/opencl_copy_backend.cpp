@@ -24,6 +24,7 @@
 
 #include "backends/opencl/opencl_backend_base.h"
 #include "backends/opencl/opencl_backends.h"
+#include "backends/opencl/opencl_device_memory.h"
 
 namespace skinserve {
 namespace {
@@ -62,6 +63,12 @@ class OpenClCopyBackend final : public OpenClBackendBase {
                 // frames leave free, so it holds one compute thread of the engine.
                 runtime->staging() ? 1 : runtime->compute_units())) {}
 
+  // GPU regions: only this backend imports device memory (opencl_device_memory.h).
+  Result<std::shared_ptr<DeviceMemory>> ImportDeviceMemory(
+      const DeviceMemoryImport& import) override {
+    return ImportOpenClDeviceMemory(runtime(), info().id, import);
+  }
+
  private:
   Status SkinPalette(const OpenClPreparedMesh& prepared, const SkinFrame& frame) override {
     const bool with_normals = frame.wants_normals();
@@ -74,7 +81,12 @@ class OpenClCopyBackend final : public OpenClBackendBase {
                    with_normals ? lane->out_normals.get() : nullptr,
                    with_tangents ? lane->out_tangents.get() : nullptr);
     Status status = Morph(*lane, prepared, frame, &args, kernels, transfers);
-    if (status.ok() && frame.encoded.active()) {
+    if (status.ok() && frame.device.active()) {  // a GPU region (opencl_device_memory.h)
+      status = EnqueueWholeFrame(*lane, prepared, frame, args, kernels, transfers);
+      if (status.ok()) {
+        status = WriteDeviceOutput(*lane, args, prepared.mesh().vertex_count(), frame, transfers);
+      }
+    } else if (status.ok() && frame.encoded.active()) {
       status = SkinEncoded(*lane, prepared, frame, args, kernels, transfers);
     } else if (status.ok()) {
       status = runtime().staging() ? SkinStaged(*lane, lane.copy_threads(), prepared, frame, args,
@@ -106,8 +118,9 @@ class OpenClCopyBackend final : public OpenClBackendBase {
         !s.ok()) {
       return s;
     }
-    // Encoded frames read back through the encoder's own pinned buffers.
-    if (frame.encoded.active()) return Status::Ok();
+    // Encoded frames read back through the encoder's own pinned buffers; device frames
+    // (GPU regions) read nothing back.
+    if (frame.encoded.active() || frame.device.active()) return Status::Ok();
     if (Status s = runtime().GrowPinned(lane.compute, "pinned positions", out_bytes,
                                         &lane.pinned_positions);
         !s.ok()) {

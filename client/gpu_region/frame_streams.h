@@ -1,0 +1,32 @@
+// The frames skinserve-gpu-region sends: one StreamSkin call with `window` frames in
+// flight, each written into slot (frame % window) of a region (a GPU region or a
+// shared-memory one), positions (and normals) at the region layout's offsets.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "skinserve/model/status.h"
+#include "skinserve/v1/skinning.grpc.pb.h"
+
+namespace skinserve::gpu_region {
+
+struct StreamPlan {
+  std::string mesh_id, backend;
+  std::string region;  // registered name
+  bool gpu = false;    // a GPU region (OutputRegion.gpu)
+  uint32_t frames = 1, window = 1;
+  uint64_t slot_bytes = 0;  // one frame's room in the region (a multiple of 64)
+  bool normals = false;
+  // Frame f's palette, as the bytes SkinRequest.palette carries.
+  std::function<const std::string&(uint32_t frame)> palette;
+};
+
+// Runs the frames; `answered(frame, response)` sees each frame's RegionWrite in order, and
+// may check the slot's bytes before the frame that reuses it is sent (window 1 guarantees
+// that). The first failed frame's status ends the run.
+Status StreamIntoRegion(v1::Skinning::Stub& stub, const StreamPlan& plan,
+                        const std::function<Status(uint32_t, const v1::SkinResponse&)>& answered);
+
+}  // namespace skinserve::gpu_region

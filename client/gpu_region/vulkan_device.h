@@ -1,0 +1,93 @@
+// The headless Vulkan side of skinserve-gpu-region: one device (by index, or the first
+// discrete GPU), a vertex buffer in device-local memory exported as an opaque file
+// descriptor (VK_KHR_external_memory_fd, a dedicated allocation: what NVIDIA's OpenCL
+// imports), and a read-back of part of it through host-visible memory for the test mode.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "skinserve/model/status.h"
+
+namespace skinserve::gpu_region {
+
+class VulkanDevice {
+ public:
+  // `index` < 0: the first discrete GPU, else the first device. FAILED_PRECONDITION with
+  // what is missing (no loader or driver, no device, no VK_KHR_external_memory_fd).
+  static Result<std::unique_ptr<VulkanDevice>> Create(int index);
+  ~VulkanDevice();
+  VulkanDevice(const VulkanDevice&) = delete;
+  VulkanDevice& operator=(const VulkanDevice&) = delete;
+
+  VkDevice device() const { return device_; }
+  VkQueue queue() const { return queue_; }
+  uint32_t queue_family() const { return queue_family_; }
+  const std::array<uint8_t, 16>& uuid() const { return uuid_; }  // deviceUUID
+  const std::string& name() const { return name_; }
+  // A memory type among `bits` with `flags`; UINT32_MAX if none.
+  uint32_t MemoryType(uint32_t bits, VkMemoryPropertyFlags flags) const;
+  PFN_vkGetMemoryFdKHR get_memory_fd() const { return get_memory_fd_; }
+
+ private:
+  VulkanDevice() = default;
+  VkInstance instance_ = VK_NULL_HANDLE;
+  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  uint32_t queue_family_ = 0;
+  std::array<uint8_t, 16> uuid_ = {};
+  std::string name_;
+  VkPhysicalDeviceMemoryProperties memory_ = {};
+  PFN_vkGetMemoryFdKHR get_memory_fd_ = nullptr;
+};
+
+// A vertex buffer of device-local memory, exportable as an opaque fd.
+class ExportedBuffer {
+ public:
+  static Result<std::unique_ptr<ExportedBuffer>> Create(const VulkanDevice& device, uint64_t bytes);
+  ~ExportedBuffer();
+  ExportedBuffer(const ExportedBuffer&) = delete;
+  ExportedBuffer& operator=(const ExportedBuffer&) = delete;
+  // A new fd of the memory (vkGetMemoryFdKHR): the caller's to close.
+  Result<int> ExportFd() const;
+  VkBuffer buffer() const { return buffer_; }
+  uint64_t allocation_bytes() const { return allocation_bytes_; }  // what the fd covers
+
+ private:
+  explicit ExportedBuffer(const VulkanDevice& device) : device_(device) {}
+  const VulkanDevice& device_;
+  VkBuffer buffer_ = VK_NULL_HANDLE;
+  VkDeviceMemory memory_ = VK_NULL_HANDLE;
+  uint64_t allocation_bytes_ = 0;
+};
+
+// Copies ranges of an ExportedBuffer to the host (the test mode's check), taking the
+// buffer from the external queue family (the server's OpenCL wrote it) first.
+class ReadBack {
+ public:
+  static Result<std::unique_ptr<ReadBack>> Create(const VulkanDevice& device, uint64_t bytes);
+  ~ReadBack();
+  ReadBack(const ReadBack&) = delete;
+  ReadBack& operator=(const ReadBack&) = delete;
+  // [offset, offset + bytes) of `from` into the returned host memory (valid until the next
+  // call).
+  Result<const void*> Copy(const ExportedBuffer& from, uint64_t offset, uint64_t bytes);
+
+ private:
+  explicit ReadBack(const VulkanDevice& device) : device_(device) {}
+  const VulkanDevice& device_;
+  VkBuffer staging_ = VK_NULL_HANDLE;
+  VkDeviceMemory memory_ = VK_NULL_HANDLE;
+  void* mapped_ = nullptr;
+  uint64_t bytes_ = 0;
+  VkCommandPool pool_ = VK_NULL_HANDLE;
+  VkCommandBuffer commands_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+};
+
+}  // namespace skinserve::gpu_region

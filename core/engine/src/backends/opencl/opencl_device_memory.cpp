@@ -1,0 +1,214 @@
+// clCreateBufferWithProperties is OpenCL 3.0; the rest of the engine targets 1.2.
+#undef CL_TARGET_OPENCL_VERSION
+#define CL_TARGET_OPENCL_VERSION 300
+
+#include "backends/opencl/opencl_device_memory.h"
+
+#include <CL/cl_ext.h>
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <mutex>
+#include <vector>
+
+namespace skinserve {
+namespace {
+
+class OpenClDeviceMemory final : public DeviceMemory {
+ public:
+  OpenClDeviceMemory(ClBuffer buffer, uint64_t bytes, std::string backend,
+                     clEnqueueAcquireExternalMemObjectsKHR_fn acquire_fn,
+                     clEnqueueReleaseExternalMemObjectsKHR_fn release_fn)
+      : buffer_(std::move(buffer)),
+        bytes_(bytes),
+        backend_(std::move(backend)),
+        acquire_(acquire_fn),
+        release_(release_fn) {}
+  uint64_t byte_size() const override { return bytes_; }
+  const std::string& backend() const override { return backend_; }
+  cl_mem buffer() const { return buffer_.get(); }
+  bool imported() const { return acquire_ != nullptr; }
+  clEnqueueAcquireExternalMemObjectsKHR_fn acquire() const { return acquire_; }
+  clEnqueueReleaseExternalMemObjectsKHR_fn release() const { return release_; }
+  // Frames on different lanes (queues) write it one at a time: an external object is
+  // acquired by one queue until it is released.
+  std::mutex& in_use() const { return in_use_; }
+
+ private:
+  ClBuffer buffer_;
+  const uint64_t bytes_;
+  const std::string backend_;
+  // Null for memory of the runtime's own (not imported): nothing to acquire.
+  const clEnqueueAcquireExternalMemObjectsKHR_fn acquire_;
+  const clEnqueueReleaseExternalMemObjectsKHR_fn release_;
+  mutable std::mutex in_use_;
+};
+
+Result<std::string> DeviceText(cl_device_id device, cl_device_info what, const char* name) {
+  std::size_t size = 0;
+  if (cl_int err = clGetDeviceInfo(device, what, 0, nullptr, &size); err != CL_SUCCESS) {
+    return ClError(name, err);
+  }
+  std::string value(size, '\0');
+  if (cl_int err = clGetDeviceInfo(device, what, size, value.data(), nullptr); err != CL_SUCCESS) {
+    return ClError(name, err);
+  }
+  while (!value.empty() && value.back() == '\0') value.pop_back();
+  return value;
+}
+
+bool HasExtension(const std::string& extensions, const char* name) {
+  const std::string padded = " " + extensions + " ";
+  return padded.find(std::string(" ") + name + " ") != std::string::npos;
+}
+
+std::string Hex(const uint8_t* bytes, std::size_t n) {
+  std::string out;
+  for (std::size_t i = 0; i < n; ++i) out += fmt::format("{:02x}", bytes[i]);
+  return out;
+}
+
+// FAILED_PRECONDITION naming the first extension the device lacks, or OK.
+Status CheckImportExtensions(const OpenClRuntime& runtime, const std::string& extensions) {
+  for (const char* needed :
+       {"cl_khr_external_memory", "cl_khr_external_memory_opaque_fd", "cl_khr_device_uuid"}) {
+    if (!HasExtension(extensions, needed)) {
+      return FailedPrecondition(fmt::format(
+          "the opencl backend's device '{}' ({}) cannot import GPU memory: it lacks {} (GPU "
+          "regions need cl_khr_external_memory_opaque_fd and cl_khr_device_uuid; PoCL offers "
+          "no external memory)",
+          runtime.device_name(), runtime.platform_version(), needed));
+    }
+  }
+  return Status::Ok();
+}
+
+Status CheckUuid(const OpenClRuntime& runtime, const DeviceMemoryImport& import) {
+  uint8_t uuid[CL_UUID_SIZE_KHR] = {};
+  if (cl_int err =
+          clGetDeviceInfo(runtime.device(), CL_DEVICE_UUID_KHR, sizeof(uuid), uuid, nullptr);
+      err != CL_SUCCESS) {
+    return ClError("clGetDeviceInfo(CL_DEVICE_UUID_KHR)", err);
+  }
+  if (std::memcmp(uuid, import.device_uuid.data(), sizeof(uuid)) != 0) {
+    return FailedPrecondition(fmt::format(
+        "device_uuid {} is not the opencl backend's device '{}' (UUID {}): the server imports "
+        "memory only of the device it skins on",
+        Hex(import.device_uuid.data(), 16), runtime.device_name(), Hex(uuid, sizeof(uuid))));
+  }
+  return Status::Ok();
+}
+
+template <typename Fn>
+Fn Extension(cl_platform_id platform, const char* name) {
+  return reinterpret_cast<Fn>(clGetExtensionFunctionAddressForPlatform(platform, name));
+}
+
+}  // namespace
+
+Result<std::shared_ptr<DeviceMemory>> ImportOpenClDeviceMemory(const OpenClRuntime& runtime,
+                                                               const std::string& backend,
+                                                               const DeviceMemoryImport& import) {
+  Result<std::string> extensions =
+      DeviceText(runtime.device(), CL_DEVICE_EXTENSIONS, "clGetDeviceInfo(CL_DEVICE_EXTENSIONS)");
+  if (!extensions.ok()) return extensions.status();
+  if (Status s = CheckImportExtensions(runtime, *extensions); !s.ok()) return s;
+  if (import.semaphore_fd >= 0) {
+    return FailedPrecondition(
+        "GPU regions with a semaphore are not implemented by this server yet: register the "
+        "buffer without one and wait for the frame's answer");
+  }
+  if (Status s = CheckUuid(runtime, import); !s.ok()) return s;
+  cl_platform_id platform = nullptr;
+  if (cl_int err = clGetDeviceInfo(runtime.device(), CL_DEVICE_PLATFORM, sizeof(platform),
+                                   &platform, nullptr);
+      err != CL_SUCCESS) {
+    return ClError("clGetDeviceInfo(CL_DEVICE_PLATFORM)", err);
+  }
+  auto acquire = Extension<clEnqueueAcquireExternalMemObjectsKHR_fn>(
+      platform, "clEnqueueAcquireExternalMemObjectsKHR");
+  auto release = Extension<clEnqueueReleaseExternalMemObjectsKHR_fn>(
+      platform, "clEnqueueReleaseExternalMemObjectsKHR");
+  if (acquire == nullptr || release == nullptr) {
+    return FailedPrecondition(fmt::format(
+        "the opencl backend's device '{}' lists cl_khr_external_memory but its platform has no "
+        "clEnqueueAcquireExternalMemObjectsKHR / clEnqueueReleaseExternalMemObjectsKHR",
+        runtime.device_name()));
+  }
+  // As checked on the H200 (../shared/notes/gpu-machine.md): the fd alone; the context
+  // has the one device.
+  const cl_mem_properties properties[] = {CL_EXTERNAL_MEMORY_HANDLE_OPAQUE_FD_KHR,
+                                          static_cast<cl_mem_properties>(import.fd), 0};
+  cl_int err = CL_SUCCESS;
+  cl_mem mem = clCreateBufferWithProperties(runtime.context(), properties, CL_MEM_READ_WRITE,
+                                            import.byte_size, nullptr, &err);
+  if (err != CL_SUCCESS) return ClError("clCreateBufferWithProperties(opaque fd)", err);
+  return std::shared_ptr<DeviceMemory>(std::make_shared<OpenClDeviceMemory>(
+      ClBuffer(mem), import.byte_size, backend, acquire, release));
+}
+
+Result<std::shared_ptr<DeviceMemory>> CreateOpenClDeviceMemory(OpenClRuntime& runtime,
+                                                               const std::string& backend,
+                                                               uint64_t bytes) {
+  Result<ClBuffer> buffer =
+      runtime.CreateBuffer("device memory", CL_MEM_READ_WRITE, bytes, nullptr);
+  if (!buffer.ok()) return buffer.status();
+  return std::shared_ptr<DeviceMemory>(std::make_shared<OpenClDeviceMemory>(
+      std::move(buffer).value(), bytes, backend, nullptr, nullptr));
+}
+
+cl_mem OpenClDeviceMemoryBuffer(const DeviceMemory& memory) {
+  const auto* cl = dynamic_cast<const OpenClDeviceMemory*>(&memory);
+  return cl != nullptr ? cl->buffer() : nullptr;
+}
+
+Status WriteDeviceOutput(OpenClLane& lane, const SkinKernelArgs& args, uint32_t vertices,
+                         const SkinFrame& frame, ClEvents& transfers) {
+  const auto* memory = dynamic_cast<const OpenClDeviceMemory*>(frame.device.memory);
+  if (memory == nullptr) {
+    return FailedPrecondition("the frame's device memory was not made by the opencl backend");
+  }
+  cl_mem target = memory->buffer();
+  std::lock_guard lock(memory->in_use());
+  if (memory->imported()) {
+    if (cl_int err = memory->acquire()(lane.compute, 1, &target, 0, nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueAcquireExternalMemObjectsKHR", err);
+    }
+  }
+  struct Copy {
+    const char* what;
+    cl_mem from;
+    uint64_t to, bytes;
+  };
+  const uint64_t array_bytes = 3ull * sizeof(float) * vertices;
+  std::vector<Copy> copies = {{"clEnqueueCopyBuffer(positions)", args.out_positions,
+                               frame.device.positions_offset, array_bytes}};
+  if (frame.device.normals) {
+    copies.push_back({"clEnqueueCopyBuffer(normals)", args.out_normals, frame.device.normals_offset,
+                      array_bytes});
+  }
+  if (frame.device.tangents) {
+    copies.push_back({"clEnqueueCopyBuffer(tangents)", args.out_tangents,
+                      frame.device.tangents_offset, 4ull * sizeof(float) * vertices});
+  }
+  for (const Copy& c : copies) {
+    if (cl_int err = clEnqueueCopyBuffer(lane.compute, c.from, target, 0, c.to, c.bytes, 0, nullptr,
+                                         transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError(c.what, err);
+    }
+  }
+  if (memory->imported()) {
+    if (cl_int err = memory->release()(lane.compute, 1, &target, 0, nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueReleaseExternalMemObjectsKHR", err);
+    }
+  }
+  // The answer says the frame is in the memory: it must be there when the answer goes.
+  if (cl_int err = clFinish(lane.compute); err != CL_SUCCESS) return ClError("clFinish", err);
+  return Status::Ok();
+}
+
+}  // namespace skinserve

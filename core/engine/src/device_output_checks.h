@@ -1,0 +1,24 @@
+// The engine's checks of frames whose output is in imported device memory (DeviceOutput,
+// skinserve/engine/device_memory.h), and each instance's part of such a request.
+#pragma once
+
+#include <cstdint>
+
+#include "skinserve/engine/backend.h"
+#include "skinserve/engine/engine.h"
+
+namespace skinserve {
+
+// One instance's frame: no host outputs; normals and tangents as the mesh allows.
+Status ValidateDeviceFrame(const SkinFrame& frame, const Mesh& mesh);
+
+// A request with device output (request.device active): no host, encoded or scratch
+// outputs; the memory imported by the frame's backend (`info`), else FAILED_PRECONDITION;
+// every instance's arrays inside the memory, else INVALID_ARGUMENT naming the range.
+Status CheckDeviceRequest(const SkinRequest& request, const Mesh& mesh, uint32_t instances,
+                          const BackendInfo& info);
+
+// Instance `i`'s DeviceOutput of `request` (inactive when the request's is).
+DeviceOutput InstanceDeviceOutput(const SkinRequest& request, uint32_t i);
+
+}  // namespace skinserve

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Fills build-gpu/ (git-ignored) with what scripts/gpu-region-test.sh runs on the GPU
+# machine (../shared/notes/gpu-machine.md): the server and the Vulkan client, every shared
+# library they link but the C and C++ runtimes (the GPU machine has newer ones), and the
+# Vulkan loader and glvnd .debs, which the test unpacks there (the NVIDIA Vulkan driver
+# needs glvnd beside libvulkan1). Run after building both:
+#   cmake --build build --target skinserve skinserve-gpu-region
+#   scripts/gpu-region-pack.sh [BUILD_DIR]
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-$root/build}
+d=$root/build-gpu
+rm -rf "$d"
+mkdir -p "$d/bin" "$d/lib" "$d/debs"
+cp "$build/bin/skinserve" "$build/bin/skinserve-gpu-region" "$d/bin/"
+# The loader comes from the .debs (with glvnd); everything else from here.
+ldd "$d"/bin/* | awk '/=>/ {print $3}' | sort -u \
+  | grep -vE '/(libc|libm|libstdc\+\+|libgcc_s|ld-linux|libvulkan)[.-]' \
+  | xargs -I{} cp -L {} "$d/lib/"
+strip "$d"/bin/*
+(cd "$d/debs" && apt-get download libvulkan1 libegl1 libglvnd0 libopengl0 libgl1 libglx0 libgles2)
+cp "$root/scripts/gpu-region-test.sh" "$d/"
+du -sh "$d"

@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# GPU regions on the GPU machine (docs/serving/gpu-regions.md), from build-gpu/ as
+# scripts/gpu-region-pack.sh fills it: the server with the `opencl` backend on the GPU
+# (confined to 2 cores), then the headless Vulkan client (on the other cores) at 25k x 2
+# and 1.6M x 4: each registers a vertex buffer it exported, checks every frame of a test
+# run against the float64 reference (copied back from the GPU), then measures frames/s
+# into the GPU region against the same frames read back into a shared-memory region.
+#   scripts/gpu-region-test.sh [OUT_DIR]      (from the repository root; OUT: $OUT or ./out)
+# Exit status 0 when every run printed PASS. Overrides (for a dry run elsewhere):
+# SKINSERVE_OPENCL_DEVICE (gpu), SKINSERVE_SERVER_CPUS (0,1), SKINSERVE_CLIENT_CPUS (the rest).
+set -uo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+d=${SKINSERVE_GPU_DIR:-$root/build-gpu}
+out=${1:-${OUT:-$root/out}}
+mkdir -p "$out"
+# Vulkan's loader and glvnd from the carried .debs; NVIDIA's Vulkan and OpenCL drivers.
+vk=$(mktemp -d /tmp/skinserve-vk-XXXXXX)
+for deb in "$d"/debs/*.deb; do dpkg -x "$deb" "$vk"; done
+export LD_LIBRARY_PATH=$d/lib:$vk/usr/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+ldconfig 2>/dev/null || true
+for icd in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json \
+  /usr/share/vulkan/icd.d/nvidia_icd.json /etc/vulkan/icd.d/nvidia_icd.json; do
+  if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then export VK_DRIVER_FILES=$icd; fi
+done
+device=${SKINSERVE_OPENCL_DEVICE:-gpu}
+if [ "$device" = gpu ]; then  # NVIDIA's OpenCL is installed but not listed for the loader
+  mkdir -p /tmp/icd && echo libnvidia-opencl.so.1 >/tmp/icd/nvidia.icd
+  export OCL_ICD_VENDORS=/tmp/icd
+fi
+server_cpus=${SKINSERVE_SERVER_CPUS:-0,1}
+client_cpus=${SKINSERVE_CLIENT_CPUS:-2-$(($(nproc) - 1))}
+{
+  nvidia-smi --query-gpu=name,driver_version --format=csv 2>&1
+  lscpu | grep -E 'Model name|^CPU\(s\)'
+  echo "VK_DRIVER_FILES=${VK_DRIVER_FILES:-}"
+} >"$out/machine.txt"
+cat "$out/machine.txt"
+
+sock=$(mktemp -d /tmp/skinserve-gpu-region-XXXXXX)
+server_cmd=(taskset -c "$server_cpus" "$d/bin/skinserve" --listen "unix:$sock/grpc.sock"
+  --gpu-fd-socket "$sock/fd.sock" --opencl-device "$device" --default-backend opencl --threads 2
+  --backends opencl,simd-openmp --log-level info)
+echo "server: ${server_cmd[*]}" | tee "$out/command.txt"
+"${server_cmd[@]}" >"$out/server.log" 2>&1 &
+server=$!
+for _ in $(seq 1 240); do
+  grep -q "serving" "$out/server.log" 2>/dev/null && break
+  kill -0 "$server" 2>/dev/null || break
+  sleep 0.5
+done
+if ! grep -q "serving" "$out/server.log"; then
+  echo "FAIL: the server did not start"; tail -20 "$out/server.log"; exit 1
+fi
+
+status=0
+run() {  # name, then the client's flags
+  local name=$1; shift
+  local cmd=(taskset -c "$client_cpus" "$d/bin/skinserve-gpu-region" --target "unix:$sock/grpc.sock"
+    --fd-socket "$sock/fd.sock" "$@")
+  echo "== $name: ${cmd[*]}" | tee -a "$out/command.txt"
+  "${cmd[@]}" 2>&1 | tee "$out/$name.txt"
+  if [ "${PIPESTATUS[0]}" -ne 0 ]; then status=1; echo "$name: FAIL"; else echo "$name: PASS"; fi
+}
+run 25k-x2 --vertices 25000 --influences 2 --check 300 --frames 5000 --window 2
+run 25k-x2-normals --vertices 25000 --influences 2 --normals --check 100 --frames 0
+run 1.6M-x4 --vertices 1600000 --influences 4 --check 20 --frames 300 --window 2
+
+kill "$server" 2>/dev/null; wait "$server" 2>/dev/null
+rm -rf "$sock" "$vk"
+echo "== summary"
+grep -hE "^(check|gpu-region|shm-readback|FAIL)" "$out"/*x*.txt
+[ "$status" -eq 0 ] && echo "ALL PASS" || echo "SOME FAILED"
+exit "$status"

@@ -1,0 +1,53 @@
+// FrameJob's part for frames into GPU regions (SkinRequest.output with gpu set,
+// docs/serving/gpu-regions.md): the region resolved for the caller, the layout of
+// shared-memory regions (the stream plan's) checked against its size, and the engine's
+// DeviceOutput.
+#include <fmt/format.h>
+
+#include "frames/frame_job.h"
+
+namespace skinserve::server {
+
+Status FrameJob::PinGpuRegion(const v1::OutputRegion& output, const RegionCaller& regions) {
+  if (regions.gpu_regions == nullptr) {
+    return FailedPrecondition(
+        "output names a GPU region (output.gpu), but this server's GPU regions are off "
+        "(--gpu-fd-socket is empty)");
+  }
+  if (!regions.owner.ok()) return regions.owner.status();
+  if (encoding_ != VertexEncoding::kFloat32) {
+    return InvalidArgument(fmt::format(
+        "GPU region '{}': frames into GPU regions are float32 only (the encoding asked is {}); "
+        "ask for float32",
+        output.region(), VertexEncodingName(encoding_)));
+  }
+  Result<std::shared_ptr<GpuRegion>> region =
+      regions.gpu_regions->Acquire(output.region(), *regions.owner);
+  if (!region.ok()) return region.status();
+  if (Status s = CheckRegionRange(output, (*region)->byte_size()); !s.ok()) return s;
+  gpu_region_ = std::move(region).value();
+  return Status::Ok();
+}
+
+void FrameJob::SetGpuOutput() {
+  request.device = {.memory = &gpu_region_->memory(),
+                    .positions_offset = region_positions_,
+                    .normals_offset = region_normals_,
+                    .tangents_offset = region_tangents_,
+                    .instance_bytes = EncodedBytes(encoding_, vertices_),
+                    .tangent_instance_bytes = EncodedTangentBytes(encoding_, vertices_),
+                    .normals = want_normals_,
+                    .tangents = want_tangents_};
+}
+
+Status FrameJob::GpuRegionStillThere() {
+  if (gpu_region_->removed()) {
+    return FailedPrecondition(fmt::format(
+        "GPU region '{}' was unregistered while frame {} was in flight: its output is undefined",
+        gpu_region_->name(), frame_));
+  }
+  gpu_region_->CountFrame();
+  return Status::Ok();
+}
+
+}  // namespace skinserve::server

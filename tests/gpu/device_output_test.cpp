@@ -1,0 +1,232 @@
+// The `opencl` backend's device path for GPU regions, on whatever OpenCL device the tests
+// get (PoCL here and in CI): frames written into device memory at their offsets (memory of
+// the runtime's own standing in for an import, which PoCL cannot do), checked against the
+// float64 reference with nothing outside the ranges touched; the import refused with the
+// missing extension named; the engine's range and backend checks of device output.
+#include <gtest/gtest.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <vector>
+
+#include "backends/opencl/opencl_backends.h"
+#include "backends/opencl/opencl_device_memory.h"
+#include "device_output_checks.h"
+#include "skinserve/engine/engine.h"
+#include "skinserve/reference/reference.h"
+#include "skinserve/reference/synthetic.h"
+
+namespace skinserve::testing {
+namespace {
+
+constexpr uint8_t kCanary = 0xA5;
+
+struct OpenCl {
+  std::shared_ptr<OpenClRuntime> runtime;
+  std::vector<std::unique_ptr<Backend>> backends;  // opencl, opencl-zerocopy
+};
+
+// One runtime for the file: `staging` forces the discrete-GPU path (pinned, lanes).
+OpenCl& TestOpenCl(bool staging) {
+  static OpenCl direct, staged;
+  OpenCl& cl = staging ? staged : direct;
+  if (cl.runtime == nullptr) {
+    auto runtime = OpenClRuntime::Create({.threads = 2, .force_staging = staging});
+    EXPECT_TRUE(runtime.ok()) << runtime.status().ToString();
+    if (!runtime.ok()) std::abort();
+    cl.runtime = *runtime;
+    cl.backends = MakeOpenClBackendsOn(cl.runtime);
+  }
+  return cl;
+}
+
+std::shared_ptr<const Mesh> TestMesh(uint32_t vertices) {
+  auto mesh = Mesh::Create(MakeSyntheticMesh(
+      {.vertex_count = vertices, .influences = 4, .normals = true, .tangents = true, .seed = 11}));
+  EXPECT_TRUE(mesh.ok()) << mesh.status().ToString();
+  return *mesh;
+}
+
+std::vector<uint8_t> ReadBack(OpenClRuntime& runtime, const DeviceMemory& memory) {
+  std::vector<uint8_t> bytes(memory.byte_size());
+  cl_command_queue queue = runtime.AcquireLane()->compute;
+  EXPECT_EQ(clEnqueueReadBuffer(queue, OpenClDeviceMemoryBuffer(memory), CL_TRUE, 0, bytes.size(),
+                                bytes.data(), 0, nullptr, nullptr),
+            CL_SUCCESS);
+  return bytes;
+}
+
+void Fill(OpenClRuntime& runtime, const DeviceMemory& memory) {
+  std::vector<uint8_t> canary(memory.byte_size(), kCanary);
+  cl_command_queue queue = runtime.AcquireLane()->compute;
+  ASSERT_EQ(clEnqueueWriteBuffer(queue, OpenClDeviceMemoryBuffer(memory), CL_TRUE, 0, canary.size(),
+                                 canary.data(), 0, nullptr, nullptr),
+            CL_SUCCESS);
+}
+
+std::vector<float> FloatsAt(const std::vector<uint8_t>& bytes, uint64_t offset, std::size_t n) {
+  std::vector<float> out(n);
+  std::memcpy(out.data(), bytes.data() + offset, n * sizeof(float));
+  return out;
+}
+
+class DeviceOutputTest : public ::testing::TestWithParam<bool> {};
+
+TEST_P(DeviceOutputTest, WritesTheFrameAtItsOffsetsAndNothingElse) {
+  OpenCl& cl = TestOpenCl(GetParam());
+  Backend& backend = *cl.backends[0];
+  ASSERT_EQ(backend.info().id, "opencl");
+  ASSERT_TRUE(backend.info().available) << backend.info().unavailable_reason;
+  const uint32_t v = 3000;  // not a multiple of the kernels' work-group
+  auto mesh = TestMesh(v);
+  auto prepared = backend.Prepare(mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  // Positions at 192, normals and tangents further on with gaps between them.
+  const uint64_t positions = 192, normals = positions + 12ull * v + 64,
+                 tangents = normals + 12ull * v + 128, end = tangents + 16ull * v;
+  auto memory = CreateOpenClDeviceMemory(*cl.runtime, "opencl", end + 256);
+  ASSERT_TRUE(memory.ok()) << memory.status().ToString();
+  for (uint64_t frame = 0; frame < 3; ++frame) {
+    Fill(*cl.runtime, **memory);
+    const auto palette = MakeSyntheticPalette(mesh->joint_count(), 5, frame);
+    SkinFrame f{.palette = palette};
+    f.device = {.memory = memory->get(),
+                .positions_offset = positions,
+                .normals_offset = normals,
+                .tangents_offset = tangents,
+                .normals = true,
+                .tangents = true};
+    ASSERT_TRUE(f.Validate(*mesh).ok());
+    Status s = backend.Skin(**prepared, f);
+    ASSERT_TRUE(s.ok()) << s.ToString();
+    const std::vector<uint8_t> bytes = ReadBack(*cl.runtime, **memory);
+    const auto p = FloatsAt(bytes, positions, 3ull * v), n = FloatsAt(bytes, normals, 3ull * v),
+               t = FloatsAt(bytes, tangents, 4ull * v);
+    const Deviation d = CompareWithReference(*mesh, palette, p, n, SkinningMethod::kLinear, {}, t);
+    EXPECT_TRUE(d.within_tolerance())
+        << "frame " << frame << ": position error " << d.max_position_error << " (tolerance "
+        << d.position_tolerance << "), normal " << d.max_normal_error << ", tangent "
+        << d.max_tangent_error << " at vertex " << d.worst_vertex;
+    std::size_t touched = 0;
+    for (uint64_t i = 0; i < bytes.size(); ++i) {
+      const bool inside = (i >= positions && i < positions + 12ull * v) ||
+                          (i >= normals && i < normals + 12ull * v) ||
+                          (i >= tangents && i < tangents + 16ull * v);
+      if (!inside && bytes[i] != kCanary) ++touched;
+    }
+    EXPECT_EQ(touched, 0u) << "bytes outside the frame's ranges were written";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Paths, DeviceOutputTest, ::testing::Values(false, true),
+                         [](const auto& param) { return param.param ? "staged" : "direct"; });
+
+TEST(DeviceImportTest, RefusedNamingWhatTheDeviceLacks) {
+  OpenCl& cl = TestOpenCl(false);
+  const int fd = memfd_create("not-gpu-memory", MFD_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(ftruncate(fd, 1 << 20), 0);
+  auto memory = cl.backends[0]->ImportDeviceMemory({.fd = fd, .byte_size = 1 << 20});
+  ASSERT_FALSE(memory.ok());
+  EXPECT_EQ(memory.status().code(), StatusCode::kFailedPrecondition);
+  std::size_t size = 0;
+  clGetDeviceInfo(cl.runtime->device(), CL_DEVICE_EXTENSIONS, 0, nullptr, &size);
+  std::string extensions(size, '\0');
+  clGetDeviceInfo(cl.runtime->device(), CL_DEVICE_EXTENSIONS, size, extensions.data(), nullptr);
+  if (extensions.find("cl_khr_external_memory_opaque_fd") == std::string::npos) {
+    // PoCL: the extension is named.
+    EXPECT_NE(memory.status().message().find("lacks cl_khr_external_memory"), std::string::npos)
+        << memory.status().message();
+  } else {
+    // A device that imports: the all-zero UUID is not its own.
+    EXPECT_NE(memory.status().message().find("is not the opencl backend's device"),
+              std::string::npos)
+        << memory.status().message();
+  }
+  close(fd);  // refused: still ours
+  // Any other backend cannot import at all.
+  auto other = cl.backends[1]->ImportDeviceMemory({.fd = -1, .byte_size = 64});
+  ASSERT_FALSE(other.ok());
+  EXPECT_EQ(other.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(other.status().message().find("backend 'opencl-zerocopy' cannot write into GPU memory"),
+            std::string::npos)
+      << other.status().message();
+}
+
+class FakeMemory final : public DeviceMemory {
+ public:
+  FakeMemory(uint64_t bytes, std::string backend) : bytes_(bytes), backend_(std::move(backend)) {}
+  uint64_t byte_size() const override { return bytes_; }
+  const std::string& backend() const override { return backend_; }
+
+ private:
+  uint64_t bytes_;
+  std::string backend_;
+};
+
+TEST(DeviceRequestCheckTest, RangesAndBackend) {
+  auto mesh = TestMesh(1000);
+  const uint64_t array = 12000, need = 2 * array + 64;  // 2 instances, positions only
+  FakeMemory memory(need, "opencl");
+  BackendInfo opencl{.id = "opencl"};
+  SkinRequest request;
+  request.instances = 2;
+  request.device = {.memory = &memory, .positions_offset = 64, .instance_bytes = array};
+  EXPECT_TRUE(CheckDeviceRequest(request, *mesh, 2, opencl).ok());
+  request.device.positions_offset = 128;  // the second instance's last 64 bytes stick out
+  Status s = CheckDeviceRequest(request, *mesh, 2, opencl);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("instance 1's output"), std::string::npos) << s.message();
+  request.device.positions_offset = UINT64_MAX - 8;  // no wrap-around
+  EXPECT_EQ(CheckDeviceRequest(request, *mesh, 2, opencl).code(), StatusCode::kInvalidArgument);
+  request.device.positions_offset = 64;
+  request.device.instance_bytes = array - 4;  // instances would overlap
+  EXPECT_EQ(CheckDeviceRequest(request, *mesh, 2, opencl).code(), StatusCode::kInvalidArgument);
+  request.device.instance_bytes = array;
+  request.device.normals = true;  // normals past the end
+  request.device.normals_offset = need;
+  EXPECT_EQ(CheckDeviceRequest(request, *mesh, 1, opencl).code(), StatusCode::kInvalidArgument);
+  request.device.normals = false;
+  s = CheckDeviceRequest(request, *mesh, 2, BackendInfo{.id = "simd"});
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(s.message().find("imported by backend 'opencl', not by 'simd'"), std::string::npos)
+      << s.message();
+  std::vector<float> host(3000);
+  request.positions = host;  // host and device outputs at once
+  EXPECT_EQ(CheckDeviceRequest(request, *mesh, 1, opencl).code(), StatusCode::kInvalidArgument);
+}
+
+// Through the engine: a frame with device output passes its checks and reaches the
+// backend's device path (memory not of OpenCL's making stops it there, named), and a range
+// past the memory is refused before any backend runs.
+TEST(EngineDeviceOutputTest, ReachesTheBackendsDevicePath) {
+  EngineOptions options;
+  options.enabled_backends = {"opencl"};
+  options.compute_threads = 1;
+  auto engine = Engine::Create(options);
+  ASSERT_TRUE(engine.ok()) << engine.status().ToString();
+  auto mesh = (*engine)->AddMesh(MakeSyntheticMesh({.vertex_count = 1000, .normals = true}));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  const uint64_t array = 12000;
+  FakeMemory memory(4 * array, "opencl");
+  std::vector<float> palette = MakeSyntheticPalette(77, 1, 0);
+  const std::vector<float> second = MakeSyntheticPalette(77, 1, 1);
+  palette.insert(palette.end(), second.begin(), second.end());
+  SkinRequest request{.mesh_id = mesh->id, .backend = "opencl", .palette = palette, .instances = 2};
+  request.device = {.memory = &memory,
+                    .positions_offset = 0,
+                    .normals_offset = 2 * array,
+                    .instance_bytes = array,
+                    .normals = true};
+  Status s = (*engine)->SkinBlocking(request);
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(s.message().find("not made by the opencl backend"), std::string::npos) << s.message();
+  request.device.normals_offset = 2 * array + 64;  // the second instance's normals stick out
+  s = (*engine)->SkinBlocking(request);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("instance 1's output"), std::string::npos) << s.message();
+}
+
+}  // namespace
+}  // namespace skinserve::testing
