@@ -3,7 +3,9 @@
 # (skinserve-bench --benchmark_out). Needs jq and gnuplot.
 #   scripts/figure5-plot.sh figure5.json figure5.png > figure5.md
 # The table (Markdown, stdout): M vertices/s per backend and grid point, medians; OpenCL
-# transfers included, with 4 streams, and kernel only (from profiling events). The plot:
+# transfers included, with 4 streams, and kernel only (from profiling events); with
+# --device-output's rows, OpenCL with the output left on the GPU (palette upload, kernel and
+# the copy into the output buffer, nothing read back: GPU regions). The plot:
 # the same at the largest influence count, with the PCIe (device to host, 12 B/vertex)
 # and device memory (kernel bytes/vertex) bounds measured in the same run.
 set -euo pipefail
@@ -24,6 +26,8 @@ jq -r '
        else empty end)
     elif ($n[0] == "BM_SkinStreams") then
       [($n[1] + " x4 streams"), $n[2], $n[3], (.items_per_second / 1e6)]
+    elif ($n[0] == "BM_SkinDeviceOutput") then
+      [($n[1] + " output on the GPU"), $n[2], $n[3], (.vertices_per_second / 1e6)]
     else empty end
   | @tsv' "$json" >"$tmp/rates.tsv"
 bound() {

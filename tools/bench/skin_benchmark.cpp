@@ -37,6 +37,9 @@
 // optimiser leaves a real character (neighbouring vertices share bones), instead of the
 // paper's shuffled order (each vertex on a random bone); the CPU loops hardly care, a GPU's
 // palette reads do.
+// --device-output: also BM_SkinDeviceOutput/opencl/<vertices>/<bones>
+// (device_output_benchmark.h), `opencl`'s frame with its output left in device memory, the
+// GPU regions' path: Figure 5's fourth curve beside BM_Skin/opencl, read back.
 // BM_Pose/<joints> and BM_PoseOneClip/<joints> (pose_benchmark.h): the animation runtime's
 // frame for one character, sampling to palette, on the timing thread alone (issue 43).
 // Other flags go to Google Benchmark (e.g. --benchmark_min_time=0.5).
@@ -66,6 +69,7 @@
 
 #include "backends/opencl/opencl_backends.h"
 #include "backends/opencl/opencl_runtime.h"
+#include "device_output_benchmark.h"
 #include "paper_tables.h"
 #include "pose_benchmark.h"
 #include "skinserve/engine/backend_registry.h"
@@ -92,6 +96,7 @@ struct Options {
   std::vector<VertexEncoding> encodings;  // --encoding=: encoded-output rows
   bool process_cpu_time = false;          // --process-cpu-time: those rows' CPU time, all threads
   bool sorted_by_joints = false;          // --vertex-order=sorted
+  bool device_output = false;             // --device-output: BM_SkinDeviceOutput rows
 };
 
 template <typename T>
@@ -127,6 +132,8 @@ Options ParseOptions(int* argc, char** argv) {
       options.opencl_global_palette = true;
     } else if (arg == "--quantized") {
       options.quantized = true;
+    } else if (arg == "--device-output") {
+      options.device_output = true;
     } else if (arg == "--normals") {
       options.normals_in_tables = true;
     } else if (const char* list = value("--backends=")) {
@@ -758,6 +765,10 @@ int main(int argc, char** argv) {
   Rows rows;
   if (!SelectRows(options, backends, threads, &measured, &rows)) return 2;
   RegisterSkinRows(options, rows);
+  if (options.device_output && !RegisterDeviceOutputRows(Cache(), options.vertices, options.bones,
+                                                         threads, options.opencl_device)) {
+    return 2;
+  }
   RegisterQuantizedRows(options, backends, measured);
   RegisterEncodedRows(options, rows);
   RegisterMorphRows(options, backends, measured);

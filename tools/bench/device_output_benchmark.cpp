@@ -1,0 +1,88 @@
+#include "device_output_benchmark.h"
+
+#include <benchmark/benchmark.h>
+#include <fmt/format.h>
+
+#include <memory>
+
+#include "backends/opencl/opencl_backends.h"
+#include "backends/opencl/opencl_device_memory.h"
+#include "backends/opencl/opencl_runtime.h"
+
+namespace skinserve::bench {
+namespace {
+
+// The runtime and its backends live through the run (the rows point into them).
+struct DeviceOutputBackends {
+  std::shared_ptr<OpenClRuntime> runtime;
+  std::vector<std::unique_ptr<Backend>> backends;
+};
+
+DeviceOutputBackends& Held() {
+  static DeviceOutputBackends held;
+  return held;
+}
+
+void SkinDeviceOutputBenchmark(benchmark::State& state, WorkloadCache* cache, Backend* backend,
+                               OpenClRuntime* runtime, uint32_t vertices, uint32_t bones) {
+  const Workload& workload = cache->Get(vertices, bones);
+  const PreparedMesh& prepared = cache->Prepared(*backend, vertices, bones);
+  auto memory = CreateOpenClDeviceMemory(*runtime, backend->info().id, 12ull * vertices);
+  if (!memory.ok()) {
+    state.SkipWithError(memory.status().ToString().c_str());
+    return;
+  }
+  std::size_t frame = 0;
+  DeviceTiming device;
+  int64_t kernel_ns = 0;
+  for (auto _ : state) {
+    SkinFrame skin{.palette = workload.palettes[frame++ % workload.palettes.size()],
+                   .device_timing = &device};
+    skin.device = {.memory = memory->get(), .positions_offset = 0};
+    if (Status s = backend->Skin(prepared, skin); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+      return;
+    }
+    kernel_ns += device.kernel_ns;
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * vertices));
+  state.counters["vertices_per_second"] =
+      benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["bytes_per_vertex"] = BytesPerVertex(bones, false);
+  if (state.iterations() > 0) {
+    state.counters["kernel_ns"] =
+        static_cast<double>(kernel_ns) / static_cast<double>(state.iterations());
+  }
+}
+
+}  // namespace
+
+bool RegisterDeviceOutputRows(WorkloadCache& cache, const std::vector<uint32_t>& vertices,
+                              const std::vector<uint32_t>& bones, int threads,
+                              const std::string& opencl_device) {
+  auto runtime = OpenClRuntime::Create({.threads = threads, .device = opencl_device});
+  if (!runtime.ok()) {
+    fmt::print(stderr, "skinserve-bench: --device-output: {}\n", runtime.status().ToString());
+    return false;
+  }
+  DeviceOutputBackends& held = Held();
+  held.runtime = *runtime;
+  held.backends = MakeOpenClBackendsOn(held.runtime);
+  Backend& opencl = *held.backends.front();
+  if (opencl.info().id != "opencl" || !opencl.info().available) {
+    fmt::print(stderr, "skinserve-bench: --device-output: {}\n", opencl.info().unavailable_reason);
+    return false;
+  }
+  for (uint32_t v : vertices) {
+    for (uint32_t b : bones) {
+      benchmark::RegisterBenchmark(fmt::format("BM_SkinDeviceOutput/opencl/{}/{}", v, b).c_str(),
+                                   SkinDeviceOutputBenchmark, &cache, &opencl, held.runtime.get(),
+                                   v, b)
+          ->UseRealTime()
+          ->Unit(benchmark::kMicrosecond);
+    }
+  }
+  return true;
+}
+
+}  // namespace skinserve::bench

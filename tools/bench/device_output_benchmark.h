@@ -1,0 +1,26 @@
+// BM_SkinDeviceOutput/opencl/<vertices>/<bones> (skinserve-bench --device-output): the
+// `opencl` backend's frame with its output left on the device, the GPU regions' path
+// (SkinFrame::device, docs/serving/gpu-regions.md): the palette uploaded, the kernel, the
+// device-to-device copy into the output memory, waited for; nothing read back. Figure 5's
+// fourth curve, beside `opencl`'s frame read back (BM_Skin/opencl). Device memory of the
+// runtime's own context stands for a renderer's imported buffer: the same kernel and copy,
+// without an imported buffer's acquire and release (nothing to import from on PoCL or in a
+// benchmark without a Vulkan client).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "workload_cache.h"
+
+namespace skinserve::bench {
+
+// Registers the rows over `vertices` x `bones` on an OpenCL runtime of its own (`threads`
+// lanes, on `opencl_device` as --opencl-device names it). False, the reason printed, when
+// that runtime or its `opencl` backend is unavailable.
+bool RegisterDeviceOutputRows(WorkloadCache& cache, const std::vector<uint32_t>& vertices,
+                              const std::vector<uint32_t>& bones, int threads,
+                              const std::string& opencl_device);
+
+}  // namespace skinserve::bench
