@@ -33,6 +33,16 @@ std::string BackendLabel(const RunResult& r) {
                          : fmt::format("{}/{}{}", r.backend, r.encoding, shm);
 }
 
+// Under the table: each row's errors by code, with the first one's message.
+void PrintErrorExamples(const std::vector<RunResult>& results) {
+  for (const RunResult& r : results) {
+    for (const auto& [code, message] : r.error_examples) {
+      fmt::print("errors: {} {} x{}, the first: {}\n", BackendLabel(r), code, r.errors.at(code),
+                 message);
+    }
+  }
+}
+
 }  // namespace
 
 std::string ServerCpuHeader() {
@@ -103,6 +113,7 @@ void PrintTable(const std::vector<RunResult>& results, bool open_loop) {
         r.mismatches > 0 ? fmt::format(" MISMATCHES={}", r.mismatches) : "",
         r.within_limit() ? "" : " OVER-LIMIT");
   }
+  PrintErrorExamples(results);
 }
 
 void PrintSpeedupTables(const std::vector<RunResult>& results) {

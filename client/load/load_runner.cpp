@@ -144,7 +144,7 @@ class Recorder {
     result_.checked += checked;
     result_.mismatches += mismatch;
     if (!frame.status.ok()) {
-      ++result_.errors[StatusCodeName(frame.status.code())];
+      result_.CountError(frame.status);
       return;
     }
     if (!measured) return;  // warm-up
@@ -191,13 +191,12 @@ class Recorder {
     result_.checked += checked;
     result_.mismatches += mismatches;
     if (!tick.status.ok()) {
-      result_.errors[StatusCodeName(tick.status.code())] +=
-          std::max<std::size_t>(tick.characters.size(), 1);
+      result_.CountError(tick.status, std::max<std::size_t>(tick.characters.size(), 1));
       return;
     }
     std::size_t failed = 0;
     for (const client::FrameResult& c : tick.characters) {
-      if (!c.status.ok()) ++failed, ++result_.errors[StatusCodeName(c.status.code())];
+      if (!c.status.ok()) ++failed, result_.CountError(c.status);
     }
     if (failed > 0 || !measured) return;  // failed, or warm-up
     ++result_.frames;
@@ -296,7 +295,7 @@ class Recorder {
 
   void RecordStreamError(const Status& status) {
     std::lock_guard lock(mutex_);
-    ++result_.errors[StatusCodeName(status.code())];
+    result_.CountError(status);
   }
   void AddSentAndDropped(uint64_t sent, uint64_t dropped) {
     std::lock_guard lock(mutex_);

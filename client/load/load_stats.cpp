@@ -5,6 +5,12 @@
 
 namespace skinserve::load {
 
+void RunResult::CountError(const Status& status, uint64_t n) {
+  const char* code = StatusCodeName(status.code());
+  errors[code] += n;
+  error_examples.emplace(code, status.message());
+}
+
 double Percentile(std::vector<double>& values, double q) {
   if (values.empty()) return 0;
   std::sort(values.begin(), values.end());
@@ -74,6 +80,8 @@ RunResult MergeResults(const std::vector<RunResult>& windows) {
     merged.server_compute_ms_sum += w.server_compute_ms_sum;
     merged.server_encode_ms_sum += w.server_encode_ms_sum;
     for (const auto& [code, count] : w.errors) merged.errors[code] += count;
+    for (const auto& [code, message] : w.error_examples)
+      merged.error_examples.emplace(code, message);
     merged.checked += w.checked;
     merged.mismatches += w.mismatches;
     merged.sent += w.sent;

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "skinserve/model/status.h"
+
 namespace skinserve::load {
 
 // The q-quantile (0..1) of `values` by linear interpolation between closest ranks
@@ -44,7 +46,10 @@ struct RunResult {
   std::vector<double> latencies_ms;
   double server_queue_ms_sum = 0, server_compute_ms_sum = 0, server_encode_ms_sum = 0;
   std::map<std::string, uint64_t> errors;  // by gRPC status code name
-  uint64_t checked = 0;                    // frames compared with the float64 reference
+  // By code: the first error's message, so that a report says why, not only how often.
+  std::map<std::string, std::string> error_examples;
+  void CountError(const Status& status, uint64_t n = 1);
+  uint64_t checked = 0;  // frames compared with the float64 reference
   uint64_t mismatches = 0;
   uint64_t sent = 0;     // frames sent in the measured part (open loop: on schedule)
   uint64_t late = 0;     // open loop: answered after their deadline

@@ -67,8 +67,8 @@ class FramePath final : public StreamPath {
 
   Settled Settle(const InFlight& head, StreamSession& session) override {
     if (result_.frame != head.frame) {
-      result_.status = Internal(
-          fmt::format("frame {} answered where frame {} was due", result_.frame, head.frame));
+      result_.status = Internal(fmt::format("frame {} answered where frame {} was due ({})",
+                                            result_.frame, head.frame, result_.status.ToString()));
     }
     // NOT_FOUND: the server lost the mesh (evicted, or a replica that never had it).
     if (result_.status.code() == StatusCode::kNotFound) {

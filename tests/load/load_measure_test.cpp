@@ -113,6 +113,23 @@ TEST(StabilityTest, TheLastThreeWindowsMustAgreeInThroughputAndLatency) {
   EXPECT_TRUE(LastWindowsAgree(w, 13, 99));
 }
 
+// Errors are counted by code, and the first message of each code is kept (the table prints
+// it under the rows), also across merged windows.
+TEST(MergeResultsTest, KeepsTheFirstMessageOfEachErrorCode) {
+  RunResult a, b;
+  a.CountError(Internal("first internal"));
+  a.CountError(Internal("second internal"));
+  b.CountError(Internal("third internal"));
+  b.CountError(NotFound("lost mesh"), 3);
+  EXPECT_EQ(a.errors.at("INTERNAL"), 2u);
+  EXPECT_EQ(a.error_examples.at("INTERNAL"), "first internal");
+  const RunResult m = MergeResults({a, b});
+  EXPECT_EQ(m.errors.at("INTERNAL"), 3u);
+  EXPECT_EQ(m.errors.at("NOT_FOUND"), 3u);
+  EXPECT_EQ(m.error_examples.at("INTERNAL"), "first internal");
+  EXPECT_EQ(m.error_examples.at("NOT_FOUND"), "lost mesh");
+}
+
 TEST(MergeResultsTest, AddsCountsAndPoolsLatencies) {
   RunResult a = Window(10, 1, 5), b = Window(30, 2, 7);
   a.errors["UNAVAILABLE"] = 1;
