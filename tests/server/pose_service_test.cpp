@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "pose_reference.h"
+#include "skinserve/client/frame_stream.h"
 #include "skinserve/client/tick.h"
 #include "skinserve/model/palette.h"
 #include "skinserve/reference/synthetic.h"
@@ -376,6 +377,54 @@ TEST(PoseServiceTest, TheClientLibrarySendsPoses) {
   const Status gone = t.client->SkinPose(
       rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = walk}, 6, {}, &frame);
   EXPECT_EQ(gone.code(), StatusCode::kNotFound) << gone.ToString();
+}
+
+// StreamFrames with StreamOptions::pose: a frame whose pose is set carries it (the palette
+// source is not asked for it), a frame whose pose is empty carries the palette; every
+// answer checked against the float64 reference of what that frame sent.
+TEST(PoseServiceTest, StreamFramesSendsEachFramesPoseOrPalette) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  const std::vector<float> palette = MakeSyntheticPalette(kJoints, 4, 2);
+  const auto is_palette_frame = [](uint64_t f) { return f % 3 == 2; };
+  // Off keys: the server's float32 time and the reference's agree on every STEP track.
+  const auto time_of = [](uint64_t f) { return static_cast<float>(0.1371 * f + 0.05); };
+  client::PoseLayer layer{.clip_id = rig.clip_id};
+  client::StreamOptions options{
+      .mesh_id = rig.mesh_id, .backend = "serial", .frames = 9, .window = 3};
+  options.pose = [&](uint64_t f) {
+    if (is_palette_frame(f)) return client::Pose{};
+    layer.time = time_of(f);
+    return client::Pose{.skeleton_id = rig.skeleton_id, .layers = {&layer, 1}};
+  };
+  std::vector<uint64_t> palettes_asked;
+  std::map<uint64_t, std::vector<float>> got;
+  client::StreamSummary summary;
+  const Status s = client::StreamFrames(
+      *t.client, options,
+      [&](uint64_t f) {
+        palettes_asked.push_back(f);
+        return std::span<const float>(palette);
+      },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) {
+        EXPECT_TRUE(r.status.ok()) << "frame " << r.frame << ": " << r.status.ToString();
+        got[r.frame] = r.positions;
+      },
+      &summary);
+  ASSERT_TRUE(s.ok()) << s.ToString();
+  EXPECT_EQ(summary.answered, 9u);
+  EXPECT_EQ(palettes_asked, (std::vector<uint64_t>{2, 5, 8}));
+  ASSERT_EQ(got.size(), 9u);
+  const std::vector<double> palette64(palette.begin(), palette.end());
+  for (const auto& [f, positions] : got) {
+    const std::string what = "streamed frame " + std::to_string(f);
+    ExpectPositionsNear(
+        rig.mesh, positions,
+        RefSkinPositions(rig.mesh, is_palette_frame(f)
+                                       ? palette64
+                                       : RefBlendedPalette(rig.c, {{.time = time_of(f)}})),
+        what);
+  }
 }
 
 // The status of a one-frame pose request after `edit`.
