@@ -197,6 +197,22 @@ TEST(AnimateOnServerTest, EveryFrameMatchesTheFloat64CharacterWithAndWithoutOnSe
     CheckCharacter(t, label, path, scene.clip.duration + 0.3, SceneReference(scene, path));
     std::filesystem::remove(path);
   }
+  // `skinserve-cli stats` prints the animation store GetServerStats reports.
+  auto stats = t.client->GetServerStats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_GE(stats->clips(), 6u);  // one per character at least
+  const std::string log = ::testing::TempDir() + "animate-stats-" + std::to_string(getpid());
+  ASSERT_EQ(
+      std::system((std::string(SKINSERVE_CLI_BINARY) + " --target " + t.target + " stats > " + log)
+                      .c_str()),
+      0);
+  std::ifstream in(log);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::ostringstream line;
+  line << "animation: skeletons " << stats->skeletons() << " and clips " << stats->clips()
+       << " using " << stats->clip_bytes() << " of " << stats->clip_budget_bytes() << " bytes\n";
+  EXPECT_NE(text.find(line.str()), std::string::npos) << text;
+  std::filesystem::remove(log);
 }
 
 TEST(AnimateOnServerTest, AClipTheFileLacksIsNamedBeforeAnythingIsUploaded) {

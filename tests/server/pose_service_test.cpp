@@ -554,6 +554,41 @@ TEST(PoseServiceTest, BadUploadsAreNamedAndStoreNothing) {
   EXPECT_LE(4 * info.bytes(), info.raw_bytes()) << info.bytes() << " of " << info.raw_bytes();
 }
 
+// GetServerStats reports the animation store: what is held, the bytes the uploads said
+// they were charged (SkeletonInfo.bytes + ClipInfo.bytes), and the budget asked for; the
+// same content again changes nothing, a deleted clip gives its bytes back.
+TEST(PoseServiceTest, ServerStatsReportTheAnimationStore) {
+  server::ServerOptions options;
+  options.clip_budget_mb = 3;
+  TestServer t(options);
+  auto& c = *t.client;
+  const auto expect_store = [&](uint64_t skeletons, uint64_t clips, uint64_t bytes,
+                                const std::string& when) {
+    auto stats = c.GetServerStats();
+    ASSERT_TRUE(stats.ok()) << stats.status().ToString();
+    EXPECT_EQ(stats->skeletons(), skeletons) << when;
+    EXPECT_EQ(stats->clips(), clips) << when;
+    EXPECT_EQ(stats->clip_bytes(), bytes) << when;
+    EXPECT_EQ(stats->clip_budget_bytes(), 3u << 20) << when;
+  };
+  expect_store(0, 0, 0, "empty");
+  const PoseCase pc = SyntheticCase(kJoints);
+  auto skeleton = c.UploadSkeleton(pc.skeleton);
+  ASSERT_TRUE(skeleton.ok()) << skeleton.status().ToString();
+  auto clip = c.UploadClip(pc.raw, skeleton->skeleton_id());
+  ASSERT_TRUE(clip.ok()) << clip.status().ToString();
+  ASSERT_GT(skeleton->bytes(), 0u);
+  ASSERT_GT(clip->bytes(), 0u);
+  const uint64_t both = skeleton->bytes() + clip->bytes();
+  expect_store(1, 1, both, "a skeleton and a clip");
+  auto again = c.UploadClip(pc.raw, skeleton->skeleton_id());
+  ASSERT_TRUE(again.ok() && again->already_stored());
+  expect_store(1, 1, both, "the same clip again");
+  auto deleted = c.DeleteClip(clip->clip_id());
+  ASSERT_TRUE(deleted.ok() && *deleted);
+  expect_store(1, 0, skeleton->bytes(), "the clip deleted");
+}
+
 TEST(PoseServiceTest, ClipsOverTheBudgetAreRefusedWhole) {
   server::ServerOptions options;
   options.clip_budget_mb = 1;
