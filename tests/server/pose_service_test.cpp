@@ -379,6 +379,11 @@ TEST(PoseServiceTest, TheClientLibrarySendsPoses) {
   EXPECT_EQ(gone.code(), StatusCode::kNotFound) << gone.ToString();
 }
 
+void ExpectNamed(const Status& s, StatusCode code, const std::string& text) {
+  EXPECT_EQ(s.code(), code) << s.ToString();
+  EXPECT_NE(s.message().find(text), std::string::npos) << s.message();
+}
+
 // StreamFrames with StreamOptions::pose: a frame whose pose is set carries it (the palette
 // source is not asked for it), a frame whose pose is empty carries the palette; every
 // answer checked against the float64 reference of what that frame sent.
@@ -425,6 +430,22 @@ TEST(PoseServiceTest, StreamFramesSendsEachFramesPoseOrPalette) {
                                        : RefBlendedPalette(rig.c, {{.time = time_of(f)}})),
         what);
   }
+  // A clip the server no longer holds: each pose frame fails NOT_FOUND naming it (after
+  // the stream's re-uploads of the mesh, which cannot bring a clip back), none hangs.
+  ASSERT_TRUE(*t.client->DeleteClip(rig.clip_id));
+  options.frames = 2;
+  options.pose = [&](uint64_t) {
+    return client::Pose{.skeleton_id = rig.skeleton_id, .layers = {&layer, 1}};
+  };
+  std::vector<Status> failed;
+  const Status gone = client::StreamFrames(
+      *t.client, options, [&](uint64_t) { return std::span<const float>(palette); },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) { failed.push_back(r.status); });
+  EXPECT_TRUE(gone.ok()) << gone.ToString();
+  ASSERT_EQ(failed.size(), 2u);
+  for (const Status& f : failed) {
+    ExpectNamed(f, StatusCode::kNotFound, "pose.layers[0].clip_id '" + rig.clip_id + "'");
+  }
 }
 
 // The status of a one-frame pose request after `edit`.
@@ -433,11 +454,6 @@ Status PoseStatus(client::SkinClient& client, const Rig& rig,
   v1::SkinRequest request = PoseRequest(rig, {{.time = 0.5}, {.time = 1.0}});
   edit(&request);
   return SkinRaw(client, request).status;
-}
-
-void ExpectNamed(const Status& s, StatusCode code, const std::string& text) {
-  EXPECT_EQ(s.code(), code) << s.ToString();
-  EXPECT_NE(s.message().find(text), std::string::npos) << s.message();
 }
 
 TEST(PoseServiceTest, BadPosesAreNamed) {
