@@ -1,7 +1,9 @@
 // skinserve-cli animate: a glTF character's clip, skinned by the server frame by frame,
 // written as OBJ meshes and optionally PNG images and a contact sheet. The whole character:
 // one mesh per skin (its primitives concatenated), one stream per mesh, one OBJ (a group
-// per primitive) and one image per frame.
+// per primitive) and one image per frame. With --on-server the client samples nothing: it
+// uploads each mesh's skeleton and clip once and every frame names the clip and its time
+// (docs/serving/animation.md); the server samples the pose and makes the palette.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -22,6 +24,7 @@
 #include "rest_encoding_option.h"
 #include "skinserve/character/animation.h"
 #include "skinserve/character/character_mesh.h"
+#include "skinserve/character/rig.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/render/character_camera.h"
@@ -47,6 +50,7 @@ struct AnimateOptions {
   int window = 4;
   int sheet_frames = 8;
   render::SheetOptions sheet;
+  bool on_server = false;  // poses sampled by the server from the uploaded clip
 };
 
 Status CheckOptions(const AnimateOptions& o) {
@@ -134,6 +138,9 @@ struct Scene {
   const AnimationClip* clip = nullptr;
   uint64_t frames = 0;
   std::optional<render::Camera> camera;  // --render
+  // --on-server: each mesh's skeleton (MeshPalette's entries) and the clip on its joints.
+  std::vector<Rig> rigs;
+  std::vector<animation::RawClip> raw_clips;
 
   // Frame i's palette for `mesh`: sampled as frames are sent (a long clip of a big skeleton
   // would not fit in memory).
@@ -141,6 +148,20 @@ struct Scene {
     return MeshPalette(character, SampleClip(character, *clip, i / fps), mesh);
   }
 };
+
+// --on-server: each mesh's rig and the clip's channels on it, before anything is uploaded.
+Status BuildRigs(Scene* scene) {
+  for (const CharacterMesh& mesh : scene->meshes) {
+    auto rig = RigFromMesh(scene->character, mesh);
+    if (!rig.ok()) {
+      return Status(rig.status().code(),
+                    fmt::format("--on-server: {}: {}", mesh.name, rig.status().message()));
+    }
+    scene->raw_clips.push_back(RawClipFromCharacter(*scene->clip, *rig));
+    scene->rigs.push_back(*std::move(rig));
+  }
+  return Status::Ok();
+}
 
 Result<std::unique_ptr<Scene>> LoadScene(const AnimateOptions& o) {
   auto scene = std::make_unique<Scene>();  // the clip points into its character: never moved
@@ -165,6 +186,9 @@ Result<std::unique_ptr<Scene>> LoadScene(const AnimateOptions& o) {
   for (const CharacterMesh& mesh : scene->meshes) {
     if (auto first = scene->Palette(0, mesh, o.fps); !first.ok()) return first.status();
   }
+  if (o.on_server) {
+    if (Status s = BuildRigs(scene.get()); !s.ok()) return s;
+  }
   if (o.render) {
     const std::vector<Pose> poses =
         render::ClipPoses(scene->character, *scene->clip, o.fps, scene->frames);
@@ -181,6 +205,7 @@ Result<std::unique_ptr<Scene>> LoadScene(const AnimateOptions& o) {
 struct MeshClient {
   std::unique_ptr<client::SkinClient> client;
   std::string mesh_id;
+  std::string skeleton_id, clip_id;  // --on-server
 };
 
 Result<std::vector<MeshClient>> UploadMeshes(const CommonOptions& common, const Scene& scene,
@@ -209,6 +234,31 @@ Result<std::vector<MeshClient>> UploadMeshes(const CommonOptions& common, const 
     fmt::print("  rest stream {}: {}\n", RestEncodingName(rest[m].encoding), rest[m].reason);
   }
   return clients;
+}
+
+// --on-server: each mesh's skeleton and clip, uploaded once (the same content twice is
+// stored once: meshes of one skin share them).
+Status UploadRigs(const Scene& scene, std::vector<MeshClient>& clients) {
+  for (std::size_t m = 0; m < clients.size(); ++m) {
+    const std::string& name = scene.meshes[m].name;
+    auto skeleton = clients[m].client->UploadSkeleton(scene.rigs[m].skeleton);
+    if (!skeleton.ok()) {
+      return Status(skeleton.status().code(),
+                    fmt::format("{}: skeleton: {}", name, skeleton.status().message()));
+    }
+    auto clip = clients[m].client->UploadClip(scene.raw_clips[m], skeleton->skeleton_id());
+    if (!clip.ok()) {
+      return Status(clip.status().code(), fmt::format("{}: clip '{}': {}", name, scene.clip->name,
+                                                      clip.status().message()));
+    }
+    clients[m].skeleton_id = skeleton->skeleton_id();
+    clients[m].clip_id = clip->clip_id();
+    fmt::print("  skeleton {}: {} joints, palette of {}\n", skeleton->skeleton_id(),
+               skeleton->joint_count(), skeleton->palette_size());
+    fmt::print("  clip {}: {} tracks, {} bytes stored ({} float bytes uploaded)\n", clip->clip_id(),
+               clip->tracks(), clip->bytes(), clip->raw_bytes());
+  }
+  return Status::Ok();
 }
 
 // Streams every mesh's frames, one thread each, and writes each frame's files as its last
@@ -260,6 +310,7 @@ class AnimateRun {
   int64_t compute_ns() const { return compute_ns_.load(); }
 
  private:
+  client::StreamOptions StreamOptionsOf(std::size_t m, const MeshClient& mesh_client);
   Status StreamMesh(std::size_t m, MeshClient& mesh_client);
   void Answered(std::size_t m, client::FrameResult& result);
   void WriteFrame(std::vector<client::FrameResult>& parts);
@@ -286,16 +337,22 @@ class AnimateRun {
   double elapsed_ = 0;
 };
 
+client::StreamOptions AnimateRun::StreamOptionsOf(std::size_t m, const MeshClient& mesh_client) {
+  const CharacterMesh& mesh = scene_.meshes[m];
+  return {.mesh_id = mesh_client.mesh_id,
+          .backend = o_.backend,
+          .want_normals = !mesh.arrays.normals.empty(),
+          .method = o_.method,
+          .frames = scene_.frames,
+          .window = o_.window,
+          .stop = &stop_};
+}
+
 Status AnimateRun::StreamMesh(std::size_t m, MeshClient& mesh_client) {
   const CharacterMesh& mesh = scene_.meshes[m];
-  client::StreamOptions stream{.mesh_id = mesh_client.mesh_id,
-                               .backend = o_.backend,
-                               .want_normals = !mesh.arrays.normals.empty(),
-                               .method = o_.method,
-                               .frames = scene_.frames,
-                               .window = o_.window,
-                               .stop = &stop_};
-  // The mesh's morph target weights, sampled with the palette's pose.
+  client::StreamOptions stream = StreamOptionsOf(m, mesh_client);
+  // The mesh's morph target weights, sampled with the palette's pose (also with
+  // --on-server: the server does not apply a clip's weights tracks yet).
   std::vector<MorphWeight> morph;
   if (!mesh.morph_sources.empty()) {
     stream.morph_weights = [&](uint64_t f) {
@@ -303,9 +360,18 @@ Status AnimateRun::StreamMesh(std::size_t m, MeshClient& mesh_client) {
       return std::span<const MorphWeight>(morph);
     };
   }
+  // --on-server: frame f plays the clip at f / fps (clamped at its ends, as SampleClip).
+  client::PoseLayer layer{.clip_id = mesh_client.clip_id};
+  if (o_.on_server) {
+    stream.pose = [&](uint64_t f) {
+      gather_.WaitToSend(f);  // sent even after a stop: its answer is not written
+      layer.time = static_cast<float>(static_cast<double>(f) / o_.fps);
+      return client::Pose{.skeleton_id = mesh_client.skeleton_id, .layers = {&layer, 1}};
+    };
+  }
   return client::StreamFrames(
       *mesh_client.client, stream,
-      [&](uint64_t f) {
+      [&](uint64_t f) {  // not asked for with --on-server
         gather_.WaitToSend(f);
         if (stop_) return std::vector<float>();  // never sent: the stream stops first
         auto palette = scene_.Palette(f, mesh, o_.fps);
@@ -371,10 +437,11 @@ int FinishAnimate(const AnimateOptions& o, const Scene& scene, const AnimateRun&
   }
   const uint64_t frames = scene.frames;
   fmt::print(
-      "{} frames ({:.3f} s at {} fps), {} mesh(es) on {}: {:.2f} s, {:.1f} frames/s with files "
+      "{} frames ({:.3f} s at {} fps), {} mesh(es) on {}{}: {:.2f} s, {:.1f} frames/s with files "
       "written, server compute {:.3f} ms/frame\nwrote {} OBJ frames{} in {}\n",
       frames, static_cast<double>(frames) / o.fps, o.fps, scene.meshes.size(),
-      o.backend.empty() ? "the default backend" : o.backend, run.elapsed(), frames / run.elapsed(),
+      o.backend.empty() ? "the default backend" : o.backend,
+      o.on_server ? ", poses sampled by the server" : "", run.elapsed(), frames / run.elapsed(),
       static_cast<double>(run.compute_ns()) / 1e6 / static_cast<double>(frames), run.written_obj(),
       sheet_note, o.out);
   return 0;
@@ -393,6 +460,9 @@ int Animate(const CommonOptions& common, const AnimateOptions& o) {
   }
   auto clients = UploadMeshes(common, **scene, *asked);
   if (!clients.ok()) return Report(clients.status());
+  if (o.on_server) {
+    if (Status s = UploadRigs(**scene, *clients); !s.ok()) return Report(s);
+  }
   fmt::print("clip '{}' ({:.3f} s)\n", (*scene)->clip->name, (*scene)->clip->duration);
   AnimateRun run(o, **scene);
   if (Status s = run.Run(*clients); !s.ok()) return Report(s);
@@ -432,6 +502,9 @@ void AddAnimateCommand(CLI::App& app, CommonOptions& common) {
       ->capture_default_str();
   command->add_option("--sheet-width", o->sheet.width, "contact sheet width in pixels")
       ->capture_default_str();
+  command->add_flag("--on-server", o->on_server,
+                    "upload each mesh's skeleton and the clip once; frames carry the clip time and "
+                    "the server samples the pose (docs/serving/animation.md)");
   command->callback([&common, o] { common.exit_code = Animate(common, *o); });
 }
 

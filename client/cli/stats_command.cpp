@@ -54,6 +54,8 @@ void AddStatsCommand(CLI::App& app, CommonOptions& common) {
         "registrations refused {}\n",
         stats->regions(), stats->region_bytes(), stats->region_budget_bytes(),
         stats->region_frames(), stats->rejected_regions());
+    fmt::print("animation: skeletons {} and clips {} using {} of {} bytes\n", stats->skeletons(),
+               stats->clips(), stats->clip_bytes(), stats->clip_budget_bytes());
   });
 }
 

@@ -48,7 +48,16 @@ class FramePath final : public StreamPath {
 
   Status Prepare(uint64_t frame, std::size_t slot) override {
     request_.set_frame(frame);
-    wire::EncodeFloats(palette_(frame), request_.mutable_palette());
+    // A pose replaces the palette (the server refuses both set); the field not sent is
+    // cleared, its capacity kept for the next frame that sends it.
+    const Pose pose = options_.pose ? options_.pose(frame) : Pose{};
+    if (pose.empty()) {
+      request_.clear_pose();
+      wire::EncodeFloats(palette_(frame), request_.mutable_palette());
+    } else {
+      request_.mutable_palette()->clear();
+      PoseToWire(pose, &request_);
+    }
     if (options_.morph_weights) wire::MorphWeightsToWire(options_.morph_weights(frame), &request_);
     if (options_.instance_morph_weights) {
       wire::InstanceMorphWeightsToWire(options_.instance_morph_weights(frame), &request_);

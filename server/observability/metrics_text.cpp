@@ -226,6 +226,20 @@ void WriteRegions(Writer& w, const ServerSnapshot& s) {
   }
 }
 
+// The animation store: skeletons and clips uploaded, and their budget.
+void WriteAnimations(Writer& w, const ServerSnapshot& s) {
+  const AnimationStoreStats& a = s.animations;
+  w.Header("skinserve_skeletons", "gauge", "Skeletons stored (UploadSkeleton).");
+  w.Sample("skinserve_skeletons", "", static_cast<double>(a.skeletons));
+  w.Header("skinserve_clips", "gauge", "Animation clips stored (UploadClip).");
+  w.Sample("skinserve_clips", "", static_cast<double>(a.clips));
+  w.Header("skinserve_clip_bytes", "gauge", "Bytes the stored skeletons and clips are charged.");
+  w.Sample("skinserve_clip_bytes", "", static_cast<double>(a.bytes));
+  w.Header("skinserve_clip_budget_bytes", "gauge",
+           "Bytes skeletons and clips may be charged together (--clip-budget-mb).");
+  w.Sample("skinserve_clip_budget_bytes", "", static_cast<double>(a.budget_bytes));
+}
+
 }  // namespace
 
 std::string RenderPrometheusText(const ServerSnapshot& s) {
@@ -236,6 +250,7 @@ std::string RenderPrometheusText(const ServerSnapshot& s) {
   WriteStreamsAndUploads(w, s);
   WriteEngineAndInflight(w, s);
   WriteRegions(w, s);
+  WriteAnimations(w, s);
   // Last: a scrape that ends with it is whole (tests/ops/metrics-test.sh checks that).
   w.Header("skinserve_compute_threads", "gauge", "Compute threads skinning frames.");
   w.Sample("skinserve_compute_threads", "", static_cast<double>(s.engine.compute_threads));

@@ -21,6 +21,14 @@ struct InflightStats {
   uint64_t refused = 0;  // frames refused for want of budget
 };
 
+// The engine's animation store (skeletons and compact clips) and its budget.
+struct AnimationStoreStats {
+  uint64_t skeletons = 0;
+  uint64_t clips = 0;
+  uint64_t bytes = 0;
+  uint64_t budget_bytes = 0;
+};
+
 struct ServerSnapshot {
   std::string version;
   bool serving = false;  // false while starting and while draining
@@ -33,6 +41,7 @@ struct ServerSnapshot {
   EngineStats engine;                                 // empty while starting
   std::map<std::string, BackendFrameMetrics> frames;  // per-frame histograms, by backend
   TickCounts ticks;                                   // ticks and their characters read
+  AnimationStoreStats animations;                     // empty while starting
 };
 
 }  // namespace skinserve::server

@@ -104,6 +104,10 @@ v1::ServerStats ToWire(const ServerSnapshot& s) {
   wire.set_rejected_uploads_budget(u.refused_budget);
   wire.set_cancelled_uploads_idle(u.cancelled_idle);
   wire.set_cancelled_uploads_deadline(u.cancelled_deadline);
+  wire.set_skeletons(s.animations.skeletons);
+  wire.set_clips(s.animations.clips);
+  wire.set_clip_bytes(s.animations.bytes);
+  wire.set_clip_budget_bytes(s.animations.budget_bytes);
   return wire;
 }
 

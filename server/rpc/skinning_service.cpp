@@ -110,7 +110,12 @@ ServerSnapshot SkinningService::Snapshot() const {
   s.uploads = open_uploads_.Stats();
   s.shared_memory = regions_ != nullptr;
   if (regions_ != nullptr) s.regions = regions_->Stats();
-  if (const Engine* engine = engine_.load()) s.engine = engine->Stats();
+  if (const Engine* engine = engine_.load()) {
+    s.engine = engine->Stats();
+    const animation::AnimationStore& store = engine->animations();
+    s.animations = {store.skeleton_count(), store.clip_count(), store.bytes(),
+                    store.budget_bytes()};
+  }
   if (const FrameMetrics* frames = FrameMetrics::Installed()) s.frames = frames->Snapshot();
   s.ticks = TickTotals();
   return s;

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # End to end with real glTF characters: a skinserve server on a free loopback port,
 #   skinserve-cli animate CesiumMan.glb --render   OBJ and PNG per frame and a contact sheet
+#   skinserve-cli animate --on-server --render     the same files, poses sampled by the server
 #   skinserve-cli animate --clip <unknown>         non-zero exit, the file's clips listed
 #   skinserve-load --mesh RiggedSimple.glb         two backends, answers checked, exit 0
 #   a hand-made character with two skins (skinserve-test-scene two-skins):
@@ -96,6 +97,24 @@ assert size(out + "/frame_0000.png") == (640, 640), size(out + "/frame_0000.png"
 w, h = size(out + "/contact-sheet.png")
 assert w == 1024 and h > 0, (w, h)
 PY
+
+# ---- the same with --on-server: the server samples the uploaded clip ---------------------
+# (every vertex against float64: tests/character/animate_on_server_test.cpp; here the files)
+say "skinserve-cli animate CesiumMan.glb --on-server --render"
+timeout 120 "$cli" --target "$target" animate "$assets/CesiumMan.glb" --seconds 0.5 --fps 10 \
+  --backend sse --render --on-server --out "$work/server" >"$work/server.txt" ||
+  fail "animate --on-server exited $?"
+grep -q '^  clip [0-9a-f]\{64\}: .* bytes stored' "$work/server.txt" ||
+  fail "animate --on-server uploaded no clip: $(cat "$work/server.txt")"
+for i in 0 1 2 3 4; do
+  for ext in obj png; do
+    [ -s "$work/server/frame_000$i.$ext" ] || fail "--on-server frame_000$i.$ext missing or empty"
+  done
+done
+[ ! -e "$work/server/frame_0005.obj" ] || fail "--on-server wrote more frames than 0.5 s at 10 fps"
+[ -s "$work/server/contact-sheet.png" ] || fail "--on-server contact-sheet.png missing"
+vertices=$(grep -c '^v ' "$work/server/frame_0004.obj")
+[ "$vertices" -eq 3273 ] || fail "--on-server frame_0004.obj has $vertices vertices, not 3273"
 
 # ---- a clip the file does not have -------------------------------------------------------
 say "skinserve-cli animate --clip NoSuchClip"

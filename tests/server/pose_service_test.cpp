@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "pose_reference.h"
+#include "skinserve/client/frame_stream.h"
 #include "skinserve/client/tick.h"
 #include "skinserve/model/palette.h"
 #include "skinserve/reference/synthetic.h"
@@ -378,17 +379,81 @@ TEST(PoseServiceTest, TheClientLibrarySendsPoses) {
   EXPECT_EQ(gone.code(), StatusCode::kNotFound) << gone.ToString();
 }
 
+void ExpectNamed(const Status& s, StatusCode code, const std::string& text) {
+  EXPECT_EQ(s.code(), code) << s.ToString();
+  EXPECT_NE(s.message().find(text), std::string::npos) << s.message();
+}
+
+// StreamFrames with StreamOptions::pose: a frame whose pose is set carries it (the palette
+// source is not asked for it), a frame whose pose is empty carries the palette; every
+// answer checked against the float64 reference of what that frame sent.
+TEST(PoseServiceTest, StreamFramesSendsEachFramesPoseOrPalette) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  const std::vector<float> palette = MakeSyntheticPalette(kJoints, 4, 2);
+  const auto is_palette_frame = [](uint64_t f) { return f % 3 == 2; };
+  // Off keys: the server's float32 time and the reference's agree on every STEP track.
+  const auto time_of = [](uint64_t f) { return static_cast<float>(0.1371 * f + 0.05); };
+  client::PoseLayer layer{.clip_id = rig.clip_id};
+  client::StreamOptions options{
+      .mesh_id = rig.mesh_id, .backend = "serial", .frames = 9, .window = 3};
+  options.pose = [&](uint64_t f) {
+    if (is_palette_frame(f)) return client::Pose{};
+    layer.time = time_of(f);
+    return client::Pose{.skeleton_id = rig.skeleton_id, .layers = {&layer, 1}};
+  };
+  std::vector<uint64_t> palettes_asked;
+  std::map<uint64_t, std::vector<float>> got;
+  client::StreamSummary summary;
+  const Status s = client::StreamFrames(
+      *t.client, options,
+      [&](uint64_t f) {
+        palettes_asked.push_back(f);
+        return std::span<const float>(palette);
+      },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) {
+        EXPECT_TRUE(r.status.ok()) << "frame " << r.frame << ": " << r.status.ToString();
+        got[r.frame] = r.positions;
+      },
+      &summary);
+  ASSERT_TRUE(s.ok()) << s.ToString();
+  EXPECT_EQ(summary.answered, 9u);
+  EXPECT_EQ(palettes_asked, (std::vector<uint64_t>{2, 5, 8}));
+  ASSERT_EQ(got.size(), 9u);
+  const std::vector<double> palette64(palette.begin(), palette.end());
+  for (const auto& [f, positions] : got) {
+    const std::string what = "streamed frame " + std::to_string(f);
+    ExpectPositionsNear(
+        rig.mesh, positions,
+        RefSkinPositions(rig.mesh, is_palette_frame(f)
+                                       ? palette64
+                                       : RefBlendedPalette(rig.c, {{.time = time_of(f)}})),
+        what);
+  }
+  // A clip the server no longer holds: each pose frame fails NOT_FOUND naming it (after
+  // the stream's re-uploads of the mesh, which cannot bring a clip back), none hangs.
+  ASSERT_TRUE(*t.client->DeleteClip(rig.clip_id));
+  options.frames = 2;
+  options.pose = [&](uint64_t) {
+    return client::Pose{.skeleton_id = rig.skeleton_id, .layers = {&layer, 1}};
+  };
+  std::vector<Status> failed;
+  const Status gone = client::StreamFrames(
+      *t.client, options, [&](uint64_t) { return std::span<const float>(palette); },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) { failed.push_back(r.status); });
+  EXPECT_TRUE(gone.ok()) << gone.ToString();
+  ASSERT_EQ(failed.size(), 2u);
+  for (const Status& f : failed) {
+    ExpectNamed(f, StatusCode::kNotFound, "pose.layers[0].clip_id '" + rig.clip_id + "'");
+  }
+}
+
 // The status of a one-frame pose request after `edit`.
 Status PoseStatus(client::SkinClient& client, const Rig& rig,
                   const std::function<void(v1::SkinRequest*)>& edit) {
   v1::SkinRequest request = PoseRequest(rig, {{.time = 0.5}, {.time = 1.0}});
   edit(&request);
   return SkinRaw(client, request).status;
-}
-
-void ExpectNamed(const Status& s, StatusCode code, const std::string& text) {
-  EXPECT_EQ(s.code(), code) << s.ToString();
-  EXPECT_NE(s.message().find(text), std::string::npos) << s.message();
 }
 
 TEST(PoseServiceTest, BadPosesAreNamed) {
@@ -503,6 +568,41 @@ TEST(PoseServiceTest, BadUploadsAreNamedAndStoreNothing) {
   EXPECT_EQ(info.clip_id(), rig.clip_id);
   // Stored at a quarter of its float bytes or less.
   EXPECT_LE(4 * info.bytes(), info.raw_bytes()) << info.bytes() << " of " << info.raw_bytes();
+}
+
+// GetServerStats reports the animation store: what is held, the bytes the uploads said
+// they were charged (SkeletonInfo.bytes + ClipInfo.bytes), and the budget asked for; the
+// same content again changes nothing, a deleted clip gives its bytes back.
+TEST(PoseServiceTest, ServerStatsReportTheAnimationStore) {
+  server::ServerOptions options;
+  options.clip_budget_mb = 3;
+  TestServer t(options);
+  auto& c = *t.client;
+  const auto expect_store = [&](uint64_t skeletons, uint64_t clips, uint64_t bytes,
+                                const std::string& when) {
+    auto stats = c.GetServerStats();
+    ASSERT_TRUE(stats.ok()) << stats.status().ToString();
+    EXPECT_EQ(stats->skeletons(), skeletons) << when;
+    EXPECT_EQ(stats->clips(), clips) << when;
+    EXPECT_EQ(stats->clip_bytes(), bytes) << when;
+    EXPECT_EQ(stats->clip_budget_bytes(), 3u << 20) << when;
+  };
+  expect_store(0, 0, 0, "empty");
+  const PoseCase pc = SyntheticCase(kJoints);
+  auto skeleton = c.UploadSkeleton(pc.skeleton);
+  ASSERT_TRUE(skeleton.ok()) << skeleton.status().ToString();
+  auto clip = c.UploadClip(pc.raw, skeleton->skeleton_id());
+  ASSERT_TRUE(clip.ok()) << clip.status().ToString();
+  ASSERT_GT(skeleton->bytes(), 0u);
+  ASSERT_GT(clip->bytes(), 0u);
+  const uint64_t both = skeleton->bytes() + clip->bytes();
+  expect_store(1, 1, both, "a skeleton and a clip");
+  auto again = c.UploadClip(pc.raw, skeleton->skeleton_id());
+  ASSERT_TRUE(again.ok() && again->already_stored());
+  expect_store(1, 1, both, "the same clip again");
+  auto deleted = c.DeleteClip(clip->clip_id());
+  ASSERT_TRUE(deleted.ok() && *deleted);
+  expect_store(1, 0, skeleton->bytes(), "the clip deleted");
 }
 
 TEST(PoseServiceTest, ClipsOverTheBudgetAreRefusedWhole) {

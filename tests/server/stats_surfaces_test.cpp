@@ -174,6 +174,11 @@ TEST(StatsSurfacesTest, GetServerStatsAndMetricsShowTheSameSnapshot) {
          stats->cancelled_uploads_idle());
   expect("skinserve_upload_refusals_total{reason=\"upload_deadline\"}",
          stats->cancelled_uploads_deadline());
+  expect("skinserve_skeletons", stats->skeletons());
+  expect("skinserve_clips", stats->clips());
+  expect("skinserve_clip_bytes", stats->clip_bytes());
+  expect("skinserve_clip_budget_bytes", stats->clip_budget_bytes());
+  EXPECT_GT(stats->clip_budget_bytes(), 0u);
 
   // And the other way round: every family /metrics serves was compared above.
   std::set<std::string> families;

@@ -99,7 +99,14 @@ def test_bad_poses_are_named(client, rng):
             skeleton_id, [skinserve.PoseLayer(info.clip_id, 0.1, weight=-1)]))
     assert e.value.code == grpc.StatusCode.INVALID_ARGUMENT
     assert "pose.layers[0].weight = -1" in e.value.message
+    # stats() reports the animation store: deleting the clip gives its bytes back.
+    before = client.stats()
+    assert before["skeletons"] >= 1 and before["clips"] >= 1
     assert client.delete_clip(info.clip_id)
+    after = client.stats()
+    assert after["clips"] == before["clips"] - 1
+    assert after["clip_bytes"] == before["clip_bytes"] - info.bytes
+    assert after["clip_budget_bytes"] == before["clip_budget_bytes"] > 0
     assert not client.delete_clip(info.clip_id)
 
 

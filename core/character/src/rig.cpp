@@ -21,17 +21,14 @@ animation::Transform ToTransform(const CharacterNode& n) {
   return t;
 }
 
-}  // namespace
-
-Result<Rig> RigFromSkin(const Character& character, int skin) {
-  if (skin < 0 || static_cast<std::size_t>(skin) >= character.skins.size()) {
-    return InvalidArgument(fmt::format("skin {} is not a skin of the character (it has {})", skin,
-                                       character.skins.size()));
-  }
-  const CharacterSkin& s = character.skins[static_cast<std::size_t>(skin)];
+// The skeleton of `palette_nodes` and their ancestors (an armature node above them moves
+// them too), parents before children; palette entry p is palette_nodes[p] with
+// inverse_bind[p].
+Result<Rig> RigOfNodes(const Character& character, const std::vector<int>& palette_nodes,
+                       std::vector<animation::Affine> inverse_bind) {
   const std::size_t n = character.nodes.size();
   std::vector<bool> wanted(n, false);
-  for (int joint : s.joints) {
+  for (int joint : palette_nodes) {
     for (int k = joint; k >= 0 && !wanted[static_cast<std::size_t>(k)];
          k = character.nodes[static_cast<std::size_t>(k)].parent) {
       wanted[static_cast<std::size_t>(k)] = true;
@@ -59,9 +56,20 @@ Result<Rig> RigFromSkin(const Character& character, int skin) {
   for (std::size_t i = 0; i < n; ++i) {
     if (wanted[i] && character.nodes[i].parent < 0) visit(static_cast<int>(i), -1);
   }
-  for (std::size_t p = 0; p < s.joints.size(); ++p) {
+  for (int node : palette_nodes) {
     rig.skeleton.palette_joints.push_back(
-        static_cast<uint16_t>(joint_of[static_cast<std::size_t>(s.joints[p])]));
+        static_cast<uint16_t>(joint_of[static_cast<std::size_t>(node)]));
+  }
+  rig.skeleton.inverse_bind = std::move(inverse_bind);
+  if (Status st = animation::ValidateSkeleton(rig.skeleton); !st.ok()) return st;
+  return rig;
+}
+
+// The skin's inverse bind matrices as 3x4 row-major affines; INVALID_ARGUMENT naming the
+// first whose last row is not 0 0 0 1.
+Result<std::vector<animation::Affine>> SkinInverseBinds(const CharacterSkin& s, int skin) {
+  std::vector<animation::Affine> out;
+  for (std::size_t p = 0; p < s.joints.size(); ++p) {
     const glm::mat4& m = s.inverse_bind[p];  // column-major
     if (std::fabs(m[0][3]) > 1e-4f || std::fabs(m[1][3]) > 1e-4f || std::fabs(m[2][3]) > 1e-4f ||
         std::fabs(m[3][3] - 1) > 1e-4f) {
@@ -72,12 +80,54 @@ Result<Rig> RigFromSkin(const Character& character, int skin) {
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 4; ++c) a.m[4 * r + c] = m[c][r];
     }
-    rig.skeleton.inverse_bind.push_back(a);
+    out.push_back(a);
   }
-  if (Status st = animation::ValidateSkeleton(rig.skeleton); !st.ok()) return st;
-  return rig;
+  return out;
 }
 
+Status CheckSkin(const Character& character, int skin) {
+  if (skin < 0 || static_cast<std::size_t>(skin) >= character.skins.size()) {
+    return InvalidArgument(fmt::format("skin {} is not a skin of the character (it has {})", skin,
+                                       character.skins.size()));
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<Rig> RigFromSkin(const Character& character, int skin) {
+  if (Status s = CheckSkin(character, skin); !s.ok()) return s;
+  const CharacterSkin& s = character.skins[static_cast<std::size_t>(skin)];
+  auto inverse_bind = SkinInverseBinds(s, skin);
+  if (!inverse_bind.ok()) return inverse_bind.status();
+  return RigOfNodes(character, s.joints, *std::move(inverse_bind));
+}
+
+Result<Rig> RigFromMesh(const Character& character, const CharacterMesh& mesh) {
+  std::vector<int> nodes;
+  std::vector<animation::Affine> inverse_bind;
+  if (mesh.skin >= 0) {
+    if (Status s = CheckSkin(character, mesh.skin); !s.ok()) return s;
+    const CharacterSkin& s = character.skins[static_cast<std::size_t>(mesh.skin)];
+    auto binds = SkinInverseBinds(s, mesh.skin);
+    if (!binds.ok()) return binds.status();
+    nodes = s.joints;
+    inverse_bind = *std::move(binds);
+  }
+  for (int node : mesh.rigid_nodes) {
+    if (node < 0 || static_cast<std::size_t>(node) >= character.nodes.size()) {
+      return InvalidArgument(
+          fmt::format("{}: rigid node {} is not a node of the character", mesh.name, node));
+    }
+    nodes.push_back(node);
+    inverse_bind.emplace_back();  // the rigid part's vertices are in its node's space
+  }
+  if (nodes.empty()) {
+    return InvalidArgument(
+        fmt::format("{}: no skin and no rigid part: nothing to pose", mesh.name));
+  }
+  return RigOfNodes(character, nodes, std::move(inverse_bind));
+}
 animation::RawClip RawClipFromCharacter(const AnimationClip& clip, const Rig& rig) {
   animation::RawClip raw;
   raw.name = clip.name;

@@ -13,6 +13,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "skinserve/client/pose.h"
 #include "skinserve/client/skin_client.h"
 
 namespace skinserve::client {
@@ -51,6 +52,11 @@ struct StreamOptions {
   // Crowds: frame f's weights per instance, one entry per instance (valid until the next
   // call), instead of morph_weights; empty function: none.
   std::function<std::span<const std::vector<MorphWeight>>(uint64_t frame)> instance_morph_weights;
+  // Frame f's pose (docs/serving/animation.md#pose; its skeleton id and layers valid until
+  // the next call): a pose that is not empty goes instead of a palette, and the palette
+  // source is not asked for that frame; an empty pose, or an empty function, sends the
+  // palette. A pose is one character's: instances must be 1.
+  std::function<Pose(uint64_t frame)> pose;
 };
 
 // Gives frame f's palette (12 * joints * instances floats). Best without waste: a callable

@@ -25,7 +25,7 @@ def stats(s: pb.ServerStats) -> Dict[str, Any]:
         "queue_depth", "queue_capacity", "compute_threads", "meshes", "mesh_bytes",
         "mesh_budget_bytes", "evictions", "rejected_queue_full", "open_streams",
         "regions", "region_bytes", "region_budget_bytes", "region_frames",
-        "rejected_regions")}
+        "rejected_regions", "skeletons", "clips", "clip_bytes", "clip_budget_bytes")}
     out["backends"] = {b.id: {"frames": b.frames, "vertices": b.vertices,
                               "errors": b.errors, "compute_ns_total": b.compute_ns_total}
                        for b in s.backends}

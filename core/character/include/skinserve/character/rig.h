@@ -7,6 +7,7 @@
 #include "skinserve/animation/raw_clip.h"
 #include "skinserve/animation/skeleton.h"
 #include "skinserve/character/character.h"
+#include "skinserve/character/character_mesh.h"
 #include "skinserve/model/status.h"
 
 namespace skinserve {
@@ -20,6 +21,12 @@ struct Rig {
 // parents before children; palette entry p is skin.joints[p] with its inverse bind.
 // INVALID_ARGUMENT for a bad skin index or an inverse bind that is not affine.
 Result<Rig> RigFromSkin(const Character& character, int skin);
+
+// The rig whose palette is MeshPalette's for `mesh`: its skin's joints with their inverse
+// binds (none for skin -1), then its rigid nodes with the identity (their vertices are in
+// the node's space), with every ancestor of them. INVALID_ARGUMENT naming the mesh when it
+// has neither, or as RigFromSkin.
+Result<Rig> RigFromMesh(const Character& character, const CharacterMesh& mesh);
 
 // The clip's channels on the rig's joints and its morph weights channels (target: the
 // glTF node). Channels on nodes outside the rig (rigid parts' nodes) are left out.
