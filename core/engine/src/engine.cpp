@@ -351,7 +351,6 @@ class Engine::Impl {
                   .has_normals = mesh.has_normals(),
                   .has_tangents = mesh.has_tangents(),
                   .morph_target_count = mesh.morph_target_count(),
-                  .backend_tangents = backends_[*backend_index]->info().tangents,
                   .backend_encodings = EncodingMask(backends_[*backend_index]->info()),
                   .backend_box_scratch = backends_[*backend_index]->info().encoded_box_scratch};
     return Status::Ok();

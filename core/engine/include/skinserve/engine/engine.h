@@ -127,7 +127,6 @@ struct FramePlan {
   bool has_normals = false;
   bool has_tangents = false;
   uint32_t morph_target_count = 0;
-  bool backend_tangents = false;  // the backend skins tangents (BackendInfo::tangents)
   // Bit e set: the backend writes VertexEncoding e itself (BackendInfo::encoded_outputs).
   uint32_t backend_encodings = 0;
   // The backend keeps snorm16 positions as floats in EncodedOutput::box_scratch
