@@ -110,6 +110,7 @@ void StreamSkinReactor::OnFrameDone(StreamAnswer* job) {
   {
     std::lock_guard lock(mutex_);
     job->set_done();
+    if (oldest_written_ && job == &Slot(oldest_)) RetireOldestLocked();
     PumpLocked();
   }
   Unref();
@@ -124,13 +125,12 @@ void StreamSkinReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mutex_);
   writing_ = false;
   Slot(oldest_).PartWritten();
-  if (writing_last_part_) {  // the oldest frame is answered: its job is free again
+  if (writing_last_part_) {  // the oldest frame is answered: its job is free once done
     writing_last_part_ = false;
-    if (!ticks_.Recycle(&Slot(oldest_)))
-      idle_jobs_.push_back(static_cast<FrameJob*>(&Slot(oldest_)));
-    oldest_ = (oldest_ + 1) % window_;
-    if (--in_flight_ == 0) {
-      quiet_since_.store(std::chrono::steady_clock::now().time_since_epoch().count());
+    if (Slot(oldest_).done()) {
+      RetireOldestLocked();
+    } else {
+      oldest_written_ = true;  // OnFrameDone retires it
     }
   }
   if (!ok) {  // the client is gone: nothing more can be delivered
@@ -138,6 +138,15 @@ void StreamSkinReactor::OnWriteDone(bool ok) {
     return;
   }
   PumpLocked();
+}
+
+void StreamSkinReactor::RetireOldestLocked() {
+  oldest_written_ = false;
+  if (!ticks_.Recycle(&Slot(oldest_))) idle_jobs_.push_back(static_cast<FrameJob*>(&Slot(oldest_)));
+  oldest_ = (oldest_ + 1) % window_;
+  if (--in_flight_ == 0) {
+    quiet_since_.store(std::chrono::steady_clock::now().time_since_epoch().count());
+  }
 }
 
 void StreamSkinReactor::OnCancel() {

@@ -74,7 +74,8 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   FrameJob* TakeIdleJobLocked();
   // The request read is a tick (tick_job.h): it takes the next slot, a window's one frame.
   void StartTickLocked();
-  void PumpLocked();  // starts the next write, the next read or the finish, as due
+  void PumpLocked();          // starts the next write, the next read or the finish, as due
+  void RetireOldestLocked();  // the oldest answer is written and its job done: free its slot
   void FinishLocked(const grpc::Status& status);
   void Unref();
 
@@ -100,6 +101,10 @@ class StreamSkinReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   std::size_t oldest_ = 0;
   std::size_t in_flight_ = 0;
   bool writing_last_part_ = false;  // the write in progress ends the oldest frame
+  // The oldest answer's last part is written but its job is not done yet: a compute thread
+  // publishes a frame's parts before it leaves the job (OnFrameDone), so the slot is freed,
+  // and the job reused, only then.
+  bool oldest_written_ = false;
   std::optional<uint64_t> last_frame_read_;
   bool reading_ = false;
   bool reads_done_ = false;
