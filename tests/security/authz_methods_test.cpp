@@ -2,7 +2,8 @@
 // skinning.proto, walked from its descriptors (so a service or method added there is
 // covered here without editing this test), is refused by a policy that allows nothing but
 // health, naming the method; and a policy naming a method the server does not serve is
-// refused when it loads, naming the rule, the path and what the service has.
+// refused when it loads, naming the rule, the path and what the service has. The example
+// policy decides GpuRegions calls by the caller's certificate.
 #include <gtest/gtest.h>
 
 #include <fmt/format.h>
@@ -93,6 +94,39 @@ TEST(AuthzMethodsTest, EveryMethodOfEveryServiceIsGovernedByThePolicy) {
                           path));
   }
   EXPECT_TRUE(client::CheckHealth(*channel, 5000ms).ok());
+}
+
+// The example policy over mutual TLS decides GpuRegions calls by principal as it does the
+// others: a guest is refused by the policy; the renderer it allows reaches the service,
+// which refuses TCP itself (a descriptor cannot cross TCP).
+TEST(AuthzMethodsTest, TheExamplePolicyDecidesGpuRegionCallsByPrincipal) {
+  const std::string folder = TemporaryFolder("authz-gpu-principals");
+  server::ServerOptions options = QuickServerOptions();
+  UseServerTls(&options, "a", /*mutual=*/true);
+  options.authz_policy = SKINSERVE_EXAMPLE_POLICY;
+  options.gpu_fd_socket = folder + "/fd.sock";
+  auto server = StartServer(options);
+  ASSERT_NE(server, nullptr);
+  int connection = 0;
+  const auto list_as = [&](const std::string& who) {
+    auto stub = v1::GpuRegions::NewStub(client::MakeChannel(
+        "127.0.0.1:" + std::to_string(server->port()), ClientTls("a", who), ++connection));
+    grpc::ClientContext context;
+    v1::ListGpuRegionsResponse list;
+    return stub->ListGpuRegions(&context, {}, &list);
+  };
+  const grpc::Status guest = list_as("guest");
+  EXPECT_EQ(guest.error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_EQ(guest.error_message(),
+            "/skinserve.v1.GpuRegions/ListGpuRegions is not allowed for "
+            "spiffe://skinserve/guest by the authorization policy 'skinserve' (no allow rule "
+            "matches; --authz-policy)");
+  const grpc::Status renderer = list_as("renderer");
+  EXPECT_EQ(renderer.error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_EQ(renderer.error_message().find("authorization policy"), std::string::npos)
+      << renderer.error_message();
+  EXPECT_NE(renderer.error_message().find("not served over TCP"), std::string::npos)
+      << renderer.error_message();
 }
 
 TEST(AuthzMethodsTest, APathNamingNoServedMethodIsRefusedAtLoad) {
