@@ -28,6 +28,11 @@ void ToWire(const GpuRegionInfo& info, v1::GpuRegionInfo* wire) {
 
 }  // namespace
 
+Status GpuRegionService::Authorize(const grpc::CallbackServerContext& context,
+                                   const char* method) const {
+  return server::Authorize(policy_, context, v1::GpuRegions::service_full_name(), method);
+}
+
 Result<GpuRegionInfo> GpuRegionService::Register(const v1::RegisterGpuRegionRequest& request,
                                                  const RegionOwner& owner, Engine& engine) {
   if (request.device_uuid().size() != 16) {
@@ -55,6 +60,7 @@ Result<GpuRegionInfo> GpuRegionService::Register(const v1::RegisterGpuRegionRequ
 grpc::ServerUnaryReactor* GpuRegionService::RegisterGpuRegion(
     grpc::CallbackServerContext* context, const v1::RegisterGpuRegionRequest* request,
     v1::GpuRegionInfo* response) {
+  if (Status s = Authorize(*context, "RegisterGpuRegion"); !s.ok()) return Done(context, s);
   Engine* engine = engine_.load();
   if (engine == nullptr) return Done(context, kWarmingUp);
   const Result<RegionOwner> owner = RegionOwnerOf(*context, access_);
@@ -67,6 +73,7 @@ grpc::ServerUnaryReactor* GpuRegionService::RegisterGpuRegion(
 grpc::ServerUnaryReactor* GpuRegionService::UnregisterGpuRegion(
     grpc::CallbackServerContext* context, const v1::UnregisterGpuRegionRequest* request,
     v1::UnregisterGpuRegionResponse*) {
+  if (Status s = Authorize(*context, "UnregisterGpuRegion"); !s.ok()) return Done(context, s);
   const Result<RegionOwner> owner = RegionOwnerOf(*context, access_);
   if (!owner.ok()) return Done(context, owner.status());
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
@@ -80,6 +87,7 @@ grpc::ServerUnaryReactor* GpuRegionService::UnregisterGpuRegion(
 grpc::ServerUnaryReactor* GpuRegionService::ListGpuRegions(grpc::CallbackServerContext* context,
                                                            const v1::ListGpuRegionsRequest*,
                                                            v1::ListGpuRegionsResponse* response) {
+  if (Status s = Authorize(*context, "ListGpuRegions"); !s.ok()) return Done(context, s);
   const Result<RegionOwner> owner = RegionOwnerOf(*context, access_);
   if (!owner.ok()) return Done(context, owner.status());
   for (const GpuRegionInfo& info : regions_->List(*owner)) ToWire(info, response->add_regions());

@@ -5,7 +5,8 @@
 namespace skinserve::server {
 
 Result<std::unique_ptr<GpuRegionsOnServer>> GpuRegionsOnServer::Start(const ServerOptions& options,
-                                                                      const UnixPeers* peers) {
+                                                                      const UnixPeers* peers,
+                                                                      const PolicyFile* policy) {
   if (options.gpu_fd_socket.empty()) return std::unique_ptr<GpuRegionsOnServer>();
   auto handoff = FdHandoff::Listen(options.gpu_fd_socket);
   if (!handoff.ok()) return handoff.status();
@@ -17,7 +18,7 @@ Result<std::unique_ptr<GpuRegionsOnServer>> GpuRegionsOnServer::Start(const Serv
                       .max_per_owner = options.shm_max_regions_per_connection,
                       .idle_seconds = options.shm_idle_seconds});
   on->service = std::make_unique<GpuRegionService>(on->registry.get(), on->handoff.get(), peers,
-                                                   options.default_backend);
+                                                   policy, options.default_backend);
   spdlog::info("GPU regions on: fds handed over on {}, up to {} MiB imported",
                options.gpu_fd_socket, options.gpu_region_budget_mb);
   return on;

@@ -13,8 +13,10 @@ namespace skinserve::server {
 
 struct GpuRegionsOnServer {
   // Null when --gpu-fd-socket is empty (GPU regions off); else listening, or why not.
+  // `peers` and `policy` (null: no --authz-policy) outlive it.
   static Result<std::unique_ptr<GpuRegionsOnServer>> Start(const ServerOptions& options,
-                                                           const UnixPeers* peers);
+                                                           const UnixPeers* peers,
+                                                           const PolicyFile* policy);
   std::unique_ptr<FdHandoff> handoff;
   std::unique_ptr<GpuRegionRegistry> registry;
   std::unique_ptr<GpuRegionService> service;

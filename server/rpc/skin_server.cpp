@@ -173,7 +173,7 @@ Result<std::shared_ptr<grpc::ServerCredentials>> SkinServer::CreateService(
       options.InflightBudgetBytes(), options.ToUploadLimits(), regions_.get(), policy_.get(),
       RegionAccessPolicy{.unix_peers = &unix_peers_, .over_tcp = options.shm_over_tcp});
   service_->SetRequestLimits(options.ToRequestLimits());
-  auto gpu_regions = GpuRegionsOnServer::Start(options, &unix_peers_);
+  auto gpu_regions = GpuRegionsOnServer::Start(options, &unix_peers_, policy_.get());
   if (!gpu_regions.ok()) return gpu_regions.status();
   gpu_regions_ = std::move(gpu_regions).value();
   if (gpu_regions_) service_->SetGpuRegions(gpu_regions_->registry.get());

@@ -50,10 +50,11 @@ class SkinServer {
   // Builds engine_ and gives it to service_ (and the GPU regions' service); the default
   // backend must be one it has.
   Status StartEngine(const ServerOptions& options);
-  std::string RenderMetrics() const;                 // on the metrics server's threads
-  std::unique_ptr<RegionRegistry> regions_;          // null: shared memory off; outlives service_
+  std::string RenderMetrics() const;         // on the metrics server's threads
+  std::unique_ptr<RegionRegistry> regions_;  // null: shared memory off; outlives service_
+  // null: no --authz-policy; outlives service_ and gpu_regions_' service
+  std::unique_ptr<PolicyFile> policy_;
   std::unique_ptr<GpuRegionsOnServer> gpu_regions_;  // null: GPU regions off; outlives service_
-  std::unique_ptr<PolicyFile> policy_;               // null: no --authz-policy; outlives service_
   UnixPeers unix_peers_;  // the Unix-socket clients' credentials; outlives service_
   std::unique_ptr<SkinningService> service_;
   std::unique_ptr<grpc::Server> server_;

@@ -32,8 +32,7 @@ const Status kNoSharedMemory =
 
 Status SkinningService::Authorize(const grpc::CallbackServerContext& context,
                                   const char* method) const {
-  if (policy_ == nullptr) return Status::Ok();
-  return policy_->Check(context, fmt::format("/{}/{}", v1::Skinning::service_full_name(), method));
+  return server::Authorize(policy_, context, v1::Skinning::service_full_name(), method);
 }
 
 RegionCaller SkinningService::RegionCallerOf(const grpc::CallbackServerContext& context) const {

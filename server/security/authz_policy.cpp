@@ -143,7 +143,26 @@ Result<AuthorizationPolicy::Rule> AuthorizationPolicy::ParseRule(const void* jso
   return rule;
 }
 
-Result<AuthorizationPolicy> AuthorizationPolicy::Parse(std::string_view text) {
+Status AuthorizationPolicy::CheckPaths(const std::vector<Pattern>& paths,
+                                       const MethodCatalog& methods, const std::string& where) {
+  for (std::size_t i = 0; i < paths.size(); ++i) {
+    const Pattern& p = paths[i];
+    if (std::any_of(methods.paths().begin(), methods.paths().end(),
+                    [&](const std::string& path) { return p.Matches(path); })) {
+      continue;
+    }
+    const std::string written = p.kind == Pattern::Kind::kPrefix   ? p.text + "*"
+                                : p.kind == Pattern::Kind::kSuffix ? "*" + p.text
+                                                                   : p.text;
+    return InvalidArgument(
+        fmt::format("{}.request.paths[{}]: \"{}\" matches no method this server serves ({})", where,
+                    i, written, methods.Known(p.kind == Pattern::Kind::kSuffix ? "" : p.text)));
+  }
+  return Status::Ok();
+}
+
+Result<AuthorizationPolicy> AuthorizationPolicy::Parse(std::string_view text,
+                                                       const MethodCatalog& methods) {
   const Json json = Json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (json.is_discarded()) return InvalidArgument("not valid JSON");
   if (!json.is_object()) return InvalidArgument("not a JSON object");
@@ -161,8 +180,10 @@ Result<AuthorizationPolicy> AuthorizationPolicy::Parse(std::string_view text) {
     const Json& rules = json[field];
     if (!rules.is_array()) return InvalidArgument(fmt::format("{}: not a list", field));
     for (std::size_t i = 0; i < rules.size(); ++i) {
-      auto rule = ParseRule(&rules[i], fmt::format("{}[{}]", field, i));
+      const std::string where = fmt::format("{}[{}]", field, i);
+      auto rule = ParseRule(&rules[i], where);
       if (!rule.ok()) return rule.status();
+      if (Status s = CheckPaths(rule->paths, methods, where); !s.ok()) return s;
       (field[0] == 'a' ? policy.allow_ : policy.deny_).push_back(std::move(rule).value());
     }
   }

@@ -12,6 +12,8 @@
 //     the certificate's URI SANs, then its DNS SANs, then its subject;
 //   - a pattern is exact, "prefix*", "*suffix", or "*" (anything not empty).
 // Request headers are not supported (a policy naming them is refused, not half-applied).
+// Unlike gRPC's reader, a path that can match no method the server serves (MethodCatalog:
+// every service of skinning.proto, and gRPC's health and reflection) is refused at load.
 #pragma once
 
 #include <grpcpp/security/auth_context.h>
@@ -20,6 +22,7 @@
 #include <string_view>
 #include <vector>
 
+#include "security/method_catalog.h"
 #include "skinserve/model/status.h"
 
 namespace skinserve::server {
@@ -37,8 +40,10 @@ struct Peer {
 
 class AuthorizationPolicy {
  public:
-  // Errors name the rule and the field ("allow_rules[1].source.principals[0]: ...").
-  static Result<AuthorizationPolicy> Parse(std::string_view json);
+  // Errors name the rule and the field ("allow_rules[1].source.principals[0]: ..."); a
+  // path that matches none of `methods` is one.
+  static Result<AuthorizationPolicy> Parse(std::string_view json,
+                                           const MethodCatalog& methods = MethodCatalog::Served());
 
   struct Decision {
     bool allowed = false;
@@ -63,6 +68,9 @@ class AuthorizationPolicy {
     bool Matches(const Peer& peer, std::string_view path) const;
   };
   static Result<Rule> ParseRule(const void* json, const std::string& where);
+  // OK when each of `paths` (those of rule `where`) matches a method of `methods`.
+  static Status CheckPaths(const std::vector<Pattern>& paths, const MethodCatalog& methods,
+                           const std::string& where);
 
   std::string name_;
   std::vector<Rule> allow_, deny_;

@@ -79,4 +79,10 @@ Status PolicyFile::Check(const grpc::ServerContextBase& context, std::string_vie
                                             : "deny rule '" + decision.rule + "'")};
 }
 
+Status Authorize(const PolicyFile* policy, const grpc::ServerContextBase& context,
+                 std::string_view service, std::string_view method) {
+  if (policy == nullptr) return Status::Ok();
+  return policy->Check(context, fmt::format("/{}/{}", service, method));
+}
+
 }  // namespace skinserve::server

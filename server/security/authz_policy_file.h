@@ -45,4 +45,10 @@ class PolicyFile {
   std::thread watcher_;
 };
 
+// What every service calls first in each method: OK when `policy` is null (no
+// --authz-policy) or allows "/`service`/`method`" ("skinserve.v1.GpuRegions",
+// "RegisterGpuRegion") for this call's peer; else PolicyFile::Check's PERMISSION_DENIED.
+Status Authorize(const PolicyFile* policy, const grpc::ServerContextBase& context,
+                 std::string_view service, std::string_view method);
+
 }  // namespace skinserve::server
