@@ -44,6 +44,8 @@ TickFiller::TickFiller(const std::vector<UploadedMesh>& meshes, const TickShape&
     options_.push_back(std::move(options));
     palettes_.emplace_back(w, shape.instances);
     morphs_.emplace_back(w, shape.instances);
+    poses_.emplace_back();
+    if (w.pose) poses_.back().emplace(*w.pose);
   }
 }
 
@@ -57,7 +59,11 @@ void TickFiller::operator()(uint64_t frame, client::Tick* tick) {
     } else if (!w.morph_weights.empty()) {
       options.instance_morph_weights = morphs_[c](frame);
     }
-    tick->Add(meshes_[c].mesh_id, palettes_[c](frame), options);
+    if (poses_[c]) {
+      tick->AddPose(meshes_[c].mesh_id, (*poses_[c])(frame), options);
+    } else {
+      tick->Add(meshes_[c].mesh_id, palettes_[c](frame), options);
+    }
   }
 }
 

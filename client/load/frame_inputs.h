@@ -3,10 +3,12 @@
 // mesh, palettes, weights and range of the stream's region.
 #pragma once
 
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "pose_workload.h"
 #include "skinserve/client/skin_client.h"
 #include "skinserve/client/tick.h"
 #include "workload.h"
@@ -54,8 +56,9 @@ struct TickShape {
 };
 
 // Fills tick f: character c skins meshes[c] with its workload's palettes of frame f (a
-// crowd's instance k those of f + k) and weights. With a region, character c is written at
-// region.offset + c * character_stride. The views it adds stay valid until the next call.
+// crowd's instance k those of f + k), or its pose of frame f (--animate), and weights. With a
+// region, character c is written at region.offset + c * character_stride. The views it adds stay
+// valid until the next call.
 class TickFiller {
  public:
   TickFiller(const std::vector<UploadedMesh>& meshes, const TickShape& shape,
@@ -67,6 +70,7 @@ class TickFiller {
   std::vector<client::SkinOptions> options_;  // per character, its morph weights set per tick
   std::vector<FramePalette> palettes_;
   std::vector<FrameMorph> morphs_;
+  std::vector<std::optional<FramePose>> poses_;  // --animate: per character
 };
 
 }  // namespace skinserve::load

@@ -23,11 +23,13 @@ std::string ErrorsText(const RunResult& r) {
 }
 
 // The backend, with the encoding and crowd size when they are not float32 x 1, "+shm"
-// for the shared-memory data plane and "+tickN" for ticks of N characters.
+// for the shared-memory data plane, "+tickN" for ticks of N characters and "+pose" for
+// frames posed on the server (--animate).
 std::string BackendLabel(const RunResult& r) {
   const std::string shm =
       (r.data_plane == "shm" ? "+shm" : "") +
-      (r.characters_per_tick > 0 ? fmt::format("+tick{}", r.characters_per_tick) : std::string());
+      (r.characters_per_tick > 0 ? fmt::format("+tick{}", r.characters_per_tick) : std::string()) +
+      (r.pose ? "+pose" : "");
   if (r.encoding == "float32" && r.instances <= 1) return r.backend + shm;
   return r.instances > 1 ? fmt::format("{}/{}x{}{}", r.backend, r.encoding, r.instances, shm)
                          : fmt::format("{}/{}{}", r.backend, r.encoding, shm);

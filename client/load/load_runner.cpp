@@ -12,6 +12,8 @@
 #include <string>
 #include <thread>
 
+#include "pose_check.h"
+#include "pose_workload.h"
 #include "skinserve/client/channel.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/client/idle_watchdog.h"
@@ -108,6 +110,7 @@ class Recorder {
     result_.instances = std::max(config.instances, 1u);
     result_.characters_per_tick = config.characters_per_tick;
     result_.data_plane = config.shared_memory ? "shm" : "grpc";
+    result_.pose = workload.pose != nullptr;
     result_.streams = config.streams;
     result_.rate = config.rate;
     if (config.rate > 0) result_.arrivals = ArrivalsName(config.arrivals);
@@ -273,8 +276,14 @@ class Recorder {
       if (w.normals && normals.empty()) return false;
       const std::span<const float> tangents =
           w.tangents ? frame.instance_tangents(k) : std::span<const float>();
-      if (w.tangents && !TangentsMatch(frame, k, tangents, w)) return false;
       const bool passthrough = config_.backend == "passthrough";
+      if (w.pose && !passthrough) {  // one instance: a pose is one character's
+        const PoseAnswer pose{frame.frame, frame.encoding, frame.bounds[k],
+                              positions,   normals,        tangents};
+        if (!(PoseAnswerError(w, pose) <= 1)) return false;  // NaN fails
+        continue;
+      }
+      if (w.tangents && !TangentsMatch(frame, k, tangents, w)) return false;
       if (passthrough && frame.encoding == VertexEncoding::kFloat32) {
         const auto rest = w.mesh->positions();
         if (!std::equal(rest.begin(), rest.end(), positions.begin(), positions.end())) {
@@ -420,12 +429,21 @@ void ClosedLoopStream(const RunConfig& config, const std::vector<UploadedMesh>& 
   } else if (!workload.morph_weights.empty()) {
     options.instance_morph_weights = [&](uint64_t f) { return morph(f); };
   }
+  // --animate: frame f's pose instead of its palette (the palette source is not asked then).
+  std::optional<FramePose> pose;
+  if (workload.pose) pose.emplace(*workload.pose);
   RunClosedLoop(config, stop, warm, recorder,
                 [&](Phase& phase, const std::atomic<bool>* until, uint64_t first, uint64_t count,
                     uint64_t* sent) {
                   options.stop = until;
                   options.first_frame = first;
                   options.frames = count;
+                  if (pose) {
+                    options.pose = [&](uint64_t f) {
+                      if (phase.Measured()) ++phase.measured_sent;
+                      return (*pose)(f);
+                    };
+                  }
                   client::StreamSummary summary;
                   const Status status = client::StreamFrames(
                       stream_client.client(), options,
@@ -505,7 +523,8 @@ class OpenLoopFrames final : public OpenLoopUnits {
         output_(output),
         palette_(workload_, config.instances),
         morph_(workload_, config.instances) {
-    // Reused: only the frame number, the palette and the slot's offset change.
+    if (workload_.pose) pose_.emplace(*workload_.pose);
+    // Reused: only the frame number, the palette (or pose) and the slot's offset change.
     request_.set_mesh_id(mesh.mesh_id);
     request_.set_backend(config.backend);
     request_.set_want_normals(workload_.normals);
@@ -521,7 +540,11 @@ class OpenLoopFrames final : public OpenLoopUnits {
   const v1::SkinRequest& Prepare(uint64_t k, std::size_t slot) override {
     if (output_.enabled()) request_.mutable_output()->set_offset(slot * output_.stride);
     request_.set_frame(k);
-    wire::EncodeFloats(palette_(k), request_.mutable_palette());
+    if (pose_) {
+      client::PoseToWire((*pose_)(k), &request_);
+    } else {
+      wire::EncodeFloats(palette_(k), request_.mutable_palette());
+    }
     if (!workload_.morph_weights.empty() && config_.instances <= 1) {
       wire::MorphWeightsToWire(workload_.Morph(k), &request_);
     } else if (!workload_.morph_weights.empty()) {
@@ -548,6 +571,7 @@ class OpenLoopFrames final : public OpenLoopUnits {
   const client::RegionOutput& output_;
   FramePalette palette_;
   FrameMorph morph_;
+  std::optional<FramePose> pose_;  // --animate
   v1::SkinRequest request_;
   // One part reader and one result for the whole run (their buffers are reused).
   wire::RawPart part_;

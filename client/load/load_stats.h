@@ -39,6 +39,7 @@ struct RunResult {
   // and frames_per_second count ticks, the character columns count characters.
   uint32_t characters_per_tick = 0;
   std::string data_plane = "grpc";  // or "shm": vertices written into shared memory
+  bool pose = false;                // --animate: posed on the server from a clip, not a palette
   int streams = 0;
   double rate = 0;      // frames/s per stream (open loop); 0: closed loop
   uint64_t frames = 0;  // answered correctly within the measured window

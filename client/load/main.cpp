@@ -4,6 +4,7 @@
 //                 START:END:STEP one row per rate; --arrivals constant|poisson
 //   --sweep paper the paper's grid over every backend, tables 2 and 3 layout
 //   --characters-per-tick N  each request a tick of N characters, N distinct meshes
+//   --animate synthetic  frames carry a pose of a clip uploaded once, posed on the server
 //   --capacity    the most characters (streams x N a tick x --instances) held at 60 fps with
 //                 the latency at --percentile (p99) within one frame and nothing dropped, per
 //                 --modes (encoding x crowd size)
@@ -19,6 +20,7 @@
 #include "load_report.h"
 #include "load_runner.h"
 #include "measurement_flags.h"
+#include "pose_workload.h"
 #include "skinserve/cli/config_file.h"
 #include "skinserve/cli/version.h"
 #include "skinserve/client/channel.h"
@@ -42,6 +44,7 @@ struct Options {
   MorphWorkload morph;  // synthetic mesh: morph targets and active weights per frame
   std::string mesh;     // a glTF file instead of the synthetic mesh
   int primitive = -1;   // --mesh: -1 is the whole character
+  std::string animate;  // "synthetic": poses of the synthetic clip instead of palettes
   std::string sweep;
   bool capacity = false;
   int capacity_max_streams = 64;
@@ -157,6 +160,7 @@ Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bone
                      : MakeGltfWorkload(o.mesh, o.primitive, o.normals, o.tangents);
   if (!workload.ok()) return workload;
   workload->method = method;
+  if (!o.animate.empty()) workload->pose = MakePoseWorkload(o.joints, seed);
   const std::optional<RestEncoding> asked =
       o.rest_encoding.empty() ? std::nullopt : ParseRestEncoding(o.rest_encoding);
   if (Status s = ChooseRestEncoding(&*workload, asked); !s.ok()) return s;
@@ -164,7 +168,8 @@ Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bone
 }
 
 // The workload of `seed` (LoadWorkload), or with ticks of N characters N distinct synthetic
-// meshes of this shape, character c's seeded seed + c, each uploaded once.
+// meshes of this shape, character c's seeded seed + c, each uploaded once (with --animate
+// its skeleton and clip too).
 Result<std::unique_ptr<RunMeshes>> LoadAndUpload(client::SkinClient& client, const Options& o,
                                                  uint32_t vertices, uint32_t bones, uint64_t seed) {
   auto run = std::make_unique<RunMeshes>();
@@ -174,9 +179,13 @@ Result<std::unique_ptr<RunMeshes>> LoadAndUpload(client::SkinClient& client, con
     if (!loaded.ok()) return loaded.status();
     run->workloads.push_back(std::move(loaded).value());
   }
-  for (const Workload& w : run->workloads) {
+  for (Workload& w : run->workloads) {
     auto mesh = Upload(client, w);
     if (!mesh.ok()) return mesh.status();
+    if (w.pose) {
+      const bool first = run->meshes.empty();
+      if (Status s = UploadPose(client, w.pose.get(), first); !s.ok()) return s;
+    }
     run->meshes.push_back({&w, *mesh});
   }
   return run;
@@ -488,8 +497,16 @@ void AddMeshOptions(CLI::App& app, Options& o) {
                  "--morph-targets: targets with a non-zero weight per frame (random weights in "
                  "[-1.5, 1.5]; 0: frames carry none); crowd instances each get their own")
       ->capture_default_str();
-  app.add_option("--seed", o.seed, "synthetic mesh and palettes seed; Poisson arrivals' too")
+  app.add_option("--seed", o.seed,
+                 "synthetic mesh and palettes seed; Poisson arrivals' and --animate's rig too")
       ->capture_default_str();
+  app.add_option("--animate", o.animate,
+                 "'synthetic': the synthetic mesh gets a synthetic skeleton of --joints joints "
+                 "and a 2 s clip (seeded --seed), uploaded once; each frame then carries a pose "
+                 "(the clip at its frame's time at 30 fps, looped) instead of a palette, posed "
+                 "on the server, and --check-every compares with the clip evaluated in float64 "
+                 "(rows '+pose'); one instance a character, linear skinning")
+      ->check(CLI::IsMember({"synthetic"}));
 }
 
 // How each run drives the server: streams, window, duration or frames, rate, checks, encodings,
@@ -585,6 +602,15 @@ void AddSearchOptions(CLI::App& app, Options& o) {
       ->capture_default_str();
 }
 
+// Why --animate cannot go with the other options (empty: it can): a pose is one
+// character's, skinned linearly (the clip scales a joint: not rigid), of the synthetic mesh.
+std::string AnimateRefusal(const Options& o) {
+  if (!o.mesh.empty()) return "poses the synthetic mesh: not with --mesh";
+  if (o.run.instances > 1) return "a pose is one character's: not with --instances > 1";
+  if (o.method != "linear") return "the clip scales a joint: not with --method dual-quaternion";
+  return {};
+}
+
 // Completes `o` after parsing (encodings, arrivals, the channel, the limits, --capacity's
 // defaults); an exit status when the options do not go together.
 std::optional<int> FinishOptions(const CLI::App& app, Options& o) {
@@ -599,6 +625,12 @@ std::optional<int> FinishOptions(const CLI::App& app, Options& o) {
     fmt::print(stderr,
                "error: --characters-per-tick skins distinct synthetic meshes: not with --mesh\n");
     return 2;
+  }
+  if (!o.animate.empty()) {
+    if (const std::string why = AnimateRefusal(o); !why.empty()) {
+      fmt::print(stderr, "error: --animate {}: {}\n", o.animate, why);
+      return 2;
+    }
   }
   if (o.run.characters_per_tick > 0 && o.run.early_parts) {
     fmt::print(stderr,

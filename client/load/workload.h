@@ -19,6 +19,8 @@ namespace skinserve::load {
 
 inline constexpr int kDistinctPalettes = 32;
 
+struct PoseWorkload;  // pose_workload.h
+
 struct Workload {
   uint32_t vertices = 0;
   uint32_t bones = 0;
@@ -40,6 +42,9 @@ struct Workload {
   // Frame f's sparse morph target weights: morph_weights[f % size]; empty: the frames carry
   // none (a mesh without targets, or --morph-active 0).
   std::vector<std::vector<MorphWeight>> morph_weights;
+  // --animate: frames carry this pose (the synthetic skeleton and clip on the server)
+  // instead of a palette, and checks evaluate it in float64; null: palettes.
+  std::shared_ptr<PoseWorkload> pose;
 
   const std::vector<float>& Palette(uint64_t frame) const {
     return palettes[frame % palettes.size()];

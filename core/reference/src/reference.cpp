@@ -8,8 +8,12 @@
 
 namespace skinserve {
 
-ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette,
-                             std::span<const MorphWeight> morph) {
+namespace {
+
+// Equations 3 and 4 in double, whatever the palette's type.
+template <typename Real>
+ReferenceFrame SkinInDouble(const Mesh& mesh, std::span<const Real> palette,
+                            std::span<const MorphWeight> morph) {
   const ReferenceFrame rest = ReferenceMorph(mesh, morph);
   const std::size_t v_count = mesh.vertex_count();
   const std::size_t b = mesh.influences();
@@ -22,7 +26,7 @@ ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette,
     double m[12] = {};
     for (std::size_t i = 0; i < b; ++i) {
       const double w = mesh.weights()[v * b + i];
-      const float* joint = &palette[kFloatsPerJoint * mesh.joints()[v * b + i]];
+      const Real* joint = &palette[kFloatsPerJoint * mesh.joints()[v * b + i]];
       for (int e = 0; e < 12; ++e) m[e] += w * joint[e];
     }
     // Equation 4: the affine transform of (x, y, z, 1).
@@ -51,6 +55,18 @@ ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette,
     }
   }
   return out;
+}
+
+}  // namespace
+
+ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette,
+                             std::span<const MorphWeight> morph) {
+  return SkinInDouble(mesh, palette, morph);
+}
+
+ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const double> palette,
+                             std::span<const MorphWeight> morph) {
+  return SkinInDouble(mesh, palette, morph);
 }
 
 Deviation CompareWithReference(const Mesh& mesh, std::span<const float> palette,

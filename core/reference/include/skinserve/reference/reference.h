@@ -37,6 +37,9 @@ MorphMagnitudes ReferenceMorphMagnitudes(const Mesh& mesh, std::span<const Morph
 // its w copied.
 ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const float> palette,
                              std::span<const MorphWeight> morph = {});
+// The same with a float64 palette (a pose evaluated in double: pose_reference.h).
+ReferenceFrame ReferenceSkin(const Mesh& mesh, std::span<const double> palette,
+                             std::span<const MorphWeight> morph = {});
 
 // The float64 dual-quaternion reference (dual_quaternion_reference.cpp), written apart
 // from the kernels on glm's dual quaternions: each joint matrix to a unit dual quaternion,

@@ -1,0 +1,65 @@
+#include "pose_workload.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "skinserve/reference/pose_reference.h"
+
+namespace skinserve::load {
+
+float PoseWorkload::ClipTime(uint64_t frame) const {
+  return static_cast<float>((static_cast<double>(frame % (2 * lap_frames)) + 0.5) / kPoseFps);
+}
+
+std::vector<double> PoseWorkload::ReferencePalette(uint64_t frame) const {
+  double t = ClipTime(frame);  // what the server is sent, then looped as the server loops
+  const double duration = rig.clip.duration;
+  t -= duration * std::floor(t / duration);
+  return ReferencePosePalette(rig.skeleton, rig.clip, t);
+}
+
+std::shared_ptr<PoseWorkload> MakePoseWorkload(uint32_t joints, uint64_t seed) {
+  auto pose = std::make_shared<PoseWorkload>();
+  pose->rig = animation::MakeSyntheticRig(joints, static_cast<uint32_t>(seed));
+  pose->lap_frames =
+      std::max<uint64_t>(1, static_cast<uint64_t>(std::floor(pose->rig.clip.duration * kPoseFps)));
+  return pose;
+}
+
+Status UploadPose(client::SkinClient& client, PoseWorkload* pose, bool tell) {
+  auto skeleton = client.UploadSkeleton(pose->rig.skeleton);
+  if (!skeleton.ok()) {
+    return Status(skeleton.status().code(),
+                  fmt::format("--animate: skeleton: {}", skeleton.status().message()));
+  }
+  pose->skeleton_id = skeleton->skeleton_id();
+  auto clip = client.UploadClip(pose->rig.clip, pose->skeleton_id);
+  if (!clip.ok()) {
+    return Status(clip.status().code(),
+                  fmt::format("--animate: clip: {}", clip.status().message()));
+  }
+  pose->clip_id = clip->clip_id();
+  if (!tell) return Status::Ok();
+  fmt::print(stderr,
+             "note: --animate: skeleton {:.8}...: {} joints; clip {:.8}...: {} tracks, {:.2f} s, "
+             "{} bytes stored ({} float bytes uploaded)\n",
+             pose->skeleton_id, pose->rig.skeleton.joint_count(), pose->clip_id,
+             pose->rig.clip.tracks.size(), pose->rig.clip.duration, clip->bytes(),
+             clip->raw_bytes());
+  return Status::Ok();
+}
+
+FramePose::FramePose(const PoseWorkload& pose) : pose_(&pose) {
+  layer_.clip_id = pose.clip_id;
+  layer_.weight = 1;
+  layer_.loop = true;
+}
+
+client::Pose FramePose::operator()(uint64_t frame) {
+  layer_.time = pose_->ClipTime(frame);
+  return {pose_->skeleton_id, std::span<const client::PoseLayer>(&layer_, 1)};
+}
+
+}  // namespace skinserve::load

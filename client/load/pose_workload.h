@@ -1,0 +1,58 @@
+// --animate synthetic: frames that carry a pose instead of a palette
+// (docs/serving/animation.md#pose). The synthetic mesh gets the synthetic skeleton and clip
+// of its joint count (MakeSyntheticRig, deterministic from the seed), uploaded once a run;
+// frame f asks the server for the clip at ClipTime(f), looping, and a checked answer is
+// compared with the clip's keys evaluated in float64 (pose_check.h).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "skinserve/animation/synthetic_rig.h"
+#include "skinserve/client/pose.h"
+#include "skinserve/client/skin_client.h"
+#include "skinserve/model/status.h"
+
+namespace skinserve::load {
+
+// Frames of clip time per second of a pose workload (as a glTF workload's palettes).
+inline constexpr double kPoseFps = 30.0;
+
+struct PoseWorkload {
+  animation::SyntheticRig rig;
+  std::string skeleton_id, clip_id;  // on the server (UploadPose)
+  uint64_t lap_frames = 1;           // frames of one lap of the clip at kPoseFps
+
+  // Frame f plays the clip at ((f mod 2 laps) + 0.5) / kPoseFps s, looped: the server wraps
+  // every other lap itself, the half frame keeps each time off the clip's keys (on a STEP
+  // key float32 rounding may land on either side), and the time stays below two laps so
+  // that float32 holds it to ~1e-7 s however long the run.
+  float ClipTime(uint64_t frame) const;
+  // Frame f's palette in float64 (ReferencePosePalette at ClipTime wrapped in double),
+  // 12 doubles a joint.
+  std::vector<double> ReferencePalette(uint64_t frame) const;
+};
+
+// The synthetic rig of `joints` joints (the synthetic mesh's) seeded from `seed`.
+std::shared_ptr<PoseWorkload> MakePoseWorkload(uint32_t joints, uint64_t seed);
+
+// Uploads the rig's skeleton and clip (content-addressed: once stored, again is free) and
+// keeps their ids; with `tell`, prints what went up on stderr. The server's error, naming
+// what failed.
+Status UploadPose(client::SkinClient& client, PoseWorkload* pose, bool tell = true);
+
+// Frame f's pose as the client library sends it: one layer, the clip at ClipTime(f),
+// weight 1, looped. The view is valid until the next call.
+class FramePose {
+ public:
+  explicit FramePose(const PoseWorkload& pose);
+  client::Pose operator()(uint64_t frame);
+
+ private:
+  const PoseWorkload* pose_;
+  client::PoseLayer layer_;
+};
+
+}  // namespace skinserve::load

@@ -1,0 +1,158 @@
+// skinserve-load --animate synthetic against a real server: the synthetic mesh's frames
+// carry a pose (the synthetic skeleton and clip, uploaded once a run) instead of a palette,
+// in the closed loop, the open loop and ticks, and every checked answer is held to the pose
+// tests' bound against the clip evaluated in float64 from its keys and skinned in double
+// (client/load/pose_check.h). The check itself fails an answer played one frame late.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "load_process.h"
+#include "pose_check.h"
+#include "pose_workload.h"
+#include "skinserve/client/channel.h"
+#include "skinserve/client/skin_client.h"
+#include "workload.h"
+
+namespace skinserve::testing {
+namespace {
+
+// The server's animation store after a run: skeletons and clips held.
+std::pair<uint64_t, uint64_t> StoredRigs(const ServerProcess& server) {
+  client::SkinClient c(client::MakeChannel(server.target()));
+  auto stats = c.GetServerStats();
+  EXPECT_TRUE(stats.ok()) << stats.status().ToString();
+  return stats.ok() ? std::pair{stats->skeletons(), stats->clips()} : std::pair{0ul, 0ul};
+}
+
+std::string Common(const ServerProcess& server) {
+  return "--target " + server.target() +
+         " --animate synthetic --vertices 3000 --bones 4 --warmup 0 --check-every 1";
+}
+
+// 150 frames a stream: two and a half laps of the 2 s clip at 30 fps, so the server wraps
+// the second lap itself. Every frame of every backend is answered, checked and right (the
+// passthrough backend answers the rest pose, checked as such); the rows say "+pose".
+TEST(AnimateLoadTest, ClosedLoopPosesAreAnsweredAndMatchTheFloat64Clip) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  int code = 0;
+  std::string output;
+  const nlohmann::json doc =
+      RunLoad(Common(server) +
+                  " --backends serial,simd-openmp,passthrough --normals --tangents --streams 2"
+                  " --window 3 --frames 150",
+              &code, nullptr, &output);
+  EXPECT_EQ(code, 0) << output;
+  ASSERT_EQ(doc["results"].size(), 3u) << doc.dump();
+  for (const auto& r : doc["results"]) {
+    EXPECT_EQ(r["pose"], true) << r.dump();
+    EXPECT_EQ(r["frames"], 300) << r.dump();
+    EXPECT_EQ(r["checked"], 300) << "every frame checked: " << r.dump();
+  }
+  const auto served = server.FramesServed();
+  for (const auto& [backend, frames] : FramesReported(doc)) {  // no errors, no mismatches
+    EXPECT_EQ(frames, served.at(backend)) << backend;
+  }
+  EXPECT_NE(output.find("serial+pose"), std::string::npos) << output;
+  EXPECT_EQ(StoredRigs(server), (std::pair<uint64_t, uint64_t>{1, 1})) << "uploaded once";
+}
+
+// Open loop, answers in snorm16 (the check adds the encoding's bound): every frame sent is
+// answered and every answer checked and right.
+TEST(AnimateLoadTest, OpenLoopPosesAreAnsweredAndMatchTheFloat64Clip) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  int code = 0;
+  const nlohmann::json doc =
+      RunLoad(Common(server) +
+                  " --backends simd --normals --encoding snorm16 --rate 60 --streams 2"
+                  " --frames 130",
+              &code);
+  EXPECT_EQ(code, 0);
+  ASSERT_EQ(doc["results"].size(), 1u) << doc.dump();
+  FramesReported(doc);  // no errors, no mismatches
+  const auto& r = doc["results"][0];
+  EXPECT_EQ(r["pose"], true) << r.dump();
+  EXPECT_EQ(r["sent"].get<uint64_t>() + r["dropped"].get<uint64_t>(), 260u) << r.dump();
+  EXPECT_EQ(r["frames"], r["sent"]) << "every frame sent was answered: " << r.dump();
+  EXPECT_EQ(r["checked"], r["frames"]) << r.dump();
+  EXPECT_GT(r["frames"], 200) << r.dump();
+}
+
+// Ticks of 3 characters, each its own mesh, skeleton and clip (seeded --seed + c): every
+// character of every tick checked and right, closed and open loop.
+TEST(AnimateLoadTest, TicksCarryEachCharactersPose) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  for (const std::string loop : {"", " --rate 30"}) {
+    int code = 0;
+    const nlohmann::json doc = RunLoad(
+        Common(server) + " --backends serial --characters-per-tick 3 --streams 2 --frames 8" + loop,
+        &code);
+    EXPECT_EQ(code, 0) << loop;
+    ASSERT_EQ(doc["results"].size(), 1u) << doc.dump();
+    FramesReported(doc);
+    const auto& r = doc["results"][0];
+    EXPECT_EQ(r["pose"], true) << r.dump();
+    EXPECT_GT(r["frames"], 0) << r.dump();
+    EXPECT_EQ(r["checked"].get<uint64_t>(), 3 * r["frames"].get<uint64_t>()) << r.dump();
+  }
+  EXPECT_EQ(StoredRigs(server), (std::pair<uint64_t, uint64_t>{3, 3}));
+}
+
+// What a pose cannot go with is refused before anything is sent, naming the flag.
+TEST(AnimateLoadTest, RefusesWhatAPoseCannotCarry) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  for (const auto& [args, says] : {std::pair{" --instances 2", "--instances"},
+                                   std::pair{" --method dual-quaternion", "dual-quaternion"},
+                                   std::pair{" --mesh x.glb", "--mesh"}}) {
+    int code = 0;
+    std::string output;
+    const std::string command = Common(server) + " --backends serial --frames 2" + args;
+    const nlohmann::json doc = RunLoad(command, &code, nullptr, &output);
+    EXPECT_NE(code, 0) << args;
+    EXPECT_TRUE(doc.empty() || doc["results"].empty()) << args << doc.dump();
+    EXPECT_NE(output.find(says), std::string::npos) << args << ": " << output;
+  }
+}
+
+// The check can fail: an answer of the server taken as the next frame's (a thirtieth of a
+// second late) is outside the bound, as is one vertex moved by 1 mm, while the answer of
+// its own frame is within it; on and around the laps' ends too.
+TEST(AnimateLoadTest, ThePoseCheckFailsAnAnswerPlayedOneFrameLate) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  client::SkinClient c(client::MakeChannel(server.target()));
+  load::Workload w = load::MakeWorkload(3000, 4, 77, true, 5);
+  w.pose = load::MakePoseWorkload(77, 5);
+  ASSERT_TRUE(load::UploadPose(c, w.pose.get(), false).ok());
+  auto mesh = c.Upload(*w.arrays);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().ToString();
+  load::FramePose pose(*w.pose);
+  for (const uint64_t f : {0u, 37u, 59u, 60u, 119u}) {
+    client::FrameResult r;
+    ASSERT_TRUE(
+        c.SkinPose(mesh->mesh_id(), pose(f), f, {.backend = "serial", .want_normals = true}, &r)
+            .ok())
+        << r.status.ToString();
+    load::PoseAnswer answer{f, r.encoding, r.bounds.at(0), r.positions, r.normals, {}};
+    EXPECT_LE(load::PoseAnswerError(w, answer), 1.0) << "frame " << f;
+    answer.frame = f + 1;
+    EXPECT_GT(load::PoseAnswerError(w, answer), 3.0) << "frame " << f << " taken as the next";
+    answer.frame = f;
+    std::vector<float> moved = r.positions;
+    moved[3 * 1234 + 1] += 1e-3f;
+    answer.positions = moved;
+    EXPECT_GT(load::PoseAnswerError(w, answer), 1.0) << "frame " << f << ", 1 mm off";
+    moved[3 * 1234 + 1] = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_TRUE(std::isinf(load::PoseAnswerError(w, answer))) << "a NaN";
+  }
+}
+
+}  // namespace
+}  // namespace skinserve::testing
