@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fills build-gpu/ (git-ignored) with what scripts/gpu-region-test.sh runs on the GPU
-# machine (../shared/notes/gpu-machine.md): the server and the Vulkan client, every shared
+# machine (docs/serving/gpu-regions.md#tests): the server and the Vulkan client, every shared
 # library they link but the C and C++ runtimes (the GPU machine has newer ones), and the
 # Vulkan loader and glvnd .debs, which the test unpacks there (the NVIDIA Vulkan driver
 # needs glvnd beside libvulkan1). Run after building both:
