@@ -5,6 +5,8 @@
 
 #include <algorithm>
 
+#include "shm/idle_reaper.h"
+
 namespace skinserve::server {
 namespace {
 
@@ -190,30 +192,9 @@ uint64_t GpuRegionRegistry::imported_bytes() const {
 }
 
 void GpuRegionRegistry::ReapIdle() {
-  const auto idle = std::chrono::duration<double>(limits_.idle_seconds);
-  const auto period = std::chrono::duration_cast<std::chrono::milliseconds>(
-      std::clamp(idle / 4, std::chrono::duration<double>(0.05), std::chrono::duration<double>(1)));
-  std::vector<std::shared_ptr<GpuRegion>> dropped;  // released outside the lock
-  std::unique_lock lock(mutex_);
-  while (!stopping_) {
-    wake_.wait_for(lock, period);
-    const int64_t now = NowNs();
-    for (auto it = regions_.begin(); it != regions_.end();) {
-      auto next = std::next(it);
-      const std::shared_ptr<GpuRegion>& region = it->second;
-      if (region != nullptr &&
-          static_cast<double>(now - region->last_used_ns()) * 1e-9 >= limits_.idle_seconds) {
-        spdlog::info("GPU region '{}' of {} unregistered: unused for --shm-idle-seconds = {}",
-                     region->name(), region->owner(), limits_.idle_seconds);
-        dropped.push_back(region);
-        EraseLocked(it, nullptr);
-      }
-      it = next;
-    }
-    lock.unlock();
-    dropped.clear();
-    lock.lock();
-  }
+  ReapIdleRegions(
+      mutex_, wake_, stopping_, regions_, limits_.idle_seconds, "GPU region",
+      [&](Regions::iterator it) { EraseLocked(it, nullptr); }, NowNs);
 }
 
 }  // namespace skinserve::server

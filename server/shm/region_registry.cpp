@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "shm/idle_reaper.h"
 #include "shm/sigbus_guard.h"
 
 namespace skinserve::server {
@@ -240,30 +241,9 @@ RegionStats RegionRegistry::Stats() const {
 }
 
 void RegionRegistry::ReapIdle() {
-  const auto idle = std::chrono::duration<double>(limits_.idle_seconds);
-  const auto period = std::chrono::duration_cast<std::chrono::milliseconds>(
-      std::clamp(idle / 4, std::chrono::duration<double>(0.05), std::chrono::duration<double>(1)));
-  std::vector<std::shared_ptr<MappedRegion>> dropped;  // unmapped outside the lock
-  std::unique_lock lock(mutex_);
-  while (!stopping_) {
-    wake_.wait_for(lock, period);
-    const int64_t now = NowNs();
-    for (auto it = regions_.begin(); it != regions_.end();) {
-      auto next = std::next(it);
-      const std::shared_ptr<MappedRegion>& region = it->second;
-      if (region != nullptr &&
-          static_cast<double>(now - region->last_used_ns()) * 1e-9 >= limits_.idle_seconds) {
-        spdlog::info("region '{}' of {} unregistered: unused for --shm-idle-seconds = {}",
-                     region->name(), region->owner(), limits_.idle_seconds);
-        dropped.push_back(region);
-        EraseLocked(it, nullptr);
-      }
-      it = next;
-    }
-    lock.unlock();
-    dropped.clear();
-    lock.lock();
-  }
+  ReapIdleRegions(
+      mutex_, wake_, stopping_, regions_, limits_.idle_seconds, "region",
+      [&](Regions::iterator it) { EraseLocked(it, nullptr); }, NowNs);
 }
 
 }  // namespace skinserve::server
