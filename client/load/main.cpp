@@ -289,6 +289,10 @@ Result<bool> ProbeCapacity(const CapacityPlan& p, const Mode& mode, const std::s
              streams * p.per_tick * static_cast<int>(mode.instances), r.frames_per_second(),
              l.at_percentile, l.max, r.late, r.dropped, holds ? "yes" : "no",
              p.cpu ? ServerCpuCells(r) : "");
+  // A probe that failed on errors says which, so the search's end is not read as a speed.
+  for (const auto& [code, message] : r.error_examples) {
+    fmt::print("         errors: {} x{}, the first: {}\n", code, r.errors.at(code), message);
+  }
   results->push_back(std::move(r));
   return holds;
 }

@@ -16,6 +16,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -172,6 +173,26 @@ TEST(LoadIntegrationTest, OpenLoopCountsStreamsThatCouldNotOpenAsDropped) {
   EXPECT_LT(spread["dropped"].get<uint64_t>(), 40u) << spread.dump();
   EXPECT_EQ(FramesReported(one).at("sse") + FramesReported(two).at("sse"),
             server.FramesServed().at("sse"));
+}
+
+// A capacity probe that fails on errors prints the first message of each code under its
+// row: the search's end then reads as the server's refusal (here --max-streams), not as
+// the speed it reached.
+TEST(LoadIntegrationTest, CapacityProbesSayWhyTheyFailedOnErrors) {
+  ServerProcess server(0, {"--max-streams", "3"});
+  ASSERT_TRUE(server.ready());
+  int code = 0;
+  std::string output;
+  const nlohmann::json report =
+      RunLoad("--target " + server.target() +
+                  " --backends sse --vertices 2000 --capacity --capacity-max-streams 4"
+                  " --duration 0.5 --warmup 0",
+              &code, nullptr, &output);
+  EXPECT_EQ(code, 0) << output;
+  const std::regex refused(
+      R"(\n +4 +4 .* no\n +errors: RESOURCE_EXHAUSTED x\d+, the first: .*--max-streams 3)");
+  EXPECT_TRUE(std::regex_search(output, refused)) << output;
+  EXPECT_NE(output.find("capacity: 3 characters"), std::string::npos) << output;
 }
 
 TEST(LoadIntegrationTest, FrameCountClosedLoopMeasuresExactlyThatManyFramesPerStream) {
