@@ -12,6 +12,7 @@
 #include <filesystem>
 
 #include "skinserve/client/shared_memory_region.h"
+#include "skinserve/client/tick.h"
 #include "skinserve/model/palette.h"
 #include "skinserve/reference/encoded_reference.h"
 #include "skinserve/reference/reference.h"
@@ -296,6 +297,112 @@ TEST(TangentResponseTest, OpenClEncodesOnTheDeviceAndMatchesTheReferenceAndTheHo
 // A frame of more than one part (1 MiB of vertex data each): the tangents field's framing
 // and the client's reading across gRPC's slices, per part, for a single instance and a
 // crowd sent one instance's range per part.
+// Ticks carry each character's own method and outputs: on every backend that skins
+// tangents, one tick mixes linear and dual-quaternion characters, with tangents in float32,
+// snorm16 (a crowd of 3, morphed) and float16 (into a shared-memory region), beside a
+// character without tangents; each against the float64 reference, unary and streamed.
+TEST(TangentResponseTest, TicksMixMethodsAndTangentsPerCharacterOnEveryBackend) {
+  ShmDir dir;
+  server::ServerOptions server_options;
+  server_options.shm_dir = dir.path();
+  TestServer t(server_options, Transport::kUnixSocket);
+  const MeshArrays arrays = TangentMesh(301);
+  const auto mesh = Mesh::Create(arrays).value();
+  auto info = t.client->Upload(arrays);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  const uint64_t slot = wire::RegionFrameBytes(301, 1, VertexEncoding::kFloat16, true, true);
+  auto region = SharedMemoryRegion::Create(SharedMemoryRegion::UniqueKey("tick-tangents"), 2 * slot,
+                                           dir.path());
+  ASSERT_TRUE(region.ok()) << region.status().ToString();
+  ASSERT_TRUE(t.client->RegisterRegion("tick-tangents", **region).ok());
+  const std::vector<MorphWeight> weights = MakeMorphWeights(kTargets, 3, 12, 1);
+  struct Spec {
+    SkinningMethod method;
+    VertexEncoding encoding;
+    uint32_t instances;
+    bool tangents, morph, region;
+  };
+  const std::vector<Spec> specs = {
+      {SkinningMethod::kLinear, VertexEncoding::kFloat32, 1, true, true, false},
+      {SkinningMethod::kDualQuaternion, VertexEncoding::kSnorm16, 3, true, true, false},
+      {SkinningMethod::kDualQuaternion, VertexEncoding::kFloat16, 1, true, false, true},
+      {SkinningMethod::kLinear, VertexEncoding::kFloat32, 1, false, false, false},
+  };
+  // Each character's palettes for tick `frame` (kept for the check), and the tick itself.
+  const auto build = [&](const std::string& backend, uint64_t frame, client::Tick* tick,
+                         std::vector<std::vector<float>>* palettes) {
+    palettes->clear();
+    for (std::size_t c = 0; c < specs.size(); ++c) {
+      const Spec& spec = specs[c];
+      palettes->push_back(Palettes(spec.method, spec.instances, frame + c));
+      tick->Add(
+          info->mesh_id(), palettes->back(),
+          {.backend = backend,
+           .want_normals = true,
+           .want_tangents = spec.tangents,
+           .method = spec.method,
+           .encoding = spec.encoding,
+           .instances = spec.instances,
+           .output = spec.region ? RegionOutput{.name = "tick-tangents", .region = region->get()}
+                                 : RegionOutput{},
+           .morph_weights = spec.morph ? std::span<const MorphWeight>(weights)
+                                       : std::span<const MorphWeight>()});
+    }
+  };
+  const auto check = [&](client::TickResult& result,
+                         const std::vector<std::vector<float>>& palettes, const std::string& what) {
+    ASSERT_TRUE(result.status.ok()) << what << ": " << result.status.ToString();
+    ASSERT_EQ(result.characters.size(), specs.size()) << what;
+    for (std::size_t c = 0; c < specs.size(); ++c) {
+      const Spec& spec = specs[c];
+      FrameResult& r = result.characters[c];
+      const std::string who = fmt::format("{}, character {}", what, c);
+      ASSERT_TRUE(r.status.ok()) << who << ": " << r.status.ToString();
+      ASSERT_EQ(r.in_region(), spec.region) << who;
+      ASSERT_TRUE(client::DecodeRegionFrame(&r).ok()) << who;
+      const std::span<const MorphWeight> morph =
+          spec.morph ? std::span<const MorphWeight>(weights) : std::span<const MorphWeight>();
+      if (spec.tangents) {
+        ExpectTangentsMatchReference(*mesh, palettes[c], r, spec.method, morph, who);
+        continue;
+      }
+      EXPECT_TRUE(r.tangents.empty()) << who;
+      const EncodedDeviation d =
+          CompareEncodedWithReference(*mesh, palettes[c], r.encoding, r.bounds[0],
+                                      r.instance_positions(0), r.instance_normals(0), spec.method);
+      EXPECT_TRUE(d.within_tolerance()) << who << ": position ratio " << d.worst_position_ratio;
+    }
+  };
+  auto backends = t.client->ListBackends();
+  ASSERT_TRUE(backends.ok());
+  int ticks = 0;
+  for (const auto& b : backends->backends()) {
+    // passthrough copies the rest pose: nothing to check against a reference.
+    if (!b.available() || !b.tangents() || b.id() == "passthrough") continue;
+    SCOPED_TRACE(b.id());
+    client::Tick tick;
+    tick.set_frame(5);
+    std::vector<std::vector<float>> palettes;
+    build(b.id(), 5, &tick, &palettes);
+    client::TickResult result;
+    ASSERT_TRUE(t.client->SkinTick(tick, &result).ok()) << result.status.ToString();
+    check(result, palettes, b.id() + " unary");
+    std::vector<std::vector<std::vector<float>>> sent(2);
+    int answered = 0;
+    const Status streamed = client::StreamTicks(
+        *t.client, {.first_tick = 0, .ticks = 2, .window = 2, .region_stride = slot},
+        [&](uint64_t frame, client::Tick* next) { build(b.id(), 10 + frame, next, &sent[frame]); },
+        [&](client::TickResult& r, std::chrono::nanoseconds) {
+          check(r, sent[r.frame], fmt::format("{} tick {}", b.id(), r.frame));
+          ++answered;
+        });
+    ASSERT_TRUE(streamed.ok()) << streamed.ToString();
+    EXPECT_EQ(answered, 2);
+    ++ticks;
+  }
+  EXPECT_GE(ticks, 4) << "backends that skin tangents";
+}
+
 TEST(TangentResponseTest, AFrameOfSeveralPartsCarriesEachPartsTangents) {
   TestServer t;
   const MeshArrays arrays = TangentMesh(30'011);  // > 26214 vertices a part in float32
