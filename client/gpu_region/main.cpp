@@ -321,7 +321,7 @@ int Run(const Options& options) {
     fmt::print("FAIL: {}\n", status.ToString());
     return 1;
   };
-  auto device = VulkanDevice::Create(options.vulkan_device);
+  auto device = VulkanDevice::Create(options.vulkan_device, /*memory_fd=*/true, options.semaphore);
   if (!device.ok()) return fail(device.status());
   if (Status st = Prepare(s); !st.ok()) return fail(st);
   if (Status st = CheckAndDraw(s, **device); !st.ok()) return fail(st);

@@ -432,9 +432,12 @@ Result<std::span<const uint8_t>> VertexRenderer::Draw(const DrawSource& source) 
   if (VkResult r = vkQueueSubmit(device_.queue(), 1, &submit, fence_); r != VK_SUCCESS) {
     return VkFailed("vkQueueSubmit(draw)", r);
   }
-  if (VkResult r = vkWaitForFences(device_.device(), 1, &fence_, VK_TRUE, UINT64_MAX);
+  if (VkResult r = vkWaitForFences(device_.device(), 1, &fence_, VK_TRUE, kFenceTimeoutNs);
       r != VK_SUCCESS) {
-    return VkFailed("vkWaitForFences(draw)", r);
+    return r == VK_TIMEOUT ? DeadlineExceeded(
+                                 "the draw did not finish within 20 s: was the "
+                                 "server's semaphore signalled?")
+                           : VkFailed("vkWaitForFences(draw)", r);
   }
   return std::span<const uint8_t>(static_cast<const uint8_t*>(mapped_), 4ull * width_ * height_);
 }

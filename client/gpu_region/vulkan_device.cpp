@@ -64,7 +64,8 @@ Result<VkPhysicalDevice> PickDevice(VkInstance instance, int index) {
 
 }  // namespace
 
-Result<std::unique_ptr<VulkanDevice>> VulkanDevice::Create(int index, bool external) {
+Result<std::unique_ptr<VulkanDevice>> VulkanDevice::Create(int index, bool memory_fd,
+                                                           bool semaphore_fd) {
   std::unique_ptr<VulkanDevice> d(new VulkanDevice());
   VkApplicationInfo app{.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO,
                         .pApplicationName = "skinserve-gpu-region",
@@ -88,10 +89,8 @@ Result<std::unique_ptr<VulkanDevice>> VulkanDevice::Create(int index, bool exter
   std::memcpy(d->uuid_.data(), id.deviceUUID, 16);
   vkGetPhysicalDeviceMemoryProperties(d->physical_, &d->memory_);
   std::vector<const char*> extensions;
-  if (external) {
-    extensions = {VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME,
-                  VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME};
-  }
+  if (memory_fd) extensions.push_back(VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
+  if (semaphore_fd) extensions.push_back(VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME);
   for (const char* e : extensions) {
     if (!HasDeviceExtension(d->physical_, e)) {
       return FailedPrecondition(fmt::format("Vulkan device '{}' lacks {}", d->name_, e));
@@ -119,13 +118,17 @@ Result<std::unique_ptr<VulkanDevice>> VulkanDevice::Create(int index, bool exter
     return VkFailed("vkCreateDevice", r);
   }
   vkGetDeviceQueue(d->device_, d->queue_family_, 0, &d->queue_);
-  if (!external) return d;
-  d->get_memory_fd_ =
-      reinterpret_cast<PFN_vkGetMemoryFdKHR>(vkGetDeviceProcAddr(d->device_, "vkGetMemoryFdKHR"));
-  d->get_semaphore_fd_ = reinterpret_cast<PFN_vkGetSemaphoreFdKHR>(
-      vkGetDeviceProcAddr(d->device_, "vkGetSemaphoreFdKHR"));
-  if (d->get_memory_fd_ == nullptr || d->get_semaphore_fd_ == nullptr) {
-    return FailedPrecondition("vkGetMemoryFdKHR or vkGetSemaphoreFdKHR is missing");
+  if (memory_fd) {
+    d->get_memory_fd_ =
+        reinterpret_cast<PFN_vkGetMemoryFdKHR>(vkGetDeviceProcAddr(d->device_, "vkGetMemoryFdKHR"));
+    if (d->get_memory_fd_ == nullptr) return FailedPrecondition("vkGetMemoryFdKHR is missing");
+  }
+  if (semaphore_fd) {
+    d->get_semaphore_fd_ = reinterpret_cast<PFN_vkGetSemaphoreFdKHR>(
+        vkGetDeviceProcAddr(d->device_, "vkGetSemaphoreFdKHR"));
+    if (d->get_semaphore_fd_ == nullptr) {
+      return FailedPrecondition("vkGetSemaphoreFdKHR is missing");
+    }
   }
   return d;
 }
@@ -322,9 +325,12 @@ Result<const void*> ReadBack::Copy(const ExportedBuffer& from, uint64_t offset, 
   if (VkResult r = vkQueueSubmit(device_.queue(), 1, &submit, fence_); r != VK_SUCCESS) {
     return VkFailed("vkQueueSubmit(read-back)", r);
   }
-  if (VkResult r = vkWaitForFences(device_.device(), 1, &fence_, VK_TRUE, UINT64_MAX);
+  if (VkResult r = vkWaitForFences(device_.device(), 1, &fence_, VK_TRUE, kFenceTimeoutNs);
       r != VK_SUCCESS) {
-    return VkFailed("vkWaitForFences(read-back)", r);
+    return r == VK_TIMEOUT ? DeadlineExceeded(
+                                 "the read-back did not finish within 20 s: was the "
+                                 "server's semaphore signalled?")
+                           : VkFailed("vkWaitForFences(read-back)", r);
   }
   return static_cast<const void*>(mapped_);
 }

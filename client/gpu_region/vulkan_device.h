@@ -15,13 +15,18 @@
 
 namespace skinserve::gpu_region {
 
+// How long a submission that waits on the server's semaphore may take: a signal that never
+// comes fails the run (VK_TIMEOUT) instead of hanging it.
+inline constexpr uint64_t kFenceTimeoutNs = 20'000'000'000;
+
 class VulkanDevice {
  public:
   // `index` < 0: the first discrete GPU, else the first device. FAILED_PRECONDITION with
-  // what is missing (no loader or driver, no device; with `external`, no
-  // VK_KHR_external_memory_fd or VK_KHR_external_semaphore_fd). Without `external` (the
-  // drawing test on a CPU's Vulkan) nothing is exported.
-  static Result<std::unique_ptr<VulkanDevice>> Create(int index, bool external = true);
+  // what is missing (no loader or driver, no device; with `memory_fd`, no
+  // VK_KHR_external_memory_fd; with `semaphore_fd`, no VK_KHR_external_semaphore_fd).
+  // Without either (the drawing test on a CPU's Vulkan) nothing is exported.
+  static Result<std::unique_ptr<VulkanDevice>> Create(int index, bool memory_fd = true,
+                                                      bool semaphore_fd = true);
   ~VulkanDevice();
   VulkanDevice(const VulkanDevice&) = delete;
   VulkanDevice& operator=(const VulkanDevice&) = delete;

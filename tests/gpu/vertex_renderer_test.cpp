@@ -69,7 +69,7 @@ struct Vulkan {
 Vulkan& TestVulkan() {
   static Vulkan vk;
   if (vk.device == nullptr) {
-    auto device = VulkanDevice::Create(-1, /*external=*/false);
+    auto device = VulkanDevice::Create(-1, /*memory_fd=*/false, /*semaphore_fd=*/false);
     if (!device.ok()) {
       ADD_FAILURE() << device.status().ToString()
                     << " (the CPU's Vulkan is Mesa's lavapipe: mesa-vulkan-drivers)";
