@@ -3,7 +3,8 @@
 # machine (docs/serving/gpu-regions.md#tests): the server and the Vulkan client, every shared
 # library they link but the C and C++ runtimes (the GPU machine has newer ones), and the
 # Vulkan loader and glvnd .debs, which the test unpacks there (the NVIDIA Vulkan driver
-# needs glvnd beside libvulkan1). Run after building both:
+# needs glvnd beside libvulkan1). The client must have its renderer (--draw: built where
+# glslang-tools and libpng-dev are, scripts/install-deps.sh). Run after building both:
 #   cmake --build build --target skinserve skinserve-gpu-region
 #   scripts/gpu-region-pack.sh [BUILD_DIR]
 set -euo pipefail
@@ -12,6 +13,11 @@ build=${1:-$root/build}
 d=$root/build-gpu
 rm -rf "$d"
 mkdir -p "$d/bin" "$d/lib" "$d/debs"
+if ! "$build/bin/skinserve-gpu-region" --help | grep -q -- --draw; then
+  echo "gpu-region-pack: $build/bin/skinserve-gpu-region has no --draw (built without" \
+    "glslangValidator or libpng): the GPU test draws pictures" >&2
+  exit 1
+fi
 cp "$build/bin/skinserve" "$build/bin/skinserve-gpu-region" "$d/bin/"
 # The loader comes from the .debs (with glvnd); everything else from here.
 ldd "$d"/bin/* | awk '/=>/ {print $3}' | sort -u \

@@ -2,9 +2,12 @@
 # GPU regions on the GPU machine (docs/serving/gpu-regions.md), from build-gpu/ as
 # scripts/gpu-region-pack.sh fills it: the server with the `opencl` backend on the GPU
 # (confined to 2 cores), then the headless Vulkan client (on the other cores) at 25k x 2
-# and 1.6M x 4: each registers a vertex buffer it exported, checks every frame of a test
-# run against the float64 reference (copied back from the GPU), then measures frames/s
-# into the GPU region against the same frames read back into a shared-memory region.
+# and 1.6M x 4: each registers a vertex buffer it exported with a semaphore it exported,
+# checks every frame of a test run against the float64 reference (copied back from the GPU
+# by a submission that waits on the semaphore the server signalled), draws the character
+# mid-walk from the buffer into OUT/*.png (checked against the reference's projected
+# positions), then measures frames/s into a GPU region without a semaphore against the
+# same frames read back into a shared-memory region. One check runs without a semaphore.
 #   scripts/gpu-region-test.sh [OUT_DIR]      (from the repository root; OUT: $OUT or ./out)
 # Exit status 0 when every run printed PASS. Overrides (for a dry run elsewhere):
 # SKINSERVE_OPENCL_DEVICE (gpu), SKINSERVE_SERVER_CPUS (0,1), SKINSERVE_CLIENT_CPUS (the rest).
@@ -55,19 +58,32 @@ fi
 status=0
 run() {  # name, then the client's flags
   local name=$1; shift
-  local cmd=(taskset -c "$client_cpus" "$d/bin/skinserve-gpu-region" --target "unix:$sock/grpc.sock"
+  local cmd=(timeout 240 taskset -c "$client_cpus" "$d/bin/skinserve-gpu-region" --target "unix:$sock/grpc.sock"
     --fd-socket "$sock/fd.sock" "$@")
   echo "== $name: ${cmd[*]}" | tee -a "$out/command.txt"
   "${cmd[@]}" 2>&1 | tee "$out/$name.txt"
   if [ "${PIPESTATUS[0]}" -ne 0 ]; then status=1; echo "$name: FAIL"; else echo "$name: PASS"; fi
 }
-run 25k-x2 --vertices 25000 --influences 2 --check 300 --frames 5000 --window 2
-run 25k-x2-normals --vertices 25000 --influences 2 --normals --check 100 --frames 0
-run 1.6M-x4 --vertices 1600000 --influences 4 --check 20 --frames 300 --window 2
+run 25k-x2 --vertices 25000 --influences 2 --check 300 --draw "$out/walk-25k-x2.png" \
+  --frames 5000 --window 2
+run 25k-x2-normals --vertices 25000 --influences 2 --normals --check 100 \
+  --draw "$out/walk-25k-x2-normals.png" --frames 0
+run 25k-x2-no-semaphore --vertices 25000 --influences 2 --semaphore false --check 100 --frames 0
+run 1.6M-x4 --vertices 1600000 --influences 4 --check 20 \
+  --draw "$out/walk-1.6M-x4.png" --draw-size 1024 --frames 300 --window 2
+# Each check said it waited on the semaphore, each picture is there.
+for name in 25k-x2 25k-x2-normals 1.6M-x4; do
+  if ! grep -q "each read after a GPU wait on the semaphore" "$out/$name.txt"; then
+    echo "$name: FAIL: its check did not wait on the semaphore"; status=1
+  fi
+done
+for png in walk-25k-x2 walk-25k-x2-normals walk-1.6M-x4; do
+  if [ ! -s "$out/$png.png" ]; then echo "$png.png: FAIL: not written"; status=1; fi
+done
 
 kill "$server" 2>/dev/null; wait "$server" 2>/dev/null
 rm -rf "$sock" "$vk"
 echo "== summary"
-grep -hE "^(check|gpu-region|shm-readback|FAIL)" "$out"/*x*.txt
+grep -hE "^(device|check|draw|gpu-region|shm-readback|FAIL)" "$out"/*x*.txt
 [ "$status" -eq 0 ] && echo "ALL PASS" || echo "SOME FAILED"
 exit "$status"

@@ -9,7 +9,7 @@ set -euo pipefail
 BUILD_PACKAGES=(
   build-essential cmake ninja-build pkg-config git ca-certificates ccache
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
-  ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers libvulkan-dev
+  ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers libvulkan-dev glslang-tools libpng-dev
   libglm-dev libcli11-dev libspdlog-dev libfmt-dev
   libtinygltf-dev nlohmann-json3-dev libstb-dev libcairo2-dev
   libgtest-dev libgmock-dev libbenchmark-dev
@@ -55,6 +55,9 @@ BUILD_PACKAGES+=(help2man)
 # from protobuf-compiler's protoc, run on Debian's protobuf; mypy --strict on it, packaging
 # to compare its pinned ranges with what is installed.
 TEST_PACKAGES+=(python3-protobuf python3-wheel python3-packaging python3-mypy)
+# GPU regions' renderer (skinserve-gpu-region --draw, issue 44): its drawing test runs on
+# the CPU's Vulkan, Mesa's lavapipe.
+TEST_PACKAGES+=(mesa-vulkan-drivers)
 # Short functions (issue 45): conventions.function_length finds every function with
 # universal-ctags.
 TEST_PACKAGES+=(universal-ctags)

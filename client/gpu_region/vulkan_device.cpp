@@ -23,12 +23,16 @@ bool HasDeviceExtension(VkPhysicalDevice device, const char* name) {
   return false;
 }
 
-// The first queue family with transfer (graphics and compute queues have it implicitly).
+// The first queue family with graphics (the renderer draws), else the first with transfer
+// (graphics and compute queues have it implicitly).
 uint32_t QueueFamily(VkPhysicalDevice device) {
   uint32_t count = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(device, &count, nullptr);
   std::vector<VkQueueFamilyProperties> families(count);
   vkGetPhysicalDeviceQueueFamilyProperties(device, &count, families.data());
+  for (uint32_t i = 0; i < count; ++i) {
+    if (families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) return i;
+  }
   for (uint32_t i = 0; i < count; ++i) {
     if (families[i].queueFlags &
         (VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT | VK_QUEUE_TRANSFER_BIT)) {
@@ -60,7 +64,8 @@ Result<VkPhysicalDevice> PickDevice(VkInstance instance, int index) {
 
 }  // namespace
 
-Result<std::unique_ptr<VulkanDevice>> VulkanDevice::Create(int index) {
+Result<std::unique_ptr<VulkanDevice>> VulkanDevice::Create(int index, bool memory_fd,
+                                                           bool semaphore_fd) {
   std::unique_ptr<VulkanDevice> d(new VulkanDevice());
   VkApplicationInfo app{.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO,
                         .pApplicationName = "skinserve-gpu-region",
@@ -83,30 +88,48 @@ Result<std::unique_ptr<VulkanDevice>> VulkanDevice::Create(int index) {
   d->name_ = props.properties.deviceName;
   std::memcpy(d->uuid_.data(), id.deviceUUID, 16);
   vkGetPhysicalDeviceMemoryProperties(d->physical_, &d->memory_);
-  if (!HasDeviceExtension(d->physical_, VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME)) {
-    return FailedPrecondition(fmt::format("Vulkan device '{}' lacks {}", d->name_,
-                                          VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME));
+  std::vector<const char*> extensions;
+  if (memory_fd) extensions.push_back(VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
+  if (semaphore_fd) extensions.push_back(VK_KHR_EXTERNAL_SEMAPHORE_FD_EXTENSION_NAME);
+  for (const char* e : extensions) {
+    if (!HasDeviceExtension(d->physical_, e)) {
+      return FailedPrecondition(fmt::format("Vulkan device '{}' lacks {}", d->name_, e));
+    }
   }
+  VkPhysicalDeviceFeatures offered;
+  vkGetPhysicalDeviceFeatures(d->physical_, &offered);
+  VkPhysicalDeviceFeatures features = {};
+  features.largePoints = offered.largePoints;
+  d->large_points_ = offered.largePoints == VK_TRUE;
   d->queue_family_ = QueueFamily(d->physical_);
   const float priority = 1;
   VkDeviceQueueCreateInfo queue{.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO,
                                 .queueFamilyIndex = d->queue_family_,
                                 .queueCount = 1,
                                 .pQueuePriorities = &priority};
-  const char* extensions[] = {VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME};
   VkDeviceCreateInfo device_info{.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
                                  .queueCreateInfoCount = 1,
                                  .pQueueCreateInfos = &queue,
-                                 .enabledExtensionCount = 1,
-                                 .ppEnabledExtensionNames = extensions};
+                                 .enabledExtensionCount = static_cast<uint32_t>(extensions.size()),
+                                 .ppEnabledExtensionNames = extensions.data(),
+                                 .pEnabledFeatures = &features};
   if (VkResult r = vkCreateDevice(d->physical_, &device_info, nullptr, &d->device_);
       r != VK_SUCCESS) {
     return VkFailed("vkCreateDevice", r);
   }
   vkGetDeviceQueue(d->device_, d->queue_family_, 0, &d->queue_);
-  d->get_memory_fd_ =
-      reinterpret_cast<PFN_vkGetMemoryFdKHR>(vkGetDeviceProcAddr(d->device_, "vkGetMemoryFdKHR"));
-  if (d->get_memory_fd_ == nullptr) return FailedPrecondition("vkGetMemoryFdKHR is missing");
+  if (memory_fd) {
+    d->get_memory_fd_ =
+        reinterpret_cast<PFN_vkGetMemoryFdKHR>(vkGetDeviceProcAddr(d->device_, "vkGetMemoryFdKHR"));
+    if (d->get_memory_fd_ == nullptr) return FailedPrecondition("vkGetMemoryFdKHR is missing");
+  }
+  if (semaphore_fd) {
+    d->get_semaphore_fd_ = reinterpret_cast<PFN_vkGetSemaphoreFdKHR>(
+        vkGetDeviceProcAddr(d->device_, "vkGetSemaphoreFdKHR"));
+    if (d->get_semaphore_fd_ == nullptr) {
+      return FailedPrecondition("vkGetSemaphoreFdKHR is missing");
+    }
+  }
   return d;
 }
 
@@ -180,6 +203,34 @@ Result<int> ExportedBuffer::ExportFd() const {
   return fd;
 }
 
+Result<std::unique_ptr<ExportedSemaphore>> ExportedSemaphore::Create(const VulkanDevice& device) {
+  std::unique_ptr<ExportedSemaphore> s(new ExportedSemaphore(device));
+  VkExportSemaphoreCreateInfo exported{
+      .sType = VK_STRUCTURE_TYPE_EXPORT_SEMAPHORE_CREATE_INFO,
+      .handleTypes = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT};
+  VkSemaphoreCreateInfo info{.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO, .pNext = &exported};
+  if (VkResult r = vkCreateSemaphore(device.device(), &info, nullptr, &s->semaphore_);
+      r != VK_SUCCESS) {
+    return VkFailed("vkCreateSemaphore(exportable, binary)", r);
+  }
+  return s;
+}
+
+ExportedSemaphore::~ExportedSemaphore() {
+  if (semaphore_ != VK_NULL_HANDLE) vkDestroySemaphore(device_.device(), semaphore_, nullptr);
+}
+
+Result<int> ExportedSemaphore::ExportFd() const {
+  VkSemaphoreGetFdInfoKHR info{.sType = VK_STRUCTURE_TYPE_SEMAPHORE_GET_FD_INFO_KHR,
+                               .semaphore = semaphore_,
+                               .handleType = VK_EXTERNAL_SEMAPHORE_HANDLE_TYPE_OPAQUE_FD_BIT};
+  int fd = -1;
+  if (VkResult r = device_.get_semaphore_fd()(device_.device(), &info, &fd); r != VK_SUCCESS) {
+    return VkFailed("vkGetSemaphoreFdKHR", r);
+  }
+  return fd;
+}
+
 Result<std::unique_ptr<ReadBack>> ReadBack::Create(const VulkanDevice& device, uint64_t bytes) {
   std::unique_ptr<ReadBack> rb(new ReadBack(device));
   VkBufferCreateInfo info{.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
@@ -231,7 +282,8 @@ ReadBack::~ReadBack() {
   if (memory_ != VK_NULL_HANDLE) vkFreeMemory(d, memory_, nullptr);
 }
 
-Result<const void*> ReadBack::Copy(const ExportedBuffer& from, uint64_t offset, uint64_t bytes) {
+Result<const void*> ReadBack::Copy(const ExportedBuffer& from, uint64_t offset, uint64_t bytes,
+                                   VkSemaphore wait) {
   if (bytes > bytes_) {
     return InvalidArgument(fmt::format("read-back of {} bytes exceeds its {}", bytes, bytes_));
   }
@@ -262,16 +314,23 @@ Result<const void*> ReadBack::Copy(const ExportedBuffer& from, uint64_t offset, 
                        VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 1, &release, 0,
                        nullptr);
   vkEndCommandBuffer(commands_);
+  const VkPipelineStageFlags wait_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
   VkSubmitInfo submit{.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO,
+                      .waitSemaphoreCount = wait != VK_NULL_HANDLE ? 1u : 0u,
+                      .pWaitSemaphores = &wait,
+                      .pWaitDstStageMask = &wait_stage,
                       .commandBufferCount = 1,
                       .pCommandBuffers = &commands_};
   vkResetFences(device_.device(), 1, &fence_);
   if (VkResult r = vkQueueSubmit(device_.queue(), 1, &submit, fence_); r != VK_SUCCESS) {
     return VkFailed("vkQueueSubmit(read-back)", r);
   }
-  if (VkResult r = vkWaitForFences(device_.device(), 1, &fence_, VK_TRUE, UINT64_MAX);
+  if (VkResult r = vkWaitForFences(device_.device(), 1, &fence_, VK_TRUE, kFenceTimeoutNs);
       r != VK_SUCCESS) {
-    return VkFailed("vkWaitForFences(read-back)", r);
+    return r == VK_TIMEOUT ? DeadlineExceeded(
+                                 "the read-back did not finish within 20 s: was the "
+                                 "server's semaphore signalled?")
+                           : VkFailed("vkWaitForFences(read-back)", r);
   }
   return static_cast<const void*>(mapped_);
 }

@@ -15,11 +15,18 @@
 
 namespace skinserve::gpu_region {
 
+// How long a submission that waits on the server's semaphore may take: a signal that never
+// comes fails the run (VK_TIMEOUT) instead of hanging it.
+inline constexpr uint64_t kFenceTimeoutNs = 20'000'000'000;
+
 class VulkanDevice {
  public:
   // `index` < 0: the first discrete GPU, else the first device. FAILED_PRECONDITION with
-  // what is missing (no loader or driver, no device, no VK_KHR_external_memory_fd).
-  static Result<std::unique_ptr<VulkanDevice>> Create(int index);
+  // what is missing (no loader or driver, no device; with `memory_fd`, no
+  // VK_KHR_external_memory_fd; with `semaphore_fd`, no VK_KHR_external_semaphore_fd).
+  // Without either (the drawing test on a CPU's Vulkan) nothing is exported.
+  static Result<std::unique_ptr<VulkanDevice>> Create(int index, bool memory_fd = true,
+                                                      bool semaphore_fd = true);
   ~VulkanDevice();
   VulkanDevice(const VulkanDevice&) = delete;
   VulkanDevice& operator=(const VulkanDevice&) = delete;
@@ -32,6 +39,8 @@ class VulkanDevice {
   // A memory type among `bits` with `flags`; UINT32_MAX if none.
   uint32_t MemoryType(uint32_t bits, VkMemoryPropertyFlags flags) const;
   PFN_vkGetMemoryFdKHR get_memory_fd() const { return get_memory_fd_; }
+  PFN_vkGetSemaphoreFdKHR get_semaphore_fd() const { return get_semaphore_fd_; }
+  bool large_points() const { return large_points_; }  // gl_PointSize above 1
 
  private:
   VulkanDevice() = default;
@@ -44,6 +53,27 @@ class VulkanDevice {
   std::string name_;
   VkPhysicalDeviceMemoryProperties memory_ = {};
   PFN_vkGetMemoryFdKHR get_memory_fd_ = nullptr;
+  PFN_vkGetSemaphoreFdKHR get_semaphore_fd_ = nullptr;
+  bool large_points_ = false;
+};
+
+// A binary semaphore exportable as an opaque fd (VK_KHR_external_semaphore_fd): the
+// server signals it once per frame it answers into the GPU region (its registration's
+// semaphore_fd_token), and the client's next GPU work on the region waits on it.
+class ExportedSemaphore {
+ public:
+  static Result<std::unique_ptr<ExportedSemaphore>> Create(const VulkanDevice& device);
+  ~ExportedSemaphore();
+  ExportedSemaphore(const ExportedSemaphore&) = delete;
+  ExportedSemaphore& operator=(const ExportedSemaphore&) = delete;
+  // A new fd of the semaphore (vkGetSemaphoreFdKHR): the caller's to close.
+  Result<int> ExportFd() const;
+  VkSemaphore semaphore() const { return semaphore_; }
+
+ private:
+  explicit ExportedSemaphore(const VulkanDevice& device) : device_(device) {}
+  const VulkanDevice& device_;
+  VkSemaphore semaphore_ = VK_NULL_HANDLE;
 };
 
 // A vertex buffer of device-local memory, exportable as an opaque fd.
@@ -75,8 +105,10 @@ class ReadBack {
   ReadBack(const ReadBack&) = delete;
   ReadBack& operator=(const ReadBack&) = delete;
   // [offset, offset + bytes) of `from` into the returned host memory (valid until the next
-  // call).
-  Result<const void*> Copy(const ExportedBuffer& from, uint64_t offset, uint64_t bytes);
+  // call). With `wait` (not VK_NULL_HANDLE) the copy waits on that semaphore on the GPU,
+  // consuming the server's one signal for the frame.
+  Result<const void*> Copy(const ExportedBuffer& from, uint64_t offset, uint64_t bytes,
+                           VkSemaphore wait = VK_NULL_HANDLE);
 
  private:
   explicit ReadBack(const VulkanDevice& device) : device_(device) {}

@@ -40,14 +40,8 @@ void FrameJob::SetGpuOutput() {
                     .tangents = want_tangents_};
 }
 
-Status FrameJob::GpuRegionStillThere() {
-  if (gpu_region_->removed()) {
-    return FailedPrecondition(fmt::format(
-        "GPU region '{}' was unregistered while frame {} was in flight: its output is undefined",
-        gpu_region_->name(), frame_));
-  }
-  gpu_region_->CountFrame();
-  return Status::Ok();
-}
+// Also where a GPU region's semaphore is signalled: once per frame, after all its
+// instances are in the buffer, before the answer (GpuRegion::FrameWritten).
+Status FrameJob::GpuRegionStillThere() { return gpu_region_->FrameWritten(frame_); }
 
 }  // namespace skinserve::server

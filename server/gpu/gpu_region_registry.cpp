@@ -49,6 +49,21 @@ void GpuRegion::MarkRemoved(std::function<void()> on_released) {
   removed_.store(true, std::memory_order_release);
 }
 
+Status GpuRegion::FrameWritten(uint64_t frame) {
+  if (removed()) {
+    return FailedPrecondition(fmt::format(
+        "GPU region '{}' was unregistered while frame {} was in flight: its output is undefined",
+        name_, frame));
+  }
+  if (Status s = memory_->SignalFrameWritten(); !s.ok()) {
+    return Status(s.code(), fmt::format("GPU region '{}': frame {} is in the buffer, but its "
+                                        "semaphore was not signalled: {}",
+                                        name_, frame, s.message()));
+  }
+  CountFrame();
+  return Status::Ok();
+}
+
 GpuRegionRegistry::GpuRegionRegistry(const GpuRegionLimits& limits) : limits_(limits) {
   reaper_ = std::thread([this] { ReapIdle(); });
 }
@@ -171,8 +186,12 @@ Result<std::shared_ptr<GpuRegion>> GpuRegionRegistry::Acquire(const std::string&
 }
 
 GpuRegionInfo GpuRegionRegistry::InfoOf(const GpuRegion& region, int64_t now_ns) const {
-  return {region.name(), region.memory().backend(), region.byte_size(), region.frames(),
-          static_cast<double>(now_ns - region.last_used_ns()) * 1e-9};
+  return {region.name(),
+          region.memory().backend(),
+          region.byte_size(),
+          region.frames(),
+          static_cast<double>(now_ns - region.last_used_ns()) * 1e-9,
+          region.memory().signals_semaphore()};
 }
 
 std::vector<GpuRegionInfo> GpuRegionRegistry::List(const RegionOwner& owner) const {

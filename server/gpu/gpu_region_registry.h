@@ -50,6 +50,10 @@ class GpuRegion {
   void Touch(int64_t now_ns) { last_used_ns_.store(now_ns, std::memory_order_relaxed); }
   int64_t last_used_ns() const { return last_used_ns_.load(std::memory_order_relaxed); }
   void CountFrame() { frames_.fetch_add(1, std::memory_order_relaxed); }
+  // A frame is in the region: FAILED_PRECONDITION if the region was unregistered
+  // meanwhile (its output is undefined, nothing signalled); else its semaphore, if it was
+  // registered with one, signalled once, and the frame counted.
+  Status FrameWritten(uint64_t frame);
   uint64_t frames() const { return frames_.load(std::memory_order_relaxed); }
 
  private:
@@ -67,6 +71,7 @@ struct GpuRegionInfo {
   uint64_t byte_size = 0;
   uint64_t frames_written = 0;
   double idle_seconds = 0;
+  bool signals_semaphore = false;
 };
 
 class GpuRegionRegistry {

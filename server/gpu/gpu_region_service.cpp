@@ -24,6 +24,7 @@ void ToWire(const GpuRegionInfo& info, v1::GpuRegionInfo* wire) {
   wire->set_backend(info.backend);
   wire->set_frames_written(info.frames_written);
   wire->set_idle_seconds(info.idle_seconds);
+  wire->set_signals_semaphore(info.signals_semaphore);
 }
 
 }  // namespace
@@ -44,6 +45,15 @@ Result<GpuRegionInfo> GpuRegionService::Register(const v1::RegisterGpuRegionRequ
   Result<int> fd = handoff_->Take(request.fd_token(), owner);
   if (!fd.ok()) return fd.status();
   DeviceMemoryImport import{.fd = *fd, .byte_size = request.byte_size()};
+  if (!request.semaphore_fd_token().empty()) {
+    Result<int> semaphore = handoff_->Take(request.semaphore_fd_token(), owner);
+    if (!semaphore.ok()) {
+      close(*fd);
+      return Status(semaphore.status().code(),
+                    fmt::format("semaphore_fd_token: {}", semaphore.status().message()));
+    }
+    import.semaphore_fd = *semaphore;
+  }
   std::copy_n(reinterpret_cast<const uint8_t*>(request.device_uuid().data()), 16,
               import.device_uuid.begin());
   const std::string backend = request.backend().empty() ? default_backend_ : request.backend();
@@ -53,7 +63,10 @@ Result<GpuRegionInfo> GpuRegionService::Register(const v1::RegisterGpuRegionRequ
     imported = memory.ok();
     return memory;
   });
-  if (!imported) close(*fd);  // on success the backend owns it
+  if (!imported) {  // on success the backend owns them
+    close(import.fd);
+    if (import.semaphore_fd >= 0) close(import.semaphore_fd);
+  }
   return info;
 }
 

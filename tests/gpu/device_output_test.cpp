@@ -3,6 +3,7 @@
 // the runtime's own standing in for an import, which PoCL cannot do), checked against the
 // float64 reference with nothing outside the ranges touched; the import refused with the
 // missing extension named; the engine's range and backend checks of device output.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/mman.h>
 #include <unistd.h>
@@ -12,6 +13,7 @@
 
 #include "backends/opencl/opencl_backends.h"
 #include "backends/opencl/opencl_device_memory.h"
+#include "backends/opencl/opencl_semaphore.h"
 #include "device_output_checks.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/reference/reference.h"
@@ -152,6 +154,56 @@ TEST(DeviceImportTest, RefusedNamingWhatTheDeviceLacks) {
   EXPECT_NE(other.status().message().find("backend 'opencl-zerocopy' cannot write into GPU memory"),
             std::string::npos)
       << other.status().message();
+}
+
+TEST(DeviceImportTest, ExtensionsAreNamedInTheOrderTheyAreChecked) {
+  const std::string memory =
+      "cl_khr_icd cl_khr_external_memory cl_khr_external_memory_opaque_fd cl_khr_device_uuid";
+  EXPECT_STREQ(MissingImportExtension("", false), "cl_khr_external_memory");
+  // A longer name that starts with the one needed is not it.
+  EXPECT_STREQ(MissingImportExtension("cl_khr_external_memory_opaque_fd cl_khr_device_uuid", false),
+               "cl_khr_external_memory");
+  EXPECT_STREQ(MissingImportExtension("cl_khr_external_memory cl_khr_device_uuid", false),
+               "cl_khr_external_memory_opaque_fd");
+  EXPECT_EQ(MissingImportExtension(memory, false), nullptr);
+  EXPECT_STREQ(MissingImportExtension(memory, true), "cl_khr_semaphore");
+  EXPECT_STREQ(MissingImportExtension(memory + " cl_khr_semaphore", true),
+               "cl_khr_external_semaphore");
+  EXPECT_STREQ(MissingImportExtension(memory + " cl_khr_semaphore cl_khr_external_semaphore", true),
+               "cl_khr_external_semaphore_opaque_fd");
+  // What NVIDIA's OpenCL on the H200 lists (../shared/notes/gpu-machine.md).
+  EXPECT_EQ(MissingImportExtension(memory + " cl_khr_semaphore cl_khr_external_semaphore "
+                                            "cl_khr_external_semaphore_opaque_fd",
+                                   true),
+            nullptr);
+}
+
+TEST(DeviceImportTest, WithASemaphoreRefusedNamingWhatTheDeviceLacksAndBothFdsStayOurs) {
+  OpenCl& cl = TestOpenCl(false);
+  const int fd = memfd_create("not-gpu-memory", MFD_CLOEXEC);
+  const int semaphore = memfd_create("not-a-semaphore", MFD_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  ASSERT_GE(semaphore, 0);
+  ASSERT_EQ(ftruncate(fd, 1 << 20), 0);
+  auto memory = cl.backends[0]->ImportDeviceMemory(
+      {.fd = fd, .byte_size = 1 << 20, .semaphore_fd = semaphore});
+  ASSERT_FALSE(memory.ok());
+  EXPECT_EQ(memory.status().code(), StatusCode::kFailedPrecondition);
+  std::size_t size = 0;
+  clGetDeviceInfo(cl.runtime->device(), CL_DEVICE_EXTENSIONS, 0, nullptr, &size);
+  std::string extensions(size, '\0');
+  clGetDeviceInfo(cl.runtime->device(), CL_DEVICE_EXTENSIONS, size, extensions.data(), nullptr);
+  while (!extensions.empty() && extensions.back() == '\0') extensions.pop_back();
+  const char* missing = MissingImportExtension(extensions, true);
+  if (missing != nullptr) {  // PoCL: the first extension it lacks is named
+    EXPECT_NE(memory.status().message().find(
+                  fmt::format("cannot import GPU memory with a semaphore: it lacks {} ", missing)),
+              std::string::npos)
+        << memory.status().message();
+  }
+  // Refused: both descriptors are still open and ours to close.
+  EXPECT_EQ(close(fd), 0);
+  EXPECT_EQ(close(semaphore), 0);
 }
 
 class FakeMemory final : public DeviceMemory {

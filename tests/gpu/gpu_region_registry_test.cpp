@@ -128,5 +128,69 @@ TEST(GpuRegionRegistryTest, IdleRegionsAreDropped) {
   EXPECT_EQ(registry.Acquire("r", Owner("a")).status().code(), StatusCode::kFailedPrecondition);
 }
 
+// Device memory with a semaphore that counts its signals, or fails them.
+class SignallingMemory final : public DeviceMemory {
+ public:
+  explicit SignallingMemory(bool fail) : fail_(fail) {}
+  uint64_t byte_size() const override { return 1024; }
+  const std::string& backend() const override { return backend_; }
+  bool signals_semaphore() const override { return true; }
+  Status SignalFrameWritten() const override {
+    if (fail_) return Internal("clEnqueueSignalSemaphoresKHR failed");
+    ++signals;
+    return Status::Ok();
+  }
+  mutable int signals = 0;
+
+ private:
+  const bool fail_;
+  std::string backend_ = "opencl";
+};
+
+TEST(GpuRegionRegistryTest, EachFrameWrittenSignalsTheSemaphoreOnce) {
+  GpuRegionRegistry registry({});
+  auto memory = std::make_shared<SignallingMemory>(false);
+  const RegionOwner owner = Owner("uid 1 pid 2");
+  auto info = registry.Register("a", 1024, owner, [&]() -> Result<std::shared_ptr<DeviceMemory>> {
+    return std::shared_ptr<DeviceMemory>(memory);
+  });
+  ASSERT_TRUE(info.ok());
+  EXPECT_TRUE(info->signals_semaphore);
+  auto region = registry.Acquire("a", owner);
+  ASSERT_TRUE(region.ok());
+  for (uint64_t frame = 0; frame < 3; ++frame) {
+    ASSERT_TRUE((*region)->FrameWritten(frame).ok());
+    EXPECT_EQ(memory->signals, static_cast<int>(frame) + 1);
+  }
+  EXPECT_EQ((*region)->frames(), 3u);
+  // Unregistered while a frame held it: the frame fails and nothing is signalled.
+  ASSERT_TRUE(registry.Unregister("a", owner, nullptr).ok());
+  const Status gone = (*region)->FrameWritten(3);
+  EXPECT_EQ(gone.code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(gone.message().find("was unregistered while frame 3 was in flight"), std::string::npos);
+  EXPECT_EQ(memory->signals, 3);
+  EXPECT_EQ((*region)->frames(), 3u);
+}
+
+TEST(GpuRegionRegistryTest, AFailedSignalFailsTheFrame) {
+  GpuRegionRegistry registry({});
+  const RegionOwner owner = Owner("uid 1 pid 2");
+  ASSERT_TRUE(registry
+                  .Register("a", 1024, owner,
+                            []() -> Result<std::shared_ptr<DeviceMemory>> {
+                              return std::shared_ptr<DeviceMemory>(
+                                  std::make_shared<SignallingMemory>(true));
+                            })
+                  .ok());
+  auto region = registry.Acquire("a", owner);
+  ASSERT_TRUE(region.ok());
+  const Status failed = (*region)->FrameWritten(7);
+  EXPECT_EQ(failed.code(), StatusCode::kInternal);
+  EXPECT_NE(failed.message().find("frame 7 is in the buffer, but its semaphore was not signalled"),
+            std::string::npos)
+      << failed.message();
+  EXPECT_EQ((*region)->frames(), 0u);
+}
+
 }  // namespace
 }  // namespace skinserve::server

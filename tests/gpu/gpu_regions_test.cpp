@@ -99,6 +99,46 @@ TEST(GpuRegionsTest, OpenClOnPoclIsRefusedNamingTheMissingExtension) {
   EXPECT_EQ(list.imported_bytes(), 0u);
 }
 
+TEST(GpuRegionsTest, ASemaphoreTokenIsUsedAndItsRefusalNamed) {
+  GpuServer gpu;
+  auto stub = gpu.Stub();
+  const std::string memory = HandOver(gpu.fd_socket), semaphore = HandOver(gpu.fd_socket);
+  v1::RegisterGpuRegionRequest request;
+  request.set_name("vertices");
+  request.set_fd_token(memory);
+  request.set_semaphore_fd_token(semaphore);
+  request.set_byte_size(1 << 20);
+  request.set_device_uuid(std::string(16, '\0'));
+  request.set_backend("opencl");
+  {
+    grpc::ClientContext context;
+    v1::GpuRegionInfo info;
+    const Status refused = wire::FromGrpc(stub->RegisterGpuRegion(&context, request, &info));
+    EXPECT_EQ(refused.code(), StatusCode::kFailedPrecondition);
+    // PoCL: the first extension of all it lacks, for memory with a semaphore.
+    EXPECT_NE(refused.message().find("with a semaphore: it lacks cl_khr_external_memory"),
+              std::string::npos)
+        << refused.message();
+  }
+  // Both tokens were used: the semaphore's is unknown now, even as a buffer's.
+  auto again = Register(*stub, semaphore, "opencl");
+  EXPECT_EQ(again.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(again.status().message().find("unknown to this client"), std::string::npos)
+      << again.status().message();
+  // A semaphore token never handed over: named, and the buffer's token is used up too.
+  request.set_fd_token(HandOver(gpu.fd_socket));
+  request.set_semaphore_fd_token(std::string(32, 'f'));
+  grpc::ClientContext context;
+  v1::GpuRegionInfo info;
+  const Status unknown = wire::FromGrpc(stub->RegisterGpuRegion(&context, request, &info));
+  EXPECT_EQ(unknown.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(unknown.message().rfind("semaphore_fd_token: ", 0), 0u) << unknown.message();
+  grpc::ClientContext list_context;
+  v1::ListGpuRegionsResponse list;
+  ASSERT_TRUE(stub->ListGpuRegions(&list_context, {}, &list).ok());
+  EXPECT_EQ(list.regions_size(), 0);
+}
+
 TEST(GpuRegionsTest, OtherBackendsCannotImport) {
   GpuServer gpu;
   auto stub = gpu.Stub();

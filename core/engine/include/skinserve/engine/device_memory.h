@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <string>
 
+#include "skinserve/model/status.h"
+
 namespace skinserve {
 
 class DeviceMemory {
@@ -16,8 +18,12 @@ class DeviceMemory {
   virtual uint64_t byte_size() const = 0;
   // The id of the backend that imported it: only that backend writes into it.
   virtual const std::string& backend() const = 0;
-  // Whether the backend signals an imported semaphore after each frame written into it.
+  // Whether an exported semaphore was imported with it (DeviceMemoryImport::semaphore_fd).
   virtual bool signals_semaphore() const { return false; }
+  // Signals that semaphore once, for a frame whose writes into the memory are done (all its
+  // instances); submitted to the device before it returns. OK and nothing without one.
+  // The server calls it once per answered frame (docs/serving/gpu-regions.md#semaphore).
+  virtual Status SignalFrameWritten() const { return Status::Ok(); }
 };
 
 // What to import: an exported allocation's opaque file descriptor, its size and the
@@ -26,8 +32,8 @@ struct DeviceMemoryImport {
   int fd = -1;  // on success the importer owns it; on failure the caller still does
   uint64_t byte_size = 0;
   std::array<uint8_t, 16> device_uuid = {};
-  // An exported semaphore's opaque fd (-1: none) the backend signals when a frame written
-  // into the memory is done; owned like `fd`.
+  // An exported binary semaphore's opaque fd (-1: none) that SignalFrameWritten signals;
+  // owned like `fd`.
   int semaphore_fd = -1;
 };
 

@@ -12,6 +12,8 @@
 #include <mutex>
 #include <vector>
 
+#include "backends/opencl/opencl_semaphore.h"
+
 namespace skinserve {
 namespace {
 
@@ -19,14 +21,20 @@ class OpenClDeviceMemory final : public DeviceMemory {
  public:
   OpenClDeviceMemory(ClBuffer buffer, uint64_t bytes, std::string backend,
                      clEnqueueAcquireExternalMemObjectsKHR_fn acquire_fn,
-                     clEnqueueReleaseExternalMemObjectsKHR_fn release_fn)
+                     clEnqueueReleaseExternalMemObjectsKHR_fn release_fn,
+                     std::unique_ptr<ImportedSemaphore> semaphore = nullptr)
       : buffer_(std::move(buffer)),
         bytes_(bytes),
         backend_(std::move(backend)),
         acquire_(acquire_fn),
-        release_(release_fn) {}
+        release_(release_fn),
+        semaphore_(std::move(semaphore)) {}
   uint64_t byte_size() const override { return bytes_; }
   const std::string& backend() const override { return backend_; }
+  bool signals_semaphore() const override { return semaphore_ != nullptr; }
+  Status SignalFrameWritten() const override {
+    return semaphore_ != nullptr ? semaphore_->Signal() : Status::Ok();
+  }
   cl_mem buffer() const { return buffer_.get(); }
   bool imported() const { return acquire_ != nullptr; }
   clEnqueueAcquireExternalMemObjectsKHR_fn acquire() const { return acquire_; }
@@ -42,6 +50,7 @@ class OpenClDeviceMemory final : public DeviceMemory {
   // Null for memory of the runtime's own (not imported): nothing to acquire.
   const clEnqueueAcquireExternalMemObjectsKHR_fn acquire_;
   const clEnqueueReleaseExternalMemObjectsKHR_fn release_;
+  const std::unique_ptr<ImportedSemaphore> semaphore_;  // null: none registered
   mutable std::mutex in_use_;
 };
 
@@ -58,11 +67,6 @@ Result<std::string> DeviceText(cl_device_id device, cl_device_info what, const c
   return value;
 }
 
-bool HasExtension(const std::string& extensions, const char* name) {
-  const std::string padded = " " + extensions + " ";
-  return padded.find(std::string(" ") + name + " ") != std::string::npos;
-}
-
 std::string Hex(const uint8_t* bytes, std::size_t n) {
   std::string out;
   for (std::size_t i = 0; i < n; ++i) out += fmt::format("{:02x}", bytes[i]);
@@ -70,18 +74,17 @@ std::string Hex(const uint8_t* bytes, std::size_t n) {
 }
 
 // FAILED_PRECONDITION naming the first extension the device lacks, or OK.
-Status CheckImportExtensions(const OpenClRuntime& runtime, const std::string& extensions) {
-  for (const char* needed :
-       {"cl_khr_external_memory", "cl_khr_external_memory_opaque_fd", "cl_khr_device_uuid"}) {
-    if (!HasExtension(extensions, needed)) {
-      return FailedPrecondition(fmt::format(
-          "the opencl backend's device '{}' ({}) cannot import GPU memory: it lacks {} (GPU "
-          "regions need cl_khr_external_memory_opaque_fd and cl_khr_device_uuid; PoCL offers "
-          "no external memory)",
-          runtime.device_name(), runtime.platform_version(), needed));
-    }
-  }
-  return Status::Ok();
+Status CheckImportExtensions(const OpenClRuntime& runtime, const std::string& extensions,
+                             bool with_semaphore) {
+  const char* missing = MissingImportExtension(extensions, with_semaphore);
+  if (missing == nullptr) return Status::Ok();
+  return FailedPrecondition(fmt::format(
+      "the opencl backend's device '{}' ({}) cannot import {}: it lacks {} (GPU regions need "
+      "cl_khr_external_memory_opaque_fd and cl_khr_device_uuid, a semaphore beside them "
+      "cl_khr_semaphore and cl_khr_external_semaphore_opaque_fd; PoCL offers no external "
+      "memory)",
+      runtime.device_name(), runtime.platform_version(),
+      with_semaphore ? "GPU memory with a semaphore" : "GPU memory", missing));
 }
 
 Status CheckUuid(const OpenClRuntime& runtime, const DeviceMemoryImport& import) {
@@ -113,12 +116,8 @@ Result<std::shared_ptr<DeviceMemory>> ImportOpenClDeviceMemory(const OpenClRunti
   Result<std::string> extensions =
       DeviceText(runtime.device(), CL_DEVICE_EXTENSIONS, "clGetDeviceInfo(CL_DEVICE_EXTENSIONS)");
   if (!extensions.ok()) return extensions.status();
-  if (Status s = CheckImportExtensions(runtime, *extensions); !s.ok()) return s;
-  if (import.semaphore_fd >= 0) {
-    return FailedPrecondition(
-        "GPU regions with a semaphore are not implemented by this server yet: register the "
-        "buffer without one and wait for the frame's answer");
-  }
+  const bool with_semaphore = import.semaphore_fd >= 0;
+  if (Status s = CheckImportExtensions(runtime, *extensions, with_semaphore); !s.ok()) return s;
   if (Status s = CheckUuid(runtime, import); !s.ok()) return s;
   cl_platform_id platform = nullptr;
   if (cl_int err = clGetDeviceInfo(runtime.device(), CL_DEVICE_PLATFORM, sizeof(platform),
@@ -136,6 +135,15 @@ Result<std::shared_ptr<DeviceMemory>> ImportOpenClDeviceMemory(const OpenClRunti
         "clEnqueueAcquireExternalMemObjectsKHR / clEnqueueReleaseExternalMemObjectsKHR",
         runtime.device_name()));
   }
+  // The semaphore first: it imports a duplicate, so a failed memory import after it
+  // leaves both of the caller's fds as they were.
+  std::unique_ptr<ImportedSemaphore> semaphore;
+  if (with_semaphore) {
+    Result<std::unique_ptr<ImportedSemaphore>> imported =
+        ImportedSemaphore::Import(runtime, import.semaphore_fd);
+    if (!imported.ok()) return imported.status();
+    semaphore = std::move(imported).value();
+  }
   // As checked on the H200 (../shared/notes/gpu-machine.md): the fd alone; the context
   // has the one device.
   const cl_mem_properties properties[] = {CL_EXTERNAL_MEMORY_HANDLE_OPAQUE_FD_KHR,
@@ -144,8 +152,9 @@ Result<std::shared_ptr<DeviceMemory>> ImportOpenClDeviceMemory(const OpenClRunti
   cl_mem mem = clCreateBufferWithProperties(runtime.context(), properties, CL_MEM_READ_WRITE,
                                             import.byte_size, nullptr, &err);
   if (err != CL_SUCCESS) return ClError("clCreateBufferWithProperties(opaque fd)", err);
+  if (with_semaphore) close(import.semaphore_fd);  // imported: ours, and the driver has its own
   return std::shared_ptr<DeviceMemory>(std::make_shared<OpenClDeviceMemory>(
-      ClBuffer(mem), import.byte_size, backend, acquire, release));
+      ClBuffer(mem), import.byte_size, backend, acquire, release, std::move(semaphore)));
 }
 
 Result<std::shared_ptr<DeviceMemory>> CreateOpenClDeviceMemory(OpenClRuntime& runtime,
