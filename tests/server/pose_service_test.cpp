@@ -379,6 +379,76 @@ TEST(PoseServiceTest, TheClientLibrarySendsPoses) {
   EXPECT_EQ(gone.code(), StatusCode::kNotFound) << gone.ToString();
 }
 
+// Character i's layers in tick `frame` of PosedTickOnTwoThreads: one, two or three layers
+// at times that differ from character to character and move on from tick to tick.
+std::vector<Layer> CharacterLayers(uint32_t i, uint64_t frame, double duration) {
+  const double t = 0.05 + 0.0313 * i + 0.1 * static_cast<double>(frame);
+  switch (i % 3) {
+    case 0:
+      return {{.time = t}};
+    case 1:
+      return {{.time = t, .weight = 0.3}, {.time = duration - t, .weight = 0.9}};
+    default:
+      return {{.time = t, .weight = 2},
+              {.time = 0.5 * t, .weight = 1},
+              {.time = duration + 0.3123 + 0.0171 * i, .weight = 1, .loop = true}};
+  }
+}
+
+// A tick's poses are evaluated on the compute threads that skin its characters
+// (SkinJob::FillInputs), each character with its own scratch: a stream of ticks of 64
+// posed characters on 2 compute threads, two ticks in flight, answers every character of
+// every tick as the float64 evaluation of its own layers says.
+TEST(PoseServiceTest, PosedTicksOnTwoComputeThreadsAnswerEveryCharacterRight) {
+  server::ServerOptions options;
+  options.threads = 2;
+  TestServer t(options);
+  const Rig rig = MakeRig(*t.client);
+  constexpr uint32_t kCharacters = 64;
+  constexpr uint64_t kTicks = 4;
+  const double d = rig.c.ref_clip.duration;
+  // What each tick sent: the client's layers (the Tick's spans point into them) and ours.
+  std::vector<std::vector<std::vector<client::PoseLayer>>> sent(kTicks);
+  std::vector<std::vector<std::vector<Layer>>> want(kTicks);
+  uint64_t checked = 0;
+  client::TickStreamSummary summary;
+  const Status streamed = client::StreamTicks(
+      *t.client, {.first_tick = 0, .ticks = kTicks, .window = 2},
+      [&](uint64_t frame, client::Tick* tick) {
+        sent[frame].assign(kCharacters, {});
+        want[frame].assign(kCharacters, {});
+        for (uint32_t i = 0; i < kCharacters; ++i) {
+          want[frame][i] = CharacterLayers(i, frame, d);
+          for (const Layer& l : want[frame][i]) {
+            sent[frame][i].push_back({.clip_id = rig.clip_id,
+                                      .time = static_cast<float>(l.time),
+                                      .weight = static_cast<float>(l.weight),
+                                      .loop = l.loop});
+          }
+          tick->AddPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = sent[frame][i]},
+                        {.backend = "sse"});
+        }
+      },
+      [&](client::TickResult& r, std::chrono::nanoseconds) {
+        ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+        ASSERT_EQ(r.characters.size(), kCharacters);
+        for (uint32_t i = 0; i < kCharacters; ++i) {
+          const std::string what =
+              "tick " + std::to_string(r.frame) + " character " + std::to_string(i);
+          ASSERT_TRUE(r.characters[i].status.ok())
+              << what << ": " << r.characters[i].status.ToString();
+          ExpectPositionsNear(
+              rig.mesh, r.characters[i].positions,
+              RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, want[r.frame][i])), what);
+          ++checked;
+        }
+      },
+      &summary);
+  ASSERT_TRUE(streamed.ok()) << streamed.ToString();
+  EXPECT_EQ(checked, kTicks * kCharacters);
+  EXPECT_EQ(summary.characters_failed, 0u);
+}
+
 void ExpectNamed(const Status& s, StatusCode code, const std::string& text) {
   EXPECT_EQ(s.code(), code) << s.ToString();
   EXPECT_NE(s.message().find(text), std::string::npos) << s.message();
