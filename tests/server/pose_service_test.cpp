@@ -11,6 +11,7 @@
 #include <cstring>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -524,6 +525,91 @@ Status PoseStatus(client::SkinClient& client, const Rig& rig,
   v1::SkinRequest request = PoseRequest(rig, {{.time = 0.5}, {.time = 1.0}});
   edit(&request);
   return SkinRaw(client, request).status;
+}
+
+// The server loses the clip, then the skeleton, mid-stream (deleted from its store, as a
+// restart or a new replica would lose them): the client uploads the one each NOT_FOUND
+// names again (the skeleton with its clips) and resends, and every frame of a stream of
+// frames and of a stream of ticks is answered right against the float64 reference.
+TEST(PoseServiceTest, StreamsUploadALostClipOrSkeletonAgain) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  animation::AnimationStore& store = t.server->engine().animations();
+  const auto time_of = [](uint64_t f) { return static_cast<float>(0.1371 * f + 0.05); };
+  // A frame sent again is asked for again: each is lost once, the first time.
+  std::set<uint64_t> asked;
+  const auto lose = [&](uint64_t f) {
+    if (!asked.insert(f).second) return;
+    if (f == 3) {
+      EXPECT_TRUE(store.DeleteClip(rig.clip_id));
+    }
+    if (f == 7) {
+      EXPECT_TRUE(store.DeleteSkeleton(rig.skeleton_id));
+    }
+  };
+  client::PoseLayer layer{.clip_id = rig.clip_id};
+  client::StreamOptions options{
+      .mesh_id = rig.mesh_id, .backend = "serial", .frames = 10, .window = 3};
+  options.pose = [&](uint64_t f) {
+    lose(f);
+    layer.time = time_of(f);
+    return client::Pose{.skeleton_id = rig.skeleton_id, .layers = {&layer, 1}};
+  };
+  std::map<uint64_t, std::vector<float>> got;
+  client::StreamSummary summary;
+  const Status s = client::StreamFrames(
+      *t.client, options, [](uint64_t) { return std::span<const float>(); },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) {
+        EXPECT_TRUE(r.status.ok()) << "frame " << r.frame << ": " << r.status.ToString();
+        got[r.frame] = r.positions;
+      },
+      &summary);
+  ASSERT_TRUE(s.ok()) << s.ToString();
+  EXPECT_EQ(summary.answered, 10u);
+  EXPECT_GE(summary.reuploads, 2u);
+  ASSERT_EQ(got.size(), 10u);
+  for (const auto& [f, positions] : got) {
+    ExpectPositionsNear(
+        rig.mesh, positions,
+        RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, {{.time = time_of(f)}})),
+        "streamed frame " + std::to_string(f));
+  }
+  // The same for a stream of ticks of 3 posed characters.
+  asked.clear();
+  std::vector<std::vector<client::PoseLayer>> layers(3);
+  client::TickStreamSummary ticks;
+  uint64_t checked = 0;
+  const Status streamed = client::StreamTicks(
+      *t.client, {.first_tick = 0, .ticks = 10, .window = 2},
+      [&](uint64_t f, client::Tick* tick) {
+        lose(f);
+        for (uint32_t c = 0; c < 3; ++c) {
+          layers[c] = {{.clip_id = rig.clip_id, .time = time_of(f + c)}};
+          tick->AddPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = layers[c]},
+                        {.backend = "serial"});
+        }
+      },
+      [&](client::TickResult& r, std::chrono::nanoseconds) {
+        ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+        ASSERT_EQ(r.characters.size(), 3u);
+        for (uint32_t c = 0; c < 3; ++c) {
+          const std::string what =
+              "tick " + std::to_string(r.frame) + " character " + std::to_string(c);
+          ASSERT_TRUE(r.characters[c].status.ok())
+              << what << ": " << r.characters[c].status.ToString();
+          ExpectPositionsNear(
+              rig.mesh, r.characters[c].positions,
+              RefSkinPositions(rig.mesh,
+                               RefBlendedPalette(rig.c, {{.time = time_of(r.frame + c)}})),
+              what);
+          ++checked;
+        }
+      },
+      &ticks);
+  ASSERT_TRUE(streamed.ok()) << streamed.ToString();
+  EXPECT_EQ(checked, 30u);
+  EXPECT_EQ(ticks.characters_failed, 0u);
+  EXPECT_GE(ticks.reuploads, 2u);
 }
 
 TEST(PoseServiceTest, BadPosesAreNamed) {
