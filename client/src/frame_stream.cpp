@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <optional>
 
+#include "skinserve/client/lost_upload.h"
 #include "stream_session.h"
 
 namespace skinserve::client {
@@ -79,11 +80,13 @@ class FramePath final : public StreamPath {
       result_.status = Internal(fmt::format("frame {} answered where frame {} was due ({})",
                                             result_.frame, head.frame, result_.status.ToString()));
     }
-    // NOT_FOUND: the server lost the mesh (evicted, or a replica that never had it).
+    // NOT_FOUND: the server lost the mesh, or the skeleton or a clip the frame's pose names
+    // (evicted, deleted, or a replica that never had it).
     if (result_.status.code() == StatusCode::kNotFound) {
       if (session.SentBeforeReupload(head)) return Settled::kResend;
       if (session.MayReupload()) {
-        const Status reupload = session.client().Reupload(options_.mesh_id);
+        const Status reupload =
+            session.client().Reupload(LostUploadOf(result_.status, options_.mesh_id));
         // Sent (or, UNAVAILABLE, lost on its way: a connection the server was ageing out, a
         // replica going away; round_robin's next pick may be the stream's replica): either
         // way one attempt of max_reuploads, and the frame goes again.
@@ -92,7 +95,7 @@ class FramePath final : public StreamPath {
           if (reupload.ok()) session.CountReuploaded();
           return Settled::kResend;
         }
-        // The frame's NOT_FOUND, and why the mesh could not go again.
+        // The frame's NOT_FOUND, and why what it lacks could not go again.
         result_.status = Status(result_.status.code(),
                                 fmt::format("{}; re-uploading it failed: {}",
                                             result_.status.message(), reupload.ToString()));

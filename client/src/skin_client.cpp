@@ -607,7 +607,8 @@ Status SkinClient::Skin(const std::string& mesh_id, std::span<const float> palet
   }
   Status status = SkinOnce(request, options.output, part, result);
   if (status.code() == StatusCode::kNotFound) {
-    if (Status s = Reupload(mesh_id); !s.ok()) {  // the original NOT_FOUND, and why
+    // The mesh, or the skeleton or a clip of the frame's pose (LostUploadOf).
+    if (Status s = Reupload(LostUploadOf(status, mesh_id)); !s.ok()) {  // the NOT_FOUND, and why
       status = Status(status.code(), fmt::format("{}; re-uploading it failed: {}", status.message(),
                                                  s.ToString()));
       result->status = status;

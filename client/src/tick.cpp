@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <set>
 
+#include "skinserve/client/lost_upload.h"
+
 namespace skinserve::client {
 namespace {
 
@@ -187,21 +189,22 @@ Status SkinClient::SkinTick(const Tick& tick, TickResult* result) {
   };
   Status status = once();
   if (!status.ok()) return status;
-  // Characters whose mesh the server lost: upload those this client knows, then once more.
-  std::set<std::string> lost;
+  // Characters whose mesh (or pose's skeleton or clip) the server lost: upload those this
+  // client knows, then once more.
+  std::set<LostUpload> lost;
   for (std::size_t i = 0; i < tick.size(); ++i) {
-    if (result->characters[i].status.code() == StatusCode::kNotFound) {
-      lost.insert(tick.character(i).mesh_id);
-    }
+    const Status& s = result->characters[i].status;
+    if (s.code() == StatusCode::kNotFound) lost.insert(LostUploadOf(s, tick.character(i).mesh_id));
   }
   bool reuploaded = false;
-  for (const std::string& mesh_id : lost) {
-    if (Status s = Reupload(mesh_id); s.ok()) {
+  for (const LostUpload& upload : lost) {
+    if (Status s = Reupload(upload); s.ok()) {
       reuploaded = true;
     } else {
       for (std::size_t i = 0; i < tick.size(); ++i) {
         FrameResult& r = result->characters[i];
-        if (tick.character(i).mesh_id == mesh_id && r.status.code() == StatusCode::kNotFound) {
+        if (r.status.code() == StatusCode::kNotFound &&
+            LostUploadOf(r.status, tick.character(i).mesh_id) == upload) {
           r.status = Status(r.status.code(), fmt::format("{}; re-uploading it failed: {}",
                                                          r.status.message(), s.ToString()));
         }

@@ -6,6 +6,7 @@
 #include <set>
 #include <vector>
 
+#include "skinserve/client/lost_upload.h"
 #include "skinserve/client/tick.h"
 #include "stream_session.h"
 
@@ -19,12 +20,14 @@ bool HasRegionCharacter(const Tick& tick) {
   return false;
 }
 
-// The characters of `result` answered NOT_FOUND: their meshes.
-std::set<std::string> LostMeshes(const Tick& tick, const TickResult& result) {
-  std::set<std::string> lost;
+// The characters of `result` answered NOT_FOUND: what each lacks (its mesh, or its pose's
+// skeleton or clip).
+std::set<LostUpload> LostUploads(const Tick& tick, const TickResult& result) {
+  std::set<LostUpload> lost;
   for (std::size_t i = 0; i < tick.size() && i < result.characters.size(); ++i) {
-    if (result.characters[i].status.code() == StatusCode::kNotFound) {
-      lost.insert(tick.character(i).mesh_id);
+    const Status& status = result.characters[i].status;
+    if (status.code() == StatusCode::kNotFound) {
+      lost.insert(LostUploadOf(status, tick.character(i).mesh_id));
     }
   }
   return lost;
@@ -63,10 +66,10 @@ class TickPath final : public StreamPath {
 
   Settled Settle(const InFlight& head, StreamSession& session) override {
     assembler_.reset();
-    // Characters whose mesh the server lost: their meshes go again first (the session's
-    // re-upload rule), then the tick.
-    const std::set<std::string> lost =
-        result_.status.ok() ? LostMeshes(ticks_[head.slot], result_) : std::set<std::string>();
+    // Characters whose mesh (or pose's skeleton or clip) the server lost: those go again
+    // first (the session's re-upload rule), then the tick.
+    const std::set<LostUpload> lost =
+        result_.status.ok() ? LostUploads(ticks_[head.slot], result_) : std::set<LostUpload>();
     if (!lost.empty()) {
       if (session.SentBeforeReupload(head)) return Settled::kResend;
       if (session.MayReupload() && Reupload(lost, session)) return Settled::kResend;
@@ -88,11 +91,11 @@ class TickPath final : public StreamPath {
 
  private:
   // One attempt of max_reuploads for all of `lost`; whether the tick is worth sending again.
-  static bool Reupload(const std::set<std::string>& lost, StreamSession& session) {
+  static bool Reupload(const std::set<LostUpload>& lost, StreamSession& session) {
     session.CountReuploadAttempt();
     bool again = true;
-    for (const std::string& mesh_id : lost) {
-      const Status s = session.client().Reupload(mesh_id);
+    for (const LostUpload& upload : lost) {
+      const Status s = session.client().Reupload(upload);
       if (s.ok()) session.CountReuploaded();
       if (!WorthResending(s)) again = false;
     }

@@ -137,11 +137,12 @@ Status FrameJob::TakeInputs(v1::SkinRequest& wire, Engine& engine) {
     return s;
   }
   request.instance_morph_weights = instance_morph_views_;
-  if (wire.has_pose()) {  // sampled, blended and posed here (frames/pose_request.h)
-    if (Status s = pose_.Evaluate(wire, engine.animations(), plan().joint_count, &palette_);
-        !s.ok()) {
-      return s;
-    }
+  // A pose is checked here and evaluated into palette_ on the compute thread that skins
+  // the frame (FillInputs): a tick's poses spread over the threads with its skinning.
+  request.fill_inputs_on_run = wire.has_pose();
+  if (wire.has_pose()) {
+    if (Status s = pose_.Check(wire, engine.animations(), plan().joint_count); !s.ok()) return s;
+    palette_.resize(12ull * plan().joint_count);
     request.palette = palette_;
     return Status::Ok();
   }
@@ -260,8 +261,11 @@ std::byte* FrameJob::TangentsOut() {
   return region_ ? region_->bytes().data() + region_tangents_ : wire_.data() + tangents_offset_;
 }
 
+Status FrameJob::FillInputs() { return pose_.Evaluate(palette_); }
+
 void FrameJob::Fail(Status status) {
   DropPlan();  // never submitted: the mesh is not pinned for it
+  pose_.Release();
   region_.reset();
   gpu_region_.reset();
   result_ = std::move(status);

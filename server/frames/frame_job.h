@@ -67,9 +67,9 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   // settings change, else reused: stream_plan.h), pins the output region and checks the
   // frame's range in it, charges the buffers to the budget, takes the frame's inputs
   // (morph weights; the palette's bytes, swapped out of `request` so that they are not
-  // copied again) and points the outputs at the wire buffer or the region. Then
-  // Engine::Run(this). Non-OK: the frame failed before the engine. `regions.regions` is
-  // null when shared memory is off.
+  // copied again; a pose checked, to be evaluated on the compute thread) and points the outputs at
+  // the wire buffer or the region. Then Engine::Run(this). Non-OK: the frame failed before the
+  // engine. `regions.regions` is null when shared memory is off.
   Status Prepare(v1::SkinRequest& request, Engine& engine, const std::string& default_backend,
                  const RegionCaller& regions, StreamPlan* plan);
   // The frame failed before the engine: it is answered with `status`.
@@ -111,6 +111,8 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   Status OnInstanceSkinned(uint32_t instance, std::span<const float> positions,
                            std::span<const float> normals) override;
   void OnSkinned(Status status, const FrameTiming& timing) override;
+  // A pose frame's palette (request.fill_inputs_on_run), on the thread that skins it.
+  Status FillInputs() override;
   // Resets the job for frame `frame` (its metrics record begins now).
   Status Begin(uint64_t frame, const std::string& backend);
   Status EncodeInstance(uint32_t i, std::span<const float> positions,
@@ -171,7 +173,7 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   // request's string every frame; palette_ only if they were ever misaligned for floats.
   std::string palette_bytes_;
   std::vector<float> palette_;
-  PoseEvaluator pose_;              // turns SkinRequest.pose into palette_
+  PoseEvaluator pose_;              // turns SkinRequest.pose into palette_ (FillInputs)
   std::vector<MorphWeight> morph_;  // the frame's morph weights, capacity reused
   // A crowd's per-instance morph weights, back to back, and one view per instance.
   std::vector<MorphWeight> instance_morph_;

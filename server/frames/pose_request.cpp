@@ -35,8 +35,8 @@ Status CheckPoseShape(const v1::SkinRequest& request) {
 
 }  // namespace
 
-Status PoseEvaluator::SampleLayer(const v1::PoseLayer& layer, std::size_t i,
-                                  const animation::AnimationStore& store) {
+Status PoseEvaluator::CheckLayer(const v1::PoseLayer& layer, std::size_t i,
+                                 const animation::AnimationStore& store) {
   const std::string field = fmt::format("pose.layers[{}]", i);
   if (!std::isfinite(layer.time())) {
     return InvalidArgument(
@@ -51,42 +51,19 @@ Status PoseEvaluator::SampleLayer(const v1::PoseLayer& layer, std::size_t i,
     return NotFound(fmt::format("{}.clip_id '{}' is not stored: upload the clip (UploadClip)",
                                 field, layer.clip_id()));
   }
-  const animation::CompactClip& clip = *clips_[i];
-  if (clip.joint_count != skeleton_->joint_count()) {
+  if (clips_[i]->joint_count != skeleton_->joint_count()) {
     return InvalidArgument(fmt::format(
         "{}.clip_id '{}' was built for a skeleton of {} joints; pose.skeleton_id has {}", field,
-        layer.clip_id(), clip.joint_count, skeleton_->joint_count()));
+        layer.clip_id(), clips_[i]->joint_count, skeleton_->joint_count()));
   }
-  layer_poses_[i].resize(skeleton_->joint_count());
-  layer_morph_[i].resize(clip.weight_count);
-  const animation::SamplingJob sampling{
-      .skeleton = skeleton_.get(),
-      .clip = &clip,
-      .time = layer.time(),
-      .mode = layer.loop() ? animation::TimeMode::kLoop : animation::TimeMode::kClamp,
-      .output = layer_poses_[i],
-      .morph_weights = layer_morph_[i],
-      .context = &contexts_[i]};
-  if (Status s = sampling.Run(); !s.ok()) {
-    return Status(s.code(), fmt::format("{}: {}", field, s.message()));
-  }
-  layers_[i] = {.pose = layer_poses_[i], .weight = weight, .additive = layer.additive()};
+  inputs_[i] = {
+      .time = layer.time(), .weight = weight, .additive = layer.additive(), .loop = layer.loop()};
   return Status::Ok();
 }
 
-Status PoseEvaluator::Evaluate(const v1::SkinRequest& request,
-                               const animation::AnimationStore& store, uint32_t mesh_joints,
-                               std::vector<float>* palette) {
-  Status status = Compute(request, store, mesh_joints, palette);
-  // What the frame read is let go: a clip deleted meanwhile is not kept by this stream.
-  skeleton_.reset();
-  for (auto& clip : clips_) clip.reset();
-  return status;
-}
-
-Status PoseEvaluator::Compute(const v1::SkinRequest& request,
-                              const animation::AnimationStore& store, uint32_t mesh_joints,
-                              std::vector<float>* palette) {
+Status PoseEvaluator::Check(const v1::SkinRequest& request, const animation::AnimationStore& store,
+                            uint32_t mesh_joints) {
+  Release();  // what an earlier frame held, should it have failed after its Check
   if (Status s = CheckPoseShape(request); !s.ok()) return s;
   const v1::Pose& pose = request.pose();
   skeleton_ = store.FindSkeleton(pose.skeleton_id());
@@ -95,38 +72,84 @@ Status PoseEvaluator::Compute(const v1::SkinRequest& request,
         fmt::format("pose.skeleton_id '{}' is not stored: upload the skeleton (UploadSkeleton)",
                     pose.skeleton_id()));
   }
-  if (skeleton_->palette_size() != mesh_joints) {
+  if (const uint32_t entries = skeleton_->palette_size(); entries != mesh_joints) {
+    Release();
     return InvalidArgument(
         fmt::format("pose.skeleton_id '{}' has a palette of {} entries; mesh {} has {} joints",
-                    pose.skeleton_id(), skeleton_->palette_size(), request.mesh_id(), mesh_joints));
+                    pose.skeleton_id(), entries, request.mesh_id(), mesh_joints));
   }
   const auto count = static_cast<std::size_t>(pose.layers_size());
   clips_.resize(count);
-  if (layer_poses_.size() < count) layer_poses_.resize(count);
-  if (layer_morph_.size() < count) layer_morph_.resize(count);
-  if (contexts_.size() < count) contexts_.resize(count);
-  layers_.resize(count);
+  inputs_.resize(count);
   double normal_weights = 0;
   for (std::size_t i = 0; i < count; ++i) {
-    if (Status s = SampleLayer(pose.layers(static_cast<int>(i)), i, store); !s.ok()) return s;
-    if (!layers_[i].additive) normal_weights += layers_[i].weight;
+    if (Status s = CheckLayer(pose.layers(static_cast<int>(i)), i, store); !s.ok()) {
+      Release();
+      return s;
+    }
+    if (!inputs_[i].additive) normal_weights += inputs_[i].weight;
   }
   if (!(normal_weights > 0)) {
+    Release();
     return InvalidArgument(
         "pose.layers: the weights of the layers that are not additive sum to 0; at least one "
         "needs weight > 0");
   }
+  return Status::Ok();
+}
+
+void PoseEvaluator::Release() {
+  // What the frame read is let go: a clip deleted meanwhile is not kept by this stream.
+  skeleton_.reset();
+  for (auto& clip : clips_) clip.reset();
+}
+
+Status PoseEvaluator::Evaluate(std::span<float> palette) {
+  Status status =
+      skeleton_ == nullptr ? Internal("a pose was evaluated without its Check") : Compute(palette);
+  Release();
+  return status;
+}
+
+Status PoseEvaluator::SampleLayer(std::size_t i) {
+  const animation::CompactClip& clip = *clips_[i];
+  const LayerInput& in = inputs_[i];
+  layer_poses_[i].resize(skeleton_->joint_count());
+  layer_morph_[i].resize(clip.weight_count);
+  const animation::SamplingJob sampling{
+      .skeleton = skeleton_.get(),
+      .clip = &clip,
+      .time = in.time,
+      .mode = in.loop ? animation::TimeMode::kLoop : animation::TimeMode::kClamp,
+      .output = layer_poses_[i],
+      .morph_weights = layer_morph_[i],
+      .context = &contexts_[i]};
+  if (Status s = sampling.Run(); !s.ok()) {
+    return Status(s.code(), fmt::format("pose.layers[{}]: {}", i, s.message()));
+  }
+  layers_[i] = {.pose = layer_poses_[i], .weight = in.weight, .additive = in.additive};
+  return Status::Ok();
+}
+
+Status PoseEvaluator::Compute(std::span<float> palette) {
+  const std::size_t count = inputs_.size();
+  if (layer_poses_.size() < count) layer_poses_.resize(count);
+  if (layer_morph_.size() < count) layer_morph_.resize(count);
+  if (contexts_.size() < count) contexts_.resize(count);
+  layers_.resize(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (Status s = SampleLayer(i); !s.ok()) return s;
+  }
   const uint32_t joints = skeleton_->joint_count();
   blended_.resize(joints);
   model_.resize(joints);
-  palette->resize(12ull * mesh_joints);
   const animation::BlendingJob blending{.layers = layers_, .output = blended_};
   if (Status s = blending.Run(); !s.ok()) return s;
   const animation::LocalToModelJob to_model{
       .skeleton = skeleton_.get(), .local = blended_, .model = model_};
   if (Status s = to_model.Run(); !s.ok()) return s;
   const animation::PaletteJob palette_job{
-      .skeleton = skeleton_.get(), .model = model_, .palette = *palette};
+      .skeleton = skeleton_.get(), .model = model_, .palette = palette};
   return palette_job.Run();
 }
 

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -379,6 +380,76 @@ TEST(PoseServiceTest, TheClientLibrarySendsPoses) {
   EXPECT_EQ(gone.code(), StatusCode::kNotFound) << gone.ToString();
 }
 
+// Character i's layers in tick `frame` of PosedTickOnTwoThreads: one, two or three layers
+// at times that differ from character to character and move on from tick to tick.
+std::vector<Layer> CharacterLayers(uint32_t i, uint64_t frame, double duration) {
+  const double t = 0.05 + 0.0313 * i + 0.1 * static_cast<double>(frame);
+  switch (i % 3) {
+    case 0:
+      return {{.time = t}};
+    case 1:
+      return {{.time = t, .weight = 0.3}, {.time = duration - t, .weight = 0.9}};
+    default:
+      return {{.time = t, .weight = 2},
+              {.time = 0.5 * t, .weight = 1},
+              {.time = duration + 0.3123 + 0.0171 * i, .weight = 1, .loop = true}};
+  }
+}
+
+// A tick's poses are evaluated on the compute threads that skin its characters
+// (SkinJob::FillInputs), each character with its own scratch: a stream of ticks of 64
+// posed characters on 2 compute threads, two ticks in flight, answers every character of
+// every tick as the float64 evaluation of its own layers says.
+TEST(PoseServiceTest, PosedTicksOnTwoComputeThreadsAnswerEveryCharacterRight) {
+  server::ServerOptions options;
+  options.threads = 2;
+  TestServer t(options);
+  const Rig rig = MakeRig(*t.client);
+  constexpr uint32_t kCharacters = 64;
+  constexpr uint64_t kTicks = 4;
+  const double d = rig.c.ref_clip.duration;
+  // What each tick sent: the client's layers (the Tick's spans point into them) and ours.
+  std::vector<std::vector<std::vector<client::PoseLayer>>> sent(kTicks);
+  std::vector<std::vector<std::vector<Layer>>> want(kTicks);
+  uint64_t checked = 0;
+  client::TickStreamSummary summary;
+  const Status streamed = client::StreamTicks(
+      *t.client, {.first_tick = 0, .ticks = kTicks, .window = 2},
+      [&](uint64_t frame, client::Tick* tick) {
+        sent[frame].assign(kCharacters, {});
+        want[frame].assign(kCharacters, {});
+        for (uint32_t i = 0; i < kCharacters; ++i) {
+          want[frame][i] = CharacterLayers(i, frame, d);
+          for (const Layer& l : want[frame][i]) {
+            sent[frame][i].push_back({.clip_id = rig.clip_id,
+                                      .time = static_cast<float>(l.time),
+                                      .weight = static_cast<float>(l.weight),
+                                      .loop = l.loop});
+          }
+          tick->AddPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = sent[frame][i]},
+                        {.backend = "sse"});
+        }
+      },
+      [&](client::TickResult& r, std::chrono::nanoseconds) {
+        ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+        ASSERT_EQ(r.characters.size(), kCharacters);
+        for (uint32_t i = 0; i < kCharacters; ++i) {
+          const std::string what =
+              "tick " + std::to_string(r.frame) + " character " + std::to_string(i);
+          ASSERT_TRUE(r.characters[i].status.ok())
+              << what << ": " << r.characters[i].status.ToString();
+          ExpectPositionsNear(
+              rig.mesh, r.characters[i].positions,
+              RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, want[r.frame][i])), what);
+          ++checked;
+        }
+      },
+      &summary);
+  ASSERT_TRUE(streamed.ok()) << streamed.ToString();
+  EXPECT_EQ(checked, kTicks * kCharacters);
+  EXPECT_EQ(summary.characters_failed, 0u);
+}
+
 void ExpectNamed(const Status& s, StatusCode code, const std::string& text) {
   EXPECT_EQ(s.code(), code) << s.ToString();
   EXPECT_NE(s.message().find(text), std::string::npos) << s.message();
@@ -454,6 +525,91 @@ Status PoseStatus(client::SkinClient& client, const Rig& rig,
   v1::SkinRequest request = PoseRequest(rig, {{.time = 0.5}, {.time = 1.0}});
   edit(&request);
   return SkinRaw(client, request).status;
+}
+
+// The server loses the clip, then the skeleton, mid-stream (deleted from its store, as a
+// restart or a new replica would lose them): the client uploads the one each NOT_FOUND
+// names again (the skeleton with its clips) and resends, and every frame of a stream of
+// frames and of a stream of ticks is answered right against the float64 reference.
+TEST(PoseServiceTest, StreamsUploadALostClipOrSkeletonAgain) {
+  TestServer t;
+  const Rig rig = MakeRig(*t.client);
+  animation::AnimationStore& store = t.server->engine().animations();
+  const auto time_of = [](uint64_t f) { return static_cast<float>(0.1371 * f + 0.05); };
+  // A frame sent again is asked for again: each is lost once, the first time.
+  std::set<uint64_t> asked;
+  const auto lose = [&](uint64_t f) {
+    if (!asked.insert(f).second) return;
+    if (f == 3) {
+      EXPECT_TRUE(store.DeleteClip(rig.clip_id));
+    }
+    if (f == 7) {
+      EXPECT_TRUE(store.DeleteSkeleton(rig.skeleton_id));
+    }
+  };
+  client::PoseLayer layer{.clip_id = rig.clip_id};
+  client::StreamOptions options{
+      .mesh_id = rig.mesh_id, .backend = "serial", .frames = 10, .window = 3};
+  options.pose = [&](uint64_t f) {
+    lose(f);
+    layer.time = time_of(f);
+    return client::Pose{.skeleton_id = rig.skeleton_id, .layers = {&layer, 1}};
+  };
+  std::map<uint64_t, std::vector<float>> got;
+  client::StreamSummary summary;
+  const Status s = client::StreamFrames(
+      *t.client, options, [](uint64_t) { return std::span<const float>(); },
+      [&](client::FrameResult& r, std::chrono::nanoseconds) {
+        EXPECT_TRUE(r.status.ok()) << "frame " << r.frame << ": " << r.status.ToString();
+        got[r.frame] = r.positions;
+      },
+      &summary);
+  ASSERT_TRUE(s.ok()) << s.ToString();
+  EXPECT_EQ(summary.answered, 10u);
+  EXPECT_GE(summary.reuploads, 2u);
+  ASSERT_EQ(got.size(), 10u);
+  for (const auto& [f, positions] : got) {
+    ExpectPositionsNear(
+        rig.mesh, positions,
+        RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, {{.time = time_of(f)}})),
+        "streamed frame " + std::to_string(f));
+  }
+  // The same for a stream of ticks of 3 posed characters.
+  asked.clear();
+  std::vector<std::vector<client::PoseLayer>> layers(3);
+  client::TickStreamSummary ticks;
+  uint64_t checked = 0;
+  const Status streamed = client::StreamTicks(
+      *t.client, {.first_tick = 0, .ticks = 10, .window = 2},
+      [&](uint64_t f, client::Tick* tick) {
+        lose(f);
+        for (uint32_t c = 0; c < 3; ++c) {
+          layers[c] = {{.clip_id = rig.clip_id, .time = time_of(f + c)}};
+          tick->AddPose(rig.mesh_id, {.skeleton_id = rig.skeleton_id, .layers = layers[c]},
+                        {.backend = "serial"});
+        }
+      },
+      [&](client::TickResult& r, std::chrono::nanoseconds) {
+        ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+        ASSERT_EQ(r.characters.size(), 3u);
+        for (uint32_t c = 0; c < 3; ++c) {
+          const std::string what =
+              "tick " + std::to_string(r.frame) + " character " + std::to_string(c);
+          ASSERT_TRUE(r.characters[c].status.ok())
+              << what << ": " << r.characters[c].status.ToString();
+          ExpectPositionsNear(
+              rig.mesh, r.characters[c].positions,
+              RefSkinPositions(rig.mesh,
+                               RefBlendedPalette(rig.c, {{.time = time_of(r.frame + c)}})),
+              what);
+          ++checked;
+        }
+      },
+      &ticks);
+  ASSERT_TRUE(streamed.ok()) << streamed.ToString();
+  EXPECT_EQ(checked, 30u);
+  EXPECT_EQ(ticks.characters_failed, 0u);
+  EXPECT_GE(ticks.reuploads, 2u);
 }
 
 TEST(PoseServiceTest, BadPosesAreNamed) {

@@ -124,3 +124,103 @@ def test_asyncio_poses(server, rng):
                   [(0.4, 2), (0.9, 1)])
             assert await client.delete_clip(info.clip_id)
     asyncio.run(asyncio.wait_for(main(), timeout=120))
+
+
+def pose(skeleton_id, clip, layers):
+    """A skinserve.Pose of `layers` ((time, weight) each) of one clip."""
+    return skinserve.Pose(skeleton_id, [skinserve.PoseLayer(clip, t, w) for t, w in layers])
+
+
+# A stream's frames: a pose, a palette, a blend of two layers, a palette, a pose; each
+# (what is sent, the layers its answer is checked against).
+STREAM_FRAMES = [[(0.1, 1)], [(0.5, 1)], [(0.2, 1), (0.7, 3)], [(0.35, 2)], [(0.9, 1)]]
+
+
+def stream_inputs(skeleton_id, clip):
+    """STREAM_FRAMES as the stream's entries: odd ones as the palette the client computed
+    (float32, from the float64 reference), the others as poses for the server."""
+    return [reference_palette(layers).astype(np.float32) if i % 2 == 1
+            else pose(skeleton_id, clip, layers) for i, layers in enumerate(STREAM_FRAMES)]
+
+
+# A tick's characters: pose, palette, blend, and a bad pose (negative weight) that fails
+# alone, named; each tick moves the good ones on by `shift` seconds.
+def tick_characters(mesh_id, skeleton_id, clip, shift):
+    wants = [[(0.2 + shift, 1)], [(0.6 + shift, 1)], [(0.1 + shift, 1), (0.8 - shift, 2)]]
+    characters = [skinserve.Character(mesh_id, pose=pose(skeleton_id, clip, wants[0])),
+                  skinserve.Character(mesh_id, reference_palette(wants[1]).astype(np.float32)),
+                  skinserve.Character(mesh_id, pose=pose(skeleton_id, clip, wants[2]),
+                                      backend="serial"),
+                  skinserve.Character(mesh_id, pose=pose(skeleton_id, clip, [(0.3, -1)]))]
+    return characters, wants
+
+
+def check_tick(results, mesh, wants):
+    assert len(results) == 4
+    for i, want in enumerate(wants):
+        assert results[i].ok, results[i].error
+        check(results[i].positions, mesh, want)
+    assert results[3].error.code == grpc.StatusCode.INVALID_ARGUMENT
+    assert "character 3: pose.layers[0].weight = -1" in results[3].error.message
+
+
+def test_streams_send_each_frames_pose_or_palette(client, rng):
+    skeleton_id, info = upload_rig(client)
+    mesh = random_mesh(rng, 400, 2, 2)
+    mesh_id = client.upload(*mesh[:3])
+    answers = list(client.stream(mesh_id, stream_inputs(skeleton_id, info.clip_id), window=2))
+    assert len(answers) == len(STREAM_FRAMES)
+    for answer, layers in zip(answers, STREAM_FRAMES):
+        check(answer, mesh, layers)
+
+
+def test_ticks_carry_poses_beside_palettes(client, rng):
+    skeleton_id, info = upload_rig(client)
+    mesh = random_mesh(rng, 400, 2, 2)
+    mesh_id = client.upload(*mesh[:3])
+    characters, wants = tick_characters(mesh_id, skeleton_id, info.clip_id, 0.0)
+    check_tick(client.tick(characters, frame=4), mesh, wants)
+    ticks = [tick_characters(mesh_id, skeleton_id, info.clip_id, 0.05 * i) for i in range(3)]
+    answered = list(client.stream_ticks([characters for characters, _ in ticks], window=2))
+    assert len(answered) == 3
+    for results, (_, wants) in zip(answered, ticks):
+        check_tick(results, mesh, wants)
+
+
+def test_poses_are_checked_before_sending(client, rng):
+    skeleton_id, info = upload_rig(client)
+    mesh_id = client.upload(*random_mesh(rng, 50, 2, 2)[:3])
+    palette = reference_palette([(0.5, 1)]).astype(np.float32)
+    good = pose(skeleton_id, info.clip_id, [(0.5, 1)])
+    with pytest.raises(ValueError, match=r"characters\[0\]: give a palette or a pose .*both"):
+        client.tick([skinserve.Character(mesh_id, palette, pose=good)])
+    with pytest.raises(ValueError, match=r"characters\[1\]: give a palette or a pose .*neither"):
+        client.tick([skinserve.Character(mesh_id, palette), skinserve.Character(mesh_id)])
+    with pytest.raises(ValueError, match=r"palettes\[1\].layers: 0 layers, expected 1..8"):
+        list(client.stream(mesh_id, [good, skinserve.Pose(skeleton_id, [])]))
+    with pytest.raises(ValueError, match=r"characters\[0\].pose.layers\[0\]: tuple"):
+        client.tick([skinserve.Character(mesh_id, pose=skinserve.Pose(skeleton_id,
+                                                                      [(info.clip_id, 0.5)]))])
+
+
+def test_asyncio_streams_and_ticks_with_poses(server, rng):
+    async def main():
+        async with skinserve.AsyncClient(server.target) as client:
+            with skinserve.Client(server.target) as blocking:
+                skeleton_id, info = upload_rig(blocking)
+            mesh = random_mesh(rng, 300, 2, 2)
+            mesh_id = await client.upload(*mesh[:3])
+            answers = [a async for a in client.stream(
+                mesh_id, stream_inputs(skeleton_id, info.clip_id), window=2)]
+            assert len(answers) == len(STREAM_FRAMES)
+            for answer, layers in zip(answers, STREAM_FRAMES):
+                check(answer, mesh, layers)
+            characters, wants = tick_characters(mesh_id, skeleton_id, info.clip_id, 0.1)
+            check_tick(await client.tick(characters, frame=2), mesh, wants)
+            ticks = [tick_characters(mesh_id, skeleton_id, info.clip_id, 0.03 * i)
+                     for i in range(2)]
+            answered = [r async for r in client.stream_ticks([c for c, _ in ticks])]
+            assert len(answered) == 2
+            for results, (_, wants) in zip(answered, ticks):
+                check_tick(results, mesh, wants)
+    asyncio.run(asyncio.wait_for(main(), timeout=120))

@@ -120,6 +120,12 @@ class Engine::Impl {
   // The rest of a planned frame (its batch limits were Plan's): the palette's size, the
   // outputs' sizes and shape once for the whole batch, then each instance's palette values.
   static Status Check(const SkinRequest& request, const Mesh& mesh, uint32_t instances) {
+    if (request.fill_inputs_on_run && instances > 1) {
+      return InvalidArgument(fmt::format(
+          "fill_inputs_on_run is set with instances = {}; a palette filled on the compute "
+          "thread is one instance's",
+          instances));
+    }
     const std::size_t per_instance = 12ull * mesh.joint_count();
     if (instances > 1 && request.palette.size() != per_instance * instances) {
       const std::size_t whole = request.palette.size() / std::max<std::size_t>(per_instance, 1);
@@ -140,7 +146,34 @@ class Engine::Impl {
                      : request.device.active()  ? CheckDeviceOutputs(request, mesh)
                                                 : CheckFloatSizes(request, mesh, instances);
     if (!outputs.ok()) return outputs;
-    return CheckPalettes(request, mesh, instances);
+    return request.fill_inputs_on_run ? CheckPaletteToFill(request, mesh)
+                                      : CheckPalettes(request, mesh, instances);
+  }
+
+  // Check() for fill_inputs_on_run: the room for the palette (its values come later).
+  static Status CheckPaletteToFill(const SkinRequest& request, const Mesh& mesh) {
+    const std::size_t expected = 12ull * mesh.joint_count();
+    if (request.palette.size() == expected) return Status::Ok();
+    return InvalidArgument(fmt::format(
+        "palette to fill holds {} floats; expected 12 * joint_count = {} (joint_count {})",
+        request.palette.size(), expected, mesh.joint_count()));
+  }
+
+  // fill_inputs_on_run, on the thread that skins the frame: the job writes the palette,
+  // which is then checked as Submit checks a palette given up front.
+  Status FillInputs(SkinJob& job) {
+    Status status;
+    try {
+      status = job.FillInputs();
+    } catch (const std::exception& e) {
+      status = Internal(fmt::format("filling the frame's inputs: {}", e.what()));
+    }
+    if (!status.ok()) return status;
+    const Mesh& mesh = *static_cast<MeshStore::Entry*>(job.lease_.get())->mesh();
+    status = ValidateFramePalette(job.request.palette, job.request.method, mesh.joint_count());
+    if (status.ok()) return status;
+    return Status(status.code(),
+                  fmt::format("the palette computed for the frame: {}", status.message()));
   }
 
   // Check() for float outputs: K instances' arrays, and what the mesh can give.
@@ -689,7 +722,9 @@ void Engine::RunPart(void* context, uint32_t instance, int threads) {
   int64_t unset = 0;
   job.started_ns_.compare_exchange_strong(unset, NowNs());
   SkinFrame frame;
-  Status status = impl.RunInstance(job, instance, threads, &frame);
+  // A palette filled on this thread: only single-instance frames (Admit), so once a frame.
+  Status status = job.request.fill_inputs_on_run ? impl.FillInputs(job) : Status::Ok();
+  if (status.ok()) status = impl.RunInstance(job, instance, threads, &frame);
   if (!status.ok() && job.request.encoded.active() && job.request.instances > 1) {
     // The backend encoded (and refused a value of) this instance: say which one, as the
     // server does for what it encodes itself.
@@ -744,6 +779,9 @@ class CallbackJob final : public SkinJob {
 Status Engine::Submit(SkinRequest request, SkinDone done) {
   if (request.skin_into_scratch) {
     return InvalidArgument("skin_into_scratch needs a SkinJob to take each instance's output");
+  }
+  if (request.fill_inputs_on_run) {
+    return InvalidArgument("fill_inputs_on_run needs a SkinJob to fill the palette");
   }
   auto* job = new CallbackJob(std::move(done));
   job->request = std::move(request);

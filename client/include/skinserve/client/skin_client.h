@@ -16,6 +16,7 @@
 
 #include "skinserve/animation/raw_clip.h"
 #include "skinserve/animation/skeleton.h"
+#include "skinserve/client/lost_upload.h"
 #include "skinserve/client/pose.h"
 #include "skinserve/client/shared_memory_region.h"
 #include "skinserve/encoding/vertex_encoding.h"
@@ -221,6 +222,11 @@ class SkinClient {
                 const UploadOptions& options = {});
   // Uploads again the mesh that had `mesh_id`, if this client uploaded it.
   Status Reupload(const std::string& mesh_id);
+  // Uploads again what a frame's NOT_FOUND named (LostUploadOf), if this client uploaded
+  // it: the mesh; a skeleton, with the clips this client uploaded for it (a server that
+  // lost one lost the other: restarted, or a new replica); a clip (its skeleton first, if
+  // the server lost that too). NOT_FOUND when this client never uploaded it.
+  Status Reupload(const LostUpload& lost);
   Result<v1::MeshInfo> GetMesh(const std::string& mesh_id);
   Result<bool> DeleteMesh(const std::string& mesh_id);
   Result<v1::ListBackendsResponse> ListBackends();
@@ -256,13 +262,15 @@ class SkinClient {
   // built for it, each content-addressed (the same content again stores nothing new).
   Result<v1::SkeletonInfo> UploadSkeleton(const animation::Skeleton& skeleton);
   Result<v1::ClipInfo> UploadClip(const animation::RawClip& clip, const std::string& skeleton_id);
-  // Whether the server held the clip.
+  // Whether the server held the clip. This client no longer uploads it again.
   Result<bool> DeleteClip(const std::string& clip_id);
 
  private:
   Status SkinOnce(const v1::SkinRequest& request, const RegionOutput& output, RawPart* part,
                   FrameResult* result);
   Result<v1::MeshInfo> SendUpload(const MeshArrays& arrays, const UploadOptions& options);
+  Status ReuploadSkeleton(const std::string& skeleton_id);
+  Status ReuploadClip(const std::string& clip_id);
 
   std::shared_ptr<grpc::Channel> channel_;
   const CallLimits limits_;
@@ -276,6 +284,13 @@ class SkinClient {
     UploadOptions options;
   };
   std::map<std::string, Uploaded> uploaded_;  // by mesh id: for re-upload on NOT_FOUND
+  // What UploadSkeleton and UploadClip sent, by id, likewise.
+  std::map<std::string, std::shared_ptr<const animation::Skeleton>> skeletons_;
+  struct UploadedClip {
+    std::shared_ptr<const animation::RawClip> clip;
+    std::string skeleton_id;
+  };
+  std::map<std::string, UploadedClip> clips_;
   // Skin's messages, reused by whichever call holds the lock (a concurrent call uses its own).
   std::mutex skin_messages_mutex_;
   v1::SkinRequest skin_request_;

@@ -16,7 +16,7 @@ from ._core import ClientCore, FrameStream, TickStream
 from ._errors import rpc_error
 from ._frame import Answer, FloatArray, Frame
 from ._morph import FrameWeights, MorphTarget
-from ._pose import ClipTrack, Pose
+from ._pose import ClipTrack, PaletteOrPose, Pose
 from ._shared_memory import SharedMemoryRegion
 from ._tick import Character, CharacterResult
 from .v1 import skinning_pb2 as pb
@@ -191,7 +191,7 @@ class AsyncClient(ClientCore):
         return await self._skin_call(request, None, None, want_normals, False)
 
     @overload
-    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+    def stream(self, mesh_id: str, palettes: Iterable[PaletteOrPose],
                backend: Optional[str] = ..., want_normals: Literal[False] = ...,
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
@@ -200,7 +200,7 @@ class AsyncClient(ClientCore):
                ) -> AsyncIterator[FloatArray]: ...
 
     @overload
-    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+    def stream(self, mesh_id: str, palettes: Iterable[PaletteOrPose],
                backend: Optional[str] = ..., *, want_normals: Literal[True],
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
@@ -209,7 +209,7 @@ class AsyncClient(ClientCore):
                ) -> AsyncIterator[Tuple[FloatArray, FloatArray]]: ...
 
     @overload
-    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+    def stream(self, mesh_id: str, palettes: Iterable[PaletteOrPose],
                backend: Optional[str] = ..., *, want_normals: Literal[True],
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
@@ -217,7 +217,7 @@ class AsyncClient(ClientCore):
                want_tangents: Literal[True]
                ) -> AsyncIterator[Tuple[FloatArray, FloatArray, FloatArray]]: ...
 
-    async def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+    async def stream(self, mesh_id: str, palettes: Iterable[PaletteOrPose],
                      backend: Optional[str] = None, want_normals: bool = False,
                      encoding: str = "float32", window: int = 8,
                      region: Optional[SharedMemoryRegion] = None,

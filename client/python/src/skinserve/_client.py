@@ -15,7 +15,7 @@ from ._core import ClientCore, FrameStream, TickStream
 from ._errors import rpc_error
 from ._frame import Answer, FloatArray, Frame
 from ._morph import FrameWeights, MorphTarget
-from ._pose import ClipTrack, Pose
+from ._pose import ClipTrack, PaletteOrPose, Pose
 from ._shared_memory import SharedMemoryRegion
 from ._tick import Character, CharacterResult
 from .v1 import skinning_pb2 as pb
@@ -261,7 +261,7 @@ class Client(ClientCore):
         return self._skin_call(request, None, None, want_normals, False)
 
     @overload
-    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+    def stream(self, mesh_id: str, palettes: Iterable[PaletteOrPose],
                backend: Optional[str] = ..., want_normals: Literal[False] = ...,
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
@@ -270,7 +270,7 @@ class Client(ClientCore):
                ) -> Iterator[FloatArray]: ...
 
     @overload
-    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+    def stream(self, mesh_id: str, palettes: Iterable[PaletteOrPose],
                backend: Optional[str] = ..., *, want_normals: Literal[True],
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
@@ -279,7 +279,7 @@ class Client(ClientCore):
                ) -> Iterator[Tuple[FloatArray, FloatArray]]: ...
 
     @overload
-    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+    def stream(self, mesh_id: str, palettes: Iterable[PaletteOrPose],
                backend: Optional[str] = ..., *, want_normals: Literal[True],
                encoding: str = ..., window: int = ...,
                region: Optional[SharedMemoryRegion] = ...,
@@ -287,7 +287,7 @@ class Client(ClientCore):
                want_tangents: Literal[True]
                ) -> Iterator[Tuple[FloatArray, FloatArray, FloatArray]]: ...
 
-    def stream(self, mesh_id: str, palettes: Iterable[npt.NDArray[np.float32]],
+    def stream(self, mesh_id: str, palettes: Iterable[PaletteOrPose],
                backend: Optional[str] = None, want_normals: bool = False,
                encoding: str = "float32", window: int = 8,
                region: Optional[SharedMemoryRegion] = None,
@@ -298,7 +298,8 @@ class Client(ClientCore):
         (positions, normals)) in order. `palettes`: a sequence of float32 (J, 3, 4)
         palettes (or an array (F, J, 3, 4)), all checked before the first is sent. A crowd
         frame is a (K, J, 3, 4) palette (an array (F, K, J, 3, 4) for F of them) and yields
-        (K, V, 3) arrays.
+        (K, V, 3) arrays. An entry may be a skinserve.Pose instead: that frame carries the
+        pose and the server computes its palette (as skin_pose); poses and palettes mix.
 
         A frame answered NOT_FOUND re-uploads the mesh and the stream resumes from that
         frame; a stream that ends UNAVAILABLE (a replica draining or gone) resumes on a new
@@ -405,8 +406,8 @@ class Client(ClientCore):
 
     # ---- ticks ----------------------------------------------------------------------------
     def tick(self, characters: Sequence[Character], frame: int = 0) -> List[CharacterResult]:
-        """One tick: many characters (skinserve.Character each: mesh id, palette or crowd,
-        and skin's options) skinned by one request, answered as one CharacterResult per
+        """One tick: many characters (skinserve.Character each: mesh id, palette, crowd or
+        pose, and skin's options) skinned by one request, answered as one CharacterResult per
         character in order. A character whose input is bad fails alone: its result's
         `error` names it and the field, the others are answered. A character answered
         NOT_FOUND for a mesh this client uploaded has the mesh uploaded again and is sent

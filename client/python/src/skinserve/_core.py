@@ -9,10 +9,11 @@ import grpc
 import numpy as np
 import numpy.typing as npt
 
-from . import _arrays, _channel, _requests, _tick
+from . import _arrays, _channel, _pose, _requests, _tick
 from ._errors import SkinserveError, rpc_error
 from ._frame import Answer, Frame
 from ._morph import FrameWeights
+from ._pose import PaletteOrPose, Pose
 from ._service import SkinningStub
 from ._shared_memory import SharedMemoryRegion
 from ._tick import Character, CharacterResult
@@ -139,7 +140,8 @@ class FrameStream:
     (UNAVAILABLE, idle: a new call resumes, up to max_reconnects times), or an error."""
 
     def __init__(self, core: ClientCore, mesh_id: str,
-                 palettes: Iterable[npt.NDArray[np.float32]], backend: Optional[str],
+                 palettes: Iterable[PaletteOrPose],
+                 backend: Optional[str],
                  want_normals: bool, encoding: str, window: int,
                  region: Optional[SharedMemoryRegion],
                  morph_weights: Optional[Iterable[Optional[FrameWeights]]],
@@ -148,7 +150,7 @@ class FrameStream:
         self._args = (backend, want_normals, encoding, want_tangents)
         self._palettes = list(palettes)
         joints = core._joint_count(mesh_id)
-        self._crowds = [_arrays.check_palette(f"palettes[{i}]", palette, joints)
+        self._crowds = [self._check_frame(i, palette, joints)
                         for i, palette in enumerate(self._palettes)]
         _requests.check_window(window)
         _requests.check_encoding(encoding)
@@ -158,18 +160,36 @@ class FrameStream:
         self.ended: Ended = []
         self._restart: Optional[SkinserveError] = None
 
+    @staticmethod
+    def _check_frame(i: int, palette: PaletteOrPose, joints: Optional[int]) -> Optional[int]:
+        """Frame i's crowd size; a pose frame (one instance) has none."""
+        if isinstance(palette, Pose):
+            _pose.check_pose(f"palettes[{i}]", palette)
+            return None
+        return _arrays.check_palette(f"palettes[{i}]", palette, joints)
+
+    def _request(self, i: int, stride: int) -> pb.SkinRequest:
+        backend, want_normals, encoding, want_tangents = self._args
+        palette = self._palettes[i]
+        pose = palette if isinstance(palette, Pose) else None
+        array = None if isinstance(palette, Pose) else palette
+        request = _requests.skin_request(
+            self.mesh_id, array, self._crowds[i], i, backend,
+            want_normals, encoding, self.region, (i % self.window) * stride, self._weights[i],
+            want_tangents)
+        if pose is not None:
+            _pose.set_pose(request, pose)
+        return request
+
     def build(self, vertices: int) -> None:
         """The requests; `vertices`, the mesh's vertex count, lays out the region's slots
         (unused without a region)."""
-        backend, want_normals, encoding, want_tangents = self._args
+        _, want_normals, encoding, want_tangents = self._args
         stride = 0
         if self.region is not None:
             stride = _requests.region_stride(vertices, self._crowds, want_normals, encoding,
                                              self.window, self.region, want_tangents)
-        self.requests = [
-            _requests.skin_request(self.mesh_id, p, k, i, backend, want_normals, encoding,
-                                   self.region, (i % self.window) * stride, w, want_tangents)
-            for i, (p, k, w) in enumerate(zip(self._palettes, self._crowds, self._weights))]
+        self.requests = [self._request(i, stride) for i in range(len(self._palettes))]
 
     @property
     def done(self) -> bool:

@@ -2,7 +2,7 @@
 then frames that name clip layers instead of carrying a palette; the server samples,
 blends and turns them into the palette. The messages both clients send, checked here."""
 from dataclasses import dataclass
-from typing import Optional, Sequence
+from typing import Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -33,6 +33,11 @@ class Pose:
     """What a character plays instead of a palette: 1..8 layers of the skeleton's clips."""
     skeleton_id: str
     layers: Sequence[PoseLayer]
+
+
+# One frame of a stream: a palette float32 (J, 3, 4) (or a crowd's), or a Pose the server
+# turns into the palette.
+PaletteOrPose = Union[npt.NDArray[np.float32], Pose]
 
 
 @dataclass(frozen=True)
@@ -90,18 +95,36 @@ def clip_request(skeleton_id: str, tracks: Sequence[ClipTrack], name: str = "",
     return request
 
 
-def pose_request(mesh_id: str, pose: Pose, frame: int, backend: Optional[str],
-                 want_normals: bool, encoding: str) -> pb.SkinRequest:
-    """One frame whose palette the server computes from `pose`."""
+def check_pose(what: str, pose: Pose) -> None:
+    """What the client can tell before sending: a Pose of 1..8 PoseLayer (`what` names it in
+    the error); the server checks the ids, times and weights and names the field."""
+    if not isinstance(pose, Pose):
+        raise ValueError(f"{what}: {type(pose).__name__}, expected skinserve.Pose")
     if not 1 <= len(pose.layers) <= 8:
-        raise ValueError(f"pose.layers: {len(pose.layers)} layers, expected 1..8")
-    check_encoding(encoding)
-    request = pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
-                             want_normals=want_normals, encoding=ENCODINGS[encoding],
-                             pack_instances=True)
+        raise ValueError(f"{what}.layers: {len(pose.layers)} layers, expected 1..8")
+    for i, layer in enumerate(pose.layers):
+        if not isinstance(layer, PoseLayer):
+            raise ValueError(f"{what}.layers[{i}]: {type(layer).__name__}, expected "
+                             "skinserve.PoseLayer")
+
+
+def set_pose(request: pb.SkinRequest, pose: Pose) -> None:
+    """`request` carries `pose` (and no palette): the server computes the palette."""
+    request.ClearField("palette")
     request.pose.skeleton_id = pose.skeleton_id
     for layer in pose.layers:
         request.pose.layers.append(pb.PoseLayer(
             clip_id=layer.clip_id, time=layer.time, weight=layer.weight,
             additive=layer.additive, loop=layer.loop))
+
+
+def pose_request(mesh_id: str, pose: Pose, frame: int, backend: Optional[str],
+                 want_normals: bool, encoding: str) -> pb.SkinRequest:
+    """One frame whose palette the server computes from `pose`."""
+    check_pose("pose", pose)
+    check_encoding(encoding)
+    request = pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
+                             want_normals=want_normals, encoding=ENCODINGS[encoding],
+                             pack_instances=True)
+    set_pose(request, pose)
     return request

@@ -76,14 +76,16 @@ def check_encoding(encoding: str) -> None:
         raise ValueError(f"encoding: '{encoding}', expected one of {sorted(ENCODINGS)}")
 
 
-def skin_request(mesh_id: str, palette: npt.NDArray[np.float32], crowd: Optional[int],
-                 frame: int, backend: Optional[str], want_normals: bool, encoding: str,
-                 region: Optional[SharedMemoryRegion] = None, offset: int = 0,
+def skin_request(mesh_id: str, palette: Optional[npt.NDArray[np.float32]],
+                 crowd: Optional[int], frame: int, backend: Optional[str], want_normals: bool,
+                 encoding: str, region: Optional[SharedMemoryRegion] = None, offset: int = 0,
                  morph_weights: Optional[FrameWeights] = None,
                  want_tangents: bool = False) -> pb.SkinRequest:
+    """A frame's request; palette None: no palette (the caller sets a pose, _pose.set_pose)."""
     check_encoding(encoding)
+    palette_bytes = b"" if palette is None else _arrays.little_endian_bytes(palette, "f4")
     request = pb.SkinRequest(mesh_id=mesh_id, backend=backend or "", frame=frame,
-                             palette=_arrays.little_endian_bytes(palette, "f4"),
+                             palette=palette_bytes,
                              want_normals=want_normals, want_tangents=want_tangents,
                              encoding=ENCODINGS[encoding],
                              instances=crowd or 0, pack_instances=True)

@@ -8,10 +8,11 @@ import grpc
 import numpy as np
 import numpy.typing as npt
 
-from . import _arrays, _requests, _shared_memory
+from . import _arrays, _pose, _requests, _shared_memory
 from ._errors import SkinserveError, status_code
 from ._frame import Answer, FloatArray, Frame
 from ._morph import FrameWeights
+from ._pose import Pose
 from ._shared_memory import SharedMemoryRegion
 from .v1 import skinning_pb2 as pb
 
@@ -19,11 +20,12 @@ from .v1 import skinning_pb2 as pb
 @dataclasses.dataclass
 class Character:
     """One character of a tick: its mesh, its palette (float32 (J, 3, 4), or a crowd's
-    (K, J, 3, 4)) and what it asks of the server, as Client.skin's arguments: backend,
-    want_normals, want_tangents, encoding, morph_weights, and region/offset (its own range
-    of a registered SharedMemoryRegion)."""
+    (K, J, 3, 4)) or instead its pose (a skinserve.Pose: the server samples and blends the
+    clips and computes the palette; one instance), and what it asks of the server, as
+    Client.skin's arguments: backend, want_normals, want_tangents, encoding, morph_weights,
+    and region/offset (its own range of a registered SharedMemoryRegion)."""
     mesh_id: str
-    palette: npt.NDArray[np.float32]
+    palette: Optional[npt.NDArray[np.float32]] = None
     backend: Optional[str] = None
     want_normals: bool = False
     encoding: str = "float32"
@@ -31,6 +33,7 @@ class Character:
     offset: int = 0
     morph_weights: Optional[FrameWeights] = None
     want_tangents: bool = False
+    pose: Optional[Pose] = None
 
 
 @dataclasses.dataclass
@@ -55,16 +58,24 @@ class CharacterResult:
 
 def check_characters(characters: Sequence[Character],
                      joint_count: Callable[[str], Optional[int]]) -> List[Optional[int]]:
-    """Each character's crowd size (None: a single palette), its palette checked against
-    its mesh's joints (when this client knows them) and its encoding by name."""
+    """Each character's crowd size (None: a single palette or a pose), its palette checked
+    against its mesh's joints (when this client knows them) or its pose's shape, and its
+    encoding by name."""
     characters = list(characters)
     if not characters:
         raise ValueError("characters: empty, expected at least one Character")
-    crowds = []
+    crowds: List[Optional[int]] = []
     for i, c in enumerate(characters):
         if not isinstance(c, Character):
             raise ValueError(f"characters[{i}]: {type(c).__name__}, expected skinserve.Character")
         _requests.check_encoding(c.encoding)
+        if (c.palette is None) == (c.pose is None):
+            raise ValueError(f"characters[{i}]: give a palette or a pose (one of them), "
+                             f"not {'both' if c.pose is not None else 'neither'}")
+        if c.pose is not None:
+            _pose.check_pose(f"characters[{i}].pose", c.pose)
+            crowds.append(None)
+            continue
         crowds.append(_arrays.check_palette(f"characters[{i}].palette", c.palette,
                                             joint_count(c.mesh_id)))
     return crowds
@@ -76,9 +87,12 @@ def tick_request(characters: Sequence[Character], crowds: Sequence[Optional[int]
     own); region characters at their offset + slot_offset."""
     request = pb.SkinRequest(frame=frame)
     for c, crowd in zip(characters, crowds):
-        request.characters.append(_requests.skin_request(
+        character = _requests.skin_request(
             c.mesh_id, c.palette, crowd, 0, c.backend, c.want_normals, c.encoding, c.region,
-            c.offset + slot_offset, c.morph_weights, c.want_tangents))
+            c.offset + slot_offset, c.morph_weights, c.want_tangents)
+        if c.pose is not None:
+            _pose.set_pose(character, c.pose)
+        request.characters.append(character)
     return request
 
 

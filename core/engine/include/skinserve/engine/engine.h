@@ -60,8 +60,9 @@ struct MeshInfo {
 // Server-side time of one frame, for the wire's timing breakdown.
 struct FrameTiming {
   int64_t queued_ns = 0;  // from Submit until a compute thread took it
-  // From the first instance's start to the last instance's end: the backend's Skin calls
-  // and, in between, each instance's SkinJob::OnInstanceSkinned.
+  // From the first instance's start to the last instance's end: SkinJob::FillInputs (if
+  // asked for), the backend's Skin calls and, in between, each instance's
+  // SkinJob::OnInstanceSkinned.
   int64_t compute_ns = 0;
   // Of compute_ns, device time from profiling events (OpenCL backends; else 0):
   int64_t device_transfer_ns = 0;  // host<->device transfers, summed
@@ -95,6 +96,13 @@ struct SkinRequest {
   // and normals together), so each compute thread keeps at most that much.
   bool skin_into_scratch = false;
   bool scratch_normals = false;  // with skin_into_scratch: skin normals too
+  // Jobs only: the palette's values are written by the job (SkinJob::FillInputs) on the
+  // compute thread that skins the frame, just before the backend reads them, instead of
+  // before Submit (a server turning a pose into a palette spreads that work over the
+  // compute threads with the skinning). `palette` spans where they will be: one instance's
+  // 12 * joint_count floats, whose size Submit checks; their values are checked after
+  // FillInputs, on that thread.
+  bool fill_inputs_on_run = false;
   // Set (encoding not float32): the backend writes each instance encoded here instead of
   // into positions/normals/tangents, which stay empty (backend.h's EncodedOutput; the
   // backend's BackendInfo::encoded_outputs must list the encoding). Instance i's bytes
@@ -194,6 +202,14 @@ class SkinJob {
   virtual Status OnInstanceSkinned(uint32_t /*instance*/, std::span<const float> /*positions*/,
                                    std::span<const float> /*normals*/) {
     return Status::Ok();
+  }
+  // With request.fill_inputs_on_run: writes the frame's palette into the floats
+  // request.palette spans. Runs once per frame, on the thread that then skins it (a compute
+  // thread, or Engine::Run's caller when it runs the frame inline), before the backend
+  // reads the palette; its time counts in the frame's compute_ns. Non-OK fails the frame,
+  // which is then not skinned.
+  virtual Status FillInputs() {
+    return Internal("request.fill_inputs_on_run is set but the job does not fill its inputs");
   }
   // Runs once, on a compute thread, after every instance (and its OnInstanceSkinned).
   virtual void OnSkinned(Status status, const FrameTiming& timing) = 0;
