@@ -6,6 +6,8 @@
 #include <cmath>
 #include <vector>
 
+#include "triangle_check.h"
+
 namespace skinserve::gpu_region {
 
 std::string PictureCheck::ToString() const {
@@ -65,6 +67,18 @@ PictureCheck CheckPicture(std::span<const uint8_t> rgba, uint32_t width, uint32_
   check.drawn_near_points =
       check.drawn_pixels > 0 ? static_cast<double>(drawn_near) / check.drawn_pixels : 0;
   return check;
+}
+
+PictureVerdict JudgePicture(std::span<const uint8_t> rgba, uint32_t width, uint32_t height,
+                            std::span<const double> positions, std::span<const double> normals,
+                            std::span<const uint32_t> indices, const Transform& transform) {
+  if (indices.empty()) {
+    const PictureCheck c = CheckPicture(rgba, width, height, positions, transform);
+    return {c.ok(), c.ToString()};
+  }
+  const TrianglePictureCheck c =
+      CheckTrianglePicture(rgba, width, height, positions, normals, indices, transform);
+  return {c.ok(), c.ToString()};
 }
 
 }  // namespace skinserve::gpu_region

@@ -30,4 +30,15 @@ PictureCheck CheckPicture(std::span<const uint8_t> rgba, uint32_t width, uint32_
                           std::span<const double> positions, const Transform& transform,
                           int radius = 2);
 
+// --draw's verdict on a picture of the reference (`normals` empty: none): with `indices`
+// (triangles) CheckTrianglePicture, without them (points) CheckPicture. The summary is
+// the check's ToString.
+struct PictureVerdict {
+  bool ok = false;
+  std::string summary;
+};
+PictureVerdict JudgePicture(std::span<const uint8_t> rgba, uint32_t width, uint32_t height,
+                            std::span<const double> positions, std::span<const double> normals,
+                            std::span<const uint32_t> indices, const Transform& transform);
+
 }  // namespace skinserve::gpu_region

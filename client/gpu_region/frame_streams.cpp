@@ -22,6 +22,14 @@ Status StreamIntoRegion(v1::Skinning::Stub& stub, const StreamPlan& plan,
   const auto send = [&](uint32_t frame) {
     request.set_frame(frame);
     request.set_palette(plan.palette(frame));
+    request.clear_morph_targets();
+    request.clear_morph_weights();
+    if (plan.morph) {
+      for (const MorphWeight& w : plan.morph(frame)) {
+        request.add_morph_targets(w.target);
+        request.add_morph_weights(w.weight);
+      }
+    }
     request.mutable_output()->set_offset((frame % plan.window) * plan.slot_bytes);
     request.mutable_output()->set_byte_size(plan.slot_bytes);
     return stream->Write(request);

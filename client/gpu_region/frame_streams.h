@@ -4,9 +4,11 @@
 #pragma once
 
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
+#include "skinserve/model/morph_targets.h"
 #include "skinserve/model/status.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
 
@@ -21,6 +23,8 @@ struct StreamPlan {
   bool normals = false;
   // Frame f's palette, as the bytes SkinRequest.palette carries.
   std::function<const std::string&(uint32_t frame)> palette;
+  // Frame f's morph target weights, sparse (a glTF character's clip); null: none.
+  std::function<std::span<const MorphWeight>(uint32_t frame)> morph;
 };
 
 // Runs the frames; `answered(frame, response)` sees each frame's RegionWrite in order, and

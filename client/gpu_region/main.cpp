@@ -1,16 +1,19 @@
 // skinserve-gpu-region: a headless Vulkan renderer's side of GPU regions
 // (docs/serving/gpu-regions.md). It allocates a vertex buffer on the GPU, exports it as an
 // opaque fd, hands the fd to the server (--fd-socket) and registers it (GpuRegions), then
-// streams a synthetic character's palettes with every frame written into the buffer by
-// the server's `opencl` backend. --check and --draw use a buffer of one frame registered
-// with an exported semaphore (unless --semaphore false), which the server signals once per
-// answered frame: each frame's GPU work waits on it (window 1, so the wait has run before
-// the next frame is sent). --check copies each frame back and compares it with the float64
-// reference; --draw draws the character mid-walk from the buffer (vertex_renderer.h) into
-// a PNG and checks the picture against the reference's projected positions. The speed run
-// streams --frames frames with --window in flight into a buffer without a semaphore, then
-// the same frames into a shared-memory region (read back from the GPU into host memory)
-// for comparison. Prints one summary line per run and PASS or FAIL.
+// streams a character's palettes with every frame written into the buffer by the server's
+// `opencl` backend: the synthetic one (random palettes, no faces: drawn as points), or with
+// --mesh a glTF character loaded as skinserve-load --mesh loads it (every primitive of the
+// file as one mesh, its first clip sampled every 1/30 s, looping; drawn as triangles). --check and
+// --draw use a buffer of one frame registered with an exported semaphore (unless --semaphore
+// false), which the server signals once per answered frame: each frame's GPU work waits on it
+// (window 1, so the wait has run before the next frame is sent). --check copies each frame back and
+// compares it with the float64 reference; --draw draws the character mid-walk from the buffer
+// (vertex_renderer.h) into a PNG and checks the picture against the reference (draw_check.h,
+// triangle_check.h). The speed run streams --frames frames with --window in flight into a buffer
+// without a semaphore, then the same frames into a shared-memory region (read back from the GPU
+// into host memory), then the same again on --compare-backend (simd-openmp: the server's CPUs) into
+// shared memory. Prints one summary line per run and PASS or FAIL.
 #include <fmt/format.h>
 #include <grpcpp/grpcpp.h>
 #include <unistd.h>
@@ -26,13 +29,16 @@
 #include "skinserve/client/gpu_fd_handoff.h"
 #include "skinserve/client/shared_memory_region.h"
 #include "skinserve/client/skin_client.h"
+#include "skinserve/model/skinning_method.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 #include "skinserve/wire/conversions.h"
 #include "skinserve/wire/region_layout.h"
 #include "vulkan_device.h"
+#include "workload.h"  // client/load: MakeGltfWorkload, as skinserve-load --mesh
 #if SKINSERVE_GPU_REGION_DRAW
 #include "draw_check.h"
+#include "host_buffer.h"
 #include "png_file.h"
 #include "vertex_renderer.h"
 #endif
@@ -42,6 +48,8 @@ namespace {
 
 struct Options {
   std::string target, fd_socket, backend = "opencl", shm_dir = "/dev/shm";
+  std::string mesh_path;                        // --mesh: a glTF character ("" synthetic)
+  std::string compare_backend = "simd-openmp";  // the speed run's CPU row ("" none)
   uint32_t vertices = 25000, influences = 2, frames = 600, window = 2, check_frames = 0;
   bool normals = false, compare_shm = true, semaphore = true;
   int vulkan_device = -1;
@@ -53,33 +61,69 @@ struct Session {
   Options options;
   std::shared_ptr<const Mesh> mesh;
   std::string mesh_id;
-  std::vector<std::string> palettes;  // a walk cycle's distinct poses, reused
+  // The character's distinct poses, frame f taking f % size: the synthetic walk's, or the
+  // glTF clip's every 1/30 s (with their morph weights, when it has morph targets).
+  std::vector<std::string> palettes;
+  std::vector<std::vector<MorphWeight>> morph;
+  std::vector<uint32_t> indices;  // triangles (a glTF character's), empty: points
   uint64_t slot_bytes = 0;
   std::unique_ptr<client::SkinClient> client;
   std::unique_ptr<v1::GpuRegions::Stub> gpu;
 };
 
-constexpr uint32_t kPoses = 64;
+constexpr uint32_t kSyntheticPoses = 64;
 
-Status Prepare(Session& s) {
-  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = s.options.vertices,
-                                               .influences = s.options.influences,
-                                               .normals = s.options.normals,
-                                               .seed = 7});
-  auto mesh = Mesh::Create(arrays);
+std::string PaletteBytes(std::span<const float> palette) {
+  return {reinterpret_cast<const char*>(palette.data()), palette.size() * sizeof(float)};
+}
+
+// The synthetic character of --vertices x --influences, and its walk's poses.
+Result<std::shared_ptr<const MeshArrays>> SyntheticCharacter(Session& s) {
+  auto arrays =
+      std::make_shared<const MeshArrays>(MakeSyntheticMesh({.vertex_count = s.options.vertices,
+                                                            .influences = s.options.influences,
+                                                            .normals = s.options.normals,
+                                                            .seed = 7}));
+  for (uint32_t f = 0; f < kSyntheticPoses; ++f) {
+    s.palettes.push_back(PaletteBytes(MakeSyntheticPalette(arrays->joint_count, 3, f)));
+  }
+  auto mesh = Mesh::Create(*arrays);
   if (!mesh.ok()) return mesh.status();
   s.mesh = *mesh;
+  return arrays;
+}
+
+// --mesh: the glTF character as skinserve-load --mesh loads it (MakeGltfWorkload: every
+// primitive, skinned or rigid, in one mesh; its first clip every 1/30 s), skinned with
+// normals whenever it has them (the picture is shaded by them).
+Result<std::shared_ptr<const MeshArrays>> GltfCharacter(Session& s) {
+  auto w = load::MakeGltfWorkload(s.options.mesh_path, -1, s.options.normals);
+  if (!w.ok()) return w.status();
+  s.options.vertices = w->vertices;
+  s.options.influences = w->bones;
+  s.options.normals = !w->arrays->normals.empty();
+  s.mesh = w->mesh;
+  for (const std::vector<float>& palette : w->palettes) s.palettes.push_back(PaletteBytes(palette));
+  s.morph = std::move(w->morph_weights);
+  s.indices = w->indices;
+  fmt::print(
+      "character: {}: {} vertices, {} triangles, {} joints (all of its primitives in one mesh, as "
+      "skinserve-load --mesh uploads it), {} normals; {} poses of its first clip at 1/30 s{}\n",
+      s.options.mesh_path, w->vertices, w->indices.size() / 3, w->joints,
+      s.options.normals ? "with" : "without", s.palettes.size(),
+      s.morph.empty() ? "" : ", with their morph target weights");
+  return w->arrays;
+}
+
+Status Prepare(Session& s) {
+  auto arrays = s.options.mesh_path.empty() ? SyntheticCharacter(s) : GltfCharacter(s);
+  if (!arrays.ok()) return arrays.status();
   auto channel = client::MakeChannel(s.options.target);
   s.client = std::make_unique<client::SkinClient>(channel);
   s.gpu = v1::GpuRegions::NewStub(channel);
-  auto info = s.client->Upload(arrays);
+  auto info = s.client->Upload(**arrays);
   if (!info.ok()) return info.status();
   s.mesh_id = info->mesh_id();
-  for (uint32_t f = 0; f < kPoses; ++f) {
-    const auto palette = MakeSyntheticPalette(s.mesh->joint_count(), 3, f);
-    s.palettes.emplace_back(reinterpret_cast<const char*>(palette.data()),
-                            palette.size() * sizeof(float));
-  }
   const wire::RegionLayout layout =
       wire::LayoutInRegion(0, s.options.vertices, 1, VertexEncoding::kFloat32, s.options.normals);
   s.slot_bytes = wire::RoundUpToRegionAlignment(layout.end_offset);
@@ -124,17 +168,30 @@ Status RegisterGpu(Session& s, const VulkanDevice& device, const ExportedBuffer&
   return Status::Ok();
 }
 
+std::span<const float> Palette(const Session& s, uint32_t frame) {
+  const std::string& p = s.palettes[frame % s.palettes.size()];
+  return {reinterpret_cast<const float*>(p.data()), p.size() / sizeof(float)};
+}
+
+std::span<const MorphWeight> Morph(const Session& s, uint32_t frame) {
+  if (s.morph.empty()) return {};
+  return s.morph[frame % s.morph.size()];
+}
+
 StreamPlan Plan(const Session& s, const std::string& region, bool gpu, uint32_t frames,
-                uint32_t window) {
+                uint32_t window, const std::string& backend = "") {
   return {.mesh_id = s.mesh_id,
-          .backend = s.options.backend,
+          .backend = backend.empty() ? s.options.backend : backend,
           .region = region,
           .gpu = gpu,
           .frames = frames,
           .window = window,
           .slot_bytes = s.slot_bytes,
           .normals = s.options.normals,
-          .palette = [&s](uint32_t f) -> const std::string& { return s.palettes[f % kPoses]; }};
+          .palette = [&s](uint32_t f) -> const std::string& {
+            return s.palettes[f % s.palettes.size()];
+          },
+          .morph = [&s](uint32_t f) { return Morph(s, f); }};
 }
 
 // The one-frame GPU region --check and --draw write into, with its semaphore (null when
@@ -183,10 +240,8 @@ Status Check(Session& s, const WaitedRegion& region, ReadBack& read_back, uint32
         if (s.options.normals) {
           normals = {reinterpret_cast<const float*>(base + w.normals_offset()), 3ull * v};
         }
-        const std::string& p = s.palettes[frame % kPoses];
-        std::span<const float> palette(reinterpret_cast<const float*>(p.data()),
-                                       p.size() / sizeof(float));
-        const Deviation d = CompareWithReference(*s.mesh, palette, positions, normals);
+        const Deviation d = CompareWithReference(*s.mesh, Palette(s, frame), positions, normals,
+                                                 SkinningMethod::kLinear, Morph(s, frame));
         *worst = std::max(*worst, d.max_position_error);
         if (!d.within_tolerance()) {
           return Internal(fmt::format(
@@ -199,86 +254,93 @@ Status Check(Session& s, const WaitedRegion& region, ReadBack& read_back, uint32
 }
 
 #if SKINSERVE_GPU_REGION_DRAW
-// The float64 reference of pose `f` and the front view that frames it.
+// The float64 reference of frame `f` and the front view framed on its bounds.
 struct DrawnPose {
   ReferenceFrame reference;
   Transform transform;
 };
 
 DrawnPose ReferencePose(const Session& s, uint32_t f, uint32_t size) {
-  const std::string& p = s.palettes[f % kPoses];
-  DrawnPose pose{.reference = ReferenceSkin(
-                     *s.mesh, std::span<const float>(reinterpret_cast<const float*>(p.data()),
-                                                     p.size() / sizeof(float)))};
-  std::array<float, 3> lo = {1e30f, 1e30f, 1e30f}, hi = {-1e30f, -1e30f, -1e30f};
-  for (std::size_t i = 0; i < pose.reference.positions.size(); ++i) {
-    const float x = static_cast<float>(pose.reference.positions[i]);
-    lo[i % 3] = std::min(lo[i % 3], x);
-    hi[i % 3] = std::max(hi[i % 3], x);
-  }
-  pose.transform = FrontView(lo, hi, size, size);
+  DrawnPose pose{.reference = ReferenceSkin(*s.mesh, Palette(s, f), Morph(s, f))};
+  pose.transform = FrontViewOf(pose.reference.positions, size, size);
   return pose;
 }
 
-// --draw: frames 0 to the walk's middle pose, each drawn from the GPU region by a
-// submission that waits on the semaphore; the last one's picture checked against the
-// reference and written as a PNG.
+// The character's triangles in an index buffer (none for the synthetic one: points).
+Result<std::unique_ptr<HostBuffer>> IndexBuffer(const Session& s, const VulkanDevice& device) {
+  if (s.indices.empty()) return std::unique_ptr<HostBuffer>();
+  return HostBuffer::Create(device, s.indices.data(), s.indices.size() * sizeof(uint32_t),
+                            VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+}
+
+// --draw: frames 0 to the middle pose (the synthetic walk's, or the clip's), each drawn
+// from the GPU region by a submission that waits on the semaphore; the last one's picture
+// checked against the reference and written as a PNG.
 Status Draw(Session& s, const VulkanDevice& device, const WaitedRegion& region) {
-  const uint32_t size = s.options.draw_size, last = kPoses / 2;
+  const uint32_t size = s.options.draw_size;
+  const auto last = static_cast<uint32_t>(s.palettes.size() / 2);
   auto renderer = VertexRenderer::Create(device, size, size);
   if (!renderer.ok()) return renderer.status();
+  auto indices = IndexBuffer(s, device);
+  if (!indices.ok()) return indices.status();
   const DrawnPose pose = ReferencePose(s, last, size);
   std::span<const uint8_t> pixels;
+  const auto draw = [&](uint32_t frame, const v1::SkinResponse& response) -> Status {
+    const v1::RegionWrite& w = response.region_write();
+    auto drawn =
+        (*renderer)->Draw({.vertices = region.buffer->buffer(),
+                           .positions_offset = w.positions_offset(),
+                           .normals_offset = w.normals_offset(),
+                           .normals = s.options.normals,
+                           .vertex_count = s.options.vertices,
+                           .indices = *indices != nullptr ? (*indices)->buffer() : VK_NULL_HANDLE,
+                           .index_count = static_cast<uint32_t>(s.indices.size()),
+                           .external = true,
+                           .wait = region.wait(),
+                           .transform = pose.transform});
+    if (!drawn.ok()) return drawn.status();
+    if (frame == last) pixels = *drawn;
+    return Status::Ok();
+  };
   Status streamed =
-      StreamIntoRegion(s.client->stub(), Plan(s, region.name, true, last + 1, 1),
-                       [&](uint32_t frame, const v1::SkinResponse& response) -> Status {
-                         const v1::RegionWrite& w = response.region_write();
-                         auto drawn = (*renderer)->Draw({.vertices = region.buffer->buffer(),
-                                                         .positions_offset = w.positions_offset(),
-                                                         .normals_offset = w.normals_offset(),
-                                                         .normals = s.options.normals,
-                                                         .vertex_count = s.options.vertices,
-                                                         .external = true,
-                                                         .wait = region.wait(),
-                                                         .transform = pose.transform});
-                         if (!drawn.ok()) return drawn.status();
-                         if (frame == last) pixels = *drawn;
-                         return Status::Ok();
-                       });
+      StreamIntoRegion(s.client->stub(), Plan(s, region.name, true, last + 1, 1), draw);
   if (!streamed.ok()) return streamed;
-  const PictureCheck check =
-      CheckPicture(pixels, size, size, pose.reference.positions, pose.transform);
+  const PictureVerdict verdict = JudgePicture(pixels, size, size, pose.reference.positions,
+                                              pose.reference.normals, s.indices, pose.transform);
   if (Status st = WritePng(s.options.draw_path, pixels, size, size); !st.ok()) return st;
-  fmt::print(
-      "draw: frame {} (the walk's middle pose) drawn from the GPU region into {} ({} x {}): "
-      "{}\n",
-      last, s.options.draw_path, size, size, check.ToString());
-  if (!check.ok()) return Internal("the picture does not show the reference's positions");
+  fmt::print("draw: frame {} ({}) drawn from the GPU region as {} into {} ({} x {}): {}\n", last,
+             s.indices.empty() ? "the synthetic walk's middle pose"
+                               : fmt::format("the clip's middle, {:.3f} s", last / 30.0),
+             s.indices.empty() ? "points" : "triangles", s.options.draw_path, size, size,
+             verdict.summary);
+  if (!verdict.ok) return Internal("the picture does not show the reference");
   return Status::Ok();
 }
 #endif
 
-// frames/s of `frames` frames into `region` with the window in flight.
-Result<double> Speed(Session& s, const std::string& region, bool gpu) {
+// frames/s of `frames` frames into `region` with the window in flight, on `backend`
+// ("": --backend).
+Result<double> Speed(Session& s, const std::string& region, bool gpu,
+                     const std::string& backend = "") {
   const auto started = std::chrono::steady_clock::now();
-  Status status =
-      StreamIntoRegion(s.client->stub(), Plan(s, region, gpu, s.options.frames, s.options.window),
-                       [](uint32_t, const v1::SkinResponse&) { return Status::Ok(); });
+  Status status = StreamIntoRegion(
+      s.client->stub(), Plan(s, region, gpu, s.options.frames, s.options.window, backend),
+      [](uint32_t, const v1::SkinResponse&) { return Status::Ok(); });
   if (!status.ok()) return status;
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return s.options.frames / seconds;
 }
 
-Result<double> SpeedOverSharedMemory(Session& s) {
+// The same frames into a shared-memory region of their own, skinned by `backend`.
+Result<double> SpeedOverSharedMemory(Session& s, const std::string& backend) {
   auto region =
       client::SharedMemoryRegion::Create(client::SharedMemoryRegion::UniqueKey("gpu-region-cmp"),
                                          s.slot_bytes * s.options.window, s.options.shm_dir);
   if (!region.ok()) return region.status();
-  if (auto info = s.client->RegisterRegion("shm-compare", **region); !info.ok()) {
-    return info.status();
-  }
-  return Speed(s, "shm-compare", false);
+  const std::string name = "shm-compare-" + backend;
+  if (auto info = s.client->RegisterRegion(name, **region); !info.ok()) return info.status();
+  return Speed(s, name, false, backend);
 }
 
 // --check and --draw, into the one-frame region with the semaphore.
@@ -315,6 +377,35 @@ Status CheckAndDraw(Session& s, const VulkanDevice& device) {
 #endif
 }
 
+// The speed runs: into a GPU region, then (--compare-shm) the same frames read back into
+// shared memory by --backend and by --compare-backend on the server's CPUs.
+Status SpeedRuns(Session& s, const VulkanDevice& device) {
+  const Options& options = s.options;
+  auto buffer = ExportedBuffer::Create(device, s.slot_bytes * options.window);
+  if (!buffer.ok()) return buffer.status();
+  if (Status st = RegisterGpu(s, device, **buffer, "vertices"); !st.ok()) return st;
+  fmt::print("device '{}': GPU region of {} bytes registered ({} x {}, window {})\n", device.name(),
+             (*buffer)->allocation_bytes(), options.vertices, options.influences, options.window);
+  auto gpu = Speed(s, "vertices", true);
+  if (!gpu.ok()) return gpu.status();
+  fmt::print("gpu-region: {} x {}: {:.1f} frames/s ({} frames, window {})\n", options.vertices,
+             options.influences, *gpu, options.frames, options.window);
+  if (!options.compare_shm) return Status::Ok();
+  auto shm = SpeedOverSharedMemory(s, options.backend);
+  if (!shm.ok()) return shm.status();
+  fmt::print("shm-readback: {} x {}: {:.1f} frames/s; gpu-region / shm = {:.2f}x\n",
+             options.vertices, options.influences, *shm, *gpu / *shm);
+  if (options.compare_backend.empty()) return Status::Ok();
+  auto cpu = SpeedOverSharedMemory(s, options.compare_backend);
+  if (!cpu.ok()) return cpu.status();
+  fmt::print(
+      "{}-shm: {} x {}: {:.1f} frames/s (same frames and window, the server's CPUs, shared "
+      "memory); gpu-region / {} = {:.2f}x\n",
+      options.compare_backend, options.vertices, options.influences, *cpu, options.compare_backend,
+      *gpu / *cpu);
+  return Status::Ok();
+}
+
 int Run(const Options& options) {
   Session s{.options = options};
   const auto fail = [](const Status& status) {
@@ -326,22 +417,7 @@ int Run(const Options& options) {
   if (Status st = Prepare(s); !st.ok()) return fail(st);
   if (Status st = CheckAndDraw(s, **device); !st.ok()) return fail(st);
   if (options.frames > 0) {
-    auto buffer = ExportedBuffer::Create(**device, s.slot_bytes * options.window);
-    if (!buffer.ok()) return fail(buffer.status());
-    if (Status st = RegisterGpu(s, **device, **buffer, "vertices"); !st.ok()) return fail(st);
-    fmt::print("device '{}': GPU region of {} bytes registered ({} x {}, window {})\n",
-               (*device)->name(), (*buffer)->allocation_bytes(), options.vertices,
-               options.influences, options.window);
-    auto gpu = Speed(s, "vertices", true);
-    if (!gpu.ok()) return fail(gpu.status());
-    fmt::print("gpu-region: {} x {}: {:.1f} frames/s ({} frames, window {})\n", options.vertices,
-               options.influences, *gpu, options.frames, options.window);
-    if (options.compare_shm) {
-      auto shm = SpeedOverSharedMemory(s);
-      if (!shm.ok()) return fail(shm.status());
-      fmt::print("shm-readback: {} x {}: {:.1f} frames/s; gpu-region / shm = {:.2f}x\n",
-                 options.vertices, options.influences, *shm, *gpu / *shm);
-    }
+    if (Status st = SpeedRuns(s, **device); !st.ok()) return fail(st);
   }
   fmt::print("PASS\n");
   return 0;
@@ -355,6 +431,11 @@ int main(int argc, char** argv) {
   CLI::App app{"skinserve-gpu-region: a headless Vulkan client of the server's GPU regions"};
   app.add_option("--target", o.target, "the server's Unix socket, unix:PATH")->required();
   app.add_option("--fd-socket", o.fd_socket, "the server's --gpu-fd-socket")->required();
+  app.add_option("--mesh", o.mesh_path,
+                 "a glTF 2.0 character (.glb, or .gltf with its buffers) instead of the synthetic "
+                 "one: all of its primitives as one mesh, its first clip's palettes (frame f at "
+                 "f/30 s, looping), drawn as triangles")
+      ->check(CLI::ExistingFile);
   app.add_option("--vertices", o.vertices, "vertices of the synthetic character")
       ->capture_default_str();
   app.add_option("--influences", o.influences, "bones per vertex")->capture_default_str();
@@ -373,6 +454,10 @@ int main(int argc, char** argv) {
   app.add_option("--compare-shm", o.compare_shm,
                  "after the GPU speed run, the same frames into a shared-memory region")
       ->capture_default_str();
+  app.add_option("--compare-backend", o.compare_backend,
+                 "with --compare-shm, the same frames into shared memory on this backend too "
+                 "(\"\": none)")
+      ->capture_default_str();
   app.add_option("--vulkan-device", o.vulkan_device, "device index (-1: first discrete GPU)")
       ->capture_default_str();
   app.add_option("--semaphore", o.semaphore,
@@ -380,8 +465,8 @@ int main(int argc, char** argv) {
                  "frame, and wait on it on the GPU")
       ->capture_default_str();
   app.add_option("--draw", o.draw_path,
-                 "draw the character mid-walk from the GPU region into this PNG, checked against "
-                 "the reference");
+                 "draw the character mid-walk (the middle pose) from the GPU region into this PNG, "
+                 "checked against the reference");
   app.add_option("--draw-size", o.draw_size, "the picture's width and height in pixels")
       ->check(CLI::Range(16, 4096))
       ->capture_default_str();

@@ -122,6 +122,16 @@ Transform FrontView(const std::array<float, 3>& lo, const std::array<float, 3>& 
   return t;
 }
 
+Transform FrontViewOf(std::span<const double> positions, uint32_t width, uint32_t height) {
+  std::array<float, 3> lo = {1e30f, 1e30f, 1e30f}, hi = {-1e30f, -1e30f, -1e30f};
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    const auto x = static_cast<float>(positions[i]);
+    lo[i % 3] = std::min(lo[i % 3], x);
+    hi[i % 3] = std::max(hi[i % 3], x);
+  }
+  return FrontView(lo, hi, width, height);
+}
+
 Result<std::unique_ptr<VertexRenderer>> VertexRenderer::Create(const VulkanDevice& device,
                                                                uint32_t width, uint32_t height) {
   if (width == 0 || height == 0 || width > 8192 || height > 8192) {

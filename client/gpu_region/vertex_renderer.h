@@ -27,6 +27,10 @@ using Transform = std::array<float, 16>;
 Transform FrontView(const std::array<float, 3>& lo, const std::array<float, 3>& hi, uint32_t width,
                     uint32_t height);
 
+// FrontView of the bounds of `positions` (x y z per vertex): the camera framed on a
+// character's reference pose.
+Transform FrontViewOf(std::span<const double> positions, uint32_t width, uint32_t height);
+
 struct DrawSource {
   VkBuffer vertices = VK_NULL_HANDLE;
   uint64_t positions_offset = 0;

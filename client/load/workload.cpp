@@ -151,6 +151,18 @@ MeshArrays MergeMeshes(const std::vector<CharacterMesh>& meshes) {
   return merged;
 }
 
+// The meshes' triangles into MergeMeshes' vertices: each mesh's after the vertices of the
+// meshes before it.
+std::vector<uint32_t> MergeIndices(const std::vector<CharacterMesh>& meshes) {
+  std::vector<uint32_t> indices;
+  uint32_t first_vertex = 0;
+  for (const CharacterMesh& m : meshes) {
+    for (uint32_t index : m.indices) indices.push_back(first_vertex + index);
+    first_vertex += static_cast<uint32_t>(m.arrays.vertex_count);
+  }
+  return indices;
+}
+
 }  // namespace
 
 Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool normals,
@@ -196,6 +208,7 @@ Result<Workload> MakeGltfWorkload(const std::string& path, int primitive, bool n
   }
   w.file_rest_encoding = RestEncodingFromFile(*character, uploaded);
   w.arrays = std::make_shared<const MeshArrays>(MergeMeshes(*meshes));
+  w.indices = MergeIndices(*meshes);
   w.vertices = w.arrays->vertex_count;
   w.bones = w.arrays->influences;
   w.joints = w.arrays->joint_count;

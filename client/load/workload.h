@@ -30,6 +30,9 @@ struct Workload {
   SkinningMethod method = SkinningMethod::kLinear;  // asked of the server, checked locally
   std::shared_ptr<const MeshArrays> arrays;         // shared by every stream's client
   std::shared_ptr<const Mesh> mesh;                 // for the float64 reference checks
+  // A glTF workload's triangles (3 indices each into the merged vertices, every part's
+  // renumbered), for renderers; empty for the synthetic mesh, which has no faces.
+  std::vector<uint32_t> indices;
   // Asked of the server at upload (--rest-encoding); `mesh` then holds the values the
   // quantized stream decodes to, which is what the server skins.
   RestEncoding rest_encoding = RestEncoding::kFloat32;

@@ -58,6 +58,18 @@ TEST(CharacterWorkloadTest, TwoSkinsAsOneMeshAndOnePaletteSkinLikeTheScene) {
       first += expected.positions.size() / 3;
     }
   }
+  // Its triangles (Workload::indices, for renderers): each primitive's, renumbered past
+  // the vertices of the primitives before it.
+  std::vector<uint32_t> triangles;
+  uint32_t base = 0;
+  for (const ScenePrimitiveRef& p : prims) {
+    const auto& primitive = scene.meshes[static_cast<std::size_t>(p.mesh)]
+                                .primitives[static_cast<std::size_t>(p.primitive)];
+    for (uint16_t index : primitive.indices) triangles.push_back(base + index);
+    base += static_cast<uint32_t>(primitive.positions.size() / 3);
+  }
+  EXPECT_FALSE(triangles.empty());
+  EXPECT_EQ(w->indices, triangles);
   // One primitive alone: that primitive's vertices only.
   auto one = load::MakeGltfWorkload(path, 2, false);
   ASSERT_TRUE(one.ok()) << one.status().ToString();

@@ -15,6 +15,7 @@
 
 #include "draw_check.h"
 #include "png_file.h"
+#include "triangle_check.h"
 #include "vertex_renderer.h"
 #include "vulkan_device.h"
 
@@ -197,6 +198,44 @@ TEST(VertexRendererTest, TrianglesCoverTheirPixelsNearestInFront) {
   EXPECT_GT(in_a, 300);
   EXPECT_GT(in_b_only, 300);
   EXPECT_GT(outside, 1000);
+}
+
+// --mesh's picture check (CheckTrianglePicture) on two triangles that mostly overlap, A in
+// front (facing the viewer), B behind (facing +x): the picture is theirs; the same
+// triangles with their depths swapped (B in front) are not, though their outline is the
+// same: the overlap shows A's normal, not B's.
+TEST(VertexRendererTest, TheTriangleCheckSeesWhichTriangleIsInFront) {
+  Vulkan& vk = TestVulkan();
+  const std::vector<double> positions = {-0.9, 0.9, 0.5,  0.9, 0.9, 0.5,  -0.9, -0.9, 0.5,
+                                         -0.8, 0.8, -0.5, 0.9, 0.8, -0.5, 0.9,  -0.9, -0.5};
+  const std::vector<double> normals = {0, 0, 1, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 1, 0, 0};
+  std::vector<float> bytes(32 + 18, 0.0f);  // normals at 128: 72 bytes rounded up to 64
+  std::copy(positions.begin(), positions.end(), bytes.begin());
+  std::copy(normals.begin(), normals.end(), bytes.begin() + 32);
+  const std::vector<uint32_t> triangles = {0, 1, 2, 3, 4, 5};
+  HostBuffer vertices(*vk.device, bytes.data(), bytes.size() * 4,
+                      VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+  HostBuffer indices(*vk.device, triangles.data(), 24, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+  const Transform t = FrontView({-1, -1, -1}, {1, 1, 1}, kWidth, kHeight);
+  auto pixels = vk.renderer->Draw({.vertices = vertices.get(),
+                                   .normals_offset = 128,
+                                   .normals = true,
+                                   .vertex_count = 6,
+                                   .indices = indices.get(),
+                                   .index_count = 6,
+                                   .transform = t});
+  ASSERT_TRUE(pixels.ok()) << pixels.status().ToString();
+  const TrianglePictureCheck check =
+      CheckTrianglePicture(*pixels, kWidth, kHeight, positions, normals, triangles, t);
+  EXPECT_TRUE(check.ok()) << check.ToString();
+  EXPECT_GT(check.shaded_pixels, 1000u) << check.ToString();
+  std::vector<double> swapped_depths = positions;
+  for (std::size_t i = 2; i < positions.size(); i += 3) swapped_depths[i] = -positions[i];
+  const TrianglePictureCheck swapped =
+      CheckTrianglePicture(*pixels, kWidth, kHeight, swapped_depths, normals, triangles, t);
+  EXPECT_FALSE(swapped.ok()) << swapped.ToString();
+  EXPECT_LT(swapped.shade_matches, 0.8) << swapped.ToString();
+  EXPECT_EQ(swapped.inside_drawn, 1.0) << swapped.ToString();  // the outline still matches
 }
 
 TEST(VertexRendererTest, PointsWithoutIndicesLandWhereTheReferenceProjects) {
