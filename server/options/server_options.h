@@ -26,7 +26,9 @@ struct ServerOptions {
   uint64_t clip_budget_mb = 64;  // 0: its share of the memory envelope
   uint32_t max_vertices = 4'000'000;
   uint32_t max_joints = 1024;
-  std::size_t queue = 256;
+  // 1024: at 256, open-loop single-character streams were refused for a full queue with
+  // the CPU half idle (docs/serving/index.md#scheduler)
+  std::size_t queue = 1024;
   int stream_window = 16;
   // Ticks (SkinRequest.characters): characters in one request, and its bytes.
   uint32_t max_tick_characters = 256;
