@@ -5,7 +5,7 @@
 # Vulkan loader and glvnd .debs, which the test unpacks there (the NVIDIA Vulkan driver
 # needs glvnd beside libvulkan1). The client must have its renderer (--draw: built where
 # glslang-tools and libpng-dev are, scripts/install-deps.sh). CesiumMan.glb goes along from
-# tests/assets (the run draws it; nothing there reads /work/shared). Run after building both:
+# tests/assets (the run draws it). Run after building both:
 #   cmake --build build --target skinserve skinserve-gpu-region
 #   scripts/gpu-region-pack.sh [BUILD_DIR]
 set -euo pipefail

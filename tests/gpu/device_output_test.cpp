@@ -171,7 +171,7 @@ TEST(DeviceImportTest, ExtensionsAreNamedInTheOrderTheyAreChecked) {
                "cl_khr_external_semaphore");
   EXPECT_STREQ(MissingImportExtension(memory + " cl_khr_semaphore cl_khr_external_semaphore", true),
                "cl_khr_external_semaphore_opaque_fd");
-  // What NVIDIA's OpenCL on the H200 lists (../shared/notes/gpu-machine.md).
+  // What NVIDIA's OpenCL on the H200 lists (docs/serving/gpu-regions.md).
   EXPECT_EQ(MissingImportExtension(memory + " cl_khr_semaphore cl_khr_external_semaphore "
                                             "cl_khr_external_semaphore_opaque_fd",
                                    true),
