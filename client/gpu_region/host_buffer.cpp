@@ -1,18 +1,13 @@
 #include "host_buffer.h"
 
-#include <fmt/format.h>
-
 #include <cstring>
 
 namespace skinserve::gpu_region {
 
-Result<std::unique_ptr<HostBuffer>> HostBuffer::Create(const VulkanDevice& device, const void* data,
-                                                       std::size_t bytes,
-                                                       VkBufferUsageFlags usage) {
+Result<std::unique_ptr<HostBuffer>> HostBuffer::CreateMapped(const VulkanDevice& device,
+                                                             std::size_t bytes,
+                                                             VkBufferUsageFlags usage) {
   if (bytes == 0) return InvalidArgument("a host buffer of 0 bytes");
-  const auto failed = [](const char* call, VkResult r) {
-    return FailedPrecondition(fmt::format("{} failed: VkResult {}", call, static_cast<int>(r)));
-  };
   std::unique_ptr<HostBuffer> b(new HostBuffer(device));
   VkDevice d = device.device();
   VkBufferCreateInfo info{.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
@@ -20,7 +15,7 @@ Result<std::unique_ptr<HostBuffer>> HostBuffer::Create(const VulkanDevice& devic
                           .usage = usage,
                           .sharingMode = VK_SHARING_MODE_EXCLUSIVE};
   if (VkResult r = vkCreateBuffer(d, &info, nullptr, &b->buffer_); r != VK_SUCCESS) {
-    return failed("vkCreateBuffer(host)", r);
+    return VkFailed("vkCreateBuffer(host)", r);
   }
   VkMemoryRequirements needs;
   vkGetBufferMemoryRequirements(d, b->buffer_, &needs);
@@ -32,18 +27,24 @@ Result<std::unique_ptr<HostBuffer>> HostBuffer::Create(const VulkanDevice& devic
                                 .allocationSize = needs.size,
                                 .memoryTypeIndex = type};
   if (VkResult r = vkAllocateMemory(d, &allocate, nullptr, &b->memory_); r != VK_SUCCESS) {
-    return failed("vkAllocateMemory(host)", r);
+    return VkFailed("vkAllocateMemory(host)", r);
   }
   vkBindBufferMemory(d, b->buffer_, b->memory_, 0);
-  void* mapped = nullptr;
-  if (VkResult r = vkMapMemory(d, b->memory_, 0, bytes, 0, &mapped); r != VK_SUCCESS) {
-    return failed("vkMapMemory(host)", r);
+  if (VkResult r = vkMapMemory(d, b->memory_, 0, bytes, 0, &b->mapped_); r != VK_SUCCESS) {
+    return VkFailed("vkMapMemory(host)", r);
   }
-  std::memcpy(mapped, data, bytes);
-  vkUnmapMemory(d, b->memory_);
   return b;
 }
 
+Result<std::unique_ptr<HostBuffer>> HostBuffer::Create(const VulkanDevice& device, const void* data,
+                                                       std::size_t bytes,
+                                                       VkBufferUsageFlags usage) {
+  auto b = CreateMapped(device, bytes, usage);
+  if (b.ok()) std::memcpy((*b)->mapped(), data, bytes);
+  return b;
+}
+
+// Freeing the memory unmaps it.
 HostBuffer::~HostBuffer() {
   if (buffer_ != VK_NULL_HANDLE) vkDestroyBuffer(device_.device(), buffer_, nullptr);
   if (memory_ != VK_NULL_HANDLE) vkFreeMemory(device_.device(), memory_, nullptr);

@@ -14,10 +14,6 @@ namespace {
 constexpr VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_UNORM;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 
-Status VkFailed(const char* call, VkResult result) {
-  return FailedPrecondition(fmt::format("{} failed: VkResult {}", call, static_cast<int>(result)));
-}
-
 struct PushConstants {
   float transform[16];
   float point_size;

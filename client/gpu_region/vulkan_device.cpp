@@ -5,12 +5,15 @@
 #include <cstring>
 #include <vector>
 
+#include "host_buffer.h"
+
 namespace skinserve::gpu_region {
-namespace {
 
 Status VkFailed(const char* call, VkResult result) {
   return FailedPrecondition(fmt::format("{} failed: VkResult {}", call, static_cast<int>(result)));
 }
+
+namespace {
 
 bool HasDeviceExtension(VkPhysicalDevice device, const char* name) {
   uint32_t count = 0;
@@ -231,34 +234,13 @@ Result<int> ExportedSemaphore::ExportFd() const {
   return fd;
 }
 
+ReadBack::ReadBack(const VulkanDevice& device) : device_(device) {}
+
 Result<std::unique_ptr<ReadBack>> ReadBack::Create(const VulkanDevice& device, uint64_t bytes) {
   std::unique_ptr<ReadBack> rb(new ReadBack(device));
-  VkBufferCreateInfo info{.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
-                          .size = bytes,
-                          .usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                          .sharingMode = VK_SHARING_MODE_EXCLUSIVE};
-  if (VkResult r = vkCreateBuffer(device.device(), &info, nullptr, &rb->staging_);
-      r != VK_SUCCESS) {
-    return VkFailed("vkCreateBuffer(staging)", r);
-  }
-  VkMemoryRequirements needs;
-  vkGetBufferMemoryRequirements(device.device(), rb->staging_, &needs);
-  const uint32_t type =
-      device.MemoryType(needs.memoryTypeBits,
-                        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-  if (type == UINT32_MAX) return FailedPrecondition("no host-visible coherent memory type");
-  VkMemoryAllocateInfo allocate{.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
-                                .allocationSize = needs.size,
-                                .memoryTypeIndex = type};
-  if (VkResult r = vkAllocateMemory(device.device(), &allocate, nullptr, &rb->memory_);
-      r != VK_SUCCESS) {
-    return VkFailed("vkAllocateMemory(staging)", r);
-  }
-  vkBindBufferMemory(device.device(), rb->staging_, rb->memory_, 0);
-  if (VkResult r = vkMapMemory(device.device(), rb->memory_, 0, bytes, 0, &rb->mapped_);
-      r != VK_SUCCESS) {
-    return VkFailed("vkMapMemory", r);
-  }
+  auto staging = HostBuffer::CreateMapped(device, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  if (!staging.ok()) return staging.status();
+  rb->staging_ = std::move(staging).value();
   rb->bytes_ = bytes;
   VkCommandPoolCreateInfo pool{.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
                                .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
@@ -278,8 +260,6 @@ ReadBack::~ReadBack() {
   VkDevice d = device_.device();
   if (fence_ != VK_NULL_HANDLE) vkDestroyFence(d, fence_, nullptr);
   if (pool_ != VK_NULL_HANDLE) vkDestroyCommandPool(d, pool_, nullptr);
-  if (staging_ != VK_NULL_HANDLE) vkDestroyBuffer(d, staging_, nullptr);
-  if (memory_ != VK_NULL_HANDLE) vkFreeMemory(d, memory_, nullptr);
 }
 
 Result<const void*> ReadBack::Copy(const ExportedBuffer& from, uint64_t offset, uint64_t bytes,
@@ -303,7 +283,7 @@ Result<const void*> ReadBack::Copy(const ExportedBuffer& from, uint64_t offset, 
   vkCmdPipelineBarrier(commands_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
                        0, 0, nullptr, 1, &acquire, 0, nullptr);
   VkBufferCopy region{.srcOffset = offset, .dstOffset = 0, .size = bytes};
-  vkCmdCopyBuffer(commands_, from.buffer(), staging_, 1, &region);
+  vkCmdCopyBuffer(commands_, from.buffer(), staging_->buffer(), 1, &region);
   // ...and hand it back for the server's next frame.
   VkBufferMemoryBarrier release = acquire;
   release.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
@@ -332,7 +312,7 @@ Result<const void*> ReadBack::Copy(const ExportedBuffer& from, uint64_t offset, 
                                  "server's semaphore signalled?")
                            : VkFailed("vkWaitForFences(read-back)", r);
   }
-  return static_cast<const void*>(mapped_);
+  return static_cast<const void*>(staging_->mapped());
 }
 
 }  // namespace skinserve::gpu_region

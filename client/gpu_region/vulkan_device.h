@@ -15,6 +15,9 @@
 
 namespace skinserve::gpu_region {
 
+// FAILED_PRECONDITION naming the Vulkan call that failed and its VkResult.
+Status VkFailed(const char* call, VkResult result);
+
 // How long a submission that waits on the server's semaphore may take: a signal that never
 // comes fails the run (VK_TIMEOUT) instead of hanging it.
 inline constexpr uint64_t kFenceTimeoutNs = 20'000'000'000;
@@ -98,6 +101,8 @@ class ExportedBuffer {
 
 // Copies ranges of an ExportedBuffer to the host (the test mode's check), taking the
 // buffer from the external queue family (the server's OpenCL wrote it) first.
+class HostBuffer;
+
 class ReadBack {
  public:
   static Result<std::unique_ptr<ReadBack>> Create(const VulkanDevice& device, uint64_t bytes);
@@ -111,11 +116,9 @@ class ReadBack {
                            VkSemaphore wait = VK_NULL_HANDLE);
 
  private:
-  explicit ReadBack(const VulkanDevice& device) : device_(device) {}
+  explicit ReadBack(const VulkanDevice& device);  // in the .cpp, where HostBuffer is complete
   const VulkanDevice& device_;
-  VkBuffer staging_ = VK_NULL_HANDLE;
-  VkDeviceMemory memory_ = VK_NULL_HANDLE;
-  void* mapped_ = nullptr;
+  std::unique_ptr<HostBuffer> staging_;  // host-visible, mapped: where the copy lands
   uint64_t bytes_ = 0;
   VkCommandPool pool_ = VK_NULL_HANDLE;
   VkCommandBuffer commands_ = VK_NULL_HANDLE;
