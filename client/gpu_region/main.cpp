@@ -431,14 +431,19 @@ int main(int argc, char** argv) {
   CLI::App app{"skinserve-gpu-region: a headless Vulkan client of the server's GPU regions"};
   app.add_option("--target", o.target, "the server's Unix socket, unix:PATH")->required();
   app.add_option("--fd-socket", o.fd_socket, "the server's --gpu-fd-socket")->required();
-  app.add_option("--mesh", o.mesh_path,
-                 "a glTF 2.0 character (.glb, or .gltf with its buffers) instead of the synthetic "
-                 "one: all of its primitives as one mesh, its first clip's palettes (frame f at "
-                 "f/30 s, looping), drawn as triangles")
-      ->check(CLI::ExistingFile);
+  CLI::Option* mesh =
+      app.add_option("--mesh", o.mesh_path,
+                     "a glTF 2.0 character (.glb, or .gltf with its buffers) instead of the "
+                     "synthetic one: all of its primitives as one mesh, its first clip's palettes "
+                     "(frame f at f/30 s, looping), drawn as triangles; normals when it has them")
+          ->check(CLI::ExistingFile);
+  // The synthetic character's shape: a --mesh brings its own.
   app.add_option("--vertices", o.vertices, "vertices of the synthetic character")
-      ->capture_default_str();
-  app.add_option("--influences", o.influences, "bones per vertex")->capture_default_str();
+      ->capture_default_str()
+      ->excludes(mesh);
+  app.add_option("--influences", o.influences, "bones per vertex of the synthetic character")
+      ->capture_default_str()
+      ->excludes(mesh);
   app.add_option("--frames", o.frames, "frames of the speed runs (0: none)")->capture_default_str();
   app.add_option("--window", o.window, "frames in flight in the speed runs (one slot each)")
       ->check(CLI::Range(1, 64))
@@ -447,7 +452,8 @@ int main(int argc, char** argv) {
                  "test mode: this many frames, each copied back and compared with the float64 "
                  "reference")
       ->capture_default_str();
-  app.add_flag("--normals", o.normals, "skin normals too");
+  app.add_flag("--normals", o.normals, "skin the synthetic character's normals too")
+      ->excludes(mesh);
   app.add_option("--backend", o.backend)->capture_default_str();
   app.add_option("--shm-dir", o.shm_dir, "where the comparison's shared-memory region goes")
       ->capture_default_str();
