@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <map>
@@ -871,6 +872,63 @@ TEST(PoseServiceTest, AClipsWeightsTrackMorphsTheMesh) {
     ExpectPositionsNear(m.mesh, a.positions.at(0),
                         RefSkinPoints(m.mesh, rest, RefBlendedPalette(m.c, cases[i])), what);
   }
+}
+
+// The same through a tick (two characters at two times) and a stream on every backend that
+// applies morph targets, whose frames reuse their job (the weights of the frame before must
+// not linger).
+TEST(PoseServiceTest, AClipsWeightsTrackMorphsTicksAndStreams) {
+  TestServer t;
+  const Rig m = MakeMorphRig(*t.client);
+  const double d = m.c.ref_clip.duration;
+  const auto want = [&](const std::vector<Layer>& layers) {
+    return RefSkinPoints(m.mesh, RefMorphedRest(m.mesh, RefBlendedWeights(m.c, layers)),
+                         RefBlendedPalette(m.c, layers));
+  };
+  v1::SkinRequest tick;
+  tick.set_frame(3);
+  const std::vector<Layer> early = {{.time = 0.13 * d}}, late = {{.time = 0.77 * d}};
+  *tick.add_characters() = PoseRequest(m, early);
+  *tick.add_characters() = PoseRequest(m, late);
+  const Answer a = SkinRaw(*t.client, tick);
+  ASSERT_TRUE(a.status.ok()) << a.status.ToString();
+  ASSERT_EQ(a.headers.size(), 2u);
+  for (const auto& h : a.headers) EXPECT_FALSE(h.has_error()) << h.error().message();
+  ExpectPositionsNear(m.mesh, a.positions.at(0), want(early), "tick character 0");
+  ExpectPositionsNear(m.mesh, a.positions.at(1), want(late), "tick character 1");
+
+  auto backends = t.client->ListBackends();
+  ASSERT_TRUE(backends.ok());
+  std::set<std::string> streamed;
+  for (const auto& b : backends->backends()) {
+    if (!b.available() || !b.morph_targets() || b.id() == "passthrough") continue;
+    streamed.insert(b.id());
+    grpc::ClientContext context;
+    auto stream = t.client->stub().StreamSkin(&context);
+    for (uint64_t f = 0; f < 3; ++f) {
+      const std::vector<Layer> at = {{.time = 0.2 * d + 0.3 * static_cast<double>(f)}};
+      v1::SkinRequest request = PoseRequest(m, at);
+      request.set_backend(b.id());
+      request.set_frame(f);
+      ASSERT_TRUE(stream->Write(request));
+      std::vector<float> positions(3ull * m.mesh.vertex_count);
+      v1::SkinResponse part;
+      do {
+        ASSERT_TRUE(stream->Read(&part));
+        ASSERT_FALSE(part.has_error()) << b.id() << ": " << part.error().message();
+        std::memcpy(&positions[3ull * part.first_vertex()], part.positions().data(),
+                    part.positions().size());
+      } while (!part.last());
+      ExpectPositionsNear(m.mesh, positions, want(at), b.id() + " frame " + std::to_string(f));
+    }
+    stream->WritesDone();
+    EXPECT_TRUE(stream->Finish().ok());
+  }
+  EXPECT_TRUE(streamed.contains("serial"));
+  std::string ids;
+  for (const std::string& id : streamed) ids += " " + id;
+  ::testing::Test::RecordProperty("morph backends", ids);
+  std::printf("streamed morph poses on:%s\n", ids.c_str());
 }
 
 TEST(PoseServiceTest, WeightsTracksAreCheckedAgainstTheMeshAndTheRequest) {
