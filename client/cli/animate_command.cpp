@@ -141,6 +141,9 @@ struct Scene {
   // --on-server: each mesh's skeleton (MeshPalette's entries) and the clip on its joints.
   std::vector<Rig> rigs;
   std::vector<animation::RawClip> raw_clips;
+  // Per mesh: the server applies the clip's weights tracks to its morph targets
+  // (RawClipForMesh), so the client sends no weights.
+  std::vector<bool> weights_on_server;
 
   // Frame i's palette for `mesh`: sampled as frames are sent (a long clip of a big skeleton
   // would not fit in memory).
@@ -157,7 +160,9 @@ Status BuildRigs(Scene* scene) {
       return Status(rig.status().code(),
                     fmt::format("--on-server: {}: {}", mesh.name, rig.status().message()));
     }
-    scene->raw_clips.push_back(RawClipFromCharacter(*scene->clip, *rig));
+    bool on_server = false;
+    scene->raw_clips.push_back(RawClipForMesh(*scene->clip, *rig, mesh, &on_server));
+    scene->weights_on_server.push_back(on_server);
     scene->rigs.push_back(*std::move(rig));
   }
   return Status::Ok();
@@ -351,10 +356,11 @@ client::StreamOptions AnimateRun::StreamOptionsOf(std::size_t m, const MeshClien
 Status AnimateRun::StreamMesh(std::size_t m, MeshClient& mesh_client) {
   const CharacterMesh& mesh = scene_.meshes[m];
   client::StreamOptions stream = StreamOptionsOf(m, mesh_client);
-  // The mesh's morph target weights, sampled with the palette's pose (also with
-  // --on-server: the server does not apply a clip's weights tracks yet).
+  // The mesh's morph target weights, sampled with the palette's pose; with --on-server
+  // the server samples them from the clip's weights tracks, unless they do not give the
+  // mesh's targets (RawClipForMesh).
   std::vector<MorphWeight> morph;
-  if (!mesh.morph_sources.empty()) {
+  if (!mesh.morph_sources.empty() && !(o_.on_server && scene_.weights_on_server[m])) {
     stream.morph_weights = [&](uint64_t f) {
       MeshMorphWeights(mesh, SampleClip(scene_.character, *scene_.clip, f / o_.fps), &morph);
       return std::span<const MorphWeight>(morph);

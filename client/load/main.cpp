@@ -612,6 +612,9 @@ std::string AnimateRefusal(const Options& o) {
   if (!o.mesh.empty()) return "poses the synthetic mesh: not with --mesh";
   if (o.run.instances > 1) return "a pose is one character's: not with --instances > 1";
   if (o.method != "linear") return "the clip scales a joint: not with --method dual-quaternion";
+  // The server would apply the clip's weights track (4 weights) to the mesh's targets.
+  if (o.morph.targets > 0)
+    return "the server morphs the mesh by the clip's weights track: not with --morph-targets";
   return {};
 }
 

@@ -129,6 +129,18 @@ Status FrameJob::ChargeBuffers(std::size_t palette_bytes) {
   return Status::Ok();
 }
 
+namespace {
+
+// Dense weights (one per morph target) as a frame carries them: the non-zero ones.
+void SparseMorphWeights(std::span<const float> dense, std::vector<MorphWeight>* out) {
+  out->clear();
+  for (std::size_t i = 0; i < dense.size(); ++i) {
+    if (dense[i] != 0) out->push_back({.target = static_cast<uint32_t>(i), .weight = dense[i]});
+  }
+}
+
+}  // namespace
+
 Status FrameJob::TakeInputs(v1::SkinRequest& wire, Engine& engine) {
   if (Status s = MorphWeightsFromWire(wire, &morph_); !s.ok()) return s;
   request.morph_weights = morph_;  // checked against the mesh by the engine
@@ -141,7 +153,17 @@ Status FrameJob::TakeInputs(v1::SkinRequest& wire, Engine& engine) {
   // the frame (FillInputs): a tick's poses spread over the threads with its skinning.
   request.fill_inputs_on_run = wire.has_pose();
   if (wire.has_pose()) {
-    if (Status s = pose_.Check(wire, engine.animations(), plan().joint_count); !s.ok()) return s;
+    if (Status s =
+            pose_.Check(wire, engine.animations(), plan().joint_count, plan().morph_target_count);
+        !s.ok()) {
+      return s;
+    }
+    // The clips' weights tracks, sampled and blended by Check: the frame's morph weights,
+    // known here since the engine checks them at Submit.
+    if (!pose_.morph_weights().empty()) {
+      SparseMorphWeights(pose_.morph_weights(), &morph_);
+      request.morph_weights = morph_;
+    }
     palette_.resize(12ull * plan().joint_count);
     request.palette = palette_;
     return Status::Ok();

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "skinserve/animation/local_to_model_job.h"
@@ -61,8 +62,27 @@ Status PoseEvaluator::CheckLayer(const v1::PoseLayer& layer, std::size_t i,
   return Status::Ok();
 }
 
+namespace {
+
+// The clip's weights tracks for an error: "tracks[i] (group G): W weights" each.
+std::string WeightsTracks(const animation::CompactClip& clip) {
+  std::string out;
+  std::size_t k = 0;  // weight_groups holds one entry per weights track, in track order
+  for (std::size_t i = 0; i < clip.tracks.size(); ++i) {
+    const animation::CompactTrack& t = clip.tracks[i];
+    if (t.path != animation::TrackPath::kWeights) continue;
+    const uint32_t group = k < clip.weight_groups.size() ? clip.weight_groups[k] : 0;
+    out +=
+        fmt::format("{}tracks[{}] (group {}): {} weights", k == 0 ? "" : ", ", i, group, t.width);
+    ++k;
+  }
+  return out;
+}
+
+}  // namespace
+
 Status PoseEvaluator::Check(const v1::SkinRequest& request, const animation::AnimationStore& store,
-                            uint32_t mesh_joints) {
+                            uint32_t mesh_joints, uint32_t mesh_morph_targets) {
   Release();  // what an earlier frame held, should it have failed after its Check
   if (Status s = CheckPoseShape(request); !s.ok()) return s;
   const v1::Pose& pose = request.pose();
@@ -95,7 +115,66 @@ Status PoseEvaluator::Check(const v1::SkinRequest& request, const animation::Ani
         "pose.layers: the weights of the layers that are not additive sum to 0; at least one "
         "needs weight > 0");
   }
+  if (Status s = CheckMorph(request, mesh_morph_targets); !s.ok()) {
+    Release();
+    return s;
+  }
   return Status::Ok();
+}
+
+Status PoseEvaluator::CheckMorph(const v1::SkinRequest& request, uint32_t mesh_morph_targets) {
+  morph_.clear();
+  // A mesh without morph targets has nothing to morph: a clip's weights tracks drive other
+  // meshes then (a glTF clip keys the weights of every morphed node of the character).
+  if (mesh_morph_targets == 0) return Status::Ok();
+  int first = -1;  // the first layer whose clip has weights tracks
+  for (std::size_t i = 0; i < clips_.size(); ++i) {
+    const animation::CompactClip& clip = *clips_[i];
+    if (clip.weight_count == 0) continue;
+    if (first < 0) first = static_cast<int>(i);
+    if (clip.weight_count != mesh_morph_targets) {
+      return InvalidArgument(fmt::format(
+          "pose.layers[{}].clip_id '{}' samples {} morph weights (weights {}); mesh {} has {} "
+          "morph targets: a clip's weights tracks give the mesh's targets in order",
+          i, clip.id, clip.weight_count, WeightsTracks(clip), request.mesh_id(),
+          mesh_morph_targets));
+    }
+  }
+  if (first < 0) return Status::Ok();  // no weights tracks: the request's morph weights
+  if (request.morph_targets_size() > 0 || request.morph_weights_size() > 0) {
+    return InvalidArgument(fmt::format(
+        "morph_targets / morph_weights are set ({} / {} entries) and pose.layers[{}].clip_id "
+        "'{}' has weights tracks: the server applies the clip's morph weights; send no "
+        "morph_targets / morph_weights, or upload the clip without its weights tracks",
+        request.morph_targets_size(), request.morph_weights_size(), first,
+        clips_[static_cast<std::size_t>(first)]->id));
+  }
+  return EvaluateMorph();
+}
+
+Status PoseEvaluator::EvaluateMorph() {
+  const std::size_t count = clips_.size();
+  if (check_morph_.size() < count) check_morph_.resize(count);
+  morph_layers_.resize(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const LayerInput& in = inputs_[i];
+    check_morph_[i].resize(clips_[i]->weight_count);
+    const animation::MorphSamplingJob sampling{
+        .clip = clips_[i].get(),
+        .time = in.time,
+        .mode = in.loop ? animation::TimeMode::kLoop : animation::TimeMode::kClamp,
+        .morph_weights = check_morph_[i]};
+    if (Status s = sampling.Run(); !s.ok()) {
+      return Status(s.code(), fmt::format("pose.layers[{}]: {}", i, s.message()));
+    }
+    morph_layers_[i] = {
+        .weight = in.weight, .additive = in.additive, .morph_weights = check_morph_[i]};
+  }
+  // Sized by the first clip with weights tracks (all such clips have the mesh's count).
+  std::size_t targets = 0;
+  for (std::size_t i = 0; i < count; ++i) targets = std::max(targets, check_morph_[i].size());
+  morph_.resize(targets);
+  return animation::BlendMorphWeights(morph_layers_, morph_);
 }
 
 void PoseEvaluator::Release() {

@@ -142,5 +142,41 @@ TEST_F(BlendingJobTest, AdditiveLayerAppliesOnTopScaledByItsWeight) {
   }
 }
 
+// The weights alone (what the server evaluates while preparing a frame): MorphSamplingJob
+// against the float64 track, looped and clamped, and BlendMorphWeights' rule in double:
+// normal layers by weight / sum, additive ones added times their weight, a layer without
+// weights (a clip without weights tracks) counting as zeros.
+TEST_F(BlendingJobTest, MorphWeightsAloneMatchFloat64) {
+  const double d = c_.ref_clip.duration;
+  const float t1 = 0.37f, t2 = static_cast<float>(d + 0.61), t3 = 1.61f;
+  std::vector<float> w1(clip_.weight_count), w2(clip_.weight_count), w3(clip_.weight_count);
+  ASSERT_TRUE(
+      (animation::MorphSamplingJob{&clip_, t1, animation::TimeMode::kClamp, w1}.Run().ok()));
+  ASSERT_TRUE((animation::MorphSamplingJob{&clip_, t2, animation::TimeMode::kLoop, w2}.Run().ok()));
+  ASSERT_TRUE(
+      (animation::MorphSamplingJob{&clip_, t3, animation::TimeMode::kClamp, w3}.Run().ok()));
+  const std::vector<double> r1 = RefWeightsAt(c_, t1), r3 = RefWeightsAt(c_, t3);
+  const std::vector<double> r2 = RefWeightsAt(c_, double{t2} - d);
+  ASSERT_EQ(r1.size(), w1.size());
+  for (std::size_t i = 0; i < w1.size(); ++i) {
+    EXPECT_NEAR(w1[i], r1[i], 1e-4) << i;
+    EXPECT_NEAR(w2[i], r2[i], 1e-4) << i;
+  }
+  const animation::BlendLayer layers[] = {{.weight = 0.6f, .morph_weights = w1},
+                                          {.weight = 1.4f, .morph_weights = w2},
+                                          {.weight = 1.0f},  // no weights tracks: zeros
+                                          {.weight = 0.5f, .additive = true, .morph_weights = w3}};
+  std::vector<float> out(w1.size());
+  ASSERT_TRUE(animation::BlendMorphWeights(layers, out).ok());
+  for (std::size_t i = 0; i < out.size(); ++i)
+    EXPECT_NEAR(out[i], (0.6 * r1[i] + 1.4 * r2[i]) / 3.0 + 0.5 * r3[i], 1e-4) << i;
+  // A layer's weights of another size are named.
+  const animation::BlendLayer bad[] = {{.weight = 1.0f, .morph_weights = std::span(w1).first(1)}};
+  const Status s = animation::BlendMorphWeights(bad, out);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("layers[0].morph_weights has 1 floats"), std::string::npos)
+      << s.message();
+}
+
 }  // namespace
 }  // namespace skinserve::testing

@@ -108,9 +108,10 @@ TEST(AnimateLoadTest, TicksCarryEachCharactersPose) {
 TEST(AnimateLoadTest, RefusesWhatAPoseCannotCarry) {
   ServerProcess server;
   ASSERT_TRUE(server.ready());
-  for (const auto& [args, says] : {std::pair{" --instances 2", "--instances"},
-                                   std::pair{" --method dual-quaternion", "dual-quaternion"},
-                                   std::pair{" --mesh x.glb", "--mesh"}}) {
+  for (const auto& [args, says] :
+       {std::pair{" --instances 2", "--instances"},
+        std::pair{" --method dual-quaternion", "dual-quaternion"},
+        std::pair{" --mesh x.glb", "--mesh"}, std::pair{" --morph-targets 4", "--morph-targets"}}) {
     int code = 0;
     std::string output;
     const std::string command = Common(server) + " --backends serial --frames 2" + args;

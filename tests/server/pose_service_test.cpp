@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <map>
@@ -20,6 +21,7 @@
 #include "skinserve/client/tick.h"
 #include "skinserve/model/palette.h"
 #include "skinserve/reference/synthetic.h"
+#include "skinserve/reference/synthetic_morph.h"
 #include "skinserve/wire/animation_conversions.h"
 #include "test_server.h"
 
@@ -116,11 +118,13 @@ std::vector<double> RefBlendedPalette(const PoseCase& c, const std::vector<Layer
   return palette;
 }
 
-// Linear blend skinning of the mesh's positions with a double palette.
-std::vector<double> RefSkinPositions(const MeshArrays& mesh, const std::vector<double>& palette) {
+// Linear blend skinning of `rest` (the mesh's positions, or them morphed) with a double
+// palette.
+std::vector<double> RefSkinPoints(const MeshArrays& mesh, const std::vector<double>& rest,
+                                  const std::vector<double>& palette) {
   std::vector<double> out(3ull * mesh.vertex_count, 0.0);
   for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
-    const float* p = &mesh.positions[3ull * v];
+    const double* p = &rest[3ull * v];
     for (uint32_t i = 0; i < mesh.influences; ++i) {
       const double w = mesh.weights[v * mesh.influences + i];
       const double* m = &palette[12ull * mesh.joints[v * mesh.influences + i]];
@@ -130,6 +134,11 @@ std::vector<double> RefSkinPositions(const MeshArrays& mesh, const std::vector<d
     }
   }
   return out;
+}
+
+std::vector<double> RefSkinPositions(const MeshArrays& mesh, const std::vector<double>& palette) {
+  return RefSkinPoints(mesh, std::vector<double>(mesh.positions.begin(), mesh.positions.end()),
+                       palette);
 }
 
 // The server's positions against the reference: each vertex within 2e-5 + 3e-4 (|rest| +
@@ -796,6 +805,179 @@ TEST(PoseServiceTest, ClipsOverTheBudgetAreRefusedWhole) {
   std::string skeleton_id, clip_id;
   const Status again = UploadRig(c, refused_case, &skeleton_id, &clip_id);
   EXPECT_TRUE(again.ok()) << again.ToString();
+}
+
+// The synthetic clip's weights track (LINEAR, 4 weights a key, group 0) on a mesh with 4
+// morph targets: the server samples it, blends the layers' weights and morphs the mesh
+// before skinning it. The reference: tests/animation's float64 evaluation of the track.
+constexpr uint32_t kMorphTargets = 4;
+
+// The layers' weights blended as the joints are (normalised by the weights' sum), in double.
+std::vector<double> RefBlendedWeights(const PoseCase& c, const std::vector<Layer>& layers) {
+  double total = 0;
+  for (const Layer& l : layers) total += l.weight;
+  std::vector<double> out(kMorphTargets, 0.0);
+  for (const Layer& l : layers) {
+    double t = static_cast<float>(l.time);  // the time the server gets
+    if (l.loop) t -= c.ref_clip.duration * std::floor(t / c.ref_clip.duration);
+    const std::vector<double> w = RefWeightsAt(c, t);
+    for (uint32_t m = 0; m < kMorphTargets; ++m) out[m] += l.weight / total * w.at(m);
+  }
+  return out;
+}
+
+// The mesh's rest positions with its targets' deltas times `weights`, in double.
+std::vector<double> RefMorphedRest(const MeshArrays& mesh, const std::vector<double>& weights) {
+  std::vector<double> p(mesh.positions.begin(), mesh.positions.end());
+  std::size_t d = 0;
+  for (std::size_t t = 0; t < mesh.morph_target_sizes.size(); ++t) {
+    for (uint32_t i = 0; i < mesh.morph_target_sizes[t]; ++i, ++d) {
+      for (int c = 0; c < 3; ++c)
+        p[3ull * mesh.morph_indices[d] + c] += weights[t] * mesh.morph_position_deltas[3 * d + c];
+    }
+  }
+  return p;
+}
+
+// MakeRig's skeleton and clip on a mesh with `targets` morph targets.
+Rig MakeMorphRig(client::SkinClient& client, uint32_t targets = kMorphTargets) {
+  Rig rig{.c = SyntheticCase(kJoints),
+          .mesh = MakeSyntheticMesh(
+              {.vertex_count = 3000, .influences = 4, .joint_count = kJoints, .seed = 7})};
+  AddSyntheticMorphTargets({.targets = targets, .fraction = 0.3, .seed = 3}, &rig.mesh);
+  EXPECT_EQ(rig.c.weights.size(), 1u);  // the synthetic clip's one weights track
+  EXPECT_TRUE(UploadRig(client, rig.c, &rig.skeleton_id, &rig.clip_id).ok());
+  auto info = client.Upload(rig.mesh);
+  EXPECT_TRUE(info.ok()) << info.status().ToString();
+  if (info.ok()) rig.mesh_id = info->mesh_id();
+  return rig;
+}
+
+TEST(PoseServiceTest, AClipsWeightsTrackMorphsTheMesh) {
+  TestServer t;
+  const Rig m = MakeMorphRig(*t.client);
+  const double d = m.c.ref_clip.duration;
+  const std::vector<std::vector<Layer>> cases = {
+      {{.time = 0}},
+      {{.time = 0.41 * d}},
+      {{.time = d + 0.4}},
+      {{.time = 2 * d + 0.2137, .loop = true}},
+      {{.time = 0.25, .weight = 0.3}, {.time = 0.8 * d, .weight = 0.9}},
+  };
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const std::string what = "morph case " + std::to_string(i);
+    const Answer a = SkinRaw(*t.client, PoseRequest(m, cases[i]));
+    ASSERT_TRUE(a.status.ok()) << what << ": " << a.status.ToString();
+    const std::vector<double> rest = RefMorphedRest(m.mesh, RefBlendedWeights(m.c, cases[i]));
+    ExpectPositionsNear(m.mesh, a.positions.at(0),
+                        RefSkinPoints(m.mesh, rest, RefBlendedPalette(m.c, cases[i])), what);
+  }
+}
+
+// The same through a tick (two characters at two times) and a stream on every backend that
+// applies morph targets, whose frames reuse their job (the weights of the frame before must
+// not linger).
+TEST(PoseServiceTest, AClipsWeightsTrackMorphsTicksAndStreams) {
+  TestServer t;
+  const Rig m = MakeMorphRig(*t.client);
+  const double d = m.c.ref_clip.duration;
+  const auto want = [&](const std::vector<Layer>& layers) {
+    return RefSkinPoints(m.mesh, RefMorphedRest(m.mesh, RefBlendedWeights(m.c, layers)),
+                         RefBlendedPalette(m.c, layers));
+  };
+  v1::SkinRequest tick;
+  tick.set_frame(3);
+  const std::vector<Layer> early = {{.time = 0.13 * d}}, late = {{.time = 0.77 * d}};
+  *tick.add_characters() = PoseRequest(m, early);
+  *tick.add_characters() = PoseRequest(m, late);
+  const Answer a = SkinRaw(*t.client, tick);
+  ASSERT_TRUE(a.status.ok()) << a.status.ToString();
+  ASSERT_EQ(a.headers.size(), 2u);
+  for (const auto& h : a.headers) EXPECT_FALSE(h.has_error()) << h.error().message();
+  ExpectPositionsNear(m.mesh, a.positions.at(0), want(early), "tick character 0");
+  ExpectPositionsNear(m.mesh, a.positions.at(1), want(late), "tick character 1");
+
+  auto backends = t.client->ListBackends();
+  ASSERT_TRUE(backends.ok());
+  std::set<std::string> streamed;
+  for (const auto& b : backends->backends()) {
+    if (!b.available() || !b.morph_targets() || b.id() == "passthrough") continue;
+    streamed.insert(b.id());
+    grpc::ClientContext context;
+    auto stream = t.client->stub().StreamSkin(&context);
+    for (uint64_t f = 0; f < 3; ++f) {
+      const std::vector<Layer> at = {{.time = 0.2 * d + 0.3 * static_cast<double>(f)}};
+      v1::SkinRequest request = PoseRequest(m, at);
+      request.set_backend(b.id());
+      request.set_frame(f);
+      ASSERT_TRUE(stream->Write(request));
+      std::vector<float> positions(3ull * m.mesh.vertex_count);
+      v1::SkinResponse part;
+      do {
+        ASSERT_TRUE(stream->Read(&part));
+        ASSERT_FALSE(part.has_error()) << b.id() << ": " << part.error().message();
+        std::memcpy(&positions[3ull * part.first_vertex()], part.positions().data(),
+                    part.positions().size());
+      } while (!part.last());
+      ExpectPositionsNear(m.mesh, positions, want(at), b.id() + " frame " + std::to_string(f));
+    }
+    stream->WritesDone();
+    EXPECT_TRUE(stream->Finish().ok());
+  }
+  EXPECT_TRUE(streamed.contains("serial"));
+  std::string ids;
+  for (const std::string& id : streamed) ids += " " + id;
+  ::testing::Test::RecordProperty("morph backends", ids);
+  std::printf("streamed morph poses on:%s\n", ids.c_str());
+}
+
+TEST(PoseServiceTest, WeightsTracksAreCheckedAgainstTheMeshAndTheRequest) {
+  TestServer t;
+  const Rig m = MakeMorphRig(*t.client);
+  // The clip's 4 weights on a mesh of 5 targets: named with the clip, its track and both
+  // counts.
+  MeshArrays five =
+      MakeSyntheticMesh({.vertex_count = 300, .influences = 4, .joint_count = kJoints, .seed = 8});
+  AddSyntheticMorphTargets({.targets = 5, .fraction = 0.3, .seed = 4}, &five);
+  auto uploaded = t.client->Upload(five);
+  ASSERT_TRUE(uploaded.ok()) << uploaded.status().ToString();
+  Rig other = m;
+  other.mesh_id = uploaded->mesh_id();
+  Answer a = SkinRaw(*t.client, PoseRequest(other, {{.time = 0.3}}));
+  EXPECT_EQ(a.status.code(), StatusCode::kInvalidArgument);
+  const std::string message = a.status.message();
+  EXPECT_NE(message.find("pose.layers[0].clip_id '" + m.clip_id + "'"), std::string::npos)
+      << message;
+  EXPECT_NE(message.find("samples 4 morph weights"), std::string::npos) << message;
+  EXPECT_NE(message.find("(group 0): 4 weights"), std::string::npos) << message;
+  EXPECT_NE(message.find("has 5 morph targets"), std::string::npos) << message;
+  // Weights from the clip and from the request: refused, both named.
+  v1::SkinRequest both = PoseRequest(m, {{.time = 0.3}});
+  both.add_morph_targets(1);
+  both.add_morph_weights(0.5f);
+  a = SkinRaw(*t.client, both);
+  EXPECT_EQ(a.status.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(a.status.message().find("morph_targets / morph_weights are set"), std::string::npos)
+      << a.status.message();
+  EXPECT_NE(a.status.message().find("has weights tracks"), std::string::npos) << a.status.message();
+  // A clip without weights tracks still takes the request's weights on a morph mesh.
+  Rig joints_only = m;
+  PoseCase c = m.c;
+  std::erase_if(c.raw.tracks, [](const animation::RawTrack& track) {
+    return track.path == animation::TrackPath::kWeights;
+  });
+  ASSERT_TRUE(UploadRig(*t.client, c, &joints_only.skeleton_id, &joints_only.clip_id).ok());
+  v1::SkinRequest given = PoseRequest(joints_only, {{.time = 0.3}});
+  given.add_morph_targets(2);
+  given.add_morph_weights(0.75f);
+  a = SkinRaw(*t.client, given);
+  ASSERT_TRUE(a.status.ok()) << a.status.ToString();
+  std::vector<double> w(kMorphTargets, 0.0);
+  w[2] = 0.75;
+  ExpectPositionsNear(
+      m.mesh, a.positions.at(0),
+      RefSkinPoints(m.mesh, RefMorphedRest(m.mesh, w), RefBlendedPalette(m.c, {{.time = 0.3}})),
+      "request weights");
 }
 
 }  // namespace

@@ -64,7 +64,46 @@ void ApplyAdditive(const BlendLayer& l, std::span<Transform> out) {
   }
 }
 
+// output = sum over layers of w * morph_weights, w the normal layers' weight / total or the
+// additive layers' weight; a layer's empty morph_weights count as zeros.
+void AccumulateMorph(std::span<const BlendLayer> layers, float total, std::span<float> output) {
+  for (float& m : output) m = 0;
+  for (const BlendLayer& l : layers) {
+    if (l.morph_weights.empty()) continue;
+    const float w = l.additive ? l.weight : l.weight / total;
+    for (std::size_t i = 0; i < output.size(); ++i) output[i] += w * l.morph_weights[i];
+  }
+}
+
 }  // namespace
+
+Status BlendMorphWeights(std::span<const BlendLayer> layers, std::span<float> output) {
+  if (layers.empty() || layers.size() > kMaxBlendLayers) {
+    return InvalidArgument(fmt::format("morph blending: {} layers; 1..{} are supported",
+                                       layers.size(), kMaxBlendLayers));
+  }
+  float total = 0;
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    const BlendLayer& l = layers[i];
+    if (!std::isfinite(l.weight) || l.weight < 0) {
+      return InvalidArgument(fmt::format(
+          "morph blending: layers[{}].weight is {}; weights are finite and >= 0", i, l.weight));
+    }
+    if (!l.morph_weights.empty() && l.morph_weights.size() != output.size()) {
+      return InvalidArgument(
+          fmt::format("morph blending: layers[{}].morph_weights has {} floats; output has {}", i,
+                      l.morph_weights.size(), output.size()));
+    }
+    if (!l.additive) total += l.weight;
+  }
+  if (!(total > 0)) {
+    return InvalidArgument(
+        "morph blending: the non-additive layers' weights sum to 0; at least one needs "
+        "weight > 0");
+  }
+  AccumulateMorph(layers, total, output);
+  return Status::Ok();
+}
 
 Status BlendingJob::Validate() const {
   if (layers.empty() || layers.size() > kMaxBlendLayers) {
@@ -102,13 +141,10 @@ Status BlendingJob::Run() const {
   float total = 0;
   for (const BlendLayer& l : layers) total += l.additive ? 0 : l.weight;
   BlendNormal(layers, total, output);
-  for (float& m : morph_weights) m = 0;
   for (const BlendLayer& l : layers) {
     if (l.additive && l.weight > 0) ApplyAdditive(l, output);
-    const float w = l.additive ? l.weight : l.weight / total;
-    for (std::size_t i = 0; i < morph_weights.size(); ++i)
-      morph_weights[i] += w * l.morph_weights[i];
   }
+  AccumulateMorph(layers, total, morph_weights);
   return Status::Ok();
 }
 

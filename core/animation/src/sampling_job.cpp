@@ -202,6 +202,15 @@ detail::RotationKeys CachedKeys(const CompactClip& clip, const Segment& s,
   return keys;
 }
 
+// The time a clip is sampled at: looped into [0, duration) or clamped to [0, duration].
+float ClipTime(const CompactClip& clip, float time, TimeMode mode) {
+  if (mode == TimeMode::kLoop && clip.duration > 0) {
+    const float t = std::fmod(time, clip.duration);
+    return t < 0 ? t + clip.duration : t;
+  }
+  return std::clamp(time, 0.0f, clip.duration);
+}
+
 }  // namespace
 
 void SamplingContext::Reset() {
@@ -235,13 +244,7 @@ Status SamplingJob::Validate() const {
 
 Status SamplingJob::Run() const {
   if (Status s = Validate(); !s.ok()) return s;
-  float t = time;
-  if (mode == TimeMode::kLoop && clip->duration > 0) {
-    t = std::fmod(t, clip->duration);
-    if (t < 0) t += clip->duration;
-  } else {
-    t = std::clamp(t, 0.0f, clip->duration);
-  }
+  const float t = ClipTime(*clip, time, mode);
   if (clip->plan == nullptr) {  // a clip not made by BuildCompactClip: one track at a time
     const Segment global = FindClipSegment(*clip, t, 0);
     std::copy(skeleton->rest.begin(), skeleton->rest.end(), output.begin());
@@ -261,6 +264,25 @@ Status SamplingJob::Run() const {
   SampleVectors(*clip, plan, global, output);
   for (uint32_t i : plan.others)
     SampleOne(*clip, clip->tracks[i], global, t, output, morph_weights);
+  return Status::Ok();
+}
+
+Status MorphSamplingJob::Run() const {
+  if (clip == nullptr) return InvalidArgument("morph sampling: clip is missing");
+  if (!std::isfinite(time)) {
+    return InvalidArgument(
+        fmt::format("morph sampling: time is {}; it must be finite seconds", time));
+  }
+  if (morph_weights.size() != clip->weight_count) {
+    return InvalidArgument(
+        fmt::format("morph sampling: morph_weights has {} floats; clip {} samples {}",
+                    morph_weights.size(), clip->id, clip->weight_count));
+  }
+  const float t = ClipTime(*clip, time, mode);
+  const Segment global = FindClipSegment(*clip, t, 0);
+  for (const CompactTrack& track : clip->tracks) {
+    if (track.path == TrackPath::kWeights) SampleOne(*clip, track, global, t, {}, morph_weights);
+  }
   return Status::Ok();
 }
 

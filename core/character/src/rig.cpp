@@ -1,5 +1,8 @@
 #include "skinserve/character/rig.h"
 
+#include <algorithm>
+#include <iterator>
+
 #include <fmt/format.h>
 
 #include <cmath>
@@ -160,6 +163,36 @@ animation::RawClip RawClipFromCharacter(const AnimationClip& clip, const Rig& ri
     }
     raw.tracks.push_back(std::move(t));
   }
+  return raw;
+}
+
+animation::RawClip RawClipForMesh(const AnimationClip& clip, const Rig& rig,
+                                  const CharacterMesh& mesh, bool* weights_on_server) {
+  animation::RawClip raw = RawClipFromCharacter(clip, rig);
+  const auto is_weights = [](const animation::RawTrack& t) {
+    return t.path == animation::TrackPath::kWeights;
+  };
+  std::vector<animation::RawTrack> channels;  // the clip's weights channels
+  std::copy_if(raw.tracks.begin(), raw.tracks.end(), std::back_inserter(channels), is_weights);
+  std::erase_if(raw.tracks, is_weights);
+  *weights_on_server = false;
+  // The mesh's targets run node by node: each run must be one channel's weights in order.
+  std::vector<animation::RawTrack> ordered;
+  const std::vector<MorphTargetSource>& sources = mesh.morph_sources;
+  for (std::size_t s = 0; s < sources.size();) {
+    const int node = sources[s].node;
+    const auto channel = std::find_if(channels.begin(), channels.end(), [&](const auto& t) {
+      return static_cast<int>(t.target) == node;
+    });
+    if (channel == channels.end()) return raw;  // a node the clip does not key
+    for (uint32_t i = 0; i < channel->width; ++i, ++s) {
+      if (s >= sources.size() || sources[s].node != node || sources[s].target != i) return raw;
+    }
+    ordered.push_back(*channel);
+  }
+  if (ordered.empty()) return raw;
+  raw.tracks.insert(raw.tracks.end(), ordered.begin(), ordered.end());
+  *weights_on_server = true;
   return raw;
 }
 

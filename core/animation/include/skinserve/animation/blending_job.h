@@ -34,4 +34,12 @@ struct BlendingJob {
   Status Run() const;
 };
 
+// The morph weights' blend alone, by BlendingJob's rule (normal layers' weights divided by
+// their sum, additive layers added times their weight), for a caller that needs them before
+// the joints. A layer with empty morph_weights (a clip without weights tracks) contributes
+// zeros, the mesh's rest shape, as a joint no track animates takes its rest pose.
+// INVALID_ARGUMENT naming the layer: weights finite and >= 0 summing to more than 0 over
+// the normal layers, morph_weights empty or the output's size.
+Status BlendMorphWeights(std::span<const BlendLayer> layers, std::span<float> output);
+
 }  // namespace skinserve::animation

@@ -50,4 +50,15 @@ struct SamplingJob {
   Status Run() const;
 };
 
+// A clip's morph weights alone at a time (its weights tracks, as SamplingJob samples them):
+// for a caller that needs them before the joints (the server, while preparing a frame).
+struct MorphSamplingJob {
+  const CompactClip* clip = nullptr;
+  float time = 0;  // seconds, finite
+  TimeMode mode = TimeMode::kClamp;
+  std::span<float> morph_weights;  // clip->weight_count
+
+  Status Run() const;
+};
+
 }  // namespace skinserve::animation

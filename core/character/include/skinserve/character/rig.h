@@ -32,4 +32,12 @@ Result<Rig> RigFromMesh(const Character& character, const CharacterMesh& mesh);
 // glTF node). Channels on nodes outside the rig (rigid parts' nodes) are left out.
 animation::RawClip RawClipFromCharacter(const AnimationClip& clip, const Rig& rig);
 
+// RawClipFromCharacter for one mesh, as the server applies it: the server takes a clip's
+// weights tracks, in order, as the mesh's morph target weights. So the weights channels are
+// kept, in the order of the mesh's morph_sources, only when each of the mesh's morph nodes
+// has one channel whose weights are that node's targets in order (`*weights_on_server` set
+// true); else, or for a mesh without morph targets, none are (the caller sends the weights).
+animation::RawClip RawClipForMesh(const AnimationClip& clip, const Rig& rig,
+                                  const CharacterMesh& mesh, bool* weights_on_server);
+
 }  // namespace skinserve
