@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
+#include <thread>
 
 #include "skinserve/client/channel.h"
 #include "skinserve/wire/region_layout.h"
@@ -435,8 +437,18 @@ Status SkinClient::Reupload(const std::string& mesh_id) {
     }
     uploaded = it->second;
   }
-  auto info = SendUpload(*uploaded.arrays, uploaded.options);
-  return info.status();
+  // A mesh a server lost is lost to every stream of this process at once, and clients of
+  // one process share a connection: the server's --max-uploads-per-connection may refuse
+  // some of their re-uploads while the others are under way. A refused one waits, looks
+  // whether the mesh is back, and tries again (about 1.3 s in all).
+  auto wait = std::chrono::milliseconds(20);
+  for (int attempt = 0;; ++attempt) {
+    const Status sent = SendUpload(*uploaded.arrays, uploaded.options).status();
+    if (sent.code() != StatusCode::kResourceExhausted || attempt == 6) return sent;
+    std::this_thread::sleep_for(wait);
+    wait *= 2;
+    if (GetMesh(mesh_id).ok()) return Status::Ok();
+  }
 }
 
 Result<v1::MeshInfo> SkinClient::SendUpload(const MeshArrays& arrays,

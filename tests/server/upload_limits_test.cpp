@@ -112,6 +112,31 @@ TEST(UploadLimitsTest, UploadsBeyondThePerConnectionCapAreRefusedOthersGoOn) {
   WaitForOpenUploads(*t.client, 0);
 }
 
+// A re-upload refused for the connection's cap (other clients of the process sharing the
+// connection are re-uploading: a replica that lacks the mesh loses it to all of them at
+// once) waits and tries again, and succeeds once the cap lets it.
+TEST(UploadLimitsTest, AReuploadRefusedForTheConnectionsCapWaitsAndTriesAgain) {
+  server::ServerOptions options;
+  options.max_uploads_per_connection = 1;
+  TestServer t(options);
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = 1000});
+  auto uploaded = t.client->Upload(arrays);
+  ASSERT_TRUE(uploaded.ok()) << uploaded.status().ToString();
+  ASSERT_TRUE(t.client->DeleteMesh(uploaded->mesh_id()).ok());
+  // The client's own connection's one upload place, taken.
+  auto stub = v1::Skinning::NewStub(client::MakeChannel(t.target));
+  auto held = std::make_unique<HeldUpload>(*stub);
+  WaitForOpenUploads(*t.client, 1);
+  Status reuploaded;
+  std::thread reupload([&] { reuploaded = t.client->Reupload(uploaded->mesh_id()); });
+  std::this_thread::sleep_for(100ms);  // refused at least once meanwhile
+  held->Cancel();
+  reupload.join();
+  EXPECT_TRUE(reuploaded.ok()) << reuploaded.ToString();
+  EXPECT_GE(Stats(*t.client).rejected_uploads_per_connection(), 1u);
+  EXPECT_TRUE(t.client->GetMesh(uploaded->mesh_id()).ok());
+}
+
 TEST(UploadLimitsTest, AnUploadBeyondTheBudgetIsRefusedAndItsMemoryReturned) {
   server::ServerOptions options;
   options.upload_budget_mb = 1;

@@ -220,7 +220,10 @@ class SkinClient {
   // without uploading now (e.g. another client of the same process uploaded it).
   void Remember(const std::string& mesh_id, std::shared_ptr<const MeshArrays> arrays,
                 const UploadOptions& options = {});
-  // Uploads again the mesh that had `mesh_id`, if this client uploaded it.
+  // Uploads again the mesh that had `mesh_id`, if this client uploaded it. Refused for the
+  // connection's upload limit (RESOURCE_EXHAUSTED: other clients of this process are
+  // re-uploading), it waits and tries again for about 1.3 s, done early once the mesh is
+  // stored.
   Status Reupload(const std::string& mesh_id);
   // Uploads again what a frame's NOT_FOUND named (LostUploadOf), if this client uploaded
   // it: the mesh; a skeleton, with the clips this client uploaded for it (a server that
