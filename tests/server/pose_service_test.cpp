@@ -244,6 +244,24 @@ v1::SkinRequest PoseRequest(const Rig& rig, const std::vector<Layer>& layers) {
   return request;
 }
 
+// Writes `request` on `stream` and gathers its answer's positions (float32, every part).
+void StreamFrame(grpc::ClientReaderWriter<v1::SkinRequest, v1::SkinResponse>& stream,
+                 const v1::SkinRequest& request, uint32_t vertices, const std::string& what,
+                 std::vector<float>* positions) {
+  ASSERT_TRUE(stream.Write(request)) << what;
+  positions->assign(3ull * vertices, 0.0f);
+  v1::SkinResponse part;
+  do {
+    ASSERT_TRUE(stream.Read(&part)) << what;
+    ASSERT_FALSE(part.has_error()) << what << ": " << part.error().message();
+    ASSERT_LE(3ull * part.first_vertex() * sizeof(float) + part.positions().size(),
+              positions->size() * sizeof(float))
+        << what;
+    std::memcpy(&(*positions)[3ull * part.first_vertex()], part.positions().data(),
+                part.positions().size());
+  } while (!part.last());
+}
+
 TEST(PoseServiceTest, PosesMatchTheFloat64EvaluationOfTheClip) {
   TestServer t;
   const Rig rig = MakeRig(*t.client);
@@ -288,15 +306,9 @@ TEST(PoseServiceTest, StreamedPosesMatchTheReferenceOnEveryBackend) {
       v1::SkinRequest request = PoseRequest(rig, at);
       request.set_backend(b.id());
       request.set_frame(f);
-      ASSERT_TRUE(stream->Write(request));
-      std::vector<float> positions(3ull * rig.mesh.vertex_count);
-      v1::SkinResponse part;
-      do {
-        ASSERT_TRUE(stream->Read(&part));
-        ASSERT_FALSE(part.has_error()) << b.id() << ": " << part.error().message();
-        std::memcpy(&positions[3ull * part.first_vertex()], part.positions().data(),
-                    part.positions().size());
-      } while (!part.last());
+      std::vector<float> positions;
+      ASSERT_NO_FATAL_FAILURE(
+          StreamFrame(*stream, request, rig.mesh.vertex_count, b.id(), &positions));
       ExpectPositionsNear(rig.mesh, positions,
                           RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, at)),
                           b.id() + " frame " + std::to_string(f));
@@ -910,15 +922,9 @@ TEST(PoseServiceTest, AClipsWeightsTrackMorphsTicksAndStreams) {
       v1::SkinRequest request = PoseRequest(m, at);
       request.set_backend(b.id());
       request.set_frame(f);
-      ASSERT_TRUE(stream->Write(request));
-      std::vector<float> positions(3ull * m.mesh.vertex_count);
-      v1::SkinResponse part;
-      do {
-        ASSERT_TRUE(stream->Read(&part));
-        ASSERT_FALSE(part.has_error()) << b.id() << ": " << part.error().message();
-        std::memcpy(&positions[3ull * part.first_vertex()], part.positions().data(),
-                    part.positions().size());
-      } while (!part.last());
+      std::vector<float> positions;
+      ASSERT_NO_FATAL_FAILURE(
+          StreamFrame(*stream, request, m.mesh.vertex_count, b.id(), &positions));
       ExpectPositionsNear(m.mesh, positions, want(at), b.id() + " frame " + std::to_string(f));
     }
     stream->WritesDone();
