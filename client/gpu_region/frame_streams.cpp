@@ -17,6 +17,7 @@ Status StreamIntoRegion(v1::Skinning::Stub& stub, const StreamPlan& plan,
   request.set_mesh_id(plan.mesh_id);
   request.set_backend(plan.backend);
   request.set_want_normals(plan.normals);
+  request.set_encoding(wire::ToWire(plan.encoding));
   request.mutable_output()->set_region(plan.region);
   request.mutable_output()->set_gpu(plan.gpu);
   const auto send = [&](uint32_t frame) {

@@ -1,6 +1,7 @@
 // The frames skinserve-gpu-region sends: one StreamSkin call with `window` frames in
 // flight, each written into slot (frame % window) of a region (a GPU region or a
-// shared-memory one), positions (and normals) at the region layout's offsets.
+// shared-memory one), positions (and normals) at the region layout's offsets, in the
+// plan's encoding.
 #pragma once
 
 #include <functional>
@@ -8,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/model/morph_targets.h"
 #include "skinserve/model/status.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
@@ -21,6 +23,7 @@ struct StreamPlan {
   uint32_t frames = 1, window = 1;
   uint64_t slot_bytes = 0;  // one frame's room in the region (a multiple of 64)
   bool normals = false;
+  VertexEncoding encoding = VertexEncoding::kFloat32;
   // Frame f's palette, as the bytes SkinRequest.palette carries.
   std::function<const std::string&(uint32_t frame)> palette;
   // Frame f's morph target weights, sparse (a glTF character's clip); null: none.

@@ -13,7 +13,9 @@
 // triangle_check.h). The speed run streams --frames frames with --window in flight into a buffer
 // without a semaphore, then the same frames into a shared-memory region (read back from the GPU
 // into host memory), then the same again on --compare-backend (simd-openmp: the server's CPUs) into
-// shared memory. Prints one summary line per run and PASS or FAIL.
+// shared memory. --encoding float16 or snorm16: every frame of those runs and checks in that
+// encoding, written encoded into the GPU buffer by the server (decoded by --check; --draw
+// draws float32 only). Prints one summary line per run and PASS or FAIL.
 #include <fmt/format.h>
 #include <grpcpp/grpcpp.h>
 #include <unistd.h>
@@ -30,6 +32,7 @@
 #include "skinserve/client/shared_memory_region.h"
 #include "skinserve/client/skin_client.h"
 #include "skinserve/model/skinning_method.h"
+#include "skinserve/reference/encoded_reference.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 #include "skinserve/wire/conversions.h"
@@ -55,6 +58,7 @@ struct Options {
   int vulkan_device = -1;
   std::string draw_path;  // --draw: the picture's PNG ("" none)
   uint32_t draw_size = 768;
+  VertexEncoding encoding = VertexEncoding::kFloat32;
 };
 
 struct Session {
@@ -125,7 +129,7 @@ Status Prepare(Session& s) {
   if (!info.ok()) return info.status();
   s.mesh_id = info->mesh_id();
   const wire::RegionLayout layout =
-      wire::LayoutInRegion(0, s.options.vertices, 1, VertexEncoding::kFloat32, s.options.normals);
+      wire::LayoutInRegion(0, s.options.vertices, 1, s.options.encoding, s.options.normals);
   s.slot_bytes = wire::RoundUpToRegionAlignment(layout.end_offset);
   return Status::Ok();
 }
@@ -188,6 +192,7 @@ StreamPlan Plan(const Session& s, const std::string& region, bool gpu, uint32_t 
           .window = window,
           .slot_bytes = s.slot_bytes,
           .normals = s.options.normals,
+          .encoding = s.options.encoding,
           .palette = [&s](uint32_t f) -> const std::string& {
             return s.palettes[f % s.palettes.size()];
           },
@@ -221,6 +226,37 @@ Result<WaitedRegion> RegisterWaited(Session& s, const VulkanDevice& device) {
   return r;
 }
 
+// An encoded frame copied back from the GPU (`base`: the slot's bytes): decoded with the
+// box the answer carries and compared with the reference within the encoding's bound.
+Status CheckEncoded(const Session& s, uint32_t frame, const v1::SkinResponse& response,
+                    const std::byte* base) {
+  const VertexEncoding encoding = s.options.encoding;
+  const uint32_t v = s.options.vertices;
+  const v1::RegionWrite& w = response.region_write();
+  const std::size_t bytes = EncodedBytes(encoding, v);
+  const Bounds box = response.has_bounds() ? wire::FromWire(response.bounds()) : Bounds{};
+  std::vector<float> positions(3ull * v), normals(s.options.normals ? 3ull * v : 0);
+  if (Status st = DecodePositions(encoding, {base + w.positions_offset(), bytes}, box, positions);
+      !st.ok()) {
+    return st;
+  }
+  if (s.options.normals) {
+    if (Status st = DecodeNormals(encoding, {base + w.normals_offset(), bytes}, normals);
+        !st.ok()) {
+      return st;
+    }
+  }
+  const EncodedDeviation d =
+      CompareEncodedWithReference(*s.mesh, Palette(s, frame), encoding, box, positions, normals,
+                                  SkinningMethod::kLinear, Morph(s, frame));
+  if (d.within_tolerance()) return Status::Ok();
+  return Internal(fmt::format(
+      "frame {} ({}): decoded values beyond float32's tolerance plus the encoding's bound: "
+      "position ratio {:.3g}, normal ratio {:.3g} at vertex {}",
+      frame, VertexEncodingName(encoding), d.worst_position_ratio, d.worst_normal_ratio,
+      d.worst_vertex));
+}
+
 // Window 1: each frame copied back from the GPU (after waiting on the semaphore there) and
 // compared with the reference.
 Status Check(Session& s, const WaitedRegion& region, ReadBack& read_back, uint32_t* checked,
@@ -234,6 +270,11 @@ Status Check(Session& s, const WaitedRegion& region, ReadBack& read_back, uint32
             read_back.Copy(*region.buffer, 0, w.end_offset(), region.wait());
         if (!bytes.ok()) return bytes.status();
         const auto* base = static_cast<const std::byte*>(*bytes);
+        if (s.options.encoding != VertexEncoding::kFloat32) {
+          if (Status st = CheckEncoded(s, frame, response, base); !st.ok()) return st;
+          ++*checked;
+          return Status::Ok();
+        }
         std::span<const float> positions(
             reinterpret_cast<const float*>(base + w.positions_offset()), 3ull * v);
         std::span<const float> normals;
@@ -360,11 +401,12 @@ Status CheckAndDraw(Session& s, const VulkanDevice& device) {
     uint32_t checked = 0;
     double worst = 0;
     if (Status st = Check(s, *region, **read_back, &checked, &worst); !st.ok()) return st;
-    fmt::print(
-        "check: {} of {} frames equal the float64 reference (max position error {:.3g}), each "
-        "read after {}\n",
-        checked, options.check_frames, worst,
-        region->semaphore != nullptr ? "a GPU wait on the semaphore" : "the answer");
+    fmt::print("check: {} of {} frames ({}) equal the float64 reference ({}), each read after {}\n",
+               checked, options.check_frames, VertexEncodingName(options.encoding),
+               options.encoding == VertexEncoding::kFloat32
+                   ? fmt::format("max position error {:.3g}", worst)
+                   : std::string("decoded, within float32's tolerance plus the encoding's bound"),
+               region->semaphore != nullptr ? "a GPU wait on the semaphore" : "the answer");
     if (checked != options.check_frames) return Internal("not every frame was checked");
   }
   if (options.draw_path.empty()) return Status::Ok();
@@ -388,8 +430,9 @@ Status SpeedRuns(Session& s, const VulkanDevice& device) {
              (*buffer)->allocation_bytes(), options.vertices, options.influences, options.window);
   auto gpu = Speed(s, "vertices", true);
   if (!gpu.ok()) return gpu.status();
-  fmt::print("gpu-region: {} x {}: {:.1f} frames/s ({} frames, window {})\n", options.vertices,
-             options.influences, *gpu, options.frames, options.window);
+  fmt::print("gpu-region: {} x {}: {:.1f} frames/s ({} frames, window {}, {})\n", options.vertices,
+             options.influences, *gpu, options.frames, options.window,
+             VertexEncodingName(options.encoding));
   if (!options.compare_shm) return Status::Ok();
   auto shm = SpeedOverSharedMemory(s, options.backend);
   if (!shm.ok()) return shm.status();
@@ -473,9 +516,22 @@ int main(int argc, char** argv) {
   app.add_option("--draw", o.draw_path,
                  "draw the character mid-walk (the middle pose) from the GPU region into this PNG, "
                  "checked against the reference");
+  std::string encoding = "float32";
+  CLI::Option* encoded =
+      app.add_option("--encoding", encoding,
+                     "float32, float16 or snorm16: what the server writes into the regions "
+                     "(--check decodes it)")
+          ->check(CLI::IsMember({"float32", "float16", "snorm16"}))
+          ->capture_default_str();
   app.add_option("--draw-size", o.draw_size, "the picture's width and height in pixels")
       ->check(CLI::Range(16, 4096))
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  o.encoding = *skinserve::ParseVertexEncoding(encoding);  // one of IsMember's
+  if (!o.draw_path.empty() && o.encoding != skinserve::VertexEncoding::kFloat32) {
+    fmt::print(stderr, "error: --draw draws float32 vertices: leave {} at float32\n",
+               encoded->get_name());
+    return 2;
+  }
   return skinserve::gpu_region::Run(o);
 }

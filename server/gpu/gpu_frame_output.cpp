@@ -1,9 +1,7 @@
 // FrameJob's part for frames into GPU regions (SkinRequest.output with gpu set,
 // docs/serving/gpu-regions.md): the region resolved for the caller, the layout of
-// shared-memory regions (the stream plan's) checked against its size, and the engine's
-// DeviceOutput.
-#include <fmt/format.h>
-
+// shared-memory regions (the stream plan's) in any encoding the backend writes itself,
+// checked against its size, and the engine's DeviceOutput.
 #include "frames/frame_job.h"
 
 namespace skinserve::server {
@@ -15,12 +13,6 @@ Status FrameJob::PinGpuRegion(const v1::OutputRegion& output, const RegionCaller
         "(--gpu-fd-socket is empty)");
   }
   if (!regions.owner.ok()) return regions.owner.status();
-  if (encoding_ != VertexEncoding::kFloat32) {
-    return InvalidArgument(fmt::format(
-        "GPU region '{}': frames into GPU regions are float32 only (the encoding asked is {}); "
-        "ask for float32",
-        output.region(), VertexEncodingName(encoding_)));
-  }
   Result<std::shared_ptr<GpuRegion>> region =
       regions.gpu_regions->Acquire(output.region(), *regions.owner);
   if (!region.ok()) return region.status();
@@ -37,7 +29,9 @@ void FrameJob::SetGpuOutput() {
                     .instance_bytes = EncodedBytes(encoding_, vertices_),
                     .tangent_instance_bytes = EncodedTangentBytes(encoding_, vertices_),
                     .normals = want_normals_,
-                    .tangents = want_tangents_};
+                    .tangents = want_tangents_,
+                    .encoding = encoding_,
+                    .bounds = boxed_ ? bounds_.data() : nullptr};
 }
 
 // Also where a GPU region's semaphore is signalled: once per frame, after all its

@@ -1,7 +1,9 @@
 // The `opencl` backend's device path for GPU regions, on whatever OpenCL device the tests
 // get (PoCL here and in CI): frames written into device memory at their offsets (memory of
 // the runtime's own standing in for an import, which PoCL cannot do), checked against the
-// float64 reference with nothing outside the ranges touched; the import refused with the
+// float64 reference with nothing outside the ranges touched, in float32 and in the encodings
+// the backend writes itself (decoded within the encoding's bound; a value the encoding
+// refuses fails the frame and writes nothing); the import refused with the
 // missing extension named; the engine's range and backend checks of device output.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -15,7 +17,9 @@
 #include "backends/opencl/opencl_device_memory.h"
 #include "backends/opencl/opencl_semaphore.h"
 #include "device_output_checks.h"
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/engine/engine.h"
+#include "skinserve/reference/encoded_reference.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 
@@ -119,6 +123,100 @@ TEST_P(DeviceOutputTest, WritesTheFrameAtItsOffsetsAndNothingElse) {
     }
     EXPECT_EQ(touched, 0u) << "bytes outside the frame's ranges were written";
   }
+}
+
+// The bytes outside [offset, offset + bytes) of each range that differ from the canary.
+std::size_t TouchedOutside(const std::vector<uint8_t>& bytes,
+                           std::initializer_list<std::pair<uint64_t, uint64_t>> ranges) {
+  std::size_t touched = 0;
+  for (uint64_t i = 0; i < bytes.size(); ++i) {
+    bool inside = false;
+    for (const auto& [offset, length] : ranges)
+      inside = inside || (i >= offset && i < offset + length);
+    if (!inside && bytes[i] != kCanary) ++touched;
+  }
+  return touched;
+}
+
+TEST_P(DeviceOutputTest, EachEncodingAtItsOffsetsDecodesWithinItsBound) {
+  OpenCl& cl = TestOpenCl(GetParam());
+  Backend& backend = *cl.backends[0];
+  const uint32_t v = 3001;  // not a multiple of the encoder's work-group
+  auto mesh = TestMesh(v);
+  auto prepared = backend.Prepare(mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  for (VertexEncoding encoding : {VertexEncoding::kFloat16, VertexEncoding::kSnorm16}) {
+    const uint64_t array = EncodedBytes(encoding, v), tangent = EncodedTangentBytes(encoding, v);
+    const uint64_t positions = 96, normals = positions + array + 40,
+                   tangents = normals + array + 24;
+    auto memory = CreateOpenClDeviceMemory(*cl.runtime, "opencl", tangents + tangent + 128);
+    ASSERT_TRUE(memory.ok()) << memory.status().ToString();
+    for (uint64_t frame = 0; frame < 2; ++frame) {
+      SCOPED_TRACE(::testing::Message() << VertexEncodingName(encoding) << " frame " << frame);
+      Fill(*cl.runtime, **memory);
+      const auto palette = MakeSyntheticPalette(mesh->joint_count(), 5, frame);
+      Bounds box{{NAN, NAN, NAN}, {NAN, NAN, NAN}};
+      SkinFrame f{.palette = palette};
+      f.device = {.memory = memory->get(),
+                  .positions_offset = positions,
+                  .normals_offset = normals,
+                  .tangents_offset = tangents,
+                  .normals = true,
+                  .tangents = true,
+                  .encoding = encoding,
+                  .bounds = &box};
+      ASSERT_TRUE(f.Validate(*mesh).ok());
+      Status s = backend.Skin(**prepared, f);
+      ASSERT_TRUE(s.ok()) << s.ToString();
+      const std::vector<uint8_t> bytes = ReadBack(*cl.runtime, **memory);
+      const auto at = [&](uint64_t offset, uint64_t n) {
+        return std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data()) + offset,
+                                          n);
+      };
+      if (encoding != VertexEncoding::kSnorm16) box = Bounds{};
+      std::vector<float> p(3ull * v), n(3ull * v), t(4ull * v);
+      ASSERT_TRUE(DecodePositions(encoding, at(positions, array), box, p).ok());
+      ASSERT_TRUE(DecodeNormals(encoding, at(normals, array), n).ok());
+      ASSERT_TRUE(DecodeTangents(encoding, at(tangents, tangent), t).ok());
+      const EncodedDeviation d = CompareEncodedWithReference(*mesh, palette, encoding, box, p, n);
+      EXPECT_TRUE(d.within_tolerance())
+          << "position ratio " << d.worst_position_ratio << ", normal ratio "
+          << d.worst_normal_ratio << " at vertex " << d.worst_vertex;
+      EXPECT_EQ(TangentValuesOutsideBound(encoding, t, ReferenceSkin(*mesh, palette).tangents), 0u)
+          << "tangent values outside float32 + the encoding's bound";
+      EXPECT_EQ(TouchedOutside(bytes, {{positions, array}, {normals, array}, {tangents, tangent}}),
+                0u)
+          << "bytes outside the frame's ranges were written";
+    }
+  }
+}
+
+// float16 holds at most 65504: the frame fails naming the vertex, as the host encoder
+// does, and nothing of it reaches the memory.
+TEST_P(DeviceOutputTest, AValueTheEncodingRefusesFailsTheFrameAndWritesNothing) {
+  OpenCl& cl = TestOpenCl(GetParam());
+  Backend& backend = *cl.backends[0];
+  const uint32_t v = 700;
+  auto mesh = TestMesh(v);
+  auto prepared = backend.Prepare(mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  auto memory = CreateOpenClDeviceMemory(*cl.runtime, "opencl", 4096 + 12ull * v);
+  ASSERT_TRUE(memory.ok()) << memory.status().ToString();
+  Fill(*cl.runtime, **memory);
+  auto palette = MakeSyntheticPalette(mesh->joint_count(), 9, 2);
+  for (uint32_t j = 0; j < mesh->joint_count(); ++j) palette[12 * j + 7] = 1e6f;  // y + 1e6
+  SkinFrame f{.palette = palette};
+  f.device = {.memory = memory->get(),
+              .positions_offset = 64,
+              .normals_offset = 64 + 6ull * v,
+              .normals = true,
+              .encoding = VertexEncoding::kFloat16};
+  ASSERT_TRUE(f.Validate(*mesh).ok());
+  const Status s = backend.Skin(**prepared, f);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << s.ToString();
+  EXPECT_NE(s.message().find("positions[vertex 0][y]"), std::string::npos) << s.ToString();
+  EXPECT_EQ(TouchedOutside(ReadBack(*cl.runtime, **memory), {}), 0u)
+      << "a refused frame wrote into the memory";
 }
 
 INSTANTIATE_TEST_SUITE_P(Paths, DeviceOutputTest, ::testing::Values(false, true),
@@ -247,6 +345,37 @@ TEST(DeviceRequestCheckTest, RangesAndBackend) {
   std::vector<float> host(3000);
   request.positions = host;  // host and device outputs at once
   EXPECT_EQ(CheckDeviceRequest(request, *mesh, 1, opencl).code(), StatusCode::kInvalidArgument);
+}
+
+TEST(DeviceRequestCheckTest, EncodingsTheBackendWritesInTheirOwnSizes) {
+  auto mesh = TestMesh(1000);
+  const uint64_t half = 6000;  // float16 and snorm16: 2 bytes a value
+  FakeMemory memory(2 * half + 64, "opencl");
+  BackendInfo opencl{.id = "opencl",
+                     .encoded_outputs = {VertexEncoding::kFloat16, VertexEncoding::kSnorm16}};
+  Bounds boxes[2];
+  SkinRequest request;
+  request.instances = 2;
+  request.device = {.memory = &memory,
+                    .positions_offset = 64,
+                    .instance_bytes = half,
+                    .encoding = VertexEncoding::kFloat16};
+  // Two float16 instances fit where two float32 ones would not.
+  EXPECT_TRUE(CheckDeviceRequest(request, *mesh, 2, opencl).ok());
+  request.device.positions_offset = 66;
+  EXPECT_EQ(CheckDeviceRequest(request, *mesh, 2, opencl).code(), StatusCode::kInvalidArgument);
+  request.device.positions_offset = 64;
+  request.device.encoding = VertexEncoding::kSnorm16;  // needs somewhere for the boxes
+  Status s = CheckDeviceRequest(request, *mesh, 2, opencl);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("device.bounds is null; snorm16"), std::string::npos) << s.message();
+  request.device.bounds = boxes;
+  EXPECT_TRUE(CheckDeviceRequest(request, *mesh, 2, opencl).ok());
+  EXPECT_EQ(InstanceDeviceOutput(request, 1).bounds, &boxes[1]);
+  // A backend that does not write the encoding itself cannot: nothing is read back.
+  s = CheckDeviceRequest(request, *mesh, 2, BackendInfo{.id = "opencl"});
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(s.message().find("does not write snorm16 itself"), std::string::npos) << s.message();
 }
 
 // Through the engine: a frame with device output passes its checks and reaches the

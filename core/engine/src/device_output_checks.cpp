@@ -51,9 +51,19 @@ Status CheckDeviceRequest(const SkinRequest& request, const Mesh& mesh, uint32_t
                     "the backend that imported it writes into it",
                     d.memory->backend(), info.id));
   }
+  if (d.encoding != VertexEncoding::kFloat32 && !info.WritesEncoding(d.encoding)) {
+    return FailedPrecondition(fmt::format(
+        "backend '{}' does not write {} itself, and device output is never read back to be "
+        "encoded on the host",
+        info.id, VertexEncodingName(d.encoding)));
+  }
+  if (QuantizedToBox(d.encoding) && d.bounds == nullptr) {
+    return InvalidArgument(fmt::format("device.bounds is null; {} needs each instance's box",
+                                       VertexEncodingName(d.encoding)));
+  }
   const uint64_t size = d.memory->byte_size();
-  const uint64_t array_bytes = 3ull * sizeof(float) * mesh.vertex_count();
-  const uint64_t tangent_bytes = 4ull * sizeof(float) * mesh.vertex_count();
+  const uint64_t array_bytes = EncodedBytes(d.encoding, mesh.vertex_count());
+  const uint64_t tangent_bytes = EncodedTangentBytes(d.encoding, mesh.vertex_count());
   if (d.instance_bytes < array_bytes || (d.tangents && d.tangent_instance_bytes < tangent_bytes)) {
     return InvalidArgument(fmt::format(
         "device output strides ({} / {} bytes) are below one instance's arrays ({} / {} bytes)",
@@ -80,6 +90,7 @@ DeviceOutput InstanceDeviceOutput(const SkinRequest& request, uint32_t i) {
   out.positions_offset += i * out.instance_bytes;
   out.normals_offset += i * out.instance_bytes;
   out.tangents_offset += i * out.tangent_instance_bytes;
+  if (out.bounds != nullptr) out.bounds += i;
   return out;
 }
 

@@ -13,8 +13,10 @@ namespace skinserve {
 Status ValidateDeviceFrame(const SkinFrame& frame, const Mesh& mesh);
 
 // A request with device output (request.device active): no host, encoded or scratch
-// outputs; the memory imported by the frame's backend (`info`), else FAILED_PRECONDITION;
-// every instance's arrays inside the memory, else INVALID_ARGUMENT naming the range.
+// outputs; the memory imported by the frame's backend (`info`) and an encoding it writes
+// itself, else FAILED_PRECONDITION; snorm16 with somewhere for the boxes and every
+// instance's arrays (in the encoding's bytes) inside the memory, else INVALID_ARGUMENT
+// naming the field or the range.
 Status CheckDeviceRequest(const SkinRequest& request, const Mesh& mesh, uint32_t instances,
                           const BackendInfo& info);
 

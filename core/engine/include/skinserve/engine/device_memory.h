@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <string>
 
+#include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/model/status.h"
 
 namespace skinserve {
@@ -38,9 +39,12 @@ struct DeviceMemoryImport {
 };
 
 // A frame's output in imported device memory: byte offsets of positions, normals and
-// tangents (float32, x y z per vertex; tangents x y z w). In an engine SkinRequest they
-// are instance 0's and instance i's follow at i * instance_bytes (i * tangent_instance_bytes
-// for tangents); in a backend's SkinFrame they are the instance's own.
+// tangents (x y z per vertex; tangents x y z w) in `encoding`: float32, or one the
+// backend writes itself (BackendInfo::encoded_outputs), each array EncodedBytes
+// (EncodedTangentBytes) long, exactly the bytes the host encoders would make. In an engine
+// SkinRequest the offsets are instance 0's and instance i's follow at i * instance_bytes
+// (i * tangent_instance_bytes for tangents); in a backend's SkinFrame they are the
+// instance's own.
 struct DeviceOutput {
   const DeviceMemory* memory = nullptr;
   uint64_t positions_offset = 0;
@@ -50,6 +54,11 @@ struct DeviceOutput {
   uint64_t tangent_instance_bytes = 0;  // SkinRequest only
   bool normals = false;
   bool tangents = false;
+  VertexEncoding encoding = VertexEncoding::kFloat32;
+  // Boxed encodings (snorm16): where each instance's box goes, the one its positions were
+  // quantized to (instance i's at bounds[i] in a SkinRequest; the instance's own in a
+  // SkinFrame); else unused.
+  Bounds* bounds = nullptr;
   bool active() const { return memory != nullptr; }
 };
 

@@ -83,8 +83,11 @@ class OpenClCopyBackend final : public OpenClBackendBase {
     Status status = Morph(*lane, prepared, frame, &args, kernels, transfers);
     if (status.ok() && frame.device.active()) {  // a GPU region (opencl_device_memory.h)
       status = EnqueueWholeFrame(*lane, prepared, frame, args, kernels, transfers);
-      if (status.ok()) {
-        status = WriteDeviceOutput(*lane, args, prepared.mesh().vertex_count(), frame, transfers);
+      const uint32_t vertices = prepared.mesh().vertex_count();
+      if (status.ok() && frame.device.encoding != VertexEncoding::kFloat32) {
+        status = encoder().EncodeIntoDevice(*lane, args, vertices, frame, kernels, transfers);
+      } else if (status.ok()) {
+        status = WriteDeviceOutput(*lane, args, vertices, frame, transfers);
       }
     } else if (status.ok() && frame.encoded.active()) {
       status = SkinEncoded(*lane, prepared, frame, args, kernels, transfers);

@@ -172,8 +172,8 @@ cl_mem OpenClDeviceMemoryBuffer(const DeviceMemory& memory) {
   return cl != nullptr ? cl->buffer() : nullptr;
 }
 
-Status WriteDeviceOutput(OpenClLane& lane, const SkinKernelArgs& args, uint32_t vertices,
-                         const SkinFrame& frame, ClEvents& transfers) {
+Status WriteDevicePieces(OpenClLane& lane, const SkinFrame& frame,
+                         std::span<const DeviceOutputPiece> pieces, ClEvents& transfers) {
   const auto* memory = dynamic_cast<const OpenClDeviceMemory*>(frame.device.memory);
   if (memory == nullptr) {
     return FailedPrecondition("the frame's device memory was not made by the opencl backend");
@@ -186,28 +186,13 @@ Status WriteDeviceOutput(OpenClLane& lane, const SkinKernelArgs& args, uint32_t 
       return ClError("clEnqueueAcquireExternalMemObjectsKHR", err);
     }
   }
-  struct Copy {
-    const char* what;
-    cl_mem from;
-    uint64_t to, bytes;
-  };
-  const uint64_t array_bytes = 3ull * sizeof(float) * vertices;
-  std::vector<Copy> copies = {{"clEnqueueCopyBuffer(positions)", args.out_positions,
-                               frame.device.positions_offset, array_bytes}};
-  if (frame.device.normals) {
-    copies.push_back({"clEnqueueCopyBuffer(normals)", args.out_normals, frame.device.normals_offset,
-                      array_bytes});
-  }
-  if (frame.device.tangents) {
-    copies.push_back({"clEnqueueCopyBuffer(tangents)", args.out_tangents,
-                      frame.device.tangents_offset, 4ull * sizeof(float) * vertices});
-  }
-  for (const Copy& c : copies) {
-    if (cl_int err = clEnqueueCopyBuffer(lane.compute, c.from, target, 0, c.to, c.bytes, 0, nullptr,
-                                         transfers.Next());
-        err != CL_SUCCESS) {
-      return ClError(c.what, err);
-    }
+  for (const DeviceOutputPiece& p : pieces) {
+    const cl_int err = p.from != nullptr
+                           ? clEnqueueCopyBuffer(lane.compute, p.from, target, 0, p.offset, p.bytes,
+                                                 0, nullptr, transfers.Next())
+                           : clEnqueueWriteBuffer(lane.compute, target, CL_FALSE, p.offset, p.bytes,
+                                                  p.host, 0, nullptr, transfers.Next());
+    if (err != CL_SUCCESS) return ClError(p.what, err);
   }
   if (memory->imported()) {
     if (cl_int err = memory->release()(lane.compute, 1, &target, 0, nullptr, transfers.Next());
@@ -215,9 +200,26 @@ Status WriteDeviceOutput(OpenClLane& lane, const SkinKernelArgs& args, uint32_t 
       return ClError("clEnqueueReleaseExternalMemObjectsKHR", err);
     }
   }
-  // The answer says the frame is in the memory: it must be there when the answer goes.
+  // The answer says the frame is in the memory: it must be there when the answer goes (and
+  // a host piece's bytes are the caller's only until then).
   if (cl_int err = clFinish(lane.compute); err != CL_SUCCESS) return ClError("clFinish", err);
   return Status::Ok();
+}
+
+Status WriteDeviceOutput(OpenClLane& lane, const SkinKernelArgs& args, uint32_t vertices,
+                         const SkinFrame& frame, ClEvents& transfers) {
+  const uint64_t array_bytes = 3ull * sizeof(float) * vertices;
+  std::vector<DeviceOutputPiece> pieces = {{"clEnqueueCopyBuffer(positions)", args.out_positions,
+                                            nullptr, frame.device.positions_offset, array_bytes}};
+  if (frame.device.normals) {
+    pieces.push_back({"clEnqueueCopyBuffer(normals)", args.out_normals, nullptr,
+                      frame.device.normals_offset, array_bytes});
+  }
+  if (frame.device.tangents) {
+    pieces.push_back({"clEnqueueCopyBuffer(tangents)", args.out_tangents, nullptr,
+                      frame.device.tangents_offset, 4ull * sizeof(float) * vertices});
+  }
+  return WriteDevicePieces(lane, frame, pieces, transfers);
 }
 
 }  // namespace skinserve

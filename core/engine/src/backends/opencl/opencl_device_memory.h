@@ -7,6 +7,7 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
 
 #include "backends/opencl/opencl_runtime.h"
@@ -30,9 +31,23 @@ Result<std::shared_ptr<DeviceMemory>> CreateOpenClDeviceMemory(OpenClRuntime& ru
 // The cl_mem of OpenCL device memory; null for any other DeviceMemory.
 cl_mem OpenClDeviceMemoryBuffer(const DeviceMemory& memory);
 
-// After the frame's kernel on `lane.compute` (into args.out_*): its outputs copied into
-// frame.device's memory at its offsets on the same queue, and waited for. The copies'
-// events go to `transfers`.
+// One array of a frame going into device memory at `offset`: `bytes` copied from the
+// device buffer `from`, or, when `from` is null, written from `host`.
+struct DeviceOutputPiece {
+  const char* what;
+  cl_mem from;
+  const void* host;
+  uint64_t offset, bytes;
+};
+
+// After the frame's kernels on `lane.compute`: `pieces` copied (or written) into
+// frame.device's memory on the same queue, and waited for. The transfers' events go to
+// `transfers`.
+Status WriteDevicePieces(OpenClLane& lane, const SkinFrame& frame,
+                         std::span<const DeviceOutputPiece> pieces, ClEvents& transfers);
+
+// After the frame's kernel on `lane.compute` (into args.out_*): its float32 outputs into
+// frame.device's memory at its offsets (WriteDevicePieces).
 Status WriteDeviceOutput(OpenClLane& lane, const SkinKernelArgs& args, uint32_t vertices,
                          const SkinFrame& frame, ClEvents& transfers);
 

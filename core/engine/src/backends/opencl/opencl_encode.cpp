@@ -10,6 +10,7 @@
 #include <span>
 #include <string_view>
 
+#include "backends/opencl/opencl_device_memory.h"
 #include "backends/opencl/opencl_program.h"
 #include "skinserve/kernels/embedded_kernels.h"
 
@@ -201,6 +202,35 @@ Status HostEncode(OpenClLane& lane, const SkinKernelArgs& floats, uint32_t verte
   return Status::Ok();
 }
 
+// HostEncode for a frame whose output is device memory: the host encoder's bytes, then
+// written into the memory at the frame's offsets.
+Status HostEncodeIntoDevice(OpenClLane& lane, const SkinKernelArgs& floats, uint32_t vertex_count,
+                            const SkinFrame& frame, ClEvents& transfers) {
+  const DeviceOutput& device = frame.device;
+  const std::size_t bytes = EncodedBytes(device.encoding, vertex_count);
+  std::vector<std::byte> positions(bytes), normals(device.normals ? bytes : 0),
+      tangents(device.tangents ? EncodedTangentBytes(device.encoding, vertex_count) : 0);
+  SkinFrame host = frame;
+  host.device = {};
+  host.encoded = {.encoding = device.encoding,
+                  .positions = positions,
+                  .normals = normals,
+                  .tangents = tangents,
+                  .bounds = device.bounds};
+  if (Status s = HostEncode(lane, floats, vertex_count, host); !s.ok()) return s;
+  std::vector<DeviceOutputPiece> pieces = {{"clEnqueueWriteBuffer(encoded positions)", nullptr,
+                                            positions.data(), device.positions_offset, bytes}};
+  if (device.normals) {
+    pieces.push_back({"clEnqueueWriteBuffer(encoded normals)", nullptr, normals.data(),
+                      device.normals_offset, bytes});
+  }
+  if (device.tangents) {
+    pieces.push_back({"clEnqueueWriteBuffer(encoded tangents)", nullptr, tangents.data(),
+                      device.tangents_offset, tangents.size()});
+  }
+  return WriteDevicePieces(lane, frame, pieces, transfers);  // waits: the vectors outlive it
+}
+
 Status Enqueue(OpenClLane& lane, cl_kernel kernel, std::size_t count, const char* what,
                ClEvents& kernels) {
   const std::size_t global = RoundUp(std::max<std::size_t>(count, 1)), local = kGroup;
@@ -219,7 +249,9 @@ Status Enqueue(OpenClLane& lane, cl_kernel kernel, std::size_t count, const char
 struct OpenClEncoder::EncodedArray {
   const char* what;
   cl_mem in;
-  std::span<std::byte> to;
+  std::span<std::byte> to;  // host memory (empty for device memory)
+  std::size_t bytes;        // the encoded array's
+  uint64_t device_offset;   // device memory: where it goes
   std::size_t values;
   bool positions;
   ClBuffer* buffer;
@@ -239,24 +271,11 @@ Status OpenClEncoder::Encode(OpenClLane& lane, const SkinKernelArgs& floats, uin
   Result<LaneState*> found = StateOf(lane);
   if (!found.ok()) return found.status();
   LaneState& state = **found;
-  const cl_int zero = 0;
-  if (cl_int err = clEnqueueFillBuffer(lane.compute, state.bad.get(), &zero, sizeof(zero), 0,
-                                       sizeof(zero), 0, nullptr, nullptr);
-      err != CL_SUCCESS) {
-    return ClError("clEnqueueFillBuffer(encode flag)", err);
-  }
   Snorm16Box box;
-  if (snorm16) {
-    auto device_box =
-        DeviceBox(lane, state, floats.out_positions, vertex_count, kernels, transfers);
-    if (!device_box.ok()) return device_box.status();
-    // Not finite (the host's error names the vertex), or an axis too thin for a float scale
-    // (the host encoder works in double): the host encoder takes the frame.
-    if (!device_box->has_value() || !Snorm16Axes(**device_box, box.centre, box.scale)) {
-      return HostEncode(lane, floats, vertex_count, frame);
-    }
-    *enc.bounds = **device_box;
-  }
+  Result<bool> on_device = PrepareEncode(lane, state, floats, vertex_count, enc.encoding,
+                                         enc.bounds, &box, kernels, transfers);
+  if (!on_device.ok()) return on_device.status();
+  if (!*on_device) return HostEncode(lane, floats, vertex_count, frame);
   std::vector<EncodedArray> arrays = EncodedArrays(state, floats, enc, vertex_count);
   std::vector<ClBuffer> wrapped;  // zero copy: this frame's buffers around the caller's memory
   if (Status s = EnqueueEncodeKernels(lane, state, snorm16 ? &box : nullptr, zero_copy, arrays,
@@ -281,6 +300,71 @@ Status OpenClEncoder::Encode(OpenClLane& lane, const SkinKernelArgs& floats, uin
     for (const EncodedArray& a : arrays) std::memcpy(a.to.data(), a.pinned->host, a.to.size());
   }
   return Status::Ok();
+}
+
+Status OpenClEncoder::EncodeIntoDevice(OpenClLane& lane, const SkinKernelArgs& floats,
+                                       uint32_t vertex_count, const SkinFrame& frame,
+                                       ClEvents& kernels, ClEvents& transfers) {
+  const DeviceOutput& device = frame.device;
+  if (device.encoding != VertexEncoding::kSnorm16 && device.encoding != VertexEncoding::kFloat16) {
+    return InvalidArgument(fmt::format("the OpenCL backends do not write {} output",
+                                       VertexEncodingName(device.encoding)));
+  }
+  Result<LaneState*> found = StateOf(lane);
+  if (!found.ok()) return found.status();
+  LaneState& state = **found;
+  Snorm16Box box;
+  Result<bool> on_device = PrepareEncode(lane, state, floats, vertex_count, device.encoding,
+                                         device.bounds, &box, kernels, transfers);
+  if (!on_device.ok()) return on_device.status();
+  if (!*on_device) return HostEncodeIntoDevice(lane, floats, vertex_count, frame, transfers);
+  std::vector<EncodedArray> arrays = DeviceArrays(state, floats, device, vertex_count);
+  std::vector<ClBuffer> unused;  // device arrays go to the lane's buffers, never wrapped
+  if (Status s = EnqueueEncodeKernels(lane, state,
+                                      device.encoding == VertexEncoding::kSnorm16 ? &box : nullptr,
+                                      /*zero_copy=*/false, arrays, &unused, kernels);
+      !s.ok()) {
+    return s;
+  }
+  // The flag before anything is copied: a refused value leaves the memory as it was.
+  cl_int refused = 0;
+  if (cl_int err = clEnqueueReadBuffer(lane.compute, state.bad.get(), CL_TRUE, 0, sizeof(refused),
+                                       &refused, 0, nullptr, nullptr);
+      err != CL_SUCCESS) {
+    return ClError("clEnqueueReadBuffer(encode flag)", err);
+  }
+  if (refused != 0) {
+    Status s = HostEncodeIntoDevice(lane, floats, vertex_count, frame, transfers);
+    return s.ok() ? Internal("the device refused a value to encode that the host encoder takes")
+                  : s;
+  }
+  std::vector<DeviceOutputPiece> pieces;
+  for (const EncodedArray& a : arrays) {
+    pieces.push_back({a.what, a.in, nullptr, a.device_offset, a.bytes});
+  }
+  return WriteDevicePieces(lane, frame, pieces, transfers);
+}
+
+Result<bool> OpenClEncoder::PrepareEncode(OpenClLane& lane, LaneState& state,
+                                          const SkinKernelArgs& floats, uint32_t vertex_count,
+                                          VertexEncoding encoding, Bounds* bounds, Snorm16Box* box,
+                                          ClEvents& kernels, ClEvents& transfers) {
+  const cl_int zero = 0;
+  if (cl_int err = clEnqueueFillBuffer(lane.compute, state.bad.get(), &zero, sizeof(zero), 0,
+                                       sizeof(zero), 0, nullptr, nullptr);
+      err != CL_SUCCESS) {
+    return ClError("clEnqueueFillBuffer(encode flag)", err);
+  }
+  if (encoding != VertexEncoding::kSnorm16) return true;
+  auto device_box = DeviceBox(lane, state, floats.out_positions, vertex_count, kernels, transfers);
+  if (!device_box.ok()) return device_box.status();
+  // Not finite (the host's error names the vertex), or an axis too thin for a float scale
+  // (the host encoder works in double): the host encoder takes the frame.
+  if (!device_box->has_value() || !Snorm16Axes(**device_box, box->centre, box->scale)) {
+    return false;
+  }
+  *bounds = **device_box;
+  return true;
 }
 
 Result<std::optional<Bounds>> OpenClEncoder::DeviceBox(OpenClLane& lane, LaneState& state,
@@ -330,15 +414,60 @@ std::vector<OpenClEncoder::EncodedArray> OpenClEncoder::EncodedArrays(LaneState&
                                                                       const EncodedOutput& enc,
                                                                       uint32_t vertex_count) {
   std::vector<EncodedArray> arrays = {{"encoded positions", floats.out_positions, enc.positions,
-                                       3ull * vertex_count, true, &state.positions,
-                                       &state.positions_bytes, &state.pinned_positions}};
+                                       enc.positions.size(), 0, 3ull * vertex_count, true,
+                                       &state.positions, &state.positions_bytes,
+                                       &state.pinned_positions}};
   if (!enc.normals.empty()) {
-    arrays.push_back({"encoded normals", floats.out_normals, enc.normals, 3ull * vertex_count,
-                      false, &state.normals, &state.normals_bytes, &state.pinned_normals});
+    arrays.push_back({"encoded normals", floats.out_normals, enc.normals, enc.normals.size(), 0,
+                      3ull * vertex_count, false, &state.normals, &state.normals_bytes,
+                      &state.pinned_normals});
   }
   if (!enc.tangents.empty()) {
-    arrays.push_back({"encoded tangents", floats.out_tangents, enc.tangents, 4ull * vertex_count,
-                      false, &state.tangents, &state.tangents_bytes, &state.pinned_tangents});
+    arrays.push_back({"encoded tangents", floats.out_tangents, enc.tangents, enc.tangents.size(), 0,
+                      4ull * vertex_count, false, &state.tangents, &state.tangents_bytes,
+                      &state.pinned_tangents});
+  }
+  return arrays;
+}
+
+std::vector<OpenClEncoder::EncodedArray> OpenClEncoder::DeviceArrays(LaneState& state,
+                                                                     const SkinKernelArgs& floats,
+                                                                     const DeviceOutput& device,
+                                                                     uint32_t vertex_count) {
+  const std::size_t bytes = EncodedBytes(device.encoding, vertex_count);
+  std::vector<EncodedArray> arrays = {{"clEnqueueCopyBuffer(encoded positions)",
+                                       floats.out_positions,
+                                       {},
+                                       bytes,
+                                       device.positions_offset,
+                                       3ull * vertex_count,
+                                       true,
+                                       &state.positions,
+                                       &state.positions_bytes,
+                                       &state.pinned_positions}};
+  if (device.normals) {
+    arrays.push_back({"clEnqueueCopyBuffer(encoded normals)",
+                      floats.out_normals,
+                      {},
+                      bytes,
+                      device.normals_offset,
+                      3ull * vertex_count,
+                      false,
+                      &state.normals,
+                      &state.normals_bytes,
+                      &state.pinned_normals});
+  }
+  if (device.tangents) {
+    arrays.push_back({"clEnqueueCopyBuffer(encoded tangents)",
+                      floats.out_tangents,
+                      {},
+                      EncodedTangentBytes(device.encoding, vertex_count),
+                      device.tangents_offset,
+                      4ull * vertex_count,
+                      false,
+                      &state.tangents,
+                      &state.tangents_bytes,
+                      &state.pinned_tangents});
   }
   return arrays;
 }
@@ -357,7 +486,7 @@ Status OpenClEncoder::EnqueueEncodeKernels(OpenClLane& lane, LaneState& state,
       if (!created.ok()) return created.status();
       target = wrapped->emplace_back(std::move(created).value()).get();
     } else {
-      if (Status s = runtime_->GrowBuffer(out.what, CL_MEM_READ_WRITE, out.to.size(), out.buffer,
+      if (Status s = runtime_->GrowBuffer(out.what, CL_MEM_READ_WRITE, out.bytes, out.buffer,
                                           out.capacity);
           !s.ok()) {
         return s;

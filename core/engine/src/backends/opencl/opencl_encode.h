@@ -38,6 +38,15 @@ class OpenClEncoder {
   // encoder's error returned (INVALID_ARGUMENT naming the vertex).
   Status Encode(OpenClLane& lane, const SkinKernelArgs& floats, uint32_t vertex_count,
                 const SkinFrame& frame, bool zero_copy, ClEvents& kernels, ClEvents& transfers);
+  // The same for a frame whose output is device memory (frame.device, a GPU region, its
+  // encoding float16 or snorm16): encoded on the device into the lane's buffers, then copied
+  // into the memory at the frame's offsets (WriteDevicePieces); nothing is read back but
+  // the flag and snorm16's box, which goes to *frame.device.bounds. A frame the device
+  // cannot encode (a box too thin for a float scale) is encoded on the host from the floats
+  // read back, and those bytes written into the memory; a value the encoding refuses fails
+  // the frame with the host encoder's error, and nothing is written.
+  Status EncodeIntoDevice(OpenClLane& lane, const SkinKernelArgs& floats, uint32_t vertex_count,
+                          const SkinFrame& frame, ClEvents& kernels, ClEvents& transfers);
 
  private:
   struct LaneState;
@@ -54,9 +63,17 @@ class OpenClEncoder {
   Result<std::optional<Bounds>> DeviceBox(OpenClLane& lane, LaneState& state, cl_mem positions,
                                           uint32_t vertex_count, ClEvents& kernels,
                                           ClEvents& transfers);
-  // The frame's encoded arrays: positions, and normals and tangents where it asks for them.
+  // The flag cleared and, for snorm16, the frame's box into *bounds and `box`: false when
+  // the device cannot encode the frame (a value not finite, an axis too thin).
+  Result<bool> PrepareEncode(OpenClLane& lane, LaneState& state, const SkinKernelArgs& floats,
+                             uint32_t vertex_count, VertexEncoding encoding, Bounds* bounds,
+                             Snorm16Box* box, ClEvents& kernels, ClEvents& transfers);
+  // The frame's encoded arrays: positions, and normals and tangents where it asks for them
+  // (host memory: `enc`'s; device memory: frame.device's ranges).
   static std::vector<EncodedArray> EncodedArrays(LaneState& state, const SkinKernelArgs& floats,
                                                  const EncodedOutput& enc, uint32_t vertex_count);
+  static std::vector<EncodedArray> DeviceArrays(LaneState& state, const SkinKernelArgs& floats,
+                                                const DeviceOutput& device, uint32_t vertex_count);
   // Each array's encode kernel (float16 when `box` is null, else snorm16 with it), writing
   // the caller's memory in place (zero_copy: through `wrapped`) or the lane's buffers.
   Status EnqueueEncodeKernels(OpenClLane& lane, LaneState& state, const Snorm16Box* box,
