@@ -11,7 +11,9 @@
 # `simd-openmp` on the server's 2 cores into shared memory (the issue's 25k x 2 target). One
 # check runs without a semaphore. CesiumMan (build-gpu/assets/CesiumMan.glb, carried by the
 # pack) walks into OUT/cesiumman-walk.png: its clip's palettes, every frame checked, the
-# picture of its triangles at the clip's middle checked against the reference.
+# picture of its triangles at the clip's middle checked against the reference. Then float16
+# and snorm16 frames encoded into the buffer, and ticks of 64 (and 16, snorm16) characters
+# into one buffer, each character checked, with their speed rows.
 #   scripts/gpu-region-test.sh [OUT_DIR]      (from the repository root; OUT: $OUT or ./out)
 # Exit status 0 when every run printed PASS. Overrides (for a dry run elsewhere):
 # SKINSERVE_OPENCL_DEVICE (gpu), SKINSERVE_SERVER_CPUS (0,1), SKINSERVE_CLIENT_CPUS (the rest).
@@ -77,8 +79,21 @@ run 25k-x2-no-semaphore --vertices 25000 --influences 2 --semaphore false --chec
 run 1.6M-x4 --vertices 1600000 --influences 4 --check 20 \
   --draw "$out/walk-1.6M-x4.png" --draw-size 1024 --frames 300 --window 2
 run cesiumman-walk --mesh "$cesiumman" --check 120 --draw "$out/cesiumman-walk.png" --frames 0
+# Encoded into the GPU buffer (the server's opencl encoder): every frame decoded and checked.
+run 25k-x2-float16 --vertices 25000 --influences 2 --normals --encoding float16 --check 100 \
+  --frames 2000 --window 2 --compare-backend simd-openmp
+run 25k-x2-snorm16 --vertices 25000 --influences 2 --normals --encoding snorm16 --check 100 \
+  --frames 2000 --window 2 --compare-backend simd-openmp
+# Ticks of 64 characters (64 meshes) into one GPU region, signalled once per tick: every
+# character of 20 ticks checked, then ticks/s and characters/s against the same ticks read
+# back over shm and skinned by simd-openmp on the server's 2 cores.
+run ticks-64 --vertices 25000 --influences 2 --characters-per-tick 64 --check 20 \
+  --frames 300 --window 2 --compare-backend simd-openmp
+run ticks-16-snorm16 --vertices 25000 --influences 2 --normals --characters-per-tick 16 \
+  --encoding snorm16 --check 20 --frames 0
 # Each check said it waited on the semaphore, each picture is there.
-for name in 25k-x2 25k-x2-normals 1.6M-x4 cesiumman-walk; do
+for name in 25k-x2 25k-x2-normals 1.6M-x4 cesiumman-walk 25k-x2-float16 25k-x2-snorm16 \
+  ticks-64 ticks-16-snorm16; do
   if ! grep -q "each read after a GPU wait on the semaphore" "$out/$name.txt"; then
     echo "$name: FAIL: its check did not wait on the semaphore"; status=1
   fi
@@ -99,6 +114,6 @@ kill "$server" 2>/dev/null; wait "$server" 2>/dev/null
 rm -rf "$sock" "$vk"
 echo "== summary"
 grep -hE "^(character|device|check|draw|gpu-region|shm-readback|simd-openmp-shm|FAIL)" \
-  "$out"/*x*.txt "$out"/cesiumman-walk.txt
+  "$out"/*x*.txt "$out"/cesiumman-walk.txt "$out"/ticks-*.txt
 [ "$status" -eq 0 ] && echo "ALL PASS" || echo "SOME FAILED"
 exit "$status"

@@ -9,30 +9,63 @@
 
 namespace skinserve::gpu_region {
 
+namespace {
+
+// Character c's request of frame `frame` (its output in the frame's slot).
+void FillCharacter(const StreamPlan& plan, uint32_t frame, uint32_t c, v1::SkinRequest* request) {
+  request->set_mesh_id(plan.mesh_ids[c]);
+  request->set_backend(plan.backend);
+  request->set_want_normals(plan.normals);
+  request->set_encoding(wire::ToWire(plan.encoding));
+  request->set_palette(plan.palette(frame, c));
+  request->clear_morph_targets();
+  request->clear_morph_weights();
+  if (plan.morph) {
+    for (const MorphWeight& w : plan.morph(frame, c)) {
+      request->add_morph_targets(w.target);
+      request->add_morph_weights(w.weight);
+    }
+  }
+  v1::OutputRegion* output = request->mutable_output();
+  output->set_region(plan.region);
+  output->set_gpu(plan.gpu);
+  output->set_offset((frame % plan.window) * plan.tick_bytes() + c * plan.slot_bytes);
+  output->set_byte_size(plan.slot_bytes);
+}
+
+Status ErrorOf(const v1::SkinResponse& response, const std::string& what) {
+  return Status(static_cast<StatusCode>(response.error().code()),
+                fmt::format("{}: {}", what, response.error().message()));
+}
+
+// The frame's failure, or a tick's first failed character's; OK if none.
+Status FailureIn(const v1::SkinResponse& response) {
+  const std::string frame = fmt::format("frame {}", response.frame());
+  if (response.has_error()) return ErrorOf(response, frame);
+  for (const v1::SkinResponse& c : response.tick().characters()) {
+    if (c.has_error()) return ErrorOf(c, frame);
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status StreamIntoRegion(v1::Skinning::Stub& stub, const StreamPlan& plan,
                         const std::function<Status(uint32_t, const v1::SkinResponse&)>& answered) {
   grpc::ClientContext context;
   auto stream = stub.StreamSkin(&context);
+  const auto characters = static_cast<uint32_t>(plan.mesh_ids.size());
   v1::SkinRequest request;
-  request.set_mesh_id(plan.mesh_id);
-  request.set_backend(plan.backend);
-  request.set_want_normals(plan.normals);
-  request.set_encoding(wire::ToWire(plan.encoding));
-  request.mutable_output()->set_region(plan.region);
-  request.mutable_output()->set_gpu(plan.gpu);
   const auto send = [&](uint32_t frame) {
-    request.set_frame(frame);
-    request.set_palette(plan.palette(frame));
-    request.clear_morph_targets();
-    request.clear_morph_weights();
-    if (plan.morph) {
-      for (const MorphWeight& w : plan.morph(frame)) {
-        request.add_morph_targets(w.target);
-        request.add_morph_weights(w.weight);
+    if (characters == 1) {
+      FillCharacter(plan, frame, 0, &request);
+    } else {
+      while (request.characters_size() < static_cast<int>(characters)) request.add_characters();
+      for (uint32_t c = 0; c < characters; ++c) {
+        FillCharacter(plan, frame, c, request.mutable_characters(static_cast<int>(c)));
       }
     }
-    request.mutable_output()->set_offset((frame % plan.window) * plan.slot_bytes);
-    request.mutable_output()->set_byte_size(plan.slot_bytes);
+    request.set_frame(frame);
     return stream->Write(request);
   };
   uint32_t sent = 0;
@@ -41,11 +74,8 @@ Status StreamIntoRegion(v1::Skinning::Stub& stub, const StreamPlan& plan,
   v1::SkinResponse response;
   for (uint32_t done = 0; done < plan.frames && failed.ok(); ++done) {
     if (!stream->Read(&response)) break;
-    if (response.has_error()) {
-      failed = Status(static_cast<StatusCode>(response.error().code()),
-                      fmt::format("frame {}: {}", response.frame(), response.error().message()));
-      break;
-    }
+    failed = FailureIn(response);
+    if (!failed.ok()) break;
     failed = answered(static_cast<uint32_t>(response.frame()), response);
     if (failed.ok() && sent < plan.frames && send(sent)) ++sent;
   }

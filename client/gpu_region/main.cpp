@@ -15,7 +15,10 @@
 // into host memory), then the same again on --compare-backend (simd-openmp: the server's CPUs) into
 // shared memory. --encoding float16 or snorm16: every frame of those runs and checks in that
 // encoding, written encoded into the GPU buffer by the server (decoded by --check; --draw
-// draws float32 only). Prints one summary line per run and PASS or FAIL.
+// draws float32 only). --characters-per-tick N: each frame a tick of N characters (the
+// synthetic one on N meshes of its own, seeds 7 to 7 + N - 1; a --mesh character N times),
+// all into the region, which the server signals once per tick; --check checks every
+// character. Prints one summary line per run and PASS or FAIL.
 #include <fmt/format.h>
 #include <grpcpp/grpcpp.h>
 #include <unistd.h>
@@ -54,6 +57,7 @@ struct Options {
   std::string mesh_path;                        // --mesh: a glTF character ("" synthetic)
   std::string compare_backend = "simd-openmp";  // the speed run's CPU row ("" none)
   uint32_t vertices = 25000, influences = 2, frames = 600, window = 2, check_frames = 0;
+  uint32_t characters = 1;  // --characters-per-tick (1: plain frames)
   bool normals = false, compare_shm = true, semaphore = true;
   int vulkan_device = -1;
   std::string draw_path;  // --draw: the picture's PNG ("" none)
@@ -63,8 +67,9 @@ struct Options {
 
 struct Session {
   Options options;
-  std::shared_ptr<const Mesh> mesh;
-  std::string mesh_id;
+  std::shared_ptr<const Mesh> mesh;                 // character 0's
+  std::vector<std::shared_ptr<const Mesh>> meshes;  // character c's (ticks)
+  std::vector<std::string> mesh_ids;
   // The character's distinct poses, frame f taking f % size: the synthetic walk's, or the
   // glTF clip's every 1/30 s (with their morph weights, when it has morph targets).
   std::vector<std::string> palettes;
@@ -97,6 +102,21 @@ Result<std::shared_ptr<const MeshArrays>> SyntheticCharacter(Session& s) {
   return arrays;
 }
 
+// Character c (> 0) of a tick: the synthetic character of its own seed, uploaded.
+Status UploadTickCharacter(Session& s, uint32_t c) {
+  const MeshArrays arrays = MakeSyntheticMesh({.vertex_count = s.options.vertices,
+                                               .influences = s.options.influences,
+                                               .normals = s.options.normals,
+                                               .seed = 7 + c});
+  auto mesh = Mesh::Create(arrays);
+  if (!mesh.ok()) return mesh.status();
+  auto info = s.client->Upload(arrays);
+  if (!info.ok()) return info.status();
+  s.meshes.push_back(*mesh);
+  s.mesh_ids.push_back(info->mesh_id());
+  return Status::Ok();
+}
+
 // --mesh: the glTF character as skinserve-load --mesh loads it (MakeGltfWorkload: every
 // primitive, skinned or rigid, in one mesh; its first clip every 1/30 s), skinned with
 // normals whenever it has them (the picture is shaded by them).
@@ -127,7 +147,16 @@ Status Prepare(Session& s) {
   s.gpu = v1::GpuRegions::NewStub(channel);
   auto info = s.client->Upload(**arrays);
   if (!info.ok()) return info.status();
-  s.mesh_id = info->mesh_id();
+  s.meshes = {s.mesh};
+  s.mesh_ids = {info->mesh_id()};
+  for (uint32_t c = 1; c < s.options.characters; ++c) {
+    if (!s.options.mesh_path.empty()) {  // the glTF character again
+      s.meshes.push_back(s.mesh);
+      s.mesh_ids.push_back(s.mesh_ids[0]);
+    } else if (Status st = UploadTickCharacter(s, c); !st.ok()) {
+      return st;
+    }
+  }
   const wire::RegionLayout layout =
       wire::LayoutInRegion(0, s.options.vertices, 1, s.options.encoding, s.options.normals);
   s.slot_bytes = wire::RoundUpToRegionAlignment(layout.end_offset);
@@ -172,19 +201,24 @@ Status RegisterGpu(Session& s, const VulkanDevice& device, const ExportedBuffer&
   return Status::Ok();
 }
 
-std::span<const float> Palette(const Session& s, uint32_t frame) {
-  const std::string& p = s.palettes[frame % s.palettes.size()];
+// Character c's pose in frame f: the walk's (or clip's) pose f + c.
+const std::string& PaletteBytesOf(const Session& s, uint32_t frame, uint32_t c = 0) {
+  return s.palettes[(frame + c) % s.palettes.size()];
+}
+
+std::span<const float> Palette(const Session& s, uint32_t frame, uint32_t c = 0) {
+  const std::string& p = PaletteBytesOf(s, frame, c);
   return {reinterpret_cast<const float*>(p.data()), p.size() / sizeof(float)};
 }
 
-std::span<const MorphWeight> Morph(const Session& s, uint32_t frame) {
+std::span<const MorphWeight> Morph(const Session& s, uint32_t frame, uint32_t c = 0) {
   if (s.morph.empty()) return {};
-  return s.morph[frame % s.morph.size()];
+  return s.morph[(frame + c) % s.morph.size()];
 }
 
 StreamPlan Plan(const Session& s, const std::string& region, bool gpu, uint32_t frames,
                 uint32_t window, const std::string& backend = "") {
-  return {.mesh_id = s.mesh_id,
+  return {.mesh_ids = s.mesh_ids,
           .backend = backend.empty() ? s.options.backend : backend,
           .region = region,
           .gpu = gpu,
@@ -193,10 +227,10 @@ StreamPlan Plan(const Session& s, const std::string& region, bool gpu, uint32_t 
           .slot_bytes = s.slot_bytes,
           .normals = s.options.normals,
           .encoding = s.options.encoding,
-          .palette = [&s](uint32_t f) -> const std::string& {
-            return s.palettes[f % s.palettes.size()];
+          .palette = [&s](uint32_t f, uint32_t c) -> const std::string& {
+            return PaletteBytesOf(s, f, c);
           },
-          .morph = [&s](uint32_t f) { return Morph(s, f); }};
+          .morph = [&s](uint32_t f, uint32_t c) { return Morph(s, f, c); }};
 }
 
 // The one-frame GPU region --check and --draw write into, with its semaphore (null when
@@ -210,9 +244,12 @@ struct WaitedRegion {
   }
 };
 
+// A frame's room in a region: one slot per character.
+uint64_t TickBytes(const Session& s) { return s.slot_bytes * s.options.characters; }
+
 Result<WaitedRegion> RegisterWaited(Session& s, const VulkanDevice& device) {
   WaitedRegion r;
-  auto buffer = ExportedBuffer::Create(device, s.slot_bytes);
+  auto buffer = ExportedBuffer::Create(device, TickBytes(s));
   if (!buffer.ok()) return buffer.status();
   r.buffer = std::move(buffer).value();
   if (s.options.semaphore) {
@@ -226,15 +263,17 @@ Result<WaitedRegion> RegisterWaited(Session& s, const VulkanDevice& device) {
   return r;
 }
 
-// An encoded frame copied back from the GPU (`base`: the slot's bytes): decoded with the
-// box the answer carries and compared with the reference within the encoding's bound.
-Status CheckEncoded(const Session& s, uint32_t frame, const v1::SkinResponse& response,
-                    const std::byte* base) {
+// Character c's answer in a frame copied back from the GPU (`base`: the slot's bytes,
+// `header`: its RegionWrite and box), decoded (float32: as it is) and compared with the
+// float64 reference of its mesh and pose, within float32's tolerance plus the encoding's
+// bound.
+Status CheckCharacter(const Session& s, uint32_t frame, uint32_t c, const v1::SkinResponse& header,
+                      const std::byte* base, double* worst) {
   const VertexEncoding encoding = s.options.encoding;
   const uint32_t v = s.options.vertices;
-  const v1::RegionWrite& w = response.region_write();
+  const v1::RegionWrite& w = header.region_write();
   const std::size_t bytes = EncodedBytes(encoding, v);
-  const Bounds box = response.has_bounds() ? wire::FromWire(response.bounds()) : Bounds{};
+  const Bounds box = header.has_bounds() ? wire::FromWire(header.bounds()) : Bounds{};
   std::vector<float> positions(3ull * v), normals(s.options.normals ? 3ull * v : 0);
   if (Status st = DecodePositions(encoding, {base + w.positions_offset(), bytes}, box, positions);
       !st.ok()) {
@@ -247,47 +286,41 @@ Status CheckEncoded(const Session& s, uint32_t frame, const v1::SkinResponse& re
     }
   }
   const EncodedDeviation d =
-      CompareEncodedWithReference(*s.mesh, Palette(s, frame), encoding, box, positions, normals,
-                                  SkinningMethod::kLinear, Morph(s, frame));
+      CompareEncodedWithReference(*s.meshes[c], Palette(s, frame, c), encoding, box, positions,
+                                  normals, SkinningMethod::kLinear, Morph(s, frame, c));
+  *worst = std::max(*worst, d.max_position_error);
   if (d.within_tolerance()) return Status::Ok();
   return Internal(fmt::format(
-      "frame {} ({}): decoded values beyond float32's tolerance plus the encoding's bound: "
-      "position ratio {:.3g}, normal ratio {:.3g} at vertex {}",
-      frame, VertexEncodingName(encoding), d.worst_position_ratio, d.worst_normal_ratio,
-      d.worst_vertex));
+      "frame {} character {} ({}): values beyond float32's tolerance plus the encoding's "
+      "bound: position ratio {:.3g} (error {:.3g}), normal ratio {:.3g} at vertex {}",
+      frame, c, VertexEncodingName(encoding), d.worst_position_ratio, d.max_position_error,
+      d.worst_normal_ratio, d.worst_vertex));
 }
 
-// Window 1: each frame copied back from the GPU (after waiting on the semaphore there) and
-// compared with the reference.
+// Window 1: each frame (or tick) copied back from the GPU (after waiting on the semaphore
+// there) and every character of it compared with the reference.
 Status Check(Session& s, const WaitedRegion& region, ReadBack& read_back, uint32_t* checked,
              double* worst) {
-  const uint32_t v = s.options.vertices;
+  const uint32_t characters = s.options.characters;
   return StreamIntoRegion(
       s.client->stub(), Plan(s, region.name, true, s.options.check_frames, 1),
       [&](uint32_t frame, const v1::SkinResponse& response) -> Status {
-        const v1::RegionWrite& w = response.region_write();
-        Result<const void*> bytes =
-            read_back.Copy(*region.buffer, 0, w.end_offset(), region.wait());
+        Result<const void*> bytes = read_back.Copy(*region.buffer, 0, TickBytes(s), region.wait());
         if (!bytes.ok()) return bytes.status();
         const auto* base = static_cast<const std::byte*>(*bytes);
-        if (s.options.encoding != VertexEncoding::kFloat32) {
-          if (Status st = CheckEncoded(s, frame, response, base); !st.ok()) return st;
-          ++*checked;
-          return Status::Ok();
-        }
-        std::span<const float> positions(
-            reinterpret_cast<const float*>(base + w.positions_offset()), 3ull * v);
-        std::span<const float> normals;
-        if (s.options.normals) {
-          normals = {reinterpret_cast<const float*>(base + w.normals_offset()), 3ull * v};
-        }
-        const Deviation d = CompareWithReference(*s.mesh, Palette(s, frame), positions, normals,
-                                                 SkinningMethod::kLinear, Morph(s, frame));
-        *worst = std::max(*worst, d.max_position_error);
-        if (!d.within_tolerance()) {
-          return Internal(fmt::format(
-              "frame {}: position error {} (tolerance {}), normal error {} at vertex {}", frame,
-              d.max_position_error, d.position_tolerance, d.max_normal_error, d.worst_vertex));
+        if (characters == 1) {
+          if (Status st = CheckCharacter(s, frame, 0, response, base, worst); !st.ok()) return st;
+        } else {
+          if (response.tick().characters_size() != static_cast<int>(characters)) {
+            return Internal(fmt::format("frame {}: the tick's answer has {} characters, not {}",
+                                        frame, response.tick().characters_size(), characters));
+          }
+          for (const v1::SkinResponse& header : response.tick().characters()) {
+            if (Status st = CheckCharacter(s, frame, header.character(), header, base, worst);
+                !st.ok()) {
+              return st;
+            }
+          }
         }
         ++*checked;
         return Status::Ok();
@@ -377,7 +410,7 @@ Result<double> Speed(Session& s, const std::string& region, bool gpu,
 Result<double> SpeedOverSharedMemory(Session& s, const std::string& backend) {
   auto region =
       client::SharedMemoryRegion::Create(client::SharedMemoryRegion::UniqueKey("gpu-region-cmp"),
-                                         s.slot_bytes * s.options.window, s.options.shm_dir);
+                                         TickBytes(s) * s.options.window, s.options.shm_dir);
   if (!region.ok()) return region.status();
   const std::string name = "shm-compare-" + backend;
   if (auto info = s.client->RegisterRegion(name, **region); !info.ok()) return info.status();
@@ -396,17 +429,22 @@ Status CheckAndDraw(Session& s, const VulkanDevice& device) {
       region->semaphore != nullptr ? "with a semaphore the server signals" : "without a semaphore",
       options.vertices, options.influences);
   if (options.check_frames > 0) {
-    auto read_back = ReadBack::Create(device, s.slot_bytes);
+    auto read_back = ReadBack::Create(device, TickBytes(s));
     if (!read_back.ok()) return read_back.status();
     uint32_t checked = 0;
     double worst = 0;
     if (Status st = Check(s, *region, **read_back, &checked, &worst); !st.ok()) return st;
-    fmt::print("check: {} of {} frames ({}) equal the float64 reference ({}), each read after {}\n",
-               checked, options.check_frames, VertexEncodingName(options.encoding),
-               options.encoding == VertexEncoding::kFloat32
-                   ? fmt::format("max position error {:.3g}", worst)
-                   : std::string("decoded, within float32's tolerance plus the encoding's bound"),
-               region->semaphore != nullptr ? "a GPU wait on the semaphore" : "the answer");
+    fmt::print(
+        "check: {} of {} frames ({}{}) equal the float64 reference ({}max position error {:.3g}), "
+        "each read after {}\n",
+        checked, options.check_frames, VertexEncodingName(options.encoding),
+        options.characters > 1
+            ? fmt::format(", ticks of {} characters, every character checked", options.characters)
+            : "",
+        options.encoding == VertexEncoding::kFloat32
+            ? ""
+            : "decoded, within float32's tolerance plus the encoding's bound; ",
+        worst, region->semaphore != nullptr ? "a GPU wait on the semaphore" : "the answer");
     if (checked != options.check_frames) return Internal("not every frame was checked");
   }
   if (options.draw_path.empty()) return Status::Ok();
@@ -419,33 +457,40 @@ Status CheckAndDraw(Session& s, const VulkanDevice& device) {
 #endif
 }
 
+// " = C characters/s in ticks of N" after a rate of ticks (nothing for plain frames).
+std::string InTicks(const Options& options, double frames_per_second) {
+  if (options.characters == 1) return "";
+  return fmt::format(" = {:.0f} characters/s in ticks of {}",
+                     frames_per_second * options.characters, options.characters);
+}
+
 // The speed runs: into a GPU region, then (--compare-shm) the same frames read back into
 // shared memory by --backend and by --compare-backend on the server's CPUs.
 Status SpeedRuns(Session& s, const VulkanDevice& device) {
   const Options& options = s.options;
-  auto buffer = ExportedBuffer::Create(device, s.slot_bytes * options.window);
+  auto buffer = ExportedBuffer::Create(device, TickBytes(s) * options.window);
   if (!buffer.ok()) return buffer.status();
   if (Status st = RegisterGpu(s, device, **buffer, "vertices"); !st.ok()) return st;
   fmt::print("device '{}': GPU region of {} bytes registered ({} x {}, window {})\n", device.name(),
              (*buffer)->allocation_bytes(), options.vertices, options.influences, options.window);
   auto gpu = Speed(s, "vertices", true);
   if (!gpu.ok()) return gpu.status();
-  fmt::print("gpu-region: {} x {}: {:.1f} frames/s ({} frames, window {}, {})\n", options.vertices,
-             options.influences, *gpu, options.frames, options.window,
-             VertexEncodingName(options.encoding));
+  fmt::print("gpu-region: {} x {}: {:.1f} frames/s{} ({} frames, window {}, {})\n",
+             options.vertices, options.influences, *gpu, InTicks(options, *gpu), options.frames,
+             options.window, VertexEncodingName(options.encoding));
   if (!options.compare_shm) return Status::Ok();
   auto shm = SpeedOverSharedMemory(s, options.backend);
   if (!shm.ok()) return shm.status();
-  fmt::print("shm-readback: {} x {}: {:.1f} frames/s; gpu-region / shm = {:.2f}x\n",
-             options.vertices, options.influences, *shm, *gpu / *shm);
+  fmt::print("shm-readback: {} x {}: {:.1f} frames/s{}; gpu-region / shm = {:.2f}x\n",
+             options.vertices, options.influences, *shm, InTicks(options, *shm), *gpu / *shm);
   if (options.compare_backend.empty()) return Status::Ok();
   auto cpu = SpeedOverSharedMemory(s, options.compare_backend);
   if (!cpu.ok()) return cpu.status();
   fmt::print(
-      "{}-shm: {} x {}: {:.1f} frames/s (same frames and window, the server's CPUs, shared "
+      "{}-shm: {} x {}: {:.1f} frames/s{} (same frames and window, the server's CPUs, shared "
       "memory); gpu-region / {} = {:.2f}x\n",
-      options.compare_backend, options.vertices, options.influences, *cpu, options.compare_backend,
-      *gpu / *cpu);
+      options.compare_backend, options.vertices, options.influences, *cpu, InTicks(options, *cpu),
+      options.compare_backend, *gpu / *cpu);
   return Status::Ok();
 }
 
@@ -488,6 +533,11 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->excludes(mesh);
   app.add_option("--frames", o.frames, "frames of the speed runs (0: none)")->capture_default_str();
+  app.add_option("--characters-per-tick", o.characters,
+                 "each frame a tick of this many characters (the synthetic character on a mesh "
+                 "of its own each; a --mesh character repeated), into one region")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
   app.add_option("--window", o.window, "frames in flight in the speed runs (one slot each)")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
@@ -528,6 +578,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   o.encoding = *skinserve::ParseVertexEncoding(encoding);  // one of IsMember's
+  if (!o.draw_path.empty() && o.characters > 1) {
+    fmt::print(stderr, "error: --draw draws one character: leave --characters-per-tick at 1\n");
+    return 2;
+  }
   if (!o.draw_path.empty() && o.encoding != skinserve::VertexEncoding::kFloat32) {
     fmt::print(stderr, "error: --draw draws float32 vertices: leave {} at float32\n",
                encoded->get_name());

@@ -311,7 +311,8 @@ void FrameJob::OnSkinned(Status status, const FrameTiming& timing) {
   if (gpu_region_ && result_.ok()) result_ = GpuRegionStillThere();
   if (result_.ok()) result_ = WriteHeaders();
   region_.reset();  // an unregister waiting for this frame may answer from here
-  gpu_region_.reset();
+  // A tick's character holds its GPU region until the tick has signalled it (TakeGpuRegion).
+  if (tick_character_ < 0 || !result_.ok()) gpu_region_.reset();
   if (result_.ok()) {
     record_.EndAnswered(timing_, encode_ns_.load());
   } else {

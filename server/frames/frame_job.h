@@ -105,6 +105,11 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   void TickHeader(v1::SkinResponse* out) const;
   // The answer is in a shared-memory region (no vertex parts of its own).
   bool answers_in_region() const { return region_part_; }
+  // A character written into a GPU region keeps the region until the tick has signalled
+  // it (TickJob): handed over here, once the character is done (null: none).
+  std::shared_ptr<GpuRegion> TakeGpuRegion() { return std::move(gpu_region_); }
+  // The character is skinned, but the tick could not signal its GPU region: it fails.
+  void FailWritten(Status status) { result_ = std::move(status); }
 
  private:
   // Encodes instance `instance` into the wire buffer, on the thread that skinned it.
@@ -127,7 +132,7 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   // Checks the laid-out frame's range (region_end_) against a region of `size` bytes and
   // the request's output.byte_size.
   Status CheckRegionRange(const v1::OutputRegion& output, uint64_t size) const;
-  // The same for a GPU region (output.gpu, gpu/gpu_frame_output.cpp): float32 only; pins it.
+  // The same for a GPU region (output.gpu, gpu/gpu_frame_output.cpp); pins it.
   Status PinGpuRegion(const v1::OutputRegion& output, const RegionCaller& regions);
   // Charges what the frame holds to the in-flight budget and grows the buffers.
   Status ChargeBuffers(std::size_t palette_bytes);
@@ -137,7 +142,9 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   void SetOutputs();
   // request.device: the frame's layout in the GPU region (SetOutputs emptied the others).
   void SetGpuOutput();
-  // After the frame: FAILED_PRECONDITION if the GPU region was unregistered meanwhile.
+  // After the frame: FAILED_PRECONDITION if the GPU region was unregistered meanwhile;
+  // else a plain frame signals the region's semaphore (a tick's character leaves that to
+  // the tick).
   Status GpuRegionStillThere();
   // The frame's output: the wire buffer, or the region's bytes.
   std::byte* PositionsOut();

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <grpcpp/impl/codegen/proto_utils.h>
 
+#include <algorithm>
+
 #include "observability/metrics_frames.h"
 #include "rpc/server_messages.h"
 
@@ -155,7 +157,24 @@ void TickJob::OnFrameDone(StreamAnswer* answer) {
   listener_->OnFrameDone(this);  // may reuse this job at once: nothing after
 }
 
+void TickJob::SignalGpuRegions() {
+  signalled_.clear();  // keeps its capacity
+  for (uint32_t i = 0; i < count_; ++i) {
+    std::shared_ptr<GpuRegion> region = characters_[i]->TakeGpuRegion();
+    if (region == nullptr) continue;
+    auto it = std::find_if(signalled_.begin(), signalled_.end(),
+                           [&](const auto& s) { return s.first == region; });
+    if (it == signalled_.end()) {
+      const Status written = region->FrameWritten(frame_);
+      it = signalled_.insert(signalled_.end(), {std::move(region), written});
+    }
+    if (!it->second.ok()) characters_[i]->FailWritten(it->second);
+  }
+  signalled_.clear();  // an unregister waiting for the tick may answer from here
+}
+
 void TickJob::BuildFinalPart() {
+  SignalGpuRegions();
   final_.Clear();  // keeps the headers' objects for the next tick
   final_.set_frame(frame_);
   final_.set_last(true);

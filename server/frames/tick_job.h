@@ -5,7 +5,8 @@
 // each character's vertex parts as it finishes (characters in finish order), then one
 // final part (`last`, `tick`: a header per character in request order). The job and its
 // character jobs are kept by their stream (TickJobs) and reused tick after tick, so the
-// steady state allocates nothing of its own.
+// steady state allocates nothing of its own. Characters written into a GPU region hold it
+// until the tick is complete, when each region is signalled once (SignalGpuRegions).
 #pragma once
 
 #include <grpcpp/support/byte_buffer.h>
@@ -17,6 +18,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "frames/frame_job.h"
@@ -68,7 +70,10 @@ class TickJob final : public StreamAnswer, private FrameJob::Listener {
   // Character `i` failed in Start (the listener's lock is held: it is not told): it joins
   // the finish order. Never the tick's last, since Start holds one.
   void CharacterDone(uint32_t i);
-  // Once every character is done: the final part, over final_bytes_.
+  // Once every character is done: each GPU region its characters went into signalled once
+  // (its semaphore, GpuRegion::FrameWritten), a region that fails failing its characters.
+  void SignalGpuRegions();
+  // Once every character is done: SignalGpuRegions, then the final part, over final_bytes_.
   void BuildFinalPart();
   // Moves next_sending_ past characters that have no part to send (failed, in a region).
   // Under mutex_.
@@ -77,6 +82,8 @@ class TickJob final : public StreamAnswer, private FrameJob::Listener {
 
   FrameJob::Listener* const listener_;
   InflightBudget* const budget_;
+  // SignalGpuRegions' regions of this tick and how their signal went (empty between).
+  std::vector<std::pair<std::shared_ptr<GpuRegion>, Status>> signalled_;
   std::vector<std::unique_ptr<FrameJob>> characters_;  // [0, count_) in use; kept for reuse
   // Character i's plan (and its hold on the region it writes into), kept from tick to tick
   // and reused while that character's settings stay.

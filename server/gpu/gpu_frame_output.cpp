@@ -35,7 +35,11 @@ void FrameJob::SetGpuOutput() {
 }
 
 // Also where a GPU region's semaphore is signalled: once per frame, after all its
-// instances are in the buffer, before the answer (GpuRegion::FrameWritten).
-Status FrameJob::GpuRegionStillThere() { return gpu_region_->FrameWritten(frame_); }
+// instances are in the buffer, before the answer (GpuRegion::FrameWritten). A tick's
+// characters do not: the tick signals each of its regions once (TickJob::SignalGpuRegions),
+// since a binary semaphore signalled twice before its wait is invalid.
+Status FrameJob::GpuRegionStillThere() {
+  return tick_character_ < 0 ? gpu_region_->FrameWritten(frame_) : gpu_region_->StillThere(frame_);
+}
 
 }  // namespace skinserve::server

@@ -49,12 +49,15 @@ void GpuRegion::MarkRemoved(std::function<void()> on_released) {
   removed_.store(true, std::memory_order_release);
 }
 
+Status GpuRegion::StillThere(uint64_t frame) const {
+  if (!removed()) return Status::Ok();
+  return FailedPrecondition(fmt::format(
+      "GPU region '{}' was unregistered while frame {} was in flight: its output is undefined",
+      name_, frame));
+}
+
 Status GpuRegion::FrameWritten(uint64_t frame) {
-  if (removed()) {
-    return FailedPrecondition(fmt::format(
-        "GPU region '{}' was unregistered while frame {} was in flight: its output is undefined",
-        name_, frame));
-  }
+  if (Status s = StillThere(frame); !s.ok()) return s;
   if (Status s = memory_->SignalFrameWritten(); !s.ok()) {
     return Status(s.code(), fmt::format("GPU region '{}': frame {} is in the buffer, but its "
                                         "semaphore was not signalled: {}",

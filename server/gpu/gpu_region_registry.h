@@ -54,6 +54,8 @@ class GpuRegion {
   // meanwhile (its output is undefined, nothing signalled); else its semaphore, if it was
   // registered with one, signalled once, and the frame counted.
   Status FrameWritten(uint64_t frame);
+  // FrameWritten's first check alone (a tick's character: the tick signals once).
+  Status StillThere(uint64_t frame) const;
   uint64_t frames() const { return frames_.load(std::memory_order_relaxed); }
 
  private:
