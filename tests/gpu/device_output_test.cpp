@@ -219,6 +219,113 @@ TEST_P(DeviceOutputTest, AValueTheEncodingRefusesFailsTheFrameAndWritesNothing) 
       << "a refused frame wrote into the memory";
 }
 
+// A tick's characters into one memory (Backend::SkinDeviceFrames: enqueued on one queue,
+// one wait): meshes of different sizes, normals and tangents or not, dual quaternions, an
+// encoded frame among them (skinned on its own) and one that fails alone.
+TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
+  OpenCl& cl = TestOpenCl(GetParam());
+  Backend& backend = *cl.backends[0];
+  const uint32_t sizes[] = {3001, 700, 1500, 2048, 999};
+  std::vector<std::shared_ptr<const Mesh>> meshes;
+  std::vector<std::unique_ptr<PreparedMesh>> prepared_meshes;
+  std::vector<const PreparedMesh*> prepared;
+  for (uint32_t v : sizes) {
+    meshes.push_back(TestMesh(v));
+    auto p = backend.Prepare(meshes.back());
+    ASSERT_TRUE(p.ok()) << p.status().ToString();
+    prepared.push_back(p->get());
+    prepared_meshes.push_back(std::move(p).value());
+  }
+  // Character c's arrays one after another, 64 bytes apart.
+  struct Range {
+    uint64_t positions, normals, tangents;
+  };
+  std::vector<Range> ranges;
+  uint64_t end = 128;
+  for (uint32_t v : sizes) {
+    const Range r{end, end + 12ull * v + 64, end + 24ull * v + 128};
+    ranges.push_back(r);
+    end = r.tangents + 16ull * v + 64;
+  }
+  auto memory = CreateOpenClDeviceMemory(*cl.runtime, "opencl", end);
+  ASSERT_TRUE(memory.ok()) << memory.status().ToString();
+  Fill(*cl.runtime, **memory);
+  std::vector<std::vector<float>> palettes;
+  std::vector<SkinFrame> frames;
+  Bounds box;
+  for (std::size_t c = 0; c < meshes.size(); ++c) {
+    palettes.push_back(MakeSyntheticPalette(meshes[c]->joint_count(), 5, c));
+    SkinFrame f{.palette = palettes.back()};
+    f.device = {.memory = memory->get(),
+                .positions_offset = ranges[c].positions,
+                .normals_offset = ranges[c].normals,
+                .tangents_offset = ranges[c].tangents,
+                .normals = c != 1,
+                .tangents = c == 0 || c == 3};
+    if (c == 2) f.method = SkinningMethod::kDualQuaternion;  // the synthetic palette is rigid
+    if (c == 3) f.device.tangents_offset = end;  // fails alone: its tangents are past the end
+    if (c == 4) {
+      f.device.encoding = VertexEncoding::kSnorm16;
+      f.device.bounds = &box;
+    }
+    frames.push_back(f);
+  }
+  // The range check is the engine's (CheckDeviceRequest); here the backend must refuse
+  // the write itself, without harm to the others.
+  std::vector<Status> statuses(frames.size());
+  backend.SkinDeviceFrames(prepared, frames, statuses);
+  const std::vector<uint8_t> bytes = ReadBack(*cl.runtime, **memory);
+  std::size_t checked = 0;
+  for (std::size_t c = 0; c < meshes.size(); ++c) {
+    SCOPED_TRACE(::testing::Message() << "character " << c);
+    if (c == 3) {
+      EXPECT_FALSE(statuses[c].ok());
+      continue;
+    }
+    ASSERT_TRUE(statuses[c].ok()) << statuses[c].ToString();
+    const uint32_t v = sizes[c];
+    const Mesh& mesh = *meshes[c];
+    if (c == 4) {
+      const auto* base = reinterpret_cast<const std::byte*>(bytes.data());
+      std::vector<float> p(3ull * v), n(3ull * v);
+      ASSERT_TRUE(
+          DecodePositions(VertexEncoding::kSnorm16, {base + ranges[c].positions, 6ull * v}, box, p)
+              .ok());
+      ASSERT_TRUE(
+          DecodeNormals(VertexEncoding::kSnorm16, {base + ranges[c].normals, 6ull * v}, n).ok());
+      EXPECT_TRUE(
+          CompareEncodedWithReference(mesh, palettes[c], VertexEncoding::kSnorm16, box, p, n)
+              .within_tolerance());
+      ++checked;
+      continue;
+    }
+    const auto p = FloatsAt(bytes, ranges[c].positions, 3ull * v);
+    const auto n = frames[c].device.normals ? FloatsAt(bytes, ranges[c].normals, 3ull * v)
+                                            : std::vector<float>();
+    const auto t = frames[c].device.tangents ? FloatsAt(bytes, ranges[c].tangents, 4ull * v)
+                                             : std::vector<float>();
+    const Deviation d = CompareWithReference(mesh, palettes[c], p, n, frames[c].method, {}, t);
+    EXPECT_TRUE(d.within_tolerance()) << "position error " << d.max_position_error << ", normal "
+                                      << d.max_normal_error << " at vertex " << d.worst_vertex;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 4u);
+  // Nothing outside the characters' ranges (the failed one wrote nothing past the memory).
+  std::size_t touched = 0;
+  for (uint64_t i = 0; i < bytes.size(); ++i) {
+    bool inside = false;
+    for (std::size_t c = 0; c < ranges.size(); ++c) {
+      const uint32_t v = sizes[c];
+      const uint64_t a = c == 4 ? 6ull * v : 12ull * v;
+      inside = inside || (i >= ranges[c].positions && i < ranges[c].positions + a) ||
+               (i >= ranges[c].normals && i < ranges[c].normals + a) ||
+               (i >= ranges[c].tangents && i < ranges[c].tangents + 16ull * v);
+    }
+    if (!inside && bytes[i] != kCanary) ++touched;
+  }
+  EXPECT_EQ(touched, 0u) << "bytes outside the characters' ranges were written";
+}
+
 INSTANTIATE_TEST_SUITE_P(Paths, DeviceOutputTest, ::testing::Values(false, true),
                          [](const auto& param) { return param.param ? "staged" : "direct"; });
 

@@ -434,9 +434,11 @@ class Engine::Impl {
   }
 
   void SubmitGroup(SkinGroup* group, std::span<Status> statuses,
-                   void (*run_part)(void*, uint32_t, int),
-                   void (*run_group)(void*, uint32_t, int)) {
+                   void (*run_part)(void*, uint32_t, int), void (*run_group)(void*, uint32_t, int),
+                   void (*run_device)(void*, uint32_t, int)) {
     group->queued_.clear();
+    group->device_.clear();
+    int device_width = 1;
     for (std::size_t i = 0; i < group->jobs.size(); ++i) {
       SkinJob* job = group->jobs[i];
       Status& status = statuses[i];
@@ -444,28 +446,133 @@ class Engine::Impl {
       if (status.ok() && !job->plan_.planned) status = Plan(job);
       ComputePool::Task task;
       if (status.ok()) status = Admit(job, run_part, &task);
-      if (status.ok() && std::min(task.min_width, pool_.size()) > 1) {
+      if (status.ok() && job->request.device.active()) {
+        group->device_.push_back(job);
+        device_width = std::max(device_width, task.min_width);
+      } else if (status.ok() && std::min(task.min_width, pool_.size()) > 1) {
         status = Enqueue(task);  // a team's job: alone, as Submit queues it
       } else if (status.ok()) {
         group->queued_.push_back(job);
       }
       if (!status.ok()) job->DropPlan();
     }
-    if (group->queued_.empty()) return;
+    EnqueueGroupTask(group, &group->queued_, run_group,
+                     static_cast<uint32_t>(group->queued_.size()), 1, statuses);
+    // Chunks of at least 8 frames, at most one per compute thread.
+    const auto device_parts = static_cast<uint32_t>(std::clamp<std::size_t>(
+        group->device_.size() / 8, 1, static_cast<std::size_t>(pool_.size())));
+    group->device_parts_ = device_parts;
+    EnqueueGroupTask(group, &group->device_, run_device, device_parts, device_width, statuses);
+  }
+
+  // One task of `group` running `jobs` (its queued_ or device_) in `parts` parts; if the
+  // queue refuses it, each of those jobs' statuses says so and `jobs` is emptied.
+  void EnqueueGroupTask(SkinGroup* group, std::vector<SkinJob*>* jobs,
+                        void (*run)(void*, uint32_t, int), uint32_t parts, int width,
+                        std::span<Status> statuses) {
+    if (jobs->empty()) return;
     ComputePool::Task task;
-    task.run = run_group;
+    task.run = run;
     task.context = group;
-    task.parts = static_cast<uint32_t>(group->queued_.size());
+    task.parts = parts;
+    task.min_width = task.max_width = width;
     if (Status s = Enqueue(task); !s.ok()) {
       for (std::size_t i = 0; i < group->jobs.size(); ++i) {
-        if (std::find(group->queued_.begin(), group->queued_.end(), group->jobs[i]) ==
-            group->queued_.end()) {
-          continue;
-        }
+        if (std::find(jobs->begin(), jobs->end(), group->jobs[i]) == jobs->end()) continue;
         statuses[i] = s;
         group->jobs[i]->DropPlan();
       }
-      group->queued_.clear();
+      jobs->clear();
+    }
+  }
+
+  // A chunk of a group's device jobs (SkinGroup::device_) on one compute thread of
+  // `threads`: every instance of every job a frame, the frames of each backend handed to it
+  // together (Backend::SkinDeviceFrames), then each instance finished as RunPart does. A
+  // job whose inputs or mesh fail fails each of its instances.
+  void RunDeviceBatch(std::span<SkinJob* const> jobs, int threads) {
+    const int64_t started = NowNs();
+    std::vector<std::pair<SkinJob*, uint32_t>> items;  // job, instance
+    std::vector<SkinFrame> frames;
+    std::vector<const PreparedMesh*> prepared;
+    std::vector<Status> statuses;
+    for (SkinJob* job : jobs) {
+      int64_t unset = 0;
+      job->started_ns_.compare_exchange_strong(unset, started);
+      Result<const PreparedMesh*> mesh = PreparedFor(*job);
+      Status status = job->request.fill_inputs_on_run ? FillInputs(*job) : mesh.status();
+      if (status.ok()) status = mesh.status();
+      const Mesh& whole = *static_cast<MeshStore::Entry*>(job->lease_.get())->mesh();
+      for (uint32_t i = 0; i < std::max<uint32_t>(job->request.instances, 1); ++i) {
+        items.emplace_back(job, i);
+        frames.push_back(InstanceFrame(job->request, whole, i, threads));
+        prepared.push_back(mesh.ok() ? *mesh : nullptr);
+        statuses.push_back(status);
+      }
+    }
+    std::vector<DeviceTiming> timings(frames.size());
+    for (std::size_t k = 0; k < frames.size(); ++k) frames[k].device_timing = &timings[k];
+    SkinTogether(items, prepared, frames, statuses);
+    const int64_t each =
+        (NowNs() - started) / static_cast<int64_t>(std::max<std::size_t>(frames.size(), 1));
+    for (std::size_t k = 0; k < items.size(); ++k) {
+      SkinJob& job = *items[k].first;
+      job.device_transfer_ns_.fetch_add(timings[k].transfer_ns);
+      job.device_kernel_ns_.fetch_add(timings[k].kernel_ns);
+      if (statuses[k].ok()) {
+        counters_[job.backend_index_].vertices.fetch_add(job.vertex_count_);
+        counters_[job.backend_index_].compute_ns.fetch_add(each);
+      }
+      // The job's last instance may reuse it: nothing of it after this.
+      Engine::FinishInstance(job, items[k].second, std::move(statuses[k]), frames[k]);
+    }
+  }
+
+  // `job`'s mesh as its backend prepared it (preparing it now if it was not).
+  Result<const PreparedMesh*> PreparedFor(SkinJob& job) {
+    Backend& backend = *backends_[job.backend_index_];
+    auto& entry = *static_cast<MeshStore::Entry*>(job.lease_.get());
+    try {
+      bool built = false;
+      Result<const PreparedMesh*> prepared = entry.Prepared(job.backend_index_, backend, &built);
+      if (built && options_.after_prepare) options_.after_prepare();
+      return prepared;
+    } catch (const std::exception& e) {
+      return Internal(fmt::format("backend '{}' failed: {}", backend.info().id, e.what()));
+    }
+  }
+
+  // RunDeviceBatch's frames whose status is OK so far, each backend's handed to it at once.
+  void SkinTogether(std::span<const std::pair<SkinJob*, uint32_t>> items,
+                    std::span<const PreparedMesh* const> prepared,
+                    std::span<const SkinFrame> frames, std::span<Status> statuses) {
+    std::vector<std::size_t> picked;
+    std::vector<const PreparedMesh*> meshes;
+    std::vector<SkinFrame> chosen;
+    std::vector<Status> verdicts;
+    std::vector<bool> done(items.size(), false);
+    for (std::size_t first = 0; first < items.size(); ++first) {
+      if (done[first] || !statuses[first].ok()) continue;
+      const std::size_t backend = items[first].first->backend_index_;
+      picked.clear();
+      meshes.clear();
+      chosen.clear();
+      for (std::size_t k = first; k < items.size(); ++k) {
+        if (done[k] || !statuses[k].ok() || items[k].first->backend_index_ != backend) continue;
+        done[k] = true;
+        picked.push_back(k);
+        meshes.push_back(prepared[k]);
+        chosen.push_back(frames[k]);
+      }
+      verdicts.assign(picked.size(), Status::Ok());
+      try {
+        backends_[backend]->SkinDeviceFrames(meshes, chosen, verdicts);
+      } catch (const std::exception& e) {
+        verdicts.assign(picked.size(),
+                        Internal(fmt::format("backend '{}' failed: {}",
+                                             backends_[backend]->info().id, e.what())));
+      }
+      for (std::size_t j = 0; j < picked.size(); ++j) statuses[picked[j]] = std::move(verdicts[j]);
     }
   }
 
@@ -702,7 +809,19 @@ bool Engine::Reuse(const KeptPlan& kept, SkinJob* job) { return impl_->Reuse(kep
 Status Engine::Submit(SkinJob* job) { return impl_->Submit(job, &Engine::RunPart); }
 
 void Engine::SubmitGroup(SkinGroup* group, std::span<Status> statuses) {
-  impl_->SubmitGroup(group, statuses, &Engine::RunPart, &Engine::RunGroupPart);
+  impl_->SubmitGroup(group, statuses, &Engine::RunPart, &Engine::RunGroupPart,
+                     &Engine::RunDeviceGroupPart);
+}
+
+void Engine::RunDeviceGroupPart(void* context, uint32_t part, int threads) {
+  auto& group = *static_cast<SkinGroup*>(context);
+  // Contiguous chunks; read first: a job's last instance may reuse the group.
+  const std::size_t n = group.device_.size(), parts = group.device_parts_;
+  const std::size_t begin = n * part / parts, end = n * (part + 1) / parts;
+  std::vector<SkinJob*> chunk(group.device_.begin() + static_cast<std::ptrdiff_t>(begin),
+                              group.device_.begin() + static_cast<std::ptrdiff_t>(end));
+  if (chunk.empty()) return;
+  static_cast<Impl*>(chunk.front()->engine_)->RunDeviceBatch(chunk, threads);
 }
 
 void Engine::RunGroupPart(void* context, uint32_t part, int threads) {
@@ -725,6 +844,12 @@ void Engine::RunPart(void* context, uint32_t instance, int threads) {
   // A palette filled on this thread: only single-instance frames (Admit), so once a frame.
   Status status = job.request.fill_inputs_on_run ? impl.FillInputs(job) : Status::Ok();
   if (status.ok()) status = impl.RunInstance(job, instance, threads, &frame);
+  FinishInstance(job, instance, std::move(status), frame);
+}
+
+void Engine::FinishInstance(SkinJob& job, uint32_t instance, Status status,
+                            const SkinFrame& frame) {
+  auto& impl = *static_cast<Impl*>(job.engine_);
   if (!status.ok() && job.request.encoded.active() && job.request.instances > 1) {
     // The backend encoded (and refused a value of) this instance: say which one, as the
     // server does for what it encodes itself.

@@ -177,6 +177,12 @@ class Backend {
   // queues the frame; the CPU backends also refuse others with INVALID_ARGUMENT).
   // Thread-safe: may run concurrently, also on one mesh.
   virtual Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) = 0;
+  // Several frames whose output is device memory (SkinFrame::device), skinned together:
+  // statuses[i] is frames[i]'s verdict (prepared[i] its mesh). The default runs Skin on
+  // each; `opencl` enqueues them all on one queue and waits once, so that a tick's
+  // characters cost one wait instead of one each. Thread-safe like Skin.
+  virtual void SkinDeviceFrames(std::span<const PreparedMesh* const> prepared,
+                                std::span<const SkinFrame> frames, std::span<Status> statuses);
   // Imports device memory that frames then name in SkinFrame::device. The default:
   // FAILED_PRECONDITION saying this backend cannot (only `opencl` on a device with
   // cl_khr_external_memory_opaque_fd can).

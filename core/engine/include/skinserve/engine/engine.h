@@ -240,6 +240,10 @@ class SkinGroup {
  private:
   friend class Engine;
   std::vector<SkinJob*> queued_;  // the accepted jobs of the group's one task
+  // The accepted jobs whose output is device memory: their own task, in device_parts_
+  // contiguous chunks, each chunk's frames skinned together (Backend::SkinDeviceFrames).
+  std::vector<SkinJob*> device_;
+  uint32_t device_parts_ = 0;
 };
 
 struct BackendStats {
@@ -332,7 +336,10 @@ class Engine {
   // never called back. The accepted jobs take ONE place in the queue together (a tick of 64
   // characters waits as one frame, not 64): the compute threads take them side by side,
   // one job per thread at a time, a crowd job's instances one after another. A job whose
-  // backend needs a team of threads (OpenCL) is queued alone, as Submit would.
+  // backend needs a team of threads (OpenCL) is queued alone, as Submit would. Jobs whose
+  // output is device memory (GPU regions) take one more place: a few chunks of them, each
+  // chunk's frames handed to the backend together (Backend::SkinDeviceFrames: on a GPU, one
+  // wait per chunk instead of one per character).
   void SubmitGroup(SkinGroup* group, std::span<Status> statuses);
   // The same for a request and a callback (allocates the job: for tools and tests).
   Status Submit(SkinRequest request, SkinDone done);
@@ -357,6 +364,11 @@ class Engine {
   class Impl;
   static void RunPart(void* job, uint32_t instance, int threads);
   static void RunGroupPart(void* group, uint32_t part, int threads);
+  static void RunDeviceGroupPart(void* group, uint32_t part, int threads);
+  // After instance `instance` of `job` was skinned (or failed with `status`) into `frame`:
+  // OnInstanceSkinned, and after the job's last instance its timing, counters and OnSkinned.
+  static void FinishInstance(SkinJob& job, uint32_t instance, Status status,
+                             const SkinFrame& frame);
   explicit Engine(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };

@@ -94,10 +94,18 @@ Result<std::unique_ptr<PreparedMesh>> OpenClBackendBase::Prepare(std::shared_ptr
 }
 
 Status OpenClBackendBase::Skin(const PreparedMesh& base, const SkinFrame& frame) {
+  return InKernelLayout(
+      base, frame, [this](const OpenClPreparedMesh& prepared, const SkinFrame& in_kernel_layout) {
+        return SkinPalette(prepared, in_kernel_layout);
+      });
+}
+
+Status OpenClBackendBase::InKernelLayout(const PreparedMesh& base, const SkinFrame& frame,
+                                         const InKernelLayoutFn& then) const {
   const auto& prepared = static_cast<const OpenClPreparedMesh&>(base);
   return SkinWithKernelPalette(info_.id, base, frame, [&](const SkinFrame& in_kernel_layout) {
     if (Status s = CheckOpenClOutputs(prepared.mesh(), in_kernel_layout); !s.ok()) return s;
-    return SkinPalette(prepared, in_kernel_layout);
+    return then(prepared, in_kernel_layout);
   });
 }
 

@@ -5,6 +5,7 @@
 // `opencl-zerocopy` wraps the caller's memory in place (opencl_zerocopy_backend.cpp).
 #pragma once
 
+#include <functional>
 #include <memory>
 
 #include "backends/opencl/opencl_encode.h"
@@ -39,6 +40,13 @@ class OpenClBackendBase : public Backend {
 
   // Skin() with frame.palette in the layout of frame.method's kernels and outputs the mesh has.
   virtual Status SkinPalette(const OpenClPreparedMesh& prepared, const SkinFrame& frame) = 0;
+
+  // What Skin() does before SkinPalette (the kernels' palette layout, the outputs checked),
+  // then `then` on the result, which may use the frame only within the call (a converted
+  // palette lives until it returns).
+  using InKernelLayoutFn = std::function<Status(const OpenClPreparedMesh&, const SkinFrame&)>;
+  Status InKernelLayout(const PreparedMesh& base, const SkinFrame& frame,
+                        const InKernelLayoutFn& then) const;
 
   // The lane's device output buffers large enough for the outputs `frame` asks for.
   Status GrowLaneOutputs(OpenClLane& lane, const SkinFrame& frame, uint32_t vertex_count) const;

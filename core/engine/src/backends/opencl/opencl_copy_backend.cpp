@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <deque>
 #include <vector>
 
 #include "backends/opencl/opencl_backend_base.h"
@@ -69,6 +70,58 @@ class OpenClCopyBackend final : public OpenClBackendBase {
     return ImportOpenClDeviceMemory(runtime(), info().id, import);
   }
 
+  // A tick's characters into GPU regions: the float32 frames enqueued one after another on
+  // one lane (each its palette from a slot of its own, its kernel into the lane's buffers,
+  // which the in-order queue reuses safely, its copies into the memory), then one wait for
+  // all of them. Encoded frames wait for their flag and box anyway: they run as Skin does,
+  // first.
+  void SkinDeviceFrames(std::span<const PreparedMesh* const> prepared,
+                        std::span<const SkinFrame> frames, std::span<Status> statuses) override {
+    // The others first, each on a lane of its own and waited for: before this batch holds
+    // a lane (a device sharing host memory has one) or a memory's lock.
+    const auto batched = [&](std::size_t i) {
+      return frames[i].device.active() && frames[i].device.encoding == VertexEncoding::kFloat32;
+    };
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (!batched(i)) statuses[i] = Skin(*prepared[i], frames[i]);
+    }
+    auto lane = runtime().AcquireLane();
+    std::byte* slots = nullptr;
+    const std::size_t slot_bytes = PaletteSlotBytes(frames);
+    std::vector<std::byte> host_slots;  // a device sharing host memory: no pinned staging
+    if (runtime().staging()) {
+      Status s = runtime().GrowPinned(lane->compute, "pinned batch palettes",
+                                      slot_bytes * frames.size(), &lane->pinned_batch_palettes);
+      if (!s.ok()) {
+        for (std::size_t i = 0; i < frames.size(); ++i) {
+          if (batched(i)) statuses[i] = s;
+        }
+        return;
+      }
+      slots = static_cast<std::byte*>(lane->pinned_batch_palettes.host);
+    } else {
+      host_slots.resize(slot_bytes * frames.size());
+      slots = host_slots.data();
+    }
+    DeviceOutputBatch out(*lane);
+    std::deque<ClEvents> kernels(frames.size()), transfers(frames.size());
+    std::vector<std::size_t> enqueued;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (!batched(i)) continue;
+      statuses[i] = InKernelLayout(*prepared[i], frames[i], [&](const auto& mesh, const auto& f) {
+        return EnqueueDeviceFrame(*lane, mesh, f, slots + i * slot_bytes, out, kernels[i],
+                                  transfers[i]);
+      });
+      if (statuses[i].ok()) enqueued.push_back(i);
+    }
+    const Status finished = out.Finish();
+    for (std::size_t i : enqueued) {
+      statuses[i] = finished.ok()
+                        ? RecordDeviceTiming(kernels[i], transfers[i], frames[i].device_timing)
+                        : finished;
+    }
+  }
+
  private:
   Status SkinPalette(const OpenClPreparedMesh& prepared, const SkinFrame& frame) override {
     const bool with_normals = frame.wants_normals();
@@ -87,7 +140,8 @@ class OpenClCopyBackend final : public OpenClBackendBase {
       if (status.ok() && frame.device.encoding != VertexEncoding::kFloat32) {
         status = encoder().EncodeIntoDevice(*lane, args, vertices, frame, kernels, transfers);
       } else if (status.ok()) {
-        status = WriteDeviceOutput(*lane, args, vertices, frame, transfers);
+        status = WriteDevicePieces(*lane, frame, Float32DevicePieces(args, vertices, frame.device),
+                                   transfers);
       }
     } else if (status.ok() && frame.encoded.active()) {
       status = SkinEncoded(*lane, prepared, frame, args, kernels, transfers);
@@ -104,6 +158,40 @@ class OpenClCopyBackend final : public OpenClBackendBase {
       return status;
     }
     return RecordDeviceTiming(kernels, transfers, frame.device_timing);
+  }
+
+  // The largest palette of `frames` (in bytes, rounded to 64): a batch's slot.
+  static std::size_t PaletteSlotBytes(std::span<const SkinFrame> frames) {
+    std::size_t most = 0;
+    for (const SkinFrame& f : frames) most = std::max(most, f.palette.size_bytes());
+    return (most + 63) / 64 * 64;
+  }
+
+  // One frame of a device batch, enqueued on `lane` without a wait: its morph (if any), its
+  // palette (copied into `slot`, which stays the frame's until the batch's wait), its
+  // kernel, its copies into the device memory.
+  Status EnqueueDeviceFrame(OpenClLane& lane, const OpenClPreparedMesh& prepared,
+                            const SkinFrame& frame, std::byte* slot, DeviceOutputBatch& out,
+                            ClEvents& kernels, ClEvents& transfers) {
+    const uint32_t vertices = prepared.mesh().vertex_count();
+    if (Status s = Reserve(lane, frame, vertices); !s.ok()) return s;
+    SkinKernelArgs args =
+        KernelArgs(prepared, frame.method, lane.palette.get(), lane.out_positions.get(),
+                   frame.device.normals ? lane.out_normals.get() : nullptr,
+                   frame.device.tangents ? lane.out_tangents.get() : nullptr);
+    if (Status s = Morph(lane, prepared, frame, &args, kernels, transfers); !s.ok()) return s;
+    std::memcpy(slot, frame.palette.data(), frame.palette.size_bytes());
+    if (cl_int err =
+            clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
+                                 frame.palette.size_bytes(), slot, 0, nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueWriteBuffer(palette)", err);
+    }
+    if (Status s = runtime().EnqueueSkin(lane, prepared.mesh(), args, 0, vertices, kernels.Next());
+        !s.ok()) {
+      return s;
+    }
+    return out.Enqueue(frame, Float32DevicePieces(args, vertices, frame.device), transfers);
   }
 
   // The lane's device buffers (and pinned staging) large enough for `frame`.

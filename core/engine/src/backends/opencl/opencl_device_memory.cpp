@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <mutex>
 #include <vector>
@@ -172,54 +173,82 @@ cl_mem OpenClDeviceMemoryBuffer(const DeviceMemory& memory) {
   return cl != nullptr ? cl->buffer() : nullptr;
 }
 
-Status WriteDevicePieces(OpenClLane& lane, const SkinFrame& frame,
-                         std::span<const DeviceOutputPiece> pieces, ClEvents& transfers) {
+DeviceOutputBatch::~DeviceOutputBatch() {
+  if (!finished_) (void)Finish();  // an error path: the first error was returned already
+}
+
+Status DeviceOutputBatch::Enqueue(const SkinFrame& frame, std::span<const DeviceOutputPiece> pieces,
+                                  ClEvents& transfers) {
   const auto* memory = dynamic_cast<const OpenClDeviceMemory*>(frame.device.memory);
   if (memory == nullptr) {
     return FailedPrecondition("the frame's device memory was not made by the opencl backend");
   }
   cl_mem target = memory->buffer();
-  std::lock_guard lock(memory->in_use());
-  if (memory->imported()) {
-    if (cl_int err = memory->acquire()(lane.compute, 1, &target, 0, nullptr, transfers.Next());
-        err != CL_SUCCESS) {
-      return ClError("clEnqueueAcquireExternalMemObjectsKHR", err);
+  const bool held =
+      std::any_of(held_.begin(), held_.end(), [&](const Held& h) { return h.memory == memory; });
+  if (!held) {
+    held_.push_back({memory, std::unique_lock(memory->in_use())});
+    if (memory->imported()) {
+      if (cl_int err = memory->acquire()(lane_.compute, 1, &target, 0, nullptr, transfers.Next());
+          err != CL_SUCCESS) {
+        held_.pop_back();  // not acquired: nothing to release
+        return ClError("clEnqueueAcquireExternalMemObjectsKHR", err);
+      }
     }
   }
   for (const DeviceOutputPiece& p : pieces) {
     const cl_int err = p.from != nullptr
-                           ? clEnqueueCopyBuffer(lane.compute, p.from, target, 0, p.offset, p.bytes,
-                                                 0, nullptr, transfers.Next())
-                           : clEnqueueWriteBuffer(lane.compute, target, CL_FALSE, p.offset, p.bytes,
-                                                  p.host, 0, nullptr, transfers.Next());
+                           ? clEnqueueCopyBuffer(lane_.compute, p.from, target, 0, p.offset,
+                                                 p.bytes, 0, nullptr, transfers.Next())
+                           : clEnqueueWriteBuffer(lane_.compute, target, CL_FALSE, p.offset,
+                                                  p.bytes, p.host, 0, nullptr, transfers.Next());
     if (err != CL_SUCCESS) return ClError(p.what, err);
   }
-  if (memory->imported()) {
-    if (cl_int err = memory->release()(lane.compute, 1, &target, 0, nullptr, transfers.Next());
-        err != CL_SUCCESS) {
-      return ClError("clEnqueueReleaseExternalMemObjectsKHR", err);
-    }
-  }
-  // The answer says the frame is in the memory: it must be there when the answer goes (and
-  // a host piece's bytes are the caller's only until then).
-  if (cl_int err = clFinish(lane.compute); err != CL_SUCCESS) return ClError("clFinish", err);
   return Status::Ok();
 }
 
-Status WriteDeviceOutput(OpenClLane& lane, const SkinKernelArgs& args, uint32_t vertices,
-                         const SkinFrame& frame, ClEvents& transfers) {
+Status DeviceOutputBatch::Finish() {
+  finished_ = true;
+  Status status;
+  for (const Held& h : held_) {
+    const auto* memory = static_cast<const OpenClDeviceMemory*>(h.memory);
+    if (!memory->imported()) continue;
+    cl_mem target = memory->buffer();
+    if (cl_int err = memory->release()(lane_.compute, 1, &target, 0, nullptr, nullptr);
+        err != CL_SUCCESS && status.ok()) {
+      status = ClError("clEnqueueReleaseExternalMemObjectsKHR", err);
+    }
+  }
+  // The answers say the frames are in the memory: they must be there when the answers go
+  // (and a host piece's bytes are the caller's only until then).
+  if (cl_int err = clFinish(lane_.compute); err != CL_SUCCESS && status.ok()) {
+    status = ClError("clFinish", err);
+  }
+  held_.clear();  // unlocks
+  return status;
+}
+
+Status WriteDevicePieces(OpenClLane& lane, const SkinFrame& frame,
+                         std::span<const DeviceOutputPiece> pieces, ClEvents& transfers) {
+  DeviceOutputBatch batch(lane);
+  if (Status s = batch.Enqueue(frame, pieces, transfers); !s.ok()) return s;
+  return batch.Finish();
+}
+
+std::vector<DeviceOutputPiece> Float32DevicePieces(const SkinKernelArgs& args, uint32_t vertices,
+                                                   const DeviceOutput& device) {
   const uint64_t array_bytes = 3ull * sizeof(float) * vertices;
   std::vector<DeviceOutputPiece> pieces = {{"clEnqueueCopyBuffer(positions)", args.out_positions,
-                                            nullptr, frame.device.positions_offset, array_bytes}};
-  if (frame.device.normals) {
+                                            nullptr, device.positions_offset, array_bytes}};
+  if (device.normals) {
     pieces.push_back({"clEnqueueCopyBuffer(normals)", args.out_normals, nullptr,
-                      frame.device.normals_offset, array_bytes});
+                      device.normals_offset, array_bytes});
   }
-  if (frame.device.tangents) {
+  if (device.tangents) {
     pieces.push_back({"clEnqueueCopyBuffer(tangents)", args.out_tangents, nullptr,
-                      frame.device.tangents_offset, 4ull * sizeof(float) * vertices});
+                      device.tangents_offset, 4ull * sizeof(float) * vertices});
   }
-  return WriteDevicePieces(lane, frame, pieces, transfers);
+  return pieces;
 }
 
 }  // namespace skinserve

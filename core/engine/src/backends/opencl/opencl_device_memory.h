@@ -7,8 +7,10 @@
 #pragma once
 
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "backends/opencl/opencl_runtime.h"
 #include "skinserve/engine/device_memory.h"
@@ -40,15 +42,41 @@ struct DeviceOutputPiece {
   uint64_t offset, bytes;
 };
 
-// After the frame's kernels on `lane.compute`: `pieces` copied (or written) into
-// frame.device's memory on the same queue, and waited for. The transfers' events go to
-// `transfers`.
+// Frames' pieces into device memory, enqueued on one lane and waited for once: each memory
+// is locked (frames on other lanes write it one at a time: an external object is acquired
+// by one queue until it is released) and acquired on the lane's queue at its first piece,
+// released at Finish, which waits for the queue and then unlocks. Finish runs at
+// destruction if it was not called (an error path), so the lane is idle and nothing stays
+// acquired.
+class DeviceOutputBatch {
+ public:
+  explicit DeviceOutputBatch(OpenClLane& lane) : lane_(lane) {}
+  ~DeviceOutputBatch();
+  DeviceOutputBatch(const DeviceOutputBatch&) = delete;
+  DeviceOutputBatch& operator=(const DeviceOutputBatch&) = delete;
+  // After the frame's kernels on the lane's compute queue: `pieces` copied (or written)
+  // into frame.device's memory on that queue; their events go to `transfers`.
+  Status Enqueue(const SkinFrame& frame, std::span<const DeviceOutputPiece> pieces,
+                 ClEvents& transfers);
+  // Releases what was acquired and waits for the lane's queue: the frames are in the memory.
+  Status Finish();
+
+ private:
+  struct Held {
+    const DeviceMemory* memory;  // an OpenClDeviceMemory
+    std::unique_lock<std::mutex> lock;
+  };
+  OpenClLane& lane_;
+  std::vector<Held> held_;
+  bool finished_ = false;
+};
+
+// One frame's pieces (DeviceOutputBatch), waited for.
 Status WriteDevicePieces(OpenClLane& lane, const SkinFrame& frame,
                          std::span<const DeviceOutputPiece> pieces, ClEvents& transfers);
 
-// After the frame's kernel on `lane.compute` (into args.out_*): its float32 outputs into
-// frame.device's memory at its offsets (WriteDevicePieces).
-Status WriteDeviceOutput(OpenClLane& lane, const SkinKernelArgs& args, uint32_t vertices,
-                         const SkinFrame& frame, ClEvents& transfers);
+// A frame's float32 outputs (args.out_*) as pieces at frame.device's offsets.
+std::vector<DeviceOutputPiece> Float32DevicePieces(const SkinKernelArgs& args, uint32_t vertices,
+                                                   const DeviceOutput& device);
 
 }  // namespace skinserve

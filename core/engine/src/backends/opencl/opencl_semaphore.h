@@ -35,7 +35,7 @@ class ImportedSemaphore {
 
   // Enqueues one signal and flushes it to the device, so that a wait the client submits
   // after the frame's answer has a signal submitted before it. Call only once the frame's
-  // writes have finished (WriteDeviceOutput waits for them).
+  // writes have finished (DeviceOutputBatch::Finish waits for them).
   Status Signal();
 
  private:
