@@ -1,6 +1,7 @@
 #include "sample_rotations4.h"
 
 #include "float4.h"
+#include "quaternion.h"
 
 namespace skinserve::animation::detail {
 namespace {
@@ -30,21 +31,31 @@ Quat4 DecodeKeys(const CompactClip& clip, const SamplingPlan::RotationGroup& g, 
           Select(is2, big, Select(is3, s2, s1)), Select(is3, big, s2)};
 }
 
+// sin(u theta) / sin(theta) / u (and for 1 - u) by quaternion.h's series, `terms` terms
+// (a constant, so the loop unrolls).
+template <int terms>
+void SlerpFactors(F4 xm1, float uu, float dd, F4& fu, F4& fd) {
+  fu = Splat(1);
+  fd = Splat(1);
+  for (int i = terms; i >= 1; --i) {
+    const float ui = kSlerpSeries.u[i], vi = kSlerpSeries.v[i];
+    fu = Splat(1) + fu * (Splat(ui * uu - vi) * xm1);
+    fd = Splat(1) + fd * (Splat(ui * dd - vi) * xm1);
+  }
+}
+
 // quaternion.h's Slerp (Eberly's series, 4 terms when every lane's keys are < 0.4 rad
 // apart, else 8), one lane a track.
 Quat4 Slerp4(const Quat4& a, const Quat4& b, float u) {
-  constexpr float kMu = 1.85298109240830f;
   const F4 dot = a.x * b.x + a.y * b.y + a.z * b.z + a.w * b.w;
   const F4 sign = SignOf(dot);
   const F4 xm1 = sign * dot - Splat(1);
   const float d = 1.0f - u, uu = u * u, dd = d * d;
-  const int terms = AllGreater(xm1, Splat(-0.02f)) ? 4 : 8;
-  F4 fu = Splat(1), fd = Splat(1);
-  for (int i = terms; i >= 1; --i) {
-    const float m = i == 8 ? kMu : 1.0f;
-    const float ui = m / (i * (2.0f * i + 1.0f)), vi = m * i / (2.0f * i + 1.0f);
-    fu = Splat(1) + fu * (Splat(ui * uu - vi) * xm1);
-    fd = Splat(1) + fd * (Splat(ui * dd - vi) * xm1);
+  F4 fu, fd;
+  if (AllGreater(xm1, Splat(-0.02f))) {
+    SlerpFactors<4>(xm1, uu, dd, fu, fd);
+  } else {
+    SlerpFactors<8>(xm1, uu, dd, fu, fd);
   }
   const F4 wa = Splat(d) * fd, wb = sign * Splat(u) * fu;
   Quat4 q{wa * a.x + wb * b.x, wa * a.y + wb * b.y, wa * a.z + wb * b.z, wa * a.w + wb * b.w};

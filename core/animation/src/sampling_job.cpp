@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "float4.h"
 #include "quantize.h"
 #include "quaternion.h"
 #include "sample_rotations4.h"
@@ -164,6 +165,44 @@ void SampleVectors(const CompactClip& clip, const SamplingPlan& plan, const Segm
   }
 }
 
+// Component by component as DequantizeRange: min + step * q, 4 lanes (past `width`: 0).
+detail::F4 Dequantize4(const uint16_t* q, uint32_t width, const float* min, const float* step) {
+  const detail::F4 v = detail::Set4(q[0], q[1], q[2], width == 4 ? q[3] : 0.0f);
+  return detail::Load4(min) + detail::Load4(step) * v;
+}
+
+// CUBICSPLINE tracks keyed at every clip time: SampleTrack's Hermite, a track's components
+// side by side.
+void SampleCubics(const CompactClip& clip, const SamplingPlan& plan, const Segment& s,
+                  std::span<Transform> output) {
+  using detail::F4;
+  const float u = s.u, u2 = u * u, u3 = u2 * u;
+  const F4 h00 = detail::Splat(2 * u3 - 3 * u2 + 1),
+           h10 = detail::Splat((u3 - 2 * u2 + u) * s.seconds);
+  const F4 h01 = detail::Splat(-2 * u3 + 3 * u2), h11 = detail::Splat((u3 - u2) * s.seconds);
+  for (const SamplingPlan::Cubic& c : plan.cubics) {
+    const uint32_t w = c.width;
+    const uint16_t* a = &clip.words[c.words + 3 * w * s.k];
+    F4 v = Dequantize4(a + w, w, c.min[1], c.step[1]);  // key k's value
+    if (s.next != s.k) {
+      const uint16_t* b = &clip.words[c.words + 3 * w * s.next];
+      v = h00 * v + h10 * Dequantize4(a + 2 * w, w, c.min[2], c.step[2]) +
+          h01 * Dequantize4(b + w, w, c.min[1], c.step[1]) +
+          h11 * Dequantize4(b, w, c.min[0], c.step[0]);
+    }
+    alignas(16) float value[4];
+    detail::Store4(v, value);
+    Transform& t = output[c.joint];
+    const TrackPath path = static_cast<TrackPath>(c.path);
+    if (path == TrackPath::kRotation) {
+      detail::Normalize4(value);
+      std::copy_n(value, 4, t.rotation);
+    } else {
+      std::copy_n(value, 3, path == TrackPath::kTranslation ? t.translation : t.scale);
+    }
+  }
+}
+
 void SampleOne(const CompactClip& clip, const CompactTrack& track, const Segment& global, float t,
                std::span<Transform> output, std::span<float> morph_weights) {
   float* out = track.path == TrackPath::kWeights ? &morph_weights[track.weight_offset]
@@ -262,6 +301,7 @@ Status SamplingJob::Run() const {
                            CachedKeys(*clip, global, context));
   detail::SampleRotations4(*clip, plan.step_rotations, global.k, global.k, 0, output, {});
   SampleVectors(*clip, plan, global, output);
+  SampleCubics(*clip, plan, global, output);
   for (uint32_t i : plan.others)
     SampleOne(*clip, clip->tracks[i], global, t, output, morph_weights);
   return Status::Ok();
