@@ -22,25 +22,27 @@ void BlendNormal(std::span<const BlendLayer> layers, float total, std::span<Tran
     pose[n] = l.pose.data()->translation;
     weight[n++] = l.weight / total;
   }
+  F4 w[kMaxBlendLayers];
+  for (std::size_t i = 0; i < n; ++i) w[i] = detail::Splat(weight[i]);
   static_assert(sizeof(Transform) == 10 * sizeof(float));
   for (std::size_t j = 0; j < out.size(); ++j) {
-    const float* reference = pose[0] + 10 * j + 3;  // the first layer's rotation
+    const F4 reference = detail::Load4(pose[0] + 10 * j + 3);  // the first layer's rotation
     F4 t = detail::Splat(0), q = detail::Splat(0), s = detail::Splat(0);
     for (std::size_t i = 0; i < n; ++i) {
       const float* f = pose[i] + 10 * j;
-      const F4 w = detail::Splat(weight[i]);
+      const F4 rotation = detail::Load4(f + 3);
       // The shortest path: a quaternion on the other hemisphere than the first layer's
       // is the same rotation negated.
-      const F4 wq = detail::Splat(detail::Dot4(reference, f + 3) < 0 ? -weight[i] : weight[i]);
-      t = t + w * detail::Load4(f);
-      q = q + wq * detail::Load4(f + 3);
-      s = s + w * detail::Load4(f + 6);
+      const F4 wq = detail::NegateWhereNegative(w[i], detail::Dot(reference, rotation));
+      t = t + w[i] * detail::Load4(f);
+      q = q + wq * rotation;
+      s = s + w[i] * detail::Load4(f + 6);
     }
+    q = q * detail::Div(detail::Splat(1), detail::Sqrt(detail::Dot(q, q)));
     float* o = out[j].translation;
     detail::Store4(t, o);
     detail::Store4(s, o + 6);
     detail::Store4(q, o + 3);
-    detail::Normalize4(o + 3);
   }
 }
 

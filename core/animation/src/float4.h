@@ -39,6 +39,17 @@ inline F4 Select(F4 m, F4 a, F4 b) {
   return {_mm_or_ps(_mm_and_ps(m.v, a.v), _mm_andnot_ps(m.v, b.v))};
 }
 inline F4 Broadcast(const float* p) { return {_mm_set1_ps(*p)}; }
+// a . b in every lane.
+inline F4 Dot(F4 a, F4 b) {
+  const __m128 m = _mm_mul_ps(a.v, b.v);
+  const __m128 pairs = _mm_add_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+  return {_mm_add_ps(pairs, _mm_shuffle_ps(pairs, pairs, _MM_SHUFFLE(1, 0, 3, 2)))};
+}
+// -a where d < 0, else a, per lane.
+inline F4 NegateWhereNegative(F4 a, F4 d) {
+  const __m128 negative = _mm_cmplt_ps(d.v, _mm_setzero_ps());
+  return {_mm_xor_ps(a.v, _mm_and_ps(negative, _mm_set1_ps(-0.0f)))};
+}
 #else
 struct F4 {
   float v[4];
@@ -86,6 +97,13 @@ inline void Transpose(F4& x, F4& y, F4& z, F4& w) {
   }
 }
 inline F4 Broadcast(const float* p) { return Splat(*p); }
+inline F4 Dot(F4 a, F4 b) {
+  return Splat(a.v[0] * b.v[0] + a.v[1] * b.v[1] + a.v[2] * b.v[2] + a.v[3] * b.v[3]);
+}
+inline F4 NegateWhereNegative(F4 a, F4 d) {
+  for (int i = 0; i < 4; ++i) a.v[i] = d.v[i] < 0 ? -a.v[i] : a.v[i];
+  return a;
+}
 inline F4 Equal(F4 a, F4 b) {
   for (int i = 0; i < 4; ++i) a.v[i] = a.v[i] == b.v[i] ? 1.0f : 0.0f;
   return a;
