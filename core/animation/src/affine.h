@@ -8,7 +8,7 @@ namespace skinserve::animation {
 
 // out = a * b (out may alias neither). Row r of out is a row-weighted sum of b's rows, four
 // floats at a time, plus a's translation in the last lane.
-inline void MultiplyAffine(const float* a, const float* b, float* out) {
+SKINSERVE_ALWAYS_INLINE void MultiplyAffine(const float* a, const float* b, float* out) {
   using namespace detail;
   const F4 b0 = Load4(&b[0]), b1 = Load4(&b[4]), b2 = Load4(&b[8]);
   for (int r = 0; r < 3; ++r) {
@@ -18,7 +18,7 @@ inline void MultiplyAffine(const float* a, const float* b, float* out) {
     Store4(row, &out[4 * r]);
   }
 }
-inline void MultiplyAffine(const Affine& a, const Affine& b, Affine& out) {
+SKINSERVE_ALWAYS_INLINE void MultiplyAffine(const Affine& a, const Affine& b, Affine& out) {
   MultiplyAffine(a.m, b.m, out.m);
 }
 

@@ -12,7 +12,8 @@ namespace {
 
 // A Transform's 10 floats as three overlapping 4-float loads: t xyz + qx, q xyzw, qw + s xyz.
 // Stored back translation, then scale, then rotation, the rotation's lanes win the overlap.
-void BlendNormal(std::span<const BlendLayer> layers, float total, std::span<Transform> out) {
+SKINSERVE_ALWAYS_INLINE void BlendNormalBody(std::span<const BlendLayer> layers, float total,
+                                             std::span<Transform> out) {
   using detail::F4;
   const float* pose[kMaxBlendLayers];
   float weight[kMaxBlendLayers];
@@ -44,6 +45,26 @@ void BlendNormal(std::span<const BlendLayer> layers, float total, std::span<Tran
     detail::Store4(s, o + 6);
     detail::Store4(q, o + 3);
   }
+}
+
+void BlendNormalBaseline(std::span<const BlendLayer> layers, float total,
+                         std::span<Transform> out) {
+  BlendNormalBody(layers, total, out);
+}
+
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+SKINSERVE_AVX2_FMA void BlendNormalAvx2Fma(std::span<const BlendLayer> layers, float total,
+                                           std::span<Transform> out) {
+  BlendNormalBody(layers, total, out);
+}
+#endif
+
+// The normal layers' weighted mean, compiled for each ISA (isa_clones.h).
+void BlendNormal(std::span<const BlendLayer> layers, float total, std::span<Transform> out) {
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+  if (detail::RunAvx2Fma()) return BlendNormalAvx2Fma(layers, total, out);
+#endif
+  BlendNormalBaseline(layers, total, out);
 }
 
 void ApplyAdditive(const BlendLayer& l, std::span<Transform> out) {

@@ -15,7 +15,7 @@ using detail::F4;
 // Four joints' T * R * S as row-major 3x4s, computed side by side (SoA): each Transform is
 // read as three overlapping 4-float loads (t xyz + qx, q xyzw, qw + s xyz), transposed to
 // one lane a joint, and the matrices transposed back to rows.
-void ToAffine4(const Transform* t, Affine* out) {
+SKINSERVE_ALWAYS_INLINE void ToAffine4(const Transform* t, Affine* out) {
   static_assert(sizeof(Transform) == 10 * sizeof(float));
   const float* f[4];
   for (int i = 0; i < 4; ++i) f[i] = t[i].translation;
@@ -44,23 +44,11 @@ void ToAffine4(const Transform* t, Affine* out) {
   }
 }
 
-}  // namespace
-
-Status LocalToModelJob::Validate() const {
-  if (skeleton == nullptr) return InvalidArgument("local-to-model: skeleton is missing");
-  const std::size_t n = skeleton->joint_count();
-  if (local.size() != n || model.size() != n) {
-    return InvalidArgument(fmt::format(
-        "local-to-model: local has {} transforms and model {} matrices; the skeleton has {} joints",
-        local.size(), model.size(), n));
-  }
-  return Status::Ok();
-}
-
-Status LocalToModelJob::Run() const {
-  if (Status s = Validate(); !s.ok()) return s;
+// Root down, 4 joints' local matrices at a time, compiled for each ISA (isa_clones.h).
+SKINSERVE_ALWAYS_INLINE void LocalToModelBody(const int16_t* parents,
+                                              std::span<const Transform> local,
+                                              std::span<Affine> model) {
   const std::size_t n = local.size();
-  const int16_t* parents = skeleton->parents.data();
   Affine block[4];
   for (std::size_t first = 0; first < n; first += 4) {
     const std::size_t count = std::min<std::size_t>(4, n - first);
@@ -82,6 +70,43 @@ Status LocalToModelJob::Run() const {
       }
     }
   }
+}
+
+void LocalToModelBaseline(const int16_t* parents, std::span<const Transform> local,
+                          std::span<Affine> model) {
+  LocalToModelBody(parents, local, model);
+}
+
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+SKINSERVE_AVX2_FMA void LocalToModelAvx2Fma(const int16_t* parents,
+                                            std::span<const Transform> local,
+                                            std::span<Affine> model) {
+  LocalToModelBody(parents, local, model);
+}
+#endif
+
+}  // namespace
+
+Status LocalToModelJob::Validate() const {
+  if (skeleton == nullptr) return InvalidArgument("local-to-model: skeleton is missing");
+  const std::size_t n = skeleton->joint_count();
+  if (local.size() != n || model.size() != n) {
+    return InvalidArgument(fmt::format(
+        "local-to-model: local has {} transforms and model {} matrices; the skeleton has {} joints",
+        local.size(), model.size(), n));
+  }
+  return Status::Ok();
+}
+
+Status LocalToModelJob::Run() const {
+  if (Status s = Validate(); !s.ok()) return s;
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+  if (detail::RunAvx2Fma()) {
+    LocalToModelAvx2Fma(skeleton->parents.data(), local, model);
+    return Status::Ok();
+  }
+#endif
+  LocalToModelBaseline(skeleton->parents.data(), local, model);
   return Status::Ok();
 }
 

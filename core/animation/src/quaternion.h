@@ -1,15 +1,17 @@
 // Quaternion helpers of the jobs (x y z w, float).
 #pragma once
 
+#include "isa_clones.h"
+
 #include <cmath>
 
 namespace skinserve::animation::detail {
 
-inline float Dot4(const float a[4], const float b[4]) {
+SKINSERVE_ALWAYS_INLINE float Dot4(const float a[4], const float b[4]) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
 }
 
-inline void Normalize4(float q[4]) {
+SKINSERVE_ALWAYS_INLINE void Normalize4(float q[4]) {
   const float inv = 1.0f / std::sqrt(Dot4(q, q));
   for (int c = 0; c < 4; ++c) q[c] *= inv;
 }
@@ -38,7 +40,7 @@ inline constexpr SlerpSeries kSlerpSeries = [] {
   return s;
 }();
 
-inline void Slerp(const float a[4], const float b[4], float u, float out[4]) {
+SKINSERVE_ALWAYS_INLINE void Slerp(const float a[4], const float b[4], float u, float out[4]) {
   float dot = Dot4(a, b);
   const float sign = dot < 0 ? -1.0f : 1.0f;
   const float xm1 = sign * dot - 1.0f;
@@ -58,7 +60,7 @@ inline void Slerp(const float a[4], const float b[4], float u, float out[4]) {
 }
 
 // a * b (apply b, then a).
-inline void Multiply(const float a[4], const float b[4], float out[4]) {
+SKINSERVE_ALWAYS_INLINE void Multiply(const float a[4], const float b[4], float out[4]) {
   out[0] = a[3] * b[0] + a[0] * b[3] + a[1] * b[2] - a[2] * b[1];
   out[1] = a[3] * b[1] - a[0] * b[2] + a[1] * b[3] + a[2] * b[0];
   out[2] = a[3] * b[2] + a[0] * b[1] - a[1] * b[0] + a[2] * b[3];

@@ -150,8 +150,8 @@ void SampleConstants(const SamplingPlan& plan, std::span<Transform> output) {
 }
 
 // LINEAR 16-bit translations and scales keyed at every clip time: as SampleTrack does them.
-void SampleVectors(const CompactClip& clip, const SamplingPlan& plan, const Segment& s,
-                   std::span<Transform> output) {
+SKINSERVE_ALWAYS_INLINE void SampleVectors(const CompactClip& clip, const SamplingPlan& plan,
+                                           const Segment& s, std::span<Transform> output) {
   for (const SamplingPlan::Vector& v : plan.vectors) {
     const uint16_t* a = &clip.words[v.words + 3 * s.k];
     const uint16_t* b = &clip.words[v.words + 3 * s.next];
@@ -166,15 +166,16 @@ void SampleVectors(const CompactClip& clip, const SamplingPlan& plan, const Segm
 }
 
 // Component by component as DequantizeRange: min + step * q, 4 lanes (past `width`: 0).
-detail::F4 Dequantize4(const uint16_t* q, uint32_t width, const float* min, const float* step) {
+SKINSERVE_ALWAYS_INLINE detail::F4 Dequantize4(const uint16_t* q, uint32_t width, const float* min,
+                                               const float* step) {
   const detail::F4 v = detail::Set4(q[0], q[1], q[2], width == 4 ? q[3] : 0.0f);
   return detail::Load4(min) + detail::Load4(step) * v;
 }
 
 // CUBICSPLINE tracks keyed at every clip time: SampleTrack's Hermite, a track's components
 // side by side.
-void SampleCubics(const CompactClip& clip, const SamplingPlan& plan, const Segment& s,
-                  std::span<Transform> output) {
+SKINSERVE_ALWAYS_INLINE void SampleCubics(const CompactClip& clip, const SamplingPlan& plan,
+                                          const Segment& s, std::span<Transform> output) {
   using detail::F4;
   const float u = s.u, u2 = u * u, u3 = u2 * u;
   const F4 h00 = detail::Splat(2 * u3 - 3 * u2 + 1),
@@ -201,6 +202,30 @@ void SampleCubics(const CompactClip& clip, const SamplingPlan& plan, const Segme
       std::copy_n(value, 3, path == TrackPath::kTranslation ? t.translation : t.scale);
     }
   }
+}
+
+// The plan's 16-bit LINEAR vectors and CUBICSPLINE tracks, compiled for each ISA (isa_clones.h).
+void SampleVectorsAndCubicsBaseline(const CompactClip& clip, const SamplingPlan& plan,
+                                    const Segment& s, std::span<Transform> output) {
+  SampleVectors(clip, plan, s, output);
+  SampleCubics(clip, plan, s, output);
+}
+
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+SKINSERVE_AVX2_FMA void SampleVectorsAndCubicsAvx2Fma(const CompactClip& clip,
+                                                      const SamplingPlan& plan, const Segment& s,
+                                                      std::span<Transform> output) {
+  SampleVectors(clip, plan, s, output);
+  SampleCubics(clip, plan, s, output);
+}
+#endif
+
+void SampleVectorsAndCubics(const CompactClip& clip, const SamplingPlan& plan, const Segment& s,
+                            std::span<Transform> output) {
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+  if (detail::RunAvx2Fma()) return SampleVectorsAndCubicsAvx2Fma(clip, plan, s, output);
+#endif
+  SampleVectorsAndCubicsBaseline(clip, plan, s, output);
 }
 
 void SampleOne(const CompactClip& clip, const CompactTrack& track, const Segment& global, float t,
@@ -300,8 +325,7 @@ Status SamplingJob::Run() const {
   detail::SampleRotations4(*clip, plan.rotations, global.k, global.next, global.u, output,
                            CachedKeys(*clip, global, context));
   detail::SampleRotations4(*clip, plan.step_rotations, global.k, global.k, 0, output, {});
-  SampleVectors(*clip, plan, global, output);
-  SampleCubics(*clip, plan, global, output);
+  SampleVectorsAndCubics(*clip, plan, global, output);
   for (uint32_t i : plan.others)
     SampleOne(*clip, clip->tracks[i], global, t, output, morph_weights);
   return Status::Ok();
