@@ -7,14 +7,15 @@
 namespace skinserve::animation {
 
 // out = a * b (out may alias neither). Row r of out is a row-weighted sum of b's rows, four
-// floats at a time, plus a's translation in the last lane.
+// floats at a time, plus a's translation in the last lane, summed as two pairs: `a` is
+// often the matrix just computed (local-to-model's parent), so the chain from it is short.
 SKINSERVE_ALWAYS_INLINE void MultiplyAffine(const float* a, const float* b, float* out) {
   using namespace detail;
   const F4 b0 = Load4(&b[0]), b1 = Load4(&b[4]), b2 = Load4(&b[8]);
   for (int r = 0; r < 3; ++r) {
     const float* ar = &a[4 * r];
-    const F4 row = Broadcast(&ar[0]) * b0 + Broadcast(&ar[1]) * b1 + Broadcast(&ar[2]) * b2 +
-                   Set4(0, 0, 0, ar[3]);
+    const F4 row = (Broadcast(&ar[0]) * b0 + Set4(0, 0, 0, ar[3])) +
+                   (Broadcast(&ar[1]) * b1 + Broadcast(&ar[2]) * b2);
     Store4(row, &out[4 * r]);
   }
 }

@@ -7,6 +7,8 @@
 
 #include "isa_clones.h"
 
+#include <cstdint>
+
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -58,6 +60,17 @@ SKINSERVE_ALWAYS_INLINE F4 Dot(F4 a, F4 b) {
 SKINSERVE_ALWAYS_INLINE F4 NegateWhereNegative(F4 a, F4 d) {
   const __m128 negative = _mm_cmplt_ps(d.v, _mm_setzero_ps());
   return {_mm_xor_ps(a.v, _mm_and_ps(negative, _mm_set1_ps(-0.0f)))};
+}
+// p[0..3] as floats.
+SKINSERVE_ALWAYS_INLINE F4 LoadU16x4(const uint16_t* p) {
+  const __m128i q = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(p));
+  return {_mm_cvtepi32_ps(_mm_unpacklo_epi16(q, _mm_setzero_si128()))};
+}
+// p[0..2] as floats, lane 3 zero, read as p[-1..2] (p[-1] must be readable: no read past
+// p[2]).
+SKINSERVE_ALWAYS_INLINE F4 LoadU16x3(const uint16_t* p) {
+  const __m128i q = _mm_srli_si128(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p - 1)), 2);
+  return {_mm_cvtepi32_ps(_mm_unpacklo_epi16(q, _mm_setzero_si128()))};
 }
 #else
 struct F4 {
@@ -113,6 +126,8 @@ SKINSERVE_ALWAYS_INLINE F4 NegateWhereNegative(F4 a, F4 d) {
   for (int i = 0; i < 4; ++i) a.v[i] = d.v[i] < 0 ? -a.v[i] : a.v[i];
   return a;
 }
+SKINSERVE_ALWAYS_INLINE F4 LoadU16x4(const uint16_t* p) { return Set4(p[0], p[1], p[2], p[3]); }
+SKINSERVE_ALWAYS_INLINE F4 LoadU16x3(const uint16_t* p) { return Set4(p[0], p[1], p[2], 0); }
 SKINSERVE_ALWAYS_INLINE F4 Equal(F4 a, F4 b) {
   for (int i = 0; i < 4; ++i) a.v[i] = a.v[i] == b.v[i] ? 1.0f : 0.0f;
   return a;

@@ -166,9 +166,11 @@ SKINSERVE_ALWAYS_INLINE void SampleVectors(const CompactClip& clip, const Sampli
 }
 
 // Component by component as DequantizeRange: min + step * q, 4 lanes (past `width`: 0).
+// A 3-wide key part is read from the u16 before it, which is in the track: SampleCubics
+// reads a key's in-tangent (its first u16) only for key k + 1.
 SKINSERVE_ALWAYS_INLINE detail::F4 Dequantize4(const uint16_t* q, uint32_t width, const float* min,
                                                const float* step) {
-  const detail::F4 v = detail::Set4(q[0], q[1], q[2], width == 4 ? q[3] : 0.0f);
+  const detail::F4 v = width == 4 ? detail::LoadU16x4(q) : detail::LoadU16x3(q);
   return detail::Load4(min) + detail::Load4(step) * v;
 }
 
@@ -320,7 +322,9 @@ Status SamplingJob::Run() const {
   const SamplingPlan& plan = *clip->plan;
   const bool same_clip = context != nullptr && context->plan == clip->plan;
   const Segment global = FindClipSegment(*clip, t, same_clip && context->valid ? context->k : 0);
-  for (uint16_t j : plan.rest_joints) output[j] = skeleton->rest[j];
+  for (const SamplingPlan::JointRun& run : plan.rest_runs) {
+    std::copy_n(&skeleton->rest[run.first], run.count, &output[run.first]);
+  }
   SampleConstants(plan, output);
   detail::SampleRotations4(*clip, plan.rotations, global.k, global.next, global.u, output,
                            CachedKeys(*clip, global, context));

@@ -90,7 +90,13 @@ SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
     }
   }
   for (uint32_t j = 0; j < clip.joint_count; ++j) {
-    if (paths[j] != 7) plan.rest_joints.push_back(static_cast<uint16_t>(j));
+    if (paths[j] == 7) continue;
+    std::vector<SamplingPlan::JointRun>& runs = plan.rest_runs;
+    if (!runs.empty() && runs.back().first + runs.back().count == j) {
+      ++runs.back().count;
+    } else {
+      runs.push_back({static_cast<uint16_t>(j), 1});
+    }
   }
   PadLastGroup(plan.rotations);
   PadLastGroup(plan.step_rotations);

@@ -46,8 +46,14 @@ struct SamplingPlan {
     float step[3][4] = {};
   };
   // Joints some of whose translation, rotation and scale no track sets: they start from
-  // the skeleton's rest (the others are written whole by their tracks).
-  std::vector<uint16_t> rest_joints;
+  // the skeleton's rest (the others are written whole by their tracks). As runs of
+  // consecutive joints, each copied at once (often all of them: exporters key most
+  // translations and scales at their rest values, which the store leaves out).
+  struct JointRun {
+    uint16_t first = 0;
+    uint16_t count = 0;
+  };
+  std::vector<JointRun> rest_runs;
   std::vector<Constant> constants;
   std::vector<RotationGroup> rotations;
   std::vector<RotationGroup> step_rotations;  // STEP: the key at or before the time
