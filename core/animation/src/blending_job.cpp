@@ -39,7 +39,7 @@ SKINSERVE_ALWAYS_INLINE void BlendNormalBody(std::span<const BlendLayer> layers,
       q = q + wq * rotation;
       s = s + w[i] * detail::Load4(f + 6);
     }
-    q = q * detail::Div(detail::Splat(1), detail::Sqrt(detail::Dot(q, q)));
+    q = q * detail::InverseSqrt(detail::Dot(q, q));
     float* o = out[j].translation;
     detail::Store4(t, o);
     detail::Store4(s, o + 6);

@@ -31,6 +31,13 @@ SKINSERVE_ALWAYS_INLINE F4 operator*(F4 a, F4 b) { return {_mm_mul_ps(a.v, b.v)}
 SKINSERVE_ALWAYS_INLINE F4 Max(F4 a, F4 b) { return {_mm_max_ps(a.v, b.v)}; }
 SKINSERVE_ALWAYS_INLINE F4 Sqrt(F4 a) { return {_mm_sqrt_ps(a.v)}; }
 SKINSERVE_ALWAYS_INLINE F4 Div(F4 a, F4 b) { return {_mm_div_ps(a.v, b.v)}; }
+// 1 / sqrt(a) for a > 0: the 12-bit estimate and one Newton step, within 5e-7 relative
+// (the step squares the estimate's 3.7e-4), a few times cheaper than a sqrt and a divide.
+SKINSERVE_ALWAYS_INLINE F4 InverseSqrt(F4 a) {
+  const __m128 y = _mm_rsqrt_ps(a.v);
+  const __m128 ayy = _mm_mul_ps(_mm_mul_ps(a.v, y), y);
+  return {_mm_mul_ps(_mm_mul_ps(_mm_set1_ps(0.5f), y), _mm_sub_ps(_mm_set1_ps(3.0f), ayy))};
+}
 // -1 where a < 0, else 1.
 SKINSERVE_ALWAYS_INLINE F4 SignOf(F4 a) {
   const __m128 negative = _mm_and_ps(a.v, _mm_set1_ps(-0.0f));
@@ -100,6 +107,10 @@ SKINSERVE_ALWAYS_INLINE F4 Sqrt(F4 a) {
 }
 SKINSERVE_ALWAYS_INLINE F4 SignOf(F4 a) {
   for (float& x : a.v) x = std::signbit(x) ? -1.0f : 1.0f;
+  return a;
+}
+SKINSERVE_ALWAYS_INLINE F4 InverseSqrt(F4 a) {
+  for (float& x : a.v) x = 1.0f / std::sqrt(x);
   return a;
 }
 SKINSERVE_ALWAYS_INLINE bool AllGreater(F4 a, F4 b) {

@@ -60,7 +60,7 @@ SKINSERVE_ALWAYS_INLINE Quat4 Slerp4(const Quat4& a, const Quat4& b, float u) {
   }
   const F4 wa = Splat(d) * fd, wb = sign * Splat(u) * fu;
   Quat4 q{wa * a.x + wb * b.x, wa * a.y + wb * b.y, wa * a.z + wb * b.z, wa * a.w + wb * b.w};
-  const F4 inv = Div(Splat(1), Sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w));
+  const F4 inv = InverseSqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
   return {q.x * inv, q.y * inv, q.z * inv, q.w * inv};
 }
 
