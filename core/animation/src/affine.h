@@ -23,4 +23,13 @@ SKINSERVE_ALWAYS_INLINE void MultiplyAffine(const Affine& a, const Affine& b, Af
   MultiplyAffine(a.m, b.m, out.m);
 }
 
+// One row of a * b from a's row held in a register (the lanes broadcast by shuffles: no
+// trip through memory for a matrix just computed), b's rows b0 b1 b2; summed as
+// MultiplyAffine sums it.
+SKINSERVE_ALWAYS_INLINE detail::F4 MultiplyAffineRow(detail::F4 a, detail::F4 b0, detail::F4 b1,
+                                                     detail::F4 b2) {
+  using namespace detail;
+  return (SplatLane<0>(a) * b0 + KeepLane3(a)) + (SplatLane<1>(a) * b1 + SplatLane<2>(a) * b2);
+}
+
 }  // namespace skinserve::animation

@@ -68,6 +68,15 @@ SKINSERVE_ALWAYS_INLINE F4 NegateWhereNegative(F4 a, F4 d) {
   const __m128 negative = _mm_cmplt_ps(d.v, _mm_setzero_ps());
   return {_mm_xor_ps(a.v, _mm_and_ps(negative, _mm_set1_ps(-0.0f)))};
 }
+// Lane `lane` of a in every lane.
+template <int lane>
+SKINSERVE_ALWAYS_INLINE F4 SplatLane(F4 a) {
+  return {_mm_shuffle_ps(a.v, a.v, _MM_SHUFFLE(lane, lane, lane, lane))};
+}
+// (0, 0, 0, a's lane 3).
+SKINSERVE_ALWAYS_INLINE F4 KeepLane3(F4 a) {
+  return {_mm_and_ps(a.v, _mm_castsi128_ps(_mm_setr_epi32(0, 0, 0, -1)))};
+}
 // p[0..3] as floats.
 SKINSERVE_ALWAYS_INLINE F4 LoadU16x4(const uint16_t* p) {
   const __m128i q = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(p));
@@ -138,6 +147,11 @@ SKINSERVE_ALWAYS_INLINE F4 NegateWhereNegative(F4 a, F4 d) {
   return a;
 }
 SKINSERVE_ALWAYS_INLINE F4 LoadU16x4(const uint16_t* p) { return Set4(p[0], p[1], p[2], p[3]); }
+template <int lane>
+SKINSERVE_ALWAYS_INLINE F4 SplatLane(F4 a) {
+  return Splat(a.v[lane]);
+}
+SKINSERVE_ALWAYS_INLINE F4 KeepLane3(F4 a) { return Set4(0, 0, 0, a.v[3]); }
 SKINSERVE_ALWAYS_INLINE F4 LoadU16x3(const uint16_t* p) { return Set4(p[0], p[1], p[2], 0); }
 SKINSERVE_ALWAYS_INLINE F4 Equal(F4 a, F4 b) {
   for (int i = 0; i < 4; ++i) a.v[i] = a.v[i] == b.v[i] ? 1.0f : 0.0f;

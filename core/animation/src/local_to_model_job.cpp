@@ -50,6 +50,7 @@ SKINSERVE_ALWAYS_INLINE void LocalToModelBody(const int16_t* parents,
                                               std::span<Affine> model) {
   const std::size_t n = local.size();
   Affine block[4];
+  F4 p0 = detail::Splat(0), p1 = p0, p2 = p0;  // the last joint's model rows
   for (std::size_t first = 0; first < n; first += 4) {
     const std::size_t count = std::min<std::size_t>(4, n - first);
     if (count == 4) {
@@ -60,14 +61,27 @@ SKINSERVE_ALWAYS_INLINE void LocalToModelBody(const int16_t* parents,
       ToAffine4(padded, block);
     }
     // Parents come before children, so each joint's parent is final here (even when it
-    // is in this block: the joints are composed in order).
+    // is in this block: the joints are composed in order). A parent that is the joint
+    // just before (a chain: most joints) is still in registers.
     for (std::size_t i = 0; i < count; ++i) {
-      const int parent = parents[first + i];
+      const std::size_t j = first + i;
+      const int parent = parents[j];
+      const float* b = block[i].m;
       if (parent < 0) {
-        model[first + i] = block[i];
+        p0 = detail::Load4(b), p1 = detail::Load4(b + 4), p2 = detail::Load4(b + 8);
       } else {
-        MultiplyAffine(model[static_cast<std::size_t>(parent)], block[i], model[first + i]);
+        if (static_cast<std::size_t>(parent) + 1 != j) {
+          const float* a = model[static_cast<std::size_t>(parent)].m;
+          p0 = detail::Load4(a), p1 = detail::Load4(a + 4), p2 = detail::Load4(a + 8);
+        }
+        const F4 b0 = detail::Load4(b), b1 = detail::Load4(b + 4), b2 = detail::Load4(b + 8);
+        p0 = MultiplyAffineRow(p0, b0, b1, b2);
+        p1 = MultiplyAffineRow(p1, b0, b1, b2);
+        p2 = MultiplyAffineRow(p2, b0, b1, b2);
       }
+      detail::Store4(p0, model[j].m);
+      detail::Store4(p1, model[j].m + 4);
+      detail::Store4(p2, model[j].m + 8);
     }
   }
 }
