@@ -12,8 +12,14 @@ SKINSERVE_ALWAYS_INLINE void PaletteBody(const Skeleton& skeleton, std::span<con
                                          float* palette) {
   const std::size_t n = skeleton.palette_size();
   for (std::size_t p = 0; p < n; ++p) {
-    MultiplyAffine(model[skeleton.palette_joints[p]].m, skeleton.inverse_bind[p].m,
-                   &palette[12 * p]);
+    const float* a = model[skeleton.palette_joints[p]].m;
+    const float* b = skeleton.inverse_bind[p].m;
+    const detail::F4 b0 = detail::Load4(b), b1 = detail::Load4(b + 4), b2 = detail::Load4(b + 8);
+    float* out = &palette[12 * p];
+    // The model's rows loaded whole, their lanes broadcast by shuffles (fewer loads).
+    detail::Store4(MultiplyAffineRow(detail::Load4(a), b0, b1, b2), out);
+    detail::Store4(MultiplyAffineRow(detail::Load4(a + 4), b0, b1, b2), out + 4);
+    detail::Store4(MultiplyAffineRow(detail::Load4(a + 8), b0, b1, b2), out + 8);
   }
 }
 

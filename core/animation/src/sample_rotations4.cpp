@@ -94,9 +94,12 @@ SKINSERVE_ALWAYS_INLINE void SampleRotations4Body(
     }
     Quat4 q = next == k ? a : Slerp4(a, b, u);
     Transpose(q.x, q.y, q.z, q.w);  // now one quaternion a vector
-    const F4 rows[4] = {q.x, q.y, q.z, q.w};
-    for (uint32_t lane = 0; lane < g.lanes; ++lane)
-      Store4(rows[lane], output[g.joint[lane]].rotation);
+    // Every lane: a last group's padding lanes repeat its first track, so they write the
+    // same rotation to the same joint again (no lane count to test).
+    Store4(q.x, output[g.joint[0]].rotation);
+    Store4(q.y, output[g.joint[1]].rotation);
+    Store4(q.z, output[g.joint[2]].rotation);
+    Store4(q.w, output[g.joint[3]].rotation);
   }
 }
 
