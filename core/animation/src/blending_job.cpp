@@ -27,9 +27,11 @@ SKINSERVE_ALWAYS_INLINE void BlendNormalBody(std::span<const BlendLayer> layers,
   for (std::size_t i = 0; i < n; ++i) w[i] = detail::Splat(weight[i]);
   static_assert(sizeof(Transform) == 10 * sizeof(float));
   for (std::size_t j = 0; j < out.size(); ++j) {
-    const F4 reference = detail::Load4(pose[0] + 10 * j + 3);  // the first layer's rotation
-    F4 t = detail::Splat(0), q = detail::Splat(0), s = detail::Splat(0);
-    for (std::size_t i = 0; i < n; ++i) {
+    // The first layer as it is (its rotation is the hemisphere's reference).
+    const float* first = pose[0] + 10 * j;
+    const F4 reference = detail::Load4(first + 3);
+    F4 t = w[0] * detail::Load4(first), q = w[0] * reference, s = w[0] * detail::Load4(first + 6);
+    for (std::size_t i = 1; i < n; ++i) {
       const float* f = pose[i] + 10 * j;
       const F4 rotation = detail::Load4(f + 3);
       // The shortest path: a quaternion on the other hemisphere than the first layer's
