@@ -141,7 +141,8 @@ float* Target(const CompactTrack& track, Transform& t) {
 void SampleConstants(const SamplingPlan& plan, std::span<Transform> output) {
   static_assert(sizeof(Transform) == 10 * sizeof(float));
   for (const SamplingPlan::Constant& c : plan.constants) {
-    float* f = output[c.joint].translation + c.offset;  // element by element: no memmove call
+    Transform& t = output[c.joint];  // element by element: no memmove call
+    float* f = c.offset == 0 ? t.translation : (c.offset == 3 ? t.rotation : t.scale);
     f[0] = c.value[0];
     f[1] = c.value[1];
     f[2] = c.value[2];
