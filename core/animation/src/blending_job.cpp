@@ -12,7 +12,8 @@ namespace {
 
 // A Transform's 10 floats as three overlapping 4-float loads: t xyz + qx, q xyzw, qw + s xyz.
 // Stored back translation, then scale, then rotation, the rotation's lanes win the overlap.
-void BlendNormal(std::span<const BlendLayer> layers, float total, std::span<Transform> out) {
+SKINSERVE_ALWAYS_INLINE void BlendNormalBody(std::span<const BlendLayer> layers, float total,
+                                             std::span<Transform> out) {
   using detail::F4;
   const float* pose[kMaxBlendLayers];
   float weight[kMaxBlendLayers];
@@ -22,26 +23,50 @@ void BlendNormal(std::span<const BlendLayer> layers, float total, std::span<Tran
     pose[n] = l.pose.data()->translation;
     weight[n++] = l.weight / total;
   }
+  F4 w[kMaxBlendLayers];
+  for (std::size_t i = 0; i < n; ++i) w[i] = detail::Splat(weight[i]);
   static_assert(sizeof(Transform) == 10 * sizeof(float));
   for (std::size_t j = 0; j < out.size(); ++j) {
-    const float* reference = pose[0] + 10 * j + 3;  // the first layer's rotation
-    F4 t = detail::Splat(0), q = detail::Splat(0), s = detail::Splat(0);
-    for (std::size_t i = 0; i < n; ++i) {
+    // The first layer as it is (its rotation is the hemisphere's reference).
+    const float* first = pose[0] + 10 * j;
+    const F4 reference = detail::Load4(first + 3);
+    F4 t = w[0] * detail::Load4(first), q = w[0] * reference, s = w[0] * detail::Load4(first + 6);
+    for (std::size_t i = 1; i < n; ++i) {
       const float* f = pose[i] + 10 * j;
-      const F4 w = detail::Splat(weight[i]);
+      const F4 rotation = detail::Load4(f + 3);
       // The shortest path: a quaternion on the other hemisphere than the first layer's
       // is the same rotation negated.
-      const F4 wq = detail::Splat(detail::Dot4(reference, f + 3) < 0 ? -weight[i] : weight[i]);
-      t = t + w * detail::Load4(f);
-      q = q + wq * detail::Load4(f + 3);
-      s = s + w * detail::Load4(f + 6);
+      const F4 wq = detail::NegateWhereNegative(w[i], detail::Dot(reference, rotation));
+      t = t + w[i] * detail::Load4(f);
+      q = q + wq * rotation;
+      s = s + w[i] * detail::Load4(f + 6);
     }
+    q = q * detail::InverseSqrt(detail::Dot(q, q));
     float* o = out[j].translation;
     detail::Store4(t, o);
     detail::Store4(s, o + 6);
     detail::Store4(q, o + 3);
-    detail::Normalize4(o + 3);
   }
+}
+
+void BlendNormalBaseline(std::span<const BlendLayer> layers, float total,
+                         std::span<Transform> out) {
+  BlendNormalBody(layers, total, out);
+}
+
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+SKINSERVE_AVX2_FMA void BlendNormalAvx2Fma(std::span<const BlendLayer> layers, float total,
+                                           std::span<Transform> out) {
+  BlendNormalBody(layers, total, out);
+}
+#endif
+
+// The normal layers' weighted mean, compiled for each ISA (isa_clones.h).
+void BlendNormal(std::span<const BlendLayer> layers, float total, std::span<Transform> out) {
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+  if (detail::RunAvx2Fma()) return BlendNormalAvx2Fma(layers, total, out);
+#endif
+  BlendNormalBaseline(layers, total, out);
 }
 
 void ApplyAdditive(const BlendLayer& l, std::span<Transform> out) {

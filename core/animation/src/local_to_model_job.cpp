@@ -15,7 +15,7 @@ using detail::F4;
 // Four joints' T * R * S as row-major 3x4s, computed side by side (SoA): each Transform is
 // read as three overlapping 4-float loads (t xyz + qx, q xyzw, qw + s xyz), transposed to
 // one lane a joint, and the matrices transposed back to rows.
-void ToAffine4(const Transform* t, Affine* out) {
+SKINSERVE_ALWAYS_INLINE void ToAffine4(const Transform* t, Affine* out) {
   static_assert(sizeof(Transform) == 10 * sizeof(float));
   const float* f[4];
   for (int i = 0; i < 4; ++i) f[i] = t[i].translation;
@@ -44,6 +44,61 @@ void ToAffine4(const Transform* t, Affine* out) {
   }
 }
 
+// Root down, 4 joints' local matrices at a time, compiled for each ISA (isa_clones.h).
+SKINSERVE_ALWAYS_INLINE void LocalToModelBody(const int16_t* parents,
+                                              std::span<const Transform> local,
+                                              std::span<Affine> model) {
+  const std::size_t n = local.size();
+  Affine block[4];
+  F4 p0 = detail::Splat(0), p1 = p0, p2 = p0;  // the last joint's model rows
+  for (std::size_t first = 0; first < n; first += 4) {
+    const std::size_t count = std::min<std::size_t>(4, n - first);
+    if (count == 4) {
+      ToAffine4(&local[first], block);
+    } else {  // the last few joints, padded with identities
+      Transform padded[4];
+      std::copy_n(&local[first], count, padded);
+      ToAffine4(padded, block);
+    }
+    // Parents come before children, so each joint's parent is final here (even when it
+    // is in this block: the joints are composed in order). A parent that is the joint
+    // just before (a chain: most joints) is still in registers.
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::size_t j = first + i;
+      const int parent = parents[j];
+      const float* b = block[i].m;
+      if (parent < 0) {
+        p0 = detail::Load4(b), p1 = detail::Load4(b + 4), p2 = detail::Load4(b + 8);
+      } else {
+        if (static_cast<std::size_t>(parent) + 1 != j) {
+          const float* a = model[static_cast<std::size_t>(parent)].m;
+          p0 = detail::Load4(a), p1 = detail::Load4(a + 4), p2 = detail::Load4(a + 8);
+        }
+        const F4 b0 = detail::Load4(b), b1 = detail::Load4(b + 4), b2 = detail::Load4(b + 8);
+        p0 = MultiplyAffineRow(p0, b0, b1, b2);
+        p1 = MultiplyAffineRow(p1, b0, b1, b2);
+        p2 = MultiplyAffineRow(p2, b0, b1, b2);
+      }
+      detail::Store4(p0, model[j].m);
+      detail::Store4(p1, model[j].m + 4);
+      detail::Store4(p2, model[j].m + 8);
+    }
+  }
+}
+
+void LocalToModelBaseline(const int16_t* parents, std::span<const Transform> local,
+                          std::span<Affine> model) {
+  LocalToModelBody(parents, local, model);
+}
+
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+SKINSERVE_AVX2_FMA void LocalToModelAvx2Fma(const int16_t* parents,
+                                            std::span<const Transform> local,
+                                            std::span<Affine> model) {
+  LocalToModelBody(parents, local, model);
+}
+#endif
+
 }  // namespace
 
 Status LocalToModelJob::Validate() const {
@@ -59,29 +114,13 @@ Status LocalToModelJob::Validate() const {
 
 Status LocalToModelJob::Run() const {
   if (Status s = Validate(); !s.ok()) return s;
-  const std::size_t n = local.size();
-  const int16_t* parents = skeleton->parents.data();
-  Affine block[4];
-  for (std::size_t first = 0; first < n; first += 4) {
-    const std::size_t count = std::min<std::size_t>(4, n - first);
-    if (count == 4) {
-      ToAffine4(&local[first], block);
-    } else {  // the last few joints, padded with identities
-      Transform padded[4];
-      std::copy_n(&local[first], count, padded);
-      ToAffine4(padded, block);
-    }
-    // Parents come before children, so each joint's parent is final here (even when it
-    // is in this block: the joints are composed in order).
-    for (std::size_t i = 0; i < count; ++i) {
-      const int parent = parents[first + i];
-      if (parent < 0) {
-        model[first + i] = block[i];
-      } else {
-        MultiplyAffine(model[static_cast<std::size_t>(parent)], block[i], model[first + i]);
-      }
-    }
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+  if (detail::RunAvx2Fma()) {
+    LocalToModelAvx2Fma(skeleton->parents.data(), local, model);
+    return Status::Ok();
   }
+#endif
+  LocalToModelBaseline(skeleton->parents.data(), local, model);
   return Status::Ok();
 }
 

@@ -2,6 +2,8 @@
 // two can never disagree: 16-bit range quantization and smallest-three quaternions.
 #pragma once
 
+#include "isa_clones.h"
+
 #include <cmath>
 #include <cstdint>
 
@@ -15,7 +17,9 @@ inline uint16_t QuantizeRange(float v, float min, float step) {
   const float q = std::round((v - min) / step);
   return static_cast<uint16_t>(q < 0 ? 0 : (q > kQuantSteps ? kQuantSteps : q));
 }
-inline float DequantizeRange(uint16_t q, float min, float step) { return min + step * q; }
+SKINSERVE_ALWAYS_INLINE float DequantizeRange(uint16_t q, float min, float step) {
+  return min + step * q;
+}
 
 // Smallest-three: q and -q are one rotation, so the largest component is made positive
 // and left out; the other three (in order) lie in [-1/sqrt2, 1/sqrt2]. Returns its index.
@@ -37,7 +41,7 @@ inline int SmallestThree(const float q_in[4], float out[3]) {
 }
 
 // The rotation from its three smaller components and the largest one's index.
-inline void FromSmallestThree(const float small[3], int largest, float q[4]) {
+SKINSERVE_ALWAYS_INLINE void FromSmallestThree(const float small[3], int largest, float q[4]) {
   float sum = 0;
   for (int c = 0, k = 0; c < 4; ++c) {
     if (c == largest) continue;

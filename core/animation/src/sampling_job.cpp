@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "float4.h"
 #include "quantize.h"
 #include "quaternion.h"
 #include "sample_rotations4.h"
@@ -140,7 +141,8 @@ float* Target(const CompactTrack& track, Transform& t) {
 void SampleConstants(const SamplingPlan& plan, std::span<Transform> output) {
   static_assert(sizeof(Transform) == 10 * sizeof(float));
   for (const SamplingPlan::Constant& c : plan.constants) {
-    float* f = output[c.joint].translation + c.offset;  // element by element: no memmove call
+    Transform& t = output[c.joint];  // element by element: no memmove call
+    float* f = c.offset == 0 ? t.translation : (c.offset == 3 ? t.rotation : t.scale);
     f[0] = c.value[0];
     f[1] = c.value[1];
     f[2] = c.value[2];
@@ -149,8 +151,8 @@ void SampleConstants(const SamplingPlan& plan, std::span<Transform> output) {
 }
 
 // LINEAR 16-bit translations and scales keyed at every clip time: as SampleTrack does them.
-void SampleVectors(const CompactClip& clip, const SamplingPlan& plan, const Segment& s,
-                   std::span<Transform> output) {
+SKINSERVE_ALWAYS_INLINE void SampleVectors(const CompactClip& clip, const SamplingPlan& plan,
+                                           const Segment& s, std::span<Transform> output) {
   for (const SamplingPlan::Vector& v : plan.vectors) {
     const uint16_t* a = &clip.words[v.words + 3 * s.k];
     const uint16_t* b = &clip.words[v.words + 3 * s.next];
@@ -162,6 +164,71 @@ void SampleVectors(const CompactClip& clip, const SamplingPlan& plan, const Segm
       out[c] = va + s.u * (detail::DequantizeRange(b[c], v.min[c], v.step[c]) - va);
     }
   }
+}
+
+// Component by component as DequantizeRange: min + step * q, 4 lanes (past `width`: 0).
+// A 3-wide key part is read from the u16 before it, which is in the track: SampleCubics
+// reads a key's in-tangent (its first u16) only for key k + 1.
+SKINSERVE_ALWAYS_INLINE detail::F4 Dequantize4(const uint16_t* q, uint32_t width, const float* min,
+                                               const float* step) {
+  const detail::F4 v = width == 4 ? detail::LoadU16x4(q) : detail::LoadU16x3(q);
+  return detail::Load4(min) + detail::Load4(step) * v;
+}
+
+// CUBICSPLINE tracks keyed at every clip time: SampleTrack's Hermite, a track's components
+// side by side.
+SKINSERVE_ALWAYS_INLINE void SampleCubics(const CompactClip& clip, const SamplingPlan& plan,
+                                          const Segment& s, std::span<Transform> output) {
+  using detail::F4;
+  const float u = s.u, u2 = u * u, u3 = u2 * u;
+  const F4 h00 = detail::Splat(2 * u3 - 3 * u2 + 1),
+           h10 = detail::Splat((u3 - 2 * u2 + u) * s.seconds);
+  const F4 h01 = detail::Splat(-2 * u3 + 3 * u2), h11 = detail::Splat((u3 - u2) * s.seconds);
+  for (const SamplingPlan::Cubic& c : plan.cubics) {
+    const uint32_t w = c.width;
+    const uint16_t* a = &clip.words[c.words + 3 * w * s.k];
+    F4 v = Dequantize4(a + w, w, c.min[1], c.step[1]);  // key k's value
+    if (s.next != s.k) {
+      const uint16_t* b = &clip.words[c.words + 3 * w * s.next];
+      v = h00 * v + h10 * Dequantize4(a + 2 * w, w, c.min[2], c.step[2]) +
+          h01 * Dequantize4(b + w, w, c.min[1], c.step[1]) +
+          h11 * Dequantize4(b, w, c.min[0], c.step[0]);
+    }
+    alignas(16) float value[4];
+    detail::Store4(v, value);
+    Transform& t = output[c.joint];
+    const TrackPath path = static_cast<TrackPath>(c.path);
+    if (path == TrackPath::kRotation) {
+      detail::Normalize4(value);
+      std::copy_n(value, 4, t.rotation);
+    } else {
+      std::copy_n(value, 3, path == TrackPath::kTranslation ? t.translation : t.scale);
+    }
+  }
+}
+
+// The plan's 16-bit LINEAR vectors and CUBICSPLINE tracks, compiled for each ISA (isa_clones.h).
+void SampleVectorsAndCubicsBaseline(const CompactClip& clip, const SamplingPlan& plan,
+                                    const Segment& s, std::span<Transform> output) {
+  SampleVectors(clip, plan, s, output);
+  SampleCubics(clip, plan, s, output);
+}
+
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+SKINSERVE_AVX2_FMA void SampleVectorsAndCubicsAvx2Fma(const CompactClip& clip,
+                                                      const SamplingPlan& plan, const Segment& s,
+                                                      std::span<Transform> output) {
+  SampleVectors(clip, plan, s, output);
+  SampleCubics(clip, plan, s, output);
+}
+#endif
+
+void SampleVectorsAndCubics(const CompactClip& clip, const SamplingPlan& plan, const Segment& s,
+                            std::span<Transform> output) {
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+  if (detail::RunAvx2Fma()) return SampleVectorsAndCubicsAvx2Fma(clip, plan, s, output);
+#endif
+  SampleVectorsAndCubicsBaseline(clip, plan, s, output);
 }
 
 void SampleOne(const CompactClip& clip, const CompactTrack& track, const Segment& global, float t,
@@ -256,12 +323,14 @@ Status SamplingJob::Run() const {
   const SamplingPlan& plan = *clip->plan;
   const bool same_clip = context != nullptr && context->plan == clip->plan;
   const Segment global = FindClipSegment(*clip, t, same_clip && context->valid ? context->k : 0);
-  for (uint16_t j : plan.rest_joints) output[j] = skeleton->rest[j];
+  for (const SamplingPlan::JointRun& run : plan.rest_runs) {
+    std::copy_n(&skeleton->rest[run.first], run.count, &output[run.first]);
+  }
   SampleConstants(plan, output);
   detail::SampleRotations4(*clip, plan.rotations, global.k, global.next, global.u, output,
                            CachedKeys(*clip, global, context));
   detail::SampleRotations4(*clip, plan.step_rotations, global.k, global.k, 0, output, {});
-  SampleVectors(*clip, plan, global, output);
+  SampleVectorsAndCubics(*clip, plan, global, output);
   for (uint32_t i : plan.others)
     SampleOne(*clip, clip->tracks[i], global, t, output, morph_weights);
   return Status::Ok();

@@ -37,6 +37,22 @@ void PadLastGroup(std::vector<SamplingPlan::RotationGroup>& groups) {
   }
 }
 
+SamplingPlan::Cubic MakeCubic(const CompactClip& clip, const CompactTrack& t) {
+  SamplingPlan::Cubic c;
+  c.joint = t.joint;
+  c.path = static_cast<uint8_t>(t.path);
+  c.width = static_cast<uint8_t>(t.width);
+  c.words = t.words;
+  for (uint32_t group = 0; group < 3; ++group) {
+    for (uint32_t k = 0; k < t.width; ++k) {
+      const uint32_t column = group * t.width + k;
+      c.min[group][k] = clip.floats[t.floats + 2 * column];
+      c.step[group][k] = clip.floats[t.floats + 2 * column + 1];
+    }
+  }
+  return c;
+}
+
 }  // namespace
 
 SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
@@ -66,12 +82,21 @@ SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
         v.step[c] = clip.floats[t.floats + 2 * c + 1];
       }
       plan.vectors.push_back(v);
+    } else if (t.format == TrackFormat::kRange16 && t.key_times == kAllKeyTimes &&
+               t.interpolation == Interpolation::kCubicSpline && (t.width == 3 || t.width == 4)) {
+      plan.cubics.push_back(MakeCubic(clip, t));
     } else {
       plan.others.push_back(i);
     }
   }
   for (uint32_t j = 0; j < clip.joint_count; ++j) {
-    if (paths[j] != 7) plan.rest_joints.push_back(static_cast<uint16_t>(j));
+    if (paths[j] == 7) continue;
+    std::vector<SamplingPlan::JointRun>& runs = plan.rest_runs;
+    if (!runs.empty() && runs.back().first + runs.back().count == j) {
+      ++runs.back().count;
+    } else {
+      runs.push_back({static_cast<uint16_t>(j), 1});
+    }
   }
   PadLastGroup(plan.rotations);
   PadLastGroup(plan.step_rotations);

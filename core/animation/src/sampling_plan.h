@@ -2,7 +2,8 @@
 // (no bytes of its own: Serialize() and the id leave it out). Constant tracks are copied,
 // LINEAR and STEP smallest-three rotations keyed at every clip time are decoded (and
 // slerped) 4 at a time (SoA), LINEAR 16-bit vectors keyed at every time are lerped in one tight
-// loop; the rest (STEP, CUBICSPLINE, weights, tracks with their own key times) one track at a time.
+// loop, CUBICSPLINE ones keyed at every time a track at a time with its components side by side;
+// the rest (weights, tracks with their own key times) one track at a time.
 #pragma once
 
 #include <cstdint>
@@ -34,13 +35,30 @@ struct SamplingPlan {
     float min[3] = {0, 0, 0};
     float step[3] = {0, 0, 0};
   };
+  // A CUBICSPLINE 16-bit translation, rotation or scale keyed at every clip time: its
+  // components side by side (lanes past `width` hold 0).
+  struct Cubic {
+    uint16_t joint = 0;
+    uint8_t path = 0;
+    uint8_t width = 0;     // 3, or 4 (a rotation)
+    uint32_t words = 0;    // CompactTrack::words: per key, in-tangent, value, out-tangent
+    float min[3][4] = {};  // per column group (in-tangent, value, out-tangent), per component
+    float step[3][4] = {};
+  };
   // Joints some of whose translation, rotation and scale no track sets: they start from
-  // the skeleton's rest (the others are written whole by their tracks).
-  std::vector<uint16_t> rest_joints;
+  // the skeleton's rest (the others are written whole by their tracks). As runs of
+  // consecutive joints, each copied at once (often all of them: exporters key most
+  // translations and scales at their rest values, which the store leaves out).
+  struct JointRun {
+    uint16_t first = 0;
+    uint16_t count = 0;
+  };
+  std::vector<JointRun> rest_runs;
   std::vector<Constant> constants;
   std::vector<RotationGroup> rotations;
   std::vector<RotationGroup> step_rotations;  // STEP: the key at or before the time
   std::vector<Vector> vectors;
+  std::vector<Cubic> cubics;
   std::vector<uint32_t> others;  // track indices
 };
 
