@@ -24,12 +24,14 @@ std::string ErrorsText(const RunResult& r) {
 
 // The backend, with the encoding and crowd size when they are not float32 x 1, "+shm"
 // for the shared-memory data plane, "+tickN" for ticks of N characters and "+pose" for
-// frames posed on the server (--animate).
+// frames posed on the server (--animate synthetic), "+pose:CLIP" playing a glTF file's clip.
 std::string BackendLabel(const RunResult& r) {
+  const std::string pose =
+      !r.pose ? "" : (r.clip.empty() || r.clip == "synthetic" ? "+pose" : "+pose:" + r.clip);
   const std::string shm =
       (r.data_plane == "shm" ? "+shm" : "") +
       (r.characters_per_tick > 0 ? fmt::format("+tick{}", r.characters_per_tick) : std::string()) +
-      (r.pose ? "+pose" : "");
+      pose;
   if (r.encoding == "float32" && r.instances <= 1) return r.backend + shm;
   return r.instances > 1 ? fmt::format("{}/{}x{}{}", r.backend, r.encoding, r.instances, shm)
                          : fmt::format("{}/{}{}", r.backend, r.encoding, shm);

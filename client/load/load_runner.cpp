@@ -111,6 +111,7 @@ class Recorder {
     result_.characters_per_tick = config.characters_per_tick;
     result_.data_plane = config.shared_memory ? "shm" : "grpc";
     result_.pose = workload.pose != nullptr;
+    if (workload.pose) result_.clip = workload.pose->label;
     result_.streams = config.streams;
     result_.rate = config.rate;
     if (config.rate > 0) result_.arrivals = ArrivalsName(config.arrivals);

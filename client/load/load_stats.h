@@ -40,6 +40,7 @@ struct RunResult {
   uint32_t characters_per_tick = 0;
   std::string data_plane = "grpc";  // or "shm": vertices written into shared memory
   bool pose = false;                // --animate: posed on the server from a clip, not a palette
+  std::string clip;                 // --animate: "synthetic", or the glTF clip's name
   int streams = 0;
   double rate = 0;      // frames/s per stream (open loop); 0: closed loop
   uint64_t frames = 0;  // answered correctly within the measured window

@@ -4,7 +4,8 @@
 //                 START:END:STEP one row per rate; --arrivals constant|poisson
 //   --sweep paper the paper's grid over every backend, tables 2 and 3 layout
 //   --characters-per-tick N  each request a tick of N characters, N distinct meshes
-//   --animate synthetic  frames carry a pose of a clip uploaded once, posed on the server
+//   --animate synthetic|FILE.glb  frames carry a pose of a clip uploaded once, posed on the
+//                 server (the synthetic rig, or a glTF character's skeleton and --clip)
 //   --capacity    the most characters (streams x N a tick x --instances) held at 60 fps with
 //                 the latency at --percentile (p99) within one frame and nothing dropped, per
 //                 --modes (encoding x crowd size)
@@ -17,6 +18,7 @@
 #include <sstream>
 
 #include "connection_flags.h"
+#include "gltf_pose_workload.h"
 #include "load_report.h"
 #include "load_runner.h"
 #include "measurement_flags.h"
@@ -44,7 +46,8 @@ struct Options {
   MorphWorkload morph;  // synthetic mesh: morph targets and active weights per frame
   std::string mesh;     // a glTF file instead of the synthetic mesh
   int primitive = -1;   // --mesh: -1 is the whole character
-  std::string animate;  // "synthetic": poses of the synthetic clip instead of palettes
+  std::string animate;  // "synthetic" or a .glb: poses of its clip instead of palettes
+  std::string clip;     // --animate FILE: the clip's name or index (empty: the first)
   std::string sweep;
   bool capacity = false;
   int capacity_max_streams = 64;
@@ -150,36 +153,75 @@ struct RunMeshes {
   std::vector<UploadedMesh> meshes;
 };
 
-// The glTF character when --mesh names one, else the synthetic mesh of this shape.
+// --animate FILE: the glTF character whose clip the frames play (not 'synthetic').
+bool AnimatesFile(const Options& o) { return !o.animate.empty() && o.animate != "synthetic"; }
+
+// The glTF file that is the mesh: --mesh, or --animate FILE; empty: the synthetic mesh.
+std::string CharacterFile(const Options& o) { return AnimatesFile(o) ? o.animate : o.mesh; }
+
+// --animate: the synthetic rig of the synthetic mesh, or the file's skeleton and --clip.
+// The file's is checked against its float64 values: the mesh must be stored as float32.
+Status AddPose(const Options& o, uint64_t seed, Workload* w) {
+  if (!AnimatesFile(o)) {
+    w->pose = MakePoseWorkload(o.joints, seed);
+    return Status::Ok();
+  }
+  auto pose = MakeGltfPoseWorkload(o.animate, o.clip);
+  if (!pose.ok()) return pose.status();
+  w->pose = *std::move(pose);
+  if (w->rest_encoding != RestEncoding::kFloat32) {
+    return InvalidArgument(fmt::format(
+        "--animate {}: the check compares with the file's float64 values, so the mesh is "
+        "stored float32; not {} ({})",
+        o.animate, RestEncodingName(w->rest_encoding), w->rest_encoding_reason));
+  }
+  return Status::Ok();
+}
+
+// The glTF character of CharacterFile when there is one, else the synthetic mesh of this
+// shape; with --animate its pose.
 Result<Workload> LoadWorkload(const Options& o, uint32_t vertices, uint32_t bones, uint64_t seed) {
   const SkinningMethod method = *ParseMethod(o.method);
   if (o.tangents && !o.normals) return InvalidArgument("--tangents needs --normals");
+  const std::string file = CharacterFile(o);
   Result<Workload> workload =
-      o.mesh.empty() ? Result<Workload>(MakeWorkload(vertices, bones, o.joints, o.normals, seed,
-                                                     method, o.morph, o.tangents))
-                     : MakeGltfWorkload(o.mesh, o.primitive, o.normals, o.tangents);
+      file.empty() ? Result<Workload>(MakeWorkload(vertices, bones, o.joints, o.normals, seed,
+                                                   method, o.morph, o.tangents))
+                   : MakeGltfWorkload(file, o.primitive, o.normals, o.tangents);
   if (!workload.ok()) return workload;
   workload->method = method;
-  if (!o.animate.empty()) workload->pose = MakePoseWorkload(o.joints, seed);
   const std::optional<RestEncoding> asked =
       o.rest_encoding.empty() ? std::nullopt : ParseRestEncoding(o.rest_encoding);
   if (Status s = ChooseRestEncoding(&*workload, asked); !s.ok()) return s;
+  if (!o.animate.empty()) {
+    if (Status s = AddPose(o, seed, &*workload); !s.ok()) return s;
+  }
   return workload;
 }
 
 // The workload of `seed` (LoadWorkload), or with ticks of N characters N distinct synthetic
 // meshes of this shape, character c's seeded seed + c, each uploaded once (with --animate
-// its skeleton and clip too).
+// its skeleton and clip too). --animate FILE: every character of a tick is the file's, its
+// mesh, skeleton and clip uploaded once.
 Result<std::unique_ptr<RunMeshes>> LoadAndUpload(client::SkinClient& client, const Options& o,
                                                  uint32_t vertices, uint32_t bones, uint64_t seed) {
   auto run = std::make_unique<RunMeshes>();
   const uint32_t characters = std::max(o.run.characters_per_tick, 1u);
+  const bool one_character = AnimatesFile(o);
   for (uint32_t c = 0; c < characters; ++c) {
+    if (one_character && c > 0) {
+      run->workloads.push_back(run->workloads.front());  // shares its pose (and ids)
+      continue;
+    }
     auto loaded = LoadWorkload(o, vertices, bones, seed + c);
     if (!loaded.ok()) return loaded.status();
     run->workloads.push_back(std::move(loaded).value());
   }
   for (Workload& w : run->workloads) {
+    if (one_character && !run->meshes.empty()) {
+      run->meshes.push_back({&w, run->meshes.front().mesh_id});
+      continue;
+    }
     auto mesh = Upload(client, w);
     if (!mesh.ok()) return mesh.status();
     if (w.pose) {
@@ -205,11 +247,11 @@ bool Serving(client::SkinClient& client, const std::string& target) {
 // Whether frames carry morph weights: a glTF character's are known once it is loaded (its
 // rest encoding is told then too).
 Result<bool> FramesCarryMorph(const Options& o) {
-  if (o.mesh.empty()) return o.morph.targets > 0 && o.morph.active > 0;
+  if (CharacterFile(o).empty()) return o.morph.targets > 0 && o.morph.active > 0;
   auto probe = LoadWorkload(o, o.vertices, o.bones, o.seed);
   if (!probe.ok()) return probe.status();
   fmt::print(stderr, "note: rest encoding {} for {}: {}\n", RestEncodingName(probe->rest_encoding),
-             o.mesh, probe->rest_encoding_reason);
+             CharacterFile(o), probe->rest_encoding_reason);
   return std::any_of(probe->morph_weights.begin(), probe->morph_weights.end(),
                      [](const std::vector<MorphWeight>& w) { return HasActiveMorph(w); });
 }
@@ -506,11 +548,15 @@ void AddMeshOptions(CLI::App& app, Options& o) {
       ->capture_default_str();
   app.add_option("--animate", o.animate,
                  "'synthetic': the synthetic mesh gets a synthetic skeleton of --joints joints "
-                 "and a 2 s clip (seeded --seed), uploaded once; each frame then carries a pose "
-                 "(the clip at its frame's time at 30 fps, looped) instead of a palette, posed "
-                 "on the server, and --check-every compares with the clip evaluated in float64 "
-                 "(rows '+pose'); one instance a character, linear skinning")
-      ->check(CLI::IsMember({"synthetic"}));
+                 "and a 2 s clip (seeded --seed); FILE.glb: the mesh is that glTF character (one "
+                 "skinned primitive) with its skeleton and --clip. Uploaded once; each frame then "
+                 "carries a pose (the clip at its frame's time at 30 fps, looped) instead of a "
+                 "palette, posed on the server, and --check-every compares with the clip "
+                 "evaluated in float64 (a file: its original channels and primitive, read apart "
+                 "from the importer); rows '+pose' ('+pose:CLIP' for a file); one instance a "
+                 "character, linear skinning");
+  app.add_option("--clip", o.clip,
+                 "--animate FILE: the clip to play, by name or index (default: the file's first)");
 }
 
 // How each run drives the server: streams, window, duration or frames, rate, checks, encodings,
@@ -606,10 +652,35 @@ void AddSearchOptions(CLI::App& app, Options& o) {
       ->capture_default_str();
 }
 
+// Why --animate FILE cannot go with the options given (empty: it can): the file is the
+// mesh, whole, and the check skins positions and normals.
+std::string AnimateFileRefusal(const CLI::App& app, const std::string& file) {
+  if (!IsGlbPath(file)) {
+    return "'synthetic' or a binary glTF file (.glb, which the float64 check reads)";
+  }
+  for (const char* option : {"--vertices", "--bones", "--joints", "--sweep", "--primitive"}) {
+    if (app.count(option) > 0) {
+      return fmt::format("the file is the mesh, the whole character: not with {}", option);
+    }
+  }
+  if (app.count("--tangents") > 0) {
+    return "the float64 check of a file skins positions and normals: not with --tangents";
+  }
+  return {};
+}
+
 // Why --animate cannot go with the other options (empty: it can): a pose is one
-// character's, skinned linearly (the clip scales a joint: not rigid), of the synthetic mesh.
-std::string AnimateRefusal(const Options& o) {
-  if (!o.mesh.empty()) return "poses the synthetic mesh: not with --mesh";
+// character's, skinned linearly (the clip scales a joint: not rigid), of the synthetic mesh
+// or the file's.
+std::string AnimateRefusal(const CLI::App& app, const Options& o) {
+  if (!o.mesh.empty()) {
+    return o.animate == "synthetic"
+               ? "poses the synthetic mesh: not with --mesh"
+               : "the file is the mesh: not with --mesh (give the character to --animate only)";
+  }
+  if (o.animate != "synthetic") {
+    if (std::string why = AnimateFileRefusal(app, o.animate); !why.empty()) return why;
+  }
   if (o.run.instances > 1) return "a pose is one character's: not with --instances > 1";
   if (o.method != "linear") return "the clip scales a joint: not with --method dual-quaternion";
   // The server would apply the clip's weights track (4 weights) to the mesh's targets.
@@ -634,10 +705,14 @@ std::optional<int> FinishOptions(const CLI::App& app, Options& o) {
     return 2;
   }
   if (!o.animate.empty()) {
-    if (const std::string why = AnimateRefusal(o); !why.empty()) {
+    if (const std::string why = AnimateRefusal(app, o); !why.empty()) {
       fmt::print(stderr, "error: --animate {}: {}\n", o.animate, why);
       return 2;
     }
+  }
+  if (!o.clip.empty() && !AnimatesFile(o)) {
+    fmt::print(stderr, "error: --clip picks the clip of --animate FILE.glb: not without it\n");
+    return 2;
   }
   if (o.run.characters_per_tick > 0 && o.run.early_parts) {
     fmt::print(stderr,

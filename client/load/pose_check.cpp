@@ -44,12 +44,12 @@ double TangentSigns(std::span<const float> got, const std::vector<double>& want)
 
 }  // namespace
 
-double PoseAnswerError(const Workload& w, const PoseAnswer& answer) {
-  const Mesh& mesh = *w.mesh;
-  const std::span<const MorphWeight> morph = w.Morph(answer.frame);
-  const std::vector<double> palette = w.pose->ReferencePalette(answer.frame);
-  const ReferenceFrame rest = ReferenceMorph(mesh, morph);
-  const ReferenceFrame posed = ReferenceSkin(mesh, std::span<const double>(palette), morph);
+namespace {
+
+// The answer's positions (and normals, tangents when the workload has them) against the
+// float64 ones `posed`, of the rest positions `rest`: the bound of the header.
+double VectorsError(const Workload& w, const PoseAnswer& answer, std::span<const double> rest,
+                    const ReferenceFrame& posed, const MorphMagnitudes& magnitudes) {
   const auto encoding_error = [&](const double* at) {  // positions: the axes' together
     double e[3];
     for (int i = 0; i < 3; ++i) {
@@ -57,12 +57,11 @@ double PoseAnswerError(const Workload& w, const PoseAnswer& answer) {
     }
     return Length(e);
   };
+  if (rest.size() != posed.positions.size()) return kInf;
   double worst = WorstVectorRatio(
       answer.positions, posed.positions, 3, [&](std::size_t v, const double* want) {
-        return kAbsolute + kRelative * (Length(&rest.positions[3 * v]) + Length(want)) +
-               encoding_error(want);
+        return kAbsolute + kRelative * (Length(&rest[3 * v]) + Length(want)) + encoding_error(want);
       });
-  const MorphMagnitudes magnitudes = ReferenceMorphMagnitudes(mesh, morph);
   const auto unit_bound = [&](double magnification) {
     return [&, magnification](std::size_t, const double* want) {
       double e[3];
@@ -80,6 +79,30 @@ double PoseAnswerError(const Workload& w, const PoseAnswer& answer) {
     worst = std::max(worst, TangentSigns(answer.tangents, posed.tangents));
   }
   return worst;
+}
+
+// --animate FILE: the file's own primitive (as the check read it) skinned in double with the
+// file's clip at the frame's time (GltfPoseReference); no morph targets, no tangents.
+double GltfPoseAnswerError(const Workload& w, const PoseAnswer& answer) {
+  const gltf_reference::RefCharacter& ref = w.pose->gltf->character;
+  const gltf_reference::RefFrame frame =
+      gltf_reference::RefSkin(ref.primitive, w.pose->ReferencePalette(answer.frame));
+  ReferenceFrame posed;
+  posed.positions = frame.positions;
+  posed.normals = frame.normals;
+  return VectorsError(w, answer, ref.primitive.positions, posed, MorphMagnitudes{});
+}
+
+}  // namespace
+
+double PoseAnswerError(const Workload& w, const PoseAnswer& answer) {
+  if (w.pose->gltf) return GltfPoseAnswerError(w, answer);
+  const Mesh& mesh = *w.mesh;
+  const std::span<const MorphWeight> morph = w.Morph(answer.frame);
+  const std::vector<double> palette = w.pose->ReferencePalette(answer.frame);
+  const ReferenceFrame rest = ReferenceMorph(mesh, morph);
+  const ReferenceFrame posed = ReferenceSkin(mesh, std::span<const double>(palette), morph);
+  return VectorsError(w, answer, rest.positions, posed, ReferenceMorphMagnitudes(mesh, morph));
 }
 
 }  // namespace skinserve::load

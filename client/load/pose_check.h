@@ -1,7 +1,8 @@
 // The check of a pose frame's answer (--animate with --check-every): the clip evaluated in
 // float64 at the frame's time (PoseWorkload::ReferencePalette, from the clip's keys, never
 // the server's compact store), the mesh morphed by the frame's weights and skinned in
-// double with that palette, and the answer held to the pose tests' bound
+// double with that palette (--animate FILE: the file's own primitive and channels as the
+// check's reader reads them, gltf_reference.h), and the answer held to the pose tests' bound
 // (tests/server/pose_service_test.cpp): each vertex within 2e-5 + 3e-4 (|rest| + |posed|)
 // (the compact clip's joints are within 0.01 mm + 1e-4 relative, its rotations' elements
 // within 1e-4, of the float64 clip; float32 skinning adds rounding), plus the answer

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "skinserve/animation/synthetic_rig.h"
 #include "skinserve/reference/pose_reference.h"
 
 namespace skinserve::load {
@@ -13,41 +14,54 @@ float PoseWorkload::ClipTime(uint64_t frame) const {
   return static_cast<float>((static_cast<double>(frame % (2 * lap_frames)) + 0.5) / kPoseFps);
 }
 
-std::vector<double> PoseWorkload::ReferencePalette(uint64_t frame) const {
+double PoseWorkload::ReferenceTime(uint64_t frame) const {
   double t = ClipTime(frame);  // what the server is sent, then looped as the server loops
-  const double duration = rig.clip.duration;
   t -= duration * std::floor(t / duration);
-  return ReferencePosePalette(rig.skeleton, rig.clip, t);
+  return t;
+}
+
+std::vector<double> PoseWorkload::ReferencePalette(uint64_t frame) const {
+  const double t = ReferenceTime(frame);
+  if (gltf)
+    return gltf_reference::RefPalette(gltf->character, &gltf->character.clips[gltf->clip], t);
+  return ReferencePosePalette(skeleton, clip, t);
+}
+
+void SetLap(PoseWorkload* pose) {
+  pose->lap_frames =
+      std::max<uint64_t>(1, static_cast<uint64_t>(std::floor(pose->duration * kPoseFps)));
 }
 
 std::shared_ptr<PoseWorkload> MakePoseWorkload(uint32_t joints, uint64_t seed) {
   auto pose = std::make_shared<PoseWorkload>();
-  pose->rig = animation::MakeSyntheticRig(joints, static_cast<uint32_t>(seed));
-  pose->lap_frames =
-      std::max<uint64_t>(1, static_cast<uint64_t>(std::floor(pose->rig.clip.duration * kPoseFps)));
+  animation::SyntheticRig rig = animation::MakeSyntheticRig(joints, static_cast<uint32_t>(seed));
+  pose->skeleton = std::move(rig.skeleton);
+  pose->clip = std::move(rig.clip);
+  pose->label = "synthetic";
+  pose->duration = pose->clip.duration;
+  SetLap(pose.get());
   return pose;
 }
 
 Status UploadPose(client::SkinClient& client, PoseWorkload* pose, bool tell) {
-  auto skeleton = client.UploadSkeleton(pose->rig.skeleton);
+  auto skeleton = client.UploadSkeleton(pose->skeleton);
   if (!skeleton.ok()) {
     return Status(skeleton.status().code(),
                   fmt::format("--animate: skeleton: {}", skeleton.status().message()));
   }
   pose->skeleton_id = skeleton->skeleton_id();
-  auto clip = client.UploadClip(pose->rig.clip, pose->skeleton_id);
+  auto clip = client.UploadClip(pose->clip, pose->skeleton_id);
   if (!clip.ok()) {
     return Status(clip.status().code(),
-                  fmt::format("--animate: clip: {}", clip.status().message()));
+                  fmt::format("--animate: clip '{}': {}", pose->label, clip.status().message()));
   }
   pose->clip_id = clip->clip_id();
   if (!tell) return Status::Ok();
   fmt::print(stderr,
-             "note: --animate: skeleton {:.8}...: {} joints; clip {:.8}...: {} tracks, {:.2f} s, "
-             "{} bytes stored ({} float bytes uploaded)\n",
-             pose->skeleton_id, pose->rig.skeleton.joint_count(), pose->clip_id,
-             pose->rig.clip.tracks.size(), pose->rig.clip.duration, clip->bytes(),
-             clip->raw_bytes());
+             "note: --animate: skeleton {:.8}...: {} joints; clip '{}' {:.8}...: {} tracks, "
+             "{:.2f} s, {} bytes stored ({} float bytes uploaded)\n",
+             pose->skeleton_id, pose->skeleton.joint_count(), pose->label, pose->clip_id,
+             pose->clip.tracks.size(), pose->clip.duration, clip->bytes(), clip->raw_bytes());
   return Status::Ok();
 }
 

@@ -35,6 +35,7 @@ std::vector<ReportColumn> RunColumns() {
       {"characters_per_tick", [](R r, All) { return json(r.characters_per_tick); }},
       {"data_plane", [](R r, All) { return json(r.data_plane); }},
       {"pose", [](R r, All) { return json(r.pose); }},
+      {"clip", [](R r, All) { return OrNull(r.pose, r.clip); }},
       {"streams", [](R r, All) { return json(r.streams); }},
       {"rate", [](R r, All) { return json(r.rate); }},
       {"offered_frames_per_second", [](R r, All) { return json(r.rate * r.streams); }},

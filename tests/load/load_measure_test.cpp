@@ -322,6 +322,8 @@ TEST(ReportColumnsTest, CsvAndJsonHoldTheSameColumnsAndValues) {
   sse.server_cpu_seconds = 0.06;  // over 100 frames of 4: 600 us a frame, 150 a character
   sse.server_frames = 100;
   sse.server_compute_ms_sum = 100 * 0.2;
+  sse.pose = true;  // --animate FILE: the clip's name
+  sse.clip = "Anim_0";
   const std::vector<RunResult> results = {serial, sse};
   const std::string base = ::testing::TempDir() + "columns-" + std::to_string(getpid());
   ASSERT_TRUE(WriteCsv(base + ".csv", results).ok());
@@ -353,6 +355,8 @@ TEST(ReportColumnsTest, CsvAndJsonHoldTheSameColumnsAndValues) {
     EXPECT_TRUE(doc["results"][0][column].is_null()) << column << ": not scraped, left empty";
   }
   EXPECT_TRUE(doc["results"][0]["stable"].is_null()) << "no stability rule applied";
+  EXPECT_EQ(row["clip"], "Anim_0");
+  EXPECT_TRUE(doc["results"][0]["clip"].is_null()) << "palettes: no clip";
 }
 
 }  // namespace

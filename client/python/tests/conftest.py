@@ -45,10 +45,20 @@ class Server:
         self.socket_dir = tempfile.mkdtemp(prefix="skinserve-py-sock-") if unix_socket else None
         self.unix_target = f"unix:{self.socket_dir}/grpc.sock" if unix_socket else None
         listen = ",".join(t for t in (self.target, self.unix_target) if t)
-        self.process = subprocess.Popen(
-            [binary, "--listen", listen, "--threads", "1", "--log-level", "warn", *args])
+        self._command = [binary, "--listen", listen, "--threads", "1", "--log-level", "warn",
+                         *args]
+        self._start()
+
+    def _start(self):
+        self.process = subprocess.Popen(self._command)
         with grpc.insecure_channel(self.target) as channel:
             _wait_serving(channel, time.time() + 120)
+
+    def restart(self):
+        """A new server process on the same address: everything uploaded is gone."""
+        self.process.send_signal(signal.SIGTERM)
+        assert self.process.wait(timeout=60) == 0
+        self._start()
 
     def stop(self):
         self.process.send_signal(signal.SIGTERM)

@@ -25,16 +25,22 @@ def turn(degrees):
     return (0.0, 0.0, math.sin(half), math.cos(half))
 
 
-def upload_rig(client):
+def rig():
+    """upload_skeleton's arguments and the clip's tracks."""
     rest = np.array([[0, 0, 0, *IDENTITY, 1, 1, 1], [0, 1, 0, *IDENTITY, 1, 1, 1]], np.float32)
     inverse_bind = np.zeros((2, 3, 4), np.float32)
     inverse_bind[:, :, :3] = np.eye(3)
     inverse_bind[1, 1, 3] = -1  # the child's rest model is a translation by (0, 1, 0)
-    skeleton_id = client.upload_skeleton(np.array([-1, 0], np.int16), rest,
-                                         np.array([0, 1], np.uint16), inverse_bind)
+    skeleton = (np.array([-1, 0], np.int16), rest, np.array([0, 1], np.uint16), inverse_bind)
     times = np.array([0, 1], np.float32)
     tracks = [skinserve.ClipTrack("translation", 0, times, np.array([[0, 0, 0], [1, 0, 0]])),
               skinserve.ClipTrack("rotation", 1, times, np.array([IDENTITY, turn(90)]))]
+    return skeleton, tracks
+
+
+def upload_rig(client):
+    skeleton, tracks = rig()
+    skeleton_id = client.upload_skeleton(*skeleton)
     info = client.upload_clip(skeleton_id, tracks, name="walk-turn")
     return skeleton_id, info
 

@@ -13,8 +13,9 @@ import numpy.typing as npt
 
 from . import _answers, _core, _pose, _requests, _tick
 from ._core import ClientCore, FrameStream, TickStream
-from ._errors import rpc_error
+from ._errors import SkinserveError, rpc_error
 from ._frame import Answer, FloatArray, Frame
+from ._lost_upload import Lost
 from ._morph import FrameWeights, MorphTarget
 from ._pose import ClipTrack, PaletteOrPose, Pose
 from ._shared_memory import SharedMemoryRegion
@@ -159,8 +160,28 @@ class AsyncClient(ClientCore):
                     result.add_part(part, want_normals, region)
                 return result.result(want_normals, want_tangents)
             except grpc.RpcError as e:
-                await self._upload(self._retry_frame(e, attempt, request.frame, request.mesh_id))
+                await self._reupload(self._retry_frame(e, attempt, request.frame,
+                                                       request.mesh_id))
         raise AssertionError("unreachable")
+
+    async def _reupload(self, lost: Lost) -> None:
+        """Client._reupload: the mesh, skeleton (with its clips) or clip a NOT_FOUND named."""
+        if lost.kind == "mesh":
+            await self._upload(self._meshes[lost.id][0])
+            return
+        if lost.kind == "clip":
+            request = self._clips[lost.id]
+            try:
+                await self._unary(self._stub.UploadClip, request)
+                return
+            except SkinserveError as e:
+                if e.code != grpc.StatusCode.NOT_FOUND:
+                    raise
+            lost = Lost("skeleton", request.skeleton_id)
+        skeleton, *clips = self._skeleton_uploads(lost.id)
+        await self._unary(self._stub.UploadSkeleton, skeleton)
+        for clip in clips:
+            await self._unary(self._stub.UploadClip, clip)
 
     # ---- animation on the server (docs/serving/animation.md) ---------------------------
     async def upload_skeleton(self, parents: npt.NDArray[np.int16],
@@ -170,16 +191,18 @@ class AsyncClient(ClientCore):
                               names: Optional[Sequence[str]] = None) -> str:
         """Client.upload_skeleton."""
         request = _pose.skeleton_request(parents, rest, palette_joints, inverse_bind, names)
-        return str((await self._unary(self._stub.UploadSkeleton, request)).skeleton_id)
+        return self._remember_skeleton(
+            request, str((await self._unary(self._stub.UploadSkeleton, request)).skeleton_id))
 
     async def upload_clip(self, skeleton_id: str, tracks: Sequence[ClipTrack], name: str = "",
                           duration: float = 0.0) -> pb.ClipInfo:
         """Client.upload_clip."""
-        info: pb.ClipInfo = await self._unary(
-            self._stub.UploadClip, _pose.clip_request(skeleton_id, tracks, name, duration))
-        return info
+        request = _pose.clip_request(skeleton_id, tracks, name, duration)
+        return self._remember_clip(request, await self._unary(self._stub.UploadClip, request))
 
     async def delete_clip(self, clip_id: str) -> bool:
+        """Client.delete_clip."""
+        self._forget_clip(clip_id)
         return bool((await self._unary(self._stub.DeleteClip,
                                        pb.DeleteClipRequest(clip_id=clip_id))).deleted)
 
@@ -245,7 +268,7 @@ class AsyncClient(ClientCore):
                 await answers.aclose()
             again = frames.closed()
             if again is not None:
-                await self._upload(again)
+                await self._reupload(again)
 
     async def _one_stream(self, requests: List[pb.SkinRequest], first: int, window: int,
                           want_normals: bool, region: Optional[SharedMemoryRegion],
@@ -339,11 +362,11 @@ class AsyncClient(ClientCore):
         if results is None:
             results = await self._tick_once(characters, crowds, frame, slot_offset)
         for _ in range(self.max_reuploads):
-            missing, uploads = self._tick_reuploads(characters, results)
+            missing, lost = self._tick_reuploads(characters, results)
             if not missing:
                 break
-            for requests in uploads:
-                await self._upload(requests)
+            for what in lost:
+                await self._reupload(what)
             again = await self._tick_once([characters[i] for i in missing],
                                           [crowds[i] for i in missing], frame, slot_offset)
             _core.merge_tick_results(results, missing, again)

@@ -12,8 +12,9 @@ import numpy.typing as npt
 
 from . import _answers, _core, _pose, _requests, _tick
 from ._core import ClientCore, FrameStream, TickStream
-from ._errors import rpc_error
+from ._errors import SkinserveError, rpc_error
 from ._frame import Answer, FloatArray, Frame
+from ._lost_upload import Lost
 from ._morph import FrameWeights, MorphTarget
 from ._pose import ClipTrack, PaletteOrPose, Pose
 from ._shared_memory import SharedMemoryRegion
@@ -71,9 +72,10 @@ class Client(ClientCore):
     server every `keepalive` seconds and gives up on one that does not answer within
     `keepalive_timeout` (UNAVAILABLE). None: no limit.
 
-    Meshes uploaded through this client are remembered: a frame answered NOT_FOUND (the
-    replica evicted the mesh, or the call landed on another replica) uploads the mesh
-    again and resends the frame, as the C++ client library does.
+    Meshes, skeletons and clips uploaded through this client are remembered: a frame
+    answered NOT_FOUND (the replica evicted the mesh, or the call landed on another
+    replica) uploads the mesh again, or the skeleton or clip of its pose that the error
+    names, and resends the frame, as the C++ client library does.
 
     skinserve.AsyncClient has the same methods for asyncio.
     """
@@ -229,8 +231,29 @@ class Client(ClientCore):
                     result.add_part(part, want_normals, region)
                 return result.result(want_normals, want_tangents)
             except grpc.RpcError as e:
-                self._upload(self._retry_frame(e, attempt, request.frame, request.mesh_id))
+                self._reupload(self._retry_frame(e, attempt, request.frame, request.mesh_id))
         raise AssertionError("unreachable")
+
+    def _reupload(self, lost: Lost) -> None:
+        """Uploads again what a NOT_FOUND frame named (as the C++ SkinClient::Reupload): the
+        mesh; a skeleton with the clips of it this client uploaded; a clip, or its skeleton
+        (with its clips) when the server lost that too."""
+        if lost.kind == "mesh":
+            self._upload(self._meshes[lost.id][0])
+            return
+        if lost.kind == "clip":
+            request = self._clips[lost.id]
+            try:
+                self._unary(self._stub.UploadClip, request)
+                return
+            except SkinserveError as e:
+                if e.code != grpc.StatusCode.NOT_FOUND:
+                    raise
+            lost = Lost("skeleton", request.skeleton_id)
+        skeleton, *clips = self._skeleton_uploads(lost.id)
+        self._unary(self._stub.UploadSkeleton, skeleton)
+        for clip in clips:
+            self._unary(self._stub.UploadClip, clip)
 
     # ---- animation on the server (docs/serving/animation.md) ---------------------------
     def upload_skeleton(self, parents: npt.NDArray[np.int16], rest: npt.NDArray[np.float32],
@@ -239,16 +262,19 @@ class Client(ClientCore):
                         names: Optional[Sequence[str]] = None) -> str:
         """A skeleton (see skinserve.skeleton_request); returns its skeleton_id."""
         request = _pose.skeleton_request(parents, rest, palette_joints, inverse_bind, names)
-        return str(self._unary(self._stub.UploadSkeleton, request).skeleton_id)
+        return self._remember_skeleton(
+            request, str(self._unary(self._stub.UploadSkeleton, request).skeleton_id))
 
     def upload_clip(self, skeleton_id: str, tracks: Sequence[ClipTrack], name: str = "",
                     duration: float = 0.0) -> pb.ClipInfo:
         """A clip for a stored skeleton; its ClipInfo (clip_id, bytes stored)."""
-        info: pb.ClipInfo = self._unary(self._stub.UploadClip,
-                                        _pose.clip_request(skeleton_id, tracks, name, duration))
-        return info
+        request = _pose.clip_request(skeleton_id, tracks, name, duration)
+        return self._remember_clip(request, self._unary(self._stub.UploadClip, request))
 
     def delete_clip(self, clip_id: str) -> bool:
+        """Deletes a stored clip (True when it was there); this client forgets it, never
+        to upload it again."""
+        self._forget_clip(clip_id)
         return bool(self._unary(self._stub.DeleteClip,
                                 pb.DeleteClipRequest(clip_id=clip_id)).deleted)
 
@@ -327,7 +353,7 @@ class Client(ClientCore):
                     yield answer
             again = frames.closed()
             if again is not None:
-                self._upload(again)
+                self._reupload(again)
 
     def _one_stream(self, requests: List[pb.SkinRequest], first: int, window: int,
                     want_normals: bool, region: Optional[SharedMemoryRegion],
@@ -423,11 +449,11 @@ class Client(ClientCore):
         if results is None:
             results = self._tick_once(characters, crowds, frame, slot_offset)
         for _ in range(self.max_reuploads):
-            missing, uploads = self._tick_reuploads(characters, results)
+            missing, lost = self._tick_reuploads(characters, results)
             if not missing:
                 break
-            for requests in uploads:
-                self._upload(requests)
+            for what in lost:
+                self._reupload(what)
             again = self._tick_once([characters[i] for i in missing],
                                     [crowds[i] for i in missing], frame, slot_offset)
             _core.merge_tick_results(results, missing, again)

@@ -1,6 +1,7 @@
 """The clients' core, free of any transport: the settings, the meshes uploaded through a
 client (to upload again), the checked requests, and the decisions taken between calls
-(re-upload and resend on NOT_FOUND, resume a stream, give up). Client (grpc's blocking
+(re-upload and resend on NOT_FOUND, resume a stream, give up). Skeletons and clips are
+remembered as meshes are: a pose frame answered NOT_FOUND naming one uploads it again. Client (grpc's blocking
 stub, threads) and AsyncClient (grpc.aio, coroutines) add only the calls and the waiting."""
 from typing import (Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple,
                     Union)
@@ -12,6 +13,7 @@ import numpy.typing as npt
 from . import _arrays, _channel, _pose, _requests, _tick
 from ._errors import SkinserveError, rpc_error
 from ._frame import Answer, Frame
+from ._lost_upload import Lost, lost_upload
 from ._morph import FrameWeights
 from ._pose import PaletteOrPose, Pose
 from ._service import SkinningStub
@@ -47,6 +49,9 @@ class ClientCore:
         self._stub = SkinningStub(self._channel)
         # mesh id -> (requests to upload it again, joint count, vertex count)
         self._meshes: Dict[str, Tuple[List[pb.UploadMeshRequest], int, int]] = {}
+        # skeleton id -> its request; clip id -> its request (which names its skeleton)
+        self._skeletons: Dict[str, pb.UploadSkeletonRequest] = {}
+        self._clips: Dict[str, pb.UploadClipRequest] = {}
 
     # ---- meshes -----------------------------------------------------------------------
     def _remember(self, requests: List[pb.UploadMeshRequest], info: pb.MeshInfo) -> str:
@@ -63,20 +68,51 @@ class ClientCore:
         known = self._meshes.get(mesh_id)
         return known[2] if known else None
 
-    def _upload_again(self, mesh_id: str, error: SkinserveError) -> List[pb.UploadMeshRequest]:
-        if mesh_id not in self._meshes:
+    def _upload_again(self, lost: Lost, error: SkinserveError) -> Lost:
+        """`lost` when this client uploaded it (and can again), else raises `error`."""
+        if not self._uploaded(lost):
             raise error  # not uploaded through this client: nothing to send again
-        return self._meshes[mesh_id][0]
+        return lost
 
-    def _retry_frame(self, e: Any, attempt: int, frame: int,
-                     mesh_id: str) -> List[pb.UploadMeshRequest]:
-        """A frame's call failed with the grpc error `e` on attempt `attempt`: the requests
-        that upload its mesh again before it is resent (NOT_FOUND, attempts left), else
-        raises the SkinserveError."""
+    def _uploaded(self, lost: Lost) -> bool:
+        """Whether this client uploaded what `lost` names (and can upload it again)."""
+        if lost.kind == "skeleton":
+            return lost.id in self._skeletons
+        if lost.kind == "clip":
+            return lost.id in self._clips
+        return lost.id in self._meshes
+
+    def _retry_frame(self, e: Any, attempt: int, frame: int, mesh_id: str) -> Lost:
+        """A frame's call failed with the grpc error `e` on attempt `attempt`: what to upload
+        again before it is resent (NOT_FOUND, attempts left), else raises the
+        SkinserveError."""
         error = rpc_error(e, frame)
         if e.code() != grpc.StatusCode.NOT_FOUND or attempt == self.max_reuploads:
             raise error from None
-        return self._upload_again(mesh_id, error)
+        return self._upload_again(lost_upload(error.message, mesh_id), error)
+
+    # ---- skeletons and clips ------------------------------------------------------------
+    def _remember_skeleton(self, request: pb.UploadSkeletonRequest, skeleton_id: str) -> str:
+        self._skeletons.setdefault(skeleton_id, request)
+        return skeleton_id
+
+    def _remember_clip(self, request: pb.UploadClipRequest, info: pb.ClipInfo) -> pb.ClipInfo:
+        self._clips.setdefault(info.clip_id, request)
+        return info
+
+    def _forget_clip(self, clip_id: str) -> None:
+        self._clips.pop(clip_id, None)
+
+    def _skeleton_uploads(self, skeleton_id: str) -> List[Any]:
+        """What uploads a lost skeleton again: its request, then those of its clips this
+        client uploaded (the server lost them with it). NOT_FOUND when this client never
+        uploaded the skeleton."""
+        if skeleton_id not in self._skeletons:
+            raise SkinserveError(grpc.StatusCode.NOT_FOUND,
+                                 f"skeleton '{skeleton_id}' is not on the server and this "
+                                 "client never uploaded it")
+        return [self._skeletons[skeleton_id]] + [
+            c for c in self._clips.values() if c.skeleton_id == skeleton_id]
 
     # ---- shared memory, frames ----------------------------------------------------------
     @staticmethod
@@ -104,13 +140,20 @@ class ClientCore:
 
     # ---- ticks ----------------------------------------------------------------------------
     def _tick_reuploads(self, characters: Sequence[Character],
-                        results: Sequence[CharacterResult]
-                        ) -> Tuple[List[int], List[List[pb.UploadMeshRequest]]]:
-        """The characters answered NOT_FOUND whose mesh this client can upload again, and
-        the requests that upload those meshes."""
-        missing = _tick.not_found(characters, results, self._meshes)
-        meshes = {characters[i].mesh_id for i in missing}
-        return missing, [self._meshes[mesh_id][0] for mesh_id in meshes]
+                        results: Sequence[CharacterResult]) -> Tuple[List[int], List[Lost]]:
+        """The characters answered NOT_FOUND for what this client can upload again (a mesh,
+        or a skeleton or clip of a pose), and those uploads, each once."""
+        missing: List[int] = []
+        lost: List[Lost] = []
+        for r in results:
+            if r.error is None or r.error.code != grpc.StatusCode.NOT_FOUND:
+                continue
+            what = lost_upload(r.error.message, characters[r.index].mesh_id)
+            if self._uploaded(what):
+                missing.append(r.index)
+                if what not in lost:
+                    lost.append(what)
+        return missing, lost
 
 
 def new_frame(requests: Sequence[pb.SkinRequest],
@@ -216,13 +259,14 @@ class FrameStream:
         self._restart = error
         return None
 
-    def closed(self) -> Optional[List[pb.UploadMeshRequest]]:
-        """The call ended: the requests that upload the mesh again before the next call
-        (resuming from the frame that was NOT_FOUND), or None; raises when the stream ended
-        early more than max_reconnects times."""
+    def closed(self) -> Optional[Lost]:
+        """The call ended: what to upload again before the next call (the mesh, or the
+        skeleton or clip of a pose, resuming from the frame that was NOT_FOUND), or None;
+        raises when the stream ended early more than max_reconnects times."""
         if self._restart is not None:
             self._reuploads += 1
-            return self._core._upload_again(self.mesh_id, self._restart)
+            return self._core._upload_again(lost_upload(self._restart.message, self.mesh_id),
+                                            self._restart)
         if not self.done:  # the call ended UNAVAILABLE or idle early
             self._reconnects += 1
             if self._reconnects > self._core.max_reconnects:

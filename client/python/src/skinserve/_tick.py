@@ -2,7 +2,7 @@
 both clients. A Character says what one character asks (as skin's arguments do); a tick's
 answer is one CharacterResult per character, in order, a bad character failing alone."""
 import dataclasses
-from typing import Any, Callable, Container, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import grpc
 import numpy as np
@@ -125,14 +125,6 @@ def stream_regions(ticks: Sequence[Sequence[Character]],
             raise ValueError(f"region: {r.byte_size} bytes, fewer than {window} ticks in "
                              f"flight of {stride} bytes")
     return stride, next(iter(regions.values()), None)
-
-
-def not_found(characters: Sequence[Character], results: Sequence["CharacterResult"],
-              known: Container[str]) -> List[int]:
-    """The characters answered NOT_FOUND whose mesh this client uploaded (and can again)."""
-    return [r.index for r in results
-            if r.error is not None and r.error.code == grpc.StatusCode.NOT_FOUND
-            and characters[r.index].mesh_id in known]
 
 
 class TickAnswer:
