@@ -264,11 +264,7 @@ Status OpenClEncoder::Encode(OpenClLane& lane, const SkinKernelArgs& floats, uin
                              ClEvents& transfers) {
   const EncodedOutput& enc = frame.encoded;
   const bool snorm16 = enc.encoding == VertexEncoding::kSnorm16;
-  if (!snorm16 && enc.encoding != VertexEncoding::kFloat16) {
-    return InvalidArgument(fmt::format("the OpenCL backends do not write {} output",
-                                       VertexEncodingName(enc.encoding)));
-  }
-  Result<LaneState*> found = StateOf(lane);
+  Result<LaneState*> found = StateFor(lane, enc.encoding);
   if (!found.ok()) return found.status();
   LaneState& state = **found;
   Snorm16Box box;
@@ -285,16 +281,10 @@ Status OpenClEncoder::Encode(OpenClLane& lane, const SkinKernelArgs& floats, uin
   }
   if (Status s = EnqueueReadBack(lane, zero_copy, arrays, transfers); !s.ok()) return s;
   // The flag last, in order on the compute queue: the one wait.
-  cl_int refused = 0;
-  if (cl_int err = clEnqueueReadBuffer(lane.compute, state.bad.get(), CL_TRUE, 0, sizeof(refused),
-                                       &refused, 0, nullptr, nullptr);
-      err != CL_SUCCESS) {
-    return ClError("clEnqueueReadBuffer(encode flag)", err);
-  }
-  if (refused != 0) {
-    Status s = HostEncode(lane, floats, vertex_count, frame);
-    return s.ok() ? Internal("the device refused a value to encode that the host encoder takes")
-                  : s;
+  if (Status s =
+          CheckFlag(lane, state, [&] { return HostEncode(lane, floats, vertex_count, frame); });
+      !s.ok()) {
+    return s;
   }
   if (!zero_copy && runtime_->staging()) {
     for (const EncodedArray& a : arrays) std::memcpy(a.to.data(), a.pinned->host, a.to.size());
@@ -306,11 +296,7 @@ Status OpenClEncoder::EncodeIntoDevice(OpenClLane& lane, const SkinKernelArgs& f
                                        uint32_t vertex_count, const SkinFrame& frame,
                                        ClEvents& kernels, ClEvents& transfers) {
   const DeviceOutput& device = frame.device;
-  if (device.encoding != VertexEncoding::kSnorm16 && device.encoding != VertexEncoding::kFloat16) {
-    return InvalidArgument(fmt::format("the OpenCL backends do not write {} output",
-                                       VertexEncodingName(device.encoding)));
-  }
-  Result<LaneState*> found = StateOf(lane);
+  Result<LaneState*> found = StateFor(lane, device.encoding);
   if (!found.ok()) return found.status();
   LaneState& state = **found;
   Snorm16Box box;
@@ -327,22 +313,39 @@ Status OpenClEncoder::EncodeIntoDevice(OpenClLane& lane, const SkinKernelArgs& f
     return s;
   }
   // The flag before anything is copied: a refused value leaves the memory as it was.
-  cl_int refused = 0;
-  if (cl_int err = clEnqueueReadBuffer(lane.compute, state.bad.get(), CL_TRUE, 0, sizeof(refused),
-                                       &refused, 0, nullptr, nullptr);
-      err != CL_SUCCESS) {
-    return ClError("clEnqueueReadBuffer(encode flag)", err);
-  }
-  if (refused != 0) {
-    Status s = HostEncodeIntoDevice(lane, floats, vertex_count, frame, transfers);
-    return s.ok() ? Internal("the device refused a value to encode that the host encoder takes")
-                  : s;
+  if (Status s = CheckFlag(
+          lane, state,
+          [&] { return HostEncodeIntoDevice(lane, floats, vertex_count, frame, transfers); });
+      !s.ok()) {
+    return s;
   }
   std::vector<DeviceOutputPiece> pieces;
   for (const EncodedArray& a : arrays) {
     pieces.push_back({a.what, a.in, nullptr, a.device_offset, a.bytes});
   }
   return WriteDevicePieces(lane, frame, pieces, transfers);
+}
+
+Result<OpenClEncoder::LaneState*> OpenClEncoder::StateFor(OpenClLane& lane,
+                                                          VertexEncoding encoding) {
+  if (encoding != VertexEncoding::kSnorm16 && encoding != VertexEncoding::kFloat16) {
+    return InvalidArgument(
+        fmt::format("the OpenCL backends do not write {} output", VertexEncodingName(encoding)));
+  }
+  return StateOf(lane);
+}
+
+Status OpenClEncoder::CheckFlag(OpenClLane& lane, LaneState& state,
+                                const std::function<Status()>& host_encode) {
+  cl_int refused = 0;
+  if (cl_int err = clEnqueueReadBuffer(lane.compute, state.bad.get(), CL_TRUE, 0, sizeof(refused),
+                                       &refused, 0, nullptr, nullptr);
+      err != CL_SUCCESS) {
+    return ClError("clEnqueueReadBuffer(encode flag)", err);
+  }
+  if (refused == 0) return Status::Ok();
+  Status s = host_encode();
+  return s.ok() ? Internal("the device refused a value to encode that the host encoder takes") : s;
 }
 
 Result<bool> OpenClEncoder::PrepareEncode(OpenClLane& lane, LaneState& state,

@@ -5,6 +5,7 @@
 // encoded frame, so runtimes that never see one compile nothing more.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -58,6 +59,13 @@ class OpenClEncoder {
   Status Build();
   Status Warm();
   Result<LaneState*> StateOf(OpenClLane& lane);
+  // StateOf for a frame in `encoding`: INVALID_ARGUMENT unless float16 or snorm16.
+  Result<LaneState*> StateFor(OpenClLane& lane, VertexEncoding encoding);
+  // Reads the flag the encode kernels raise for a value their encoding cannot hold
+  // (blocking, in order after them): OK if none was; else `host_encode` names it (the host
+  // encoder's error), or INTERNAL if the host encoder took every value after all.
+  static Status CheckFlag(OpenClLane& lane, LaneState& state,
+                          const std::function<Status()>& host_encode);
   // snorm16: the box of the skinned `positions`, combined from the work-groups' partial rows
   // (read back, blocking); nullopt when a value is not finite.
   Result<std::optional<Bounds>> DeviceBox(OpenClLane& lane, LaneState& state, cl_mem positions,
