@@ -15,7 +15,7 @@
 // into host memory), then the same again on --compare-backend (simd-openmp: the server's CPUs) into
 // shared memory. --encoding float16 or snorm16: every frame of those runs and checks in that
 // encoding, written encoded into the GPU buffer by the server (decoded by --check; --draw
-// draws float32 only). --characters-per-tick N: each frame a tick of N characters (the
+// draws float32 vertices). --characters-per-tick N: each frame a tick of N characters (the
 // synthetic one on N meshes of its own, seeds 7 to 7 + N - 1; a --mesh character N times),
 // all into the region, which the server signals once per tick; --check checks every
 // character. Prints one summary line per run and PASS or FAIL.
