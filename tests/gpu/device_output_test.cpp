@@ -77,6 +77,19 @@ std::vector<float> FloatsAt(const std::vector<uint8_t>& bytes, uint64_t offset, 
   return out;
 }
 
+// The bytes outside every [offset, offset + length) range that differ from the canary.
+std::size_t TouchedOutside(const std::vector<uint8_t>& bytes,
+                           const std::vector<std::pair<uint64_t, uint64_t>>& ranges) {
+  std::size_t touched = 0;
+  for (uint64_t i = 0; i < bytes.size(); ++i) {
+    bool inside = false;
+    for (const auto& [offset, length] : ranges)
+      inside = inside || (i >= offset && i < offset + length);
+    if (!inside && bytes[i] != kCanary) ++touched;
+  }
+  return touched;
+}
+
 class DeviceOutputTest : public ::testing::TestWithParam<bool> {};
 
 TEST_P(DeviceOutputTest, WritesTheFrameAtItsOffsetsAndNothingElse) {
@@ -114,28 +127,11 @@ TEST_P(DeviceOutputTest, WritesTheFrameAtItsOffsetsAndNothingElse) {
         << "frame " << frame << ": position error " << d.max_position_error << " (tolerance "
         << d.position_tolerance << "), normal " << d.max_normal_error << ", tangent "
         << d.max_tangent_error << " at vertex " << d.worst_vertex;
-    std::size_t touched = 0;
-    for (uint64_t i = 0; i < bytes.size(); ++i) {
-      const bool inside = (i >= positions && i < positions + 12ull * v) ||
-                          (i >= normals && i < normals + 12ull * v) ||
-                          (i >= tangents && i < tangents + 16ull * v);
-      if (!inside && bytes[i] != kCanary) ++touched;
-    }
-    EXPECT_EQ(touched, 0u) << "bytes outside the frame's ranges were written";
+    EXPECT_EQ(TouchedOutside(bytes,
+                             {{positions, 12ull * v}, {normals, 12ull * v}, {tangents, 16ull * v}}),
+              0u)
+        << "bytes outside the frame's ranges were written";
   }
-}
-
-// The bytes outside [offset, offset + bytes) of each range that differ from the canary.
-std::size_t TouchedOutside(const std::vector<uint8_t>& bytes,
-                           std::initializer_list<std::pair<uint64_t, uint64_t>> ranges) {
-  std::size_t touched = 0;
-  for (uint64_t i = 0; i < bytes.size(); ++i) {
-    bool inside = false;
-    for (const auto& [offset, length] : ranges)
-      inside = inside || (i >= offset && i < offset + length);
-    if (!inside && bytes[i] != kCanary) ++touched;
-  }
-  return touched;
 }
 
 TEST_P(DeviceOutputTest, EachEncodingAtItsOffsetsDecodesWithinItsBound) {
@@ -311,19 +307,15 @@ TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
   }
   EXPECT_EQ(checked, 4u);
   // Nothing outside the characters' ranges (the failed one wrote nothing past the memory).
-  std::size_t touched = 0;
-  for (uint64_t i = 0; i < bytes.size(); ++i) {
-    bool inside = false;
-    for (std::size_t c = 0; c < ranges.size(); ++c) {
-      const uint32_t v = sizes[c];
-      const uint64_t a = c == 4 ? 6ull * v : 12ull * v;
-      inside = inside || (i >= ranges[c].positions && i < ranges[c].positions + a) ||
-               (i >= ranges[c].normals && i < ranges[c].normals + a) ||
-               (i >= ranges[c].tangents && i < ranges[c].tangents + 16ull * v);
-    }
-    if (!inside && bytes[i] != kCanary) ++touched;
+  std::vector<std::pair<uint64_t, uint64_t>> written;
+  for (std::size_t c = 0; c < ranges.size(); ++c) {
+    const uint64_t array = (c == 4 ? 6ull : 12ull) * sizes[c];
+    written.insert(written.end(), {{ranges[c].positions, array},
+                                   {ranges[c].normals, array},
+                                   {ranges[c].tangents, 16ull * sizes[c]}});
   }
-  EXPECT_EQ(touched, 0u) << "bytes outside the characters' ranges were written";
+  EXPECT_EQ(TouchedOutside(bytes, written), 0u)
+      << "bytes outside the characters' ranges were written";
 }
 
 INSTANTIATE_TEST_SUITE_P(Paths, DeviceOutputTest, ::testing::Values(false, true),
