@@ -524,8 +524,16 @@ class Engine::Impl {
     std::vector<DeviceTiming> timings(frames.size());
     for (std::size_t k = 0; k < frames.size(); ++k) frames[k].device_timing = &timings[k];
     SkinTogether(items, prepared, frames, statuses);
+    const int64_t finished = NowNs();
     const int64_t each =
-        (NowNs() - started) / static_cast<int64_t>(std::max<std::size_t>(frames.size(), 1));
+        (finished - started) / static_cast<int64_t>(std::max<std::size_t>(frames.size(), 1));
+    // Each job's compute (FrameTiming::compute_ns) is its share of the chunk's time, not the
+    // whole chunk's: a tick's summed compute is then what the chunks took. The rest of its
+    // wait counts as queued.
+    for (SkinJob* job : jobs) {
+      const int64_t instances = std::max<uint32_t>(job->request.instances, 1);
+      job->started_ns_.store(finished - each * instances);
+    }
     for (std::size_t k = 0; k < items.size(); ++k) {
       SkinJob& job = *items[k].first;
       job.device_transfer_ns_.fetch_add(timings[k].transfer_ns);
