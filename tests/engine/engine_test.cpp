@@ -268,9 +268,13 @@ class PlannedJob final : public SkinJob {
  public:
   void Drop() { DropPlan(); }
   std::promise<Status> done;
+  FrameTiming timing;  // the last OnSkinned's
 
  private:
-  void OnSkinned(Status status, const FrameTiming&) override { done.set_value(status); }
+  void OnSkinned(Status status, const FrameTiming& t) override {
+    timing = t;
+    done.set_value(status);
+  }
 };
 
 TEST(EngineTest, APlannedFrameUsesItsPinnedMeshAndPlansFailNamingWhy) {
@@ -527,6 +531,68 @@ TEST(EngineTest, AGroupTakesOneQueuePlaceAndEachJobItsOwnVerdict) {
   }
   engine->Shutdown();
   EXPECT_EQ(engine->Stats().rejected_queue_full, 0u) << "12 jobs in a queue of 1: one place";
+}
+
+// A tick on `opencl` (BackendInfo::skins_frames_together): its float32 jobs go to the
+// backend in chunks (Backend::SkinFrames). Every character is skinned right, and each
+// job's compute time is its share of its chunk's, so the tick's summed compute is at most
+// what its chunks took side by side (before, each job reported its whole chunk).
+TEST(EngineTest, AnOpenClTickIsSkinnedTogetherAndEachJobReportsItsShare) {
+  auto engine = MakeEngine({.compute_threads = 2, .enabled_backends = {"opencl"}});
+  std::vector<MeshArrays> arrays;
+  std::vector<MeshInfo> infos;
+  for (uint32_t m = 0; m < 4; ++m) {
+    arrays.push_back(MakeSyntheticMesh(
+        {.vertex_count = 1000 + 333 * m, .influences = 1 + m, .normals = true, .seed = 40 + m}));
+    infos.push_back(engine->AddMesh(arrays.back()).value());
+  }
+  constexpr int kJobs = 16;
+  std::vector<PlannedJob> jobs(kJobs);
+  std::vector<std::vector<float>> palettes(kJobs), positions(kJobs), normals(kJobs);
+  SkinGroup group;
+  for (int i = 0; i < kJobs; ++i) {
+    const MeshInfo& info = infos[i % 4];
+    const uint32_t instances = i % 5 == 0 ? 2 : 1;  // a crowd now and then
+    for (uint32_t k = 0; k < instances; ++k) {
+      const auto one = MakeSyntheticPalette(info.joint_count, 9 + i, k);
+      palettes[i].insert(palettes[i].end(), one.begin(), one.end());
+    }
+    positions[i].assign(3ull * info.vertex_count * instances, 0.0f);
+    normals[i].assign(3ull * info.vertex_count * instances, 0.0f);
+    jobs[i].request = {.mesh_id = info.id,
+                       .backend = "opencl",
+                       .palette = palettes[i],
+                       .instances = instances,
+                       .positions = positions[i],
+                       .normals = normals[i]};
+    group.jobs.push_back(&jobs[i]);
+  }
+  std::vector<Status> verdicts(kJobs);
+  std::vector<std::future<Status>> done;
+  for (auto& job : jobs) done.push_back(job.done.get_future());
+  const auto start = std::chrono::steady_clock::now();
+  engine->SubmitGroup(&group, verdicts);
+  for (int i = 0; i < kJobs; ++i) ASSERT_TRUE(verdicts[i].ok()) << verdicts[i].ToString();
+  for (auto& d : done) ASSERT_TRUE(d.get().ok());
+  const int64_t wall_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start)
+          .count();
+  int64_t compute_ns = 0;
+  for (int i = 0; i < kJobs; ++i) {
+    compute_ns += jobs[i].timing.compute_ns;
+    auto mesh = Mesh::Create(arrays[i % 4]).value();
+    const std::size_t floats = 12ull * mesh->joint_count(), values = 3ull * mesh->vertex_count();
+    for (uint32_t k = 0; k < jobs[i].request.instances; ++k) {
+      const Deviation d = CompareWithReference(
+          *mesh, std::span<const float>(palettes[i]).subspan(k * floats, floats),
+          std::span<const float>(positions[i]).subspan(k * values, values),
+          std::span<const float>(normals[i]).subspan(k * values, values));
+      EXPECT_TRUE(d.within_tolerance()) << "job " << i << " instance " << k;
+    }
+  }
+  EXPECT_LE(compute_ns, 2 * wall_ns) << "the jobs' compute times add up to more than the two "
+                                        "compute threads could spend in the tick's wall time";
+  engine->Shutdown();
 }
 
 TEST(EngineTest, ShutdownFinishesQueuedFramesThenRefuses) {

@@ -215,7 +215,7 @@ TEST_P(DeviceOutputTest, AValueTheEncodingRefusesFailsTheFrameAndWritesNothing) 
       << "a refused frame wrote into the memory";
 }
 
-// A tick's characters into one memory (Backend::SkinDeviceFrames: enqueued on one queue,
+// A tick's characters into one memory (Backend::SkinFrames: enqueued on one queue,
 // one wait): meshes of different sizes, normals and tangents or not, dual quaternions, an
 // encoded frame among them (skinned on its own) and one that fails alone.
 TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
@@ -269,7 +269,7 @@ TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
   // The range check is the engine's (CheckDeviceRequest); here the backend must refuse
   // the write itself, without harm to the others.
   std::vector<Status> statuses(frames.size());
-  backend.SkinDeviceFrames(prepared, frames, statuses);
+  backend.SkinFrames(prepared, frames, statuses);
   const std::vector<uint8_t> bytes = ReadBack(*cl.runtime, **memory);
   std::size_t checked = 0;
   for (std::size_t c = 0; c < meshes.size(); ++c) {

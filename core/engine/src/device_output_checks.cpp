@@ -19,7 +19,7 @@ Result<std::shared_ptr<DeviceMemory>> Backend::ImportDeviceMemory(const DeviceMe
       info().id));
 }
 
-void Backend::SkinDeviceFrames(std::span<const PreparedMesh* const> prepared,
+void Backend::SkinFrames(std::span<const PreparedMesh* const> prepared,
                                std::span<const SkinFrame> frames, std::span<Status> statuses) {
   for (std::size_t i = 0; i < frames.size(); ++i) statuses[i] = Skin(*prepared[i], frames[i]);
 }

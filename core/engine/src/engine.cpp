@@ -435,10 +435,10 @@ class Engine::Impl {
 
   void SubmitGroup(SkinGroup* group, std::span<Status> statuses,
                    void (*run_part)(void*, uint32_t, int), void (*run_group)(void*, uint32_t, int),
-                   void (*run_device)(void*, uint32_t, int)) {
+                   void (*run_together)(void*, uint32_t, int)) {
     group->queued_.clear();
-    group->device_.clear();
-    int device_width = 1;
+    group->together_.clear();
+    int together_width = 1;
     for (std::size_t i = 0; i < group->jobs.size(); ++i) {
       SkinJob* job = group->jobs[i];
       Status& status = statuses[i];
@@ -446,9 +446,9 @@ class Engine::Impl {
       if (status.ok() && !job->plan_.planned) status = Plan(job);
       ComputePool::Task task;
       if (status.ok()) status = Admit(job, run_part, &task);
-      if (status.ok() && job->request.device.active()) {
-        group->device_.push_back(job);
-        device_width = std::max(device_width, task.min_width);
+      if (status.ok() && SkinsTogether(*job)) {
+        group->together_.push_back(job);
+        together_width = std::max(together_width, task.min_width);
       } else if (status.ok() && std::min(task.min_width, pool_.size()) > 1) {
         status = Enqueue(task);  // a team's job: alone, as Submit queues it
       } else if (status.ok()) {
@@ -459,13 +459,24 @@ class Engine::Impl {
     EnqueueGroupTask(group, &group->queued_, run_group,
                      static_cast<uint32_t>(group->queued_.size()), 1, statuses);
     // Chunks of at least 8 frames, at most one per compute thread.
-    const auto device_parts = static_cast<uint32_t>(std::clamp<std::size_t>(
-        group->device_.size() / 8, 1, static_cast<std::size_t>(pool_.size())));
-    group->device_parts_ = device_parts;
-    EnqueueGroupTask(group, &group->device_, run_device, device_parts, device_width, statuses);
+    const auto together_parts = static_cast<uint32_t>(std::clamp<std::size_t>(
+        group->together_.size() / 8, 1, static_cast<std::size_t>(pool_.size())));
+    group->together_parts_ = together_parts;
+    EnqueueGroupTask(group, &group->together_, run_together, together_parts, together_width,
+                     statuses);
   }
 
-  // One task of `group` running `jobs` (its queued_ or device_) in `parts` parts; if the
+  // Whether a group's accepted `job` goes to the backend with the others of its chunk
+  // (Backend::SkinFrames): output in device memory always; float32 output in host memory
+  // when its backend skins such frames together (BackendInfo::skins_frames_together).
+  bool SkinsTogether(const SkinJob& job) const {
+    const SkinRequest& request = job.request;
+    if (request.device.active()) return true;
+    return backends_[job.backend_index_]->info().skins_frames_together &&
+           !request.encoded.active() && !request.skin_into_scratch;
+  }
+
+  // One task of `group` running `jobs` (its queued_ or together_) in `parts` parts; if the
   // queue refuses it, each of those jobs' statuses says so and `jobs` is emptied.
   void EnqueueGroupTask(SkinGroup* group, std::vector<SkinJob*>* jobs,
                         void (*run)(void*, uint32_t, int), uint32_t parts, int width,
@@ -486,11 +497,11 @@ class Engine::Impl {
     }
   }
 
-  // A chunk of a group's device jobs (SkinGroup::device_) on one compute thread of
+  // A chunk of a group's jobs skinned together (SkinGroup::together_) on one compute thread of
   // `threads`: every instance of every job a frame, the frames of each backend handed to it
-  // together (Backend::SkinDeviceFrames), then each instance finished as RunPart does. A
+  // together (Backend::SkinFrames), then each instance finished as RunPart does. A
   // job whose inputs or mesh fail fails each of its instances.
-  void RunDeviceBatch(std::span<SkinJob* const> jobs, int threads) {
+  void RunTogether(std::span<SkinJob* const> jobs, int threads) {
     const int64_t started = NowNs();
     std::vector<std::pair<SkinJob*, uint32_t>> items;  // job, instance
     std::vector<SkinFrame> frames;
@@ -513,8 +524,16 @@ class Engine::Impl {
     std::vector<DeviceTiming> timings(frames.size());
     for (std::size_t k = 0; k < frames.size(); ++k) frames[k].device_timing = &timings[k];
     SkinTogether(items, prepared, frames, statuses);
+    const int64_t finished = NowNs();
     const int64_t each =
-        (NowNs() - started) / static_cast<int64_t>(std::max<std::size_t>(frames.size(), 1));
+        (finished - started) / static_cast<int64_t>(std::max<std::size_t>(frames.size(), 1));
+    // Each job's compute (FrameTiming::compute_ns) is its share of the chunk's time, not the
+    // whole chunk's: a tick's summed compute is then what the chunks took. The rest of its
+    // wait counts as queued.
+    for (SkinJob* job : jobs) {
+      const int64_t instances = std::max<uint32_t>(job->request.instances, 1);
+      job->started_ns_.store(finished - each * instances);
+    }
     for (std::size_t k = 0; k < items.size(); ++k) {
       SkinJob& job = *items[k].first;
       job.device_transfer_ns_.fetch_add(timings[k].transfer_ns);
@@ -542,7 +561,7 @@ class Engine::Impl {
     }
   }
 
-  // RunDeviceBatch's frames whose status is OK so far, each backend's handed to it at once.
+  // RunTogether's frames whose status is OK so far, each backend's handed to it at once.
   void SkinTogether(std::span<const std::pair<SkinJob*, uint32_t>> items,
                     std::span<const PreparedMesh* const> prepared,
                     std::span<const SkinFrame> frames, std::span<Status> statuses) {
@@ -566,7 +585,7 @@ class Engine::Impl {
       }
       verdicts.assign(picked.size(), Status::Ok());
       try {
-        backends_[backend]->SkinDeviceFrames(meshes, chosen, verdicts);
+        backends_[backend]->SkinFrames(meshes, chosen, verdicts);
       } catch (const std::exception& e) {
         verdicts.assign(picked.size(),
                         Internal(fmt::format("backend '{}' failed: {}",
@@ -810,18 +829,18 @@ Status Engine::Submit(SkinJob* job) { return impl_->Submit(job, &Engine::RunPart
 
 void Engine::SubmitGroup(SkinGroup* group, std::span<Status> statuses) {
   impl_->SubmitGroup(group, statuses, &Engine::RunPart, &Engine::RunGroupPart,
-                     &Engine::RunDeviceGroupPart);
+                     &Engine::RunTogetherGroupPart);
 }
 
-void Engine::RunDeviceGroupPart(void* context, uint32_t part, int threads) {
+void Engine::RunTogetherGroupPart(void* context, uint32_t part, int threads) {
   auto& group = *static_cast<SkinGroup*>(context);
   // Contiguous chunks; read first: a job's last instance may reuse the group.
-  const std::size_t n = group.device_.size(), parts = group.device_parts_;
+  const std::size_t n = group.together_.size(), parts = group.together_parts_;
   const std::size_t begin = n * part / parts, end = n * (part + 1) / parts;
-  std::vector<SkinJob*> chunk(group.device_.begin() + static_cast<std::ptrdiff_t>(begin),
-                              group.device_.begin() + static_cast<std::ptrdiff_t>(end));
+  std::vector<SkinJob*> chunk(group.together_.begin() + static_cast<std::ptrdiff_t>(begin),
+                              group.together_.begin() + static_cast<std::ptrdiff_t>(end));
   if (chunk.empty()) return;
-  static_cast<Impl*>(chunk.front()->engine_)->RunDeviceBatch(chunk, threads);
+  static_cast<Impl*>(chunk.front()->engine_)->RunTogether(chunk, threads);
 }
 
 void Engine::RunGroupPart(void* context, uint32_t part, int threads) {

@@ -42,6 +42,10 @@ struct BackendInfo {
   // Writing snorm16 itself, Skin() keeps the frame's float positions on the host until it
   // has their box, in EncodedOutput::box_scratch when the caller gives one (simd).
   bool encoded_box_scratch = false;
+  // SkinFrames skins frames with float32 output in host memory together too (not only
+  // frames into device memory), cheaper than Skin on each: the engine then hands a tick's
+  // such frames to it in chunks (Engine::SubmitGroup).
+  bool skins_frames_together = false;
 
   bool Supports(SkinningMethod method) const;
   bool WritesEncoding(VertexEncoding encoding) const;
@@ -177,12 +181,15 @@ class Backend {
   // queues the frame; the CPU backends also refuse others with INVALID_ARGUMENT).
   // Thread-safe: may run concurrently, also on one mesh.
   virtual Status Skin(const PreparedMesh& prepared, const SkinFrame& frame) = 0;
-  // Several frames whose output is device memory (SkinFrame::device), skinned together:
-  // statuses[i] is frames[i]'s verdict (prepared[i] its mesh). The default runs Skin on
-  // each; `opencl` enqueues them all on one queue and waits once, so that a tick's
-  // characters cost one wait instead of one each. Thread-safe like Skin.
-  virtual void SkinDeviceFrames(std::span<const PreparedMesh* const> prepared,
-                                std::span<const SkinFrame> frames, std::span<Status> statuses);
+  // Several frames skinned together: statuses[i] is frames[i]'s verdict (prepared[i] its
+  // mesh). The engine hands over frames whose output is device memory (SkinFrame::device),
+  // and with info().skins_frames_together float32 frames into host memory too. The default
+  // runs Skin on each; `opencl` enqueues them on one queue and waits once for the device
+  // frames, and for the host frames reads each back into pinned memory of the batch and
+  // copies it out while the later ones still run, so that a tick's characters cost neither
+  // a lane nor a wait each. Thread-safe like Skin.
+  virtual void SkinFrames(std::span<const PreparedMesh* const> prepared,
+                          std::span<const SkinFrame> frames, std::span<Status> statuses);
   // Imports device memory that frames then name in SkinFrame::device. The default:
   // FAILED_PRECONDITION saying this backend cannot (only `opencl` on a device with
   // cl_khr_external_memory_opaque_fd can).

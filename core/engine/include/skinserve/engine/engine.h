@@ -240,10 +240,12 @@ class SkinGroup {
  private:
   friend class Engine;
   std::vector<SkinJob*> queued_;  // the accepted jobs of the group's one task
-  // The accepted jobs whose output is device memory: their own task, in device_parts_
-  // contiguous chunks, each chunk's frames skinned together (Backend::SkinDeviceFrames).
-  std::vector<SkinJob*> device_;
-  uint32_t device_parts_ = 0;
+  // The accepted jobs whose frames go to their backend together (output in device memory,
+  // or a backend with BackendInfo::skins_frames_together): their own task, in
+  // together_parts_ contiguous chunks, each chunk's frames handed over at once
+  // (Backend::SkinFrames).
+  std::vector<SkinJob*> together_;
+  uint32_t together_parts_ = 0;
 };
 
 struct BackendStats {
@@ -336,10 +338,12 @@ class Engine {
   // never called back. The accepted jobs take ONE place in the queue together (a tick of 64
   // characters waits as one frame, not 64): the compute threads take them side by side,
   // one job per thread at a time, a crowd job's instances one after another. A job whose
-  // backend needs a team of threads (OpenCL) is queued alone, as Submit would. Jobs whose
-  // output is device memory (GPU regions) take one more place: a few chunks of them, each
-  // chunk's frames handed to the backend together (Backend::SkinDeviceFrames: on a GPU, one
-  // wait per chunk instead of one per character).
+  // backend needs a team of threads (OpenCL on PoCL) is queued alone, as Submit would. Jobs
+  // whose output is device memory (GPU regions), and float32 jobs of a backend that skins
+  // frames together (BackendInfo::skins_frames_together: `opencl`), take one more place: a
+  // few chunks of them, each chunk's frames handed to the backend together
+  // (Backend::SkinFrames: on a GPU, one queue and waits that overlap the copies instead of
+  // a lane and a wait per character).
   void SubmitGroup(SkinGroup* group, std::span<Status> statuses);
   // The same for a request and a callback (allocates the job: for tools and tests).
   Status Submit(SkinRequest request, SkinDone done);
@@ -364,7 +368,7 @@ class Engine {
   class Impl;
   static void RunPart(void* job, uint32_t instance, int threads);
   static void RunGroupPart(void* group, uint32_t part, int threads);
-  static void RunDeviceGroupPart(void* group, uint32_t part, int threads);
+  static void RunTogetherGroupPart(void* group, uint32_t part, int threads);
   // After instance `instance` of `job` was skinned (or failed with `status`) into `frame`:
   // OnInstanceSkinned, and after the job's last instance its timing, counters and OnSkinned.
   static void FinishInstance(SkinJob& job, uint32_t instance, Status status,

@@ -48,13 +48,19 @@ void ParallelCopy(void* to, const void* from, std::size_t bytes, int threads) {
   }
 }
 
+// `info` saying that SkinFrames skins host frames together (OpenClCopyBackend::SkinFrames).
+BackendInfo FramesTogether(BackendInfo info) {
+  info.skins_frames_together = true;
+  return info;
+}
+
 class OpenClCopyBackend final : public OpenClBackendBase {
  public:
   OpenClCopyBackend(const std::shared_ptr<OpenClRuntime>& runtime,
                     std::shared_ptr<OpenClEncoder> encoder)
       : OpenClBackendBase(
             runtime, std::move(encoder), CL_MEM_COPY_HOST_PTR,
-            OpenClBackendInfo(
+            FramesTogether(OpenClBackendInfo(
                 *runtime, "opencl",
                 runtime->staging()
                     ? "OpenCL kernel; palette written and result read back per frame "
@@ -62,7 +68,7 @@ class OpenClCopyBackend final : public OpenClBackendBase {
                     : "OpenCL kernel; palette written and result read back per frame",
                 // Staged: a frame waits on the device and then copies with the threads other
                 // frames leave free, so it holds one compute thread of the engine.
-                runtime->staging() ? 1 : runtime->compute_units())) {}
+                runtime->staging() ? 1 : runtime->compute_units()))) {}
 
   // GPU regions: only this backend imports device memory (opencl_device_memory.h).
   Result<std::shared_ptr<DeviceMemory>> ImportDeviceMemory(
@@ -70,50 +76,47 @@ class OpenClCopyBackend final : public OpenClBackendBase {
     return ImportOpenClDeviceMemory(runtime(), info().id, import);
   }
 
-  // A tick's characters into GPU regions: the float32 frames enqueued one after another on
-  // one lane (each its palette from a slot of its own, its kernel into the lane's buffers,
-  // which the in-order queue reuses safely, its copies into the memory), then one wait for
-  // all of them. Encoded frames wait for their flag and box anyway: they run as Skin does,
-  // first.
-  void SkinDeviceFrames(std::span<const PreparedMesh* const> prepared,
-                        std::span<const SkinFrame> frames, std::span<Status> statuses) override {
-    // The others first, each on a lane of its own and waited for: before this batch holds
-    // a lane (a device sharing host memory has one) or a memory's lock.
-    const auto batched = [&](std::size_t i) {
-      return frames[i].device.active() && frames[i].device.encoding == VertexEncoding::kFloat32;
-    };
+  // A tick's characters, skinned together on one lane. Frames into GPU regions (float32):
+  // enqueued one after another (each its palette from a slot of its own, its kernel into
+  // the lane's buffers, which the in-order queue reuses safely, its copies into the
+  // memory), then one wait for all of them. Frames into host memory (float32): enqueued the
+  // same way with their read-backs (into pinned memory of the batch when the runtime
+  // stages, else straight into the frame's arrays), then copied out one by one as each
+  // read completes, while the device works on the later ones: a lane, a wait and a start
+  // per character become one per batch. Encoded frames, and host frames larger than a
+  // batch's pinned memory, run as Skin does, first.
+  void SkinFrames(std::span<const PreparedMesh* const> prepared, std::span<const SkinFrame> frames,
+                  std::span<Status> statuses) override {
+    std::vector<Together> how(frames.size());
     for (std::size_t i = 0; i < frames.size(); ++i) {
-      if (!batched(i)) statuses[i] = Skin(*prepared[i], frames[i]);
+      how[i] = HowTogether(frames[i]);
+      // Before this batch holds a lane (a device sharing host memory has one) or a
+      // memory's lock.
+      if (how[i] == Together::kAlone) statuses[i] = Skin(*prepared[i], frames[i]);
     }
     auto lane = runtime().AcquireLane();
-    std::byte* slots = nullptr;
     const std::size_t slot_bytes = PaletteSlotBytes(frames);
     std::vector<std::byte> host_slots;  // a device sharing host memory: no pinned staging
-    if (runtime().staging()) {
-      Status s = runtime().GrowPinned(lane->compute, "pinned batch palettes",
-                                      slot_bytes * frames.size(), &lane->pinned_batch_palettes);
-      if (!s.ok()) {
-        for (std::size_t i = 0; i < frames.size(); ++i) {
-          if (batched(i)) statuses[i] = s;
-        }
-        return;
+    std::byte* slots = PaletteSlots(*lane, slot_bytes * frames.size(), &host_slots);
+    if (slots == nullptr) {
+      const Status s = ClError("the batch's pinned palettes", CL_OUT_OF_HOST_MEMORY);
+      for (std::size_t i = 0; i < frames.size(); ++i) {
+        if (how[i] != Together::kAlone) statuses[i] = s;
       }
-      slots = static_cast<std::byte*>(lane->pinned_batch_palettes.host);
-    } else {
-      host_slots.resize(slot_bytes * frames.size());
-      slots = host_slots.data();
+      return;
     }
     DeviceOutputBatch out(*lane);
     std::deque<ClEvents> kernels(frames.size()), transfers(frames.size());
     std::vector<std::size_t> enqueued;
     for (std::size_t i = 0; i < frames.size(); ++i) {
-      if (!batched(i)) continue;
+      if (how[i] != Together::kDevice) continue;
       statuses[i] = InKernelLayout(*prepared[i], frames[i], [&](const auto& mesh, const auto& f) {
         return EnqueueDeviceFrame(*lane, mesh, f, slots + i * slot_bytes, out, kernels[i],
                                   transfers[i]);
       });
       if (statuses[i].ok()) enqueued.push_back(i);
     }
+    SkinHostFrames(*lane, prepared, frames, how, slots, slot_bytes, kernels, transfers, statuses);
     const Status finished = out.Finish();
     for (std::size_t i : enqueued) {
       statuses[i] = finished.ok()
@@ -123,6 +126,182 @@ class OpenClCopyBackend final : public OpenClBackendBase {
   }
 
  private:
+  // How SkinFrames skins a frame.
+  enum class Together { kAlone, kDevice, kHost };
+
+  // A batch's pinned memory for read-backs holds at most this much; larger frames run
+  // alone (Skin: chunks whose reads overlap their kernels, which pays at that size).
+  static constexpr std::size_t kMaxBatchOutputBytes = std::size_t{64} << 20;
+
+  static std::size_t HostOutputBytes(const SkinFrame& frame) {
+    return frame.positions.size_bytes() + frame.normals.size_bytes() + frame.tangents.size_bytes();
+  }
+
+  Together HowTogether(const SkinFrame& frame) const {
+    if (frame.device.active()) {
+      // Encoded frames wait for their flag and box anyway.
+      return frame.device.encoding == VertexEncoding::kFloat32 ? Together::kDevice
+                                                               : Together::kAlone;
+    }
+    if (frame.encoded.active()) return Together::kAlone;
+    return HostOutputBytes(frame) <= kMaxBatchOutputBytes ? Together::kHost : Together::kAlone;
+  }
+
+  // `bytes` of palette slots: the lane's pinned ones when the runtime stages, else
+  // `*host`'s; null when the pinned memory cannot grow.
+  std::byte* PaletteSlots(OpenClLane& lane, std::size_t bytes, std::vector<std::byte>* host) {
+    if (!runtime().staging()) {
+      host->resize(bytes);
+      return host->data();
+    }
+    if (!runtime()
+             .GrowPinned(lane.compute, "pinned batch palettes", bytes, &lane.pinned_batch_palettes)
+             .ok()) {
+      return nullptr;
+    }
+    return static_cast<std::byte*>(lane.pinned_batch_palettes.host);
+  }
+
+  // SkinFrames' host frames, in groups whose read-backs fit kMaxBatchOutputBytes: each
+  // group enqueued, then drained in order (a frame's last read waited for, its outputs
+  // copied out of pinned memory), so the device skins frame k + 1 while frame k is copied.
+  void SkinHostFrames(OpenClLane& lane, std::span<const PreparedMesh* const> prepared,
+                      std::span<const SkinFrame> frames, std::span<const Together> how,
+                      std::byte* slots, std::size_t slot_bytes, std::deque<ClEvents>& kernels,
+                      std::deque<ClEvents>& transfers, std::span<Status> statuses) {
+    std::vector<std::size_t> group;
+    std::size_t group_bytes = 0;
+    const auto run_group = [&] {
+      if (group.empty()) return;
+      // Sized once for the whole group: growing it would move reads already enqueued.
+      if (runtime().staging()) {
+        if (Status s = runtime().GrowPinned(lane.compute, "pinned batch outputs", group_bytes,
+                                            &lane.pinned_batch_outputs);
+            !s.ok()) {
+          for (std::size_t i : group) statuses[i] = s;
+          group.clear();
+        }
+      }
+      std::vector<HostRead> reads;
+      std::size_t offset = 0;
+      for (std::size_t i : group) {
+        std::byte* pinned = runtime().staging()
+                                ? static_cast<std::byte*>(lane.pinned_batch_outputs.host) + offset
+                                : nullptr;
+        offset += HostOutputBytes(frames[i]);
+        cl_event last = nullptr;
+        statuses[i] = InKernelLayout(*prepared[i], frames[i], [&](const auto& mesh, const auto& f) {
+          return EnqueueHostFrame(lane, mesh, f, slots + i * slot_bytes, pinned, kernels[i],
+                                  transfers[i], &last);
+        });
+        if (statuses[i].ok()) reads.push_back({i, pinned, last});
+      }
+      DrainHostFrames(lane, frames, reads, kernels, transfers, statuses);
+      group.clear();
+      group_bytes = 0;
+    };
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (how[i] != Together::kHost) continue;
+      const std::size_t bytes = HostOutputBytes(frames[i]);
+      if (group_bytes + bytes > kMaxBatchOutputBytes) run_group();
+      group.push_back(i);
+      group_bytes += bytes;
+    }
+    run_group();
+  }
+
+  // A host frame of SkinFrames once enqueued: where its outputs arrive (pinned: the
+  // batch's pinned memory, else null: the frame's own arrays) and its last read.
+  struct HostRead {
+    std::size_t frame;
+    std::byte* pinned;
+    cl_event last;  // owned by the frame's transfer events
+  };
+
+  // Waits for each of `reads` in order and copies its outputs out of pinned memory. After
+  // a failed wait, that frame and the later ones fail with it, once the lane is idle.
+  void DrainHostFrames(OpenClLane& lane, std::span<const SkinFrame> frames,
+                       std::span<const HostRead> reads, std::deque<ClEvents>& kernels,
+                       std::deque<ClEvents>& transfers, std::span<Status> statuses) {
+    clFlush(lane.compute);
+    Status failed;
+    for (const HostRead& read : reads) {
+      const SkinFrame& frame = frames[read.frame];
+      if (failed.ok()) {
+        if (cl_int err = clWaitForEvents(1, &read.last); err != CL_SUCCESS) {
+          failed = ClError("clWaitForEvents(read-back)", err);
+          clFinish(lane.compute);  // nothing of the batch still runs into its memory
+        }
+      }
+      if (!failed.ok()) {
+        statuses[read.frame] = failed;
+        continue;
+      }
+      if (read.pinned != nullptr) {
+        std::size_t offset = 0;
+        for (std::span<float> to : {frame.positions, frame.normals, frame.tangents}) {
+          std::memcpy(to.data(), read.pinned + offset, to.size_bytes());
+          offset += to.size_bytes();
+        }
+      }
+      statuses[read.frame] =
+          RecordDeviceTiming(kernels[read.frame], transfers[read.frame], frame.device_timing);
+    }
+  }
+
+  // One host frame of a batch, enqueued on `lane`'s compute queue without a wait: its morph
+  // (if any), its palette (copied into `slot`, the frame's until the batch's wait), its
+  // kernel into the lane's buffers, its reads into `pinned` (positions, normals, tangents
+  // one after another) or, null, into the frame's arrays; *last is the last read's event.
+  Status EnqueueHostFrame(OpenClLane& lane, const OpenClPreparedMesh& prepared,
+                          const SkinFrame& frame, std::byte* slot, std::byte* pinned,
+                          ClEvents& kernels, ClEvents& transfers, cl_event* last) {
+    const uint32_t vertices = prepared.mesh().vertex_count();
+    if (Status s = ReserveDeviceBuffers(lane, frame, vertices); !s.ok()) return s;
+    SkinKernelArgs args =
+        KernelArgs(prepared, frame.method, lane.palette.get(), lane.out_positions.get(),
+                   frame.wants_normals() ? lane.out_normals.get() : nullptr,
+                   frame.wants_tangents() ? lane.out_tangents.get() : nullptr);
+    if (Status s = Morph(lane, prepared, frame, &args, kernels, transfers); !s.ok()) return s;
+    if (Status s = EnqueuePaletteFromSlot(lane, frame, slot, transfers); !s.ok()) return s;
+    if (Status s = runtime().EnqueueSkin(lane, prepared.mesh(), args, 0, vertices, kernels.Next());
+        !s.ok()) {
+      return s;
+    }
+    const std::pair<cl_mem, std::span<float>> outputs[] = {{args.out_positions, frame.positions},
+                                                           {args.out_normals, frame.normals},
+                                                           {args.out_tangents, frame.tangents}};
+    std::size_t offset = 0;
+    for (const auto& [from, to] : outputs) {
+      if (to.empty()) continue;
+      void* into = pinned != nullptr ? static_cast<void*>(pinned + offset) : to.data();
+      offset += to.size_bytes();
+      cl_event* event = transfers.Next();
+      if (cl_int err = clEnqueueReadBuffer(lane.compute, from, CL_FALSE, 0, to.size_bytes(), into,
+                                           0, nullptr, event);
+          err != CL_SUCCESS) {
+        return ClError("clEnqueueReadBuffer(batch output)", err);
+      }
+      *last = *event;
+    }
+    clFlush(lane.compute);  // the device starts on this frame while the next is enqueued
+    return Status::Ok();
+  }
+
+  // The frame's palette written to the lane's buffer from `slot` (a batch's, the frame's
+  // until the batch's wait).
+  Status EnqueuePaletteFromSlot(OpenClLane& lane, const SkinFrame& frame, std::byte* slot,
+                                ClEvents& transfers) {
+    std::memcpy(slot, frame.palette.data(), frame.palette.size_bytes());
+    if (cl_int err =
+            clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
+                                 frame.palette.size_bytes(), slot, 0, nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      return ClError("clEnqueueWriteBuffer(palette)", err);
+    }
+    return Status::Ok();
+  }
+
   Status SkinPalette(const OpenClPreparedMesh& prepared, const SkinFrame& frame) override {
     const bool with_normals = frame.wants_normals();
     const bool with_tangents = frame.wants_tangents();
@@ -180,13 +359,7 @@ class OpenClCopyBackend final : public OpenClBackendBase {
                    frame.device.normals ? lane.out_normals.get() : nullptr,
                    frame.device.tangents ? lane.out_tangents.get() : nullptr);
     if (Status s = Morph(lane, prepared, frame, &args, kernels, transfers); !s.ok()) return s;
-    std::memcpy(slot, frame.palette.data(), frame.palette.size_bytes());
-    if (cl_int err =
-            clEnqueueWriteBuffer(lane.compute, lane.palette.get(), CL_FALSE, 0,
-                                 frame.palette.size_bytes(), slot, 0, nullptr, transfers.Next());
-        err != CL_SUCCESS) {
-      return ClError("clEnqueueWriteBuffer(palette)", err);
-    }
+    if (Status s = EnqueuePaletteFromSlot(lane, frame, slot, transfers); !s.ok()) return s;
     if (Status s = runtime().EnqueueSkin(lane, prepared.mesh(), args, 0, vertices, kernels.Next());
         !s.ok()) {
       return s;
@@ -194,15 +367,20 @@ class OpenClCopyBackend final : public OpenClBackendBase {
     return out.Enqueue(frame, Float32DevicePieces(args, vertices, frame.device), transfers);
   }
 
-  // The lane's device buffers (and pinned staging) large enough for `frame`.
-  Status Reserve(OpenClLane& lane, const SkinFrame& frame, uint32_t vertex_count) {
-    const std::size_t out_bytes = 3ull * vertex_count * sizeof(float);
+  // The lane's device buffers large enough for `frame`: its palette and outputs.
+  Status ReserveDeviceBuffers(OpenClLane& lane, const SkinFrame& frame, uint32_t vertex_count) {
     if (Status s = runtime().GrowBuffer("palette", CL_MEM_READ_ONLY, frame.palette.size_bytes(),
                                         &lane.palette, &lane.palette_bytes);
         !s.ok()) {
       return s;
     }
-    if (Status s = GrowLaneOutputs(lane, frame, vertex_count); !s.ok()) return s;
+    return GrowLaneOutputs(lane, frame, vertex_count);
+  }
+
+  // The lane's device buffers (and pinned staging) large enough for `frame`.
+  Status Reserve(OpenClLane& lane, const SkinFrame& frame, uint32_t vertex_count) {
+    const std::size_t out_bytes = 3ull * vertex_count * sizeof(float);
+    if (Status s = ReserveDeviceBuffers(lane, frame, vertex_count); !s.ok()) return s;
     if (!runtime().staging()) return Status::Ok();
     if (Status s = runtime().GrowPinned(lane.compute, "pinned palette", frame.palette.size_bytes(),
                                         &lane.pinned_palette);

@@ -147,8 +147,9 @@ struct OpenClLane {
   std::size_t morph_weights_bytes = 0, morphed_positions_bytes = 0, morphed_normals_bytes = 0,
               morphed_tangents_bytes = 0;
   PinnedBuffer pinned_palette, pinned_positions, pinned_normals, pinned_tangents;
-  // A device batch's palettes (OpenClCopyBackend::SkinDeviceFrames), one slot a frame.
-  PinnedBuffer pinned_batch_palettes;
+  // A batch's palettes (OpenClCopyBackend::SkinFrames), one slot a frame, and its host
+  // frames' read-backs, one after another.
+  PinnedBuffer pinned_batch_palettes, pinned_batch_outputs;
 };
 
 struct OpenClRuntimeOptions {
