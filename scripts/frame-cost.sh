@@ -15,6 +15,7 @@
 #     --seconds S           measured seconds per plane (default 6)
 #     --planes LIST         (default grpc,shm)
 #     --extra "ARGS"        more skinserve-load arguments (e.g. --characters-per-tick 64)
+#     --server-extra "ARGS" more skinserve arguments (e.g. --reflection=false)
 # Env: SKINSERVE_BIN (default the build's bin/), SKINSERVE_SHM_DIR (default /dev/shm).
 set -euo pipefail
 out=${1:?usage: frame-cost.sh OUT [options]}
@@ -23,7 +24,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bin=${SKINSERVE_BIN:-$root/build/bin}
 shm_dir=${SKINSERVE_SHM_DIR:-/dev/shm}
 backend=simd server_cpus=0 load_cpus=1 threads=1 streams=32 rate=60 vertices=25000 bones=2
-seconds=6 planes=grpc,shm extra=""
+seconds=6 planes=grpc,shm extra="" server_extra=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --backend) backend=$2; shift 2 ;;
@@ -37,6 +38,7 @@ while [ $# -gt 0 ]; do
     --seconds) seconds=$2; shift 2 ;;
     --planes) planes=$2; shift 2 ;;
     --extra) extra=$2; shift 2 ;;
+    --server-extra) server_extra=$2; shift 2 ;;
     *) echo "frame-cost: unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -55,6 +57,8 @@ port_file=$(mktemp -u)
 log=$(mktemp)
 server_args=(--listen "127.0.0.1:0,$target" --metrics-listen 127.0.0.1:0 --log-level info
   --shm-dir "$shm_dir" --threads "$threads" --shm-max-regions-per-connection 256)
+# shellcheck disable=SC2206 # split on purpose
+server_args+=($server_extra)
 taskset -c "$server_cpus" "$bin/skinserve" "${server_args[@]}" --port-file "$port_file" \
   >"$log" 2>&1 &
 server=$!
