@@ -16,6 +16,7 @@
 //    read-back also overlaps another's upload and kernels.
 // On a device that shares host memory (PoCL) the frame is one write, one kernel and one
 // read straight from and into the caller's memory: staging would only add a copy.
+#include <fmt/format.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -48,9 +49,13 @@ void ParallelCopy(void* to, const void* from, std::size_t bytes, int threads) {
   }
 }
 
-// `info` saying that SkinFrames skins host frames together (OpenClCopyBackend::SkinFrames).
-BackendInfo FramesTogether(BackendInfo info) {
+// `info` saying that SkinFrames skins host frames together (OpenClCopyBackend::SkinFrames),
+// and where GPU regions are written in place (DirectFloat32Outputs).
+BackendInfo CopyBackendInfo(BackendInfo info, const OpenClRuntime& runtime) {
   info.skins_frames_together = true;
+  info.description +=
+      fmt::format("; GPU regions written in place at offsets that are multiples of {} bytes",
+                  runtime.base_address_alignment());
   return info;
 }
 
@@ -60,15 +65,17 @@ class OpenClCopyBackend final : public OpenClBackendBase {
                     std::shared_ptr<OpenClEncoder> encoder)
       : OpenClBackendBase(
             runtime, std::move(encoder), CL_MEM_COPY_HOST_PTR,
-            FramesTogether(OpenClBackendInfo(
-                *runtime, "opencl",
-                runtime->staging()
-                    ? "OpenCL kernel; palette written and result read back per frame "
-                      "through pinned memory, in overlapped chunks"
-                    : "OpenCL kernel; palette written and result read back per frame",
-                // Staged: a frame waits on the device and then copies with the threads other
-                // frames leave free, so it holds one compute thread of the engine.
-                runtime->staging() ? 1 : runtime->compute_units()))) {}
+            CopyBackendInfo(
+                OpenClBackendInfo(
+                    *runtime, "opencl",
+                    runtime->staging()
+                        ? "OpenCL kernel; palette written and result read back per frame "
+                          "through pinned memory, in overlapped chunks"
+                        : "OpenCL kernel; palette written and result read back per frame",
+                    // Staged: a frame waits on the device and then copies with the threads other
+                    // frames leave free, so it holds one compute thread of the engine.
+                    runtime->staging() ? 1 : runtime->compute_units()),
+                *runtime)) {}
 
   // GPU regions: only this backend imports device memory (opencl_device_memory.h).
   Result<std::shared_ptr<DeviceMemory>> ImportDeviceMemory(
