@@ -92,8 +92,20 @@ std::size_t TouchedOutside(const std::vector<uint8_t>& bytes,
 
 class DeviceOutputTest : public ::testing::TestWithParam<bool> {};
 
+void WriteFramesAtOffsets(OpenCl& cl, bool aligned);
+
+// Offsets that are multiples of the device's base-address alignment are written in place by
+// the kernel (sub-buffers), the others through the lane's buffers and copies: both right,
+// and nothing outside the frame's ranges.
 TEST_P(DeviceOutputTest, WritesTheFrameAtItsOffsetsAndNothingElse) {
   OpenCl& cl = TestOpenCl(GetParam());
+  for (bool aligned : {false, true}) {
+    SCOPED_TRACE(aligned ? "offsets aligned: in place" : "offsets not aligned: copies");
+    WriteFramesAtOffsets(cl, aligned);
+  }
+}
+
+void WriteFramesAtOffsets(OpenCl& cl, bool aligned) {
   Backend& backend = *cl.backends[0];
   ASSERT_EQ(backend.info().id, "opencl");
   ASSERT_TRUE(backend.info().available) << backend.info().unavailable_reason;
@@ -101,11 +113,19 @@ TEST_P(DeviceOutputTest, WritesTheFrameAtItsOffsetsAndNothingElse) {
   auto mesh = TestMesh(v);
   auto prepared = backend.Prepare(mesh);
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
-  // Positions at 192, normals and tangents further on with gaps between them.
-  const uint64_t positions = 192, normals = positions + 12ull * v + 64,
-                 tangents = normals + 12ull * v + 128, end = tangents + 16ull * v;
+  // Positions, normals and tangents with gaps between them: at 192 and 64 or 128 bytes
+  // apart, or each at a multiple of the alignment with a gap of one alignment.
+  const uint64_t a = cl.runtime->base_address_alignment();
+  ASSERT_GT(a, 4u) << "no offset of a float32 array would be misaligned";
+  const auto up = [a](uint64_t x) { return (x + a - 1) / a * a; };
+  const uint64_t positions = aligned ? 2 * a : 192,
+                 normals = aligned ? up(positions + 12ull * v) + a : positions + 12ull * v + 64,
+                 tangents = aligned ? up(normals + 12ull * v) + a : normals + 12ull * v + 128,
+                 end = tangents + 16ull * v;
+  ASSERT_EQ(aligned, positions % a == 0 && normals % a == 0 && tangents % a == 0);
   auto memory = CreateOpenClDeviceMemory(*cl.runtime, "opencl", end + 256);
   ASSERT_TRUE(memory.ok()) << memory.status().ToString();
+  const uint64_t in_place_before = InPlaceDeviceFrames();
   for (uint64_t frame = 0; frame < 3; ++frame) {
     Fill(*cl.runtime, **memory);
     const auto palette = MakeSyntheticPalette(mesh->joint_count(), 5, frame);
@@ -132,6 +152,7 @@ TEST_P(DeviceOutputTest, WritesTheFrameAtItsOffsetsAndNothingElse) {
               0u)
         << "bytes outside the frame's ranges were written";
   }
+  EXPECT_EQ(InPlaceDeviceFrames() - in_place_before, aligned ? 3u : 0u);
 }
 
 TEST_P(DeviceOutputTest, EachEncodingAtItsOffsetsDecodesWithinItsBound) {
@@ -236,10 +257,21 @@ TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
   struct Range {
     uint64_t positions, normals, tangents;
   };
+  // Character 0's arrays at multiples of the base-address alignment (written in place), the
+  // others' not (copied from the lane's buffers).
   std::vector<Range> ranges;
+  const uint64_t a = cl.runtime->base_address_alignment();
+  const auto up = [a](uint64_t x) { return (x + a - 1) / a * a; };
   uint64_t end = 128;
   for (uint32_t v : sizes) {
-    const Range r{end, end + 12ull * v + 64, end + 24ull * v + 128};
+    Range r{end, end + 12ull * v + 64, end + 24ull * v + 128};
+    if (ranges.empty()) {
+      r.positions = up(end);
+      r.normals = up(r.positions + 12ull * v) + a;
+      r.tangents = up(r.normals + 12ull * v) + a;
+    } else if (r.positions % a == 0) {
+      r.positions += 4, r.normals += 4, r.tangents += 4;  // keep the others misaligned
+    }
     ranges.push_back(r);
     end = r.tangents + 16ull * v + 64;
   }
@@ -269,7 +301,9 @@ TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
   // The range check is the engine's (CheckDeviceRequest); here the backend must refuse
   // the write itself, without harm to the others.
   std::vector<Status> statuses(frames.size());
+  const uint64_t in_place_before = InPlaceDeviceFrames();
   backend.SkinFrames(prepared, frames, statuses);
+  EXPECT_EQ(InPlaceDeviceFrames() - in_place_before, 1u) << "character 0 only";
   const std::vector<uint8_t> bytes = ReadBack(*cl.runtime, **memory);
   std::size_t checked = 0;
   for (std::size_t c = 0; c < meshes.size(); ++c) {

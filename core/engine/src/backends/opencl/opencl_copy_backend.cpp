@@ -16,6 +16,7 @@
 //    read-back also overlaps another's upload and kernels.
 // On a device that shares host memory (PoCL) the frame is one write, one kernel and one
 // read straight from and into the caller's memory: staging would only add a copy.
+#include <fmt/format.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -48,9 +49,13 @@ void ParallelCopy(void* to, const void* from, std::size_t bytes, int threads) {
   }
 }
 
-// `info` saying that SkinFrames skins host frames together (OpenClCopyBackend::SkinFrames).
-BackendInfo FramesTogether(BackendInfo info) {
+// `info` saying that SkinFrames skins host frames together (OpenClCopyBackend::SkinFrames),
+// and where GPU regions are written in place (DirectFloat32Outputs).
+BackendInfo CopyBackendInfo(BackendInfo info, const OpenClRuntime& runtime) {
   info.skins_frames_together = true;
+  info.description +=
+      fmt::format("; GPU regions written in place at offsets that are multiples of {} bytes",
+                  runtime.base_address_alignment());
   return info;
 }
 
@@ -60,15 +65,17 @@ class OpenClCopyBackend final : public OpenClBackendBase {
                     std::shared_ptr<OpenClEncoder> encoder)
       : OpenClBackendBase(
             runtime, std::move(encoder), CL_MEM_COPY_HOST_PTR,
-            FramesTogether(OpenClBackendInfo(
-                *runtime, "opencl",
-                runtime->staging()
-                    ? "OpenCL kernel; palette written and result read back per frame "
-                      "through pinned memory, in overlapped chunks"
-                    : "OpenCL kernel; palette written and result read back per frame",
-                // Staged: a frame waits on the device and then copies with the threads other
-                // frames leave free, so it holds one compute thread of the engine.
-                runtime->staging() ? 1 : runtime->compute_units()))) {}
+            CopyBackendInfo(
+                OpenClBackendInfo(
+                    *runtime, "opencl",
+                    runtime->staging()
+                        ? "OpenCL kernel; palette written and result read back per frame "
+                          "through pinned memory, in overlapped chunks"
+                        : "OpenCL kernel; palette written and result read back per frame",
+                    // Staged: a frame waits on the device and then copies with the threads other
+                    // frames leave free, so it holds one compute thread of the engine.
+                    runtime->staging() ? 1 : runtime->compute_units()),
+                *runtime)) {}
 
   // GPU regions: only this backend imports device memory (opencl_device_memory.h).
   Result<std::shared_ptr<DeviceMemory>> ImportDeviceMemory(
@@ -313,14 +320,14 @@ class OpenClCopyBackend final : public OpenClBackendBase {
                    with_normals ? lane->out_normals.get() : nullptr,
                    with_tangents ? lane->out_tangents.get() : nullptr);
     Status status = Morph(*lane, prepared, frame, &args, kernels, transfers);
-    if (status.ok() && frame.device.active()) {  // a GPU region (opencl_device_memory.h)
+    if (status.ok() && frame.device.active() &&
+        frame.device.encoding == VertexEncoding::kFloat32) {  // a GPU region
+      status = SkinIntoDevice(*lane, prepared, frame, args, kernels, transfers);
+    } else if (status.ok() && frame.device.active()) {  // encoded into a GPU region
       status = EnqueueWholeFrame(*lane, prepared, frame, args, kernels, transfers);
       const uint32_t vertices = prepared.mesh().vertex_count();
-      if (status.ok() && frame.device.encoding != VertexEncoding::kFloat32) {
+      if (status.ok()) {
         status = encoder().EncodeIntoDevice(*lane, args, vertices, frame, kernels, transfers);
-      } else if (status.ok()) {
-        status = WriteDevicePieces(*lane, frame, Float32DevicePieces(args, vertices, frame.device),
-                                   transfers);
       }
     } else if (status.ok() && frame.encoded.active()) {
       status = SkinEncoded(*lane, prepared, frame, args, kernels, transfers);
@@ -339,6 +346,44 @@ class OpenClCopyBackend final : public OpenClBackendBase {
     return RecordDeviceTiming(kernels, transfers, frame.device_timing);
   }
 
+  // A float32 frame into a GPU region (opencl_device_memory.h), waited for: the kernel
+  // writes the memory in place where the frame's offsets allow (DirectFloat32Outputs),
+  // else into the lane's buffers, which are then copied there.
+  Status SkinIntoDevice(OpenClLane& lane, const OpenClPreparedMesh& prepared,
+                        const SkinFrame& frame, const SkinKernelArgs& args, ClEvents& kernels,
+                        ClEvents& transfers) {
+    const uint32_t vertices = prepared.mesh().vertex_count();
+    DeviceOutputBatch out(lane);
+    Result<DirectDeviceOutputs> direct =
+        DirectFloat32Outputs(frame, vertices, runtime().base_address_alignment());
+    if (!direct.ok()) return direct.status();
+    if (direct->active()) {
+      if (Status s = out.Hold(frame, transfers); !s.ok()) return s;  // before the kernel
+      if (Status s =
+              EnqueueWholeFrame(lane, prepared, frame, InPlace(args, *direct), kernels, transfers);
+          !s.ok()) {
+        return s;
+      }
+      return out.Finish();
+    }
+    if (Status s = EnqueueWholeFrame(lane, prepared, frame, args, kernels, transfers); !s.ok()) {
+      return s;
+    }
+    if (Status s = out.Enqueue(frame, Float32DevicePieces(args, vertices, frame.device), transfers);
+        !s.ok()) {
+      return s;
+    }
+    return out.Finish();
+  }
+
+  // `args` writing into `direct`'s sub-buffers instead of the lane's outputs.
+  static SkinKernelArgs InPlace(SkinKernelArgs args, const DirectDeviceOutputs& direct) {
+    args.out_positions = direct.positions.get();
+    args.out_normals = direct.normals.get();
+    args.out_tangents = direct.tangents.get();
+    return args;
+  }
+
   // The largest palette of `frames` (in bytes, rounded to 64): a batch's slot.
   static std::size_t PaletteSlotBytes(std::span<const SkinFrame> frames) {
     std::size_t most = 0;
@@ -354,16 +399,26 @@ class OpenClCopyBackend final : public OpenClBackendBase {
                             ClEvents& kernels, ClEvents& transfers) {
     const uint32_t vertices = prepared.mesh().vertex_count();
     if (Status s = Reserve(lane, frame, vertices); !s.ok()) return s;
+    Result<DirectDeviceOutputs> direct =
+        DirectFloat32Outputs(frame, vertices, runtime().base_address_alignment());
+    if (!direct.ok()) return direct.status();
     SkinKernelArgs args =
         KernelArgs(prepared, frame.method, lane.palette.get(), lane.out_positions.get(),
                    frame.device.normals ? lane.out_normals.get() : nullptr,
                    frame.device.tangents ? lane.out_tangents.get() : nullptr);
     if (Status s = Morph(lane, prepared, frame, &args, kernels, transfers); !s.ok()) return s;
+    // In place: the memory is held (acquired) before the kernel that writes it; the
+    // sub-buffers may go once the kernel is enqueued (it keeps them).
+    if (direct->active()) {
+      if (Status s = out.Hold(frame, transfers); !s.ok()) return s;
+      args = InPlace(args, *direct);
+    }
     if (Status s = EnqueuePaletteFromSlot(lane, frame, slot, transfers); !s.ok()) return s;
     if (Status s = runtime().EnqueueSkin(lane, prepared.mesh(), args, 0, vertices, kernels.Next());
         !s.ok()) {
       return s;
     }
+    if (direct->active()) return Status::Ok();
     return out.Enqueue(frame, Float32DevicePieces(args, vertices, frame.device), transfers);
   }
 

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <mutex>
 #include <vector>
@@ -177,25 +178,30 @@ DeviceOutputBatch::~DeviceOutputBatch() {
   if (!finished_) (void)Finish();  // an error path: the first error was returned already
 }
 
-Status DeviceOutputBatch::Enqueue(const SkinFrame& frame, std::span<const DeviceOutputPiece> pieces,
-                                  ClEvents& transfers) {
+Status DeviceOutputBatch::Hold(const SkinFrame& frame, ClEvents& transfers) {
   const auto* memory = dynamic_cast<const OpenClDeviceMemory*>(frame.device.memory);
   if (memory == nullptr) {
     return FailedPrecondition("the frame's device memory was not made by the opencl backend");
   }
-  cl_mem target = memory->buffer();
   const bool held =
       std::any_of(held_.begin(), held_.end(), [&](const Held& h) { return h.memory == memory; });
-  if (!held) {
-    held_.push_back({memory, std::unique_lock(memory->in_use())});
-    if (memory->imported()) {
-      if (cl_int err = memory->acquire()(lane_.compute, 1, &target, 0, nullptr, transfers.Next());
-          err != CL_SUCCESS) {
-        held_.pop_back();  // not acquired: nothing to release
-        return ClError("clEnqueueAcquireExternalMemObjectsKHR", err);
-      }
+  if (held) return Status::Ok();
+  held_.push_back({memory, std::unique_lock(memory->in_use())});
+  if (memory->imported()) {
+    cl_mem target = memory->buffer();
+    if (cl_int err = memory->acquire()(lane_.compute, 1, &target, 0, nullptr, transfers.Next());
+        err != CL_SUCCESS) {
+      held_.pop_back();  // not acquired: nothing to release
+      return ClError("clEnqueueAcquireExternalMemObjectsKHR", err);
     }
   }
+  return Status::Ok();
+}
+
+Status DeviceOutputBatch::Enqueue(const SkinFrame& frame, std::span<const DeviceOutputPiece> pieces,
+                                  ClEvents& transfers) {
+  if (Status s = Hold(frame, transfers); !s.ok()) return s;
+  cl_mem target = OpenClDeviceMemoryBuffer(*frame.device.memory);
   for (const DeviceOutputPiece& p : pieces) {
     const cl_int err = p.from != nullptr
                            ? clEnqueueCopyBuffer(lane_.compute, p.from, target, 0, p.offset,
@@ -233,6 +239,56 @@ Status WriteDevicePieces(OpenClLane& lane, const SkinFrame& frame,
   DeviceOutputBatch batch(lane);
   if (Status s = batch.Enqueue(frame, pieces, transfers); !s.ok()) return s;
   return batch.Finish();
+}
+
+namespace {
+std::atomic<uint64_t> in_place_frames{0};
+}  // namespace
+
+uint64_t InPlaceDeviceFrames() { return in_place_frames.load(); }
+
+Result<DirectDeviceOutputs> DirectFloat32Outputs(const SkinFrame& frame, uint32_t vertices,
+                                                 uint64_t alignment) {
+  const DeviceOutput& device = frame.device;
+  DirectDeviceOutputs direct;
+  const cl_mem memory = OpenClDeviceMemoryBuffer(*device.memory);
+  const auto aligned = [&](uint64_t offset) { return offset % alignment == 0; };
+  if (memory == nullptr || device.encoding != VertexEncoding::kFloat32 ||
+      !aligned(device.positions_offset) || (device.normals && !aligned(device.normals_offset)) ||
+      (device.tangents && !aligned(device.tangents_offset))) {
+    return direct;
+  }
+  const auto sub = [&](const char* what, uint64_t offset, uint64_t bytes, ClBuffer* out) -> Status {
+    const cl_buffer_region region{offset, bytes};
+    cl_int err = CL_SUCCESS;
+    cl_mem buffer =
+        clCreateSubBuffer(memory, CL_MEM_WRITE_ONLY, CL_BUFFER_CREATE_TYPE_REGION, &region, &err);
+    if (err != CL_SUCCESS) return ClError(what, err);
+    *out = ClBuffer(buffer);
+    return Status::Ok();
+  };
+  const uint64_t array_bytes = 3ull * sizeof(float) * vertices;
+  if (Status s = sub("clCreateSubBuffer(positions)", device.positions_offset, array_bytes,
+                     &direct.positions);
+      !s.ok()) {
+    return s;
+  }
+  if (device.normals) {
+    if (Status s =
+            sub("clCreateSubBuffer(normals)", device.normals_offset, array_bytes, &direct.normals);
+        !s.ok()) {
+      return s;
+    }
+  }
+  if (device.tangents) {
+    if (Status s = sub("clCreateSubBuffer(tangents)", device.tangents_offset,
+                       4ull * sizeof(float) * vertices, &direct.tangents);
+        !s.ok()) {
+      return s;
+    }
+  }
+  in_place_frames.fetch_add(1);
+  return direct;
 }
 
 std::vector<DeviceOutputPiece> Float32DevicePieces(const SkinKernelArgs& args, uint32_t vertices,

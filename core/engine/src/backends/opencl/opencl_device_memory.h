@@ -1,9 +1,11 @@
 // GPU regions on the `opencl` backend (docs/serving/gpu-regions.md): device memory another
 // API allocated and exported as an opaque file descriptor (a Vulkan buffer), imported into
 // the runtime's context with cl_khr_external_memory_opaque_fd, and the frames written into
-// it: the kernel runs into the lane's output buffers as for any frame, then the outputs
-// are copied device to device into the imported buffer at the frame's offsets (between
-// clEnqueueAcquire/ReleaseExternalMemObjectsKHR), and nothing crosses PCIe but the palette.
+// it: where the frame's offsets are multiples of the device's base-address alignment, the
+// kernel writes the imported buffer in place (sub-buffers at those offsets); otherwise it
+// runs into the lane's output buffers as for any frame, which are then copied device to
+// device into the imported buffer at the frame's offsets. Either way between
+// clEnqueueAcquire/ReleaseExternalMemObjectsKHR, and nothing crosses PCIe but the palette.
 #pragma once
 
 #include <memory>
@@ -54,6 +56,10 @@ class DeviceOutputBatch {
   ~DeviceOutputBatch();
   DeviceOutputBatch(const DeviceOutputBatch&) = delete;
   DeviceOutputBatch& operator=(const DeviceOutputBatch&) = delete;
+  // frame.device's memory held by this batch: locked, and acquired on the lane's compute
+  // queue (its event to `transfers`) unless the batch holds it already. Before a kernel that
+  // writes the memory in place (DirectFloat32Outputs); Enqueue does it itself.
+  Status Hold(const SkinFrame& frame, ClEvents& transfers);
   // After the frame's kernels on the lane's compute queue: `pieces` copied (or written)
   // into frame.device's memory on that queue; their events go to `transfers`.
   Status Enqueue(const SkinFrame& frame, std::span<const DeviceOutputPiece> pieces,
@@ -74,6 +80,20 @@ class DeviceOutputBatch {
 // One frame's pieces (DeviceOutputBatch), waited for.
 Status WriteDevicePieces(OpenClLane& lane, const SkinFrame& frame,
                          std::span<const DeviceOutputPiece> pieces, ClEvents& transfers);
+
+// A float32 frame's outputs as sub-buffers of its device memory at the frame's offsets, for
+// the kernel to write in place: no copies, no lane buffers. Empty (none set) when an offset
+// is not a multiple of `alignment` (OpenClRuntime::base_address_alignment), so the frame
+// goes through the lane's buffers and Float32DevicePieces instead.
+struct DirectDeviceOutputs {
+  ClBuffer positions, normals, tangents;
+  bool active() const { return positions.get() != nullptr; }
+};
+Result<DirectDeviceOutputs> DirectFloat32Outputs(const SkinFrame& frame, uint32_t vertices,
+                                                 uint64_t alignment);
+// Frames of this process whose outputs DirectFloat32Outputs gave as sub-buffers: for tests,
+// which check that an aligned frame was written in place.
+uint64_t InPlaceDeviceFrames();
 
 // A frame's float32 outputs (args.out_*) as pieces at frame.device's offsets.
 std::vector<DeviceOutputPiece> Float32DevicePieces(const SkinKernelArgs& args, uint32_t vertices,

@@ -326,8 +326,15 @@ Status OpenClRuntime::ReadDeviceShape(const OpenClRuntimeOptions& options) {
       !s.ok()) {
     return s;
   }
+  cl_uint align_bits = 0;
+  if (Status s = DeviceUint(device_, CL_DEVICE_MEM_BASE_ADDR_ALIGN,
+                            "clGetDeviceInfo(CL_DEVICE_MEM_BASE_ADDR_ALIGN)", &align_bits);
+      !s.ok()) {
+    return s;
+  }
   compute_units_ = static_cast<int>(units);
   vector_width_ = static_cast<int>(width);
+  base_address_alignment_ = std::max<uint64_t>(align_bits / 8, 1);
   staging_ = !is_cpu_ || options.force_staging;
   coalesced_ = !is_cpu_ || options.force_coalesced;
   // The local-palette kernels: on the coalesced path, unless turned off, up to the

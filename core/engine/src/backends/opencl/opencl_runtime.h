@@ -261,6 +261,8 @@ class OpenClRuntime {
   // Compute units: PoCL's worker threads on its CPU device, SMs on an NVIDIA GPU.
   int compute_units() const { return compute_units_; }
   int vector_width() const { return vector_width_; }
+  // CL_DEVICE_MEM_BASE_ADDR_ALIGN in bytes: where a sub-buffer may start.
+  uint64_t base_address_alignment() const { return base_address_alignment_; }
   bool is_cpu() const { return is_cpu_; }
   // Whether frames go through pinned staging in chunks (a device with memory of its own,
   // or forced): else the device reads and writes host memory directly.
@@ -313,6 +315,7 @@ class OpenClRuntime {
   std::string device_name_;
   std::string platform_version_;
   int compute_units_ = 1;
+  uint64_t base_address_alignment_ = 4096;
   int vector_width_ = 1;
   bool is_cpu_ = true;
   bool staging_ = false;
