@@ -20,7 +20,7 @@ Result<std::shared_ptr<DeviceMemory>> Backend::ImportDeviceMemory(const DeviceMe
 }
 
 void Backend::SkinFrames(std::span<const PreparedMesh* const> prepared,
-                               std::span<const SkinFrame> frames, std::span<Status> statuses) {
+                         std::span<const SkinFrame> frames, std::span<Status> statuses) {
   for (std::size_t i = 0; i < frames.size(); ++i) statuses[i] = Skin(*prepared[i], frames[i]);
 }
 
