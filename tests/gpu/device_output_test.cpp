@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <cstring>
+#include <thread>
 #include <vector>
 
 #include "backends/opencl/opencl_backends.h"
@@ -350,6 +351,58 @@ TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
   }
   EXPECT_EQ(TouchedOutside(bytes, written), 0u)
       << "bytes outside the characters' ranges were written";
+}
+
+// Batches from two threads (two lanes) into one memory at once, rounds after rounds (each
+// memory is held by one batch at a time: DeviceOutputBatch): every character lands at its
+// own offsets whatever the interleaving.
+TEST_P(DeviceOutputTest, ConcurrentBatchesIntoOneMemoryEachAtItsOffsets) {
+  OpenCl& cl = TestOpenCl(GetParam());
+  Backend& backend = *cl.backends[0];
+  constexpr uint32_t kVertices = 1200;
+  constexpr int kThreads = 2, kCharacters = 4, kRounds = 5;
+  const uint64_t a = cl.runtime->base_address_alignment();
+  const uint64_t array = (12ull * kVertices + a - 1) / a * a;  // aligned: written in place
+  auto mesh = TestMesh(kVertices);
+  auto prepared = backend.Prepare(mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  auto memory = CreateOpenClDeviceMemory(*cl.runtime, "opencl", 2 * array * kThreads * kCharacters);
+  ASSERT_TRUE(memory.ok()) << memory.status().ToString();
+  for (int round = 0; round < kRounds; ++round) {
+    Fill(*cl.runtime, **memory);
+    std::vector<std::vector<float>> palettes(kThreads * kCharacters);
+    for (std::size_t c = 0; c < palettes.size(); ++c) {
+      palettes[c] = MakeSyntheticPalette(mesh->joint_count(), 30 + round, c);
+    }
+    std::vector<std::thread> threads;
+    std::vector<Status> statuses(palettes.size());
+    for (int t = 0; t < kThreads; ++t) {
+      threads.emplace_back([&, t] {
+        std::vector<SkinFrame> frames;
+        for (int k = 0; k < kCharacters; ++k) {
+          const std::size_t c = t * kCharacters + k;
+          SkinFrame f{.palette = palettes[c]};
+          f.device = {.memory = memory->get(),
+                      .positions_offset = 2 * array * c,
+                      .normals_offset = 2 * array * c + array,
+                      .normals = true};
+          frames.push_back(f);
+        }
+        const std::vector<const PreparedMesh*> meshes(kCharacters, prepared->get());
+        backend.SkinFrames(meshes, frames,
+                           std::span(statuses).subspan(t * kCharacters, kCharacters));
+      });
+    }
+    for (auto& thread : threads) thread.join();
+    const std::vector<uint8_t> bytes = ReadBack(*cl.runtime, **memory);
+    for (std::size_t c = 0; c < palettes.size(); ++c) {
+      SCOPED_TRACE(::testing::Message() << "round " << round << ", character " << c);
+      ASSERT_TRUE(statuses[c].ok()) << statuses[c].ToString();
+      const auto p = FloatsAt(bytes, 2 * array * c, 3ull * kVertices);
+      const auto n = FloatsAt(bytes, 2 * array * c + array, 3ull * kVertices);
+      EXPECT_TRUE(CompareWithReference(*mesh, palettes[c], p, n).within_tolerance());
+    }
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Paths, DeviceOutputTest, ::testing::Values(false, true),
