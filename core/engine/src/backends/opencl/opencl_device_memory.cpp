@@ -24,13 +24,14 @@ class OpenClDeviceMemory final : public DeviceMemory {
   OpenClDeviceMemory(ClBuffer buffer, uint64_t bytes, std::string backend,
                      clEnqueueAcquireExternalMemObjectsKHR_fn acquire_fn,
                      clEnqueueReleaseExternalMemObjectsKHR_fn release_fn,
-                     std::unique_ptr<ImportedSemaphore> semaphore = nullptr)
+                     std::unique_ptr<ImportedSemaphore> semaphore = nullptr, bool in_place = true)
       : buffer_(std::move(buffer)),
         bytes_(bytes),
         backend_(std::move(backend)),
         acquire_(acquire_fn),
         release_(release_fn),
-        semaphore_(std::move(semaphore)) {}
+        semaphore_(std::move(semaphore)),
+        in_place_(in_place) {}
   uint64_t byte_size() const override { return bytes_; }
   const std::string& backend() const override { return backend_; }
   bool signals_semaphore() const override { return semaphore_ != nullptr; }
@@ -39,6 +40,8 @@ class OpenClDeviceMemory final : public DeviceMemory {
   }
   cl_mem buffer() const { return buffer_.get(); }
   bool imported() const { return acquire_ != nullptr; }
+  // Aligned float32 frames are written in place (DirectFloat32Outputs).
+  bool in_place() const { return in_place_; }
   clEnqueueAcquireExternalMemObjectsKHR_fn acquire() const { return acquire_; }
   clEnqueueReleaseExternalMemObjectsKHR_fn release() const { return release_; }
   // Frames on different lanes (queues) write it one at a time: an external object is
@@ -53,6 +56,7 @@ class OpenClDeviceMemory final : public DeviceMemory {
   const clEnqueueAcquireExternalMemObjectsKHR_fn acquire_;
   const clEnqueueReleaseExternalMemObjectsKHR_fn release_;
   const std::unique_ptr<ImportedSemaphore> semaphore_;  // null: none registered
+  const bool in_place_;
   mutable std::mutex in_use_;
 };
 
@@ -161,12 +165,12 @@ Result<std::shared_ptr<DeviceMemory>> ImportOpenClDeviceMemory(const OpenClRunti
 
 Result<std::shared_ptr<DeviceMemory>> CreateOpenClDeviceMemory(OpenClRuntime& runtime,
                                                                const std::string& backend,
-                                                               uint64_t bytes) {
+                                                               uint64_t bytes, bool in_place) {
   Result<ClBuffer> buffer =
       runtime.CreateBuffer("device memory", CL_MEM_READ_WRITE, bytes, nullptr);
   if (!buffer.ok()) return buffer.status();
   return std::shared_ptr<DeviceMemory>(std::make_shared<OpenClDeviceMemory>(
-      std::move(buffer).value(), bytes, backend, nullptr, nullptr));
+      std::move(buffer).value(), bytes, backend, nullptr, nullptr, nullptr, in_place));
 }
 
 cl_mem OpenClDeviceMemoryBuffer(const DeviceMemory& memory) {
@@ -251,9 +255,10 @@ Result<DirectDeviceOutputs> DirectFloat32Outputs(const SkinFrame& frame, uint32_
                                                  uint64_t alignment) {
   const DeviceOutput& device = frame.device;
   DirectDeviceOutputs direct;
-  const cl_mem memory = OpenClDeviceMemoryBuffer(*device.memory);
+  const auto* cl = dynamic_cast<const OpenClDeviceMemory*>(device.memory);
+  const cl_mem memory = cl != nullptr ? cl->buffer() : nullptr;
   const auto aligned = [&](uint64_t offset) { return offset % alignment == 0; };
-  if (memory == nullptr || device.encoding != VertexEncoding::kFloat32 ||
+  if (memory == nullptr || !cl->in_place() || device.encoding != VertexEncoding::kFloat32 ||
       !aligned(device.positions_offset) || (device.normals && !aligned(device.normals_offset)) ||
       (device.tangents && !aligned(device.tangents_offset))) {
     return direct;

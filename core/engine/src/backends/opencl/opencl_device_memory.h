@@ -25,12 +25,16 @@ Result<std::shared_ptr<DeviceMemory>> ImportOpenClDeviceMemory(const OpenClRunti
                                                                const std::string& backend,
                                                                const DeviceMemoryImport& import);
 
-// Plain device memory of the runtime's own context, written by frames exactly as imported
-// memory is but without acquire and release: where nothing can be imported (PoCL), the
-// tests run the frames' device path on it.
+// Plain device memory of the runtime's own context, written by frames as imported memory
+// is but without acquire and release: where nothing can be imported (PoCL), the tests run
+// the frames' device path on it. Frames go through the lane's buffers and copies unless
+// `in_place` (the tests of the in-place path): NVIDIA's driver made a kernel writing a
+// sub-buffer of such a buffer 3-60x slower than the copies (the H200, 2026-11-29:
+// docs/results/2026-11-29-gpu-regions-in-place-h200), where imported memory gained.
 Result<std::shared_ptr<DeviceMemory>> CreateOpenClDeviceMemory(OpenClRuntime& runtime,
                                                                const std::string& backend,
-                                                               uint64_t bytes);
+                                                               uint64_t bytes,
+                                                               bool in_place = false);
 
 // The cl_mem of OpenCL device memory; null for any other DeviceMemory.
 cl_mem OpenClDeviceMemoryBuffer(const DeviceMemory& memory);
@@ -83,8 +87,9 @@ Status WriteDevicePieces(OpenClLane& lane, const SkinFrame& frame,
 
 // A float32 frame's outputs as sub-buffers of its device memory at the frame's offsets, for
 // the kernel to write in place: no copies, no lane buffers. Empty (none set) when an offset
-// is not a multiple of `alignment` (OpenClRuntime::base_address_alignment), so the frame
-// goes through the lane's buffers and Float32DevicePieces instead.
+// is not a multiple of `alignment` (OpenClRuntime::base_address_alignment), or the memory
+// is not written in place (plain memory: CreateOpenClDeviceMemory), so the frame goes
+// through the lane's buffers and Float32DevicePieces instead.
 struct DirectDeviceOutputs {
   ClBuffer positions, normals, tangents;
   bool active() const { return positions.get() != nullptr; }
