@@ -45,6 +45,11 @@ const animation::CompactTrack* StoredTrack(const PoseCase& c, const CompactClip&
   return nullptr;
 }
 
+// How much coarser than 16 bits a track's steps are: 65535 / (2^bits - 1).
+double Coarser(const animation::CompactTrack& t) {
+  return 65535.0 / static_cast<double>((1u << t.bits) - 1u);
+}
+
 void ExpectKeysWithinBound(const PoseCase& c) {
   auto clip = animation::BuildCompactClip(c.raw, c.skeleton);
   ASSERT_TRUE(clip.ok()) << clip.status().ToString();
@@ -68,7 +73,7 @@ void ExpectKeysWithinBound(const PoseCase& c) {
         const double angle = RotationAngle(got.data(), want_q);
         const double bound = stored.format == TrackFormat::kConstant
                                  ? animation::kConstantTolerance
-                                 : animation::kRotationKeyErrorRadians;
+                                 : animation::kRotationKeyErrorRadians * Coarser(stored);
         worst_angle = std::max(worst_angle, angle);
         EXPECT_LE(angle, bound + 2e-6) << c.label << " track " << i << " key " << k;
         continue;
@@ -80,9 +85,10 @@ void ExpectKeysWithinBound(const PoseCase& c) {
           hi = std::max<double>(hi, t.values[kk * stride + first + comp]);
         }
         const double magnitude = std::max(1.0, std::fabs(double{want[comp]}));
-        const double bound = stored.format == TrackFormat::kConstant
-                                 ? animation::kConstantTolerance * magnitude
-                                 : (hi - lo) / 131070.0 + 2e-7 * magnitude;  // + float rounding
+        const double bound =
+            stored.format == TrackFormat::kConstant
+                ? animation::kConstantTolerance * magnitude
+                : (hi - lo) / 131070.0 * Coarser(stored) + 2e-7 * magnitude;  // + float rounding
         const double error = std::fabs(got[comp] - double{want[comp]});
         if (bound > 0) worst_share = std::max(worst_share, error / bound);
         EXPECT_LE(error, bound) << c.label << " track " << i << " key " << k << " component "
@@ -105,19 +111,6 @@ TEST(CompactClip, StoredKeysWithinStatedBoundWalkingFace) {
 }
 TEST(CompactClip, StoredKeysWithinStatedBoundSynthetic77) {
   ExpectKeysWithinBound(SyntheticCase(77));
-}
-
-// glTF's float bytes of a clip: each distinct key-time array once (files share one input
-// accessor between channels) and every channel's values, 4 bytes a float.
-std::size_t GltfFloatBytes(const animation::RawClip& raw) {
-  std::set<std::vector<float>> times;
-  std::size_t bytes = 0;
-  for (const RawTrack& t : raw.tracks) {
-    times.insert(t.times);
-    bytes += 4 * t.values.size();
-  }
-  for (const std::vector<float>& t : times) bytes += 4 * t.size();
-  return bytes;
 }
 
 double SizeRatio(const PoseCase& c) {

@@ -1,6 +1,7 @@
 #include "sample_rotations4.h"
 
 #include "float4.h"
+#include "quantize.h"
 #include "quaternion.h"
 
 namespace skinserve::animation::detail {
@@ -11,14 +12,26 @@ struct Quat4 {  // four quaternions, one a lane
 };
 
 // Key k of the group's four tracks: the three stored slots dequantized one lane at a time
-// (each track has its own ranges and largest index), the largest rebuilt and placed 4-wide.
+// (each track has its own ranges, bits and largest index), the largest rebuilt and placed
+// 4-wide. kPacked: the slots are `bits` wide in CompactClip::packed, else 16-bit words.
+template <bool kPacked>
 SKINSERVE_ALWAYS_INLINE Quat4 DecodeKeys(const CompactClip& clip,
                                          const SamplingPlan::RotationGroup& g, uint32_t k) {
   alignas(16) float slot[3][4];
   alignas(16) float largest[4];
   for (int lane = 0; lane < 4; ++lane) {
-    const uint16_t* q = &clip.words[g.words[lane] + 3 * k];
-    for (int c = 0; c < 3; ++c) slot[c][lane] = g.min[lane][c] + g.step[lane][c] * q[c];
+    if constexpr (kPacked) {
+      const uint8_t* base = clip.packed.data() + g.words[lane];
+      const uint32_t bits = g.bits[lane];
+      const uint64_t at = uint64_t{3} * k * bits;
+      for (uint32_t c = 0; c < 3; ++c) {
+        const float q = static_cast<float>(ReadBits(base, at + c * bits, bits));
+        slot[c][lane] = g.min[lane][c] + g.step[lane][c] * q;
+      }
+    } else {
+      const uint16_t* q = &clip.words[g.words[lane] + 3 * k];
+      for (int c = 0; c < 3; ++c) slot[c][lane] = g.min[lane][c] + g.step[lane][c] * q[c];
+    }
     const uint32_t at = g.largest[lane] + k;
     largest[lane] = static_cast<float>((clip.largest[at / 4] >> (2 * (at % 4))) & 3);
   }
@@ -74,6 +87,7 @@ SKINSERVE_ALWAYS_INLINE void StoreQuat4(const Quat4& q, float* p) {
   Store4(q.w, p + 12);
 }
 
+template <bool kPacked>
 SKINSERVE_ALWAYS_INLINE void SampleRotations4Body(
     const CompactClip& clip, std::span<const SamplingPlan::RotationGroup> groups, uint32_t k,
     uint32_t next, float u, std::span<Transform> output, RotationKeys keys) {
@@ -85,8 +99,9 @@ SKINSERVE_ALWAYS_INLINE void SampleRotations4Body(
       a = LoadQuat4(cache);
       b = LoadQuat4(cache + 16);
     } else {
-      a = keys.state == RotationKeys::kShift ? LoadQuat4(cache + 16) : DecodeKeys(clip, g, k);
-      b = next == k ? a : DecodeKeys(clip, g, next);
+      a = keys.state == RotationKeys::kShift ? LoadQuat4(cache + 16)
+                                             : DecodeKeys<kPacked>(clip, g, k);
+      b = next == k ? a : DecodeKeys<kPacked>(clip, g, next);
       if (cache != nullptr) {
         StoreQuat4(a, cache);
         StoreQuat4(b, cache + 16);
@@ -103,31 +118,47 @@ SKINSERVE_ALWAYS_INLINE void SampleRotations4Body(
   }
 }
 
+template <bool kPacked>
 void SampleRotations4Baseline(const CompactClip& clip,
                               std::span<const SamplingPlan::RotationGroup> groups, uint32_t k,
                               uint32_t next, float u, std::span<Transform> output,
                               RotationKeys keys) {
-  SampleRotations4Body(clip, groups, k, next, u, output, keys);
+  SampleRotations4Body<kPacked>(clip, groups, k, next, u, output, keys);
 }
 
 #if SKINSERVE_HAS_AVX2_FMA_CLONES
+template <bool kPacked>
 SKINSERVE_AVX2_FMA void SampleRotations4Avx2Fma(const CompactClip& clip,
                                                 std::span<const SamplingPlan::RotationGroup> groups,
                                                 uint32_t k, uint32_t next, float u,
                                                 std::span<Transform> output, RotationKeys keys) {
-  SampleRotations4Body(clip, groups, k, next, u, output, keys);
+  SampleRotations4Body<kPacked>(clip, groups, k, next, u, output, keys);
 }
 #endif
+
+template <bool kPacked>
+void Dispatch(const CompactClip& clip, std::span<const SamplingPlan::RotationGroup> groups,
+              uint32_t k, uint32_t next, float u, std::span<Transform> output, RotationKeys keys) {
+#if SKINSERVE_HAS_AVX2_FMA_CLONES
+  if (RunAvx2Fma()) return SampleRotations4Avx2Fma<kPacked>(clip, groups, k, next, u, output, keys);
+#endif
+  SampleRotations4Baseline<kPacked>(clip, groups, k, next, u, output, keys);
+}
 
 }  // namespace
 
 void SampleRotations4(const CompactClip& clip, std::span<const SamplingPlan::RotationGroup> groups,
                       uint32_t k, uint32_t next, float u, std::span<Transform> output,
                       RotationKeys keys) {
-#if SKINSERVE_HAS_AVX2_FMA_CLONES
-  if (RunAvx2Fma()) return SampleRotations4Avx2Fma(clip, groups, k, next, u, output, keys);
-#endif
-  SampleRotations4Baseline(clip, groups, k, next, u, output, keys);
+  Dispatch<false>(clip, groups, k, next, u, output, keys);
+}
+
+void SamplePackedRotations4(const CompactClip& clip,
+                            std::span<const SamplingPlan::RotationGroup> groups, uint32_t k,
+                            uint32_t next, float u, std::span<Transform> output,
+                            RotationKeys keys) {
+  if (groups.empty()) return;
+  Dispatch<true>(clip, groups, k, next, u, output, keys);
 }
 
 }  // namespace skinserve::animation::detail

@@ -21,5 +21,9 @@ struct RotationKeys {
 void SampleRotations4(const CompactClip& clip, std::span<const SamplingPlan::RotationGroup> groups,
                       uint32_t k, uint32_t next, float u, std::span<Transform> output,
                       RotationKeys keys);
+// The same for kSmallestThreePacked groups (SamplingPlan::packed_rotations).
+void SamplePackedRotations4(const CompactClip& clip,
+                            std::span<const SamplingPlan::RotationGroup> groups, uint32_t k,
+                            uint32_t next, float u, std::span<Transform> output, RotationKeys keys);
 
 }  // namespace skinserve::animation::detail

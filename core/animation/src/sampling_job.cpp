@@ -69,10 +69,17 @@ Segment FindTrackSegment(const CompactClip& clip, const CompactTrack& track, con
   return s;
 }
 
-// Component `col` of key `k` of a kRange16 track whose keys hold `columns` components.
+// Component `col` of key `k` of a kRange16 or packed track whose keys hold `columns`
+// components (a smallest-three track's: 3).
 float Range16(const CompactClip& clip, const CompactTrack& track, uint32_t k, uint32_t columns,
               uint32_t col) {
   const float* range = &clip.floats[track.floats + 2 * col];
+  if (track.format == TrackFormat::kRangePacked ||
+      track.format == TrackFormat::kSmallestThreePacked) {
+    const uint64_t at = (uint64_t{k} * columns + col) * track.bits;
+    return detail::DequantizeRange(
+        detail::ReadBits(clip.packed.data() + track.words, at, track.bits), range[0], range[1]);
+  }
   return detail::DequantizeRange(clip.words[track.words + k * columns + col], range[0], range[1]);
 }
 
@@ -92,7 +99,8 @@ void SampleTrack(const CompactClip& clip, const CompactTrack& track, const Segme
     for (uint32_t c = 0; c < w; ++c) out[c] = v[c];
     return;
   }
-  if (track.format == TrackFormat::kSmallestThree16) {
+  if (track.format == TrackFormat::kSmallestThree16 ||
+      track.format == TrackFormat::kSmallestThreePacked) {
     float a[4];
     SmallestThree(clip, track, s.k, a);
     if (track.interpolation == Interpolation::kStep || s.next == s.k) {
@@ -166,6 +174,25 @@ SKINSERVE_ALWAYS_INLINE void SampleVectors(const CompactClip& clip, const Sampli
   }
 }
 
+// The packed LINEAR vectors: as SampleVectors, each component `bits` wide.
+SKINSERVE_ALWAYS_INLINE void SamplePackedVectors(const CompactClip& clip, const SamplingPlan& plan,
+                                                 const Segment& s, std::span<Transform> output) {
+  for (const SamplingPlan::Vector& v : plan.packed_vectors) {
+    const uint8_t* base = clip.packed.data() + v.words;
+    const uint64_t a = uint64_t{3} * s.k * v.bits, b = uint64_t{3} * s.next * v.bits;
+    Transform& t = output[v.joint];
+    float* out =
+        static_cast<TrackPath>(v.path) == TrackPath::kTranslation ? t.translation : t.scale;
+    for (uint32_t c = 0; c < 3; ++c) {
+      const float va = detail::DequantizeRange(detail::ReadBits(base, a + c * v.bits, v.bits),
+                                               v.min[c], v.step[c]);
+      const float vb = detail::DequantizeRange(detail::ReadBits(base, b + c * v.bits, v.bits),
+                                               v.min[c], v.step[c]);
+      out[c] = va + s.u * (vb - va);
+    }
+  }
+}
+
 // Component by component as DequantizeRange: min + step * q, 4 lanes (past `width`: 0).
 // A 3-wide key part is read from the u16 before it, which is in the track: SampleCubics
 // reads a key's in-tangent (its first u16) only for key k + 1.
@@ -211,6 +238,7 @@ SKINSERVE_ALWAYS_INLINE void SampleCubics(const CompactClip& clip, const Samplin
 void SampleVectorsAndCubicsBaseline(const CompactClip& clip, const SamplingPlan& plan,
                                     const Segment& s, std::span<Transform> output) {
   SampleVectors(clip, plan, s, output);
+  SamplePackedVectors(clip, plan, s, output);
   SampleCubics(clip, plan, s, output);
 }
 
@@ -219,6 +247,7 @@ SKINSERVE_AVX2_FMA void SampleVectorsAndCubicsAvx2Fma(const CompactClip& clip,
                                                       const SamplingPlan& plan, const Segment& s,
                                                       std::span<Transform> output) {
   SampleVectors(clip, plan, s, output);
+  SamplePackedVectors(clip, plan, s, output);
   SampleCubics(clip, plan, s, output);
 }
 #endif
@@ -251,7 +280,7 @@ detail::RotationKeys CachedKeys(const CompactClip& clip, const Segment& s,
   if (context->plan != clip.plan) {
     context->plan = clip.plan;
     context->valid = false;
-    context->keys.resize(32 * clip.plan->rotations.size());
+    context->keys.resize(32 * (clip.plan->rotations.size() + clip.plan->packed_rotations.size()));
   }
   keys.cache = context->keys.data();
   if (!context->valid) {
@@ -327,8 +356,12 @@ Status SamplingJob::Run() const {
     std::copy_n(&skeleton->rest[run.first], run.count, &output[run.first]);
   }
   SampleConstants(plan, output);
-  detail::SampleRotations4(*clip, plan.rotations, global.k, global.next, global.u, output,
-                           CachedKeys(*clip, global, context));
+  const detail::RotationKeys keys = CachedKeys(*clip, global, context);
+  detail::SampleRotations4(*clip, plan.rotations, global.k, global.next, global.u, output, keys);
+  detail::RotationKeys packed_keys = keys;  // its groups' cache after the 16-bit groups'
+  if (keys.cache != nullptr) packed_keys.cache += 32 * plan.rotations.size();
+  detail::SamplePackedRotations4(*clip, plan.packed_rotations, global.k, global.next, global.u,
+                                 output, packed_keys);
   detail::SampleRotations4(*clip, plan.step_rotations, global.k, global.k, 0, output, {});
   SampleVectorsAndCubics(*clip, plan, global, output);
   for (uint32_t i : plan.others)

@@ -15,6 +15,7 @@ void AddRotation(const CompactClip& clip, const CompactTrack& t,
   g.joint[lane] = t.joint;
   g.words[lane] = t.words;
   g.largest[lane] = t.largest;
+  g.bits[lane] = t.bits;
   for (int s = 0; s < 3; ++s) {
     g.min[lane][s] = clip.floats[t.floats + 2 * s];
     g.step[lane][s] = clip.floats[t.floats + 2 * s + 1];
@@ -30,6 +31,7 @@ void PadLastGroup(std::vector<SamplingPlan::RotationGroup>& groups) {
     g.joint[lane] = g.joint[0];
     g.words[lane] = g.words[0];
     g.largest[lane] = g.largest[0];
+    g.bits[lane] = g.bits[0];
     for (int c = 0; c < 3; ++c) {
       g.min[lane][c] = g.min[0][c];
       g.step[lane][c] = g.step[0][c];
@@ -75,13 +77,16 @@ SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
     } else if (t.format == TrackFormat::kSmallestThree16 && t.key_times == kAllKeyTimes &&
                t.interpolation == Interpolation::kStep) {
       AddRotation(clip, t, plan.step_rotations);
-    } else if (t.format == TrackFormat::kRange16 && EveryKey(t) && t.path != TrackPath::kRotation) {
-      SamplingPlan::Vector v{t.joint, path, t.words, {}, {}};
+    } else if (t.format == TrackFormat::kSmallestThreePacked && EveryKey(t)) {
+      AddRotation(clip, t, plan.packed_rotations);
+    } else if ((t.format == TrackFormat::kRange16 || t.format == TrackFormat::kRangePacked) &&
+               EveryKey(t) && t.path != TrackPath::kRotation) {
+      SamplingPlan::Vector v{t.joint, path, t.words, t.bits, {}, {}};
       for (int c = 0; c < 3; ++c) {
         v.min[c] = clip.floats[t.floats + 2 * c];
         v.step[c] = clip.floats[t.floats + 2 * c + 1];
       }
-      plan.vectors.push_back(v);
+      (t.format == TrackFormat::kRange16 ? plan.vectors : plan.packed_vectors).push_back(v);
     } else if (t.format == TrackFormat::kRange16 && t.key_times == kAllKeyTimes &&
                t.interpolation == Interpolation::kCubicSpline && (t.width == 3 || t.width == 4)) {
       plan.cubics.push_back(MakeCubic(clip, t));
@@ -100,6 +105,7 @@ SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
   }
   PadLastGroup(plan.rotations);
   PadLastGroup(plan.step_rotations);
+  PadLastGroup(plan.packed_rotations);
   return plan;
 }
 
