@@ -48,17 +48,13 @@ std::vector<Transform> Sample(const PoseCase& c, const animation::CompactClip& c
   return local;
 }
 
-// The clip store's bound (compact_clip.h) on the translation as a point: within 0.01 mm +
-// 1e-4 of its distance from the origin (a root's translation is its model position).
 void ExpectNear(const Transform& got, const Local& want, const std::string& what) {
   EXPECT_LE(RotationAngle(got.rotation, want.q), 1e-4) << what << " rotation";
-  double d2 = 0, r2 = 0;
   for (int c = 0; c < 3; ++c) {
-    d2 += (got.translation[c] - want.t[c]) * (got.translation[c] - want.t[c]);
-    r2 += want.t[c] * want.t[c];
+    EXPECT_NEAR(got.translation[c], want.t[c], 1e-5 + 1e-4 * std::fabs(want.t[c]))
+        << what << " translation";
     EXPECT_NEAR(got.scale[c], want.s[c], 1e-4 * std::fabs(want.s[c])) << what << " scale";
   }
-  EXPECT_LE(std::sqrt(d2), 1e-5 + 1e-4 * std::sqrt(r2)) << what << " translation";
 }
 
 class BlendingJobTest : public ::testing::Test {

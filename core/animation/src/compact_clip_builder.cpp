@@ -318,6 +318,7 @@ Result<CompactClip> BuildCompactClip(const RawClip& raw, const Skeleton& skeleto
     if ((*kinds)[i] != detail::TrackKind::kAtRest)
       StoreTrack(raw.tracks[i], (*kinds)[i], bits[i], clip);
   }
+  // The sampler reads a packed key's components 8 bytes at a time (quantize.h's ReadKey3).
   if (!clip.packed.empty()) clip.packed.resize(clip.packed.size() + kPackedSlack, 0);
   clip.id = ClipId(clip.Serialize());
   clip.plan = std::make_shared<const SamplingPlan>(MakeSamplingPlan(clip));

@@ -1,5 +1,5 @@
-// The sampler's 4-wide path: four LINEAR smallest-three rotation tracks of one clip (keyed
-// at every clip time, so they share the segment) decoded and slerped side by side.
+// The sampler's 4-wide path: four LINEAR smallest-three (16-bit or packed) rotation tracks of one
+// clip (keyed at every clip time, so they share the segment) decoded and slerped side by side.
 #pragma once
 
 #include <span>
@@ -21,9 +21,5 @@ struct RotationKeys {
 void SampleRotations4(const CompactClip& clip, std::span<const SamplingPlan::RotationGroup> groups,
                       uint32_t k, uint32_t next, float u, std::span<Transform> output,
                       RotationKeys keys);
-// The same for kSmallestThreePacked groups (SamplingPlan::packed_rotations).
-void SamplePackedRotations4(const CompactClip& clip,
-                            std::span<const SamplingPlan::RotationGroup> groups, uint32_t k,
-                            uint32_t next, float u, std::span<Transform> output, RotationKeys keys);
 
 }  // namespace skinserve::animation::detail

@@ -77,7 +77,7 @@ float Range16(const CompactClip& clip, const CompactTrack& track, uint32_t k, ui
   if (track.format == TrackFormat::kRangePacked ||
       track.format == TrackFormat::kSmallestThreePacked) {
     const uint64_t at = (uint64_t{k} * columns + col) * track.bits;
-    return detail::DequantizeRange(
+    return detail::DequantizeCode(
         detail::ReadBits(clip.packed.data() + track.words, at, track.bits), range[0], range[1]);
   }
   return detail::DequantizeRange(clip.words[track.words + k * columns + col], range[0], range[1]);
@@ -158,37 +158,29 @@ void SampleConstants(const SamplingPlan& plan, std::span<Transform> output) {
   }
 }
 
-// LINEAR 16-bit translations and scales keyed at every clip time: as SampleTrack does them.
+// LINEAR 16-bit or packed translations and scales keyed at every clip time: as SampleTrack
+// does them.
 SKINSERVE_ALWAYS_INLINE void SampleVectors(const CompactClip& clip, const SamplingPlan& plan,
                                            const Segment& s, std::span<Transform> output) {
   for (const SamplingPlan::Vector& v : plan.vectors) {
-    const uint16_t* a = &clip.words[v.words + 3 * s.k];
-    const uint16_t* b = &clip.words[v.words + 3 * s.next];
     Transform& t = output[v.joint];
     float* out =
         static_cast<TrackPath>(v.path) == TrackPath::kTranslation ? t.translation : t.scale;
-    for (int c = 0; c < 3; ++c) {
-      const float va = detail::DequantizeRange(a[c], v.min[c], v.step[c]);
-      out[c] = va + s.u * (detail::DequantizeRange(b[c], v.min[c], v.step[c]) - va);
+    if (v.packed == 0) {
+      const uint16_t* a = &clip.words[v.bytes / 2 + 3 * s.k];
+      const uint16_t* b = &clip.words[v.bytes / 2 + 3 * s.next];
+      for (int c = 0; c < 3; ++c) {
+        const float va = detail::DequantizeRange(a[c], v.min[c], v.step[c]);
+        out[c] = va + s.u * (detail::DequantizeRange(b[c], v.min[c], v.step[c]) - va);
+      }
+      continue;
     }
-  }
-}
-
-// The packed LINEAR vectors: as SampleVectors, each component `bits` wide.
-SKINSERVE_ALWAYS_INLINE void SamplePackedVectors(const CompactClip& clip, const SamplingPlan& plan,
-                                                 const Segment& s, std::span<Transform> output) {
-  for (const SamplingPlan::Vector& v : plan.packed_vectors) {
-    const uint8_t* base = clip.packed.data() + v.words;
-    const uint64_t a = uint64_t{3} * s.k * v.bits, b = uint64_t{3} * s.next * v.bits;
-    Transform& t = output[v.joint];
-    float* out =
-        static_cast<TrackPath>(v.path) == TrackPath::kTranslation ? t.translation : t.scale;
-    for (uint32_t c = 0; c < 3; ++c) {
-      const float va = detail::DequantizeRange(detail::ReadBits(base, a + c * v.bits, v.bits),
-                                               v.min[c], v.step[c]);
-      const float vb = detail::DequantizeRange(detail::ReadBits(base, b + c * v.bits, v.bits),
-                                               v.min[c], v.step[c]);
-      out[c] = va + s.u * (vb - va);
+    uint32_t a[3], b[3];
+    detail::ReadKey3(clip.packed.data() + v.bytes, s.k, v.bits, a);
+    detail::ReadKey3(clip.packed.data() + v.bytes, s.next, v.bits, b);
+    for (int c = 0; c < 3; ++c) {
+      const float va = detail::DequantizeCode(a[c], v.min[c], v.step[c]);
+      out[c] = va + s.u * (detail::DequantizeCode(b[c], v.min[c], v.step[c]) - va);
     }
   }
 }
@@ -238,7 +230,6 @@ SKINSERVE_ALWAYS_INLINE void SampleCubics(const CompactClip& clip, const Samplin
 void SampleVectorsAndCubicsBaseline(const CompactClip& clip, const SamplingPlan& plan,
                                     const Segment& s, std::span<Transform> output) {
   SampleVectors(clip, plan, s, output);
-  SamplePackedVectors(clip, plan, s, output);
   SampleCubics(clip, plan, s, output);
 }
 
@@ -247,7 +238,6 @@ SKINSERVE_AVX2_FMA void SampleVectorsAndCubicsAvx2Fma(const CompactClip& clip,
                                                       const SamplingPlan& plan, const Segment& s,
                                                       std::span<Transform> output) {
   SampleVectors(clip, plan, s, output);
-  SamplePackedVectors(clip, plan, s, output);
   SampleCubics(clip, plan, s, output);
 }
 #endif
@@ -280,7 +270,7 @@ detail::RotationKeys CachedKeys(const CompactClip& clip, const Segment& s,
   if (context->plan != clip.plan) {
     context->plan = clip.plan;
     context->valid = false;
-    context->keys.resize(32 * (clip.plan->rotations.size() + clip.plan->packed_rotations.size()));
+    context->keys.resize(32 * clip.plan->rotations.size());
   }
   keys.cache = context->keys.data();
   if (!context->valid) {
@@ -356,12 +346,8 @@ Status SamplingJob::Run() const {
     std::copy_n(&skeleton->rest[run.first], run.count, &output[run.first]);
   }
   SampleConstants(plan, output);
-  const detail::RotationKeys keys = CachedKeys(*clip, global, context);
-  detail::SampleRotations4(*clip, plan.rotations, global.k, global.next, global.u, output, keys);
-  detail::RotationKeys packed_keys = keys;  // its groups' cache after the 16-bit groups'
-  if (keys.cache != nullptr) packed_keys.cache += 32 * plan.rotations.size();
-  detail::SamplePackedRotations4(*clip, plan.packed_rotations, global.k, global.next, global.u,
-                                 output, packed_keys);
+  detail::SampleRotations4(*clip, plan.rotations, global.k, global.next, global.u, output,
+                           CachedKeys(*clip, global, context));
   detail::SampleRotations4(*clip, plan.step_rotations, global.k, global.k, 0, output, {});
   SampleVectorsAndCubics(*clip, plan, global, output);
   for (uint32_t i : plan.others)

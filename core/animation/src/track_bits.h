@@ -1,6 +1,8 @@
-// ChooseTrackBits: the fewest bits a component (kMinPackedBits..16) for each LINEAR or
-// STEP joint track such that every joint stays within the clip's model-space bound
-// (ModelErrorCheck), one track at a time, leaves first, binary search per track.
+// ChooseTrackBits: for a bound looser than the default, the fewest bits a component
+// (kMinPackedBits..16) for each LINEAR or STEP joint track such that every joint stays
+// within the clip's model-space bound (ModelErrorCheck), one track at a time, leaves first,
+// binary search per track. At the default bound every track keeps 16 bits (the sampler's
+// fastest keys).
 #pragma once
 
 #include <cstdint>

@@ -19,7 +19,7 @@ struct QuantizedTrack {
   std::vector<float> decoded;    // per key, `width` floats as the sampler rebuilds them
 };
 
-// `t`: a LINEAR or STEP track of a joint (not weights, not CUBICSPLINE); bits 8..16.
+// `t`: a LINEAR or STEP track of a joint (not weights, not CUBICSPLINE); bits kMinPackedBits..16.
 QuantizedTrack QuantizeTrack(const RawTrack& t, uint32_t bits);
 
 // Any track stored kRange16 (CUBICSPLINE's tangents too): its values as the sampler

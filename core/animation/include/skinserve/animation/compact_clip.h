@@ -15,15 +15,18 @@
 //    made positive) and the other three, each 16-bit quantized against its range over the
 //    track (within [-1/sqrt2, 1/sqrt2]): each within e = range / 131070 <= 1.079e-5, the
 //    rotation within kRotationKeyErrorRadians of the key's (less for a joint turning little).
-//  - kRangePacked, kSmallestThreePacked: as the two above with `bits` (8..15) a component,
+//  - kRangePacked, kSmallestThreePacked: as the two above with `bits` (4..15) a component,
 //    bit-packed (key k's components at bits [k * components * bits, ...) of the track's
 //    bytes): |error| <= range / (2 (2^bits - 1)). Chosen per LINEAR or STEP translation,
-//    rotation and scale track when the model-space check below still holds with it.
+//    rotation and scale track, for a bound looser than the default, when the model-space
+//    check below still holds with it (at the default every track keeps 16 bits: the
+//    sampler decodes those fastest).
 // The model-space bound (ClipBuildOptions): with every track as stored, every joint's
-// model-space position within max_error_mm + kRelativeError |position| and each element of
-// its 3x3 within max_error_mm / kShellDistanceMm of a float64 evaluation of the original
-// channels, at every key time and halfway between (the builder evaluates it; 16 bits stay
-// wherever fewer would not hold). Lengths are taken in metres (glTF's unit).
+// model-space position within max_error_mm + kRelativeError |position| and each row of its
+// 3x3 (so each element, of it and of its palette entries) within max_error_mm /
+// kShellDistanceMm of a float64 evaluation of the original channels, at every key time,
+// halfway between and (with STEP tracks) just before each key; the builder evaluates it
+// with 10% left for the sampler's float32. Lengths are taken in metres (glTF's unit).
 // Times are exact: every key time of the clip is stored once (float32, `times`); a track
 // keyed at every one of them stores no times, any other stores a 16-bit index per key.
 #pragma once
@@ -85,7 +88,7 @@ struct CompactTrack {
   uint32_t floats = 0;   // offset into CompactClip::floats: the constant, or (min, step) pairs
   uint32_t words = 0;    // offset into CompactClip::words (16-bit formats) or byte offset
                          // into CompactClip::packed (packed formats): the quantized keys
-  uint8_t bits = 16;     // a stored component's bits (packed formats: 8..15)
+  uint8_t bits = 16;     // a stored component's bits (packed formats: 4..15)
   uint32_t largest = 0;  // kSmallestThree16: first key's 2-bit slot in CompactClip::largest
 };
 
@@ -99,7 +102,7 @@ struct CompactClip {
   std::vector<uint16_t> key_times;
   std::vector<CompactTrack> tracks;
   std::vector<float> floats;
-  std::vector<uint16_t> words;
+  std::vector<uint16_t> words;              // 16-bit keys
   std::vector<uint8_t> largest;             // smallest-three: 4 two-bit indices a byte
   std::vector<uint8_t> packed;              // packed formats' keys, then kPackedSlack zero bytes
   float max_error_mm = kDefaultMaxErrorMm;  // the model-space bound it was built to
