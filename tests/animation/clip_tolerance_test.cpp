@@ -89,6 +89,37 @@ TEST_P(ClipTolerance, Synthetic77WithinToleranceOfChannels) {
 // 0: the default (0.01 mm, the target); then 0.1, 1 and 10 mm (the loosest allowed).
 INSTANTIATE_TEST_SUITE_P(Tolerances, ClipTolerance, ::testing::Values(0.0f, 0.1f, 1.0f, 10.0f));
 
+// A clip of packed keys sampled the other ways: one track at a time (no sampling plan:
+// the packed formats' scalar path) and through one SamplingContext whose times go forward
+// by less than a key, stay, jump back and ahead and clamp (its cached packed keys).
+TEST(ClipTolerance, PackedKeysWithoutAPlanAndThroughAContext) {
+  const PoseCase c = SyntheticCase(77);
+  auto clip = animation::BuildCompactClip(c.raw, c.skeleton, {1.0f});
+  ASSERT_TRUE(clip.ok());
+  animation::CompactClip without_plan = *clip;
+  without_plan.plan.reset();
+  const PoseBound bound = BoundFor(1.0f);
+  const double d = c.ref_clip.duration;
+  Worst worst;
+  for (double time : EveryKeyAndBetween(c)) {
+    const float t = static_cast<float>(time);
+    ExpectPoseMatches(c, RunPose(c, without_plan, t), std::clamp(double{t}, 0.0, d), bound, worst);
+    if (::testing::Test::HasFailure()) return;
+  }
+  animation::SamplingContext context;
+  std::vector<double> times;
+  for (int i = 0; i < 50; ++i) times.push_back(i / 60.0);
+  for (double t : {0.5, 0.5, 0.1, 1.9, 1.2, d, 3 * d, -1.0, 0.0, 0.02}) times.push_back(t);
+  for (double time : times) {
+    const float t = static_cast<float>(time);
+    ExpectPoseMatches(c, RunPose(c, *clip, t, animation::TimeMode::kClamp, &context),
+                      std::clamp(double{t}, 0.0, d), bound, worst);
+    if (::testing::Test::HasFailure()) return;
+  }
+  std::printf("synthetic77 at 1 mm, without a plan and through a context: worst joint %.3f\n",
+              worst.position);
+}
+
 // A looser tolerance stores fewer bytes: a builder that ignored it would store the same
 // clip at every tolerance (and a wrong one would fail the tests above).
 TEST(ClipToleranceSize, LooserToleranceStoresFewerBytes) {
