@@ -43,11 +43,12 @@ struct Options {
   bool tangents = false;  // tangents asked for back and checked (needs --normals)
   std::string method = "linear";
   uint64_t seed = 1;
-  MorphWorkload morph;  // synthetic mesh: morph targets and active weights per frame
-  std::string mesh;     // a glTF file instead of the synthetic mesh
-  int primitive = -1;   // --mesh: -1 is the whole character
-  std::string animate;  // "synthetic" or a .glb: poses of its clip instead of palettes
-  std::string clip;     // --animate FILE: the clip's name or index (empty: the first)
+  MorphWorkload morph;      // synthetic mesh: morph targets and active weights per frame
+  std::string mesh;         // a glTF file instead of the synthetic mesh
+  int primitive = -1;       // --mesh: -1 is the whole character
+  std::string animate;      // "synthetic" or a .glb: poses of its clip instead of palettes
+  std::string clip;         // --animate FILE: the clip's name or index (empty: the first)
+  float clip_error_mm = 0;  // --clip-error-mm: UploadClipRequest.max_error_mm
   std::string sweep;
   bool capacity = false;
   int capacity_max_streams = 64;
@@ -164,11 +165,13 @@ std::string CharacterFile(const Options& o) { return AnimatesFile(o) ? o.animate
 Status AddPose(const Options& o, uint64_t seed, Workload* w) {
   if (!AnimatesFile(o)) {
     w->pose = MakePoseWorkload(o.joints, seed);
+    w->pose->max_error_mm = o.clip_error_mm;
     return Status::Ok();
   }
   auto pose = MakeGltfPoseWorkload(o.animate, o.clip);
   if (!pose.ok()) return pose.status();
   w->pose = *std::move(pose);
+  w->pose->max_error_mm = o.clip_error_mm;
   if (w->rest_encoding != RestEncoding::kFloat32) {
     return InvalidArgument(fmt::format(
         "--animate {}: the check compares with the file's float64 values, so the mesh is "
@@ -557,6 +560,13 @@ void AddMeshOptions(CLI::App& app, Options& o) {
                  "character, linear skinning");
   app.add_option("--clip", o.clip,
                  "--animate FILE: the clip to play, by name or index (default: the file's first)");
+  app.add_option("--clip-error-mm", o.clip_error_mm,
+                 "--animate: the error the server stores the clip to, in mm (every joint within "
+                 "it + 1e-4 of its distance from the origin; 0: the server's default, 0.01 mm; "
+                 "else 0.01 to 10, checked by the server): looser stores fewer bytes; "
+                 "--check-every's bound grows by it over 0.01 mm")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
 }
 
 // How each run drives the server: streams, window, duration or frames, rate, checks, encodings,

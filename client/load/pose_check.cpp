@@ -58,15 +58,17 @@ double VectorsError(const Workload& w, const PoseAnswer& answer, std::span<const
     return Length(e);
   };
   if (rest.size() != posed.positions.size()) return kInf;
+  const double scale = w.pose->ErrorScale();  // a clip stored to a looser bound
   double worst = WorstVectorRatio(
       answer.positions, posed.positions, 3, [&](std::size_t v, const double* want) {
-        return kAbsolute + kRelative * (Length(&rest[3 * v]) + Length(want)) + encoding_error(want);
+        return scale * (kAbsolute + kRelative * (Length(&rest[3 * v]) + Length(want))) +
+               encoding_error(want);
       });
   const auto unit_bound = [&](double magnification) {
     return [&, magnification](std::size_t, const double* want) {
       double e[3];
       for (int i = 0; i < 3; ++i) e[i] = NormalEncodingError(answer.encoding, std::fabs(want[i]));
-      return (kAbsolute + kRelative * 2) * magnification + Length(e);
+      return scale * (kAbsolute + kRelative * 2) * magnification + Length(e);
     };
   };
   if (w.normals) {

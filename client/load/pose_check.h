@@ -6,7 +6,8 @@
 // (tests/server/pose_service_test.cpp): each vertex within 2e-5 + 3e-4 (|rest| + |posed|)
 // (the compact clip's joints are within 0.01 mm + 1e-4 relative, its rotations' elements
 // within 1e-4, of the float64 clip; float32 skinning adds rounding), plus the answer
-// encoding's stated error.
+// encoding's stated error; with --clip-error-mm E above the default 0.01 mm, the pose part
+// of the bound times E / 0.01 (the clip's joints and 3x3 elements are held to E).
 #pragma once
 
 #include <span>

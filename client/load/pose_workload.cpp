@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "skinserve/animation/compact_clip.h"
 #include "skinserve/animation/synthetic_rig.h"
 #include "skinserve/reference/pose_reference.h"
 
@@ -25,6 +26,10 @@ std::vector<double> PoseWorkload::ReferencePalette(uint64_t frame) const {
   if (gltf)
     return gltf_reference::RefPalette(gltf->character, &gltf->character.clips[gltf->clip], t);
   return ReferencePosePalette(skeleton, clip, t);
+}
+
+double PoseWorkload::ErrorScale() const {
+  return std::max(1.0, double{max_error_mm} / animation::kDefaultMaxErrorMm);
 }
 
 void SetLap(PoseWorkload* pose) {
@@ -50,7 +55,7 @@ Status UploadPose(client::SkinClient& client, PoseWorkload* pose, bool tell) {
                   fmt::format("--animate: skeleton: {}", skeleton.status().message()));
   }
   pose->skeleton_id = skeleton->skeleton_id();
-  auto clip = client.UploadClip(pose->clip, pose->skeleton_id);
+  auto clip = client.UploadClip(pose->clip, pose->skeleton_id, pose->max_error_mm);
   if (!clip.ok()) {
     return Status(clip.status().code(),
                   fmt::format("--animate: clip '{}': {}", pose->label, clip.status().message()));
@@ -59,9 +64,10 @@ Status UploadPose(client::SkinClient& client, PoseWorkload* pose, bool tell) {
   if (!tell) return Status::Ok();
   fmt::print(stderr,
              "note: --animate: skeleton {:.8}...: {} joints; clip '{}' {:.8}...: {} tracks, "
-             "{:.2f} s, {} bytes stored ({} float bytes uploaded)\n",
+             "{:.2f} s, {} bytes stored to {} mm ({} float bytes uploaded)\n",
              pose->skeleton_id, pose->skeleton.joint_count(), pose->label, pose->clip_id,
-             pose->clip.tracks.size(), pose->clip.duration, clip->bytes(), clip->raw_bytes());
+             pose->clip.tracks.size(), pose->clip.duration, clip->bytes(), clip->max_error_mm(),
+             clip->raw_bytes());
   return Status::Ok();
 }
 

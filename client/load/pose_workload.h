@@ -39,7 +39,10 @@ struct PoseWorkload {
   // last key, read by the check's own reader).
   double duration = 1;
   std::string skeleton_id, clip_id;  // on the server (UploadPose)
-  uint64_t lap_frames = 1;           // frames of one lap of the clip at kPoseFps
+  // --clip-error-mm: the bound the server stores the clip to (0: its default, 0.01 mm);
+  // the check's bound grows with it (ErrorScale).
+  float max_error_mm = 0;
+  uint64_t lap_frames = 1;  // frames of one lap of the clip at kPoseFps
   // --animate FILE: answers are checked against the file's own channels and primitive;
   // null: against `clip` on `skeleton` and the workload's mesh (synthetic).
   std::shared_ptr<const GltfPoseReference> gltf;
@@ -55,6 +58,8 @@ struct PoseWorkload {
   // Frame f's palette in float64 at ReferenceTime: ReferencePosePalette of the synthetic
   // clip, or RefPalette of the file's clip; 12 doubles a joint.
   std::vector<double> ReferencePalette(uint64_t frame) const;
+  // The check's bound (pose_check.h) times this: max_error_mm over the default's, at least 1.
+  double ErrorScale() const;
 };
 
 // The synthetic rig of `joints` joints (the synthetic mesh's) seeded from `seed`.

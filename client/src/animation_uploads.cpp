@@ -23,9 +23,10 @@ Result<v1::SkeletonInfo> SkinClient::UploadSkeleton(const animation::Skeleton& s
 }
 
 Result<v1::ClipInfo> SkinClient::UploadClip(const animation::RawClip& clip,
-                                            const std::string& skeleton_id) {
+                                            const std::string& skeleton_id, float max_error_mm) {
   v1::UploadClipRequest request;
   wire::ClipToWire(clip, skeleton_id, &request);
+  request.set_max_error_mm(max_error_mm);
   grpc::ClientContext context;
   SetDeadline(&context, limits_.upload_deadline);
   v1::ClipInfo info;
@@ -34,7 +35,9 @@ Result<v1::ClipInfo> SkinClient::UploadClip(const animation::RawClip& clip,
   }
   std::lock_guard lock(mutex_);
   UploadedClip& kept = clips_[info.clip_id()];
-  if (kept.clip == nullptr) kept = {std::make_shared<const animation::RawClip>(clip), skeleton_id};
+  if (kept.clip == nullptr) {
+    kept = {std::make_shared<const animation::RawClip>(clip), skeleton_id, max_error_mm};
+  }
   return info;
 }
 
@@ -66,7 +69,7 @@ Status SkinClient::Reupload(const LostUpload& lost) {
 
 Status SkinClient::ReuploadSkeleton(const std::string& skeleton_id) {
   std::shared_ptr<const animation::Skeleton> skeleton;
-  std::vector<std::pair<std::shared_ptr<const animation::RawClip>, std::string>> clips;
+  std::vector<UploadedClip> clips;
   {
     std::lock_guard lock(mutex_);
     auto it = skeletons_.find(skeleton_id);
@@ -76,12 +79,13 @@ Status SkinClient::ReuploadSkeleton(const std::string& skeleton_id) {
     }
     skeleton = it->second;
     for (const auto& [id, kept] : clips_) {
-      if (kept.skeleton_id == skeleton_id) clips.emplace_back(kept.clip, skeleton_id);
+      if (kept.skeleton_id == skeleton_id) clips.push_back(kept);
     }
   }
   if (auto info = UploadSkeleton(*skeleton); !info.ok()) return info.status();
-  for (const auto& [clip, skeleton_of] : clips) {
-    if (auto info = UploadClip(*clip, skeleton_of); !info.ok()) return info.status();
+  for (const UploadedClip& kept : clips) {
+    if (auto info = UploadClip(*kept.clip, kept.skeleton_id, kept.max_error_mm); !info.ok())
+      return info.status();
   }
   return Status::Ok();
 }
@@ -97,7 +101,7 @@ Status SkinClient::ReuploadClip(const std::string& clip_id) {
     }
     kept = it->second;
   }
-  auto info = UploadClip(*kept.clip, kept.skeleton_id);
+  auto info = UploadClip(*kept.clip, kept.skeleton_id, kept.max_error_mm);
   if (info.status().code() != StatusCode::kNotFound) return info.status();
   // The server lost the clip's skeleton too: that first (with its clips, this one among them).
   return ReuploadSkeleton(kept.skeleton_id);

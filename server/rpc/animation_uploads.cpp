@@ -45,8 +45,13 @@ grpc::ServerUnaryReactor* SkinningService::UploadClip(grpc::CallbackServerContex
   if (engine == nullptr) return Finished(context, WarmingUp());
   Result<animation::RawClip> clip = wire::ClipFromWire(*request);
   if (!clip.ok()) return Finished(context, clip.status());
-  Result<animation::ClipInfo> info = engine->animations().AddClip(*clip, request->skeleton_id());
-  if (info.ok()) ToWire(*info, response);
+  // max_error_mm: the store checks it (INVALID_ARGUMENT naming it and its limits).
+  Result<animation::ClipInfo> info = engine->animations().AddClip(
+      *clip, request->skeleton_id(), {.max_error_mm = request->max_error_mm()});
+  if (info.ok()) {
+    ToWire(*info, response);
+    response->set_max_error_mm(info->max_error_mm);
+  }
   return Finished(context, info.status());
 }
 

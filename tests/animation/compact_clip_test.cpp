@@ -45,8 +45,13 @@ const animation::CompactTrack* StoredTrack(const PoseCase& c, const CompactClip&
   return nullptr;
 }
 
-void ExpectKeysWithinBound(const PoseCase& c) {
-  auto clip = animation::BuildCompactClip(c.raw, c.skeleton);
+// How much coarser than 16 bits a track's steps are: 65535 / (2^bits - 1).
+double Coarser(const animation::CompactTrack& t) {
+  return 65535.0 / static_cast<double>((1u << t.bits) - 1u);
+}
+
+void ExpectKeysWithinBound(const PoseCase& c, float max_error_mm = 0) {
+  auto clip = animation::BuildCompactClip(c.raw, c.skeleton, {max_error_mm});
   ASSERT_TRUE(clip.ok()) << clip.status().ToString();
   double worst_angle = 0, worst_share = 0;
   const animation::CompactTrack at_rest{};  // left out: kConstant's bound, against the rest
@@ -68,7 +73,7 @@ void ExpectKeysWithinBound(const PoseCase& c) {
         const double angle = RotationAngle(got.data(), want_q);
         const double bound = stored.format == TrackFormat::kConstant
                                  ? animation::kConstantTolerance
-                                 : animation::kRotationKeyErrorRadians;
+                                 : animation::kRotationKeyErrorRadians * Coarser(stored);
         worst_angle = std::max(worst_angle, angle);
         EXPECT_LE(angle, bound + 2e-6) << c.label << " track " << i << " key " << k;
         continue;
@@ -80,9 +85,10 @@ void ExpectKeysWithinBound(const PoseCase& c) {
           hi = std::max<double>(hi, t.values[kk * stride + first + comp]);
         }
         const double magnitude = std::max(1.0, std::fabs(double{want[comp]}));
-        const double bound = stored.format == TrackFormat::kConstant
-                                 ? animation::kConstantTolerance * magnitude
-                                 : (hi - lo) / 131070.0 + 2e-7 * magnitude;  // + float rounding
+        const double bound =
+            stored.format == TrackFormat::kConstant
+                ? animation::kConstantTolerance * magnitude
+                : (hi - lo) / 131070.0 * Coarser(stored) + 2e-7 * magnitude;  // + float rounding
         const double error = std::fabs(got[comp] - double{want[comp]});
         if (bound > 0) worst_share = std::max(worst_share, error / bound);
         EXPECT_LE(error, bound) << c.label << " track " << i << " key " << k << " component "
@@ -106,18 +112,12 @@ TEST(CompactClip, StoredKeysWithinStatedBoundWalkingFace) {
 TEST(CompactClip, StoredKeysWithinStatedBoundSynthetic77) {
   ExpectKeysWithinBound(SyntheticCase(77));
 }
-
-// glTF's float bytes of a clip: each distinct key-time array once (files share one input
-// accessor between channels) and every channel's values, 4 bytes a float.
-std::size_t GltfFloatBytes(const animation::RawClip& raw) {
-  std::set<std::vector<float>> times;
-  std::size_t bytes = 0;
-  for (const RawTrack& t : raw.tracks) {
-    times.insert(t.times);
-    bytes += 4 * t.values.size();
-  }
-  for (const std::vector<float>& t : times) bytes += 4 * t.size();
-  return bytes;
+// Packed keys (a looser bound): each within its bits' step.
+TEST(CompactClip, PackedKeysWithinStatedBoundCesiumManAt1mm) {
+  ExpectKeysWithinBound(AssetCase("CesiumMan.glb", 0), 1.0f);
+}
+TEST(CompactClip, PackedKeysWithinStatedBoundSynthetic77At1mm) {
+  ExpectKeysWithinBound(SyntheticCase(77), 1.0f);
 }
 
 double SizeRatio(const PoseCase& c) {
@@ -136,17 +136,18 @@ TEST(CompactClip, Synthetic77AtMostAQuarterOfGltfFloats) {
   EXPECT_LE(SizeRatio(SyntheticCase(77)), 0.22);  // 0.219 measured; the target is 0.25
 }
 
-// Not met on the test characters, and pinned as measured: nearly all their bytes are
-// animated rotation keys (CesiumMan: 19 of 57 channels hold 90% of the floats), of which
-// 16-bit smallest-three keeps 6.25 of 16 bytes (0.39) at best; fewer bits would break the
-// error target (CesiumMan's worst joint is at 0.81 of it with 16), and dropping keys that
-// slerp rebuilds within 1e-6 to 3e-5 rad keeps 96% of them (keys of a 2 s walk, every joint
-// moving). WalkingFace's clip is tiny (844 bytes of floats in 9 channels of 5 to 12 keys),
-// so fixed costs dominate. Constant tracks at the rest are left out (0.465 -> 0.432).
+// Not met on the test characters at the default bound (0.01 mm), and pinned as measured:
+// nearly all their bytes are animated rotation keys (CesiumMan: 19 of 57 channels hold 90%
+// of the floats), of which 16-bit smallest-three keeps 6.25 of 16 bytes (0.39) at best;
+// the default keeps 16 bits (fewer save CesiumMan 11% at 0.01 mm but slow the sampler),
+// and dropping keys that slerp rebuilds within 1e-6 to 3e-5 rad keeps 96% of them (keys of
+// a 2 s walk, every joint moving). WalkingFace's clip is tiny (844 bytes of floats in 9
+// channels of 5 to 12 keys), so fixed costs dominate. Constant tracks at the rest are left
+// out (0.465 -> 0.432). Looser bounds: clip_tolerance_test.cpp (CesiumMan at 1 mm: <= 1/4).
 TEST(CompactClip, AssetClipsSizeAsMeasured) {
   EXPECT_LE(SizeRatio(AssetCase("CesiumMan.glb", 0)), 0.433);
-  EXPECT_LE(SizeRatio(AssetCase("RiggedSimple.glb", 0)), 0.445);
-  EXPECT_LE(SizeRatio(AssetCase("WalkingFace.glb", 0)), 0.922);
+  EXPECT_LE(SizeRatio(AssetCase("RiggedSimple.glb", 0)), 0.446);
+  EXPECT_LE(SizeRatio(AssetCase("WalkingFace.glb", 0)), 0.932);
 }
 
 TEST(CompactClip, IdIsTheHashOfTheContent) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 #include "skinserve/animation/local_to_model_job.h"
 #include "skinserve/animation/palette_job.h"
@@ -185,6 +186,17 @@ double RotationAngle(const float* a, const double* b) {
     d2 += d * d;
   }
   return 4 * std::asin(std::min(1.0, std::sqrt(d2) / 2));
+}
+
+std::size_t GltfFloatBytes(const animation::RawClip& raw) {
+  std::set<std::vector<float>> times;
+  std::size_t bytes = 0;
+  for (const animation::RawTrack& t : raw.tracks) {
+    times.insert(t.times);
+    bytes += 4 * t.values.size();
+  }
+  for (const std::vector<float>& t : times) bytes += 4 * t.size();
+  return bytes;
 }
 
 std::vector<double> SampleTimes(const PoseCase& c) {

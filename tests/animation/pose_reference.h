@@ -56,6 +56,10 @@ std::vector<double> RefWeightsAt(const PoseCase& c, double t);
 // normalised in double, on one hemisphere, 4 asin(|a - b| / 2).
 double RotationAngle(const float* a, const double* b);
 
+// glTF's float bytes of a clip: each distinct key-time array once (files share one input
+// accessor between channels) and every channel's values, 4 bytes a float.
+std::size_t GltfFloatBytes(const animation::RawClip& raw);
+
 // Times on keys, between keys, before and after the clip.
 std::vector<double> SampleTimes(const PoseCase& c);
 

@@ -195,6 +195,27 @@ TEST(AnimateLoadTest, AGltfCharactersClipIsPlayedAndEveryFrameMatchesItsFloat64C
   EXPECT_EQ(StoredRigs(server), (std::pair<uint64_t, uint64_t>{1, 1})) << "uploaded once";
 }
 
+// --clip-error-mm 1: the clip goes up asking for 1 mm (the note says what the server stored
+// it to), and every frame is still checked (the pose part of the bound 100 times the
+// default's, as the clip's) and right; a bound past 10 mm is refused before anything runs.
+TEST(AnimateLoadTest, AClipStoredToALooserErrorIsPlayedAndChecked) {
+  ServerProcess server;
+  ASSERT_TRUE(server.ready());
+  int code = 0;
+  std::string output;
+  const nlohmann::json doc =
+      RunLoad(CommonGltf(server) + " --backends serial --frames 70 --clip-error-mm 1", &code,
+              nullptr, &output);
+  EXPECT_EQ(code, 0) << output;
+  ASSERT_EQ(doc["results"].size(), 1u) << doc.dump();
+  EXPECT_EQ(doc["results"][0]["checked"], 140) << "2 streams of 70, every frame: " << doc.dump();
+  EXPECT_EQ(doc["results"][0]["mismatches"], 0) << doc.dump();
+  EXPECT_NE(output.find("stored to 1 mm"), std::string::npos) << output;
+  RunLoad(CommonGltf(server) + " --frames 5 --clip-error-mm 20", &code, nullptr, &output);
+  EXPECT_NE(code, 0) << output;
+  EXPECT_NE(output.find("--clip-error-mm"), std::string::npos) << output;
+}
+
 // The open loop (snorm16 answers: the check adds the encoding's bound) and ticks of 3
 // CesiumMen (one mesh, skeleton and clip, uploaded once), closed and open loop, --clip by
 // index and by name: every frame answered, checked and right.

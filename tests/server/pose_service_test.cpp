@@ -145,8 +145,10 @@ std::vector<double> RefSkinPositions(const MeshArrays& mesh, const std::vector<d
 // |posed|) (the runtime's joints are within 0.01 mm + 1e-4 relative and its rotations'
 // elements within 1e-4 of the float64 clip; float32 skinning adds rounding). A pose a
 // thirtieth of a second off (one key) misses by millimetres.
+// `scale`: the bound times this (a clip stored to a looser max_error_mm than the default).
 void ExpectPositionsNear(const MeshArrays& mesh, const std::vector<float>& got,
-                         const std::vector<double>& want, const std::string& what) {
+                         const std::vector<double>& want, const std::string& what,
+                         double scale = 1) {
   ASSERT_EQ(got.size(), want.size()) << what;
   double worst = 0;
   for (uint32_t v = 0; v < mesh.vertex_count; ++v) {
@@ -157,7 +159,7 @@ void ExpectPositionsNear(const MeshArrays& mesh, const std::vector<float>& got,
       rest2 += double{mesh.positions[3ull * v + i]} * mesh.positions[3ull * v + i];
       posed2 += want[3ull * v + i] * want[3ull * v + i];
     }
-    const double bound = 2e-5 + 3e-4 * (std::sqrt(rest2) + std::sqrt(posed2));
+    const double bound = scale * (2e-5 + 3e-4 * (std::sqrt(rest2) + std::sqrt(posed2)));
     worst = std::max(worst, std::sqrt(d2) / bound);
     if (std::sqrt(d2) > bound) {
       ADD_FAILURE() << what << ": vertex " << v << " off by " << std::sqrt(d2) << " (bound "
@@ -745,6 +747,70 @@ TEST(PoseServiceTest, BadUploadsAreNamedAndStoreNothing) {
   EXPECT_EQ(info.clip_id(), rig.clip_id);
   // Stored at a quarter of its float bytes or less.
   EXPECT_LE(4 * info.bytes(), info.raw_bytes()) << info.bytes() << " of " << info.raw_bytes();
+}
+
+// UploadClipRequest.max_error_mm: the clip stored to that bound (ClipInfo says it and its
+// bytes; another bound is another clip, smaller), posed by the server within the bound
+// scaled as the clip's (the float64 reference of the ORIGINAL channels); a bound outside
+// its limits refused naming the field and the limits, storing nothing.
+TEST(PoseServiceTest, ClipsAreStoredToTheErrorAskedFor) {
+  TestServer t;
+  Rig rig = MakeRig(*t.client);
+  auto& c = *t.client;
+  v1::UploadClipRequest clip;
+  wire::ClipToWire(rig.c.raw, rig.skeleton_id, &clip);
+  v1::ClipInfo standard, loose;
+  ASSERT_TRUE(UploadClip(c, clip, &standard).ok());
+  EXPECT_TRUE(standard.already_stored()) << "MakeRig stored it at the default bound";
+  EXPECT_FLOAT_EQ(standard.max_error_mm(), 0.01f);
+  clip.set_max_error_mm(0.1f);
+  ASSERT_TRUE(UploadClip(c, clip, &loose).ok());
+  EXPECT_FALSE(loose.already_stored());
+  EXPECT_FLOAT_EQ(loose.max_error_mm(), 0.1f);
+  EXPECT_NE(loose.clip_id(), standard.clip_id());
+  EXPECT_EQ(loose.raw_bytes(), standard.raw_bytes());
+  EXPECT_LT(loose.bytes(), standard.bytes());
+  std::printf("clip stored to 0.01 mm: %llu bytes, to 0.1 mm: %llu (of %llu float bytes)\n",
+              static_cast<unsigned long long>(standard.bytes()),
+              static_cast<unsigned long long>(loose.bytes()),
+              static_cast<unsigned long long>(loose.raw_bytes()));
+  rig.clip_id = loose.clip_id();
+  for (const std::vector<Layer>& layers :
+       std::vector<std::vector<Layer>>{{{.time = 0.7371}}, {{.time = 2.61, .loop = true}}}) {
+    const Answer a = SkinRaw(c, PoseRequest(rig, layers));
+    ASSERT_TRUE(a.status.ok()) << a.status.ToString();
+    ExpectPositionsNear(rig.mesh, a.positions.at(0),
+                        RefSkinPositions(rig.mesh, RefBlendedPalette(rig.c, layers)),
+                        "stored to 0.1 mm", 0.1 / 0.01);
+  }
+  auto stats = c.GetServerStats();
+  ASSERT_TRUE(stats.ok());
+  for (float bad : {-1.0f, 0.001f, 11.0f, NAN}) {
+    clip.set_max_error_mm(bad);
+    ExpectNamed(UploadClip(c, clip, &loose), StatusCode::kInvalidArgument,
+                "must be 0 (the default, 0.01 mm) or within [0.01, 10] mm");
+    ExpectNamed(UploadClip(c, clip, &loose), StatusCode::kInvalidArgument, "max_error_mm = ");
+  }
+  auto after = c.GetServerStats();
+  ASSERT_TRUE(after.ok());
+  EXPECT_EQ(after->clips(), stats->clips());
+  EXPECT_EQ(after->clip_bytes(), stats->clip_bytes());
+}
+
+// The C++ client passes the bound through (SkinClient::UploadClip's max_error_mm).
+TEST(PoseServiceTest, TheClientLibraryAsksForTheClipsError) {
+  TestServer t;
+  const PoseCase pc = SyntheticCase(kJoints);
+  auto skeleton = t.client->UploadSkeleton(pc.skeleton);
+  ASSERT_TRUE(skeleton.ok()) << skeleton.status().ToString();
+  auto standard = t.client->UploadClip(pc.raw, skeleton->skeleton_id());
+  auto loose = t.client->UploadClip(pc.raw, skeleton->skeleton_id(), 1.0f);
+  ASSERT_TRUE(standard.ok() && loose.ok()) << loose.status().ToString();
+  EXPECT_FLOAT_EQ(standard->max_error_mm(), 0.01f);
+  EXPECT_FLOAT_EQ(loose->max_error_mm(), 1.0f);
+  EXPECT_LT(loose->bytes(), standard->bytes());
+  auto bad = t.client->UploadClip(pc.raw, skeleton->skeleton_id(), 50.0f);
+  ExpectNamed(bad.status(), StatusCode::kInvalidArgument, "max_error_mm = 50");
 }
 
 // GetServerStats reports the animation store: what is held, the bytes the uploads said

@@ -32,10 +32,12 @@ Result<SyntheticRig> GltfRig(const std::string& path) {
 
 // Two layers (t and t + 0.7 s, weights 0.3 and 0.7) sampled, blended, local-to-model and
 // palette; one layer when !blend. Time moves 1/60 s an iteration, each layer keeping its
-// SamplingContext, as a character played at 60 Hz.
-void PoseBenchmark(benchmark::State& state, const SyntheticRig& rig, bool blend) {
+// SamplingContext, as a character played at 60 Hz. The clip is stored to `max_error_mm`
+// (0: the default, 16-bit keys; looser: packed keys).
+void PoseBenchmark(benchmark::State& state, const SyntheticRig& rig, bool blend,
+                   float max_error_mm = 0) {
   const uint32_t joints = rig.skeleton.joint_count();
-  auto built = BuildCompactClip(rig.clip, rig.skeleton);
+  auto built = BuildCompactClip(rig.clip, rig.skeleton, {max_error_mm});
   if (!built.ok()) {
     state.SkipWithError(built.status().ToString().c_str());
     return;
@@ -99,6 +101,19 @@ void RegisterPoseBenchmarks() {
         })
         ->Unit(benchmark::kMicrosecond);
   }
+  // The same two-layer poses with clips stored to 1 mm (packed keys: what a looser bound
+  // costs the sampler; docs/serving/animation-runtime.md#size).
+  benchmark::RegisterBenchmark("BM_Pose/77/1mm", [](benchmark::State& state) {
+    PoseBenchmark(state, MakeSyntheticRig(77), true, 1.0f);
+  })->Unit(benchmark::kMicrosecond);
+  benchmark::RegisterBenchmark("BM_Pose/CesiumMan/1mm", [](benchmark::State& state) {
+    auto rig = GltfRig(SKINSERVE_SOURCE_DIR "/tests/assets/gltf/CesiumMan.glb");
+    if (!rig.ok()) {
+      state.SkipWithError(rig.status().ToString().c_str());
+      return;
+    }
+    PoseBenchmark(state, *rig, true, 1.0f);
+  })->Unit(benchmark::kMicrosecond);
 }
 
 }  // namespace skinserve::bench

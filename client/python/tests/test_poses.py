@@ -93,6 +93,33 @@ def test_poses_match_the_float64_evaluation_of_the_clip(client, rng):
     assert upload_rig(client)[1].already_stored
 
 
+def test_clips_stored_to_a_chosen_error(client, rng):
+    """upload_clip(max_error_mm=...): the server stores the clip to that bound (ClipInfo says
+    it; another bound is another clip), poses from it still match the float64 evaluation
+    within this file's tolerance (1 mm moves these points < 5e-4 m: 2 keys are stored at
+    the ends of their ranges, exactly), and a bound outside 0.01..10 mm is refused naming
+    the field and its limits."""
+    skeleton, tracks = rig()
+    skeleton_id = client.upload_skeleton(*skeleton)
+    default = client.upload_clip(skeleton_id, tracks, name="walk-turn")
+    loose = client.upload_clip(skeleton_id, tracks, name="walk-turn", max_error_mm=1.0)
+    assert default.max_error_mm == pytest.approx(0.01)
+    assert loose.max_error_mm == pytest.approx(1.0)
+    assert loose.clip_id != default.clip_id and not loose.already_stored
+    assert loose.bytes < default.bytes and loose.raw_bytes == default.raw_bytes
+    mesh = random_mesh(rng, 500, 2, 2)
+    mesh_id = client.upload(*mesh[:3])
+    for t in (0.3, 0.77):
+        layers = [skinserve.PoseLayer(loose.clip_id, t)]
+        check(client.skin_pose(mesh_id, skinserve.Pose(skeleton_id, layers), backend="serial"),
+              mesh, [(t, 1)])
+    for bad in (-1.0, 0.001, 25.0):
+        with pytest.raises(skinserve.SkinserveError) as e:
+            client.upload_clip(skeleton_id, tracks, max_error_mm=bad)
+        assert e.value.code == grpc.StatusCode.INVALID_ARGUMENT
+        assert "max_error_mm" in e.value.message and "[0.01, 10] mm" in e.value.message
+
+
 def test_bad_poses_are_named(client, rng):
     skeleton_id, info = upload_rig(client)
     mesh_id = client.upload(*random_mesh(rng, 50, 2, 2)[:3])

@@ -73,13 +73,14 @@ Result<SkeletonInfo> AnimationStore::AddSkeleton(Skeleton skeleton) {
   return info;
 }
 
-Result<ClipInfo> AnimationStore::AddClip(const RawClip& raw, const std::string& skeleton_id) {
+Result<ClipInfo> AnimationStore::AddClip(const RawClip& raw, const std::string& skeleton_id,
+                                         const ClipBuildOptions& options) {
   const std::shared_ptr<const Skeleton> skeleton = FindSkeleton(skeleton_id);
   if (skeleton == nullptr) {
     return NotFound(
         fmt::format("skeleton_id '{}' is not stored: upload the skeleton first", skeleton_id));
   }
-  Result<CompactClip> clip = BuildCompactClip(raw, *skeleton);  // outside the lock: the work
+  Result<CompactClip> clip = BuildCompactClip(raw, *skeleton, options);  // outside the lock
   if (!clip.ok()) return clip.status();
   ClipInfo info{.id = clip->id,
                 .name = clip->name,
@@ -88,7 +89,8 @@ Result<ClipInfo> AnimationStore::AddClip(const RawClip& raw, const std::string& 
                 .weight_count = clip->weight_count,
                 .tracks = static_cast<uint32_t>(clip->tracks.size()),
                 .bytes = clip->Serialize().size(),
-                .raw_bytes = RawBytes(raw)};
+                .raw_bytes = RawBytes(raw),
+                .max_error_mm = clip->max_error_mm};
   std::unique_lock lock(mutex_);
   if (clips_.contains(info.id)) {
     info.already_stored = true;

@@ -10,6 +10,8 @@
 #include "quantize.h"
 #include "sampling_plan.h"
 #include "skinserve/animation/compact_clip.h"
+#include "track_bits.h"
+#include "track_quantizer.h"
 
 namespace skinserve::animation {
 namespace {
@@ -185,6 +187,27 @@ void StoreSmallestThree(const RawTrack& t, CompactClip& clip, CompactTrack& out)
   }
 }
 
+// A LINEAR or STEP joint track with fewer than 16 bits a component: its ranges, its codes
+// bit-packed from a byte of its own, rotations' largest indices as kSmallestThree16's.
+void StorePacked(const RawTrack& t, uint32_t bits, CompactClip& clip, CompactTrack& out) {
+  const detail::QuantizedTrack q = detail::QuantizeTrack(t, bits);
+  const bool rotation = t.path == TrackPath::kRotation;
+  out.format = rotation ? TrackFormat::kSmallestThreePacked : TrackFormat::kRangePacked;
+  out.bits = static_cast<uint8_t>(bits);
+  out.floats = static_cast<uint32_t>(clip.floats.size());
+  clip.floats.insert(clip.floats.end(), q.ranges.begin(), q.ranges.end());
+  out.words = static_cast<uint32_t>(clip.packed.size());
+  clip.packed.resize(clip.packed.size() + (q.codes.size() * bits + 7) / 8, 0);
+  for (std::size_t i = 0; i < q.codes.size(); ++i)
+    detail::WriteBits(&clip.packed[out.words], i * bits, bits, q.codes[i]);
+  if (!rotation) return;
+  out.largest = static_cast<uint32_t>(4 * clip.largest.size());
+  for (std::size_t k = 0; k < q.largest.size(); ++k) {
+    if (k % 4 == 0) clip.largest.push_back(0);
+    clip.largest.back() |= static_cast<uint8_t>(q.largest[k] << (2 * (k % 4)));
+  }
+}
+
 // Key times: every animated track's times, once. A track keyed at all of them stores none.
 Status StoreTimes(const RawClip& raw, const std::vector<bool>& constant, CompactClip& clip) {
   for (std::size_t i = 0; i < raw.tracks.size(); ++i) {
@@ -210,54 +233,93 @@ void StoreKeyTimes(const RawTrack& t, CompactClip& clip, CompactTrack& out) {
   }
 }
 
+Status ValidateOptions(const ClipBuildOptions& options) {
+  const float e = options.max_error_mm;
+  if (e == 0 || (e >= kMinMaxErrorMm && e <= kMaxMaxErrorMm)) return Status::Ok();
+  return InvalidArgument(
+      fmt::format("max_error_mm = {}; must be 0 (the default, {} mm) or within [{}, {}] mm", e,
+                  kDefaultMaxErrorMm, kMinMaxErrorMm, kMaxMaxErrorMm));
+}
+
+// How each track is stored before bits are chosen (track_bits.h).
+Result<std::vector<detail::TrackKind>> ValidateTracks(const RawClip& raw,
+                                                      const Skeleton& skeleton) {
+  std::vector<detail::TrackKind> kinds(raw.tracks.size());
+  for (std::size_t i = 0; i < raw.tracks.size(); ++i) {
+    const RawTrack& t = raw.tracks[i];
+    if (Status s = ValidateTrack(t, i, skeleton); !s.ok()) return s;
+    if (t.times.back() > raw.duration) {
+      return InvalidArgument(fmt::format("tracks[{}].times ends at {} s, after clip.duration {} s",
+                                         i, t.times.back(), raw.duration));
+    }
+    if (IsConstant(t)) {
+      kinds[i] = IsAtRest(t, skeleton) ? detail::TrackKind::kAtRest : detail::TrackKind::kConstant;
+    } else if (t.path != TrackPath::kWeights && t.interpolation != Interpolation::kCubicSpline) {
+      kinds[i] = detail::TrackKind::kCandidate;
+    } else {
+      kinds[i] = detail::TrackKind::kRange16;
+    }
+  }
+  return kinds;
+}
+
+void StoreTrack(const RawTrack& t, detail::TrackKind kind, uint32_t bits, CompactClip& clip) {
+  CompactTrack out;
+  out.path = t.path;
+  out.interpolation = t.interpolation;
+  out.width = static_cast<uint16_t>(t.width);
+  if (t.path == TrackPath::kWeights) {
+    out.weight_offset = clip.weight_count;
+    clip.weight_count += t.width;
+    clip.weight_groups.push_back(t.target);
+  } else {
+    out.joint = static_cast<uint16_t>(t.target);
+  }
+  if (kind == detail::TrackKind::kConstant) {
+    StoreConstant(t, clip, out);
+  } else {
+    StoreKeyTimes(t, clip, out);
+    if (bits < 16) {
+      StorePacked(t, bits, clip, out);
+    } else if (t.path == TrackPath::kRotation && t.interpolation != Interpolation::kCubicSpline) {
+      StoreSmallestThree(t, clip, out);
+    } else {
+      StoreRange16(t, clip, out);
+    }
+  }
+  clip.tracks.push_back(out);
+}
+
 }  // namespace
 
-Result<CompactClip> BuildCompactClip(const RawClip& raw, const Skeleton& skeleton) {
+Result<CompactClip> BuildCompactClip(const RawClip& raw, const Skeleton& skeleton,
+                                     const ClipBuildOptions& options) {
   if (Status s = ValidateSkeleton(skeleton); !s.ok()) return s;
+  if (Status s = ValidateOptions(options); !s.ok()) return s;
   if (!std::isfinite(raw.duration) || raw.duration < 0) {
     return InvalidArgument(
         fmt::format("clip.duration = {}; must be finite and >= 0", raw.duration));
   }
+  Result<std::vector<detail::TrackKind>> kinds = ValidateTracks(raw, skeleton);
+  if (!kinds.ok()) return kinds.status();
   std::vector<bool> constant(raw.tracks.size());
-  for (std::size_t i = 0; i < raw.tracks.size(); ++i) {
-    if (Status s = ValidateTrack(raw.tracks[i], i, skeleton); !s.ok()) return s;
-    if (raw.tracks[i].times.back() > raw.duration) {
-      return InvalidArgument(fmt::format("tracks[{}].times ends at {} s, after clip.duration {} s",
-                                         i, raw.tracks[i].times.back(), raw.duration));
-    }
-    constant[i] = IsConstant(raw.tracks[i]);
-  }
+  for (std::size_t i = 0; i < raw.tracks.size(); ++i)
+    constant[i] =
+        (*kinds)[i] == detail::TrackKind::kAtRest || (*kinds)[i] == detail::TrackKind::kConstant;
   CompactClip clip;
   clip.name = raw.name;
   clip.duration = raw.duration;
   clip.joint_count = skeleton.joint_count();
+  clip.max_error_mm = options.max_error_mm == 0 ? kDefaultMaxErrorMm : options.max_error_mm;
   if (Status s = StoreTimes(raw, constant, clip); !s.ok()) return s;
+  const std::vector<uint32_t> bits =
+      detail::ChooseTrackBits(raw, skeleton, *kinds, clip.max_error_mm);
   for (std::size_t i = 0; i < raw.tracks.size(); ++i) {
-    const RawTrack& t = raw.tracks[i];
-    if (constant[i] && IsAtRest(t, skeleton)) continue;
-    CompactTrack out;
-    out.path = t.path;
-    out.interpolation = t.interpolation;
-    out.width = static_cast<uint16_t>(t.width);
-    if (t.path == TrackPath::kWeights) {
-      out.weight_offset = clip.weight_count;
-      clip.weight_count += t.width;
-      clip.weight_groups.push_back(t.target);
-    } else {
-      out.joint = static_cast<uint16_t>(t.target);
-    }
-    if (constant[i]) {
-      StoreConstant(t, clip, out);
-    } else {
-      StoreKeyTimes(t, clip, out);
-      if (t.path == TrackPath::kRotation && t.interpolation != Interpolation::kCubicSpline) {
-        StoreSmallestThree(t, clip, out);
-      } else {
-        StoreRange16(t, clip, out);
-      }
-    }
-    clip.tracks.push_back(out);
+    if ((*kinds)[i] != detail::TrackKind::kAtRest)
+      StoreTrack(raw.tracks[i], (*kinds)[i], bits[i], clip);
   }
+  // The sampler reads a packed key's components 8 bytes at a time (quantize.h's ReadKey3).
+  if (!clip.packed.empty()) clip.packed.resize(clip.packed.size() + kPackedSlack, 0);
   clip.id = ClipId(clip.Serialize());
   clip.plan = std::make_shared<const SamplingPlan>(MakeSamplingPlan(clip));
   return clip;

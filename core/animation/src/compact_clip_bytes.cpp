@@ -33,22 +33,25 @@ class Writer {
 
 std::vector<uint8_t> CompactClip::Serialize() const {
   Writer w;
-  constexpr char kMagic[8] = {'S', 'S', 'C', 'L', 'I', 'P', '1', '\0'};
+  constexpr char kMagic[8] = {'S', 'S', 'C', 'L', 'I', 'P', '2', '\0'};
   for (char c : kMagic) w.Put(c);
   w.PutArray(std::vector<char>(name.begin(), name.end()));
   w.Put(duration);
+  w.Put(max_error_mm);  // the bound is part of what the clip is
   w.Put(joint_count);
   w.Put(weight_count);
   w.PutArray(weight_groups);
   w.PutArray(times);
   w.PutArray(key_times);
   w.Put(static_cast<uint32_t>(tracks.size()));
-  // 7 bytes a track: what it is and how many keys; where its data lies follows from the
-  // tracks before it, so offsets are not part of the bytes (nor of the id).
+  // 7 bytes a track (8 packed: its bits): what it is and how many keys; where its data lies follows
+  // from the tracks before it, so offsets are not part of the bytes (nor of the id).
   for (const CompactTrack& t : tracks) {
     w.Put(static_cast<uint8_t>(
         static_cast<unsigned>(t.path) | static_cast<unsigned>(t.interpolation) << 2 |
-        static_cast<unsigned>(t.format) << 4 | (t.key_times == kAllKeyTimes ? 0u : 1u) << 6));
+        static_cast<unsigned>(t.format) << 4 | (t.key_times == kAllKeyTimes ? 0u : 1u) << 7));
+    if (t.format == TrackFormat::kRangePacked || t.format == TrackFormat::kSmallestThreePacked)
+      w.Put(t.bits);
     w.Put(t.width);
     w.Put(t.joint);
     w.Put(static_cast<uint16_t>(t.key_count));  // at most kMaxClipKeyTimes
@@ -56,6 +59,7 @@ std::vector<uint8_t> CompactClip::Serialize() const {
   w.PutArray(floats);
   w.PutArray(words);
   w.PutArray(largest);
+  w.PutArray(packed);
   return w.Take();
 }
 

@@ -6,19 +6,54 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
 namespace skinserve::animation::detail {
 
 inline constexpr float kQuantSteps = 65535.0f;
 inline constexpr float kSqrtHalf = 0.70710678118654752f;
 
-inline uint16_t QuantizeRange(float v, float min, float step) {
+// The steps a range is cut into with `bits` a component: 2^bits - 1.
+inline float QuantSteps(uint32_t bits) { return static_cast<float>((1u << bits) - 1u); }
+
+inline uint16_t QuantizeRange(float v, float min, float step, float steps = kQuantSteps) {
   if (!(step > 0)) return 0;
   const float q = std::round((v - min) / step);
-  return static_cast<uint16_t>(q < 0 ? 0 : (q > kQuantSteps ? kQuantSteps : q));
+  return static_cast<uint16_t>(q < 0 ? 0 : (q > steps ? steps : q));
 }
 SKINSERVE_ALWAYS_INLINE float DequantizeRange(uint16_t q, float min, float step) {
   return min + step * q;
+}
+// A packed code (< 2^16): converted as a signed int, the one instruction u16 takes too.
+SKINSERVE_ALWAYS_INLINE float DequantizeCode(uint32_t q, float min, float step) {
+  return min + step * static_cast<float>(static_cast<int32_t>(q));
+}
+
+// The `bits`-bit value at bit `at` of `base` (little-endian bit order). Reads 8 bytes:
+// CompactClip::packed ends in kPackedSlack zero bytes.
+SKINSERVE_ALWAYS_INLINE uint32_t ReadBits(const uint8_t* base, uint64_t at, uint32_t bits) {
+  uint64_t v;
+  std::memcpy(&v, base + (at >> 3), sizeof v);
+  return static_cast<uint32_t>(v >> (at & 7)) & ((1u << bits) - 1u);
+}
+// Key k's three `bits`-wide components (bits <= 16) of a packed track whose keys start at
+// `base`: one 8-byte read (CompactClip::packed ends in kPackedSlack zero bytes).
+SKINSERVE_ALWAYS_INLINE void ReadKey3(const uint8_t* base, uint32_t k, uint32_t bits,
+                                      uint32_t out[3]) {
+  const uint32_t at = 3 * k * bits;  // k < 65536, bits <= 16: no overflow
+  uint64_t v;
+  std::memcpy(&v, base + (at >> 3), sizeof v);
+  v >>= at & 7;
+  const uint64_t mask = (uint64_t{1} << bits) - 1u;
+  out[0] = static_cast<uint32_t>(v & mask);
+  out[1] = static_cast<uint32_t>((v >> bits) & mask);
+  out[2] = static_cast<uint32_t>((v >> (2 * bits)) & mask);
+}
+
+inline void WriteBits(uint8_t* base, uint64_t at, uint32_t bits, uint32_t value) {
+  for (uint32_t b = 0; b < bits; ++b, ++at) {
+    if ((value >> b) & 1u) base[at >> 3] = static_cast<uint8_t>(base[at >> 3] | (1u << (at & 7)));
+  }
 }
 
 // Smallest-three: q and -q are one rotation, so the largest component is made positive

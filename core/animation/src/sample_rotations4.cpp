@@ -1,6 +1,7 @@
 #include "sample_rotations4.h"
 
 #include "float4.h"
+#include "quantize.h"
 #include "quaternion.h"
 
 namespace skinserve::animation::detail {
@@ -10,18 +11,8 @@ struct Quat4 {  // four quaternions, one a lane
   F4 x, y, z, w;
 };
 
-// Key k of the group's four tracks: the three stored slots dequantized one lane at a time
-// (each track has its own ranges and largest index), the largest rebuilt and placed 4-wide.
-SKINSERVE_ALWAYS_INLINE Quat4 DecodeKeys(const CompactClip& clip,
-                                         const SamplingPlan::RotationGroup& g, uint32_t k) {
-  alignas(16) float slot[3][4];
-  alignas(16) float largest[4];
-  for (int lane = 0; lane < 4; ++lane) {
-    const uint16_t* q = &clip.words[g.words[lane] + 3 * k];
-    for (int c = 0; c < 3; ++c) slot[c][lane] = g.min[lane][c] + g.step[lane][c] * q[c];
-    const uint32_t at = g.largest[lane] + k;
-    largest[lane] = static_cast<float>((clip.largest[at / 4] >> (2 * (at % 4))) & 3);
-  }
+// The largest slot rebuilt from the three stored ones and placed 4-wide by its index.
+SKINSERVE_ALWAYS_INLINE Quat4 Rebuild(const float slot[3][4], const float largest[4]) {
   const F4 s0 = Load4(slot[0]), s1 = Load4(slot[1]), s2 = Load4(slot[2]);
   const F4 big = Sqrt(Max(Splat(0), Splat(1) - (s0 * s0 + s1 * s1 + s2 * s2)));
   const F4 l = Load4(largest);
@@ -30,6 +21,44 @@ SKINSERVE_ALWAYS_INLINE Quat4 DecodeKeys(const CompactClip& clip,
   // The largest at its index, the three others in order around it.
   return {Select(is0, big, s0), Select(is0, s0, Select(is1, big, s1)),
           Select(is2, big, Select(is3, s2, s1)), Select(is3, big, s2)};
+}
+
+SKINSERVE_ALWAYS_INLINE float LargestIndex(const CompactClip& clip, uint32_t at) {
+  return static_cast<float>((clip.largest[at / 4] >> (2 * (at % 4))) & 3);
+}
+
+// Key k of a 16-bit group's four tracks: the three stored slots dequantized one lane at a
+// time (each track has its own ranges and largest index), then rebuilt 4-wide.
+SKINSERVE_ALWAYS_INLINE Quat4 DecodeKeys(const CompactClip& clip,
+                                         const SamplingPlan::RotationGroup& g, uint32_t k) {
+  alignas(16) float slot[3][4];
+  alignas(16) float largest[4];
+  for (int lane = 0; lane < 4; ++lane) {
+    const uint16_t* q = &clip.words[g.bytes[lane] / 2 + 3 * k];
+    for (int c = 0; c < 3; ++c) slot[c][lane] = g.min[lane][c] + g.step[lane][c] * q[c];
+    largest[lane] = LargestIndex(clip, g.largest[lane] + k);
+  }
+  return Rebuild(slot, largest);
+}
+
+// The same for a packed group: each lane's slots cut out of one 8-byte read.
+SKINSERVE_ALWAYS_INLINE Quat4 DecodePackedKeys(const CompactClip& clip,
+                                               const SamplingPlan::RotationGroup& g, uint32_t k) {
+  alignas(16) float slot[3][4];
+  alignas(16) float largest[4];
+  for (int lane = 0; lane < 4; ++lane) {
+    uint32_t q[3];
+    ReadKey3(clip.packed.data() + g.bytes[lane], k, g.bits[lane], q);
+    for (int c = 0; c < 3; ++c)
+      slot[c][lane] = DequantizeCode(q[c], g.min[lane][c], g.step[lane][c]);
+    largest[lane] = LargestIndex(clip, g.largest[lane] + k);
+  }
+  return Rebuild(slot, largest);
+}
+
+SKINSERVE_ALWAYS_INLINE Quat4 Decode(const CompactClip& clip, const SamplingPlan::RotationGroup& g,
+                                     uint32_t k) {
+  return g.packed[0] != 0 ? DecodePackedKeys(clip, g, k) : DecodeKeys(clip, g, k);
 }
 
 // sin(u theta) / sin(theta) / u (and for 1 - u) by quaternion.h's series, `terms` terms
@@ -85,8 +114,8 @@ SKINSERVE_ALWAYS_INLINE void SampleRotations4Body(
       a = LoadQuat4(cache);
       b = LoadQuat4(cache + 16);
     } else {
-      a = keys.state == RotationKeys::kShift ? LoadQuat4(cache + 16) : DecodeKeys(clip, g, k);
-      b = next == k ? a : DecodeKeys(clip, g, next);
+      a = keys.state == RotationKeys::kShift ? LoadQuat4(cache + 16) : Decode(clip, g, k);
+      b = next == k ? a : Decode(clip, g, next);
       if (cache != nullptr) {
         StoreQuat4(a, cache);
         StoreQuat4(b, cache + 16);

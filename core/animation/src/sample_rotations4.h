@@ -1,5 +1,5 @@
-// The sampler's 4-wide path: four LINEAR smallest-three rotation tracks of one clip (keyed
-// at every clip time, so they share the segment) decoded and slerped side by side.
+// The sampler's 4-wide path: four LINEAR smallest-three (16-bit or packed) rotation tracks of one
+// clip (keyed at every clip time, so they share the segment) decoded and slerped side by side.
 #pragma once
 
 #include <span>

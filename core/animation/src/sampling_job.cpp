@@ -69,10 +69,17 @@ Segment FindTrackSegment(const CompactClip& clip, const CompactTrack& track, con
   return s;
 }
 
-// Component `col` of key `k` of a kRange16 track whose keys hold `columns` components.
+// Component `col` of key `k` of a kRange16 or packed track whose keys hold `columns`
+// components (a smallest-three track's: 3).
 float Range16(const CompactClip& clip, const CompactTrack& track, uint32_t k, uint32_t columns,
               uint32_t col) {
   const float* range = &clip.floats[track.floats + 2 * col];
+  if (track.format == TrackFormat::kRangePacked ||
+      track.format == TrackFormat::kSmallestThreePacked) {
+    const uint64_t at = (uint64_t{k} * columns + col) * track.bits;
+    return detail::DequantizeCode(
+        detail::ReadBits(clip.packed.data() + track.words, at, track.bits), range[0], range[1]);
+  }
   return detail::DequantizeRange(clip.words[track.words + k * columns + col], range[0], range[1]);
 }
 
@@ -92,7 +99,8 @@ void SampleTrack(const CompactClip& clip, const CompactTrack& track, const Segme
     for (uint32_t c = 0; c < w; ++c) out[c] = v[c];
     return;
   }
-  if (track.format == TrackFormat::kSmallestThree16) {
+  if (track.format == TrackFormat::kSmallestThree16 ||
+      track.format == TrackFormat::kSmallestThreePacked) {
     float a[4];
     SmallestThree(clip, track, s.k, a);
     if (track.interpolation == Interpolation::kStep || s.next == s.k) {
@@ -150,18 +158,29 @@ void SampleConstants(const SamplingPlan& plan, std::span<Transform> output) {
   }
 }
 
-// LINEAR 16-bit translations and scales keyed at every clip time: as SampleTrack does them.
+// LINEAR 16-bit or packed translations and scales keyed at every clip time: as SampleTrack
+// does them.
 SKINSERVE_ALWAYS_INLINE void SampleVectors(const CompactClip& clip, const SamplingPlan& plan,
                                            const Segment& s, std::span<Transform> output) {
   for (const SamplingPlan::Vector& v : plan.vectors) {
-    const uint16_t* a = &clip.words[v.words + 3 * s.k];
-    const uint16_t* b = &clip.words[v.words + 3 * s.next];
     Transform& t = output[v.joint];
     float* out =
         static_cast<TrackPath>(v.path) == TrackPath::kTranslation ? t.translation : t.scale;
+    if (v.packed == 0) {
+      const uint16_t* a = &clip.words[v.bytes / 2 + 3 * s.k];
+      const uint16_t* b = &clip.words[v.bytes / 2 + 3 * s.next];
+      for (int c = 0; c < 3; ++c) {
+        const float va = detail::DequantizeRange(a[c], v.min[c], v.step[c]);
+        out[c] = va + s.u * (detail::DequantizeRange(b[c], v.min[c], v.step[c]) - va);
+      }
+      continue;
+    }
+    uint32_t a[3], b[3];
+    detail::ReadKey3(clip.packed.data() + v.bytes, s.k, v.bits, a);
+    detail::ReadKey3(clip.packed.data() + v.bytes, s.next, v.bits, b);
     for (int c = 0; c < 3; ++c) {
-      const float va = detail::DequantizeRange(a[c], v.min[c], v.step[c]);
-      out[c] = va + s.u * (detail::DequantizeRange(b[c], v.min[c], v.step[c]) - va);
+      const float va = detail::DequantizeCode(a[c], v.min[c], v.step[c]);
+      out[c] = va + s.u * (detail::DequantizeCode(b[c], v.min[c], v.step[c]) - va);
     }
   }
 }

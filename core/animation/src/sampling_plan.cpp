@@ -7,33 +7,48 @@ bool EveryKey(const CompactTrack& t) {
   return t.key_times == kAllKeyTimes && t.interpolation == Interpolation::kLinear;
 }
 
-void AddRotation(const CompactClip& clip, const CompactTrack& t,
-                 std::vector<SamplingPlan::RotationGroup>& groups) {
-  if (groups.empty() || groups.back().lanes == 4) groups.emplace_back();
-  SamplingPlan::RotationGroup& g = groups.back();
-  const uint32_t lane = g.lanes++;
-  g.joint[lane] = t.joint;
-  g.words[lane] = t.words;
-  g.largest[lane] = t.largest;
-  for (int s = 0; s < 3; ++s) {
-    g.min[lane][s] = clip.floats[t.floats + 2 * s];
-    g.step[lane][s] = clip.floats[t.floats + 2 * s + 1];
-  }
+bool IsPacked(const CompactTrack& t) {
+  return t.format == TrackFormat::kRangePacked || t.format == TrackFormat::kSmallestThreePacked;
 }
 
-// A last group's empty lanes repeat its first track (decoded and slerped like the others,
+// Where a 16-bit or packed track's keys start, in bytes of the array that holds them.
+uint32_t KeyBytes(const CompactTrack& t) { return IsPacked(t) ? t.words : 2 * t.words; }
+
+// A group's empty lanes repeat its first track (decoded and slerped like the others,
 // never written), so the 4-wide code needs no lane checks.
 void PadLastGroup(std::vector<SamplingPlan::RotationGroup>& groups) {
   if (groups.empty()) return;
   SamplingPlan::RotationGroup& g = groups.back();
   for (uint32_t lane = g.lanes; lane < 4; ++lane) {
     g.joint[lane] = g.joint[0];
-    g.words[lane] = g.words[0];
+    g.bytes[lane] = g.bytes[0];
+    g.bits[lane] = g.bits[0];
+    g.packed[lane] = g.packed[0];
     g.largest[lane] = g.largest[0];
     for (int c = 0; c < 3; ++c) {
       g.min[lane][c] = g.min[0][c];
       g.step[lane][c] = g.step[0][c];
     }
+  }
+}
+
+void AddRotation(const CompactClip& clip, const CompactTrack& t,
+                 std::vector<SamplingPlan::RotationGroup>& groups) {
+  if (groups.empty() || groups.back().lanes == 4 ||
+      groups.back().packed[0] != (IsPacked(t) ? 1 : 0)) {
+    PadLastGroup(groups);
+    groups.emplace_back();
+  }
+  SamplingPlan::RotationGroup& g = groups.back();
+  const uint32_t lane = g.lanes++;
+  g.joint[lane] = t.joint;
+  g.bytes[lane] = KeyBytes(t);
+  g.bits[lane] = t.bits;
+  g.packed[lane] = IsPacked(t) ? 1 : 0;
+  g.largest[lane] = t.largest;
+  for (int s = 0; s < 3; ++s) {
+    g.min[lane][s] = clip.floats[t.floats + 2 * s];
+    g.step[lane][s] = clip.floats[t.floats + 2 * s + 1];
   }
 }
 
@@ -57,10 +72,13 @@ SamplingPlan::Cubic MakeCubic(const CompactClip& clip, const CompactTrack& t) {
 
 SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
   SamplingPlan plan;
-  std::vector<uint8_t> paths(clip.joint_count, 0);  // bit per TrackPath a track sets
+  std::vector<uint8_t> paths(clip.joint_count, 0);        // bit per TrackPath a track sets
+  std::vector<uint32_t> rotations[2], step_rotations[2];  // 16-bit, packed: track indices
   for (uint32_t i = 0; i < clip.tracks.size(); ++i) {
     const CompactTrack& t = clip.tracks[i];
     const uint8_t path = static_cast<uint8_t>(t.path);
+    const bool smallest_three =
+        t.format == TrackFormat::kSmallestThree16 || t.format == TrackFormat::kSmallestThreePacked;
     if (t.path != TrackPath::kWeights) paths[t.joint] |= static_cast<uint8_t>(1u << path);
     if (t.path == TrackPath::kWeights) {
       plan.others.push_back(i);
@@ -70,13 +88,15 @@ SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
       SamplingPlan::Constant c{t.joint, offset, {0, 0, 0, 0}};
       for (uint32_t k = 0; k < t.width; ++k) c.value[k] = clip.floats[t.floats + k];
       plan.constants.push_back(c);
-    } else if (t.format == TrackFormat::kSmallestThree16 && EveryKey(t)) {
-      AddRotation(clip, t, plan.rotations);
-    } else if (t.format == TrackFormat::kSmallestThree16 && t.key_times == kAllKeyTimes &&
+    } else if (smallest_three && EveryKey(t)) {
+      rotations[IsPacked(t) ? 1 : 0].push_back(i);
+    } else if (smallest_three && t.key_times == kAllKeyTimes &&
                t.interpolation == Interpolation::kStep) {
-      AddRotation(clip, t, plan.step_rotations);
-    } else if (t.format == TrackFormat::kRange16 && EveryKey(t) && t.path != TrackPath::kRotation) {
-      SamplingPlan::Vector v{t.joint, path, t.words, {}, {}};
+      step_rotations[IsPacked(t) ? 1 : 0].push_back(i);
+    } else if ((t.format == TrackFormat::kRange16 || t.format == TrackFormat::kRangePacked) &&
+               EveryKey(t) && t.path != TrackPath::kRotation) {
+      SamplingPlan::Vector v{
+          t.joint, path, KeyBytes(t), t.bits, IsPacked(t) ? uint8_t{1} : uint8_t{0}, {}, {}};
       for (int c = 0; c < 3; ++c) {
         v.min[c] = clip.floats[t.floats + 2 * c];
         v.step[c] = clip.floats[t.floats + 2 * c + 1];
@@ -97,6 +117,11 @@ SamplingPlan MakeSamplingPlan(const CompactClip& clip) {
     } else {
       runs.push_back({static_cast<uint16_t>(j), 1});
     }
+  }
+  for (int packed = 0; packed < 2; ++packed) {  // 16-bit groups, then packed ones
+    for (uint32_t i : rotations[packed]) AddRotation(clip, clip.tracks[i], plan.rotations);
+    for (uint32_t i : step_rotations[packed])
+      AddRotation(clip, clip.tracks[i], plan.step_rotations);
   }
   PadLastGroup(plan.rotations);
   PadLastGroup(plan.step_rotations);

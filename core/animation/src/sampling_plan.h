@@ -1,8 +1,9 @@
 // SamplingPlan: how SamplingJob walks a clip, derived from its tracks when it is built
 // (no bytes of its own: Serialize() and the id leave it out). Constant tracks are copied,
 // LINEAR and STEP smallest-three rotations keyed at every clip time are decoded (and
-// slerped) 4 at a time (SoA), LINEAR 16-bit vectors keyed at every time are lerped in one tight
-// loop, CUBICSPLINE ones keyed at every time a track at a time with its components side by side;
+// slerped) 4 at a time (SoA; 16-bit groups first, then packed ones: a group is one or the
+// other), LINEAR 16-bit or packed vectors keyed at every time are lerped in one tight loop,
+// CUBICSPLINE ones keyed at every time a track at a time with its components side by side;
 // the rest (weights, tracks with their own key times) one track at a time.
 #pragma once
 
@@ -23,7 +24,12 @@ struct SamplingPlan {
   struct RotationGroup {
     uint32_t lanes = 0;
     uint16_t joint[4] = {0, 0, 0, 0};
-    uint32_t words[4] = {0, 0, 0, 0};    // CompactTrack::words
+    // Where the track's keys start: a byte offset into CompactClip::packed (packed[lane])
+    // or into CompactClip::words' bytes; each key 3 components of bits[lane]. A group's
+    // lanes are all 16-bit or all packed (MakeSamplingPlan groups them so).
+    uint32_t bytes[4] = {0, 0, 0, 0};
+    uint32_t bits[4] = {16, 16, 16, 16};
+    uint8_t packed[4] = {0, 0, 0, 0};
     uint32_t largest[4] = {0, 0, 0, 0};  // CompactTrack::largest
     float min[4][3] = {};                // per lane, per stored slot: the range's start
     float step[4][3] = {};
@@ -31,7 +37,9 @@ struct SamplingPlan {
   struct Vector {
     uint16_t joint = 0;
     uint8_t path = 0;
-    uint32_t words = 0;
+    uint32_t bytes = 0;  // as RotationGroup's
+    uint32_t bits = 16;
+    uint8_t packed = 0;
     float min[3] = {0, 0, 0};
     float step[3] = {0, 0, 0};
   };

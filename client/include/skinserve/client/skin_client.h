@@ -264,7 +264,10 @@ class SkinClient {
   // Animation on the server (docs/serving/animation.md#uploads): a skeleton, then clips
   // built for it, each content-addressed (the same content again stores nothing new).
   Result<v1::SkeletonInfo> UploadSkeleton(const animation::Skeleton& skeleton);
-  Result<v1::ClipInfo> UploadClip(const animation::RawClip& clip, const std::string& skeleton_id);
+  // max_error_mm: the error the server stores the clip to (UploadClipRequest.max_error_mm;
+  // 0: its default, 0.01 mm); a looser bound stores fewer bytes. Re-uploads keep it.
+  Result<v1::ClipInfo> UploadClip(const animation::RawClip& clip, const std::string& skeleton_id,
+                                  float max_error_mm = 0);
   // Whether the server held the clip. This client no longer uploads it again.
   Result<bool> DeleteClip(const std::string& clip_id);
 
@@ -292,6 +295,7 @@ class SkinClient {
   struct UploadedClip {
     std::shared_ptr<const animation::RawClip> clip;
     std::string skeleton_id;
+    float max_error_mm = 0;
   };
   std::map<std::string, UploadedClip> clips_;
   // Skin's messages, reused by whichever call holds the lock (a concurrent call uses its own).

@@ -195,9 +195,9 @@ class AsyncClient(ClientCore):
             request, str((await self._unary(self._stub.UploadSkeleton, request)).skeleton_id))
 
     async def upload_clip(self, skeleton_id: str, tracks: Sequence[ClipTrack], name: str = "",
-                          duration: float = 0.0) -> pb.ClipInfo:
+                          duration: float = 0.0, max_error_mm: float = 0.0) -> pb.ClipInfo:
         """Client.upload_clip."""
-        request = _pose.clip_request(skeleton_id, tracks, name, duration)
+        request = _pose.clip_request(skeleton_id, tracks, name, duration, max_error_mm)
         return self._remember_clip(request, await self._unary(self._stub.UploadClip, request))
 
     async def delete_clip(self, clip_id: str) -> bool:

@@ -266,9 +266,11 @@ class Client(ClientCore):
             request, str(self._unary(self._stub.UploadSkeleton, request).skeleton_id))
 
     def upload_clip(self, skeleton_id: str, tracks: Sequence[ClipTrack], name: str = "",
-                    duration: float = 0.0) -> pb.ClipInfo:
-        """A clip for a stored skeleton; its ClipInfo (clip_id, bytes stored)."""
-        request = _pose.clip_request(skeleton_id, tracks, name, duration)
+                    duration: float = 0.0, max_error_mm: float = 0.0) -> pb.ClipInfo:
+        """A clip for a stored skeleton; its ClipInfo (clip_id, bytes stored against
+        raw_bytes, max_error_mm). max_error_mm: the error it is stored to (0: the server's
+        default, 0.01 mm; else 0.01 to 10); a looser bound stores fewer bytes."""
+        request = _pose.clip_request(skeleton_id, tracks, name, duration, max_error_mm)
         return self._remember_clip(request, self._unary(self._stub.UploadClip, request))
 
     def delete_clip(self, clip_id: str) -> bool:

@@ -75,9 +75,12 @@ def skeleton_request(parents: npt.NDArray[np.int16], rest: npt.NDArray[np.float3
 
 
 def clip_request(skeleton_id: str, tracks: Sequence[ClipTrack], name: str = "",
-                 duration: float = 0.0) -> pb.UploadClipRequest:
-    """A clip for a stored skeleton; duration 0: its last key time."""
-    request = pb.UploadClipRequest(skeleton_id=skeleton_id, name=name, duration=duration)
+                 duration: float = 0.0, max_error_mm: float = 0.0) -> pb.UploadClipRequest:
+    """A clip for a stored skeleton; duration 0: its last key time. max_error_mm: the error
+    the server stores it to (UploadClipRequest.max_error_mm; 0: its default, 0.01 mm; else
+    0.01 to 10, checked by the server); a looser bound stores fewer bytes."""
+    request = pb.UploadClipRequest(skeleton_id=skeleton_id, name=name, duration=duration,
+                                   max_error_mm=max_error_mm)
     for i, t in enumerate(tracks):
         if t.path not in PATHS:
             raise ValueError(f"tracks[{i}].path: {t.path!r}, expected one of {sorted(PATHS)}")

@@ -35,6 +35,7 @@ struct ClipInfo {
   uint32_t tracks = 0;
   uint64_t bytes = 0;      // the compact clip's bytes: what the budget is charged
   uint64_t raw_bytes = 0;  // the float bytes it was built from (times and values)
+  float max_error_mm = 0;  // the model-space bound it was built to (compact_clip.h)
   bool already_stored = false;
 };
 
@@ -50,8 +51,9 @@ class AnimationStore {
   Result<SkeletonInfo> AddSkeleton(Skeleton skeleton);
   // Builds the compact clip for skeleton `skeleton_id` (NOT_FOUND: upload it first;
   // INVALID_ARGUMENT naming the track and field) and stores it; RESOURCE_EXHAUSTED naming
-  // the budget when it cannot hold the clip.
-  Result<ClipInfo> AddClip(const RawClip& raw, const std::string& skeleton_id);
+  // the budget when it cannot hold the clip. `options`: the error it is built to.
+  Result<ClipInfo> AddClip(const RawClip& raw, const std::string& skeleton_id,
+                           const ClipBuildOptions& options = {});
 
   std::shared_ptr<const Skeleton> FindSkeleton(const std::string& id) const;
   std::shared_ptr<const CompactClip> FindClip(const std::string& id) const;
