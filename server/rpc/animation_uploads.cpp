@@ -48,10 +48,7 @@ grpc::ServerUnaryReactor* SkinningService::UploadClip(grpc::CallbackServerContex
   // max_error_mm: the store checks it (INVALID_ARGUMENT naming it and its limits).
   Result<animation::ClipInfo> info = engine->animations().AddClip(
       *clip, request->skeleton_id(), {.max_error_mm = request->max_error_mm()});
-  if (info.ok()) {
-    ToWire(*info, response);
-    response->set_max_error_mm(info->max_error_mm);
-  }
+  if (info.ok()) ToWire(*info, response);
   return Finished(context, info.status());
 }
 

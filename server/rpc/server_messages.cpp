@@ -137,6 +137,7 @@ void ToWire(const animation::ClipInfo& info, v1::ClipInfo* wire) {
   wire->set_bytes(info.bytes);
   wire->set_raw_bytes(info.raw_bytes);
   wire->set_already_stored(info.already_stored);
+  wire->set_max_error_mm(info.max_error_mm);
 }
 
 }  // namespace skinserve::server
