@@ -545,6 +545,36 @@ HWY_INLINE V4 TransformRegisterQuad(DD d, const hn::Vec<DD>* HWY_RESTRICT m, con
   }
 }
 
+// SkinFour over a quantized chunk's vertices from `chunk` (its weights decoded in w) while
+// their 16-integer loads and 16-float stores stay inside the range ending at `last`, the
+// integers widened and converted in registers; returns the first vertex not skinned.
+template <int B, bool Normals, typename Joint>
+HWY_INLINE std::size_t SkinQuantizedFours(
+    const QuantizedStream& stream, const Joint* HWY_RESTRICT joints, const float* HWY_RESTRICT w,
+    const float* HWY_RESTRICT columns, const Spread& s, float* HWY_RESTRICT out_p,
+    float* HWY_RESTRICT out_n, std::size_t chunk, std::size_t chunk_end, std::size_t last) {
+  const D d;
+  const Quad<D> q;
+  const hn::Rebind<int32_t, D> di;
+  alignas(64) float scale_pattern[16] = {};
+  for (int i = 0; i < 12; ++i) scale_pattern[i] = stream.normal_scale[i % 3];
+  const V scale12 = hn::Load(d, scale_pattern);
+  std::size_t v = chunk;
+  for (; v + 4 <= chunk_end && v + 6 <= last; v += 4) {
+    const auto integers = hn::LoadU(hn::Rebind<uint16_t, D>(), stream.positions + 3 * v);
+    const V p = hn::ConvertTo(d, hn::PromoteTo(di, integers));
+    V n = p;
+    if constexpr (Normals) {
+      const auto normal = hn::LoadU(hn::Rebind<int16_t, D>(), stream.normals + 3 * v);
+      n = hn::Mul(hn::ConvertTo(d, hn::PromoteTo(di, normal)), scale12);
+    }
+    SkinFour<B, Normals, false>(d, columns, s, q, p, n, nullptr, joints + B * v,
+                                w + (B - 1) * (v - chunk), out_p + 3 * v,
+                                Normals ? out_n + 3 * v : nullptr, nullptr);
+  }
+  return v;
+}
+
 // The quantized rest stream (QuantizedStream): each vertex's integer position (and normal)
 // is converted in registers as it is skinned (LoadConvert4), while the weights, which the
 // blend wants as broadcasts, are decoded a 256-vertex chunk at a time into an L1 scratch
@@ -594,26 +624,8 @@ void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRIC
     };
     std::size_t v = chunk;
     if constexpr (kFourAtOnce && !Tangents) {
-      // Four at a time (SkinFour) while their 16-integer loads and 16-float stores stay
-      // inside the range; the integers widened and converted in registers.
-      const Quad<D> q;
-      const hn::Rebind<int32_t, D> di;
-      alignas(64) float scale_pattern[16] = {};
-      for (int i = 0; i < 12; ++i) scale_pattern[i] = stream.normal_scale[i % 3];
-      const V scale12 = hn::Load(d, scale_pattern);
-      for (; v + 4 <= chunk_end && v + 6 <= last; v += 4) {
-        const V p =
-            hn::ConvertTo(d, hn::PromoteTo(di, hn::LoadU(hn::Rebind<uint16_t, D>(), qp + 3 * v)));
-        V n = p;
-        if constexpr (Normals) {
-          n = hn::Mul(
-              hn::ConvertTo(d, hn::PromoteTo(di, hn::LoadU(hn::Rebind<int16_t, D>(), qn + 3 * v))),
-              scale12);
-        }
-        SkinFour<B, Normals, false>(d, columns, s, q, p, n, nullptr, joints + B * v,
-                                    w + (B - 1) * (v - chunk), out_p + 3 * v,
-                                    Normals ? out_n + 3 * v : nullptr, nullptr);
-      }
+      v = SkinQuantizedFours<B, Normals>(stream, joints, w, columns, s, out_p, out_n, chunk,
+                                         chunk_end, last);
     }
     const std::size_t unit_from = v;  // the normals before it are unit length already
     // Every other vertex but the range's last reads and stores in place.
