@@ -14,7 +14,7 @@
 // exactly one vertex, and the renormalising step puts back the rest tangents' w.
 // On 16-lane targets (AVX-512) most vertices go four at a time instead (SkinFour): the
 // four blended matrices transposed by blocks, three multiply-adds per output for all four,
-// one 16-float store, normals renormalised in the register.
+// one 16-float store.
 // The quantized rest stream takes the same blend and transform, each vertex's integer
 // position converted in registers and the weights decoded a 256-vertex chunk at a time into
 // an L1 scratch (SkinQuantizedRangeT).
@@ -229,9 +229,10 @@ HWY_INLINE void SkinVertex(const float* HWY_RESTRICT columns, const Spread& s,
 // vertex i in block i: 8 block moves for 4 vertices, shared by positions and normals), each
 // input is spread by one permute from its 12 packed floats, and three multiply-adds give the
 // four vertices' outputs in one register, packed to 12 floats by a permute: one 16-float
-// store, whose last 4 floats the next vertices overwrite. Normals are renormalised there
-// too, by rsqrt14 and one Newton step (relative error ~1e-7, well inside the reference's
-// tolerance), instead of a second pass over the chunk.
+// store, whose last 4 floats the next vertices overwrite. Normals keep their renormalising
+// pass over the chunk: renormalising them in the register (rsqrt14 and a Newton step) was
+// 4-8% faster on the VM's Zen 4 but 10-30% slower on the GPU machine's Sapphire Rapids
+// (docs/results/2026-11-29-simd-four-vertices-xeon).
 #if !SKINSERVE_SIMD_SIZELESS && HWY_TARGET != HWY_SCALAR
 template <class DD>
 struct Quad {
@@ -280,22 +281,6 @@ HWY_INLINE hn::Vec<DD> TransformFour(const hn::Vec<DD>* HWY_RESTRICT t, const Qu
                     hn::MulAdd(t[1], hn::TableLookupLanes(in, q.y), xc));
 }
 
-// Each block's (x, y, z, 0) scaled to unit length.
-template <class DD>
-HWY_INLINE hn::Vec<DD> UnitLengthFour(DD d, hn::Vec<DD> n) {
-  const auto squares = hn::Mul(n, n);
-  const auto pairs = hn::Add(squares, hn::Shuffle2301(squares));
-  const auto length2 = hn::Add(pairs, hn::Shuffle1032(pairs));  // in every lane of the block
-  const auto estimate = hn::ApproximateReciprocalSqrt(length2);
-  // Newton: y (3/2 - (l / 2) y^2).
-  const auto half = hn::Mul(length2, hn::Set(d, 0.5f));
-  const auto inverse =
-      hn::Mul(estimate, hn::NegMulAdd(hn::Mul(half, estimate), estimate, hn::Set(d, 1.5f)));
-  // A length whose square overflows scales by 0, as 1 / sqrt(inf) does in Renormalise (the
-  // Newton step alone would make it inf * 0 = NaN).
-  return hn::Mul(n, hn::IfThenZeroElse(hn::IsInf(length2), inverse));
-}
-
 // Vertices v..v+3: `p` and `n` their packed positions and normals (12 floats each), joints
 // and weights theirs; 16 floats are stored at out_p and out_n (the last 4 belong to the
 // next vertices), tangents per vertex as SkinVertex stores them.
@@ -314,8 +299,7 @@ HWY_INLINE void SkinFour(DD d, const float* HWY_RESTRICT columns, const Spread& 
   TransposeBlocks(d, m, t);
   hn::StoreU(hn::TableLookupLanes(TransformFour<true>(t, q, p), q.pack), d, out_p);
   if constexpr (Normals) {
-    const auto normals = UnitLengthFour(d, TransformFour<false>(t, q, n));
-    hn::StoreU(hn::TableLookupLanes(normals, q.pack), d, out_n);
+    hn::StoreU(hn::TableLookupLanes(TransformFour<false>(t, q, n), q.pack), d, out_n);
   }
 }
 
@@ -405,7 +389,6 @@ void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
       }
     }
 #endif
-    const std::size_t unit_from = v;  // the normals before it are unit length already
     // Every other vertex but the range's last stores straight into the outputs.
     const std::size_t direct_end = std::min(chunk_end, last - 1);
     for (; v < direct_end; ++v) {
@@ -427,7 +410,7 @@ void SkinRangeT(const VertexStream& stream, const Joint* HWY_RESTRICT joints,
       std::copy_n(res_p, 3, out_p + 3 * l);
       if constexpr (Normals) std::copy_n(res_n, 3, out_n + 3 * l);
     }
-    if constexpr (Normals) Renormalise(out_n, unit_from, chunk_end);
+    if constexpr (Normals) Renormalise(out_n, chunk, chunk_end);
     if constexpr (Tangents) RenormaliseTangents(out_t, tangents, chunk, chunk_end);
   }
 }
@@ -627,7 +610,6 @@ void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRIC
       v = SkinQuantizedFours<B, Normals>(stream, joints, w, columns, s, out_p, out_n, chunk,
                                          chunk_end, last);
     }
-    const std::size_t unit_from = v;  // the normals before it are unit length already
     // Every other vertex but the range's last reads and stores in place.
     const std::size_t direct_end = std::min(chunk_end, last - 1);
     for (; v < direct_end; ++v) {
@@ -644,7 +626,7 @@ void SkinQuantizedRangeT(const QuantizedStream& stream, const Joint* HWY_RESTRIC
       std::copy_n(res_p, 3, out_p + 3 * l);
       if constexpr (Normals) std::copy_n(res_n, 3, out_n + 3 * l);
     }
-    if constexpr (Normals) Renormalise(out_n, unit_from, chunk_end);
+    if constexpr (Normals) Renormalise(out_n, chunk, chunk_end);
     if constexpr (Tangents) RenormaliseTangents(out_t, nullptr, chunk, chunk_end);
   }
 }
