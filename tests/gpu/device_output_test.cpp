@@ -156,6 +156,39 @@ void WriteFramesAtOffsets(OpenCl& cl, bool aligned) {
   EXPECT_EQ(InPlaceDeviceFrames() - in_place_before, aligned ? 3u : 0u);
 }
 
+// The in-place path keeps a sub-buffer per range of the memory (SubBuffer): frames that
+// alternate between two ranges of the same size each land in their own, every time.
+TEST_P(DeviceOutputTest, FramesAlternatingBetweenRangesEachLandInTheirOwn) {
+  OpenCl& cl = TestOpenCl(GetParam());
+  Backend& backend = *cl.backends[0];
+  ASSERT_TRUE(backend.info().available) << backend.info().unavailable_reason;
+  const uint32_t v = 1000;
+  auto mesh = TestMesh(v);
+  auto prepared = backend.Prepare(mesh);
+  ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+  const uint64_t a = cl.runtime->base_address_alignment();
+  const uint64_t first = a, second = (first + 12ull * v + a - 1) / a * a + a;
+  auto memory = CreateOpenClDeviceMemory(*cl.runtime, "opencl", second + 12ull * v + a, true);
+  ASSERT_TRUE(memory.ok()) << memory.status().ToString();
+  const uint64_t in_place_before = InPlaceDeviceFrames();
+  for (uint64_t frame = 0; frame < 5; ++frame) {
+    const uint64_t offset = frame % 2 == 0 ? first : second;
+    Fill(*cl.runtime, **memory);
+    const auto palette = MakeSyntheticPalette(mesh->joint_count(), 9, frame);
+    SkinFrame f{.palette = palette};
+    f.device = {.memory = memory->get(), .positions_offset = offset};
+    Status s = backend.Skin(**prepared, f);
+    ASSERT_TRUE(s.ok()) << s.ToString();
+    const std::vector<uint8_t> bytes = ReadBack(*cl.runtime, **memory);
+    const Deviation d = CompareWithReference(*mesh, palette, FloatsAt(bytes, offset, 3ull * v), {},
+                                             SkinningMethod::kLinear);
+    EXPECT_TRUE(d.within_tolerance())
+        << "frame " << frame << " at " << offset << ": position error " << d.max_position_error;
+    EXPECT_EQ(TouchedOutside(bytes, {{offset, 12ull * v}}), 0u) << "frame " << frame;
+  }
+  EXPECT_EQ(InPlaceDeviceFrames() - in_place_before, 5u);
+}
+
 TEST_P(DeviceOutputTest, EachEncodingAtItsOffsetsDecodesWithinItsBound) {
   OpenCl& cl = TestOpenCl(GetParam());
   Backend& backend = *cl.backends[0];

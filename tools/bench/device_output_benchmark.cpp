@@ -24,10 +24,11 @@ DeviceOutputBackends& Held() {
 }
 
 void SkinDeviceOutputBenchmark(benchmark::State& state, WorkloadCache* cache, Backend* backend,
-                               OpenClRuntime* runtime, uint32_t vertices, uint32_t bones) {
+                               OpenClRuntime* runtime, uint32_t vertices, uint32_t bones,
+                               bool in_place) {
   const Workload& workload = cache->Get(vertices, bones);
   const PreparedMesh& prepared = cache->Prepared(*backend, vertices, bones);
-  auto memory = CreateOpenClDeviceMemory(*runtime, backend->info().id, 12ull * vertices);
+  auto memory = CreateOpenClDeviceMemory(*runtime, backend->info().id, 12ull * vertices, in_place);
   if (!memory.ok()) {
     state.SkipWithError(memory.status().ToString().c_str());
     return;
@@ -75,11 +76,14 @@ bool RegisterDeviceOutputRows(WorkloadCache& cache, const std::vector<uint32_t>&
   }
   for (uint32_t v : vertices) {
     for (uint32_t b : bones) {
-      benchmark::RegisterBenchmark(fmt::format("BM_SkinDeviceOutput/opencl/{}/{}", v, b).c_str(),
-                                   SkinDeviceOutputBenchmark, &cache, &opencl, held.runtime.get(),
-                                   v, b)
-          ->UseRealTime()
-          ->Unit(benchmark::kMicrosecond);
+      for (const bool in_place : {false, true}) {
+        const char* name = in_place ? "BM_SkinDeviceOutputInPlace" : "BM_SkinDeviceOutput";
+        benchmark::RegisterBenchmark(fmt::format("{}/opencl/{}/{}", name, v, b).c_str(),
+                                     SkinDeviceOutputBenchmark, &cache, &opencl, held.runtime.get(),
+                                     v, b, in_place)
+            ->UseRealTime()
+            ->Unit(benchmark::kMicrosecond);
+      }
     }
   }
   return true;

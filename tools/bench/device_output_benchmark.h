@@ -5,7 +5,9 @@
 // fourth curve, beside `opencl`'s frame read back (BM_Skin/opencl). Device memory of the
 // runtime's own context stands for a renderer's imported buffer: the same kernel and copy,
 // without an imported buffer's acquire and release (nothing to import from on PoCL or in a
-// benchmark without a Vulkan client).
+// benchmark without a Vulkan client). BM_SkinDeviceOutputInPlace/opencl/<vertices>/<bones>:
+// the same frame written in place (the kernel into a sub-buffer of the memory, no copy), as
+// imported memory is; plain memory takes the copies in the service.
 #pragma once
 
 #include <cstdint>

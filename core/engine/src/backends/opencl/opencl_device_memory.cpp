@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstring>
+#include <map>
 #include <mutex>
 #include <vector>
 
@@ -47,8 +48,14 @@ class OpenClDeviceMemory final : public DeviceMemory {
   // Frames on different lanes (queues) write it one at a time: an external object is
   // acquired by one queue until it is released.
   std::mutex& in_use() const { return in_use_; }
+  // A sub-buffer of the memory at [offset, offset + bytes), retained for the caller: made
+  // once per range and kept while the memory lives (a stream writes the same ranges every
+  // frame, and NVIDIA's driver makes a sub-buffer slowly), up to kMaxSubBuffers ranges;
+  // past that each call makes its own.
+  Result<ClBuffer> SubBuffer(uint64_t offset, uint64_t bytes, const char* what) const;
 
  private:
+  static constexpr std::size_t kMaxSubBuffers = 1024;
   ClBuffer buffer_;
   const uint64_t bytes_;
   const std::string backend_;
@@ -58,7 +65,33 @@ class OpenClDeviceMemory final : public DeviceMemory {
   const std::unique_ptr<ImportedSemaphore> semaphore_;  // null: none registered
   const bool in_place_;
   mutable std::mutex in_use_;
+  mutable std::mutex sub_buffers_mutex_;
+  mutable std::map<std::pair<uint64_t, uint64_t>, ClBuffer> sub_buffers_;  // (offset, bytes)
 };
+
+Result<ClBuffer> OpenClDeviceMemory::SubBuffer(uint64_t offset, uint64_t bytes,
+                                               const char* what) const {
+  std::lock_guard<std::mutex> lock(sub_buffers_mutex_);
+  const auto key = std::make_pair(offset, bytes);
+  if (auto it = sub_buffers_.find(key); it != sub_buffers_.end()) {
+    if (cl_int err = clRetainMemObject(it->second.get()); err != CL_SUCCESS) {
+      return ClError("clRetainMemObject", err);
+    }
+    return ClBuffer(it->second.get());
+  }
+  const cl_buffer_region region{offset, bytes};
+  cl_int err = CL_SUCCESS;
+  ClBuffer made(clCreateSubBuffer(buffer_.get(), CL_MEM_WRITE_ONLY, CL_BUFFER_CREATE_TYPE_REGION,
+                                  &region, &err));
+  if (err != CL_SUCCESS) return ClError(what, err);
+  if (sub_buffers_.size() >= kMaxSubBuffers) return made;
+  if (cl_int retain = clRetainMemObject(made.get()); retain != CL_SUCCESS) {
+    return ClError("clRetainMemObject", retain);
+  }
+  ClBuffer caller(made.get());
+  sub_buffers_.emplace(key, std::move(made));
+  return caller;
+}
 
 Result<std::string> DeviceText(cl_device_id device, cl_device_info what, const char* name) {
   std::size_t size = 0;
@@ -264,12 +297,9 @@ Result<DirectDeviceOutputs> DirectFloat32Outputs(const SkinFrame& frame, uint32_
     return direct;
   }
   const auto sub = [&](const char* what, uint64_t offset, uint64_t bytes, ClBuffer* out) -> Status {
-    const cl_buffer_region region{offset, bytes};
-    cl_int err = CL_SUCCESS;
-    cl_mem buffer =
-        clCreateSubBuffer(memory, CL_MEM_WRITE_ONLY, CL_BUFFER_CREATE_TYPE_REGION, &region, &err);
-    if (err != CL_SUCCESS) return ClError(what, err);
-    *out = ClBuffer(buffer);
+    Result<ClBuffer> buffer = cl->SubBuffer(offset, bytes, what);
+    if (!buffer.ok()) return buffer.status();
+    *out = std::move(*buffer);
     return Status::Ok();
   };
   const uint64_t array_bytes = 3ull * sizeof(float) * vertices;

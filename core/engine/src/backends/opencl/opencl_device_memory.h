@@ -28,9 +28,10 @@ Result<std::shared_ptr<DeviceMemory>> ImportOpenClDeviceMemory(const OpenClRunti
 // Plain device memory of the runtime's own context, written by frames as imported memory
 // is but without acquire and release: where nothing can be imported (PoCL), the tests run
 // the frames' device path on it. Frames go through the lane's buffers and copies unless
-// `in_place` (the tests of the in-place path): NVIDIA's driver made a kernel writing a
-// sub-buffer of such a buffer 3-60x slower than the copies (the H200, 2026-11-29:
-// docs/results/2026-11-29-gpu-regions-in-place-h200), where imported memory gained.
+// `in_place` (the benchmark's in-place rows and the tests of that path). In place was 3-60x
+// slower than the copies on the H200 while each frame made its sub-buffers
+// (docs/results/2026-11-29-gpu-regions-in-place-h200); with them kept per range it is
+// 1.3-1.5x faster (docs/results/2026-11-29-gpu-sub-buffers-kept-h200).
 Result<std::shared_ptr<DeviceMemory>> CreateOpenClDeviceMemory(OpenClRuntime& runtime,
                                                                const std::string& backend,
                                                                uint64_t bytes,
