@@ -150,6 +150,8 @@ def figure5_view(path, options):
             found.append((name[1] + " x4 streams", b["items_per_second"]))
         elif name[0] == "BM_SkinDeviceOutput":
             found.append((name[1] + " output on the GPU", b["vertices_per_second"]))
+        elif name[0] == "BM_SkinDeviceOutputInPlace":
+            found.append((name[1] + " output on the GPU, in place", b["vertices_per_second"]))
         for s, value in found:
             if s not in series:
                 series.append(s)

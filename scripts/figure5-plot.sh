@@ -28,6 +28,8 @@ jq -r '
       [($n[1] + " x4 streams"), $n[2], $n[3], (.items_per_second / 1e6)]
     elif ($n[0] == "BM_SkinDeviceOutput") then
       [($n[1] + " output on the GPU"), $n[2], $n[3], (.vertices_per_second / 1e6)]
+    elif ($n[0] == "BM_SkinDeviceOutputInPlace") then
+      [($n[1] + " output on the GPU, in place"), $n[2], $n[3], (.vertices_per_second / 1e6)]
     else empty end
   | @tsv' "$json" >"$tmp/rates.tsv"
 bound() {

@@ -8,7 +8,8 @@
 #   scripts/gpu-figure5.sh OUT [extra skinserve-bench flags]
 # (e.g. --opencl-global-palette: `opencl` also with the palette read from global memory,
 # rows opencl-global, beside the default local-memory palette; --device-output: `opencl`
-# with its output left on the GPU, as GPU regions leave it, rows BM_SkinDeviceOutput.)
+# with its output left on the GPU, as GPU regions leave it, rows BM_SkinDeviceOutput through
+# the device copy and BM_SkinDeviceOutputInPlace written in place.)
 # Then, where gnuplot is: scripts/figure5-plot.sh OUT/figure5.json OUT/figure5.png (keep both in docs/results/<date>-<name>/)
 set -uo pipefail
 out=${1:?usage: gpu-figure5.sh OUT_DIR [bench flags]}

@@ -37,7 +37,8 @@
 // optimiser leaves a real character (neighbouring vertices share bones), instead of the
 // paper's shuffled order (each vertex on a random bone); the CPU loops hardly care, a GPU's
 // palette reads do.
-// --device-output: also BM_SkinDeviceOutput/opencl/<vertices>/<bones>
+// --device-output: also BM_SkinDeviceOutput/opencl/<vertices>/<bones> (and
+// BM_SkinDeviceOutputInPlace)
 // (device_output_benchmark.h), `opencl`'s frame with its output left in device memory, the
 // GPU regions' path: Figure 5's fourth curve beside BM_Skin/opencl, read back.
 // BM_Pose/<joints> and BM_PoseOneClip/<joints> (pose_benchmark.h): the animation runtime's
