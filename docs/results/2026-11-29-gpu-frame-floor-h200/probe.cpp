@@ -13,13 +13,13 @@
 #include <functional>
 #include <vector>
 
-#define CHECK(x)                                                     \
-  do {                                                               \
-    cl_int e_ = (x);                                                 \
-    if (e_ != CL_SUCCESS) {                                          \
-      std::fprintf(stderr, "%s: %d (line %d)\n", #x, e_, __LINE__);  \
-      std::exit(1);                                                  \
-    }                                                                \
+#define CHECK(x)                                                    \
+  do {                                                              \
+    cl_int e_ = (x);                                                \
+    if (e_ != CL_SUCCESS) {                                         \
+      std::fprintf(stderr, "%s: %d (line %d)\n", #x, e_, __LINE__); \
+      std::exit(1);                                                 \
+    }                                                               \
   } while (0)
 
 static const char* kSource = R"CL(
@@ -35,7 +35,8 @@ static double MedianUs(const std::function<void()>& body) {
   for (int i = 0; i < 2000; ++i) {
     auto a = std::chrono::steady_clock::now();
     body();
-    t.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - a).count());
+    t.push_back(
+        std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - a).count());
   }
   std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
   return t[t.size() / 2];
@@ -72,7 +73,9 @@ int main() {
   CHECK(clSetKernelArg(kernel, 0, sizeof(cl_mem), &palette));
   CHECK(clSetKernelArg(kernel, 1, sizeof(cl_mem), &out));
   auto run = [&](cl_uint n, bool write, bool kernel_on, bool wait_event) {
-    if (write) CHECK(clEnqueueWriteBuffer(queue, palette, CL_FALSE, 0, palette_bytes, host, 0, nullptr, nullptr));
+    if (write)
+      CHECK(clEnqueueWriteBuffer(queue, palette, CL_FALSE, 0, palette_bytes, host, 0, nullptr,
+                                 nullptr));
     cl_event done = nullptr;
     if (kernel_on) {
       CHECK(clSetKernelArg(kernel, 2, sizeof(cl_uint), &n));
@@ -90,9 +93,13 @@ int main() {
   };
   std::printf("a finish alone: %.1f us\n", MedianUs([&] { run(0, false, false, false); }));
   std::printf("b palette write + finish: %.1f us\n", MedianUs([&] { run(0, true, false, false); }));
-  std::printf("c small kernel + finish: %.1f us\n", MedianUs([&] { run(1024, false, true, false); }));
-  std::printf("d write + small kernel + finish: %.1f us\n", MedianUs([&] { run(1024, true, true, false); }));
-  std::printf("e write + small kernel, wait on its event: %.1f us\n", MedianUs([&] { run(1024, true, true, true); }));
-  std::printf("f write + kernel over 300k floats + finish: %.1f us\n", MedianUs([&] { run(300000, true, true, false); }));
+  std::printf("c small kernel + finish: %.1f us\n",
+              MedianUs([&] { run(1024, false, true, false); }));
+  std::printf("d write + small kernel + finish: %.1f us\n",
+              MedianUs([&] { run(1024, true, true, false); }));
+  std::printf("e write + small kernel, wait on its event: %.1f us\n",
+              MedianUs([&] { run(1024, true, true, true); }));
+  std::printf("f write + kernel over 300k floats + finish: %.1f us\n",
+              MedianUs([&] { run(300000, true, true, false); }));
   return 0;
 }
