@@ -59,9 +59,10 @@ struct ServerOptions {
   // gRPC's own buffers for all connections share one memory quota.
   double connection_idle_seconds = 120;
   double handshake_timeout_seconds = 10;
-  uint64_t grpc_memory_mb = 0;      // 0: its share of the memory envelope
-  uint64_t inflight_budget_mb = 0;  // 0: its share of the memory envelope
-  std::string opencl_device;        // "": the first CPU device (PoCL), else the first device
+  uint64_t grpc_memory_mb = 0;        // 0: its share of the memory envelope
+  uint64_t inflight_budget_mb = 0;    // 0: its share of the memory envelope
+  std::string opencl_device;          // "": the first CPU device (PoCL), else the first device
+  bool opencl_device_timing = false;  // profiled OpenCL queues: ServerTiming.device_*_ns
   // The same-host data plane (docs/serving/shared-memory.md): where clients' regions live (empty:
   // off), what they may map together, how many, and when an unused one is dropped.
   std::string shm_dir = "/dev/shm";

@@ -86,28 +86,43 @@ TEST(OpenClRuntimeTest, AnEngineWithAnUnmatchedDeviceChoiceFailsToStart) {
       << engine.status().message();
 }
 
-// Every frame reports its device time from the profiling events: some kernel time, and
-// some transfer time (the palette goes in, the result comes out).
-TEST(OpenClRuntimeTest, FramesReportKernelAndTransferTime) {
-  for (const std::string& id : OpenClBackendIds()) {
-    Backend& backend = OpenClBackend(id);
-    SKIP_IF_OPENCL_UNAVAILABLE(backend);
-    auto mesh = SyntheticMesh(70001, 3, 77, true, 11);
-    auto prepared = backend.Prepare(mesh);
-    ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
-    const auto palette = MakeSyntheticPalette(77, 11, 0);
-    std::vector<float> positions(3 * 70001), normals(3 * 70001);
-    DeviceTiming timing;
-    ASSERT_TRUE(backend
-                    .Skin(**prepared, {.palette = palette,
-                                       .positions = positions,
-                                       .normals = normals,
-                                       .device_timing = &timing})
-                    .ok())
-        << id;
-    EXPECT_GT(timing.kernel_ns, 0) << id;
-    EXPECT_GT(timing.transfer_ns, 0) << id;
-    EXPECT_EQ(ReferenceMismatch(*mesh, palette, positions, normals), "") << id;
+// With device timing (profiled queues, OpenClRuntimeOptions::device_timing) every frame
+// reports its device time from the profiling events: some kernel time, and some transfer
+// time (the palette goes in, the result comes out); without it (the default) 0, and the
+// frame is the same.
+TEST(OpenClRuntimeTest, FramesReportKernelAndTransferTimeWhenProfiled) {
+  // {opencl, opencl-zerocopy} direct, then {opencl, opencl-zerocopy} on the staging path,
+  // each beside the tests' unprofiled backend of the same path.
+  static const auto* direct = new std::vector<std::unique_ptr<Backend>>(
+      MakeOpenClBackends(kOpenClTestThreads, OpenClTestDevice(), false, /*device_timing=*/true));
+  static const auto* staged = new std::vector<std::unique_ptr<Backend>>(
+      MakeOpenClBackends(kOpenClTestThreads, OpenClTestDevice(), true, /*device_timing=*/true));
+  const std::vector<std::pair<Backend*, Backend*>> pairs = {
+      {(*direct)[0].get(), &OpenClBackend("opencl")},
+      {(*direct)[1].get(), &OpenClBackend("opencl-zerocopy")},
+      {(*staged)[0].get(), &OpenClBackend("opencl-staging")}};
+  auto mesh = SyntheticMesh(70001, 3, 77, true, 11);
+  const auto palette = MakeSyntheticPalette(77, 11, 0);
+  for (const auto& [timed, plain] : pairs) {
+    for (Backend* backend : {timed, plain}) {
+      SKIP_IF_OPENCL_UNAVAILABLE(*backend);
+      const bool expect_time = backend == timed;
+      const std::string what = backend->info().id + (expect_time ? " profiled" : " default");
+      auto prepared = backend->Prepare(mesh);
+      ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
+      std::vector<float> positions(3 * 70001), normals(3 * 70001);
+      DeviceTiming timing;
+      ASSERT_TRUE(backend
+                      ->Skin(**prepared, {.palette = palette,
+                                          .positions = positions,
+                                          .normals = normals,
+                                          .device_timing = &timing})
+                      .ok())
+          << what;
+      EXPECT_EQ(timing.kernel_ns > 0, expect_time) << what << ": " << timing.kernel_ns;
+      EXPECT_EQ(timing.transfer_ns > 0, expect_time) << what << ": " << timing.transfer_ns;
+      EXPECT_EQ(ReferenceMismatch(*mesh, palette, positions, normals), "") << what;
+    }
   }
 }
 

@@ -50,7 +50,7 @@ void SkinDeviceOutputBenchmark(benchmark::State& state, WorkloadCache* cache, Ba
   state.counters["vertices_per_second"] =
       benchmark::Counter(vertices, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["bytes_per_vertex"] = BytesPerVertex(bones, false);
-  if (state.iterations() > 0) {
+  if (state.iterations() > 0 && kernel_ns > 0) {  // 0: unprofiled (--opencl-device-timing=0)
     state.counters["kernel_ns"] =
         static_cast<double>(kernel_ns) / static_cast<double>(state.iterations());
   }
@@ -60,8 +60,9 @@ void SkinDeviceOutputBenchmark(benchmark::State& state, WorkloadCache* cache, Ba
 
 bool RegisterDeviceOutputRows(WorkloadCache& cache, const std::vector<uint32_t>& vertices,
                               const std::vector<uint32_t>& bones, int threads,
-                              const std::string& opencl_device) {
-  auto runtime = OpenClRuntime::Create({.threads = threads, .device = opencl_device});
+                              const std::string& opencl_device, bool device_timing) {
+  auto runtime = OpenClRuntime::Create(
+      {.threads = threads, .device = opencl_device, .device_timing = device_timing});
   if (!runtime.ok()) {
     fmt::print(stderr, "skinserve-bench: --device-output: {}\n", runtime.status().ToString());
     return false;

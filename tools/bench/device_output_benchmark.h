@@ -19,10 +19,11 @@
 namespace skinserve::bench {
 
 // Registers the rows over `vertices` x `bones` on an OpenCL runtime of its own (`threads`
-// lanes, on `opencl_device` as --opencl-device names it). False, the reason printed, when
-// that runtime or its `opencl` backend is unavailable.
+// lanes, on `opencl_device` as --opencl-device names it, its queues profiled when
+// `device_timing`). False, the reason printed, when that runtime or its `opencl` backend is
+// unavailable.
 bool RegisterDeviceOutputRows(WorkloadCache& cache, const std::vector<uint32_t>& vertices,
                               const std::vector<uint32_t>& bones, int threads,
-                              const std::string& opencl_device);
+                              const std::string& opencl_device, bool device_timing);
 
 }  // namespace skinserve::bench

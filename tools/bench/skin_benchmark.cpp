@@ -47,7 +47,9 @@
 //
 // OpenCL backends report per frame, from profiling events, the device's kernel_ns and
 // transfer_ns, kernel_vertices_per_second and kernel_bytes_per_second (kernel only,
-// bytes_per_vertex each); and the device's bounds are measured in the same run:
+// bytes_per_vertex each); with --opencl-device-timing=0 their queues are unprofiled, as the
+// server runs them by default (none of those, and a small frame without profiling's cost).
+// The device's bounds are measured in the same run:
 // BM_PcieHostToDevice, BM_PcieDeviceToHost (pinned memory) and BM_DeviceMemoryCopy (device
 // to device, read + write). kernel_bytes_per_second over BM_DeviceMemoryCopy's
 // bytes_per_second is the kernel's share of the device copy bound, which the console output
@@ -98,6 +100,7 @@ struct Options {
   bool process_cpu_time = false;          // --process-cpu-time: those rows' CPU time, all threads
   bool sorted_by_joints = false;          // --vertex-order=sorted
   bool device_output = false;             // --device-output: BM_SkinDeviceOutput rows
+  bool opencl_device_timing = true;       // --opencl-device-timing=0: unprofiled queues
 };
 
 template <typename T>
@@ -145,6 +148,8 @@ Options ParseOptions(int* argc, char** argv) {
       options.bones = ParseList<uint32_t>(bones);
     } else if (const char* device = value("--opencl-device=")) {
       options.opencl_device = device;
+    } else if (const char* timing = value("--opencl-device-timing=")) {
+      options.opencl_device_timing = std::string(timing) != "0";
     } else if (const char* streams = value("--streams=")) {
       options.streams = static_cast<int>(std::stoul(streams));
     } else if (arg == "--process-cpu-time") {
@@ -503,7 +508,8 @@ bool SelectRows(const Options& options, const std::vector<std::unique_ptr<Backen
     global_palette = MakeOpenClBackends(
         OpenClRuntimeOptions{.threads = threads,
                              .device = options.opencl_device,
-                             .local_palette = OpenClRuntimeOptions::LocalPalette::kOff});
+                             .local_palette = OpenClRuntimeOptions::LocalPalette::kOff,
+                             .device_timing = options.opencl_device_timing});
     Backend& global = *global_palette.front();  // its `opencl`
     if (!global.info().available) {
       fmt::print(stderr, "skinserve-bench: --opencl-global-palette: {}\n",
@@ -761,13 +767,14 @@ int main(int argc, char** argv) {
   Cache().set_sorted_by_joints(options.sorted_by_joints);
   const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   static std::vector<std::unique_ptr<Backend>> backends =
-      CreateAllBackends(threads, options.opencl_device);
+      CreateAllBackends(threads, options.opencl_device, options.opencl_device_timing);
   std::vector<std::string> measured;
   Rows rows;
   if (!SelectRows(options, backends, threads, &measured, &rows)) return 2;
   RegisterSkinRows(options, rows);
-  if (options.device_output && !RegisterDeviceOutputRows(Cache(), options.vertices, options.bones,
-                                                         threads, options.opencl_device)) {
+  if (options.device_output &&
+      !RegisterDeviceOutputRows(Cache(), options.vertices, options.bones, threads,
+                                options.opencl_device, options.opencl_device_timing)) {
     return 2;
   }
   RegisterQuantizedRows(options, backends, measured);

@@ -7,7 +7,8 @@
 namespace skinserve {
 
 std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads,
-                                                        const std::string& opencl_device) {
+                                                        const std::string& opencl_device,
+                                                        bool opencl_device_timing) {
   threads = std::max(threads, 1);
   std::vector<std::unique_ptr<Backend>> backends;
   backends.push_back(MakeSerialBackend());
@@ -16,7 +17,7 @@ std::vector<std::unique_ptr<Backend>> CreateAllBackends(int threads,
   backends.push_back(MakeSseOpenMpBackend(threads));
   backends.push_back(MakeSimdBackend(0));
   backends.push_back(MakeSimdBackend(threads));
-  for (auto& backend : MakeOpenClBackends(threads, opencl_device))
+  for (auto& backend : MakeOpenClBackends(threads, opencl_device, false, opencl_device_timing))
     backends.push_back(std::move(backend));
   backends.push_back(MakePassthroughBackend());
   return backends;

@@ -36,6 +36,9 @@ struct EngineOptions {
   // "gpu", or part of a platform or device name. A choice that finds no device fails
   // Engine::Create (with the devices there are); "" leaves OpenCL unavailable instead.
   std::string opencl_device;
+  // OpenCL frames report their kernel and transfer time (FrameTiming::device_*_ns): the
+  // queues are profiled, which on the H200 roughly doubled a small frame's fixed GPU cost.
+  bool opencl_device_timing = false;
   // Runs on the compute thread after a backend prepared a mesh (its first frame there),
   // before that frame is skinned. Preparing may compile OpenCL kernels, and the compiler
   // (PoCL's LLVM) may replace process-wide signal handlers: the server puts its SIGBUS

@@ -24,10 +24,12 @@ std::unique_ptr<Backend> MakeSimdBackend(int threads);
 // device `device` chooses (see OpenClRuntimeOptions). When no OpenCL platform or device
 // is present, or none matches `device`, both are returned unavailable, with the reason.
 // `force_staging`: the discrete-GPU transfer path even on a CPU device, in chunks of 1024
-// vertices and more (tests).
+// vertices and more (tests). `device_timing`: frames report their device time
+// (OpenClRuntimeOptions::device_timing).
 std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads,
                                                          const std::string& device = "",
-                                                         bool force_staging = false);
+                                                         bool force_staging = false,
+                                                         bool device_timing = false);
 std::unique_ptr<Backend> MakePassthroughBackend();
 
 }  // namespace skinserve

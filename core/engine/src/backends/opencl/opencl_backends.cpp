@@ -59,8 +59,9 @@ BackendInfo OpenClBackendInfo(const OpenClRuntime& runtime, const char* id, cons
 }
 
 std::vector<std::unique_ptr<Backend>> MakeOpenClBackends(int threads, const std::string& device,
-                                                         bool force_staging) {
+                                                         bool force_staging, bool device_timing) {
   OpenClRuntimeOptions options{.threads = threads, .device = device};
+  options.device_timing = device_timing;
   if (force_staging) {
     // The tests' configuration: small frames run in several chunks too.
     options.force_staging = true;

@@ -127,7 +127,8 @@ class OpenClCopyBackend final : public OpenClBackendBase {
     const Status finished = out.Finish();
     for (std::size_t i : enqueued) {
       statuses[i] = finished.ok()
-                        ? RecordDeviceTiming(kernels[i], transfers[i], frames[i].device_timing)
+                        ? RecordDeviceTiming(kernels[i], transfers[i], runtime().device_timing(),
+                                             frames[i].device_timing)
                         : finished;
     }
   }
@@ -251,8 +252,8 @@ class OpenClCopyBackend final : public OpenClBackendBase {
           offset += to.size_bytes();
         }
       }
-      statuses[read.frame] =
-          RecordDeviceTiming(kernels[read.frame], transfers[read.frame], frame.device_timing);
+      statuses[read.frame] = RecordDeviceTiming(kernels[read.frame], transfers[read.frame],
+                                                runtime().device_timing(), frame.device_timing);
     }
   }
 
@@ -343,7 +344,7 @@ class OpenClCopyBackend final : public OpenClBackendBase {
       clFinish(lane->transfer);
       return status;
     }
-    return RecordDeviceTiming(kernels, transfers, frame.device_timing);
+    return RecordDeviceTiming(kernels, transfers, runtime().device_timing(), frame.device_timing);
   }
 
   // A float32 frame into a GPU region (opencl_device_memory.h), waited for: the kernel

@@ -271,9 +271,9 @@ Result<int64_t> ProfiledNs(const std::vector<cl_event>& events) {
   return total;
 }
 
-Status RecordDeviceTiming(const ClEvents& kernels, const ClEvents& transfers,
+Status RecordDeviceTiming(const ClEvents& kernels, const ClEvents& transfers, bool profiled,
                           DeviceTiming* timing) {
-  if (timing == nullptr) return Status::Ok();
+  if (timing == nullptr || !profiled) return Status::Ok();
   auto kernel_ns = ProfiledNs(kernels.all());
   if (!kernel_ns.ok()) return kernel_ns.status();
   auto transfer_ns = ProfiledNs(transfers.all());
@@ -336,6 +336,7 @@ Status OpenClRuntime::ReadDeviceShape(const OpenClRuntimeOptions& options) {
   vector_width_ = static_cast<int>(width);
   base_address_alignment_ = std::max<uint64_t>(align_bits / 8, 1);
   staging_ = !is_cpu_ || options.force_staging;
+  device_timing_ = options.device_timing;
   coalesced_ = !is_cpu_ || options.force_coalesced;
   // The local-palette kernels: on the coalesced path, unless turned off, up to the
   // device's local memory, less what the kernels use themselves, and at most the caller's
@@ -429,11 +430,12 @@ Status OpenClRuntime::CreateLanes(int count) {
   for (int i = 0; i < count; ++i) {
     auto lane = std::make_unique<OpenClLane>();
     cl_int err = CL_SUCCESS;
-    // Profiling on: every frame reports its kernel and transfer time.
-    lane->compute = clCreateCommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE, &err);
+    // Profiled only when frames report their device time (OpenClRuntimeOptions).
+    const cl_command_queue_properties properties = device_timing_ ? CL_QUEUE_PROFILING_ENABLE : 0;
+    lane->compute = clCreateCommandQueue(context_, device_, properties, &err);
     if (err != CL_SUCCESS) return ClError("clCreateCommandQueue", err);
     if (staging_) {
-      lane->transfer = clCreateCommandQueue(context_, device_, CL_QUEUE_PROFILING_ENABLE, &err);
+      lane->transfer = clCreateCommandQueue(context_, device_, properties, &err);
       if (err != CL_SUCCESS) return ClError("clCreateCommandQueue(transfer)", err);
     } else {
       lane->transfer = lane->compute;

@@ -73,7 +73,10 @@ class ClEvents {
 Result<int64_t> ProfiledNs(const std::vector<cl_event>& events);
 
 // A finished frame's kernel and transfer time into *timing (nothing when it is null).
-Status RecordDeviceTiming(const ClEvents& kernels, const ClEvents& transfers, DeviceTiming* timing);
+// Nothing, too, when the lane's queues are not profiled (`profiled`: the runtime's
+// device_timing()).
+Status RecordDeviceTiming(const ClEvents& kernels, const ClEvents& transfers, bool profiled,
+                          DeviceTiming* timing);
 
 // The device-side arrays of one frame and its method. `normals` and `out_normals` are null
 // when the frame skips normals, `tangents` and `out_tangents` (4 floats per vertex) when it
@@ -189,6 +192,11 @@ struct OpenClRuntimeOptions {
   // Tiles of 256 vertices a work-group skins after one copy of the palette (0:
   // SKINSERVE_OPENCL_LOCAL_TILES if set, else kDefaultLocalTiles).
   int local_tiles = 0;
+  // Queues with CL_QUEUE_PROFILING_ENABLE, so that each frame reports its kernel and
+  // transfer time (DeviceTiming, ServerTiming.device_*_ns). Off, those stay 0: on the H200
+  // profiling made a frame's palette write, kernel and wait cost 28-32 us instead of 13-16
+  // (docs/results/2026-11-29-gpu-frame-floor-h200).
+  bool device_timing = false;
 };
 
 class OpenClRuntime {
@@ -267,6 +275,8 @@ class OpenClRuntime {
   // Whether frames go through pinned staging in chunks (a device with memory of its own,
   // or forced): else the device reads and writes host memory directly.
   bool staging() const { return staging_; }
+  // Whether the lanes' queues are profiled (OpenClRuntimeOptions::device_timing).
+  bool device_timing() const { return device_timing_; }
   int lane_count() const { return static_cast<int>(lanes_.size()); }
   int max_chunks() const { return max_chunks_; }
   uint32_t min_chunk_vertices() const { return min_chunk_vertices_; }
@@ -320,6 +330,7 @@ class OpenClRuntime {
   bool is_cpu_ = true;
   bool staging_ = false;
   bool coalesced_ = false;
+  bool device_timing_ = false;
   std::size_t local_palette_bytes_ = 0;
   int local_tiles_ = kDefaultLocalTiles;
   int threads_ = 1;

@@ -149,7 +149,7 @@ class OpenClZeroCopyBackend final : public OpenClBackendBase {
       status = ClError("clFinish", err);
     }
     if (!status.ok()) return status;
-    return RecordDeviceTiming(kernels, transfers, frame.device_timing);
+    return RecordDeviceTiming(kernels, transfers, runtime().device_timing(), frame.device_timing);
   }
 
   // Enqueues a map and an unmap: they make the kernel's writes visible in the host memory
