@@ -6,7 +6,7 @@ import json, os, re
 here = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'raw')
 print('round,server,characters held,server CPU us per character,p99 ms,mismatches')
 for rnd in (1, 2):
-    for build, label in (('base', 'main (200f0f1), profiled'), ('new', 'unprofiled')):
+    for build, label in (('base', 'main (200f0f1): profiled'), ('new', 'unprofiled')):
         held = re.search(r'^capacity: (\d+) characters',
                          open(os.path.join(here, f'cap-{build}-{rnd}.txt')).read(), re.M).group(1)
         fixed = json.load(open(os.path.join(here, f'fixed-{build}-{rnd}.json')))['results'][0]
