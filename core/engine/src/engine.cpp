@@ -684,7 +684,8 @@ class Engine::Impl {
 Result<std::unique_ptr<Engine>> Engine::Create(const EngineOptions& options) {
   int threads = options.compute_threads;
   if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  std::vector<std::unique_ptr<Backend>> all = CreateAllBackends(threads, options.opencl_device, options.opencl_device_timing);
+  std::vector<std::unique_ptr<Backend>> all =
+      CreateAllBackends(threads, options.opencl_device, options.opencl_device_timing);
   if (!options.opencl_device.empty()) {
     // The operator chose a device: not finding it is a start-up error, not a warning.
     for (const auto& b : all) {
