@@ -89,6 +89,10 @@ std::string RenderProcessMetrics() {
     max_fds = limit.rlim_cur == RLIM_INFINITY ? -1.0 : static_cast<double>(limit.rlim_cur);
   }
   const CgroupLimits cgroup = ReadCgroupLimits();
+  // Every thread's, those that ended too (a frame-socket connection's thread ends with it):
+  // /proc/self/task/*/status would lose theirs.
+  rusage usage = {};
+  const bool have_usage = getrusage(RUSAGE_SELF, &usage) == 0;
 
   std::string out;
   Gauge(out, "process_cpu_seconds_total", "counter",
@@ -99,6 +103,17 @@ std::string RenderProcessMetrics() {
   Gauge(out, "process_max_fds", "gauge", "Maximum number of open file descriptors.", max_fds);
   Gauge(out, "process_start_time_seconds", "gauge",
         "Start time of the process since unix epoch in seconds.", start);
+  fmt::format_to(std::back_inserter(out),
+                 "# HELP skinserve_process_context_switches_total Context switches of all the "
+                 "process's threads, ended ones included (getrusage): voluntary (a thread "
+                 "blocked) and involuntary (preempted).\n"
+                 "# TYPE skinserve_process_context_switches_total counter\n");
+  if (have_usage) {
+    fmt::format_to(std::back_inserter(out),
+                   "skinserve_process_context_switches_total{{kind=\"voluntary\"}} {}\n"
+                   "skinserve_process_context_switches_total{{kind=\"involuntary\"}} {}\n",
+                   usage.ru_nvcsw, usage.ru_nivcsw);
+  }
   Gauge(out, "skinserve_memory_limit_bytes", "gauge",
         "The cgroup memory limit the process runs under (memory.max); 0: no limit.",
         static_cast<double>(cgroup.memory_bytes.value_or(0)));

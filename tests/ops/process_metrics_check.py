@@ -52,9 +52,23 @@ def expect_between(name, got, low, high):
         problems.append(f"{name} = {got}, expected between {low} and {high}")
 
 
+def task_switches(kind):
+    """The live threads' context switches of `kind` (voluntary, nonvoluntary), summed."""
+    total = 0
+    for task in os.listdir(f"/proc/{pid}/task"):
+        try:
+            with open(f"/proc/{pid}/task/{task}/status") as f:
+                total += sum(int(line.split()[1]) for line in f
+                             if line.startswith(f"{kind}_ctxt_switches:"))
+        except FileNotFoundError:
+            pass  # the thread ended meanwhile
+    return total
+
+
 def readings():
     return {"rss": status_kib("VmRSS") * 1024, "vm": status_kib("VmSize") * 1024,
-            "cpu": cpu_seconds(), "fds": open_fds()}
+            "cpu": cpu_seconds(), "fds": open_fds(), "voluntary": task_switches("voluntary"),
+            "involuntary": task_switches("nonvoluntary")}
 
 
 before = readings()
@@ -81,6 +95,14 @@ expect_between("process_start_time_seconds", m.get("process_start_time_seconds")
 # Descriptors: the scrape's own connection is one more than the test saw, at most.
 expect_between("process_open_fds", m.get("process_open_fds"), min(before["fds"], after["fds"]) - 1,
                max(before["fds"], after["fds"]) + 2)
+# Context switches: every thread's, ended ones too, so at least what the live threads had
+# before the scrape (the scrape's own come on top; ended threads' cannot be seen from here).
+for kind in ("voluntary", "involuntary"):
+    name = f'skinserve_process_context_switches_total{{kind="{kind}"}}'
+    got = m.get(name)
+    if got is None or got < before[kind] or got <= 0:
+        problems.append(f"{name} = {got}, expected at least the live threads' {before[kind]} "
+                        "and above 0")
 with open(f"/proc/{pid}/limits") as f:
     soft = next(line.split()[3] for line in f if line.startswith("Max open files"))
 want_max = -1.0 if soft == "unlimited" else float(soft)
