@@ -13,7 +13,7 @@
 #     --streams N           (default 32)     --rate FPS  per stream (default 60)
 #     --vertices N          (default 25000)  --bones N   (default 2)
 #     --seconds S           measured seconds per plane (default 6)
-#     --planes LIST         (default grpc,shm)
+#     --planes LIST         (default grpc,shm; socket: the frame socket, --frame-socket)
 #     --extra "ARGS"        more skinserve-load arguments (e.g. --characters-per-tick 64)
 #     --server-extra "ARGS" more skinserve arguments (e.g. --reflection=false)
 # Env: SKINSERVE_BIN (default the build's bin/), SKINSERVE_SHM_DIR (default /dev/shm).
@@ -57,6 +57,10 @@ port_file=$(mktemp -u)
 log=$(mktemp)
 server_args=(--listen "127.0.0.1:0,$target" --metrics-listen 127.0.0.1:0 --log-level info
   --shm-dir "$shm_dir" --threads "$threads" --shm-max-regions-per-connection 256)
+# The socket plane needs the server's frame socket (a build without it runs the others).
+socket_args=()
+[[ ",$planes," == *",socket,"* ]] && socket_args=(--frame-socket "$socket_dir/frames.sock")
+server_args+=("${socket_args[@]}")
 # shellcheck disable=SC2206 # split on purpose
 server_args+=($server_extra)
 taskset -c "$server_cpus" "$bin/skinserve" "${server_args[@]}" --port-file "$port_file" \
@@ -70,12 +74,17 @@ metrics=${metrics_port:+127.0.0.1:$metrics_port}
 echo "taskset -c $server_cpus skinserve ${server_args[*]}" | sed "s#$socket_dir#SOCKDIR#g" \
   >>"$out/command.txt"
 
-# Voluntary context switches over the server's threads: a thread blocked (waiting for the
-# next frame, or handing one to another thread). Involuntary ones (preemption by whatever
-# else runs on the server's cores) are left out: they say more about the machine.
+# Voluntary context switches over the server's threads (its metric: getrusage, so threads
+# that ended count too, as a frame-socket connection's does): a thread blocked (waiting for
+# the next frame, or handing one to another thread). Involuntary ones (preemption by
+# whatever else runs on the server's cores) are left out: they say more about the machine.
 switches() {
-  cat /proc/"$server"/task/*/status 2>/dev/null |
-    awk '/^voluntary_ctxt_switches/ {n += $2} END {print n}'
+  python3 - "http://$metrics/metrics" <<'PY'
+import sys, urllib.request
+text = urllib.request.urlopen(sys.argv[1], timeout=10).read().decode()
+key = 'skinserve_process_context_switches_total{kind="voluntary"} '
+print(next(int(float(line[len(key):])) for line in text.splitlines() if line.startswith(key)))
+PY
 }
 for plane in ${planes//,/ }; do
   before=$(switches)
@@ -83,6 +92,7 @@ for plane in ${planes//,/ }; do
   cmd=(taskset -c "$load_cpus" "$bin/skinserve-load" --target "$target" --backends "$backend"
     --vertices "$vertices" --bones "$bones" --streams "$streams" --rate "$rate"
     --duration "$seconds" --warmup 0 --data-planes "$plane" --shm-dir "$shm_dir"
+    "${socket_args[@]}"
     --metrics-url "http://$metrics/metrics" --check-every 50 $extra
     --json "$out/$plane.json")
   echo "${cmd[*]}" | sed "s#$socket_dir#SOCKDIR#g; s#$out/#OUT/#g; s#$bin/##g" >>"$out/command.txt"

@@ -11,6 +11,8 @@
 #     --tick N           characters per tick (default 64)
 #     --tick-streams N   streams of the tick frame-cost runs (default 4)
 #     --repeats N        frame-cost runs per build, alternating (default 2)
+#     --planes LIST      this build's data planes (default grpc,shm; socket: the frame socket;
+#                        the baseline runs grpc,shm)
 #     --no-capacity      skip the capacity searches
 #     --capacities LIST  which of base,new,tick (default all three; base needs --base)
 # Writes OUT/cost-{base,new}-R (scripts/frame-cost.sh), OUT/cost-tick-R, OUT/capacity-*.json
@@ -20,7 +22,7 @@ out=${1:?usage: small-frames.sh OUT [options]}
 shift
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 new=$root/build/bin base="" backend=simd-openmp threads=2 server_cpus=0,1 load_cpus=2-15
-streams=64 tick=64 tick_streams=4 repeats=2 capacity=1 capacities=base,new,tick
+streams=64 tick=64 tick_streams=4 repeats=2 capacity=1 capacities=base,new,tick planes=grpc,shm
 while [ $# -gt 0 ]; do
   case "$1" in
     --new) new=$2; shift 2 ;;
@@ -33,6 +35,7 @@ while [ $# -gt 0 ]; do
     --tick) tick=$2; shift 2 ;;
     --tick-streams) tick_streams=$2; shift 2 ;;
     --repeats) repeats=$2; shift 2 ;;
+    --planes) planes=$2; shift 2 ;;
     --no-capacity) capacity=0; shift ;;
     --capacities) capacities=$2; shift 2 ;;
     *) echo "small-frames: unknown option $1" >&2; exit 2 ;;
@@ -46,7 +49,8 @@ source "$root/scripts/lib/machine-info.sh"
 write_machine_info "$out/machine.txt" "$root"
 echo "scripts/small-frames.sh OUT --backend $backend --threads $threads --server-cpus $server_cpus" \
   "--load-cpus $load_cpus --streams $streams --tick $tick --tick-streams $tick_streams" \
-  "--repeats $repeats --capacities $capacities${base:+ --base BASE}" >"$out/command.txt"
+  "--repeats $repeats --planes $planes --capacities $capacities${base:+ --base BASE}" \
+  >"$out/command.txt"
 echo "run,build,plane,frames,server CPU us/frame,server CPU us/character,compute us,CPU / compute,voluntary switches/frame,errors" \
   >"$out/summary.csv"
 
@@ -66,27 +70,31 @@ for r in $(seq "$repeats"); do
   for b in "${builds[@]}"; do
     bin=$new
     [ "$b" = base ] && bin=$base
-    cost "cost-$b-$r" "$bin" --streams "$streams"
+    build_planes=$planes
+    [ "$b" = base ] && build_planes=grpc,shm
+    cost "cost-$b-$r" "$bin" --streams "$streams" --planes "$build_planes"
   done
-  cost "cost-tick-$r" "$new" --streams "$tick_streams" --extra "--characters-per-tick $tick"
+  cost "cost-tick-$r" "$new" --streams "$tick_streams" --extra "--characters-per-tick $tick" \
+    --planes "$planes"
 done
 
 [ "$capacity" = 1 ] || exit 0
-capacity() {  # NAME BIN [skinserve-load options]
-  local name=$1 bin=$2 socket_dir port_file log server
-  shift 2
+capacity() {  # NAME BIN PLANES [skinserve-load options]
+  local name=$1 bin=$2 planes=$3 socket_dir port_file log server
+  shift 3
   socket_dir=$(mktemp -d)
   port_file=$(mktemp -u)
   log=$(mktemp)
+  local socket_args=()
+  [[ ",$planes," == *",socket,"* ]] && socket_args=(--frame-socket "$socket_dir/frames.sock")
   taskset -c "$server_cpus" "$bin/skinserve" --listen "127.0.0.1:0,unix:$socket_dir/grpc.sock" \
     --threads "$threads" --log-level warn --shm-max-regions-per-connection 256 \
-    --port-file "$port_file" >"$log" 2>&1 &
+    "${socket_args[@]}" --port-file "$port_file" >"$log" 2>&1 &
   server=$!
   wait_for_port "$port_file" "$server" 180 >/dev/null || { cat "$log"; return 1; }
-  # shellcheck disable=SC2054 # --data-planes grpc,shm is one argument
   local cmd=(taskset -c "$load_cpus" "$bin/skinserve-load" --target "unix:$socket_dir/grpc.sock"
     --capacity --backends "$backend" --vertices 25000 --bones 2 --duration 3 --warmup 0.5
-    --check-every 20 --data-planes grpc,shm --json "$out/$name.json" "$@")
+    --check-every 20 --data-planes "$planes" "${socket_args[@]}" --json "$out/$name.json" "$@")
   echo "$name: ${cmd[*]}" | sed "s#$socket_dir#SOCKDIR#g; s#$out/#OUT/#g; s#$bin/##g" \
     >>"$out/command.txt"
   "${cmd[@]}" >"$out/$name.txt" 2>&1 || echo "$name failed (see $name.txt)"
@@ -97,9 +105,9 @@ capacity() {  # NAME BIN [skinserve-load options]
 }
 wanted() { [[ ",$capacities," == *",$1,"* ]]; }
 if [ -n "$base" ] && wanted base; then
-  capacity capacity-base "$base" --capacity-max-streams 1024
+  capacity capacity-base "$base" grpc,shm --capacity-max-streams 1024
 fi
-if wanted new; then capacity capacity-new "$new" --capacity-max-streams 1024; fi
+if wanted new; then capacity capacity-new "$new" "$planes" --capacity-max-streams 1024; fi
 if wanted tick; then
-  capacity capacity-tick "$new" --characters-per-tick "$tick" --capacity-max-streams 64
+  capacity capacity-tick "$new" "$planes" --characters-per-tick "$tick" --capacity-max-streams 64
 fi

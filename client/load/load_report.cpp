@@ -23,13 +23,14 @@ std::string ErrorsText(const RunResult& r) {
 }
 
 // The backend, with the encoding and crowd size when they are not float32 x 1, "+shm"
-// for the shared-memory data plane, "+tickN" for ticks of N characters and "+pose" for
-// frames posed on the server (--animate synthetic), "+pose:CLIP" playing a glTF file's clip.
+// for the shared-memory data plane ("+socket" with requests on the frame socket), "+tickN" for
+// ticks of N characters and "+pose" for frames posed on the server (--animate synthetic),
+// "+pose:CLIP" playing a glTF file's clip.
 std::string BackendLabel(const RunResult& r) {
   const std::string pose =
       !r.pose ? "" : (r.clip.empty() || r.clip == "synthetic" ? "+pose" : "+pose:" + r.clip);
   const std::string shm =
-      (r.data_plane == "shm" ? "+shm" : "") +
+      (r.data_plane == "grpc" ? "" : "+" + r.data_plane) +
       (r.characters_per_tick > 0 ? fmt::format("+tick{}", r.characters_per_tick) : std::string()) +
       pose;
   if (r.encoding == "float32" && r.instances <= 1) return r.backend + shm;

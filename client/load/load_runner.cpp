@@ -23,6 +23,7 @@
 #include "skinserve/reference/encoded_reference.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/wire/region_layout.h"
+#include "unit_stream.h"
 
 namespace skinserve::load {
 namespace {
@@ -109,7 +110,9 @@ class Recorder {
     result_.rest_encoding = RestEncodingName(workload.rest_encoding);
     result_.instances = std::max(config.instances, 1u);
     result_.characters_per_tick = config.characters_per_tick;
-    result_.data_plane = config.shared_memory ? "shm" : "grpc";
+    result_.data_plane = !config.frame_socket.empty() ? "socket"
+                         : config.shared_memory       ? "shm"
+                                                      : "grpc";
     result_.pose = workload.pose != nullptr;
     if (workload.pose) result_.clip = workload.pose->label;
     result_.streams = config.streams;
@@ -642,8 +645,9 @@ class OpenLoop {
         client_(client),
         units_(units),
         recorder_(recorder),
-        stream_(client.StreamSkinRaw(&context_)),
-        watchdog_(&context_, config.limits.stream_idle),
+        stream_(config.frame_socket.empty() ? OpenGrpcStream(client)
+                                            : OpenFrameSocketStream(config.frame_socket)),
+        watchdog_([s = stream_.get()] { s->Cancel(); }, config.limits.stream_idle),
         period_(std::chrono::duration_cast<Clock::duration>(
             std::chrono::duration<double>(1.0 / config.rate))),
         warmup_frames_(config.frames > 0
@@ -692,8 +696,7 @@ class OpenLoop {
   client::SkinClient& client_;
   OpenLoopUnits& units_;
   Recorder& recorder_;
-  grpc::ClientContext context_;
-  std::unique_ptr<client::SkinClient::RawStream> stream_;
+  std::unique_ptr<UnitStream> stream_;  // StreamSkin, or the frame socket
   client::IdleWatchdog watchdog_;
   const Clock::duration period_;
   const uint64_t warmup_frames_, last_frame_;
@@ -855,7 +858,7 @@ void OpenLoop::Send(const std::atomic<bool>& stop) {
 }
 
 void OpenLoop::Finish() {
-  Status status = wire::FromGrpc(stream_->Finish());
+  Status status = stream_->Finish();
   if (watchdog_.fired()) {
     status = DeadlineExceeded(
         fmt::format("no answer for {:.1f} s with frames in flight (--stream-idle-seconds)",

@@ -46,6 +46,9 @@ struct RunConfig {
   // Crowds over gRPC: parts go out as their instances are skinned (SkinRequest.early_parts).
   bool early_parts = false;
   std::string shm_dir = "/dev/shm";
+  // Open loop: the streams' requests go to the server's frame socket at this path instead
+  // of StreamSkin (the `socket` data plane: with shared_memory, nothing but control on gRPC).
+  std::string frame_socket;
 };
 
 // Called now and then with the fraction done (for a progress bar).

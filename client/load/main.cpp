@@ -55,7 +55,8 @@ struct Options {
   std::string encoding = "float32";
   std::string rest_encoding;         // how the server stores the mesh; empty: not asked
   std::string modes;                 // --capacity: ENCODING[xK] list, e.g. float32,snorm16x16
-  std::string data_planes = "grpc";  // grpc and/or shm, each run once per data plane
+  std::string data_planes = "grpc";  // grpc, shm and/or socket, each run once per data plane
+  std::string frame_socket;          // the socket plane's: the server's --frame-socket
   std::string json, csv, plot;
   MeasurementFlags measurement;  // rates, arrivals, percentile, stability, server metrics
 };
@@ -114,6 +115,19 @@ std::vector<std::string> SplitList(const std::string& text) {
 
 // 'all': every available backend that implements `method` (and morph targets, when the
 // frames carry morph weights); else the listed ids.
+// `config` set for data plane `plane`: grpc (vertices in the answers), shm (into each
+// stream's region, requests on StreamSkin) or socket (into the region, requests on the
+// server's frame socket).
+void UsePlane(const std::string& plane, const Options& o, RunConfig* config) {
+  config->shared_memory = plane != "grpc";
+  config->frame_socket = plane == "socket" ? o.frame_socket : std::string();
+}
+
+// A mode's label in the capacity lines: "+shm" or "+socket" after it for those planes.
+std::string PlaneLabel(const std::string& mode, const std::string& plane) {
+  return plane == "grpc" ? mode : mode + "+" + plane;
+}
+
 Result<std::vector<std::string>> ResolveBackends(client::SkinClient& client,
                                                  const std::string& wanted, SkinningMethod method,
                                                  bool morph) {
@@ -322,8 +336,8 @@ Result<bool> ProbeCapacity(const CapacityPlan& p, const Mode& mode, const std::s
   config.streams = streams;
   config.encoding = mode.encoding;
   config.instances = mode.instances;
-  config.shared_memory = plane == "shm";
-  const std::string label = plane == "shm" ? mode.Name() + "+shm" : mode.Name();
+  UsePlane(plane, p.o, &config);
+  const std::string label = PlaneLabel(mode.Name(), plane);
   auto measured = Measure(config, p.meshes,
                           MakeProgress(fmt::format("{} {} streams", label, streams)), p.measure);
   if (!measured.ok()) return measured.status();
@@ -394,7 +408,7 @@ int RunCapacity(client::SkinClient& client, const Options& o,
   std::vector<std::pair<std::string, int>> held;  // characters per mode and data plane
   for (const Mode& mode : modes) {
     for (const std::string& plane : SplitList(o.data_planes)) {
-      const std::string label = plane == "shm" ? mode.Name() + "+shm" : mode.Name();
+      const std::string label = PlaneLabel(mode.Name(), plane);
       PrintCapacityHeader(p, mode, plane);
       const auto found = SearchCapacity(p, mode, plane, results);
       if (!found.ok()) return MeasureFailed(found.status());
@@ -429,7 +443,7 @@ int RunGrid(client::SkinClient& client, const Options& o, const std::vector<std:
         for (const double rate : rates) {
           RunConfig config = o.run;
           config.backend = backend;
-          config.shared_memory = plane == "shm";
+          UsePlane(plane, o, &config);
           config.rate = rate;
           auto row =
               Measure(config, meshes,
@@ -640,13 +654,15 @@ void AddSearchOptions(CLI::App& app, Options& o) {
   app.add_option("--capacity-max-streams", o.capacity_max_streams, "upper end of the search")
       ->capture_default_str();
   app.add_option("--data-planes", o.data_planes,
-                 "how answers travel, each run once per entry, comma-separated: grpc (the "
-                 "vertices in the gRPC answers) and shm (written into a shared-memory region of "
-                 "each stream's: the server must run on this host, with --shm-dir as here)")
+                 "how frames travel, each run once per entry, comma-separated: grpc (the "
+                 "vertices in the gRPC answers), shm (written into a shared-memory region of "
+                 "each stream's: the server must run on this host, with --shm-dir as here) and "
+                 "socket (as shm, the requests and answers over the server's --frame-socket "
+                 "instead of gRPC: needs --frame-socket and --rate)")
       ->check([](const std::string& text) {
         for (const std::string& plane : SplitList(text)) {
-          if (plane != "grpc" && plane != "shm")
-            return "grpc, shm or grpc,shm: not '" + plane + "'";
+          if (plane != "grpc" && plane != "shm" && plane != "socket")
+            return "grpc, shm, socket or a list of them: not '" + plane + "'";
         }
         return std::string();
       })
@@ -657,6 +673,8 @@ void AddSearchOptions(CLI::App& app, Options& o) {
   app.add_flag_callback(
       "--shared-memory", [&o] { o.data_planes = "shm"; },
       "the same-host shared-memory data plane alone (--data-planes shm)");
+  app.add_option("--frame-socket", o.frame_socket,
+                 "the socket data plane: the path of the server's --frame-socket");
   app.add_option("--shm-dir", o.run.shm_dir,
                  "where the streams' regions are made: the server's --shm-dir")
       ->capture_default_str();
@@ -707,6 +725,13 @@ std::optional<int> FinishOptions(const CLI::App& app, Options& o) {
   o.run.arrivals_seed = o.seed;
   if (o.run.frames > 0 && o.measurement.measure.max_trials > 1) {
     fmt::print(stderr, "error: --max-trials repeats windows of --duration: not with --frames\n");
+    return 2;
+  }
+  if (o.data_planes.find("socket") != std::string::npos &&
+      (o.frame_socket.empty() || (o.run.rate <= 0 && !o.capacity))) {
+    fmt::print(stderr,
+               "error: --data-planes socket: needs --frame-socket PATH (the server's) and an "
+               "open loop (--rate or --capacity)\n");
     return 2;
   }
   if (o.run.characters_per_tick > 0 && !o.mesh.empty()) {

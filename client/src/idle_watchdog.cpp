@@ -3,7 +3,10 @@
 namespace skinserve::client {
 
 IdleWatchdog::IdleWatchdog(grpc::ClientContext* context, std::chrono::milliseconds limit)
-    : context_(context), limit_(limit), last_answer_(Now()) {
+    : IdleWatchdog([context] { context->TryCancel(); }, limit) {}
+
+IdleWatchdog::IdleWatchdog(std::function<void()> cancel, std::chrono::milliseconds limit)
+    : cancel_(std::move(cancel)), limit_(limit), last_answer_(Now()) {
   if (limit_.count() > 0) thread_ = std::thread([this] { Watch(); });
 }
 
@@ -37,7 +40,7 @@ void IdleWatchdog::Watch() {
     const int64_t idle = Now() - last_answer_.load(std::memory_order_relaxed);
     if (awaiting_.load(std::memory_order_relaxed) && idle >= limit_ns) {
       fired_.store(true);
-      context_->TryCancel();
+      cancel_();
       return;
     }
     const int64_t wait = awaiting_.load(std::memory_order_relaxed) ? limit_ns - idle : limit_ns;

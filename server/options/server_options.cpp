@@ -417,6 +417,21 @@ void AddSharedMemoryOptions(CLI::App& app, ServerOptions& o) {
       ->capture_default_str();
 }
 
+// The frame socket (docs/serving/frame-socket.md).
+void AddFrameSocketOptions(CLI::App& app, ServerOptions& o) {
+  app.add_option("--frame-socket", o.frame_socket,
+                 "Unix socket path where clients on this host send StreamSkin's requests "
+                 "without gRPC (one thread per connection reads, skins and answers a frame); "
+                 "empty: off")
+      ->envname("SKINSERVE_FRAME_SOCKET");
+  app.add_option("--frame-socket-max-connections", o.frame_socket_max_connections,
+                 "frame-socket connections served at once (a thread each); one more is "
+                 "refused with RESOURCE_EXHAUSTED")
+      ->envname("SKINSERVE_FRAME_SOCKET_MAX_CONNECTIONS")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+}
+
 // GPU regions (docs/serving/gpu-regions.md): the fd handoff socket and the limits of what
 // clients may import.
 void AddGpuRegionOptions(CLI::App& app, ServerOptions& o) {
@@ -531,6 +546,7 @@ void AddServerOptions(CLI::App& app, ServerOptions& o) {
   AddUploadOptions(app, o);
   AddOperationOptions(app, o);
   AddSharedMemoryOptions(app, o);
+  AddFrameSocketOptions(app, o);
   AddGpuRegionOptions(app, o);
   AddSecurityOptions(app, o);
   AddConnectionOptions(app, o);

@@ -73,6 +73,11 @@ struct ServerOptions {
   // Region RPCs (and frames into regions) over TCP, owned by the client certificate's
   // identity: needs mutual TLS. Off: only Unix-socket clients, owned by their process.
   bool shm_over_tcp = false;
+  // The frame socket (docs/serving/frame-socket.md): a Unix socket where same-host clients
+  // send StreamSkin's requests without gRPC (empty: off), and the connections it serves at
+  // once (a thread each).
+  std::string frame_socket;
+  uint32_t frame_socket_max_connections = 256;
   // GPU regions (docs/serving/gpu-regions.md): the socket clients hand their exported GPU
   // buffers' fds over (empty: off), the bytes all imports may hold, and how many.
   std::string gpu_fd_socket;

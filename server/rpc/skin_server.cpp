@@ -214,6 +214,21 @@ Status SkinServer::StartEngine(const ServerOptions& options) {
   return Status::Ok();
 }
 
+Status SkinServer::StartFrameSocket(const ServerOptions& options) {
+  if (options.frame_socket.empty()) return Status::Ok();
+  auto socket = FrameSocket::Listen({.path = options.frame_socket,
+                                     .max_connections = options.frame_socket_max_connections,
+                                     .idle_seconds = options.stream_idle_seconds},
+                                    [service = service_.get()](const UnixPeerCredentials& peer) {
+                                      return service->FrameSocketAccessFor(peer);
+                                    });
+  if (!socket.ok()) return socket.status();
+  frame_socket_ = std::move(socket).value();
+  spdlog::info("frame socket on {} (at most {} connections)", options.frame_socket,
+               options.frame_socket_max_connections);
+  return Status::Ok();
+}
+
 Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& options) {
   spdlog::set_level(spdlog::level::from_str(options.log_level));
   SetLogFormat(options.log_format);
@@ -246,6 +261,7 @@ Result<std::unique_ptr<SkinServer>> SkinServer::Start(const ServerOptions& optio
                  server->metrics_->port());
   }
   if (Status s = server->StartEngine(options); !s.ok()) return s;
+  if (Status s = server->StartFrameSocket(options); !s.ok()) return s;
   server->SetReady(true);
   server->service_->SetServing(true);
   spdlog::info("serving");
@@ -263,6 +279,8 @@ void SkinServer::Shutdown(std::chrono::milliseconds grace) {
       const auto deadline = std::chrono::steady_clock::now() + grace;
       const bool had_streams = service_->OpenStreamCount() > 0;
       service_->Drain();  // streams end UNAVAILABLE once their frames are answered
+      // Frame-socket connections likewise, each once the request it serves is answered.
+      if (frame_socket_) frame_socket_->Stop();
       // The streams end before gRPC's shutdown begins. Once gRPC has sent GOAWAY it closes
       // a connection the moment its last stream ends; bytes the client sent meanwhile (its
       // window updates) are then unread, the close becomes a reset, and the reset discards

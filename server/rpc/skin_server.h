@@ -16,6 +16,7 @@
 #include "rpc/skinning_service.h"
 #include "rpc/unix_listener.h"
 #include "security/authz_policy_file.h"
+#include "socket/frame_socket.h"
 
 namespace skinserve::server {
 
@@ -50,7 +51,8 @@ class SkinServer {
   // Builds engine_ and gives it to service_ (and the GPU regions' service); the default
   // backend must be one it has.
   Status StartEngine(const ServerOptions& options);
-  std::string RenderMetrics() const;         // on the metrics server's threads
+  Status StartFrameSocket(const ServerOptions& options);  // --frame-socket, once the engine is up
+  std::string RenderMetrics() const;                      // on the metrics server's threads
   std::unique_ptr<RegionRegistry> regions_;  // null: shared memory off; outlives service_
   // null: no --authz-policy; outlives service_ and gpu_regions_' service
   std::unique_ptr<PolicyFile> policy_;
@@ -61,6 +63,8 @@ class SkinServer {
   // The unix: addresses; stopped before server_ shuts down, destroyed before it.
   std::vector<std::unique_ptr<UnixListener>> unix_listeners_;
   std::unique_ptr<Engine> engine_;
+  // --frame-socket (null: off); its connections use service_ and engine_, so it goes first.
+  std::unique_ptr<FrameSocket> frame_socket_;
   // Declared last: destroyed first, so no scrape outlives what it reads.
   std::unique_ptr<MetricsServer> metrics_;
   int port_ = 0;

@@ -99,6 +99,22 @@ grpc::ServerUnaryReactor* SkinningService::ListBackends(grpc::CallbackServerCont
   return Done(context, Status::Ok());
 }
 
+FrameSocketAccess SkinningService::FrameSocketAccessFor(const UnixPeerCredentials& peer) {
+  FrameSocketAccess access;
+  access.engine = engine_.load();
+  access.default_backend = default_backend_;
+  access.budget = &budget_;
+  access.limits = WithMaxInstances(request_limits_, access.engine);
+  if (regions_ != nullptr || gpu_regions_ != nullptr) {
+    access.regions = {regions_, RegionOwner::OfUnixPeer(peer), gpu_regions_};
+  }
+  if (policy_ != nullptr) {
+    access.allowed =
+        policy_->Check(Peer{}, fmt::format("/{}/StreamSkin", v1::Skinning::service_full_name()));
+  }
+  return access;
+}
+
 ServerSnapshot SkinningService::Snapshot() const {
   ServerSnapshot s;
   s.version = SKINSERVE_VERSION;

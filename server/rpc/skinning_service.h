@@ -13,6 +13,7 @@
 #include "shm/region_registry.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.grpc.pb.h"
+#include "socket/frame_socket_access.h"
 
 namespace skinserve::server {
 
@@ -60,6 +61,9 @@ class SkinningService final : public SkinningCallbackService {
     return open_streams_.WaitUntilAllEnded(deadline);
   }
   std::size_t OpenStreamCount() const { return open_streams_.count(); }
+  // What a frame-socket connection from `peer` serves with (socket/frame_socket.h): this
+  // service's engine, budget, limits and regions, and the policy's verdict on StreamSkin.
+  FrameSocketAccess FrameSocketAccessFor(const UnixPeerCredentials& peer);
   // Everything the server reports, taken at once for /metrics and GetServerStats.
   ServerSnapshot Snapshot() const;
   // SERVING or not (starting, draining), as the health service says.

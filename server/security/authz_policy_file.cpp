@@ -66,9 +66,12 @@ std::shared_ptr<const AuthorizationPolicy> PolicyFile::current() const {
 }
 
 Status PolicyFile::Check(const grpc::ServerContextBase& context, std::string_view path) const {
-  const std::shared_ptr<const AuthorizationPolicy> policy = current();
   const std::shared_ptr<const grpc::AuthContext> auth = context.auth_context();
-  const Peer peer = Peer::Of(auth.get());
+  return Check(Peer::Of(auth.get()), path);
+}
+
+Status PolicyFile::Check(const Peer& peer, std::string_view path) const {
+  const std::shared_ptr<const AuthorizationPolicy> policy = current();
   const AuthorizationPolicy::Decision decision = policy->Evaluate(peer, path);
   if (decision.allowed) return Status::Ok();
   return {StatusCode::kPermissionDenied,

@@ -26,6 +26,8 @@ class PolicyFile {
 
   // OK, or PERMISSION_DENIED naming the method, the caller and the policy.
   Status Check(const grpc::ServerContextBase& context, std::string_view path) const;
+  // The same for `peer` (a frame-socket connection's: unauthenticated, like any Unix peer).
+  Status Check(const Peer& peer, std::string_view path) const;
   std::shared_ptr<const AuthorizationPolicy> current() const;
 
  private:

@@ -12,6 +12,7 @@
 
 #include "security/authz_policy.h"
 #include "security_fixture.h"
+#include "skinserve/client/frame_socket_client.h"
 
 namespace skinserve::testing {
 namespace {
@@ -77,6 +78,7 @@ TEST(AuthzMethodsTest, EveryMethodOfEveryServiceIsGovernedByThePolicy) {
   options.authz_policy = policy;
   options.shm_dir = folder;                     // shared-memory regions on
   options.gpu_fd_socket = folder + "/fd.sock";  // the GpuRegions service on
+  options.frame_socket = folder + "/frames.sock";
   options.listen = {"unix:" + folder + "/grpc.sock"};
   auto server = StartServer(options);
   ASSERT_NE(server, nullptr);
@@ -94,6 +96,17 @@ TEST(AuthzMethodsTest, EveryMethodOfEveryServiceIsGovernedByThePolicy) {
                           path));
   }
   EXPECT_TRUE(client::CheckHealth(*channel, 5000ms).ok());
+  // The frame socket serves StreamSkin's requests: the policy's StreamSkin rule governs it.
+  auto frames = client::FrameSocketClient::Connect(folder + "/frames.sock");
+  ASSERT_TRUE(frames.ok()) << frames.status().ToString();
+  (*frames)->Write(v1::SkinRequest());
+  grpc::ByteBuffer part;
+  EXPECT_FALSE((*frames)->Read(&part)) << "the frame socket answered a frame";
+  EXPECT_EQ((*frames)->Finish().code(), StatusCode::kPermissionDenied)
+      << (*frames)->Finish().ToString();
+  EXPECT_EQ((*frames)->Finish().message(),
+            "/skinserve.v1.Skinning/StreamSkin is not allowed for an unauthenticated client by "
+            "the authorization policy 'health-only' (no allow rule matches; --authz-policy)");
 }
 
 // The example policy over mutual TLS decides GpuRegions calls by principal as it does the

@@ -62,6 +62,7 @@ class Folders {
   const std::string& shm() const { return shm_; }
   std::string socket() const { return socket_dir_ + "/grpc.sock"; }
   std::string unix_target() const { return "unix:" + socket(); }
+  std::string frame_socket() const { return socket_dir_ + "/frames.sock"; }
 
  private:
   std::string shm_, socket_dir_;
@@ -325,6 +326,36 @@ TEST(RegionOwnersTest, OnTheUnixSocketAnotherUidOrProcessCanNeitherSeeNorUseNorT
   EXPECT_TRUE(AllCanary(*canary)) << "another peer's frame was written into the owner's region";
   EXPECT_TRUE(owner.UnregisterRegion("mine").ok());
   EXPECT_TRUE(owner.UnregisterRegion("canary").ok());
+}
+
+// The frame socket (--frame-socket) knows its peers as the Unix listener does: a frame sent
+// there names only regions its own process registered over gRPC; another uid's or another
+// process's frames into the owner's region are refused, and their own regions serve them.
+TEST(RegionOwnersTest, OnTheFrameSocketAFrameNamesOnlyItsOwnProcesssRegions) {
+  Folders folders;
+  server::ServerOptions options = QuickServerOptions();
+  options.frame_socket = folders.frame_socket();
+  auto server = StartShmServer(folders, options);
+  ASSERT_NE(server, nullptr);
+  chmod(folders.frame_socket().c_str(), 0666);
+  client::SkinClient owner(client::MakeChannel(folders.unix_target()));
+  auto mine = MakeRegion(folders, "mine", 2 * OwnerStream::Stride());
+  ASSERT_TRUE(owner.RegisterRegion("mine", *mine).ok());
+  for (const bool other_uid : {true, false}) {
+    std::vector<std::string> args = {"--target",    folders.unix_target(), "--dir",
+                                     folders.shm(), "--frame-socket",      folders.frame_socket()};
+    if (other_uid) args.insert(args.begin(), {"--as-uid", std::to_string(kOtherUid)});
+    args.insert(args.end(), {"socket-skin", "mine", "make", "own", "1048576", "socket-skin", "own",
+                             "skin", "own"});
+    const auto steps = RunPeer(args);
+    const std::string who = other_uid ? "another uid" : "another process of the owner's uid";
+    ASSERT_EQ(steps.size(), 4u) << who;
+    ExpectStep(steps[0], "socket-skin", "FAILED_PRECONDITION", "'mine'");
+    ExpectStep(steps[1], "make", "OK");
+    ExpectStep(steps[2], "socket-skin", "OK");  // its own region, registered over gRPC
+    ExpectStep(steps[3], "skin", "OK");
+  }
+  EXPECT_TRUE(AllCanary(*mine)) << "another peer's frame was written into the owner's region";
 }
 
 TEST(RegionOwnersTest, OverPlainTcpEveryRegionCallIsRefusedAlikeAndFramesStillServe) {

@@ -7,6 +7,7 @@
 //   make NAME BYTES         creates a file of its own in --dir (left there), registers it;
 //                           prints its key
 //   skin NAME               uploads a small mesh (once) and skins a frame into region NAME
+//   socket-skin NAME        the same frame sent over the server's frame socket (--frame-socket)
 //   unregister NAME         UnregisterRegion
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -19,6 +20,7 @@
 #include <vector>
 
 #include "skinserve/client/channel.h"
+#include "skinserve/client/frame_socket_client.h"
 #include "skinserve/client/skin_client.h"
 #include "skinserve/reference/synthetic.h"
 #include "skinserve/wire/conversions.h"
@@ -47,6 +49,32 @@ Status SkinInto(client::SkinClient& c, const std::string& mesh_id, const std::st
   return wire::FromGrpc(reader->Finish());
 }
 
+// SkinInto's frame over the frame socket at `path`: the answer's status (the frame's own
+// error, or the connection's end).
+Status SocketSkinInto(const std::string& path, const std::string& mesh_id,
+                      const std::string& region) {
+  auto socket = client::FrameSocketClient::Connect(path);
+  if (!socket.ok()) return socket.status();
+  v1::SkinRequest request;
+  request.set_mesh_id(mesh_id);
+  const auto palette = MakeSyntheticPalette(77, 1, 0);
+  request.set_palette(palette.data(), palette.size() * sizeof(float));
+  request.mutable_output()->set_region(region);
+  if (!(*socket)->Write(request)) return (*socket)->Finish();
+  grpc::ByteBuffer part;
+  if (!(*socket)->Read(&part)) return (*socket)->Finish();
+  v1::SkinResponse response;
+  std::vector<grpc::Slice> slices;
+  (void)part.Dump(&slices);
+  std::string bytes;
+  for (const auto& slice : slices)
+    bytes.append(reinterpret_cast<const char*>(slice.begin()), slice.size());
+  if (!response.ParseFromString(bytes)) return Internal("the answer is not a SkinResponse");
+  if (!response.has_error()) return Status::Ok();
+  return wire::FromGrpc(grpc::Status(static_cast<grpc::StatusCode>(response.error().code()),
+                                     response.error().message()));
+}
+
 Status Register(client::SkinClient& c, const std::string& name, const std::string& key,
                 uint64_t bytes) {
   v1::RegisterRegionRequest request;
@@ -70,13 +98,15 @@ Result<std::string> MakeFile(const std::string& dir, const std::string& name, ui
 }
 
 int Run(const std::vector<std::string>& args) {
-  std::string target, dir;
+  std::string target, dir, frame_socket;
   std::size_t i = 0;
   for (; i + 1 < args.size() && args[i].starts_with("--"); i += 2) {
     if (args[i] == "--target") {
       target = args[i + 1];
     } else if (args[i] == "--dir") {
       dir = args[i + 1];
+    } else if (args[i] == "--frame-socket") {
+      frame_socket = args[i + 1];
     } else if (args[i] == "--as-uid") {
       const uid_t uid = static_cast<uid_t>(std::stoul(args[i + 1]));
       if (setgroups(0, nullptr) != 0 || setgid(uid) != 0 || setuid(uid) != 0) {
@@ -108,7 +138,7 @@ int Run(const std::vector<std::string>& args) {
       Say(step, key.ok() ? Register(c, arg(1), *key, std::stoull(arg(2))) : key.status(),
           key.ok() ? *key : "");
       i += 2;
-    } else if (step == "skin") {
+    } else if (step == "skin" || step == "socket-skin") {
       if (mesh_id.empty()) {
         auto info = c.Upload(MakeSyntheticMesh({.vertex_count = 500, .influences = 2}));
         if (!info.ok()) {
@@ -117,7 +147,8 @@ int Run(const std::vector<std::string>& args) {
         }
         mesh_id = info->mesh_id();
       }
-      Say(step, SkinInto(c, mesh_id, arg(1)));
+      Say(step, step == "skin" ? SkinInto(c, mesh_id, arg(1))
+                               : SocketSkinInto(frame_socket, mesh_id, arg(1)));
       i += 1;
     } else if (step == "unregister") {
       Say(step, c.UnregisterRegion(arg(1)));

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <thread>
 
@@ -19,6 +20,8 @@ class IdleWatchdog {
  public:
   // `limit` 0: never fires (and starts no thread).
   IdleWatchdog(grpc::ClientContext* context, std::chrono::milliseconds limit);
+  // The same for a connection that is not a gRPC call: `cancel` ends its reads.
+  IdleWatchdog(std::function<void()> cancel, std::chrono::milliseconds limit);
   ~IdleWatchdog();
   IdleWatchdog(const IdleWatchdog&) = delete;
   IdleWatchdog& operator=(const IdleWatchdog&) = delete;
@@ -35,7 +38,7 @@ class IdleWatchdog {
   static int64_t Now();
   void Watch();
 
-  grpc::ClientContext* const context_;
+  const std::function<void()> cancel_;
   const std::chrono::milliseconds limit_;
   std::atomic<int64_t> last_answer_;
   std::atomic<bool> awaiting_{false};
