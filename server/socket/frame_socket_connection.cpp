@@ -205,22 +205,22 @@ FrameSocketConnection::End FrameSocketConnection::WriteAnswer(StreamAnswer& answ
 }
 
 bool FrameSocketConnection::WriteMessage(const grpc::ByteBuffer& message, bool end) {
-  std::vector<grpc::Slice> slices;
-  if (!message.Dump(&slices).ok()) return false;
+  if (!message.Dump(&slices_).ok()) return false;
   unsigned char header[kHeaderBytes];
   WriteHeader(static_cast<uint32_t>(message.Length()) | (end ? wire::kFrameSocketEndBit : 0),
               header);
-  std::vector<iovec> iov;
-  iov.reserve(std::min(slices.size() + 1, kMaxIovecs));
-  iov.push_back({header, kHeaderBytes});
-  for (std::size_t i = 0; i < slices.size(); ++i) {
-    if (iov.size() == kMaxIovecs) {
-      if (!SendAll(fd_, iov.data(), iov.size())) return false;
-      iov.clear();
+  iov_.clear();
+  iov_.push_back({header, kHeaderBytes});
+  for (const grpc::Slice& slice : slices_) {
+    if (iov_.size() == kMaxIovecs) {
+      if (!SendAll(fd_, iov_.data(), iov_.size())) return false;
+      iov_.clear();
     }
-    iov.push_back({const_cast<uint8_t*>(slices[i].begin()), slices[i].size()});
+    iov_.push_back({const_cast<uint8_t*>(slice.begin()), slice.size()});
   }
-  return SendAll(fd_, iov.data(), iov.size());
+  const bool sent = SendAll(fd_, iov_.data(), iov_.size());
+  slices_.clear();  // the job's buffer is let go of before the job is reused
+  return sent;
 }
 
 void FrameSocketConnection::SendEnd(const Status& status) {
@@ -265,13 +265,18 @@ FrameSocketConnection::End FrameSocketConnection::Fill(std::size_t bytes, bool a
   while (read_end_ < bytes) {
     // Waiting in poll, not in recv: recv's wait also wakes each time the client reads an
     // answer (the kernel wakes a Unix socket's sleepers when its sent bytes are consumed),
-    // a second context switch a frame; poll's wait wakes only for bytes to read.
-    ssize_t got = recv(fd_, buffer_.data() + read_end_, buffer_.size() - read_end_, MSG_DONTWAIT);
-    if (got < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-      pollfd readable = {fd_, POLLIN, 0};
-      const int ready = poll(&readable, 1, idle_ms_);
-      if (ready > 0 || (ready < 0 && errno == EINTR)) continue;
-      if (ready == 0) errno = EAGAIN;  // quiet for --stream-idle-seconds
+    // a second context switch a frame; poll's wait wakes only for bytes to read. Polled
+    // first: after an answer the next request is rarely there yet, and a recv that finds
+    // nothing would be one more system call a frame.
+    pollfd readable = {fd_, POLLIN, 0};
+    const int ready = poll(&readable, 1, idle_ms_);
+    if (ready < 0 && errno == EINTR) continue;
+    ssize_t got = -1;
+    if (ready == 0) {
+      errno = EAGAIN;  // quiet for --stream-idle-seconds
+    } else if (ready > 0) {
+      got = recv(fd_, buffer_.data() + read_end_, buffer_.size() - read_end_, MSG_DONTWAIT);
+      if (got < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) continue;  // woken for nothing
     }
     if (got > 0) {
       read_end_ += static_cast<std::size_t>(got);

@@ -12,6 +12,8 @@
 // --stream-idle-seconds, or the server drains.
 #pragma once
 
+#include <sys/uio.h>
+
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -84,6 +86,10 @@ class FrameSocketConnection final : private FrameJob::Listener {
   std::vector<std::byte> buffer_;
   std::size_t read_begin_ = 0, read_end_ = 0;
   uint64_t charged_ = 0;
+
+  // WriteMessage's: a part's slices and the iovecs over them, capacity kept frame to frame.
+  std::vector<grpc::Slice> slices_;
+  std::vector<iovec> iov_;
 
   std::mutex mutex_;
   std::condition_variable answered_;
