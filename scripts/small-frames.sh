@@ -88,8 +88,8 @@ capacity() {  # NAME BIN PLANES [skinserve-load options]
   local socket_args=()
   [[ ",$planes," == *",socket,"* ]] && socket_args=(--frame-socket "$socket_dir/frames.sock")
   taskset -c "$server_cpus" "$bin/skinserve" --listen "127.0.0.1:0,unix:$socket_dir/grpc.sock" \
-    --threads "$threads" --log-level warn --shm-max-regions-per-connection 256 \
-    "${socket_args[@]}" --port-file "$port_file" >"$log" 2>&1 &
+    --threads "$threads" --log-level warn --shm-max-regions-per-connection 4096 \
+    --shm-max-regions 4096 "${socket_args[@]}" --port-file "$port_file" >"$log" 2>&1 &
   server=$!
   wait_for_port "$port_file" "$server" 180 >/dev/null || { cat "$log"; return 1; }
   local cmd=(taskset -c "$load_cpus" "$bin/skinserve-load" --target "unix:$socket_dir/grpc.sock"
