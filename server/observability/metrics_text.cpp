@@ -145,6 +145,17 @@ void WriteStreamsAndUploads(Writer& w, const ServerSnapshot& s) {
            "StreamSkin calls the server ended for sending nothing with no frame in flight "
            "(--stream-idle-seconds).");
   w.Sample("skinserve_streams_ended_idle_total", "", static_cast<double>(s.streams_ended_idle));
+  w.Header("skinserve_frame_socket_connections", "gauge",
+           "Frame-socket connections open (--frame-socket).");
+  w.Sample("skinserve_frame_socket_connections", "",
+           static_cast<double>(s.frame_socket.connections));
+  w.Header("skinserve_frame_socket_refused_total", "counter",
+           "Frame-socket connections refused over --frame-socket-max-connections.");
+  w.Sample("skinserve_frame_socket_refused_total", "", static_cast<double>(s.frame_socket.refused));
+  w.Header("skinserve_frame_socket_requests_total", "counter",
+           "Requests (frames and ticks) read on the frame socket.");
+  w.Sample("skinserve_frame_socket_requests_total", "",
+           static_cast<double>(s.frame_socket.requests));
   const UploadStats& u = s.uploads;
   w.Header("skinserve_open_uploads", "gauge", "UploadMesh calls in progress.");
   w.Sample("skinserve_open_uploads", "", static_cast<double>(u.open));

@@ -29,6 +29,13 @@ struct AnimationStoreStats {
   uint64_t budget_bytes = 0;
 };
 
+// The frame socket (socket/frame_socket.h); all 0 when it is off.
+struct FrameSocketStats {
+  uint64_t connections = 0;  // open now
+  uint64_t refused = 0;      // over --frame-socket-max-connections
+  uint64_t requests = 0;     // read, frames and ticks
+};
+
 struct ServerSnapshot {
   std::string version;
   bool serving = false;  // false while starting and while draining
@@ -41,7 +48,8 @@ struct ServerSnapshot {
   EngineStats engine;                                 // empty while starting
   std::map<std::string, BackendFrameMetrics> frames;  // per-frame histograms, by backend
   TickCounts ticks;                                   // ticks and their characters read
-  AnimationStoreStats animations;                     // empty while starting
+  FrameSocketStats frame_socket;
+  AnimationStoreStats animations;  // empty while starting
 };
 
 }  // namespace skinserve::server

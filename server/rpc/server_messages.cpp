@@ -85,6 +85,9 @@ v1::ServerStats ToWire(const ServerSnapshot& s) {
   wire.set_rejected_queue_full(e.rejected_queue_full);
   wire.set_open_streams(s.open_streams);
   wire.set_ended_streams_idle(s.streams_ended_idle);
+  wire.set_frame_socket_connections(s.frame_socket.connections);
+  wire.set_frame_socket_refused(s.frame_socket.refused);
+  wire.set_frame_socket_requests(s.frame_socket.requests);
   wire.set_inflight_budget_bytes(s.inflight.budget_bytes);
   wire.set_inflight_bytes(s.inflight.bytes);
   wire.set_rejected_inflight_budget(s.inflight.refused);

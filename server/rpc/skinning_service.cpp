@@ -104,6 +104,7 @@ FrameSocketAccess SkinningService::FrameSocketAccessFor(const UnixPeerCredential
   access.engine = engine_.load();
   access.default_backend = default_backend_;
   access.budget = &budget_;
+  access.counters = &frame_socket_counters_;
   access.limits = WithMaxInstances(request_limits_, access.engine);
   if (regions_ != nullptr || gpu_regions_ != nullptr) {
     access.regions = {regions_, RegionOwner::OfUnixPeer(peer), gpu_regions_};
@@ -121,6 +122,8 @@ ServerSnapshot SkinningService::Snapshot() const {
   s.serving = serving_.load();
   s.open_streams = open_streams_.count();
   s.streams_ended_idle = open_streams_.ended_idle();
+  s.frame_socket = {frame_socket_counters_.connections.load(),
+                    frame_socket_counters_.refused.load(), frame_socket_counters_.requests.load()};
   s.inflight = {budget_.limit(), budget_.used(), budget_.refused()};
   s.uploads = open_uploads_.Stats();
   s.shared_memory = regions_ != nullptr;

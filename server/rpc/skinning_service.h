@@ -64,6 +64,7 @@ class SkinningService final : public SkinningCallbackService {
   // What a frame-socket connection from `peer` serves with (socket/frame_socket.h): this
   // service's engine, budget, limits and regions, and the policy's verdict on StreamSkin.
   FrameSocketAccess FrameSocketAccessFor(const UnixPeerCredentials& peer);
+  FrameSocketCounters* frame_socket_counters() { return &frame_socket_counters_; }
   // Everything the server reports, taken at once for /metrics and GetServerStats.
   ServerSnapshot Snapshot() const;
   // SERVING or not (starting, draining), as the health service says.
@@ -121,9 +122,10 @@ class SkinningService final : public SkinningCallbackService {
   OpenStreams open_streams_;  // the cap on streams, their idle watchdog, the drain
   InflightBudget budget_;     // the bytes of frames in flight, all streams and Skin calls
   RegionRegistry* const regions_;
-  GpuRegionRegistry* gpu_regions_ = nullptr;  // null: GPU regions off
-  const RegionAccessPolicy region_access_;    // who may own regions (region_owner.h)
-  const PolicyFile* const policy_;            // null: every client may call every method
+  GpuRegionRegistry* gpu_regions_ = nullptr;   // null: GPU regions off
+  const RegionAccessPolicy region_access_;     // who may own regions (region_owner.h)
+  const PolicyFile* const policy_;             // null: every client may call every method
+  FrameSocketCounters frame_socket_counters_;  // all 0 while --frame-socket is off
   OpenUploads open_uploads_;  // the caps and budget of uploads, and their idle watchdog
 };
 

@@ -76,13 +76,6 @@ void FrameSocket::Stop() {
   open_.clear();
 }
 
-std::size_t FrameSocket::open_connections() const {
-  std::lock_guard lock(mutex_);
-  std::size_t count = 0;
-  for (const Open& open : open_) count += open.connection ? 1 : 0;
-  return count;
-}
-
 void FrameSocket::AcceptLoop() {
   pollfd fds[2] = {{listen_fd_, POLLIN, 0}, {wake_read_, POLLIN, 0}};
   while (true) {
@@ -120,7 +113,7 @@ void FrameSocket::Accept(int fd) {
   open.connection =
       std::make_unique<FrameSocketConnection>(fd, std::move(access), options_.idle_seconds);
   if (open_.size() > options_.max_connections) {
-    refused_.fetch_add(1);
+    if (FrameSocketCounters* c = open.connection->counters()) c->refused.fetch_add(1);
     open.connection->Refuse(ResourceExhausted(
         fmt::format("{} frame-socket connections are open, the most "
                     "--frame-socket-max-connections allows; close one or use gRPC",
@@ -128,8 +121,10 @@ void FrameSocket::Accept(int fd) {
     open_.pop_back();
     return;
   }
+  if (FrameSocketCounters* c = open.connection->counters()) c->connections.fetch_add(1);
   open.thread = std::thread([this, &open] {
     open.connection->Serve();
+    if (FrameSocketCounters* c = open.connection->counters()) c->connections.fetch_sub(1);
     std::lock_guard ended(mutex_);
     open.connection.reset();  // its fd, buffers and budget go now, not at the next accept
     open.finished.store(true);

@@ -45,8 +45,6 @@ class FrameSocket {
   // Stops accepting, drains every connection (each answers the request it is serving, then
   // ends UNAVAILABLE) and waits for them; removes the socket file. Idempotent.
   void Stop();
-  std::size_t open_connections() const;
-  uint64_t connections_refused() const { return refused_.load(); }
 
  private:
   struct Open {
@@ -64,7 +62,6 @@ class FrameSocket {
   const int listen_fd_, wake_read_, wake_write_;
   std::thread thread_;
   std::atomic<bool> stopped_{false};
-  std::atomic<uint64_t> refused_{0};
   mutable std::mutex mutex_;
   std::list<Open> open_;
 };

@@ -122,6 +122,7 @@ FrameSocketConnection::End FrameSocketConnection::ServeOne() {
   }
   if (End end = Fill(kHeaderBytes + header, false)) return end;
   read_begin_ += kHeaderBytes;
+  if (access_.counters != nullptr) access_.counters->requests.fetch_add(1);
   End end = Answer(header);
   read_begin_ += header;
   if (read_begin_ == read_end_) {

@@ -46,6 +46,7 @@ class FrameSocketConnection final : private FrameJob::Listener {
   // Ends the connection with `status` as its last message, without serving it (a
   // connection over the server's limit).
   void Refuse(const Status& status);
+  FrameSocketCounters* counters() const { return access_.counters; }
 
  private:
   // None: go on; else the connection ends, its last message carrying the status (none is

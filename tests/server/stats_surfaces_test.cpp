@@ -138,6 +138,9 @@ TEST(StatsSurfacesTest, GetServerStatsAndMetricsShowTheSameSnapshot) {
   }
   expect("skinserve_open_streams", stats->open_streams());
   expect("skinserve_streams_ended_idle_total", stats->ended_streams_idle());
+  expect("skinserve_frame_socket_connections", stats->frame_socket_connections());
+  expect("skinserve_frame_socket_refused_total", stats->frame_socket_refused());
+  expect("skinserve_frame_socket_requests_total", stats->frame_socket_requests());
   expect("skinserve_queue_depth", stats->queue_depth());
   expect("skinserve_queue_capacity", stats->queue_capacity());
   expect("skinserve_queue_rejections_total", stats->rejected_queue_full());

@@ -356,6 +356,12 @@ TEST_F(FrameSocketTest, AConnectionOverTheCapIsRefusedNamingTheOption) {
   EXPECT_FALSE(third->Read(&part));
   EXPECT_EQ(third->Finish().code(), StatusCode::kResourceExhausted) << third->Finish().ToString();
   EXPECT_NE(third->Finish().message().find("--frame-socket-max-connections"), std::string::npos);
+  // GetServerStats (and /metrics, the same snapshot) count them.
+  auto stats = t_->client->GetServerStats();
+  ASSERT_TRUE(stats.ok()) << stats.status().ToString();
+  EXPECT_EQ(stats->frame_socket_connections(), 2u);
+  EXPECT_EQ(stats->frame_socket_refused(), 1u);
+  EXPECT_EQ(stats->frame_socket_requests(), 2u);
   // Once one ends, a new one is served.
   first->WritesDone();
   EXPECT_FALSE(first->Read(&part));
