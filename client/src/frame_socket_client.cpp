@@ -41,12 +41,15 @@ Result<std::unique_ptr<FrameSocketClient>> FrameSocketClient::Connect(const std:
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
   const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) return Unavailable(fmt::format("socket: {}", std::strerror(errno)));
-  if (connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0 ||
-      !SendAll(fd, wire::kFrameSocketHello.data(), wire::kFrameSocketHello.size())) {
+  if (connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
     const std::string why = std::strerror(errno);
     close(fd);
     return Unavailable(fmt::format("cannot connect to the frame socket {}: {}", path, why));
   }
+  // A greeting that cannot be sent is no error here: a server that refuses the connection
+  // (over --frame-socket-max-connections, the policy) may have answered and closed it
+  // already, and Read then gives its reason.
+  (void)SendAll(fd, wire::kFrameSocketHello.data(), wire::kFrameSocketHello.size());
   return std::unique_ptr<FrameSocketClient>(new FrameSocketClient(fd));
 }
 

@@ -21,7 +21,8 @@ namespace skinserve::client {
 class FrameSocketClient {
  public:
   // Connects to the socket at `path` and sends the protocol's greeting. UNAVAILABLE naming
-  // the path when nothing listens there.
+  // the path when nothing listens there. A server that refuses the connection says why in
+  // its last message: the first Read returns false and Finish has it.
   static Result<std::unique_ptr<FrameSocketClient>> Connect(const std::string& path);
   ~FrameSocketClient();
   FrameSocketClient(const FrameSocketClient&) = delete;
