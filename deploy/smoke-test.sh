@@ -12,6 +12,7 @@
 #   5. runs the load client as a same-host client in a second container: the two share a
 #      memory-backed volume (the server's --shm-dir and its Unix socket), gRPC goes over
 #      the socket and every frame is written into the client's shared-memory regions,
+#      then the same over the server's frame socket (--frame-socket, without gRPC),
 #   6. sends SIGTERM during a load run and checks the server drains and exits 0.
 # The containers (and the PoCL cache volume) are always removed, whatever happens.
 #
@@ -179,6 +180,7 @@ podman_run -d --name "$name" --cpus 1 --memory 2g \
   -e SKINSERVE_TLS_CERT=/etc/skinserve/tls/server.pem -e SKINSERVE_TLS_KEY=/etc/skinserve/tls/server.key \
   -e SKINSERVE_TLS_CLIENT_CA=/etc/skinserve/tls/ca.pem \
   -e SKINSERVE_SHM_DIR=/run/skinserve -e SKINSERVE_DRAIN_SECONDS="$drain" \
+  -e SKINSERVE_FRAME_SOCKET=/run/skinserve/frames.sock \
   "$image" >/dev/null 2>"$work/run-server.err" || {
   cat "$work/run-server.err"
   fail "podman run of the server failed"
@@ -279,6 +281,25 @@ if bad: print("errors, mismatches or nothing checked:", bad)
 print("smoke: same host, shared memory:",
       ", ".join(f"{r['backend']} {r['checked']}/{r['frames']}" for r in shm))
 sys.exit(1 if bad or len(shm) != 2 else 0)
+PY
+# The frame socket from the other container (another pid namespace: its regions are its
+# uid's), the same frames without gRPC, every answer checked.
+say "same host: the frame socket from the second container, frames into its regions"
+if ! run_same_host_load --backends simd-openmp --data-planes socket \
+    --frame-socket /run/skinserve/frames.sock --vertices 20000 --streams 2 --rate 30 \
+    --warmup 0.5 --duration "$duration" --check-every 1 --json /out/socket.json \
+    >"$work/socket.out" 2>&1; then
+  cat "$work/socket.out"
+  fail "frame-socket load client reported errors"
+fi
+sed 's/^/  /' "$work/socket.out"
+python3 - "$work/socket.json" <<'PY' || fail "frame-socket report shows problems"
+import json, sys
+rows = json.load(open(sys.argv[1]))["results"]
+bad = [r for r in rows if r["data_plane"] != "socket" or r["errors"] or r["mismatches"]
+       or not r["checked"] or not r["frames"]]
+print("smoke: frame socket:", ", ".join(f"{r['backend']} {r['checked']}/{r['frames']}" for r in rows))
+sys.exit(1 if bad or not rows else 0)
 PY
 # Every client's regions: `regions` lists the asking process's own (none), `stats` counts all.
 regions=$(podman exec "$name" skinserve-cli --target unix:/run/skinserve/grpc.sock stats |

@@ -541,11 +541,19 @@ def check_regions_on_socket(where, env, same_host):
               f"{where}: SKINSERVE_SHM_OVER_TCP without SKINSERVE_TLS_CLIENT_CA (mutual TLS)")
 
 
-def check_same_host_client(where, args, shm_dir, socket_dir):
-    """A same-host client: the shared-memory data plane in the server's --shm-dir, and
-    gRPC over the server's Unix socket in the shared folder."""
-    check("--shared-memory" in args or flag(args, "data-planes") in ("shm", "grpc,shm"),
+def check_same_host_client(where, args, shm_dir, socket_dir, frame_socket=None):
+    """A same-host client: the shared-memory data plane in the server's --shm-dir (its
+    requests on StreamSkin, or on the server's frame socket), and gRPC over the server's
+    Unix socket in the shared folder."""
+    planes = flag(args, "data-planes")
+    check("--shared-memory" in args or planes in ("shm", "grpc,shm", "socket"),
           f"{where}: the client does not use the shared-memory data plane")
+    if planes == "socket":
+        check(frame_socket and flag(args, "frame-socket") == frame_socket,
+              f"{where}: --frame-socket {flag(args, 'frame-socket')} is not the server's "
+              f"SKINSERVE_FRAME_SOCKET {frame_socket}")
+        check(frame_socket and frame_socket.rsplit("/", 1)[0] == shm_dir,
+              f"{where}: the frame socket {frame_socket} is not in the shared folder {shm_dir}")
     check(flag(args, "shm-dir") == shm_dir,
           f"{where}: --shm-dir {flag(args, 'shm-dir')} is not the server's {shm_dir}")
     target = flag(args, "target") or ""
@@ -612,7 +620,7 @@ def check_same_host_pod(name, dep, version, base_maps):
         check(mounts.get(shm_dir) == server_mounts.get(shm_dir),
               f"{name}: {client['name']} does not share {shm_dir} with skinserve")
         check_same_host_client(f"{name} {client['name']}", client.get("args", []), shm_dir,
-                               shm_dir)
+                               shm_dir, env.get("SKINSERVE_FRAME_SOCKET"))
 
 
 if __name__ == "__main__":
