@@ -63,6 +63,7 @@ def test_pinned_grpcio_and_numpy_ranges_accept_the_installed_ones():
 
 def test_public_names():
     assert set(skinserve.__all__) == {"AsyncClient", "Character", "CharacterResult", "ClipTrack",
-                                      "Client", "FrameWeights", "MorphTarget", "Pose",
+                                      "Client", "FrameSocket", "FrameWeights", "MorphTarget",
+                                      "Pose",
                                       "PoseLayer", "SkinserveError", "SharedMemoryRegion",
                                       "Weights", "decode_values"}

@@ -40,11 +40,13 @@ from ._aio_client import AsyncClient
 from ._client import Client
 from ._encoding import decode_values
 from ._errors import SkinserveError
+from ._frame_socket import FrameSocket
 from ._morph import FrameWeights, MorphTarget, Weights
 from ._pose import ClipTrack, Pose, PoseLayer
 from ._shared_memory import SharedMemoryRegion
 from ._tick import Character, CharacterResult
 
-__all__ = ["AsyncClient", "Character", "CharacterResult", "ClipTrack", "Client", "FrameWeights",
+__all__ = ["AsyncClient", "Character", "CharacterResult", "ClipTrack", "Client", "FrameSocket",
+           "FrameWeights",
            "MorphTarget", "Pose", "PoseLayer", "SkinserveError", "SharedMemoryRegion", "Weights",
            "decode_values"]
