@@ -48,8 +48,9 @@ case "$mode" in
       cmake --build "$build" -j "$(nproc)" --target skinserve skinserve_engine_tests \
         skinserve_backend_tests skinserve_service_tests skinserve_character_tests \
         skinserve_security_tests skinserve_stress_tests skinserve_client_tests \
-        skinserve_wire_tests mesh_upload_fuzzer skin_request_fuzzer gltf_fuzzer raw_part_fuzzer
-      set -- -R '^(skinserve_(engine|backend|service|character|security|stress|client|wire)_tests|.*_fuzzer\.corpus)$'
+        skinserve_wire_tests skinserve_frame_socket_tests mesh_upload_fuzzer skin_request_fuzzer \
+        gltf_fuzzer raw_part_fuzzer
+      set -- -R '^(skinserve_(engine|backend|service|character|security|stress|client|wire|frame_socket)_tests|.*_fuzzer\.corpus)$'
     else
       cmake --build "$build" -j "$(nproc)"
       # Not the container tests (deploy) nor the arm64 cross-build (arm64: another compiler,
