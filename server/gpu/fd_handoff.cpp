@@ -1,13 +1,10 @@
 #include "gpu/fd_handoff.h"
 
-#include <fcntl.h>
 #include <fmt/format.h>
 #include <poll.h>
 #include <spdlog/spdlog.h>
 #include <sys/random.h>
 #include <sys/socket.h>
-#include <sys/stat.h>
-#include <sys/un.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -84,71 +81,20 @@ Result<int> ReceiveFd(int connection) {
 }  // namespace
 
 Result<std::unique_ptr<FdHandoff>> FdHandoff::Listen(const std::string& path) {
-  const auto fail = [&](const std::string& why) {
-    return Unavailable(fmt::format("cannot listen on --gpu-fd-socket {}: {}", path, why));
-  };
-  sockaddr_un addr = {};
-  addr.sun_family = AF_UNIX;
-  if (path.empty() || path.size() >= sizeof(addr.sun_path)) {
-    return fail(fmt::format("the path must be 1 to {} bytes", sizeof(addr.sun_path) - 1));
-  }
-  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  struct stat existing = {};
-  if (lstat(path.c_str(), &existing) == 0 && S_ISSOCK(existing.st_mode)) unlink(path.c_str());
-  const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
-  if (fd < 0) return fail(std::strerror(errno));
-  int wake[2] = {-1, -1};
-  if (bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0 ||
-      listen(fd, 64) != 0 || pipe2(wake, O_CLOEXEC) != 0) {
-    const std::string why = std::strerror(errno);
-    close(fd);
-    return fail(why);
-  }
-  auto handoff = std::unique_ptr<FdHandoff>(new FdHandoff(path, fd, wake[0], wake[1]));
-  handoff->thread_ = std::thread([h = handoff.get()] { h->AcceptLoop(); });
+  auto acceptor = UnixAcceptor::Listen(path, "--gpu-fd-socket " + path);
+  if (!acceptor.ok()) return acceptor.status();
+  auto handoff = std::unique_ptr<FdHandoff>(new FdHandoff(std::move(acceptor).value()));
+  handoff->acceptor_->Start([h = handoff.get()](int connection) {
+    h->Serve(connection);
+    close(connection);
+  });
   return handoff;
 }
 
-FdHandoff::FdHandoff(std::string path, int listen_fd, int wake_read, int wake_write)
-    : path_(std::move(path)),
-      listen_fd_(listen_fd),
-      wake_read_(wake_read),
-      wake_write_(wake_write) {}
-
 FdHandoff::~FdHandoff() {
-  const char byte = 0;
-  while (write(wake_write_, &byte, 1) < 0 && errno == EINTR) {
-  }
-  if (thread_.joinable()) thread_.join();
-  close(listen_fd_);
-  close(wake_read_);
-  close(wake_write_);
-  unlink(path_.c_str());
+  acceptor_->Stop();
   std::lock_guard lock(mutex_);
   for (auto& [token, p] : pending_) close(p.fd);
-}
-
-void FdHandoff::AcceptLoop() {
-  pollfd fds[2] = {{listen_fd_, POLLIN, 0}, {wake_read_, POLLIN, 0}};
-  while (true) {
-    if (poll(fds, 2, -1) < 0 && errno != EINTR) {
-      spdlog::error("--gpu-fd-socket {}: no longer accepting: poll: {}", path_,
-                    std::strerror(errno));
-      return;
-    }
-    if (fds[1].revents != 0) return;
-    if ((fds[0].revents & POLLIN) == 0) continue;
-    const int connection = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-    if (connection < 0) {
-      if (errno != EAGAIN && errno != EINTR && errno != ECONNABORTED) {
-        spdlog::warn("--gpu-fd-socket {}: accept: {}", path_, std::strerror(errno));
-        if (poll(&fds[1], 1, 100) > 0) return;
-      }
-      continue;
-    }
-    Serve(connection);
-    close(connection);
-  }
 }
 
 void FdHandoff::Serve(int connection) {

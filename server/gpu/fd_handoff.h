@@ -15,8 +15,8 @@
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 
+#include "rpc/unix_acceptor.h"
 #include "shm/region_owner.h"
 #include "skinserve/model/status.h"
 
@@ -47,17 +47,14 @@ class FdHandoff {
     std::string owner;
     std::chrono::steady_clock::time_point expires;
   };
-  FdHandoff(std::string path, int listen_fd, int wake_read, int wake_write);
-  void AcceptLoop();
+  explicit FdHandoff(std::unique_ptr<UnixAcceptor> acceptor) : acceptor_(std::move(acceptor)) {}
   // One connection: the fd received and a token answered, or an error line.
   void Serve(int connection);
   // The token for `fd` of `owner`, or why it is refused (the fd is then closed).
   Result<std::string> Enter(int fd, const RegionOwner& owner);
   void ExpireLocked(std::chrono::steady_clock::time_point now);
 
-  const std::string path_;
-  const int listen_fd_, wake_read_, wake_write_;
-  std::thread thread_;
+  const std::unique_ptr<UnixAcceptor> acceptor_;  // its thread serves each connection
   mutable std::mutex mutex_;
   std::map<std::string, Pending> pending_;  // by token
 };

@@ -8,11 +8,10 @@
 
 #include <grpcpp/server.h>
 
-#include <atomic>
 #include <memory>
 #include <string>
-#include <thread>
 
+#include "rpc/unix_acceptor.h"
 #include "security/unix_peers.h"
 #include "skinserve/model/status.h"
 
@@ -23,7 +22,7 @@ class UnixListener {
   // Binds and listens on `address` ("unix:PATH" or "unix:///PATH"); an existing socket file
   // there is replaced, as gRPC does. UNAVAILABLE "cannot listen on ADDRESS: why".
   static Result<std::unique_ptr<UnixListener>> Listen(const std::string& address, UnixPeers* peers);
-  ~UnixListener();  // Stop()
+  ~UnixListener() { Stop(); }
   UnixListener(const UnixListener&) = delete;
   UnixListener& operator=(const UnixListener&) = delete;
 
@@ -32,20 +31,15 @@ class UnixListener {
   void Start(grpc::Server* server);
   // Stops accepting and joins the thread; then closes the socket and removes its file.
   // Connections already handed over stay gRPC's. Idempotent.
-  void Stop();
+  void Stop() { acceptor_->Stop(); }
 
  private:
-  UnixListener(std::string address, std::string path, int listen_fd, int wake_read, int wake_write,
-               ino_t file_inode, UnixPeers* peers);
-  void AcceptLoop(grpc::Server* server);
+  UnixListener(std::string address, std::unique_ptr<UnixAcceptor> acceptor, UnixPeers* peers)
+      : address_(std::move(address)), acceptor_(std::move(acceptor)), peers_(peers) {}
 
-  const std::string address_, path_;
-  const int listen_fd_;
-  const int wake_read_, wake_write_;  // a pipe: a byte written stops the accept loop
-  const ino_t file_inode_;            // the socket file bound at path_ (removed if still it)
+  const std::string address_;
+  const std::unique_ptr<UnixAcceptor> acceptor_;
   UnixPeers* const peers_;
-  std::thread thread_;
-  std::atomic<bool> stopped_{false};
 };
 
 }  // namespace skinserve::server

@@ -1,13 +1,7 @@
 #include "socket/frame_socket.h"
 
-#include <fcntl.h>
 #include <fmt/format.h>
-#include <poll.h>
-#include <spdlog/spdlog.h>
 #include <sys/socket.h>
-#include <sys/stat.h>
-#include <sys/un.h>
-#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
@@ -15,56 +9,22 @@
 namespace skinserve::server {
 
 Result<std::unique_ptr<FrameSocket>> FrameSocket::Listen(const Options& options, AccessFor access) {
-  const auto fail = [&](const std::string& why) {
-    return Unavailable(fmt::format("cannot listen on --frame-socket {}: {}", options.path, why));
-  };
-  sockaddr_un addr = {};
-  addr.sun_family = AF_UNIX;
-  if (options.path.empty() || options.path.size() >= sizeof(addr.sun_path)) {
-    return fail(fmt::format("the path must be 1 to {} bytes", sizeof(addr.sun_path) - 1));
-  }
-  std::memcpy(addr.sun_path, options.path.c_str(), options.path.size() + 1);
-  struct stat existing = {};
-  if (lstat(options.path.c_str(), &existing) == 0 && S_ISSOCK(existing.st_mode)) {
-    unlink(options.path.c_str());
-  }
-  const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
-  if (fd < 0) return fail(std::strerror(errno));
-  int wake[2] = {-1, -1};
-  if (bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0 ||
-      listen(fd, SOMAXCONN) != 0 || pipe2(wake, O_CLOEXEC) != 0) {
-    const std::string why = std::strerror(errno);
-    close(fd);
-    return fail(why);
-  }
+  auto acceptor = UnixAcceptor::Listen(options.path, "--frame-socket " + options.path);
+  if (!acceptor.ok()) return acceptor.status();
   auto socket = std::unique_ptr<FrameSocket>(
-      new FrameSocket(options, std::move(access), fd, wake[0], wake[1]));
-  socket->thread_ = std::thread([s = socket.get()] { s->AcceptLoop(); });
+      new FrameSocket(options, std::move(access), std::move(acceptor).value()));
+  socket->acceptor_->Start([s = socket.get()](int fd) { s->Accept(fd); });
   return socket;
 }
 
-FrameSocket::FrameSocket(Options options, AccessFor access, int listen_fd, int wake_read,
-                         int wake_write)
-    : options_(std::move(options)),
-      access_(std::move(access)),
-      listen_fd_(listen_fd),
-      wake_read_(wake_read),
-      wake_write_(wake_write) {}
+FrameSocket::FrameSocket(Options options, AccessFor access, std::unique_ptr<UnixAcceptor> acceptor)
+    : options_(std::move(options)), access_(std::move(access)), acceptor_(std::move(acceptor)) {}
 
-FrameSocket::~FrameSocket() {
-  Stop();
-  close(listen_fd_);
-  close(wake_read_);
-  close(wake_write_);
-}
+FrameSocket::~FrameSocket() { Stop(); }
 
 void FrameSocket::Stop() {
   if (stopped_.exchange(true)) return;
-  const char byte = 0;
-  while (write(wake_write_, &byte, 1) < 0 && errno == EINTR) {
-  }
-  if (thread_.joinable()) thread_.join();
-  unlink(options_.path.c_str());
+  acceptor_->Stop();  // no connection comes any more; the socket file goes
   {
     std::lock_guard lock(mutex_);
     for (Open& open : open_) {
@@ -74,28 +34,6 @@ void FrameSocket::Stop() {
   // The accept loop is gone: nothing adds to open_ any more.
   for (Open& open : open_) open.thread.join();
   open_.clear();
-}
-
-void FrameSocket::AcceptLoop() {
-  pollfd fds[2] = {{listen_fd_, POLLIN, 0}, {wake_read_, POLLIN, 0}};
-  while (true) {
-    if (poll(fds, 2, -1) < 0 && errno != EINTR) {
-      spdlog::error("--frame-socket {}: no longer accepting: poll: {}", options_.path,
-                    std::strerror(errno));
-      return;
-    }
-    if (fds[1].revents != 0) return;
-    if ((fds[0].revents & POLLIN) == 0) continue;
-    const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-    if (fd < 0) {
-      if (errno != EAGAIN && errno != EINTR && errno != ECONNABORTED) {
-        spdlog::warn("--frame-socket {}: accept: {}", options_.path, std::strerror(errno));
-        if (poll(&fds[1], 1, 100) > 0) return;  // e.g. out of fds: not a busy loop
-      }
-      continue;
-    }
-    Accept(fd);
-  }
 }
 
 void FrameSocket::Accept(int fd) {

@@ -18,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "rpc/unix_acceptor.h"
 #include "security/unix_peers.h"
 #include "skinserve/model/status.h"
 #include "socket/frame_socket_access.h"
@@ -52,15 +53,13 @@ class FrameSocket {
     std::thread thread;
     std::atomic<bool> finished{false};
   };
-  FrameSocket(Options options, AccessFor access, int listen_fd, int wake_read, int wake_write);
-  void AcceptLoop();
-  void Accept(int fd);
+  FrameSocket(Options options, AccessFor access, std::unique_ptr<UnixAcceptor> acceptor);
+  void Accept(int fd);  // on the acceptor's thread
   void JoinFinishedLocked();
 
   const Options options_;
   const AccessFor access_;
-  const int listen_fd_, wake_read_, wake_write_;
-  std::thread thread_;
+  const std::unique_ptr<UnixAcceptor> acceptor_;
   std::atomic<bool> stopped_{false};
   mutable std::mutex mutex_;
   std::list<Open> open_;

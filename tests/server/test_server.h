@@ -47,6 +47,18 @@ struct TestServer {
   TestServer& operator=(const TestServer&) = delete;
 };
 
+// The server's available backends that skin (every one but `passthrough`), by id.
+inline std::vector<std::string> SkinningBackends(client::SkinClient& client) {
+  std::vector<std::string> ids;
+  auto list = client.ListBackends();
+  EXPECT_TRUE(list.ok()) << list.status().ToString();
+  if (!list.ok()) return ids;
+  for (const auto& b : list->backends()) {
+    if (b.available() && b.id() != "passthrough") ids.push_back(b.id());
+  }
+  return ids;
+}
+
 // Sends `messages` as one UploadMesh call through the raw stub (for uploads the client
 // library would refuse or shape itself); the server's MeshInfo or its status.
 inline Result<v1::MeshInfo> RawUploadMesh(client::SkinClient& c,

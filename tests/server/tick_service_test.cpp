@@ -147,21 +147,11 @@ void ExpectMatches(const Meshes& meshes, const Character& c, FrameResult result,
   }
 }
 
-std::vector<std::string> Backends(client::SkinClient& client) {
-  std::vector<std::string> ids;
-  auto list = client.ListBackends();
-  EXPECT_TRUE(list.ok());
-  for (const auto& b : list->backends()) {
-    if (b.available() && b.id() != "passthrough") ids.push_back(b.id());
-  }
-  return ids;
-}
-
 TEST(TickTest, EveryCharacterOfAMixedTickMatchesTheReferenceOnEveryBackend) {
   TestServer t;
   const Meshes meshes(*t.client);
   const server::TickCounts before = server::TickTotals();
-  const std::vector<std::string> backends = Backends(*t.client);
+  const std::vector<std::string> backends = SkinningBackends(*t.client);
   EXPECT_GE(backends.size(), 4u);
   uint64_t ticks = 0, characters = 0;
   for (const std::string& backend : backends) {

@@ -168,16 +168,6 @@ class FrameSocketTest : public ::testing::Test {
   std::map<std::string, std::unique_ptr<SharedMemoryRegion>> regions_;
 };
 
-std::vector<std::string> Backends(client::SkinClient& client) {
-  std::vector<std::string> ids;
-  auto list = client.ListBackends();
-  EXPECT_TRUE(list.ok());
-  for (const auto& b : list->backends()) {
-    if (b.available() && b.id() != "passthrough") ids.push_back(b.id());
-  }
-  return ids;
-}
-
 TEST_F(FrameSocketTest, FramesIntoARegionMatchTheReferenceOnEveryBackendAndEncoding) {
   const std::string mesh = Upload(2531, 1);
   const VertexEncoding encodings[] = {VertexEncoding::kFloat32, VertexEncoding::kFloat16,
@@ -186,7 +176,7 @@ TEST_F(FrameSocketTest, FramesIntoARegionMatchTheReferenceOnEveryBackendAndEncod
   auto socket = Connect();
   ASSERT_NE(socket, nullptr);
   uint64_t frame = 0;
-  for (const std::string& backend : Backends(*t_->client)) {
+  for (const std::string& backend : SkinningBackends(*t_->client)) {
     for (VertexEncoding encoding : encodings) {
       for (int repeat = 0; repeat < 2; ++repeat, ++frame) {  // the second reuses the plan
         ASSERT_TRUE(socket->Write(Frame(mesh, backend, frame, encoding, "r")));
