@@ -16,7 +16,7 @@
 namespace skinserve::client {
 namespace {
 
-constexpr std::size_t kHeaderBytes = 4;
+constexpr std::size_t kHeaderBytes = wire::kFrameSocketHeaderBytes;
 
 bool SendAll(int fd, const char* data, std::size_t bytes) {
   while (bytes > 0) {
@@ -59,7 +59,8 @@ bool FrameSocketClient::Write(const v1::SkinRequest& request) {
   const std::size_t size = request.ByteSizeLong();
   if (size > wire::kFrameSocketSizeMask) return false;
   out_.resize(kHeaderBytes + size);
-  for (std::size_t i = 0; i < kHeaderBytes; ++i) out_[i] = static_cast<char>(size >> (8 * i));
+  wire::WriteFrameSocketHeader(static_cast<uint32_t>(size),
+                               reinterpret_cast<unsigned char*>(out_.data()));
   request.SerializeWithCachedSizesToArray(reinterpret_cast<uint8_t*>(out_.data() + kHeaderBytes));
   return SendAll(fd_, out_.data(), out_.size());
 }
@@ -99,9 +100,7 @@ bool FrameSocketClient::ReadExactly(void* into, std::size_t bytes) {
 bool FrameSocketClient::Read(grpc::ByteBuffer* part) {
   unsigned char header[kHeaderBytes];
   if (!ReadExactly(header, kHeaderBytes)) return false;
-  uint32_t value = 0;
-  for (std::size_t i = 0; i < kHeaderBytes; ++i)
-    value |= static_cast<uint32_t>(header[i]) << (8 * i);
+  const uint32_t value = wire::ReadFrameSocketHeader(header);
   const std::size_t size = value & wire::kFrameSocketSizeMask;
   // Read straight into a slice the ByteBuffer then owns: no copy of the vertices.
   grpc_slice slice = grpc_slice_malloc(size);

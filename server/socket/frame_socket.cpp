@@ -65,13 +65,12 @@ void FrameSocket::Accept(int fd) {
     if (FrameSocketCounters* c = open.connection->counters()) c->connections.fetch_sub(1);
     std::lock_guard ended(mutex_);
     open.connection.reset();  // its fd, buffers and budget go now, not at the next accept
-    open.finished.store(true);
   });
 }
 
 void FrameSocket::JoinFinishedLocked() {
   for (auto it = open_.begin(); it != open_.end();) {
-    if (it->finished.load()) {
+    if (!it->connection) {  // its thread unlocked the mutex as its last step
       it->thread.join();
       it = open_.erase(it);
     } else {

@@ -50,8 +50,7 @@ class FrameSocket {
  private:
   struct Open {
     std::unique_ptr<FrameSocketConnection> connection;  // null once it ended (under mutex_)
-    std::thread thread;
-    std::atomic<bool> finished{false};
+    std::thread thread;  // ended, or about to, once connection is null
   };
   FrameSocket(Options options, AccessFor access, std::unique_ptr<UnixAcceptor> acceptor);
   void Accept(int fd);  // on the acceptor's thread

@@ -18,22 +18,13 @@ namespace {
 
 // The receive buffer a connection starts with, and keeps after a larger request.
 constexpr std::size_t kInitialBufferBytes = 64 << 10;
-constexpr std::size_t kHeaderBytes = 4;
+constexpr std::size_t kHeaderBytes = wire::kFrameSocketHeaderBytes;
 // Parts go out in one sendmsg each: the header and the part's slices.
 constexpr std::size_t kMaxIovecs = 64;
 
 timeval TimevalOf(double seconds) {
   const auto whole = static_cast<time_t>(seconds);
   return {whole, static_cast<suseconds_t>((seconds - static_cast<double>(whole)) * 1e6)};
-}
-
-uint32_t ReadHeader(const std::byte* bytes) {
-  return static_cast<uint32_t>(bytes[0]) | static_cast<uint32_t>(bytes[1]) << 8 |
-         static_cast<uint32_t>(bytes[2]) << 16 | static_cast<uint32_t>(bytes[3]) << 24;
-}
-
-void WriteHeader(uint32_t value, unsigned char* bytes) {
-  for (int i = 0; i < 4; ++i) bytes[i] = static_cast<unsigned char>(value >> (8 * i));
 }
 
 // Sends all of `iov` (advanced in place over partial writes); false if the client is gone.
@@ -111,7 +102,8 @@ void FrameSocketConnection::Serve() {
 FrameSocketConnection::End FrameSocketConnection::ServeOne() {
   if (draining_.load()) return Unavailable(QuietOrDrained("the server is shutting down"));
   if (End end = Fill(kHeaderBytes, true)) return end;
-  const uint32_t header = ReadHeader(buffer_.data() + read_begin_);
+  const uint32_t header = wire::ReadFrameSocketHeader(
+      reinterpret_cast<const unsigned char*>(buffer_.data()) + read_begin_);
   const uint64_t limit = std::max<uint64_t>(access_.limits.max_tick_bytes, kMaxFrameRequestBytes);
   if ((header & wire::kFrameSocketEndBit) != 0 || header > limit) {
     // Refused before a byte of it is read or held: its size alone breaks the limit.
@@ -208,8 +200,8 @@ FrameSocketConnection::End FrameSocketConnection::WriteAnswer(StreamAnswer& answ
 bool FrameSocketConnection::WriteMessage(const grpc::ByteBuffer& message, bool end) {
   if (!message.Dump(&slices_).ok()) return false;
   unsigned char header[kHeaderBytes];
-  WriteHeader(static_cast<uint32_t>(message.Length()) | (end ? wire::kFrameSocketEndBit : 0),
-              header);
+  wire::WriteFrameSocketHeader(
+      static_cast<uint32_t>(message.Length()) | (end ? wire::kFrameSocketEndBit : 0), header);
   iov_.clear();
   iov_.push_back({header, kHeaderBytes});
   for (const grpc::Slice& slice : slices_) {

@@ -10,6 +10,7 @@
 // the client half-closed and every request was answered).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 
@@ -18,5 +19,20 @@ namespace skinserve::wire {
 inline constexpr std::string_view kFrameSocketHello = "SKFRAME1";
 inline constexpr uint32_t kFrameSocketEndBit = 0x80000000u;
 inline constexpr uint32_t kFrameSocketSizeMask = 0x7fffffffu;
+inline constexpr std::size_t kFrameSocketHeaderBytes = 4;
+
+// A message's header, little-endian, into and out of its 4 bytes.
+inline void WriteFrameSocketHeader(uint32_t header, unsigned char* bytes) {
+  for (std::size_t i = 0; i < kFrameSocketHeaderBytes; ++i) {
+    bytes[i] = static_cast<unsigned char>(header >> (8 * i));
+  }
+}
+inline uint32_t ReadFrameSocketHeader(const unsigned char* bytes) {
+  uint32_t header = 0;
+  for (std::size_t i = 0; i < kFrameSocketHeaderBytes; ++i) {
+    header |= static_cast<uint32_t>(bytes[i]) << (8 * i);
+  }
+  return header;
+}
 
 }  // namespace skinserve::wire
