@@ -32,4 +32,22 @@ PY
 "${run[@]}" --paper-tables --benchmark_repetitions=1 >"$work/stdout.txt" 2>/dev/null
 grep -q "serial" "$work/stdout.txt" && grep -qi "speedup" "$work/stdout.txt" ||
   fail "console output without the paper tables"
-echo "bench-formats-test: console: tables present; PASSED"
+echo "bench-formats-test: console: tables present"
+
+# --tick=3: a tick's rows (3 distinct meshes a tick), with the time a character took.
+"${run[@]}" --tick=3 --quantized --benchmark_filter=Tick --benchmark_format=json \
+  >"$work/tick.json" 2>/dev/null
+python3 - "$work/tick.json" <<'PY' || fail "tick rows"
+import json, sys
+rows = {b["name"]: b for b in json.load(open(sys.argv[1]))["benchmarks"]}
+for name in ("BM_SkinTick/serial/1000/1/characters:3/real_time",
+             "BM_SkinTickNormals/sse/1000/1/characters:3/real_time"):
+    assert name in rows, (name, list(rows))
+    row = rows[name]
+    assert "error_message" not in row, row
+    per = row["seconds_per_character"]
+    # a tick's time is its three characters'
+    assert 0 < per and abs(per * 3 - row["real_time"] * 1e-3) < 0.05 * per * 3, row
+print(f"bench-formats-test: tick: {len(rows)} rows")
+PY
+echo "bench-formats-test: PASSED"

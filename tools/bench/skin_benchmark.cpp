@@ -37,6 +37,12 @@
 // optimiser leaves a real character (neighbouring vertices share bones), instead of the
 // paper's shuffled order (each vertex on a random bone); the CPU loops hardly care, a GPU's
 // palette reads do.
+// --tick=N: also BM_SkinTick[Normals]/<backend>/<vertices>/<bones>/characters:N, a tick's
+// work on one thread: N distinct meshes (as many characters, each mesh its own seed) skinned
+// one after another into their ranges of one output, as a tick fills a region; the meshes and
+// the output (N x (30 + 24) bytes a vertex at 25k x 2 with normals) outgrow the caches, where
+// BM_Skin's single mesh stays in them. Reports seconds_per_character beside the cached row;
+// with --quantized also BM_SkinTick[Normals]Quantized/... (RestEncoding quantized16).
 // --device-output: also BM_SkinDeviceOutput/opencl/<vertices>/<bones> (and
 // BM_SkinDeviceOutputInPlace)
 // (device_output_benchmark.h), `opencl`'s frame with its output left in device memory, the
@@ -77,6 +83,7 @@
 #include "pose_benchmark.h"
 #include "skinserve/engine/backend_registry.h"
 #include "skinserve/model/aligned_buffer.h"
+#include "skinserve/reference/synthetic.h"
 #include "skinserve/reference/synthetic_morph.h"
 #include "workload_cache.h"
 
@@ -101,6 +108,7 @@ struct Options {
   bool sorted_by_joints = false;          // --vertex-order=sorted
   bool device_output = false;             // --device-output: BM_SkinDeviceOutput rows
   bool opencl_device_timing = true;       // --opencl-device-timing=0: unprofiled queues
+  uint32_t tick = 0;                      // --tick=N: BM_SkinTick rows of N characters
 };
 
 template <typename T>
@@ -152,6 +160,8 @@ Options ParseOptions(int* argc, char** argv) {
       options.opencl_device_timing = std::string(timing) != "0";
     } else if (const char* streams = value("--streams=")) {
       options.streams = static_cast<int>(std::stoul(streams));
+    } else if (const char* characters = value("--tick=")) {
+      options.tick = static_cast<uint32_t>(std::stoul(characters));
     } else if (arg == "--process-cpu-time") {
       options.process_cpu_time = true;
     } else if (const char* order = value("--vertex-order=")) {
@@ -368,6 +378,47 @@ void SkinMorphBenchmark(benchmark::State& state, Backend* backend, uint32_t vert
     state.counters["kernel_ns"] = benchmark::Counter(static_cast<double>(kernel_ns) /
                                                      static_cast<double>(state.iterations()));
   }
+}
+
+// A tick of `characters` distinct meshes, each skinned into its range of one shared output.
+void SkinTickBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
+                       bool normals, uint32_t characters, RestEncoding rest) {
+  std::vector<std::unique_ptr<PreparedMesh>> meshes;
+  for (uint32_t c = 0; c < characters; ++c) {
+    auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
+                                                .influences = bones,
+                                                .joint_count = kPaperJoints,
+                                                .normals = true,
+                                                .seed = 1000ull * vertices + 10ull * bones + c}),
+                             {.rest_encoding = rest});
+    if (!mesh.ok()) return state.SkipWithError(mesh.status().ToString().c_str());
+    auto prepared = backend->Prepare(*mesh);
+    if (!prepared.ok()) return state.SkipWithError(prepared.status().ToString().c_str());
+    meshes.push_back(std::move(prepared).value());
+  }
+  const Workload& workload = Cache().Get(vertices, bones);  // its palettes
+  const std::size_t floats = 3ull * vertices;
+  AlignedBuffer<float> positions(floats * characters);
+  AlignedBuffer<float> out_normals(normals ? floats * characters : 0);
+  std::size_t frame = 0;
+  for (auto _ : state) {
+    const auto& palette = workload.palettes[frame++ % workload.palettes.size()];
+    for (uint32_t c = 0; c < characters; ++c) {
+      const SkinFrame skin{
+          .palette = palette,
+          .positions = positions.span().subspan(c * floats, floats),
+          .normals = normals ? out_normals.span().subspan(c * floats, floats) : std::span<float>()};
+      if (Status s = backend->Skin(*meshes[c], skin); !s.ok()) {
+        return state.SkipWithError(s.ToString().c_str());
+      }
+    }
+    benchmark::DoNotOptimize(positions.data());
+    benchmark::ClobberMemory();
+  }
+  const double skinned = static_cast<double>(state.iterations()) * characters;
+  state.SetItemsProcessed(static_cast<int64_t>(skinned * vertices));
+  state.counters["seconds_per_character"] =
+      benchmark::Counter(skinned, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 // The device's bounds, measured with the runtime the OpenCL backends use (a second one
@@ -674,6 +725,33 @@ void RegisterStreamRows(const Options& options, const Rows& rows) {
   }
 }
 
+// --tick=N: BM_SkinTick[Normals]/<backend>/<vertices>/<bones>/characters:N.
+void RegisterTickRows(const Options& options, const Rows& rows) {
+  if (options.tick == 0) return;
+  for (bool normals : {false, true}) {
+    for (uint32_t v : options.vertices) {
+      for (uint32_t b : options.bones) {
+        for (const auto& [id, backend] : rows) {
+          for (auto [kind, rest] : {std::pair{"", RestEncoding::kFloat32},
+                                    std::pair{"Quantized", RestEncoding::kQuantized16}}) {
+            if (rest != RestEncoding::kFloat32 &&
+                (!options.quantized || !backend->info().quantized_rest)) {
+              continue;
+            }
+            const std::string name = fmt::format("{}{}/{}/{}/{}/characters:{}",
+                                                 normals ? "BM_SkinTickNormals" : "BM_SkinTick",
+                                                 kind, id, v, b, options.tick);
+            benchmark::RegisterBenchmark(name.c_str(), SkinTickBenchmark, backend, v, b, normals,
+                                         options.tick, rest)
+                ->UseRealTime()
+                ->Unit(benchmark::kMillisecond);
+          }
+        }
+      }
+    }
+  }
+}
+
 // The bounds: with OpenCL measured, the device's (PCIe each way, device copy, pinned
 // copy-out) from a runtime of its own; then the pose rows and the memory bandwidth.
 void RegisterBoundRows(bool opencl_measured, int threads, const std::string& opencl_device) {
@@ -784,6 +862,7 @@ int main(int argc, char** argv) {
                                    std::count(measured.begin(), measured.end(), "opencl-zerocopy") >
                                0;
   if (opencl_measured && options.streams > 1) RegisterStreamRows(options, rows);
+  RegisterTickRows(options, rows);
   RegisterBoundRows(opencl_measured, threads, options.opencl_device);
   return RunRows(options, argc, argv, rows);
 }
