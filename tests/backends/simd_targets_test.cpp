@@ -37,9 +37,10 @@ std::vector<uint32_t> VertexCounts() {
 }
 
 // Skins into outputs with guard floats before and after; checks both the reference and
-// the guards.
+// the guards. `palette_scale` multiplies every palette entry (linear blending only).
 void ExpectMatchesReference(Backend& backend, uint32_t vertices, uint32_t influences,
-                            uint32_t joints, bool normals, bool tangents, SkinningMethod method) {
+                            uint32_t joints, bool normals, bool tangents, SkinningMethod method,
+                            float palette_scale = 1.0f) {
   const uint64_t seed = vertices * 131 + influences * 17 + joints + (normals ? 1 : 0);
   auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
                                               .influences = influences,
@@ -51,9 +52,9 @@ void ExpectMatchesReference(Backend& backend, uint32_t vertices, uint32_t influe
   auto prepared = backend.Prepare(*mesh);
   ASSERT_TRUE(prepared.ok()) << prepared.status().ToString();
   const std::size_t n = 3ull * vertices;
-  const auto palette = method == SkinningMethod::kDualQuaternion
-                           ? MakeRigidPalette(joints, seed, 3)
-                           : MakeSyntheticPalette(joints, seed, 3);
+  auto palette = method == SkinningMethod::kDualQuaternion ? MakeRigidPalette(joints, seed, 3)
+                                                           : MakeSyntheticPalette(joints, seed, 3);
+  for (float& entry : palette) entry *= palette_scale;
   std::vector<float> positions(n + 2 * kGuardFloats, kGuard);
   std::vector<float> normal_out(normals ? n + 2 * kGuardFloats : 0, kGuard);
   const std::span<float> p(positions.data() + kGuardFloats, n);
@@ -120,6 +121,24 @@ TEST_P(SimdTargetTest, BothBackendsMatchTheFloat64ReferenceAtThisTarget) {
 
 TEST_P(SimdTargetTest, BothBackendsMatchTheDualQuaternionReferenceAtThisTarget) {
   ExpectBothBackendsMatchAt(GetParam(), SkinningMethod::kDualQuaternion);
+}
+
+// Normals are renormalised from an estimate of 1 / length refined by a Newton step, which
+// is wrong for lengths whose square is denormal (the estimate gives infinity); such vectors
+// take the exact 1 / sqrt. Palettes scaled by 1e-17, 1e-19 and 3e-20 make the skinned
+// normals' squared lengths about 1e-34 (the estimate), 1e-38 (both) and 1e-39 (denormal):
+// the normals must still match the reference's directions. (Below that float's denormal
+// squares lose the bits the exact path needs too.)
+TEST_P(SimdTargetTest, NormalsShrunkToDenormalLengthsStillComeOutUnit) {
+  for (int threads : {0, 2}) {
+    const auto backend = CreateSimdBackend(threads, GetParam());
+    ASSERT_TRUE(backend->info().available) << backend->info().unavailable_reason;
+    for (float scale : {1e-17f, 1e-19f, 3e-20f}) {
+      for (uint32_t v : {37u, 1001u}) {
+        ExpectMatchesReference(*backend, v, 2, 20, true, false, SkinningMethod::kLinear, scale);
+      }
+    }
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(RunnableHere, SimdTargetTest, ::testing::ValuesIn(RunnableSimdTargets()),

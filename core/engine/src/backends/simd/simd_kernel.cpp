@@ -9,7 +9,8 @@
 // Results are stored 4 floats at a time at 3-float steps: each store's fourth float is
 // overwritten by the next vertex, and the last vertex of a range goes through a local
 // copy so nothing outside the range is touched. Normals are renormalised a chunk at a
-// time, four vertices per step, while the chunk is still in L1. Tangents (4 floats per
+// time, a vector of vertices per step (InverseLength: an estimate and a Newton step), while
+// the chunk is still in L1. Tangents (4 floats per
 // vertex) take the normals' path in the same loop: their stores of (x', y', z', 0) fill
 // exactly one vertex, and the renormalising step puts back the rest tangents' w.
 // On 16-lane targets (AVX-512) most vertices go four at a time instead (SkinFour): the
@@ -29,6 +30,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <type_traits>
 
 #include "backends/common/influence_dispatch.h"
@@ -309,20 +311,49 @@ constexpr bool kFourAtOnce = kLanes == 16;
 constexpr bool kFourAtOnce = false;
 #endif
 
-// Scales normals [first, last) to unit length: one square root and one division per
-// four vertices (rsqrt's 12 bits would miss the 1e-5 tolerance).
+#if HWY_TARGET != HWY_SCALAR
+// 1 / sqrt(s) per lane. On x86 the approximate reciprocal square root (14 bits on AVX-512, 12
+// on SSE4 and AVX2) refined by one Newton step to about 22 bits, inside the 1e-5 tolerance:
+// a multiply and four multiply-adds where a square root and a division keep the divider busy
+// (on Zen 4 perf put a third of the loop on them). A vector with a length the estimate gets
+// wrong (zero, denormal, infinite or NaN: a degenerate or overflowing normal) takes the exact
+// 1 / sqrt(s) instead, so those normals come out exactly as before. Arm's estimate has 8 bits,
+// one step short of the tolerance: Arm keeps the exact one (not measured there).
+template <class DD>
+HWY_INLINE hn::Vec<DD> InverseLength(DD d, hn::Vec<DD> s) {
+  if constexpr (!HWY_ARCH_X86) return hn::Div(hn::Set(d, 1.0f), hn::Sqrt(s));
+  const auto in_range = hn::And(hn::Ge(s, hn::Set(d, std::numeric_limits<float>::min())),
+                                hn::Le(s, hn::Set(d, std::numeric_limits<float>::max())));
+  if (HWY_UNLIKELY(!hn::AllTrue(d, in_range))) return hn::Div(hn::Set(d, 1.0f), hn::Sqrt(s));
+  const auto y = hn::ApproximateReciprocalSqrt(s);
+  const auto half_s = hn::Mul(hn::Set(d, 0.5f), s);
+  return hn::Mul(y, hn::NegMulAdd(half_s, hn::Mul(y, y), hn::Set(d, 1.5f)));  // y (1.5 - s y^2 / 2)
+}
+
+// Normals [v, last) to unit length, a whole vector of vertices at a time; returns where the
+// vectors stopped.
+template <class DD>
+HWY_INLINE std::size_t RenormaliseVectors(DD d, float* HWY_RESTRICT normals, std::size_t v,
+                                          std::size_t last) {
+  const std::size_t lanes = hn::Lanes(d);
+  for (; v + lanes <= last; v += lanes) {
+    hn::Vec<DD> x, y, z;
+    hn::LoadInterleaved3(d, normals + 3 * v, x, y, z);
+    const auto inverse = InverseLength(d, hn::MulAdd(x, x, hn::MulAdd(y, y, hn::Mul(z, z))));
+    hn::StoreInterleaved3(hn::Mul(x, inverse), hn::Mul(y, inverse), hn::Mul(z, inverse), d,
+                          normals + 3 * v);
+  }
+  return v;
+}
+#endif
+
+// Scales normals [first, last) to unit length: a vector of vertices at a time (16 on AVX-512),
+// then four, then one by one.
 HWY_INLINE void Renormalise(float* HWY_RESTRICT normals, std::size_t first, std::size_t last) {
   std::size_t v = first;
 #if HWY_TARGET != HWY_SCALAR
-  const D4 d4;
-  for (; v + 4 <= last; v += 4) {
-    V4 x, y, z;
-    hn::LoadInterleaved3(d4, normals + 3 * v, x, y, z);
-    const V4 length = hn::Sqrt(hn::MulAdd(x, x, hn::MulAdd(y, y, hn::Mul(z, z))));
-    const V4 inverse = hn::Div(hn::Set(d4, 1.0f), length);
-    hn::StoreInterleaved3(hn::Mul(x, inverse), hn::Mul(y, inverse), hn::Mul(z, inverse), d4,
-                          normals + 3 * v);
-  }
+  v = RenormaliseVectors(D(), normals, v, last);
+  v = RenormaliseVectors(D4(), normals, v, last);
 #endif
   for (; v < last; ++v) {
     float* n = normals + 3 * v;
