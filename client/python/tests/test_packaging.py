@@ -62,7 +62,8 @@ def test_pinned_grpcio_and_numpy_ranges_accept_the_installed_ones():
 
 
 def test_public_names():
-    assert set(skinserve.__all__) == {"AsyncClient", "Character", "CharacterResult", "ClipTrack",
+    assert set(skinserve.__all__) == {"AsyncClient", "AsyncFrameSocket", "Character",
+                                      "CharacterResult", "ClipTrack",
                                       "Client", "FrameSocket", "FrameWeights", "MorphTarget",
                                       "Pose",
                                       "PoseLayer", "SkinserveError", "SharedMemoryRegion",

@@ -18,6 +18,10 @@ asyncio (AsyncClient), with the same methods.
         client.register_region(region)
         vertices = client.skin(mesh_id, palette, region=region)
 
+    # Frames and ticks on the server's frame socket (skinserve --frame-socket PATH), same host:
+    with skinserve.FrameSocket("/run/skinserve/frames.sock", client) as frames:
+        vertices = frames.skin(mesh_id, palette, region=region)   # AsyncFrameSocket: asyncio
+
     # A tick: many characters (each its mesh, palette and options) in one request.
     results = client.tick([skinserve.Character(mesh_a, palette_a),
                            skinserve.Character(mesh_b, crowd_b, want_normals=True)])
@@ -40,13 +44,12 @@ from ._aio_client import AsyncClient
 from ._client import Client
 from ._encoding import decode_values
 from ._errors import SkinserveError
-from ._frame_socket import FrameSocket
+from ._frame_socket import AsyncFrameSocket, FrameSocket
 from ._morph import FrameWeights, MorphTarget, Weights
 from ._pose import ClipTrack, Pose, PoseLayer
 from ._shared_memory import SharedMemoryRegion
 from ._tick import Character, CharacterResult
 
-__all__ = ["AsyncClient", "Character", "CharacterResult", "ClipTrack", "Client", "FrameSocket",
-           "FrameWeights",
-           "MorphTarget", "Pose", "PoseLayer", "SkinserveError", "SharedMemoryRegion", "Weights",
-           "decode_values"]
+__all__ = ["AsyncClient", "AsyncFrameSocket", "Character", "CharacterResult", "ClipTrack",
+           "Client", "FrameSocket", "FrameWeights", "MorphTarget", "Pose", "PoseLayer",
+           "SkinserveError", "SharedMemoryRegion", "Weights", "decode_values"]
