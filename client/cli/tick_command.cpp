@@ -2,7 +2,9 @@
 // meshes, the meshes of glTF characters and meshes already on the server, each with its own
 // palette, skinned by one request. Prints each character's outcome: its vertices, timing and
 // error against the float64 reference (for the meshes it has locally), or its error; the
-// exit status is 1 when any character failed or disagreed with its reference.
+// exit status is 1 when any character failed or disagreed with its reference. With
+// --frame-socket the tick goes over the server's frame socket instead of gRPC (uploads and
+// the region's registration stay on gRPC).
 #include <fmt/format.h>
 
 #include <memory>
@@ -14,6 +16,7 @@
 #include "rest_encoding_option.h"
 #include "skinserve/character/animation.h"
 #include "skinserve/character/character_mesh.h"
+#include "skinserve/client/frame_socket_client.h"
 #include "skinserve/client/tick.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/wire/region_layout.h"
@@ -33,6 +36,7 @@ struct TickOptions {
   SkinningMethod method = SkinningMethod::kLinear;
   bool shared_memory = false;
   std::string shm_dir = "/dev/shm";
+  std::string frame_socket;  // the server's --frame-socket: the tick goes there
 };
 
 // One character of the tick: where it comes from, its mesh and what it sends; `local` (the
@@ -171,6 +175,30 @@ bool PrintCharacter(std::size_t i, const CharacterInput& input, client::FrameRes
   return ok;
 }
 
+// The tick over the frame socket at `path`: its answer read as StreamSkin's, into `result`.
+Status SkinTickOnFrameSocket(const std::string& path, const client::Tick& tick,
+                             client::TickResult* result) {
+  auto socket = client::FrameSocketClient::Connect(path);
+  if (!socket.ok()) return socket.status();
+  v1::SkinRequest request;
+  tick.ToWire(&request);
+  grpc::ByteBuffer part;
+  if (!(*socket)->Write(request)) {
+    while ((*socket)->Read(&part)) {
+    }
+    return (*socket)->Finish();  // the server's reason for ending the connection
+  }
+  client::TickAssembler assembler(tick, result);
+  client::RawPart reader;
+  while ((*socket)->Read(&part)) {
+    if (assembler.Add(part, &reader)) {
+      (*socket)->WritesDone();
+      return result->status;
+    }
+  }
+  return (*socket)->Finish();
+}
+
 int RunTick(const CommonOptions& common, const TickOptions& o) {
   auto channel = common.Channel();
   if (!channel.ok()) return Report(channel.status());
@@ -208,7 +236,9 @@ int RunTick(const CommonOptions& common, const TickOptions& o) {
     tick.Add(input.mesh_id, input.palette, options);
   }
   client::TickResult result;
-  const Status status = client.SkinTick(tick, &result);
+  const Status status = o.frame_socket.empty()
+                            ? client.SkinTick(tick, &result)
+                            : SkinTickOnFrameSocket(o.frame_socket, tick, &result);
   int code = status.ok() ? 0 : Report(status);
   std::size_t failed = 0;
   for (std::size_t i = 0; status.ok() && i < inputs->size(); ++i) {
@@ -262,6 +292,10 @@ void AddTickCommand(CLI::App& app, CommonOptions& common) {
                     "shared-memory region this command creates (the server must run on this host)");
   command->add_option("--shm-dir", o->shm_dir, "the server's --shm-dir, where the region is made")
       ->capture_default_str();
+  command->add_option("--frame-socket", o->frame_socket,
+                      "send the tick over the server's frame socket at this path (skinserve "
+                      "--frame-socket, same host) instead of gRPC; with --shared-memory the "
+                      "--target must be the server's unix: address (the region's owner)");
   command->callback([&common, o] { common.exit_code = RunTick(common, *o); });
 }
 

@@ -1,7 +1,8 @@
 // Ticks (issue 41) through the clients that drive them against a real server: skinserve-load
 // --characters-per-tick (every character of every tick against its own mesh's float64
 // reference, over both data planes, counts in characters) and skinserve-cli tick (each
-// character's outcome, a bad one named, the exit status saying so).
+// character's outcome, a bad one named, the exit status saying so; over gRPC and over the
+// frame socket).
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <stdlib.h>
@@ -222,6 +223,49 @@ TEST(TickCliTest, WritesEachCharacterIntoItsOwnRangeOfARegion) {
   ASSERT_TRUE(stats.ok());
   EXPECT_EQ(stats->regions(), 0u) << "the command unregisters its region";
   EXPECT_GT(stats->region_frames(), 0u);
+}
+
+// --frame-socket: the same tick over the server's frame socket, region characters in their
+// ranges (the region registered over gRPC on the unix: target by the same process), a mesh
+// the server does not know failing alone; the server counts the socket's request.
+TEST(TickCliTest, SendsTheTickOverTheFrameSocket) {
+  char name[] = "/dev/shm/skinserve-tick-XXXXXX";
+  const std::string dir = mkdtemp(name);
+  {
+    ServerProcess server(0, {"--shm-dir", dir, "--listen", "unix:" + dir + "/grpc.sock",
+                             "--frame-socket", dir + "/frames.sock"});
+    ASSERT_TRUE(server.ready());
+    const std::string unknown(64, '0');
+    int code = 0;
+    const std::string out =
+        Cli("unix:" + dir + "/grpc.sock",
+            "--synthetic 2 --vertices 2000 --normals --backend simd "
+            "--shared-memory --shm-dir " +
+                dir + " --frame-socket " + dir + "/frames.sock --frame 4 " + "--mesh-id " + unknown,
+            &code);
+    EXPECT_EQ(code, 1) << out;
+    for (int i = 0; i < 2; ++i) {
+      EXPECT_NE(out.find(fmt::format(
+                    "character {} (synthetic seed {}): 2000 vertices in the region", i, i + 1)),
+                std::string::npos)
+          << out;
+    }
+    EXPECT_NE(out.find("character 2 (mesh " + unknown + "): NOT_FOUND"), std::string::npos) << out;
+    EXPECT_EQ(out.find("MISMATCH"), std::string::npos) << out;
+    EXPECT_NE(out.find("tick 4: 3 characters, 2 answered, 1 failed"), std::string::npos) << out;
+    client::SkinClient c(client::MakeChannel(server.target()));
+    auto stats = c.GetServerStats();
+    ASSERT_TRUE(stats.ok());
+    EXPECT_EQ(stats->frame_socket_requests(), 1u) << "the tick went over the socket";
+    EXPECT_EQ(stats->regions(), 0u) << "the command unregisters its region";
+
+    const std::string none =
+        Cli("unix:" + dir + "/grpc.sock",
+            "--synthetic 1 --vertices 500 --frame-socket " + dir + "/none.sock", &code);
+    EXPECT_NE(code, 0) << none;
+    EXPECT_NE(none.find("none.sock"), std::string::npos) << none;
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
