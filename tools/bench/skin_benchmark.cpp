@@ -83,7 +83,6 @@
 #include "pose_benchmark.h"
 #include "skinserve/engine/backend_registry.h"
 #include "skinserve/model/aligned_buffer.h"
-#include "skinserve/reference/synthetic.h"
 #include "skinserve/reference/synthetic_morph.h"
 #include "workload_cache.h"
 
@@ -380,21 +379,13 @@ void SkinMorphBenchmark(benchmark::State& state, Backend* backend, uint32_t vert
   }
 }
 
-// A tick of `characters` distinct meshes, each skinned into its range of one shared output.
+// A tick of `characters` distinct meshes (the cache's copies 0..characters-1, made and
+// prepared once), each skinned into its range of one shared output.
 void SkinTickBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
                        bool normals, uint32_t characters, RestEncoding rest) {
-  std::vector<std::unique_ptr<PreparedMesh>> meshes;
+  std::vector<const PreparedMesh*> meshes;
   for (uint32_t c = 0; c < characters; ++c) {
-    auto mesh = Mesh::Create(MakeSyntheticMesh({.vertex_count = vertices,
-                                                .influences = bones,
-                                                .joint_count = kPaperJoints,
-                                                .normals = true,
-                                                .seed = 1000ull * vertices + 10ull * bones + c}),
-                             {.rest_encoding = rest});
-    if (!mesh.ok()) return state.SkipWithError(mesh.status().ToString().c_str());
-    auto prepared = backend->Prepare(*mesh);
-    if (!prepared.ok()) return state.SkipWithError(prepared.status().ToString().c_str());
-    meshes.push_back(std::move(prepared).value());
+    meshes.push_back(&Cache().Prepared(*backend, vertices, bones, false, rest, c));
   }
   const Workload& workload = Cache().Get(vertices, bones);  // its palettes
   const std::size_t floats = 3ull * vertices;

@@ -30,11 +30,13 @@ struct Workload {
 class WorkloadCache {
  public:
   // `morph`: the same synthetic mesh with kMorphTargets targets; `rest`: stored with that
-  // rest encoding (quantized: BM_SkinQuantized).
+  // rest encoding (quantized: BM_SkinQuantized); `copy`: another mesh of the same shape (its
+  // own seed: BM_SkinTick's distinct characters), 0 the usual one.
   const Workload& Get(uint32_t vertices, uint32_t bones, bool morph = false,
-                      RestEncoding rest = RestEncoding::kFloat32);
+                      RestEncoding rest = RestEncoding::kFloat32, uint32_t copy = 0);
   const PreparedMesh& Prepared(Backend& backend, uint32_t vertices, uint32_t bones,
-                               bool morph = false, RestEncoding rest = RestEncoding::kFloat32);
+                               bool morph = false, RestEncoding rest = RestEncoding::kFloat32,
+                               uint32_t copy = 0);
   // --vertex-order=sorted: every mesh made from now on has its vertices sorted by joints
   // (SyntheticMeshSpec::sorted_by_joints) instead of the paper's shuffled order.
   void set_sorted_by_joints(bool sorted) { sorted_by_joints_ = sorted; }
@@ -42,8 +44,8 @@ class WorkloadCache {
  private:
   bool sorted_by_joints_ = false;
   std::mutex mutex_;
-  std::map<std::tuple<uint32_t, uint32_t, bool, RestEncoding>, Workload> workloads_;
-  std::map<std::tuple<Backend*, uint32_t, uint32_t, bool, RestEncoding>,
+  std::map<std::tuple<uint32_t, uint32_t, bool, RestEncoding, uint32_t>, Workload> workloads_;
+  std::map<std::tuple<Backend*, uint32_t, uint32_t, bool, RestEncoding, uint32_t>,
            std::unique_ptr<PreparedMesh>>
       prepared_;
 };

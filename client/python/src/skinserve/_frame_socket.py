@@ -5,7 +5,7 @@ protocol (skinserve/wire/frame_socket_protocol.h): the 8 bytes b"SKFRAME1", then
 message a 4-byte little-endian length and a serialized SkinRequest (ours) or SkinResponse
 part (the server's); the server's last message has the length's top bit set and its `error`
 says why the connection ends. The two classes share everything but their reads and writes
-(_Exchange); neither uploads a lost mesh again (a frame raises, a tick's character fails
+(_Decoder); neither uploads a lost mesh again (a frame raises, a tick's character fails
 NOT_FOUND): uploads belong to the gRPC client."""
 import asyncio
 import socket
@@ -36,9 +36,9 @@ def _message(request: pb.SkinRequest) -> bytes:
     return struct.pack("<I", len(body)) + body
 
 
-class _Exchange:
-    """One request's answer, assembled from the parts `read` gives (a frame's Frame or a
-    tick's TickAnswer) until the part marked last; and the connection's end, once seen."""
+class _Decoder:
+    """The server's messages, as both classes read them: a header's size and end bit, a part,
+    and the connection's end once its last message said why (every later read raises it)."""
 
     def __init__(self) -> None:
         self.end: Optional[Tuple[Any, str]] = None
@@ -87,7 +87,7 @@ class FrameSocket:
 
     def __init__(self, path: str, client: Client) -> None:
         self._client = client
-        self._exchange = _Exchange()
+        self._decoder = _Decoder()
         self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         try:
             self._sock.connect(path)
@@ -160,8 +160,8 @@ class FrameSocket:
         return b"".join(chunks)
 
     def _read(self) -> pb.SkinResponse:
-        size, last = self._exchange.header(self._read_exactly(4))
-        return self._exchange.part(self._read_exactly(size), last)
+        size, last = self._decoder.header(self._read_exactly(4))
+        return self._decoder.part(self._read_exactly(size), last)
 
 
 class AsyncFrameSocket:
@@ -178,7 +178,7 @@ class AsyncFrameSocket:
 
     def __init__(self, path: str, client: AsyncClient) -> None:
         self._path, self._client = path, client
-        self._exchange = _Exchange()
+        self._decoder = _Decoder()
         self._sock: Optional[socket.socket] = None
         self._lock = asyncio.Lock()
 
@@ -262,5 +262,5 @@ class AsyncFrameSocket:
         return b"".join(chunks)
 
     async def _read(self) -> pb.SkinResponse:
-        size, last = self._exchange.header(await self._read_exactly(4))
-        return self._exchange.part(await self._read_exactly(size), last)
+        size, last = self._decoder.header(await self._read_exactly(4))
+        return self._decoder.part(await self._read_exactly(size), last)
