@@ -50,4 +50,19 @@ for name in ("BM_SkinTick/serial/1000/1/characters:3/real_time",
     assert 0 < per and abs(per * 3 - row["real_time"] * 1e-3) < 0.05 * per * 3, row
 print(f"bench-formats-test: tick: {len(rows)} rows")
 PY
+
+# --tick-slots=2: the same rows writing two outputs in turn, named so.
+"${run[@]}" --tick=3 --tick-slots=2 --benchmark_filter='BM_SkinTick/serial' \
+  --benchmark_format=json >"$work/tick-slots.json" 2>/dev/null
+python3 - "$work/tick-slots.json" <<'PY' || fail "tick-slots rows"
+import json, sys
+rows = {b["name"]: b for b in json.load(open(sys.argv[1]))["benchmarks"]}
+name = "BM_SkinTick/serial/1000/1/characters:3/slots:2/real_time"
+assert list(rows) == [name], list(rows)
+assert "error_message" not in rows[name] and rows[name]["seconds_per_character"] > 0, rows[name]
+PY
+"${run[@]}" --tick=3 --tick-slots=0 >/dev/null 2>"$work/slots-err.txt" &&
+  fail "--tick-slots=0 accepted"
+grep -q -- "--tick-slots=: at least 1" "$work/slots-err.txt" || fail "--tick-slots=0 unnamed"
+echo "bench-formats-test: tick slots: named, 0 refused"
 echo "bench-formats-test: PASSED"

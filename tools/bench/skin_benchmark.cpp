@@ -43,6 +43,10 @@
 // the output (N x (30 + 24) bytes a vertex at 25k x 2 with normals) outgrow the caches, where
 // BM_Skin's single mesh stays in them. Reports seconds_per_character beside the cached row;
 // with --quantized also BM_SkinTick[Normals]Quantized/... (RestEncoding quantized16).
+// --tick-slots=K (with --tick): each tick into the next of K outputs in turn (the rows gain
+// /slots:K), as the service's regions hold one slot per tick in flight for every stream: 6
+// streams of 64 characters with 2 ticks in flight write 12 x 19 MB in turn, beyond the L3
+// where one output of 19 MB may stay in it.
 // --device-output: also BM_SkinDeviceOutput/opencl/<vertices>/<bones> (and
 // BM_SkinDeviceOutputInPlace)
 // (device_output_benchmark.h), `opencl`'s frame with its output left in device memory, the
@@ -108,6 +112,7 @@ struct Options {
   bool device_output = false;             // --device-output: BM_SkinDeviceOutput rows
   bool opencl_device_timing = true;       // --opencl-device-timing=0: unprofiled queues
   uint32_t tick = 0;                      // --tick=N: BM_SkinTick rows of N characters
+  uint32_t tick_slots = 1;                // --tick-slots=K: their outputs, used in turn
 };
 
 template <typename T>
@@ -161,6 +166,9 @@ Options ParseOptions(int* argc, char** argv) {
       options.streams = static_cast<int>(std::stoul(streams));
     } else if (const char* characters = value("--tick=")) {
       options.tick = static_cast<uint32_t>(std::stoul(characters));
+    } else if (const char* slots = value("--tick-slots=")) {
+      options.tick_slots = static_cast<uint32_t>(std::stoul(slots));
+      if (options.tick_slots == 0) throw std::invalid_argument("--tick-slots=: at least 1");
     } else if (arg == "--process-cpu-time") {
       options.process_cpu_time = true;
     } else if (const char* order = value("--vertex-order=")) {
@@ -380,25 +388,28 @@ void SkinMorphBenchmark(benchmark::State& state, Backend* backend, uint32_t vert
 }
 
 // A tick of `characters` distinct meshes (the cache's copies 0..characters-1, made and
-// prepared once), each skinned into its range of one shared output.
+// prepared once), each skinned into its range of one output; tick k into output k % slots.
 void SkinTickBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
-                       bool normals, uint32_t characters, RestEncoding rest) {
+                       bool normals, uint32_t characters, uint32_t slots, RestEncoding rest) {
   std::vector<const PreparedMesh*> meshes;
   for (uint32_t c = 0; c < characters; ++c) {
     meshes.push_back(&Cache().Prepared(*backend, vertices, bones, false, rest, c));
   }
   const Workload& workload = Cache().Get(vertices, bones);  // its palettes
   const std::size_t floats = 3ull * vertices;
-  AlignedBuffer<float> positions(floats * characters);
-  AlignedBuffer<float> out_normals(normals ? floats * characters : 0);
+  const std::size_t tick_floats = floats * characters;
+  AlignedBuffer<float> positions(tick_floats * slots);
+  AlignedBuffer<float> out_normals(normals ? tick_floats * slots : 0);
   std::size_t frame = 0;
   for (auto _ : state) {
-    const auto& palette = workload.palettes[frame++ % workload.palettes.size()];
+    const auto& palette = workload.palettes[frame % workload.palettes.size()];
+    const std::size_t slot = tick_floats * (frame++ % slots);
     for (uint32_t c = 0; c < characters; ++c) {
+      const std::size_t at = slot + c * floats;
       const SkinFrame skin{
           .palette = palette,
-          .positions = positions.span().subspan(c * floats, floats),
-          .normals = normals ? out_normals.span().subspan(c * floats, floats) : std::span<float>()};
+          .positions = positions.span().subspan(at, floats),
+          .normals = normals ? out_normals.span().subspan(at, floats) : std::span<float>()};
       if (Status s = backend->Skin(*meshes[c], skin); !s.ok()) {
         return state.SkipWithError(s.ToString().c_str());
       }
@@ -716,7 +727,7 @@ void RegisterStreamRows(const Options& options, const Rows& rows) {
   }
 }
 
-// --tick=N: BM_SkinTick[Normals]/<backend>/<vertices>/<bones>/characters:N.
+// --tick=N: BM_SkinTick[Normals]/<backend>/<vertices>/<bones>/characters:N[/slots:K].
 void RegisterTickRows(const Options& options, const Rows& rows) {
   if (options.tick == 0) return;
   for (bool normals : {false, true}) {
@@ -729,11 +740,13 @@ void RegisterTickRows(const Options& options, const Rows& rows) {
                 (!options.quantized || !backend->info().quantized_rest)) {
               continue;
             }
-            const std::string name = fmt::format("{}{}/{}/{}/{}/characters:{}",
-                                                 normals ? "BM_SkinTickNormals" : "BM_SkinTick",
-                                                 kind, id, v, b, options.tick);
+            const std::string slots =
+                options.tick_slots > 1 ? fmt::format("/slots:{}", options.tick_slots) : "";
+            const std::string name = fmt::format(
+                "{}{}/{}/{}/{}/characters:{}{}", normals ? "BM_SkinTickNormals" : "BM_SkinTick",
+                kind, id, v, b, options.tick, slots);
             benchmark::RegisterBenchmark(name.c_str(), SkinTickBenchmark, backend, v, b, normals,
-                                         options.tick, rest)
+                                         options.tick, options.tick_slots, rest)
                 ->UseRealTime()
                 ->Unit(benchmark::kMillisecond);
           }
