@@ -742,9 +742,9 @@ void RegisterTickRows(const Options& options, const Rows& rows) {
             }
             const std::string slots =
                 options.tick_slots > 1 ? fmt::format("/slots:{}", options.tick_slots) : "";
-            const std::string name = fmt::format(
-                "{}{}/{}/{}/{}/characters:{}{}", normals ? "BM_SkinTickNormals" : "BM_SkinTick",
-                kind, id, v, b, options.tick, slots);
+            const std::string name = fmt::format("{}{}/{}/{}/{}/characters:{}{}",
+                                                 normals ? "BM_SkinTickNormals" : "BM_SkinTick",
+                                                 kind, id, v, b, options.tick, slots);
             benchmark::RegisterBenchmark(name.c_str(), SkinTickBenchmark, backend, v, b, normals,
                                          options.tick, options.tick_slots, rest)
                 ->UseRealTime()
