@@ -2,7 +2,8 @@
 """The CSVs of this folder from raw/ (tar xJf raw.tar.xz first): bench.csv, the medians of
 skinserve-bench's tick rows per call and setting (us a character); service.csv, the service's
 ticks per round and rest encoding (call 3); service-streaming.csv, the service at a fixed load
-with plain and streaming stores (call 1)."""
+with plain and streaming stores (call 1); service-prefetch.csv, the service with and without the
+prefetch trial (call 6)."""
 import collections, csv, glob, json, os, re, statistics, sys
 
 here = os.path.dirname(os.path.abspath(__file__))
@@ -94,7 +95,26 @@ def service():
                 w.writerow([rnd, label, f'{cpu:.1f}', f'{compute:.1f}', ratio])
 
 
+
+def service_prefetch():
+    with open(os.path.join(here, 'service-prefetch.csv'), 'w', newline='') as f:
+        w = csv.writer(f)
+        w.writerow(['round', 'loop', 'server CPU us a character (5 streams)',
+                    'compute us a character (5 streams)', 'characters held (rounds 1-2)',
+                    'checked', 'mismatches'])
+        for rnd in (1, 2, 3, 4):
+            for pf, label in (('0', 'main'), ('1024', 'prefetch 1024 vertices ahead (trial)')):
+                fixed = json.load(open(os.path.join(raw, 'call6',
+                                                    f'fixed-pf{pf}-{rnd}.json')))['results'][0]
+                compute = fixed['server_metrics']['compute_seconds_sum'] / fixed['server_frames'] * 1e6
+                cap = os.path.join(raw, 'call6', f'cap-pf{pf}-{rnd}.txt')
+                w.writerow([rnd, label, f"{fixed['server_cpu_us_per_character']:.1f}",
+                            f'{compute:.1f}', held(cap) if os.path.exists(cap) else '',
+                            fixed['checked'], fixed['mismatches']])
+
+
 if not os.path.isdir(raw):
     sys.exit('summarize.py: unpack raw.tar.xz first (tar xJf raw.tar.xz)')
 bench()
 service()
+service_prefetch()
