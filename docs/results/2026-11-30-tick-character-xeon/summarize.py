@@ -3,7 +3,7 @@
 skinserve-bench's tick rows per call and setting (us a character); service.csv, the service's
 ticks per round and rest encoding (call 3); service-streaming.csv, the service at a fixed load
 with plain and streaming stores (call 1); service-prefetch.csv, the service with and without the
-prefetch trial (call 6)."""
+prefetch trial (call 6); service-cores.csv, the service on three pairs of cores (call 7)."""
 import collections, csv, glob, json, os, re, statistics, sys
 
 here = os.path.dirname(os.path.abspath(__file__))
@@ -113,8 +113,27 @@ def service_prefetch():
                             fixed['checked'], fixed['mismatches']])
 
 
+
+def service_cores():
+    with open(os.path.join(here, 'service-cores.csv'), 'w', newline='') as f:
+        w = csv.writer(f)
+        w.writerow(['round', 'server cores', 'server CPU us a character (5 streams)',
+                    'compute us a character (5 streams)', 'characters held (one search)',
+                    'checked', 'mismatches'])
+        for rnd in (1, 2):
+            for cores in ('0+1', '2+3', '4+6'):
+                fixed = json.load(open(os.path.join(raw, 'call7',
+                                                    f'fixed-{cores}-{rnd}.json')))['results'][0]
+                compute = fixed['server_metrics']['compute_seconds_sum'] / fixed['server_frames'] * 1e6
+                cap = held(os.path.join(raw, 'call7', f'cap-{cores}.txt')) if rnd == 1 else ''
+                w.writerow([rnd, cores.replace('+', ', '),
+                            f"{fixed['server_cpu_us_per_character']:.1f}", f'{compute:.1f}', cap,
+                            fixed['checked'], fixed['mismatches']])
+
+
 if not os.path.isdir(raw):
     sys.exit('summarize.py: unpack raw.tar.xz first (tar xJf raw.tar.xz)')
 bench()
 service()
 service_prefetch()
+service_cores()
