@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -648,8 +649,10 @@ class OpenLoop {
         stream_(config.frame_socket.empty() ? OpenGrpcStream(client)
                                             : OpenFrameSocketStream(config.frame_socket)),
         watchdog_([s = stream_.get()] { s->Cancel(); }, config.limits.stream_idle),
-        period_(std::chrono::duration_cast<Clock::duration>(
-            std::chrono::duration<double>(1.0 / config.rate))),
+        closed_(config.rate <= 0),
+        period_(closed_ ? Clock::duration::max()
+                        : std::chrono::duration_cast<Clock::duration>(
+                              std::chrono::duration<double>(1.0 / config.rate))),
         warmup_frames_(config.frames > 0
                            ? static_cast<uint64_t>(std::ceil(config.warmup_seconds * config.rate))
                            : 0),
@@ -659,7 +662,11 @@ class OpenLoop {
 
   void Run(const std::vector<UploadedMesh>& meshes, const std::atomic<bool>& stop) {
     ProbeMeshes(meshes);
-    SkipPassed();
+    if (closed_) {
+      due_ = Clock::now();
+    } else {
+      SkipPassed();
+    }
     std::thread reader([&] { Read(); });
     Send(stop);
     stream_->WritesDone();
@@ -675,8 +682,10 @@ class OpenLoop {
   };
 
   void ProbeMeshes(const std::vector<UploadedMesh>& meshes);
-  // Frame k's time; frame-count runs start measuring at the first measured frame's.
+  // Frame k's time; frame-count runs start measuring at the first measured frame's. Closed
+  // loop: none (WaitForSlot sets it when a slot frees).
   void ScheduleNext() {
+    if (closed_) return;
     due_ = start_ + std::chrono::duration_cast<Clock::duration>(
                         std::chrono::duration<double>(schedule_.Next()));
     if (config_.frames > 0 && k_ == warmup_frames_) recorder_.StartMeasuring(due_);
@@ -685,6 +694,9 @@ class OpenLoop {
     return config_.frames > 0 ? k_ >= warmup_frames_ : recorder_.Measuring(due_);
   }
   void SkipPassed();
+  // Closed loop: waits until fewer than `window` frames are in flight (or the stream ended,
+  // or its time is up) and makes now the next frame's time; false: send no more.
+  bool WaitForSlot(const std::atomic<bool>& stop);
   void Read();
   void Send(const std::atomic<bool>& stop);
   bool TakeSlot(std::size_t* slot, bool counted, Clock::time_point sent_at);
@@ -698,6 +710,9 @@ class OpenLoop {
   Recorder& recorder_;
   std::unique_ptr<UnitStream> stream_;  // StreamSkin, or the frame socket
   client::IdleWatchdog watchdog_;
+  // No --rate (the socket plane; StreamSkin's closed loop is ClosedLoopStream): `window`
+  // frames in flight, the next sent as an answer frees a slot, its latency counted from then.
+  const bool closed_;
   const Clock::duration period_;
   const uint64_t warmup_frames_, last_frame_;
   ArrivalSchedule schedule_;
@@ -708,6 +723,8 @@ class OpenLoop {
   // Sent, unanswered, oldest first: a ring of `window` slots (never more are in flight).
   std::vector<Scheduled> ring_;
   std::size_t ring_head_ = 0, in_flight_ = 0;
+  std::condition_variable slot_freed_;  // closed loop: an answer freed a slot, or reading ended
+  bool reading_ended_ = false;
   std::set<std::string> lost_;  // the answer's meshes the server lost
   int reuploads_ = 0;           // re-upload attempts done (under mutex_: TakeSlot reads it)
   int reuploads_in_a_row_ = 0;  // without an answer that found its meshes
@@ -784,8 +801,24 @@ void OpenLoop::Read() {
       --in_flight_;
       watchdog_.Awaiting(in_flight_ > 0);
     }
+    slot_freed_.notify_one();
     ReuploadLost(frame);
   }
+  {
+    std::lock_guard lock(mutex_);
+    reading_ended_ = true;
+  }
+  slot_freed_.notify_one();
+}
+
+bool OpenLoop::WaitForSlot(const std::atomic<bool>& stop) {
+  std::unique_lock lock(mutex_);
+  // Woken by answers; the timeout only bounds how late `stop` and the run's end are seen.
+  while (in_flight_ >= ring_.size() && !reading_ended_ && !stop.load() && Clock::now() < end_) {
+    slot_freed_.wait_for(lock, std::chrono::milliseconds(20));
+  }
+  due_ = Clock::now();
+  return in_flight_ < ring_.size() && !reading_ended_ && !stop.load() && due_ < end_;
 }
 
 // A mesh the server lost mid-run (evicted for another, deleted, a replica without it) goes
@@ -830,7 +863,11 @@ void OpenLoop::Send(const std::atomic<bool>& stop) {
   double gap_ms_sum = 0, gap_ms_sq_sum = 0;
   Clock::time_point previous_send{};  // of the last measured frame sent, if it was the last
   for (; k_ < last_frame_ && due_ < end_ && !stop.load(); ++k_, ScheduleNext()) {
-    std::this_thread::sleep_until(due_);
+    if (closed_) {
+      if (!WaitForSlot(stop)) break;
+    } else {
+      std::this_thread::sleep_until(due_);
+    }
     if (stop.load()) break;
     const bool counted = Measured();
     const Clock::time_point sent_at = Clock::now();
@@ -885,7 +922,8 @@ void OpenLoop::Finish() {
 // scheduled time (time-bounded runs) or its number (frame-count runs: warm-up * rate
 // frames first, then `config.frames` measured ones, then the stream ends).
 // Ticks (config.characters_per_tick): each scheduled frame is a tick of every mesh's
-// character, its slot of the region holding them all.
+// character, its slot of the region holding them all. Without a rate (the frame socket's
+// closed loop, time-bounded) each frame goes as soon as fewer than `window` are in flight.
 void OpenLoopStream(const RunConfig& config, const std::vector<UploadedMesh>& meshes,
                     int stream_index, int connection, const std::atomic<bool>& stop,
                     Clock::time_point start, Clock::time_point end, Recorder& recorder) {
@@ -929,7 +967,7 @@ RunResult RunLoad(const RunConfig& config, const std::vector<UploadedMesh>& mesh
   for (int s = 0; s < config.streams; ++s) {
     const int connection = s / std::max(config.streams_per_connection, 1);
     streams.emplace_back([&, s, connection] {
-      if (config.rate > 0) {
+      if (config.rate > 0 || !config.frame_socket.empty()) {  // the socket's closed loop too
         OpenLoopStream(config, meshes, s, connection, stop, start,
                        by_frames ? Clock::time_point::max() : start + total, recorder);
       } else if (config.characters_per_tick > 0) {

@@ -658,7 +658,8 @@ void AddSearchOptions(CLI::App& app, Options& o) {
                  "vertices in the gRPC answers), shm (written into a shared-memory region of "
                  "each stream's: the server must run on this host, with --shm-dir as here) and "
                  "socket (as shm, the requests and answers over the server's --frame-socket "
-                 "instead of gRPC: needs --frame-socket and --rate)")
+                 "instead of gRPC: needs --frame-socket; without --rate a closed loop for "
+                 "--duration)")
       ->check([](const std::string& text) {
         for (const std::string& plane : SplitList(text)) {
           if (plane != "grpc" && plane != "shm" && plane != "socket")
@@ -727,11 +728,15 @@ std::optional<int> FinishOptions(const CLI::App& app, Options& o) {
     fmt::print(stderr, "error: --max-trials repeats windows of --duration: not with --frames\n");
     return 2;
   }
-  if (o.data_planes.find("socket") != std::string::npos &&
-      (o.frame_socket.empty() || (o.run.rate <= 0 && !o.capacity))) {
+  if (o.data_planes.find("socket") != std::string::npos && o.frame_socket.empty()) {
+    fmt::print(stderr, "error: --data-planes socket: needs --frame-socket PATH (the server's)\n");
+    return 2;
+  }
+  if (o.data_planes.find("socket") != std::string::npos && o.run.rate <= 0 && !o.capacity &&
+      o.run.frames > 0) {
     fmt::print(stderr,
-               "error: --data-planes socket: needs --frame-socket PATH (the server's) and an "
-               "open loop (--rate or --capacity)\n");
+               "error: --data-planes socket without --rate runs a closed loop for --duration: "
+               "not with --frames\n");
     return 2;
   }
   if (o.run.characters_per_tick > 0 && !o.mesh.empty()) {

@@ -1,6 +1,7 @@
 // skinserve-load --data-planes socket against a real server with its frame socket: frames and
-// ticks travel on the socket into the load client's shared-memory regions, every answer is
-// checked against the float64 reference, and the server counts the socket's requests.
+// ticks travel on the socket into the load client's shared-memory regions, in open loop
+// (--rate) and closed loop (the window kept full), every answer is checked against the
+// float64 reference, and the server counts the socket's requests.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <stdlib.h>
@@ -32,6 +33,20 @@ class SocketPlaneTest : public ::testing::Test {
                                dir_, args),
                    code, nullptr, output);
   }
+  // RunSocket, then what every run must show: exit 0, `rows` rows, each on the socket plane
+  // with frames answered, none with errors or mismatches.
+  nlohmann::json RunChecked(const std::string& args, std::size_t rows) {
+    int code = 0;
+    nlohmann::json doc = RunSocket(args, &code);
+    EXPECT_EQ(code, 0) << doc.dump();
+    EXPECT_EQ(doc["results"].size(), rows) << doc.dump();
+    FramesReported(doc);
+    for (const auto& r : doc["results"]) {
+      EXPECT_EQ(r["data_plane"], "socket") << r.dump();
+      EXPECT_GT(r["frames"].get<uint64_t>(), 0u) << r.dump();
+    }
+    return doc;
+  }
   uint64_t SocketRequests() {
     client::SkinClient c(client::MakeChannel(server_.target()));
     auto stats = c.GetServerStats();
@@ -51,19 +66,13 @@ class SocketPlaneTest : public ::testing::Test {
 // the socket, checked and right; the report names the plane; the server counts the socket's
 // requests (each stream's probe of its mesh too).
 TEST_F(SocketPlaneTest, OpenLoopFramesAreAnsweredOnTheSocketAndRight) {
-  int code = 0;
-  const nlohmann::json doc = RunSocket(
+  const nlohmann::json doc = RunChecked(
       "--backends serial,simd --vertices 2000 --bones 2 --normals --rate 40 --streams 2 "
       "--frames 6",
-      &code);
-  EXPECT_EQ(code, 0) << doc.dump();
-  ASSERT_EQ(doc["results"].size(), 2u) << doc.dump();
-  FramesReported(doc);  // no errors, no mismatches
+      2);
   uint64_t frames = 0;
   for (const auto& r : doc["results"]) {
-    EXPECT_EQ(r["data_plane"], "socket") << r.dump();
     EXPECT_EQ(r["sent"].get<uint64_t>() + r["dropped"].get<uint64_t>(), 12u) << r.dump();
-    EXPECT_GT(r["frames"].get<uint64_t>(), 0u) << r.dump();
     EXPECT_EQ(r["frames"], r["sent"]) << "every frame sent was answered: " << r.dump();
     EXPECT_EQ(r["checked"], r["frames"]) << r.dump();
     frames += r["frames"].get<uint64_t>();
@@ -74,25 +83,43 @@ TEST_F(SocketPlaneTest, OpenLoopFramesAreAnsweredOnTheSocketAndRight) {
 // Open loop, ticks of 3 distinct meshes: every character of every tick answered into its
 // range of the region and right.
 TEST_F(SocketPlaneTest, OpenLoopTicksAreAnsweredOnTheSocketAndRight) {
-  int code = 0;
-  const nlohmann::json doc = RunSocket(
+  const nlohmann::json doc = RunChecked(
       "--backends simd --vertices 1500 --bones 3 --characters-per-tick 3 --rate 30 --streams 2 "
       "--frames 5",
-      &code);
-  EXPECT_EQ(code, 0) << doc.dump();
-  ASSERT_EQ(doc["results"].size(), 1u) << doc.dump();
-  FramesReported(doc);
+      1);
+  ASSERT_EQ(doc["results"].size(), 1u);
   const auto& r = doc["results"][0];
-  EXPECT_EQ(r["data_plane"], "socket") << r.dump();
   EXPECT_EQ(r["characters_per_tick"], 3) << r.dump();
-  EXPECT_GT(r["frames"].get<uint64_t>(), 0u) << r.dump();
   EXPECT_EQ(r["frames"], r["sent"]) << r.dump();
   EXPECT_EQ(r["checked"].get<uint64_t>(), 3 * r["frames"].get<uint64_t>()) << r.dump();
   EXPECT_GE(SocketRequests(), r["frames"].get<uint64_t>());
 }
 
-// Without --frame-socket the plane is refused before anything runs, naming what it needs.
-TEST_F(SocketPlaneTest, TheSocketPlaneWithoutItsPathIsRefused) {
+// Closed loop (no --rate), single characters and ticks: frames go as answers free the
+// window's slots for --duration, none dropped, every one answered on the socket and right.
+TEST_F(SocketPlaneTest, ClosedLoopKeepsTheWindowFullForTheDuration) {
+  for (const char* ticks : {"", "--characters-per-tick 2"}) {
+    SCOPED_TRACE(ticks);
+    const uint64_t before = SocketRequests();
+    const nlohmann::json doc =
+        RunChecked(fmt::format("--backends simd --vertices 1500 --bones 2 --streams 2 --window 3 "
+                               "--duration 1 {}",
+                               ticks),
+                   1);
+    ASSERT_EQ(doc["results"].size(), 1u);
+    const auto& r = doc["results"][0];
+    EXPECT_EQ(r["rate"], 0) << "closed loop: " << r.dump();
+    EXPECT_GT(r["frames"].get<uint64_t>(), 20u) << "a second of 2 streams: " << r.dump();
+    EXPECT_EQ(r["dropped"], 0) << r.dump();
+    EXPECT_EQ(r["late"], 0) << r.dump();
+    EXPECT_GT(r["checked"].get<uint64_t>(), 0u) << r.dump();
+    EXPECT_GE(SocketRequests() - before, r["frames"].get<uint64_t>());
+  }
+}
+
+// The plane without --frame-socket, and a closed loop over it bounded by --frames, are
+// refused before anything runs, naming what they need.
+TEST_F(SocketPlaneTest, TheSocketPlaneWithoutItsPathOrWithFramesInClosedLoopIsRefused) {
   int code = 0;
   std::string output;
   (void)RunLoad(fmt::format("--target unix:{0}/grpc.sock --shm-dir {0} --data-planes socket "
@@ -101,6 +128,10 @@ TEST_F(SocketPlaneTest, TheSocketPlaneWithoutItsPathIsRefused) {
                 &code, nullptr, &output);
   EXPECT_EQ(code, 2) << output;
   EXPECT_NE(output.find("--frame-socket PATH"), std::string::npos) << output;
+  (void)RunSocket("--frames 4 --backends simd --vertices 500", &code, &output);
+  EXPECT_EQ(code, 2) << output;
+  EXPECT_NE(output.find("closed loop for --duration: not with --frames"), std::string::npos)
+      << output;
 }
 
 }  // namespace
