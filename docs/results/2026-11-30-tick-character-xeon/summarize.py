@@ -65,6 +65,15 @@ def held(path):
     return int(re.search(r'^capacity: (\d+) characters', open(path).read(), re.M).group(1))
 
 
+def fixed_load(call, name):
+    """A fixed-load run's server CPU and compute a character (us), its CPU / compute, and
+    how many characters it checked and found wrong."""
+    r = json.load(open(os.path.join(raw, call, name)))['results'][0]
+    compute = r['server_metrics']['compute_seconds_sum'] / r['server_frames'] * 1e6
+    return (f"{r['server_cpu_us_per_character']:.1f}", f'{compute:.1f}',
+            f"{r['server_cpu_over_compute']:.2f}", r['checked'], r['mismatches'])
+
+
 def service():
     with open(os.path.join(here, 'service.csv'), 'w', newline='') as f:
         w = csv.writer(f)
@@ -75,13 +84,10 @@ def service():
         for rnd in (1, 2, 3):
             single = held(os.path.join(raw, 'call3', f'single-cap-grpc-{rnd}.txt'))
             for rest in ('float32', 'quantized16'):
-                fixed = json.load(open(os.path.join(raw, 'call3',
-                                                    f'tick-fixed-{rest}-{rnd}.json')))['results'][0]
-                compute = fixed['server_metrics']['compute_seconds_sum'] / fixed['server_frames'] * 1e6
+                cpu, compute, ratio, checked, wrong = fixed_load(
+                    'call3', f'tick-fixed-{rest}-{rnd}.json')
                 w.writerow([rnd, rest, held(os.path.join(raw, 'call3', f'tick-cap-{rest}-{rnd}.txt')),
-                            single, f"{fixed['server_cpu_us_per_character']:.1f}", f'{compute:.1f}',
-                            f"{fixed['server_cpu_over_compute']:.2f}", fixed['checked'],
-                            fixed['mismatches']])
+                            single, cpu, compute, ratio, checked, wrong])
     with open(os.path.join(here, 'service-streaming.csv'), 'w', newline='') as f:
         w = csv.writer(f)
         w.writerow(['round', 'stores', 'server CPU us a character', 'compute us a character',
@@ -95,7 +101,6 @@ def service():
                 w.writerow([rnd, label, f'{cpu:.1f}', f'{compute:.1f}', ratio])
 
 
-
 def service_prefetch():
     with open(os.path.join(here, 'service-prefetch.csv'), 'w', newline='') as f:
         w = csv.writer(f)
@@ -104,14 +109,10 @@ def service_prefetch():
                     'checked', 'mismatches'])
         for rnd in (1, 2, 3, 4):
             for pf, label in (('0', 'main'), ('1024', 'prefetch 1024 vertices ahead (trial)')):
-                fixed = json.load(open(os.path.join(raw, 'call6',
-                                                    f'fixed-pf{pf}-{rnd}.json')))['results'][0]
-                compute = fixed['server_metrics']['compute_seconds_sum'] / fixed['server_frames'] * 1e6
+                cpu, compute, _, checked, wrong = fixed_load('call6', f'fixed-pf{pf}-{rnd}.json')
                 cap = os.path.join(raw, 'call6', f'cap-pf{pf}-{rnd}.txt')
-                w.writerow([rnd, label, f"{fixed['server_cpu_us_per_character']:.1f}",
-                            f'{compute:.1f}', held(cap) if os.path.exists(cap) else '',
-                            fixed['checked'], fixed['mismatches']])
-
+                w.writerow([rnd, label, cpu, compute, held(cap) if os.path.exists(cap) else '',
+                            checked, wrong])
 
 
 def service_cores():
@@ -122,13 +123,9 @@ def service_cores():
                     'checked', 'mismatches'])
         for rnd in (1, 2):
             for cores in ('0+1', '2+3', '4+6'):
-                fixed = json.load(open(os.path.join(raw, 'call7',
-                                                    f'fixed-{cores}-{rnd}.json')))['results'][0]
-                compute = fixed['server_metrics']['compute_seconds_sum'] / fixed['server_frames'] * 1e6
+                cpu, compute, _, checked, wrong = fixed_load('call7', f'fixed-{cores}-{rnd}.json')
                 cap = held(os.path.join(raw, 'call7', f'cap-{cores}.txt')) if rnd == 1 else ''
-                w.writerow([rnd, cores.replace('+', ', '),
-                            f"{fixed['server_cpu_us_per_character']:.1f}", f'{compute:.1f}', cap,
-                            fixed['checked'], fixed['mismatches']])
+                w.writerow([rnd, cores.replace('+', ', '), cpu, compute, cap, checked, wrong])
 
 
 if not os.path.isdir(raw):
