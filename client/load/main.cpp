@@ -728,12 +728,12 @@ std::optional<int> FinishOptions(const CLI::App& app, Options& o) {
     fmt::print(stderr, "error: --max-trials repeats windows of --duration: not with --frames\n");
     return 2;
   }
-  if (o.data_planes.find("socket") != std::string::npos && o.frame_socket.empty()) {
+  const bool socket_plane = o.data_planes.find("socket") != std::string::npos;
+  if (socket_plane && o.frame_socket.empty()) {
     fmt::print(stderr, "error: --data-planes socket: needs --frame-socket PATH (the server's)\n");
     return 2;
   }
-  if (o.data_planes.find("socket") != std::string::npos && o.run.rate <= 0 && !o.capacity &&
-      o.run.frames > 0) {
+  if (socket_plane && o.run.rate <= 0 && !o.capacity && o.run.frames > 0) {
     fmt::print(stderr,
                "error: --data-planes socket without --rate runs a closed loop for --duration: "
                "not with --frames\n");

@@ -96,8 +96,9 @@ TEST_F(SocketPlaneTest, OpenLoopTicksAreAnsweredOnTheSocketAndRight) {
 }
 
 // Closed loop (no --rate), single characters and ticks: frames go as answers free the
-// window's slots for --duration, none dropped, every one answered on the socket and right.
-TEST_F(SocketPlaneTest, ClosedLoopKeepsTheWindowFullForTheDuration) {
+// window's slots for --duration, none dropped or counted late, every one answered on the
+// socket and right.
+TEST_F(SocketPlaneTest, ClosedLoopSendsAsAnswersComeForTheDuration) {
   for (const char* ticks : {"", "--characters-per-tick 2"}) {
     SCOPED_TRACE(ticks);
     const uint64_t before = SocketRequests();

@@ -64,5 +64,8 @@ PY
 "${run[@]}" --tick=3 --tick-slots=0 >/dev/null 2>"$work/slots-err.txt" &&
   fail "--tick-slots=0 accepted"
 grep -q -- "--tick-slots=: at least 1" "$work/slots-err.txt" || fail "--tick-slots=0 unnamed"
-echo "bench-formats-test: tick slots: named, 0 refused"
+"${run[@]}" --tick-slots=2 >/dev/null 2>"$work/slots-err.txt" && fail "--tick-slots without --tick"
+grep -q -- "--tick-slots=: only with --tick=N" "$work/slots-err.txt" ||
+  fail "--tick-slots without --tick unnamed"
+echo "bench-formats-test: tick slots: named, 0 and without --tick refused"
 echo "bench-formats-test: PASSED"

@@ -45,8 +45,8 @@
 // with --quantized also BM_SkinTick[Normals]Quantized/... (RestEncoding quantized16).
 // --tick-slots=K (with --tick): each tick into the next of K outputs in turn (the rows gain
 // /slots:K), as the service's regions hold one slot per tick in flight for every stream: 6
-// streams of 64 characters with 2 ticks in flight write 12 x 19 MB in turn, beyond the L3
-// where one output of 19 MB may stay in it.
+// streams of 64 characters with 2 ticks in flight write 12 x 19 MB in turn (230 MB), where
+// one output of 19 MB may stay in the L3.
 // --device-output: also BM_SkinDeviceOutput/opencl/<vertices>/<bones> (and
 // BM_SkinDeviceOutputInPlace)
 // (device_output_benchmark.h), `opencl`'s frame with its output left in device memory, the
@@ -197,6 +197,9 @@ Options ParseOptions(int* argc, char** argv) {
     }
   }
   *argc = kept;
+  if (options.tick_slots > 1 && options.tick == 0) {
+    throw std::invalid_argument("--tick-slots=: only with --tick=N");
+  }
   return options;
 }
 
