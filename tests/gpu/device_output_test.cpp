@@ -17,6 +17,7 @@
 #include "backends/opencl/opencl_backends.h"
 #include "backends/opencl/opencl_device_memory.h"
 #include "backends/opencl/opencl_semaphore.h"
+#include "backends/opencl/opencl_tick_launch.h"
 #include "device_output_checks.h"
 #include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/engine/engine.h"
@@ -272,7 +273,8 @@ TEST_P(DeviceOutputTest, AValueTheEncodingRefusesFailsTheFrameAndWritesNothing) 
 
 // A tick's characters into one memory (Backend::SkinFrames: enqueued on one queue,
 // one wait): meshes of different sizes, normals and tangents or not, dual quaternions, an
-// encoded frame among them (skinned on its own) and one that fails alone.
+// encoded frame among them (skinned on its own) and one that fails alone. The linear
+// float32 ones run in a tick launch (opencl_tick_launch.h), the others frame by frame.
 TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
   OpenCl& cl = TestOpenCl(GetParam());
   Backend& backend = *cl.backends[0];
@@ -291,15 +293,16 @@ TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
   struct Range {
     uint64_t positions, normals, tangents;
   };
-  // Character 0's arrays at multiples of the base-address alignment (written in place), the
-  // others' not (copied from the lane's buffers).
+  // Characters 0 and 2's arrays at multiples of the base-address alignment (2, a dual
+  // quaternion frame, runs per frame: written in place), the others' not (per frame: copied
+  // from the lane's buffers; in a tick launch: written where they are).
   std::vector<Range> ranges;
   const uint64_t a = cl.runtime->base_address_alignment();
   const auto up = [a](uint64_t x) { return (x + a - 1) / a * a; };
   uint64_t end = 128;
   for (uint32_t v : sizes) {
     Range r{end, end + 12ull * v + 64, end + 24ull * v + 128};
-    if (ranges.empty()) {
+    if (ranges.size() == 0 || ranges.size() == 2) {
       r.positions = up(end);
       r.normals = up(r.positions + 12ull * v) + a;
       r.tangents = up(r.normals + 12ull * v) + a;
@@ -335,9 +338,10 @@ TEST_P(DeviceOutputTest, FramesSkinnedTogetherEachAtItsOffsets) {
   // The range check is the engine's (CheckDeviceRequest); here the backend must refuse
   // the write itself, without harm to the others.
   std::vector<Status> statuses(frames.size());
-  const uint64_t in_place_before = InPlaceDeviceFrames();
+  const uint64_t in_place_before = InPlaceDeviceFrames(), ticked_before = TickLaunchFrames();
   backend.SkinFrames(prepared, frames, statuses);
-  EXPECT_EQ(InPlaceDeviceFrames() - in_place_before, 1u) << "character 0 only";
+  EXPECT_EQ(InPlaceDeviceFrames() - in_place_before, 1u) << "character 2 only";
+  EXPECT_EQ(TickLaunchFrames() - ticked_before, 2u) << "characters 0 and 1";
   const std::vector<uint8_t> bytes = ReadBack(*cl.runtime, **memory);
   std::size_t checked = 0;
   for (std::size_t c = 0; c < meshes.size(); ++c) {

@@ -8,6 +8,7 @@
 #include "backends/opencl/opencl_backends.h"
 #include "backends/opencl/opencl_device_memory.h"
 #include "backends/opencl/opencl_runtime.h"
+#include "tick_counters.h"
 
 namespace skinserve::bench {
 namespace {
@@ -56,11 +57,42 @@ void SkinDeviceOutputBenchmark(benchmark::State& state, WorkloadCache* cache, Ba
   }
 }
 
+void SkinTickDeviceOutputBenchmark(benchmark::State& state, WorkloadCache* cache, Backend* backend,
+                                   OpenClRuntime* runtime, uint32_t vertices, uint32_t bones,
+                                   uint32_t characters) {
+  std::vector<const PreparedMesh*> meshes;
+  for (uint32_t c = 0; c < characters; ++c) {
+    meshes.push_back(&cache->Prepared(*backend, vertices, bones, false, RestEncoding::kFloat32, c));
+  }
+  const Workload& workload = cache->Get(vertices, bones);
+  const uint64_t array = 12ull * vertices;
+  auto memory = CreateOpenClDeviceMemory(*runtime, backend->info().id, array * characters, false);
+  if (!memory.ok()) {
+    state.SkipWithError(memory.status().ToString().c_str());
+    return;
+  }
+  std::vector<SkinFrame> frames(characters);
+  std::vector<Status> statuses(characters);
+  std::size_t frame = 0;
+  for (auto _ : state) {
+    const auto& palette = workload.palettes[frame++ % workload.palettes.size()];
+    for (uint32_t c = 0; c < characters; ++c) {
+      frames[c] = {.palette = palette};
+      frames[c].device = {.memory = memory->get(), .positions_offset = c * array};
+    }
+    backend->SkinFrames(meshes, frames, statuses);
+    for (const Status& s : statuses) {
+      if (!s.ok()) return state.SkipWithError(s.ToString().c_str());
+    }
+  }
+  SetTickCounters(state, characters, vertices);
+}
+
 }  // namespace
 
 bool RegisterDeviceOutputRows(WorkloadCache& cache, const std::vector<uint32_t>& vertices,
                               const std::vector<uint32_t>& bones, int threads,
-                              const std::string& opencl_device, bool device_timing) {
+                              const std::string& opencl_device, bool device_timing, uint32_t tick) {
   auto runtime = OpenClRuntime::Create(
       {.threads = threads, .device = opencl_device, .device_timing = device_timing});
   if (!runtime.ok()) {
@@ -84,6 +116,13 @@ bool RegisterDeviceOutputRows(WorkloadCache& cache, const std::vector<uint32_t>&
                                      v, b, in_place)
             ->UseRealTime()
             ->Unit(benchmark::kMicrosecond);
+      }
+      if (tick > 0) {
+        benchmark::RegisterBenchmark(
+            fmt::format("BM_SkinTickDeviceOutput/opencl/{}/{}/characters:{}", v, b, tick).c_str(),
+            SkinTickDeviceOutputBenchmark, &cache, &opencl, held.runtime.get(), v, b, tick)
+            ->UseRealTime()
+            ->Unit(benchmark::kMillisecond);
       }
     }
   }

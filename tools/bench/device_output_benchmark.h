@@ -21,9 +21,11 @@ namespace skinserve::bench {
 // Registers the rows over `vertices` x `bones` on an OpenCL runtime of its own (`threads`
 // lanes, on `opencl_device` as --opencl-device names it, its queues profiled when
 // `device_timing`). False, the reason printed, when that runtime or its `opencl` backend is
-// unavailable.
+// unavailable. `tick` > 0: also BM_SkinTickDeviceOutput/opencl/<vertices>/<bones>/
+// characters:N, a tick of N distinct meshes skinned together (Backend::SkinFrames) into
+// their ranges of one device memory (a GPU region's tick, issue 44).
 bool RegisterDeviceOutputRows(WorkloadCache& cache, const std::vector<uint32_t>& vertices,
                               const std::vector<uint32_t>& bones, int threads,
-                              const std::string& opencl_device, bool device_timing);
+                              const std::string& opencl_device, bool device_timing, uint32_t tick);
 
 }  // namespace skinserve::bench

@@ -42,7 +42,10 @@
 // one after another into their ranges of one output, as a tick fills a region; the meshes and
 // the output (N x (30 + 24) bytes a vertex at 25k x 2 with normals) outgrow the caches, where
 // BM_Skin's single mesh stays in them. Reports seconds_per_character beside the cached row;
-// with --quantized also BM_SkinTick[Normals]Quantized/... (RestEncoding quantized16).
+// with --quantized also BM_SkinTick[Normals]Quantized/... (RestEncoding quantized16); for
+// backends that skin frames together (`opencl`) also BM_SkinTickTogether[Normals]/..., the
+// same tick handed over at once (Backend::SkinFrames: tick launches), and with
+// --device-output BM_SkinTickDeviceOutput/opencl/..., that tick into device memory.
 // --tick-slots=K (with --tick): each tick into the next of K outputs in turn (the rows gain
 // /slots:K), as the service's regions hold one slot per tick in flight for every stream: 6
 // streams of 64 characters with 2 ticks in flight write 12 x 19 MB in turn (230 MB), where
@@ -88,6 +91,7 @@
 #include "skinserve/engine/backend_registry.h"
 #include "skinserve/model/aligned_buffer.h"
 #include "skinserve/reference/synthetic_morph.h"
+#include "tick_counters.h"
 #include "workload_cache.h"
 
 namespace skinserve::bench {
@@ -420,10 +424,42 @@ void SkinTickBenchmark(benchmark::State& state, Backend* backend, uint32_t verti
     benchmark::DoNotOptimize(positions.data());
     benchmark::ClobberMemory();
   }
-  const double skinned = static_cast<double>(state.iterations()) * characters;
-  state.SetItemsProcessed(static_cast<int64_t>(skinned * vertices));
-  state.counters["seconds_per_character"] =
-      benchmark::Counter(skinned, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  SetTickCounters(state, characters, vertices);
+}
+
+// BM_SkinTickTogether: the same tick as SkinTickBenchmark handed to the backend at once
+// (Backend::SkinFrames), as the engine hands a tick's characters to a backend that skins
+// frames together (`opencl`: tick launches, opencl_tick_launch.h).
+void SkinTickTogetherBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices,
+                               uint32_t bones, bool normals, uint32_t characters) {
+  std::vector<const PreparedMesh*> meshes;
+  for (uint32_t c = 0; c < characters; ++c) {
+    meshes.push_back(
+        &Cache().Prepared(*backend, vertices, bones, false, RestEncoding::kFloat32, c));
+  }
+  const Workload& workload = Cache().Get(vertices, bones);
+  const std::size_t floats = 3ull * vertices;
+  AlignedBuffer<float> positions(floats * characters);
+  AlignedBuffer<float> out_normals(normals ? floats * characters : 0);
+  std::vector<SkinFrame> frames(characters);
+  std::vector<Status> statuses(characters);
+  std::size_t frame = 0;
+  for (auto _ : state) {
+    const auto& palette = workload.palettes[frame++ % workload.palettes.size()];
+    for (uint32_t c = 0; c < characters; ++c) {
+      frames[c] = {
+          .palette = palette,
+          .positions = positions.span().subspan(c * floats, floats),
+          .normals = normals ? out_normals.span().subspan(c * floats, floats) : std::span<float>()};
+    }
+    backend->SkinFrames(meshes, frames, statuses);
+    for (const Status& s : statuses) {
+      if (!s.ok()) return state.SkipWithError(s.ToString().c_str());
+    }
+    benchmark::DoNotOptimize(positions.data());
+    benchmark::ClobberMemory();
+  }
+  SetTickCounters(state, characters, vertices);
 }
 
 // The device's bounds, measured with the runtime the OpenCL backends use (a second one
@@ -753,6 +789,16 @@ void RegisterTickRows(const Options& options, const Rows& rows) {
                 ->UseRealTime()
                 ->Unit(benchmark::kMillisecond);
           }
+          if (backend->info().skins_frames_together && options.tick_slots == 1) {
+            const std::string name =
+                fmt::format("{}/{}/{}/{}/characters:{}",
+                            normals ? "BM_SkinTickTogetherNormals" : "BM_SkinTickTogether", id, v,
+                            b, options.tick);
+            benchmark::RegisterBenchmark(name.c_str(), SkinTickTogetherBenchmark, backend, v, b,
+                                         normals, options.tick)
+                ->UseRealTime()
+                ->Unit(benchmark::kMillisecond);
+          }
         }
       }
     }
@@ -859,7 +905,8 @@ int main(int argc, char** argv) {
   RegisterSkinRows(options, rows);
   if (options.device_output &&
       !RegisterDeviceOutputRows(Cache(), options.vertices, options.bones, threads,
-                                options.opencl_device, options.opencl_device_timing)) {
+                                options.opencl_device, options.opencl_device_timing,
+                                options.tick)) {
     return 2;
   }
   RegisterQuantizedRows(options, backends, measured);

@@ -1,5 +1,7 @@
 #include "backends/opencl/opencl_backend_base.h"
 
+#include <fmt/format.h>
+
 #include <vector>
 
 #include "backends/common/dual_quaternion_palette.h"
@@ -46,11 +48,13 @@ Status CheckOpenClOutputs(const Mesh& mesh, const SkinFrame& frame) {
 
 OpenClBackendBase::OpenClBackendBase(std::shared_ptr<OpenClRuntime> runtime,
                                      std::shared_ptr<OpenClEncoder> encoder,
-                                     cl_mem_flags mesh_host_memory, BackendInfo info)
+                                     cl_mem_flags mesh_host_memory, BackendInfo info,
+                                     std::shared_ptr<OpenClMeshArena> mesh_arena)
     : runtime_(std::move(runtime)),
       encoder_(std::move(encoder)),
       mesh_host_memory_(mesh_host_memory),
-      info_(std::move(info)) {}
+      info_(std::move(info)),
+      mesh_arena_(std::move(mesh_arena)) {}
 
 Result<std::unique_ptr<PreparedMesh>> OpenClBackendBase::Prepare(std::shared_ptr<const Mesh> mesh) {
   auto prepared = std::make_unique<OpenClPreparedMesh>(mesh);
@@ -61,6 +65,14 @@ Result<std::unique_ptr<PreparedMesh>> OpenClBackendBase::Prepare(std::shared_ptr
         !s.ok()) {
       return s;
     }
+    return std::unique_ptr<PreparedMesh>(std::move(prepared));
+  }
+  auto in_arena = PrepareInArena(*mesh, prepared.get());
+  if (!in_arena.ok()) return in_arena.status();
+  if (*in_arena) {
+    auto morph = CreateMorphTargets(*runtime_, *mesh, mesh_host_memory_);
+    if (!morph.ok()) return morph.status();
+    prepared->morph = std::move(morph).value();
     return std::unique_ptr<PreparedMesh>(std::move(prepared));
   }
   struct Plan {
@@ -91,6 +103,57 @@ Result<std::unique_ptr<PreparedMesh>> OpenClBackendBase::Prepare(std::shared_ptr
   if (!morph.ok()) return morph.status();
   prepared->morph = std::move(morph).value();
   return std::unique_ptr<PreparedMesh>(std::move(prepared));
+}
+
+Result<bool> OpenClBackendBase::PrepareInArena(const Mesh& mesh, OpenClPreparedMesh* prepared) {
+  if (mesh_arena_ == nullptr) return false;
+  struct Array {
+    const char* what;
+    ClBuffer* buffer;
+    uint32_t* word;
+    std::size_t bytes;
+    const void* host;
+    uint64_t offset = 0;
+  };
+  std::vector<Array> arrays = {{"positions", &prepared->positions, &prepared->positions_word,
+                                mesh.positions().size_bytes(), mesh.positions().data()},
+                               {"joints", &prepared->joints, &prepared->joints_word,
+                                mesh.joints().size_bytes(), mesh.joints().data()},
+                               {"weights", &prepared->weights, &prepared->weights_word,
+                                mesh.weights().size_bytes(), mesh.weights().data()}};
+  if (mesh.has_normals()) {
+    arrays.push_back({"normals", &prepared->normals, &prepared->normals_word,
+                      mesh.normals().size_bytes(), mesh.normals().data()});
+  }
+  if (mesh.has_tangents()) {
+    arrays.push_back({"tangents", &prepared->tangents, &prepared->tangents_word,
+                      mesh.tangents().size_bytes(), mesh.tangents().data()});
+  }
+  const uint64_t align = mesh_arena_->alignment();
+  uint64_t total = 0;
+  for (Array& a : arrays) {
+    a.offset = total;
+    total += (a.bytes + align - 1) / align * align;
+  }
+  auto slice = mesh_arena_->Allocate(total);
+  if (!slice.ok()) return slice.status();
+  if (*slice == nullptr) return false;
+  // Held by the mesh from here: after an error, its sub-buffers go before the slice.
+  prepared->arena = std::move(slice).value();
+  const OpenClMeshArena::Slice& held = *prepared->arena;
+  for (const Array& a : arrays) {
+    const cl_buffer_region region{held.offset() + a.offset, a.bytes};
+    cl_int err = CL_SUCCESS;
+    cl_mem sub = clCreateSubBuffer(held.chunk(), CL_MEM_READ_ONLY, CL_BUFFER_CREATE_TYPE_REGION,
+                                   &region, &err);
+    if (err != CL_SUCCESS) {
+      return ClError(fmt::format("clCreateSubBuffer(mesh {})", a.what).c_str(), err);
+    }
+    *a.buffer = ClBuffer(sub);
+    if (Status s = mesh_arena_->Write(held, a.offset, a.host, a.bytes); !s.ok()) return s;
+    *a.word = static_cast<uint32_t>((held.offset() + a.offset) / sizeof(uint32_t));
+  }
+  return true;
 }
 
 Status OpenClBackendBase::Skin(const PreparedMesh& base, const SkinFrame& frame) {

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "backends/opencl/opencl_encode.h"
+#include "backends/opencl/opencl_mesh_arena.h"
 #include "backends/opencl/opencl_morph.h"
 #include "backends/opencl/opencl_runtime.h"
 #include "skinserve/engine/backend.h"
@@ -19,6 +20,13 @@ namespace skinserve {
 // targets; normals and tangents only where the mesh has them.
 struct OpenClPreparedMesh final : PreparedMesh {
   using PreparedMesh::PreparedMesh;
+  // A float32 mesh of the copy backend: its arrays' place in the device mesh arena (else
+  // null: buffers of their own), declared first so that it is given back after the
+  // sub-buffers below are released; and each array's offset there in 4-byte words (the tick
+  // kernels' table).
+  std::unique_ptr<OpenClMeshArena::Slice> arena;
+  uint32_t positions_word = 0, normals_word = 0, tangents_word = 0, joints_word = 0,
+           weights_word = 0;
   ClBuffer positions, normals, tangents, joints, weights;
   OpenClMorphTargets morph;
 };
@@ -34,9 +42,11 @@ class OpenClBackendBase : public Backend {
   Status Skin(const PreparedMesh& base, const SkinFrame& frame) final;
 
  protected:
-  // `mesh_host_memory`: CL_MEM_COPY_HOST_PTR or CL_MEM_USE_HOST_PTR.
+  // `mesh_host_memory`: CL_MEM_COPY_HOST_PTR or CL_MEM_USE_HOST_PTR. `mesh_arena`: where
+  // float32 meshes go (the copy backend's), or null: buffers of their own.
   OpenClBackendBase(std::shared_ptr<OpenClRuntime> runtime, std::shared_ptr<OpenClEncoder> encoder,
-                    cl_mem_flags mesh_host_memory, BackendInfo info);
+                    cl_mem_flags mesh_host_memory, BackendInfo info,
+                    std::shared_ptr<OpenClMeshArena> mesh_arena = nullptr);
 
   // Skin() with frame.palette in the layout of frame.method's kernels and outputs the mesh has.
   virtual Status SkinPalette(const OpenClPreparedMesh& prepared, const SkinFrame& frame) = 0;
@@ -62,9 +72,14 @@ class OpenClBackendBase : public Backend {
 
  private:
   std::shared_ptr<OpenClRuntime> runtime_;
+  // A float32 mesh's arrays as sub-buffers of its arena slice: false (and Ok) when the
+  // arena has no room for meshes of its size.
+  Result<bool> PrepareInArena(const Mesh& mesh, OpenClPreparedMesh* prepared);
+
   std::shared_ptr<OpenClEncoder> encoder_;
   cl_mem_flags mesh_host_memory_;
   BackendInfo info_;
+  std::shared_ptr<OpenClMeshArena> mesh_arena_;
 };
 
 }  // namespace skinserve

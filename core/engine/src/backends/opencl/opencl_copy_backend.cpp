@@ -27,6 +27,8 @@
 #include "backends/opencl/opencl_backend_base.h"
 #include "backends/opencl/opencl_backends.h"
 #include "backends/opencl/opencl_device_memory.h"
+#include "backends/opencl/opencl_mesh_arena.h"
+#include "backends/opencl/opencl_tick_launch.h"
 
 namespace skinserve {
 namespace {
@@ -75,7 +77,8 @@ class OpenClCopyBackend final : public OpenClBackendBase {
                     // Staged: a frame waits on the device and then copies with the threads other
                     // frames leave free, so it holds one compute thread of the engine.
                     runtime->staging() ? 1 : runtime->compute_units()),
-                *runtime)) {}
+                *runtime),
+            OpenClMeshArena::Create(runtime, runtime->mesh_arena_bytes())) {}
 
   // GPU regions: only this backend imports device memory (opencl_device_memory.h).
   Result<std::shared_ptr<DeviceMemory>> ImportDeviceMemory(
@@ -83,7 +86,9 @@ class OpenClCopyBackend final : public OpenClBackendBase {
     return ImportOpenClDeviceMemory(runtime(), info().id, import);
   }
 
-  // A tick's characters, skinned together on one lane. Frames into GPU regions (float32):
+  // A tick's characters, skinned together on one lane. Those that can run in tick
+  // launches (opencl_tick_launch.h: linear float32 meshes of the arena, no morph) do, a
+  // few launches for all of them; the others as follows. Frames into GPU regions (float32):
   // enqueued one after another (each its palette from a slot of its own, its kernel into
   // the lane's buffers, which the in-order queue reuses safely, its copies into the
   // memory), then one wait for all of them. Frames into host memory (float32): enqueued the
@@ -112,7 +117,21 @@ class OpenClCopyBackend final : public OpenClBackendBase {
       }
       return;
     }
+    // Declared before `out`, whose Finish (or destruction) waits for what it enqueued.
+    OpenClTickLaunches ticks(runtime(), *lane);
     DeviceOutputBatch out(*lane);
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      const auto& mesh = static_cast<const OpenClPreparedMesh&>(*prepared[i]);
+      if (how[i] == Together::kAlone || !OpenClTickLaunches::Takes(runtime(), mesh, frames[i])) {
+        continue;
+      }
+      how[i] = Together::kTick;
+      statuses[i] = InKernelLayout(mesh, frames[i], [&](const auto& m, const auto&) {
+        ticks.Add(i, m, frames[i]);  // a linear float32 frame: its palette as it came
+        return Status::Ok();
+      });
+    }
+    ticks.Run(out, statuses);
     std::deque<ClEvents> kernels(frames.size()), transfers(frames.size());
     std::vector<std::size_t> enqueued;
     for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -125,6 +144,7 @@ class OpenClCopyBackend final : public OpenClBackendBase {
     }
     SkinHostFrames(*lane, prepared, frames, how, slots, slot_bytes, kernels, transfers, statuses);
     const Status finished = out.Finish();
+    ticks.FinishDevice(finished, statuses);
     for (std::size_t i : enqueued) {
       statuses[i] = finished.ok()
                         ? RecordDeviceTiming(kernels[i], transfers[i], runtime().device_timing(),
@@ -135,7 +155,7 @@ class OpenClCopyBackend final : public OpenClBackendBase {
 
  private:
   // How SkinFrames skins a frame.
-  enum class Together { kAlone, kDevice, kHost };
+  enum class Together { kAlone, kDevice, kHost, kTick };
 
   // A batch's pinned memory for read-backs holds at most this much; larger frames run
   // alone (Skin: chunks whose reads overlap their kernels, which pays at that size).

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -337,6 +338,10 @@ Status OpenClRuntime::ReadDeviceShape(const OpenClRuntimeOptions& options) {
   base_address_alignment_ = std::max<uint64_t>(align_bits / 8, 1);
   staging_ = !is_cpu_ || options.force_staging;
   device_timing_ = options.device_timing;
+  mesh_arena_bytes_ = options.mesh_arena_bytes;
+  const char* tick_launches = std::getenv("SKINSERVE_OPENCL_TICK_LAUNCHES");
+  tick_launches_ =
+      options.tick_launches && (tick_launches == nullptr || std::string(tick_launches) != "0");
   coalesced_ = !is_cpu_ || options.force_coalesced;
   // The local-palette kernels: on the coalesced path, unless turned off, up to the
   // device's local memory, less what the kernels use themselves, and at most the caller's
@@ -416,10 +421,11 @@ Status OpenClRuntime::FitLocalPalette(const OpenClRuntimeOptions& options) {
 }
 
 Status OpenClRuntime::Build(const std::string& options) {
-  // One program: the dual-quaternion kernels use the linear file's arguments.
+  // One program: the dual-quaternion kernels use the linear file's arguments, the tick
+  // kernels its blend and stores.
   const std::string_view sources[] = {kernels::kLinearBlendSkinningSource,
                                       kernels::kDualQuaternionSkinningSource,
-                                      kernels::kMorphTargetsSource};
+                                      kernels::kMorphTargetsSource, kernels::kTickSkinningSource};
   auto program = BuildSkinningProgram(context_, device_, sources, options, "skinning");
   if (!program.ok()) return program.status();
   program_ = *program;
@@ -463,6 +469,22 @@ Status OpenClRuntime::CreateLanes(int count) {
         }
       }
     }
+    // Tick launches (tick_skinning.cl), [local][outputs][B - 1].
+    constexpr const char* kTickPrefixes[2][3] = {
+        {"tick_b", "tick_normals_b", "tick_tangents_b"},
+        {"tick_local_b", "tick_normals_local_b", "tick_tangents_local_b"}};
+    for (std::size_t local = 0; local < (local_palette() ? 2 : 1); ++local) {
+      for (std::size_t outputs = 0; outputs < 3; ++outputs) {
+        for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
+          const std::string name = fmt::format("{}{}", kTickPrefixes[local][outputs], b);
+          cl_kernel kernel = clCreateKernel(program_, name.c_str(), &err);
+          if (err != CL_SUCCESS) {
+            return ClError(fmt::format("clCreateKernel({})", name).c_str(), err);
+          }
+          lane->tick_kernels[local][outputs][b - 1] = kernel;
+        }
+      }
+    }
     // Morph targets (morph_targets.cl), [with normals][with tangents].
     constexpr const char* kMorphNames[2][2] = {
         {"morph_positions", "morph_positions_tangents"},
@@ -497,9 +519,18 @@ OpenClRuntime::~OpenClRuntime() {
         if (kernel != nullptr) clReleaseKernel(kernel);
       }
     }
+    for (const auto& variant : lane->tick_kernels) {
+      for (const auto& row : variant) {
+        for (cl_kernel kernel : row) {
+          if (kernel != nullptr) clReleaseKernel(kernel);
+        }
+      }
+    }
     // Unmapped before release: the buffers' destructors release them afterwards.
-    for (PinnedBuffer* pinned : {&lane->pinned_palette, &lane->pinned_positions,
-                                 &lane->pinned_normals, &lane->pinned_tangents}) {
+    for (PinnedBuffer* pinned :
+         {&lane->pinned_palette, &lane->pinned_positions, &lane->pinned_normals,
+          &lane->pinned_tangents, &lane->pinned_batch_palettes, &lane->pinned_batch_outputs,
+          &lane->pinned_tick_palettes}) {
       if (pinned->host != nullptr) {
         clEnqueueUnmapMemObject(lane->compute, pinned->buffer.get(), pinned->host, 0, nullptr,
                                 nullptr);
@@ -685,6 +716,49 @@ Status OpenClRuntime::EnqueueSkinKernel(OpenClLane& lane, const Mesh& mesh,
   return Status::Ok();
 }
 
+Status OpenClRuntime::EnqueueTick(OpenClLane& lane, const TickLaunch& launch, cl_event* event) {
+  if (launch.influences < 1 || launch.influences > kMaxInfluences || launch.outputs < 0 ||
+      launch.outputs > 2) {
+    return Internal(fmt::format("no tick kernel for {} influences, outputs {}", launch.influences,
+                                launch.outputs));
+  }
+  if (launch.characters == 0 || launch.most_vertices == 0) return Status::Ok();
+  cl_kernel kernel = lane.tick_kernels[launch.local ? 1 : 0][launch.outputs][launch.influences - 1];
+  if (kernel == nullptr) return Internal("the local-palette tick kernels are not built");
+  // Argument order: TICK_ARGS in kernels/tick_skinning.cl, then the local kernels' staging.
+  const cl_mem buffers[] = {launch.arena, launch.table, launch.palettes, launch.out};
+  cl_uint index = 0;
+  for (const cl_mem& buffer : buffers) {
+    if (cl_int err = clSetKernelArg(kernel, index++, sizeof(cl_mem), &buffer); err != CL_SUCCESS) {
+      return ClError("clSetKernelArg(tick)", err);
+    }
+  }
+  if (cl_int err = clSetKernelArg(kernel, index++, sizeof(cl_uint), &launch.first_row);
+      err != CL_SUCCESS) {
+    return ClError("clSetKernelArg(tick first row)", err);
+  }
+  if (launch.local) {
+    if (cl_int err = clSetKernelArg(kernel, index++, launch.staged_bytes, nullptr);
+        err != CL_SUCCESS) {
+      return ClError("clSetKernelArg(tick staged palette)", err);
+    }
+  }
+  // Dimension 0 as a single frame of the largest mesh (EnqueueSkinKernel), dimension 1
+  // the characters, one per work-group row.
+  const std::size_t items = (launch.most_vertices + kVerticesPerItem - 1) / kVerticesPerItem;
+  const std::size_t per_group =
+      launch.local ? kItemsPerGroup * static_cast<std::size_t>(local_tiles_) : kItemsPerGroup;
+  const std::size_t global[2] = {(items + per_group - 1) / per_group * kItemsPerGroup,
+                                 launch.characters};
+  const std::size_t group[2] = {kItemsPerGroup, 1};
+  if (cl_int err = clEnqueueNDRangeKernel(lane.compute, kernel, 2, nullptr, global, group, 0,
+                                          nullptr, event);
+      err != CL_SUCCESS) {
+    return ClError("clEnqueueNDRangeKernel(tick)", err);
+  }
+  return Status::Ok();
+}
+
 Status OpenClRuntime::EnqueueMorph(OpenClLane& lane, uint32_t vertex_count,
                                    const MorphKernelArgs& args, cl_event* event) {
   const bool with_normals = args.morphed_normals != nullptr;
@@ -739,6 +813,7 @@ Status OpenClRuntime::EnqueueMorph(OpenClLane& lane, uint32_t vertex_count,
 // enough for every kernel, every B.
 struct OpenClRuntime::WarmUpBuffers {
   ClBuffer palette, positions, normals, joints, weights, out, out_normals, tangents, out_tangents;
+  ClBuffer tick_arena, tick_table, tick_out;
   ClBuffer morph_offsets, morph_indices, morph_deltas, morph_weights, morphed, morphed_normals,
       morphed_tangents;
 };
@@ -784,6 +859,22 @@ Result<std::unique_ptr<OpenClRuntime::WarmUpBuffers>> OpenClRuntime::CreateWarmU
     if (!buffer.ok()) return buffer.status();
     *p.buffer = std::move(buffer).value();
   }
+  // A tick of one character, its one vertex's arrays in an arena of 16-word (64-byte)
+  // blocks: joints, weights, positions, normals, tangents; outputs at 0, 4 and 8.
+  std::vector<uint32_t> arena(5 * 16, 0);
+  std::memcpy(&arena[16], weights.data(), weights.size() * sizeof(float));
+  std::memcpy(&arena[48], normal, sizeof(normal));
+  std::memcpy(&arena[64], tangent, sizeof(tangent));
+  const uint32_t table[kTickFields] = {1, 0, 0, 16, 32, 0, 48, 4, 64, 8, 12};
+  const Plan tick[] = {
+      {"warm tick arena", &w.tick_arena, kIn, arena.size() * sizeof(uint32_t), arena.data()},
+      {"warm tick table", &w.tick_table, kIn, sizeof(table), table},
+      {"warm tick output", &w.tick_out, CL_MEM_WRITE_ONLY, 12 * sizeof(float), nullptr}};
+  for (const Plan& p : tick) {
+    auto buffer = CreateBuffer(p.what, p.flags, p.bytes, p.host);
+    if (!buffer.ok()) return buffer.status();
+    *p.buffer = std::move(buffer).value();
+  }
   return buffers;
 }
 
@@ -793,6 +884,12 @@ Status OpenClRuntime::Warm() {
   for (auto& lane : lanes_) {
     if (Status s = WarmSkinKernels(*lane, **buffers); !s.ok()) return s;
     if (Status s = WarmMorphKernels(*lane, **buffers); !s.ok()) return s;
+    // PoCL compiles each kernel at its first launch, which for 24 tick kernels (48 with the
+    // local palette) costs seconds that most engines (every test's) never use: on a CPU
+    // device a tick's first launch of each shape pays for it instead.
+    if (!is_cpu_) {
+      if (Status s = WarmTickKernels(*lane, **buffers); !s.ok()) return s;
+    }
     if (cl_int err = clFinish(lane->compute); err != CL_SUCCESS) {
       return ClError("clFinish(warm-up)", err);
     }
@@ -834,6 +931,28 @@ Status OpenClRuntime::WarmSkinKernels(OpenClLane& lane, const WarmUpBuffers& w) 
             return s;
           }
         }
+      }
+    }
+  }
+  return Status::Ok();
+}
+
+Status OpenClRuntime::WarmTickKernels(OpenClLane& lane, const WarmUpBuffers& w) {
+  TickLaunch launch{.arena = w.tick_arena.get(),
+                    .table = w.tick_table.get(),
+                    .palettes = w.palette.get(),
+                    .out = w.tick_out.get(),
+                    .characters = 1,
+                    .most_vertices = 1,
+                    .staged_bytes = 12 * sizeof(float)};
+  for (bool local : {false, true}) {
+    if (local && !local_palette()) continue;
+    launch.local = local;
+    for (int outputs = 0; outputs < 3; ++outputs) {
+      launch.outputs = outputs;
+      for (uint32_t b = 1; b <= kMaxInfluences; ++b) {
+        launch.influences = b;
+        if (Status s = EnqueueTick(lane, launch, nullptr); !s.ok()) return s;
       }
     }
   }

@@ -153,7 +153,31 @@ struct OpenClLane {
   // A batch's palettes (OpenClCopyBackend::SkinFrames), one slot a frame, and its host
   // frames' read-backs, one after another.
   PinnedBuffer pinned_batch_palettes, pinned_batch_outputs;
+  // Tick launches (kernels/tick_skinning.cl, opencl_tick_launch.h): [local][outputs][B - 1]
+  // tick_b*, tick_normals_b*, tick_tangents_b* (and *_local_* with the local palette); a
+  // batch's palettes and character tables on the device, and its host outputs before
+  // they are read back; grown like the buffers above.
+  std::array<std::array<std::array<cl_kernel, kMaxInfluences>, 3>, 2> tick_kernels = {};
+  ClBuffer tick_palettes, tick_tables, tick_outputs;
+  PinnedBuffer pinned_tick_palettes;
+  std::size_t tick_palettes_bytes = 0, tick_tables_bytes = 0, tick_outputs_bytes = 0;
 };
+
+// One tick launch (OpenClRuntime::EnqueueTick): `characters` rows of `table` from
+// `first_row` on (kTickFields
+// uints each, kernels/tick_skinning.cl) over meshes in `arena` (one chunk of the mesh
+// arena), palettes in `palettes`, outputs into `out`; every character with `influences`
+// influences and `outputs` (0 positions, 1 with normals, 2 with normals and tangents).
+// `local`: the *_local_* kernels, staging up to `staged_bytes` of palette.
+struct TickLaunch {
+  cl_mem arena = nullptr, table = nullptr, palettes = nullptr, out = nullptr;
+  uint32_t first_row = 0, characters = 0, influences = 0, most_vertices = 0;
+  int outputs = 0;
+  bool local = false;
+  std::size_t staged_bytes = 0;
+};
+// A row of a tick launch's table: kTickFields uints (TICK_FIELDS of the kernels).
+inline constexpr std::size_t kTickFields = 11;
 
 struct OpenClRuntimeOptions {
   // Compute threads of the engine: PoCL's worker count, and the host threads the copy
@@ -197,6 +221,13 @@ struct OpenClRuntimeOptions {
   // profiling made a frame's palette write, kernel and wait cost 28-32 us instead of 13-16
   // (docs/results/2026-11-29-gpu-frame-floor-h200).
   bool device_timing = false;
+  // Each chunk of the copy backend's device mesh arena (opencl_mesh_arena.h); 0:
+  // OpenClMeshArena::kDefaultChunkBytes. Tests set less, to fill chunks.
+  std::size_t mesh_arena_bytes = 0;
+  // Tick launches (opencl_tick_launch.h) for the frames that can take them; false (or
+  // SKINSERVE_OPENCL_TICK_LAUNCHES=0 in the environment) runs every frame of a batch on
+  // its own, for the benchmarks' comparison.
+  bool tick_launches = true;
 };
 
 class OpenClRuntime {
@@ -246,6 +277,9 @@ class OpenClRuntime {
   // it on that queue read its output. `event`: null or where to put the kernel's event.
   Status EnqueueMorph(OpenClLane& lane, uint32_t vertex_count, const MorphKernelArgs& args,
                       cl_event* event);
+  // Sets the arguments of `lane`'s tick kernel for `launch` and enqueues it on the lane's
+  // compute queue. `event`: null or where to put the kernel's event.
+  Status EnqueueTick(OpenClLane& lane, const TickLaunch& launch, cl_event* event);
   // A buffer: device memory (host == nullptr), a copy of `host`, or `host` used in place
   // (CL_MEM_USE_HOST_PTR). `what` names the buffer in errors.
   Result<ClBuffer> CreateBuffer(const char* what, cl_mem_flags flags, std::size_t bytes,
@@ -277,6 +311,9 @@ class OpenClRuntime {
   bool staging() const { return staging_; }
   // Whether the lanes' queues are profiled (OpenClRuntimeOptions::device_timing).
   bool device_timing() const { return device_timing_; }
+  // OpenClRuntimeOptions::mesh_arena_bytes as given.
+  std::size_t mesh_arena_bytes() const { return mesh_arena_bytes_; }
+  bool tick_launches() const { return tick_launches_; }
   int lane_count() const { return static_cast<int>(lanes_.size()); }
   int max_chunks() const { return max_chunks_; }
   uint32_t min_chunk_vertices() const { return min_chunk_vertices_; }
@@ -313,6 +350,7 @@ class OpenClRuntime {
   Result<std::unique_ptr<WarmUpBuffers>> CreateWarmUpBuffers();
   Status WarmSkinKernels(OpenClLane& lane, const WarmUpBuffers& buffers);
   Status WarmMorphKernels(OpenClLane& lane, const WarmUpBuffers& buffers);
+  Status WarmTickKernels(OpenClLane& lane, const WarmUpBuffers& buffers);
   void Release(OpenClLane* lane);
 
   cl_device_id device_ = nullptr;
@@ -331,6 +369,8 @@ class OpenClRuntime {
   bool staging_ = false;
   bool coalesced_ = false;
   bool device_timing_ = false;
+  std::size_t mesh_arena_bytes_ = 0;
+  bool tick_launches_ = true;
   std::size_t local_palette_bytes_ = 0;
   int local_tiles_ = kDefaultLocalTiles;
   int threads_ = 1;
