@@ -4,6 +4,8 @@
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 
 #include "skinserve/wire/conversions.h"
 
@@ -56,7 +58,14 @@ Status StreamIntoRegion(v1::Skinning::Stub& stub, const StreamPlan& plan,
   auto stream = stub.StreamSkin(&context);
   const auto characters = static_cast<uint32_t>(plan.mesh_ids.size());
   v1::SkinRequest request;
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  std::vector<Clock::time_point> sent_at(plan.frames);
   const auto send = [&](uint32_t frame) {
+    if (plan.rate > 0) {
+      std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
+                                                std::chrono::duration<double>(frame / plan.rate)));
+    }
     if (characters == 1) {
       FillCharacter(plan, frame, 0, &request);
     } else {
@@ -66,6 +75,7 @@ Status StreamIntoRegion(v1::Skinning::Stub& stub, const StreamPlan& plan,
       }
     }
     request.set_frame(frame);
+    sent_at[frame] = Clock::now();
     return stream->Write(request);
   };
   uint32_t sent = 0;
@@ -76,7 +86,12 @@ Status StreamIntoRegion(v1::Skinning::Stub& stub, const StreamPlan& plan,
     if (!stream->Read(&response)) break;
     failed = FailureIn(response);
     if (!failed.ok()) break;
-    failed = answered(static_cast<uint32_t>(response.frame()), response);
+    const auto frame = static_cast<uint32_t>(response.frame());
+    if (plan.latencies_ms != nullptr && frame < plan.frames) {
+      plan.latencies_ms->push_back(
+          std::chrono::duration<double, std::milli>(Clock::now() - sent_at[frame]).count());
+    }
+    failed = answered(frame, response);
     if (failed.ok() && sent < plan.frames && send(sent)) ++sent;
   }
   stream->WritesDone();

@@ -30,6 +30,11 @@ struct StreamPlan {
   std::function<const std::string&(uint32_t frame, uint32_t character)> palette;
   // Its morph target weights, sparse (a glTF character's clip); null: none.
   std::function<std::span<const MorphWeight>(uint32_t frame, uint32_t character)> morph;
+  // Paced: frame f is sent at the start + f / rate, not before (0: as soon as the window
+  // allows); each frame's time from its send to its answer (ms) goes to *latencies_ms when
+  // it is set (with window 1 the answer is read as it comes).
+  double rate = 0;
+  std::vector<double>* latencies_ms = nullptr;
   uint64_t tick_bytes() const { return slot_bytes * mesh_ids.size(); }
 };
 

@@ -18,7 +18,10 @@
 // draws float32 vertices). --characters-per-tick N: each frame a tick of N characters (the
 // synthetic one on N meshes of its own, seeds 7 to 7 + N - 1; a --mesh character N times),
 // all into the region, which the server signals once per tick; --check checks every
-// character. Prints one summary line per run and PASS or FAIL.
+// character. --rate R: a paced run after the speed run, --frames frames at R a second into
+// the GPU region (window 1), with its latencies and the frames answered later than a period
+// after their send: N clients at --rate 60 are N streams held at 60 ticks/s, or not.
+// Prints one summary line per run and PASS or FAIL.
 #include <fmt/format.h>
 #include <grpcpp/grpcpp.h>
 #include <unistd.h>
@@ -28,6 +31,7 @@
 #include <array>
 #include <chrono>
 #include <cstring>
+#include <thread>
 
 #include "frame_streams.h"
 #include "skinserve/client/channel.h"
@@ -57,6 +61,8 @@ struct Options {
   std::string mesh_path;                        // --mesh: a glTF character ("" synthetic)
   std::string compare_backend = "simd-openmp";  // the speed run's CPU row ("" none)
   uint32_t vertices = 25000, influences = 2, frames = 600, window = 2, check_frames = 0;
+  double rate = 0;          // --rate: a paced run instead of the speed runs
+  double start_at = 0;      // --start-at: when the paced run starts (Unix seconds; 0: at once)
   uint32_t characters = 1;  // --characters-per-tick (1: plain frames)
   bool normals = false, compare_shm = true, semaphore = true;
   int vulkan_device = -1;
@@ -406,6 +412,39 @@ Result<double> Speed(Session& s, const std::string& region, bool gpu,
   return s.options.frames / seconds;
 }
 
+// --rate: --frames frames at `rate` a second into `region` (window 1), their latencies.
+Status PacedRun(Session& s, const std::string& region, double rate) {
+  // Several clients' paced runs start together, after all of them have uploaded.
+  std::this_thread::sleep_until(std::chrono::system_clock::time_point(
+      std::chrono::duration_cast<std::chrono::system_clock::duration>(
+          std::chrono::duration<double>(s.options.start_at))));
+  std::vector<double> latencies;
+  StreamPlan plan = Plan(s, region, true, s.options.frames, 1);
+  plan.rate = rate;
+  plan.latencies_ms = &latencies;
+  if (Status st = StreamIntoRegion(s.client->stub(), plan,
+                                   [](uint32_t, const v1::SkinResponse&) { return Status::Ok(); });
+      !st.ok()) {
+    return st;
+  }
+  if (latencies.empty()) return Internal("the paced run answered no frame");
+  std::sort(latencies.begin(), latencies.end());
+  const auto at = [&](double q) {
+    return latencies[std::min(latencies.size() - 1,
+                              static_cast<std::size_t>(q * static_cast<double>(latencies.size())))];
+  };
+  const double period_ms = 1000.0 / rate;
+  const auto late =
+      std::count_if(latencies.begin(), latencies.end(), [&](double ms) { return ms > period_ms; });
+  fmt::print(
+      "paced: {} x {}: {} frames at {:.0f}/s{} into the GPU region (window 1): latency p50 "
+      "{:.2f} ms, p99 {:.2f} ms, max {:.2f} ms; {} answered later than a period ({:.1f} ms)\n",
+      s.options.vertices, s.options.influences, latencies.size(), rate,
+      s.options.characters > 1 ? fmt::format(" in ticks of {}", s.options.characters) : "", at(0.5),
+      at(0.99), latencies.back(), late, period_ms);
+  return Status::Ok();
+}
+
 // The same frames into a shared-memory region of their own, skinned by `backend`.
 Result<double> SpeedOverSharedMemory(Session& s, const std::string& backend) {
   auto region =
@@ -473,6 +512,7 @@ Status SpeedRuns(Session& s, const VulkanDevice& device) {
   if (Status st = RegisterGpu(s, device, **buffer, "vertices"); !st.ok()) return st;
   fmt::print("device '{}': GPU region of {} bytes registered ({} x {}, window {})\n", device.name(),
              (*buffer)->allocation_bytes(), options.vertices, options.influences, options.window);
+  if (options.rate > 0) return PacedRun(s, "vertices", options.rate);
   auto gpu = Speed(s, "vertices", true);
   if (!gpu.ok()) return gpu.status();
   fmt::print("gpu-region: {} x {}: {:.1f} frames/s{} ({} frames, window {}, {})\n",
@@ -537,6 +577,15 @@ int main(int argc, char** argv) {
                  "each frame a tick of this many characters (the synthetic character on a mesh "
                  "of its own each; a --mesh character repeated), into one region")
       ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  app.add_option("--rate", o.rate,
+                 "instead of the speed runs, --frames frames at this many a second into the GPU "
+                 "region (window 1), with their latencies (0: the speed runs)")
+      ->check(CLI::Range(0.0, 100000.0))
+      ->capture_default_str();
+  app.add_option("--start-at", o.start_at,
+                 "with --rate: start the paced run at this time (Unix seconds), so that several "
+                 "clients run theirs together (0: at once)")
       ->capture_default_str();
   app.add_option("--window", o.window, "frames in flight in the speed runs (one slot each)")
       ->check(CLI::Range(1, 64))
