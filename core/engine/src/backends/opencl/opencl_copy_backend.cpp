@@ -268,6 +268,7 @@ class OpenClCopyBackend final : public OpenClBackendBase {
       if (read.pinned != nullptr) {
         std::size_t offset = 0;
         for (std::span<float> to : {frame.positions, frame.normals, frame.tangents}) {
+          if (to.empty()) continue;  // (memcpy takes no null pointer, even for 0 bytes)
           std::memcpy(to.data(), read.pinned + offset, to.size_bytes());
           offset += to.size_bytes();
         }

@@ -298,6 +298,7 @@ void OpenClTickLaunches::RunHostRound(std::size_t begin, std::size_t end,
       if (staging) {
         std::size_t offset = host_offsets_[k];
         for (std::span<float> to : {f.positions, f.normals, f.tangents}) {
+          if (to.empty()) continue;  // (memcpy takes no null pointer, even for 0 bytes)
           std::memcpy(to.data(), pinned + offset, to.size_bytes());
           offset += to.size_bytes();
         }
