@@ -551,6 +551,19 @@ int Run(const Options& options) {
   return 0;
 }
 
+// --rate and --start-at: the paced run.
+void AddPacedOptions(CLI::App& app, Options& o) {
+  app.add_option("--rate", o.rate,
+                 "instead of the speed runs, --frames frames at this many a second into the GPU "
+                 "region (window 1), with their latencies (0: the speed runs)")
+      ->check(CLI::Range(0.0, 100000.0))
+      ->capture_default_str();
+  app.add_option("--start-at", o.start_at,
+                 "with --rate: start the paced run at this time (Unix seconds), so that several "
+                 "clients run theirs together (0: at once)")
+      ->capture_default_str();
+}
+
 }  // namespace
 }  // namespace skinserve::gpu_region
 
@@ -578,15 +591,7 @@ int main(int argc, char** argv) {
                  "of its own each; a --mesh character repeated), into one region")
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();
-  app.add_option("--rate", o.rate,
-                 "instead of the speed runs, --frames frames at this many a second into the GPU "
-                 "region (window 1), with their latencies (0: the speed runs)")
-      ->check(CLI::Range(0.0, 100000.0))
-      ->capture_default_str();
-  app.add_option("--start-at", o.start_at,
-                 "with --rate: start the paced run at this time (Unix seconds), so that several "
-                 "clients run theirs together (0: at once)")
-      ->capture_default_str();
+  skinserve::gpu_region::AddPacedOptions(app, o);
   app.add_option("--window", o.window, "frames in flight in the speed runs (one slot each)")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
