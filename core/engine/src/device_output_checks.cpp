@@ -3,14 +3,9 @@
 #include <fmt/format.h>
 
 namespace skinserve {
-namespace {
-
-// Whether [offset, offset + bytes) lies inside `size` (no wrap-around).
-bool Inside(uint64_t offset, uint64_t bytes, uint64_t size) {
+bool RangeInside(uint64_t offset, uint64_t bytes, uint64_t size) {
   return bytes <= size && offset <= size - bytes;
 }
-
-}  // namespace
 
 Result<std::shared_ptr<DeviceMemory>> Backend::ImportDeviceMemory(const DeviceMemoryImport&) {
   return FailedPrecondition(fmt::format(
@@ -76,9 +71,9 @@ Status CheckDeviceRequest(const SkinRequest& request, const Mesh& mesh, uint32_t
   }
   for (uint32_t i = 0; i < instances; ++i) {
     const DeviceOutput out = InstanceDeviceOutput(request, i);
-    const bool fits = Inside(out.positions_offset, array_bytes, size) &&
-                      (!d.normals || Inside(out.normals_offset, array_bytes, size)) &&
-                      (!d.tangents || Inside(out.tangents_offset, tangent_bytes, size));
+    const bool fits = RangeInside(out.positions_offset, array_bytes, size) &&
+                      (!d.normals || RangeInside(out.normals_offset, array_bytes, size)) &&
+                      (!d.tangents || RangeInside(out.tangents_offset, tangent_bytes, size));
     if (!fits) {
       return InvalidArgument(fmt::format(
           "instance {}'s output (positions at {}, normals at {}, tangents at {}) does not fit "

@@ -9,6 +9,9 @@
 
 namespace skinserve {
 
+// Whether [offset, offset + bytes) lies inside `size` bytes (no wrap-around).
+bool RangeInside(uint64_t offset, uint64_t bytes, uint64_t size);
+
 // One instance's frame: no host outputs; normals and tangents as the mesh allows.
 Status ValidateDeviceFrame(const SkinFrame& frame, const Mesh& mesh);
 

@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "backends/opencl/opencl_morph.h"
+#include "device_output_checks.h"
 
 namespace skinserve {
 namespace {
@@ -39,7 +40,7 @@ bool OpenClTickLaunches::Takes(const OpenClRuntime& runtime, const OpenClPrepare
   }
   const uint64_t v = mesh.mesh().vertex_count(), size = d.memory->byte_size();
   const auto fits = [&](uint64_t offset, uint64_t bytes) {
-    return offset % kWord == 0 && bytes <= size && offset <= size - bytes &&
+    return offset % kWord == 0 && RangeInside(offset, bytes, size) &&
            offset + bytes <= kWordAddressable;
   };
   return fits(d.positions_offset, 12 * v) && (!d.normals || fits(d.normals_offset, 12 * v)) &&
@@ -100,12 +101,10 @@ void OpenClTickLaunches::PlanLaunches() {
     launch.args.local = std::get<3>(key);
     launch.args.out = std::get<4>(key);
     launch.args.first_row = static_cast<uint32_t>(order_.size());
-    launch.first = order_.size();
     launches_.push_back(launch);
   };
   const auto append = [&](const Character& c, std::size_t host_offset) {
     Launch& launch = launches_.back();
-    launch.count++;
     launch.args.characters++;
     launch.args.most_vertices = std::max(launch.args.most_vertices, c.mesh->mesh().vertex_count());
     launch.args.staged_bytes = std::max<std::size_t>(
@@ -190,9 +189,13 @@ Status OpenClTickLaunches::WriteInputs(ClEvents& transfers) {
   return Status::Ok();
 }
 
+std::size_t OpenClTickLaunches::End(const Launch& launch) {
+  return std::size_t{launch.args.first_row} + launch.args.characters;
+}
+
 void OpenClTickLaunches::Fail(const Launch& launch, const Status& status,
                               std::span<Status> statuses) const {
-  for (std::size_t k = launch.first; k < launch.first + launch.count; ++k) {
+  for (std::size_t k = launch.args.first_row; k < End(launch); ++k) {
     statuses[order_[k].index] = status;
   }
 }
@@ -202,7 +205,7 @@ void OpenClTickLaunches::EnqueueDeviceLaunches(DeviceOutputBatch& device_out,
   for (std::size_t l = 0; l < device_launches_; ++l) {
     const Launch& launch = launches_[l];
     // The memory held (acquired) before the kernel that writes it.
-    Status s = device_out.Hold(*order_[launch.first].frame, events);
+    Status s = device_out.Hold(*order_[launch.args.first_row].frame, events);
     if (s.ok()) s = runtime_.EnqueueTick(lane_, launch.args, events.Next());
     Fail(launch, s, statuses);  // Ok too: the caller's Finish has the last word
   }
@@ -224,7 +227,7 @@ Status OpenClTickLaunches::EnqueuePinnedRead(const Launch& launch, cl_event kern
 
 Status OpenClTickLaunches::EnqueueDirectReads(const Launch& launch, cl_event kernel,
                                               ClEvents& events, cl_event* last) {
-  for (std::size_t k = launch.first; k < launch.first + launch.count; ++k) {
+  for (std::size_t k = launch.args.first_row; k < End(launch); ++k) {
     const SkinFrame& f = *order_[k].frame;
     std::size_t offset = host_offsets_[k];
     for (std::span<float> to : {f.positions, f.normals, f.tangents}) {
@@ -293,7 +296,7 @@ void OpenClTickLaunches::RunHostRound(std::size_t begin, std::size_t end,
       Fail(launch, *failed, statuses);
       continue;
     }
-    for (std::size_t k = launch.first; k < launch.first + launch.count; ++k) {
+    for (std::size_t k = launch.args.first_row; k < End(launch); ++k) {
       const SkinFrame& f = *order_[k].frame;
       if (staging) {
         std::size_t offset = host_offsets_[k];

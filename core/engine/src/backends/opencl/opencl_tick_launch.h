@@ -74,12 +74,12 @@ class OpenClTickLaunches {
     int outputs;                 // 0 positions, 1 with normals, 2 with normals and tangents
     std::size_t palette_offset;  // bytes into the tick palettes (a multiple of 64)
   };
-  // A launch's characters: [first, first + count) of order_ (rows of the table alike).
+  // A launch: its characters are order_[args.first_row, End) (the table's rows alike).
   struct Launch {
     TickLaunch args;
-    std::size_t first, count;
     std::size_t host_offset = 0, host_bytes = 0;  // host launches: outputs in tick_outputs
   };
+  static std::size_t End(const Launch& launch);
   // chunk, influences, outputs, local palette, target memory (null: host).
   using GroupKey = std::tuple<cl_mem, uint32_t, int, bool, cl_mem>;
 
@@ -94,13 +94,13 @@ class OpenClTickLaunches {
   Status WriteInputs(ClEvents& transfers);
   void EnqueueDeviceLaunches(DeviceOutputBatch& device_out, std::span<Status> statuses,
                              ClEvents& events);
-  // One round of host launches [begin, end) of launches_: enqueued, read back, drained.
   // A host launch's outputs read back after `kernel`: the whole piece into `pinned` at its
   // offset (staging), or each frame's arrays straight into them. *last: the last read.
   Status EnqueuePinnedRead(const Launch& launch, cl_event kernel, std::byte* pinned,
                            ClEvents& events, cl_event* last);
   Status EnqueueDirectReads(const Launch& launch, cl_event kernel, ClEvents& events,
                             cl_event* last);
+  // One round of host launches [begin, end) of launches_: enqueued, read back, drained.
   void RunHostRound(std::size_t begin, std::size_t end, std::span<Status> statuses,
                     ClEvents& events, Status* failed);
   void Fail(const Launch& launch, const Status& status, std::span<Status> statuses) const;
