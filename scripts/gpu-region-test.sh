@@ -109,11 +109,19 @@ fi
 if ! grep -q "^draw: .* as triangles into .*cesiumman-walk.png" "$out/cesiumman-walk.txt"; then
   echo "cesiumman-walk: FAIL: its picture was not drawn as triangles"; status=1
 fi
+# Every client unregistered what it registered (GPU regions and the comparisons' shared-memory
+# ones): none was left for the idle limit to reap.
+registered=$(grep -c "region '.*' registered by" "$out/server.log" || true)
+unregistered=$(grep -c "region '.*' of .* unregistered" "$out/server.log" || true)
+echo "regions: $registered registered, $unregistered unregistered by their clients"
+if [ "$registered" -ne "$unregistered" ]; then
+  echo "regions: FAIL: $registered registered, $unregistered unregistered"; status=1
+fi
 
 kill "$server" 2>/dev/null; wait "$server" 2>/dev/null
 rm -rf "$sock" "$vk"
 echo "== summary"
-grep -hE "^(character|device|check|draw|gpu-region|shm-readback|simd-openmp-shm|FAIL)" \
+grep -hE "^(character|device|check|draw|gpu-region|shm-readback|simd-openmp-shm|regions|FAIL)" \
   "$out"/*x*.txt "$out"/cesiumman-walk.txt "$out"/ticks-*.txt
 [ "$status" -eq 0 ] && echo "ALL PASS" || echo "SOME FAILED"
 exit "$status"

@@ -207,6 +207,23 @@ Status RegisterGpu(Session& s, const VulkanDevice& device, const ExportedBuffer&
   return Status::Ok();
 }
 
+// `run`'s status, after unregistering GPU region `name` whatever it was: a run that failed
+// leaves no region behind either (the server would hold it, and its device memory, until
+// idle). An unregistration that fails is the answer when the run passed, and is printed
+// beside the run's own failure otherwise.
+Status UnregisterGpuAfter(Session& s, const std::string& name, Status run) {
+  v1::UnregisterGpuRegionRequest request;
+  request.set_name(name);
+  grpc::ClientContext context;
+  v1::UnregisterGpuRegionResponse response;
+  Status st = wire::FromGrpc(s.gpu->UnregisterGpuRegion(&context, request, &response));
+  if (!st.ok())
+    st = Status(st.code(), fmt::format("unregistering GPU region '{}': {}", name, st.message()));
+  if (run.ok()) return st;
+  if (!st.ok()) fmt::print(stderr, "also: {}\n", st.ToString());
+  return run;
+}
+
 // Character c's pose in frame f: the walk's (or clip's) pose f + c.
 const std::string& PaletteBytesOf(const Session& s, uint32_t frame, uint32_t c = 0) {
   return s.palettes[(frame + c) % s.palettes.size()];
@@ -453,26 +470,30 @@ Result<double> SpeedOverSharedMemory(Session& s, const std::string& backend) {
   if (!region.ok()) return region.status();
   const std::string name = "shm-compare-" + backend;
   if (auto info = s.client->RegisterRegion(name, **region); !info.ok()) return info.status();
-  return Speed(s, name, false, backend);
+  Result<double> speed = Speed(s, name, false, backend);
+  Status unregistered = s.client->UnregisterRegion(name);  // before the region is unmapped here
+  if (!speed.ok()) {
+    if (!unregistered.ok()) fmt::print(stderr, "also: {}\n", unregistered.ToString());
+    return speed;
+  }
+  if (!unregistered.ok()) return unregistered;
+  return speed;
 }
 
-// --check and --draw, into the one-frame region with the semaphore.
-Status CheckAndDraw(Session& s, const VulkanDevice& device) {
+// --check and --draw into `region`, the one-frame region with the semaphore.
+Status CheckAndDrawInto(Session& s, const VulkanDevice& device, const WaitedRegion& region) {
   const Options& options = s.options;
-  if (options.check_frames == 0 && options.draw_path.empty()) return Status::Ok();
-  Result<WaitedRegion> region = RegisterWaited(s, device);
-  if (!region.ok()) return region.status();
   fmt::print(
       "device '{}': GPU region '{}' of {} bytes registered {} ({} x {})\n", device.name(),
-      region->name, region->buffer->allocation_bytes(),
-      region->semaphore != nullptr ? "with a semaphore the server signals" : "without a semaphore",
+      region.name, region.buffer->allocation_bytes(),
+      region.semaphore != nullptr ? "with a semaphore the server signals" : "without a semaphore",
       options.vertices, options.influences);
   if (options.check_frames > 0) {
     auto read_back = ReadBack::Create(device, TickBytes(s));
     if (!read_back.ok()) return read_back.status();
     uint32_t checked = 0;
     double worst = 0;
-    if (Status st = Check(s, *region, **read_back, &checked, &worst); !st.ok()) return st;
+    if (Status st = Check(s, region, **read_back, &checked, &worst); !st.ok()) return st;
     fmt::print(
         "check: {} of {} frames ({}{}) equal the float64 reference ({}max position error {:.3g}), "
         "each read after {}\n",
@@ -483,17 +504,25 @@ Status CheckAndDraw(Session& s, const VulkanDevice& device) {
         options.encoding == VertexEncoding::kFloat32
             ? ""
             : "decoded, within float32's tolerance plus the encoding's bound; ",
-        worst, region->semaphore != nullptr ? "a GPU wait on the semaphore" : "the answer");
+        worst, region.semaphore != nullptr ? "a GPU wait on the semaphore" : "the answer");
     if (checked != options.check_frames) return Internal("not every frame was checked");
   }
   if (options.draw_path.empty()) return Status::Ok();
 #if SKINSERVE_GPU_REGION_DRAW
-  return Draw(s, device, *region);
+  return Draw(s, device, region);
 #else
   return FailedPrecondition(
       "--draw: this skinserve-gpu-region was built without its renderer (no glslangValidator "
       "or libpng when it was built)");
 #endif
+}
+
+// --check and --draw, into the one-frame region with the semaphore, unregistered after.
+Status CheckAndDraw(Session& s, const VulkanDevice& device) {
+  if (s.options.check_frames == 0 && s.options.draw_path.empty()) return Status::Ok();
+  Result<WaitedRegion> region = RegisterWaited(s, device);
+  if (!region.ok()) return region.status();
+  return UnregisterGpuAfter(s, region->name, CheckAndDrawInto(s, device, *region));
 }
 
 // " = C characters/s in ticks of N" after a rate of ticks (nothing for plain frames).
@@ -503,15 +532,10 @@ std::string InTicks(const Options& options, double frames_per_second) {
                      frames_per_second * options.characters, options.characters);
 }
 
-// The speed runs: into a GPU region, then (--compare-shm) the same frames read back into
-// shared memory by --backend and by --compare-backend on the server's CPUs.
-Status SpeedRuns(Session& s, const VulkanDevice& device) {
+// The speed runs: into GPU region "vertices", then (--compare-shm) the same frames read back
+// into shared memory by --backend and by --compare-backend on the server's CPUs.
+Status SpeedRunsInto(Session& s) {
   const Options& options = s.options;
-  auto buffer = ExportedBuffer::Create(device, TickBytes(s) * options.window);
-  if (!buffer.ok()) return buffer.status();
-  if (Status st = RegisterGpu(s, device, **buffer, "vertices"); !st.ok()) return st;
-  fmt::print("device '{}': GPU region of {} bytes registered ({} x {}, window {})\n", device.name(),
-             (*buffer)->allocation_bytes(), options.vertices, options.influences, options.window);
   if (options.rate > 0) return PacedRun(s, "vertices", options.rate);
   auto gpu = Speed(s, "vertices", true);
   if (!gpu.ok()) return gpu.status();
@@ -532,6 +556,17 @@ Status SpeedRuns(Session& s, const VulkanDevice& device) {
       options.compare_backend, options.vertices, options.influences, *cpu, InTicks(options, *cpu),
       options.compare_backend, *gpu / *cpu);
   return Status::Ok();
+}
+
+// The speed runs into a GPU region of their own, unregistered after (before its buffer goes).
+Status SpeedRuns(Session& s, const VulkanDevice& device) {
+  const Options& options = s.options;
+  auto buffer = ExportedBuffer::Create(device, TickBytes(s) * options.window);
+  if (!buffer.ok()) return buffer.status();
+  if (Status st = RegisterGpu(s, device, **buffer, "vertices"); !st.ok()) return st;
+  fmt::print("device '{}': GPU region of {} bytes registered ({} x {}, window {})\n", device.name(),
+             (*buffer)->allocation_bytes(), options.vertices, options.influences, options.window);
+  return UnregisterGpuAfter(s, "vertices", SpeedRunsInto(s));
 }
 
 int Run(const Options& options) {
