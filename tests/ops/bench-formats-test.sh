@@ -68,4 +68,22 @@ grep -q -- "--tick-slots=: at least 1" "$work/slots-err.txt" || fail "--tick-slo
 grep -q -- "--tick-slots=: only with --tick=N" "$work/slots-err.txt" ||
   fail "--tick-slots without --tick unnamed"
 echo "bench-formats-test: tick slots: named, 0 and without --tick refused"
+
+# --tick-gap-us=20000: a 20 ms pause after each tick, named so and left out of the timing (a
+# tick of three 1000-vertex characters takes microseconds; with its pause it would be >= 20 ms).
+"${run[@]}" --tick=3 --tick-gap-us=20000 --benchmark_filter='BM_SkinTick/serial' \
+  --benchmark_min_time=0.0001 --benchmark_format=json >"$work/tick-gap.json" 2>/dev/null
+python3 - "$work/tick-gap.json" <<'PY' || fail "tick-gap rows"
+import json, sys
+rows = {b["name"]: b for b in json.load(open(sys.argv[1]))["benchmarks"]}
+name = "BM_SkinTick/serial/1000/1/characters:3/gap_us:20000/real_time"
+assert list(rows) == [name], list(rows)
+row = rows[name]
+assert "error_message" not in row and row["iterations"] >= 1, row
+assert row["time_unit"] == "ms" and 0 < row["real_time"] < 20, row
+PY
+"${run[@]}" --tick-gap-us=5 >/dev/null 2>"$work/gap-err.txt" && fail "--tick-gap-us without --tick"
+grep -q -- "--tick-gap-us=: only with --tick=N" "$work/gap-err.txt" ||
+  fail "--tick-gap-us without --tick unnamed"
+echo "bench-formats-test: tick gap: named, left out of the timing, without --tick refused"
 echo "bench-formats-test: PASSED"

@@ -50,6 +50,9 @@
 // /slots:K), as the service's regions hold one slot per tick in flight for every stream: 6
 // streams of 64 characters with 2 ticks in flight write 12 x 19 MB in turn (230 MB), where
 // one output of 19 MB may stay in the L3.
+// --tick-gap-us=U (with --tick): a pause of U microseconds after each tick, left out of the
+// timing (the rows gain /gap_us:U), as a service's ticks arrive a period apart (16,667 at
+// 60 ticks/s) and the caches and the core's clock may cool between them.
 // --device-output: also BM_SkinDeviceOutput/opencl/<vertices>/<bones> (and
 // BM_SkinDeviceOutputInPlace)
 // (device_output_benchmark.h), `opencl`'s frame with its output left in device memory, the
@@ -75,6 +78,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <exception>
 #include <sstream>
@@ -117,6 +121,7 @@ struct Options {
   bool opencl_device_timing = true;       // --opencl-device-timing=0: unprofiled queues
   uint32_t tick = 0;                      // --tick=N: BM_SkinTick rows of N characters
   uint32_t tick_slots = 1;                // --tick-slots=K: their outputs, used in turn
+  uint32_t tick_gap_us = 0;               // --tick-gap-us=U: an untimed pause after each tick
 };
 
 template <typename T>
@@ -173,6 +178,8 @@ Options ParseOptions(int* argc, char** argv) {
     } else if (const char* slots = value("--tick-slots=")) {
       options.tick_slots = static_cast<uint32_t>(std::stoul(slots));
       if (options.tick_slots == 0) throw std::invalid_argument("--tick-slots=: at least 1");
+    } else if (const char* gap = value("--tick-gap-us=")) {
+      options.tick_gap_us = static_cast<uint32_t>(std::stoul(gap));
     } else if (arg == "--process-cpu-time") {
       options.process_cpu_time = true;
     } else if (const char* order = value("--vertex-order=")) {
@@ -203,6 +210,9 @@ Options ParseOptions(int* argc, char** argv) {
   *argc = kept;
   if (options.tick_slots > 1 && options.tick == 0) {
     throw std::invalid_argument("--tick-slots=: only with --tick=N");
+  }
+  if (options.tick_gap_us > 0 && options.tick == 0) {
+    throw std::invalid_argument("--tick-gap-us=: only with --tick=N");
   }
   return options;
 }
@@ -395,9 +405,11 @@ void SkinMorphBenchmark(benchmark::State& state, Backend* backend, uint32_t vert
 }
 
 // A tick of `characters` distinct meshes (the cache's copies 0..characters-1, made and
-// prepared once), each skinned into its range of one output; tick k into output k % slots.
+// prepared once), each skinned into its range of one output; tick k into output k % slots,
+// and `gap_us` microseconds of untimed pause after each.
 void SkinTickBenchmark(benchmark::State& state, Backend* backend, uint32_t vertices, uint32_t bones,
-                       bool normals, uint32_t characters, uint32_t slots, RestEncoding rest) {
+                       bool normals, uint32_t characters, uint32_t slots, uint32_t gap_us,
+                       RestEncoding rest) {
   std::vector<const PreparedMesh*> meshes;
   for (uint32_t c = 0; c < characters; ++c) {
     meshes.push_back(&Cache().Prepared(*backend, vertices, bones, false, rest, c));
@@ -423,6 +435,11 @@ void SkinTickBenchmark(benchmark::State& state, Backend* backend, uint32_t verti
     }
     benchmark::DoNotOptimize(positions.data());
     benchmark::ClobberMemory();
+    if (gap_us > 0) {
+      state.PauseTiming();
+      std::this_thread::sleep_for(std::chrono::microseconds(gap_us));
+      state.ResumeTiming();
+    }
   }
   SetTickCounters(state, characters, vertices);
 }
@@ -780,16 +797,19 @@ void RegisterTickRows(const Options& options, const Rows& rows) {
               continue;
             }
             const std::string slots =
-                options.tick_slots > 1 ? fmt::format("/slots:{}", options.tick_slots) : "";
+                (options.tick_slots > 1 ? fmt::format("/slots:{}", options.tick_slots) : "") +
+                (options.tick_gap_us > 0 ? fmt::format("/gap_us:{}", options.tick_gap_us) : "");
             const std::string name = fmt::format("{}{}/{}/{}/{}/characters:{}{}",
                                                  normals ? "BM_SkinTickNormals" : "BM_SkinTick",
                                                  kind, id, v, b, options.tick, slots);
             benchmark::RegisterBenchmark(name.c_str(), SkinTickBenchmark, backend, v, b, normals,
-                                         options.tick, options.tick_slots, rest)
+                                         options.tick, options.tick_slots, options.tick_gap_us,
+                                         rest)
                 ->UseRealTime()
                 ->Unit(benchmark::kMillisecond);
           }
-          if (backend->info().skins_frames_together && options.tick_slots == 1) {
+          if (backend->info().skins_frames_together && options.tick_slots == 1 &&
+              options.tick_gap_us == 0) {
             const std::string name =
                 fmt::format("{}/{}/{}/{}/characters:{}",
                             normals ? "BM_SkinTickTogetherNormals" : "BM_SkinTickTogether", id, v,
