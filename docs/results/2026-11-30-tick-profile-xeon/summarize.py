@@ -4,7 +4,9 @@ bench's tick row on core 0 with the other cores idle, spinning or serving (call 
 service-load-cores.csv, the service with its load client on 14 cores or 2 (call 1);
 service-streams.csv, the service with 1, 2 or 5 streams and 1 or 2 compute threads (call 2);
 bench-slots.csv, the bench's tick row into one output or 10 in turn, alone or two at once
-(call 2); profile.csv, the profiled service and bench side by side (call 5)."""
+(call 2); profile.csv, the profiled service and bench side by side (call 5); tick-gap.csv, the
+bench's row back to back and with 11 ms between ticks, beside the service's one stream (call 6);
+gap-kind.csv, that gap slept, spun, or slept then spun its last 1 ms (call 7, trial build)."""
 import csv, glob, json, os, re, statistics
 
 here = os.path.dirname(os.path.abspath(__file__))
@@ -123,7 +125,38 @@ def call5():
                           'minor faults in the 6 s'], rows)
 
 
+def call6():
+    rows = []
+    for path in sorted(glob.glob(os.path.join(raw, 'call6', 'r*-gap*-slots*.json'))):
+        m = re.match(r'r(\d)-gap(\d+)-slots(\d)\.json', os.path.basename(path))
+        us = bench_us(path)
+        gap = 'back to back' if m.group(2) == '0' else f'{int(m.group(2)) // 1000} ms after each tick'
+        rows.append([m.group(1), 'skinserve-bench BM_SkinTick (core 0)', gap, m.group(3), fmt(us),
+                     f'{statistics.median(us):.1f}'])
+    for folder in sorted(glob.glob(os.path.join(raw, 'call6', 'svc-r*'))):
+        if not os.path.isdir(folder):
+            continue
+        cpu, compute, _, _ = service(folder)
+        rows.append([os.path.basename(folder)[-1], 'the service, 1 stream of ticks (--threads 1)',
+                     'a 60 ticks/s period', 2, f'{compute:.1f}', f'{compute:.1f}'])
+    write('tick-gap.csv', ['round', 'what', 'ticks', 'outputs in turn',
+                           'us a character (repetitions; the service: compute)', 'median'], rows)
+
+
+def call7():
+    names = {'none': 'back to back', 'sleep': 'sleeping 11 ms',
+             'spin': 'spinning 11 ms (trial)', 'sleep-then-spin': 'sleeping 10 ms, spinning 1 (trial)'}
+    rows = []
+    for path in sorted(glob.glob(os.path.join(raw, 'call7', 'r*.json'))):
+        m = re.match(r'r(\d)-(.*)\.json', os.path.basename(path))
+        us = bench_us(path)
+        rows.append([m.group(1), names[m.group(2)], fmt(us), f'{statistics.median(us):.1f}'])
+    write('gap-kind.csv', ['round', 'between ticks', 'repetitions us a character', 'median'], rows)
+
+
 if __name__ == '__main__':
     call1()
     call2()
     call5()
+    call6()
+    call7()
