@@ -6,7 +6,8 @@ service-streams.csv, the service with 1, 2 or 5 streams and 1 or 2 compute threa
 bench-slots.csv, the bench's tick row into one output or 10 in turn, alone or two at once
 (call 2); profile.csv, the profiled service and bench side by side (call 5); tick-gap.csv, the
 bench's row back to back and with 11 ms between ticks, beside the service's one stream (call 6);
-gap-kind.csv, that gap slept, spun, or slept then spun its last 1 ms (call 7, trial build)."""
+gap-kind.csv, that gap slept, spun, or slept then spun its last 1 ms (call 7, trial build);
+huge-pages.csv, the row with and without glibc's heap in transparent huge pages (call 8)."""
 import csv, glob, json, os, re, statistics
 
 here = os.path.dirname(os.path.abspath(__file__))
@@ -154,9 +155,27 @@ def call7():
     write('gap-kind.csv', ['round', 'between ticks', 'repetitions us a character', 'median'], rows)
 
 
+def call8():
+    rows = []
+    for path in sorted(glob.glob(os.path.join(raw, 'call8', 'r*.json'))):
+        m = re.match(r'r(\d)-(4k|thp)-(none|gap)\.json', os.path.basename(path))
+        us = bench_us(path)
+        smaps = open(path + '.smaps').read()
+        huge = re.search(r'AnonHugePages:\s+(\d+)', smaps)
+        rss = re.search(r'Rss:\s+(\d+)', smaps)
+        rows.append([m.group(1),
+                     'huge pages (glibc.malloc.hugetlb=1)' if m.group(2) == 'thp' else '4 KiB pages',
+                     'back to back' if m.group(3) == 'none' else '11 ms after each tick',
+                     f'{int(huge.group(1)) >> 10} of {int(rss.group(1)) >> 10}' if huge else '',
+                     fmt(us), f'{statistics.median(us):.1f}'])
+    write('huge-pages.csv', ['round', 'heap', 'ticks', 'MiB in huge pages (of resident, at 6 s)',
+                             'repetitions us a character', 'median'], rows)
+
+
 if __name__ == '__main__':
     call1()
     call2()
     call5()
     call6()
     call7()
+    call8()
