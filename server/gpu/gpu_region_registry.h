@@ -1,6 +1,7 @@
 // GpuRegionRegistry: the GPU regions clients registered (docs/serving/gpu-regions.md):
 // buffers on the server's GPU that another API allocated and the engine's backend
-// imported (DeviceMemory). The rules are the shared-memory regions' (region_registry.h):
+// imported (DeviceMemory). The rules are the shared-memory regions' (region_registry.h;
+// both keep their regions in shm/owned_regions.h):
 // a region belongs to the RegionOwner that registered it and does not exist for anyone
 // else; names are the owner's own; together they hold at most the budget, at most
 // max_regions of them, max_per_owner per owner; unregistering answers once no frame holds
@@ -13,7 +14,6 @@
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -21,6 +21,7 @@
 #include <utility>
 #include <vector>
 
+#include "shm/owned_regions.h"
 #include "shm/region_owner.h"
 #include "skinserve/engine/device_memory.h"
 #include "skinserve/model/status.h"
@@ -99,19 +100,14 @@ class GpuRegionRegistry {
   uint64_t imported_bytes() const;
 
  private:
-  using Key = std::pair<std::string, std::string>;  // (owner id, name)
-  using Regions = std::map<Key, std::shared_ptr<GpuRegion>>;
-  Status ReserveLocked(const std::string& name, uint64_t byte_size, const RegionOwner& owner);
-  void ReleaseReservationLocked(const Key& key, uint64_t byte_size);
+  using Regions = OwnedRegions<GpuRegion>::Map;
   void EraseLocked(Regions::iterator it, std::function<void()> on_released);
   GpuRegionInfo InfoOf(const GpuRegion& region, int64_t now_ns) const;
   void ReapIdle();
 
   const GpuRegionLimits limits_;
   mutable std::mutex mutex_;
-  Regions regions_;  // a null region: the name is reserved while the import runs
-  std::map<std::string, uint32_t> per_owner_;
-  uint64_t imported_bytes_ = 0;
+  OwnedRegions<GpuRegion> owned_;  // a name reserved while its import runs
   bool stopping_ = false;
   std::condition_variable wake_;
   std::thread reaper_;

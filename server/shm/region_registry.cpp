@@ -5,34 +5,15 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
 #include "shm/idle_reaper.h"
+#include "shm/owned_regions.h"
 #include "shm/sigbus_guard.h"
 
 namespace skinserve::server {
 namespace {
-
-constexpr std::size_t kMaxNameLength = 64;
-
-int64_t NowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
-
-Status CheckName(const std::string& name) {
-  const bool valid = !name.empty() && name.size() <= kMaxNameLength &&
-                     std::all_of(name.begin(), name.end(), [](char c) {
-                       return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-                              (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
-                     });
-  if (valid) return Status::Ok();
-  return InvalidArgument(fmt::format("region name '{}' is not 1-{} characters of [A-Za-z0-9._-]",
-                                     name, kMaxNameLength));
-}
 
 // A POSIX shared-memory name ("/name") or a plain file name: one component inside the dir.
 Result<std::string> FileOf(const std::string& key) {
@@ -66,7 +47,16 @@ Result<std::unique_ptr<RegionRegistry>> RegionRegistry::Create(const RegionLimit
 }
 
 RegionRegistry::RegionRegistry(const RegionLimits& limits, int dir_fd)
-    : limits_(limits), dir_fd_(dir_fd) {
+    : limits_(limits),
+      dir_fd_(dir_fd),
+      owned_({.kind = "region",
+              .max_regions = "--shm-max-regions",
+              .budget = "--shm-budget-mb",
+              .held = "mapped"},
+             {.budget_bytes = limits.budget_bytes,
+              .max_regions = limits.max_regions,
+              .max_per_owner = limits.max_per_connection,
+              .idle_seconds = limits.idle_seconds}) {
   reaper_ = std::thread([this] { ReapIdle(); });
 }
 
@@ -78,53 +68,32 @@ RegionRegistry::~RegionRegistry() {
   wake_.notify_all();
   reaper_.join();
   std::lock_guard lock(mutex_);
-  while (!regions_.empty()) EraseLocked(regions_.begin(), nullptr);
+  for (auto it = owned_.map().begin(); it != owned_.map().end();) {
+    auto next = std::next(it);
+    if (it->second != nullptr) EraseLocked(it, nullptr);
+    it = next;
+  }
   close(dir_fd_);
 }
 
 Result<RegionInfo> RegionRegistry::Register(const std::string& name, const std::string& key,
                                             uint64_t byte_size, const RegionOwner& owner) {
-  if (Status s = CheckName(name); !s.ok()) return s;
+  if (Status s = owned_.CheckName(name); !s.ok()) return s;
   Result<std::string> file = FileOf(key);
   if (!file.ok()) return file.status();
   if (byte_size == 0) {
     return InvalidArgument(fmt::format("region '{}': byte_size must be above 0", name));
   }
-  std::unique_lock lock(mutex_);
-  const auto refuse = [&](std::string why) {
-    ++rejected_;
-    return ResourceExhausted(fmt::format("region '{}' refused: {}", name, why));
-  };
-  if (regions_.find({owner.id, name}) != regions_.end()) {
-    return AlreadyExists(fmt::format(
-        "this client has a region named '{}' already; unregister it first or choose another name",
-        name));
+  {
+    // Reserve the name and the bytes, then open and map without the lock (file system calls).
+    std::lock_guard lock(mutex_);
+    if (Status s = owned_.Reserve(name, byte_size, owner); !s.ok()) return s;
   }
-  if (regions_.size() >= limits_.max_regions) {
-    return refuse(fmt::format("the server holds --shm-max-regions = {} regions already",
-                              limits_.max_regions));
-  }
-  if (auto it = per_owner_.find(owner.id);
-      it != per_owner_.end() && it->second >= limits_.max_per_connection) {
-    return refuse(fmt::format("this client holds --shm-max-regions-per-connection = {} already",
-                              limits_.max_per_connection));
-  }
-  if (byte_size > limits_.budget_bytes - std::min(mapped_bytes_, limits_.budget_bytes)) {
-    return refuse(
-        fmt::format("{} more bytes would take the regions' {} mapped bytes beyond "
-                    "--shm-budget-mb = {} MiB",
-                    byte_size, mapped_bytes_, limits_.budget_bytes >> 20));
-  }
-  // Reserve the name and the bytes, then open and map without the lock (file system calls).
-  mapped_bytes_ += byte_size;
-  ++per_owner_[owner.id];
-  regions_.emplace(Key{owner.id, name}, nullptr);
-  lock.unlock();
   Result<std::shared_ptr<MappedRegion>> region = MapAndEnter(name, *file, byte_size, owner);
   if (!region.ok()) return region.status();
   spdlog::info("region '{}' registered by {}: {} bytes of {}/{}", name, owner.id, byte_size,
                limits_.dir, *file);
-  return InfoOf(**region, NowNs());
+  return InfoOf(**region, RegionClockNs());
 }
 
 Result<std::shared_ptr<MappedRegion>> RegionRegistry::MapAndEnter(const std::string& name,
@@ -134,7 +103,6 @@ Result<std::shared_ptr<MappedRegion>> RegionRegistry::MapAndEnter(const std::str
   Result<std::shared_ptr<MappedRegion>> region =
       MappedRegion::Open(dir_fd_, name, file, byte_size, owner.id, owner.file_uid);
   std::unique_lock lock(mutex_);
-  auto it = regions_.find({owner.id, name});
   Status failed = region.status();
   if (failed.ok() && files_.count((*region)->file()) > 0) {
     failed = AlreadyExists(fmt::format(
@@ -144,13 +112,11 @@ Result<std::shared_ptr<MappedRegion>> RegionRegistry::MapAndEnter(const std::str
   }
   if (failed.ok()) {
     files_.insert((*region)->file());
-    (*region)->Touch(NowNs());
-    it->second = *region;
+    (*region)->Touch(RegionClockNs());
+    owned_.Enter(owner, name, *region);
     return region;
   }
-  regions_.erase(it);
-  mapped_bytes_ -= byte_size;
-  if (--per_owner_[owner.id] == 0) per_owner_.erase(owner.id);
+  owned_.Release(owner, name, byte_size);
   lock.unlock();
   region = failed;  // a mapping made for nothing goes here, outside the lock
   if (!owner.remote || failed.code() == StatusCode::kResourceExhausted) return failed;
@@ -166,14 +132,9 @@ Result<std::shared_ptr<MappedRegion>> RegionRegistry::MapAndEnter(const std::str
 
 void RegionRegistry::EraseLocked(Regions::iterator it, std::function<void()> on_unmapped) {
   std::shared_ptr<MappedRegion> region = std::move(it->second);
-  regions_.erase(it);
+  owned_.Release(it, region->byte_size());
   files_.erase(region->file());
-  mapped_bytes_ -= region->byte_size();
   frames_of_removed_ += region->frames();
-  if (auto owner = per_owner_.find(region->owner());
-      owner != per_owner_.end() && --owner->second == 0) {
-    per_owner_.erase(owner);
-  }
   region->MarkRemoved(std::move(on_unmapped));
   // Unmapped here unless a frame still holds it; then when that frame lets go.
 }
@@ -183,12 +144,10 @@ Status RegionRegistry::Unregister(const std::string& name, const RegionOwner& ow
   std::shared_ptr<MappedRegion> last;
   {
     std::lock_guard lock(mutex_);
-    auto it = regions_.find({owner.id, name});
-    if (it == regions_.end() || it->second == nullptr) {
-      return NotFound(fmt::format("this client has no region named '{}'", name));
-    }
-    last = it->second;  // unmapped outside the lock if nothing else holds it
-    EraseLocked(it, std::move(on_unmapped));
+    auto it = owned_.FindToRemove(name, owner);
+    if (!it.ok()) return it.status();
+    last = (*it)->second;  // unmapped outside the lock if nothing else holds it
+    EraseLocked(*it, std::move(on_unmapped));
   }
   spdlog::info("region '{}' of {} unregistered", name, owner.id);
   return Status::Ok();
@@ -197,16 +156,7 @@ Status RegionRegistry::Unregister(const std::string& name, const RegionOwner& ow
 Result<std::shared_ptr<MappedRegion>> RegionRegistry::Acquire(const std::string& name,
                                                               const RegionOwner& owner) {
   std::lock_guard lock(mutex_);
-  auto it = regions_.find({owner.id, name});
-  if (it == regions_.end() || it->second == nullptr) {
-    // Not NOT_FOUND: on a frame that means "upload the mesh again" (the wire contract).
-    return FailedPrecondition(fmt::format(
-        "this client has no region named '{}' (never registered, unregistered, or idle for "
-        "--shm-idle-seconds = {}); register it again",
-        name, limits_.idle_seconds));
-  }
-  it->second->Touch(NowNs());
-  return it->second;
+  return owned_.Acquire(name, owner, RegionClockNs());
 }
 
 RegionInfo RegionRegistry::InfoOf(const MappedRegion& region, int64_t now_ns) const {
@@ -215,24 +165,19 @@ RegionInfo RegionRegistry::InfoOf(const MappedRegion& region, int64_t now_ns) co
 }
 
 std::vector<RegionInfo> RegionRegistry::List(const RegionOwner& owner) const {
-  const int64_t now = NowNs();
+  const int64_t now = RegionClockNs();
   std::lock_guard lock(mutex_);
-  std::vector<RegionInfo> out;
-  for (auto it = regions_.lower_bound({owner.id, ""});
-       it != regions_.end() && it->first.first == owner.id; ++it) {
-    if (it->second != nullptr) out.push_back(InfoOf(*it->second, now));
-  }
-  return out;
+  return owned_.List(owner, [&](const MappedRegion& region) { return InfoOf(region, now); });
 }
 
 RegionStats RegionRegistry::Stats() const {
   std::lock_guard lock(mutex_);
   RegionStats stats;
   stats.budget_bytes = limits_.budget_bytes;
-  stats.mapped_bytes = mapped_bytes_;
-  stats.rejected = rejected_;
+  stats.mapped_bytes = owned_.bytes();
+  stats.rejected = owned_.rejected();
   stats.frames = frames_of_removed_;
-  for (const auto& [name, region] : regions_) {
+  for (const auto& [name, region] : owned_.map()) {
     if (region == nullptr) continue;
     ++stats.regions;
     stats.frames += region->frames();
@@ -242,8 +187,8 @@ RegionStats RegionRegistry::Stats() const {
 
 void RegionRegistry::ReapIdle() {
   ReapIdleRegions(
-      mutex_, wake_, stopping_, regions_, limits_.idle_seconds, "region",
-      [&](Regions::iterator it) { EraseLocked(it, nullptr); }, NowNs);
+      mutex_, wake_, stopping_, owned_.map(), limits_.idle_seconds, "region",
+      [&](Regions::iterator it) { EraseLocked(it, nullptr); }, RegionClockNs);
 }
 
 }  // namespace skinserve::server

@@ -5,7 +5,9 @@
 // is a file inside the operator's --shm-dir that its owner's uid owns, registered once
 // (by anyone); together they map at most the budget, at most max_regions of them, and at
 // most max_per_connection per owner. A region that no frame names for idle_seconds is
-// unregistered (a client that went away leaves nothing mapped after that).
+// unregistered (a client that went away leaves nothing mapped after that). The owners' side
+// of it (names, limits, finding a region for its owner alone) is OwnedRegions
+// (owned_regions.h), which the GPU regions share.
 #pragma once
 
 #include <chrono>
@@ -22,6 +24,7 @@
 #include <vector>
 
 #include "shm/mapped_region.h"
+#include "shm/owned_regions.h"
 #include "shm/region_owner.h"
 
 namespace skinserve::server {
@@ -79,9 +82,7 @@ class RegionRegistry {
  private:
   explicit RegionRegistry(const RegionLimits& limits, int dir_fd);
   void ReapIdle();  // the reaper thread
-  // (owner id, region name): each owner names its regions as it likes.
-  using Key = std::pair<std::string, std::string>;
-  using Regions = std::map<Key, std::shared_ptr<MappedRegion>>;
+  using Regions = OwnedRegions<MappedRegion>::Map;
   void EraseLocked(Regions::iterator it, std::function<void()> on_unmapped);
   RegionInfo InfoOf(const MappedRegion& region, int64_t now_ns) const;
   // Maps the file (no lock held) and enters it, or why not.
@@ -92,12 +93,9 @@ class RegionRegistry {
   const RegionLimits limits_;
   const int dir_fd_;
   mutable std::mutex mutex_;
-  Regions regions_;  // a null region: the name is reserved while its file is opened
+  OwnedRegions<MappedRegion> owned_;         // a name reserved while its file is opened
   std::set<std::pair<dev_t, ino_t>> files_;  // the files registered: one registration each
-  std::map<std::string, uint32_t, std::less<>> per_owner_;
-  uint64_t mapped_bytes_ = 0;
-  uint64_t frames_of_removed_ = 0;  // frames written into regions no longer registered
-  uint64_t rejected_ = 0;
+  uint64_t frames_of_removed_ = 0;           // frames written into regions no longer registered
   bool stopping_ = false;
   std::condition_variable wake_;
   std::thread reaper_;
