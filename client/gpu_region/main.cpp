@@ -207,21 +207,27 @@ Status RegisterGpu(Session& s, const VulkanDevice& device, const ExportedBuffer&
   return Status::Ok();
 }
 
+// `run`'s status when it failed (a failed `cleanup` printed beside it, not lost), else
+// `cleanup`'s.
+Status AfterCleanup(Status run, Status cleanup) {
+  if (run.ok()) return cleanup;
+  if (!cleanup.ok()) fmt::print(stderr, "also: {}\n", cleanup.ToString());
+  return run;
+}
+
 // `run`'s status, after unregistering GPU region `name` whatever it was: a run that failed
 // leaves no region behind either (the server would hold it, and its device memory, until
-// idle). An unregistration that fails is the answer when the run passed, and is printed
-// beside the run's own failure otherwise.
+// idle).
 Status UnregisterGpuAfter(Session& s, const std::string& name, Status run) {
   v1::UnregisterGpuRegionRequest request;
   request.set_name(name);
   grpc::ClientContext context;
   v1::UnregisterGpuRegionResponse response;
   Status st = wire::FromGrpc(s.gpu->UnregisterGpuRegion(&context, request, &response));
-  if (!st.ok())
+  if (!st.ok()) {
     st = Status(st.code(), fmt::format("unregistering GPU region '{}': {}", name, st.message()));
-  if (run.ok()) return st;
-  if (!st.ok()) fmt::print(stderr, "also: {}\n", st.ToString());
-  return run;
+  }
+  return AfterCleanup(std::move(run), std::move(st));
 }
 
 // Character c's pose in frame f: the walk's (or clip's) pose f + c.
@@ -471,12 +477,10 @@ Result<double> SpeedOverSharedMemory(Session& s, const std::string& backend) {
   const std::string name = "shm-compare-" + backend;
   if (auto info = s.client->RegisterRegion(name, **region); !info.ok()) return info.status();
   Result<double> speed = Speed(s, name, false, backend);
-  Status unregistered = s.client->UnregisterRegion(name);  // before the region is unmapped here
-  if (!speed.ok()) {
-    if (!unregistered.ok()) fmt::print(stderr, "also: {}\n", unregistered.ToString());
-    return speed;
-  }
-  if (!unregistered.ok()) return unregistered;
+  // Unregistered before the region is unmapped here, whether the run passed or not.
+  Status st =
+      AfterCleanup(speed.ok() ? Status::Ok() : speed.status(), s.client->UnregisterRegion(name));
+  if (!st.ok()) return st;
   return speed;
 }
 
