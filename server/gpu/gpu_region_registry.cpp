@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-
 #include "shm/idle_reaper.h"
 #include "shm/owned_regions.h"
 
