@@ -29,6 +29,15 @@ def service(folder):
             row.get('checked', ''), row.get('mismatches', ''))
 
 
+def services(call, pattern):
+    """(the name's match of `pattern`, service(folder)) for each frame-cost.sh folder of a call
+    whose name `pattern` matches (the logs beside them are files, not folders)."""
+    for folder in sorted(glob.glob(os.path.join(raw, call, '*'))):
+        m = re.fullmatch(pattern, os.path.basename(folder))
+        if m and os.path.isdir(folder):
+            yield m, service(folder)
+
+
 def fmt(values):
     return ', '.join(f'{v:.1f}' for v in values)
 
@@ -51,11 +60,7 @@ def call1():
     write('bench-neighbours.csv', ['round', 'the other cores', 'repetitions us a character',
                                    'median'], rows)
     rows = []
-    for folder in sorted(glob.glob(os.path.join(raw, 'call1', 'b-r*-load*'))):
-        if not os.path.isdir(folder):
-            continue
-        m = re.match(r'b-r(\d)-load(.*)', os.path.basename(folder))
-        cpu, compute, checked, bad = service(folder)
+    for m, (cpu, compute, checked, bad) in services('call1', r'b-r(\d)-load(.*)'):
         rows.append([m.group(1), m.group(2), f'{cpu:.1f}', f'{compute:.1f}',
                      f'{cpu / compute:.2f}', checked, bad])
     write('service-load-cores.csv', ['round', 'load client cores', 'server CPU us a character',
@@ -65,11 +70,7 @@ def call1():
 
 def call2():
     rows = []
-    for folder in sorted(glob.glob(os.path.join(raw, 'call2', 'a-r*-s*-t*'))):
-        if not os.path.isdir(folder):
-            continue
-        m = re.match(r'a-r(\d)-s(\d)-t(\d)', os.path.basename(folder))
-        cpu, compute, checked, bad = service(folder)
+    for m, (cpu, compute, checked, bad) in services('call2', r'a-r(\d)-s(\d)-t(\d)'):
         rows.append([m.group(1), m.group(2), m.group(3), int(m.group(2)) * 64,
                      f'{cpu:.1f}', f'{compute:.1f}', checked, bad])
     write('service-streams.csv', ['round', 'streams', 'compute threads', 'characters a tick period',
@@ -134,11 +135,8 @@ def call6():
         gap = 'back to back' if m.group(2) == '0' else f'{int(m.group(2)) // 1000} ms after each tick'
         rows.append([m.group(1), 'skinserve-bench BM_SkinTick (core 0)', gap, m.group(3), fmt(us),
                      f'{statistics.median(us):.1f}'])
-    for folder in sorted(glob.glob(os.path.join(raw, 'call6', 'svc-r*'))):
-        if not os.path.isdir(folder):
-            continue
-        cpu, compute, _, _ = service(folder)
-        rows.append([os.path.basename(folder)[-1], 'the service, 1 stream of ticks (--threads 1)',
+    for m, (_, compute, _, _) in services('call6', r'svc-r(\d)'):
+        rows.append([m.group(1), 'the service, 1 stream of ticks (--threads 1)',
                      'a 60 ticks/s period', 2, f'{compute:.1f}', f'{compute:.1f}'])
     write('tick-gap.csv', ['round', 'what', 'ticks', 'outputs in turn',
                            'us a character (repetitions; the service: compute)', 'median'], rows)
