@@ -7,10 +7,13 @@
 #include <cmath>
 #include <limits>
 
+#include "expect_status.h"
 #include "skinserve/reference/synthetic.h"
 
 namespace skinserve {
 namespace {
+
+using testing::ExpectStatus;
 
 MeshArrays SmallMesh(bool normals = true) {
   return MakeSyntheticMesh(
@@ -21,9 +24,7 @@ void ExpectError(const MeshArrays& arrays, StatusCode code, const std::string& n
                  const MeshOptions& options = {}) {
   auto mesh = Mesh::Create(arrays, options);
   ASSERT_FALSE(mesh.ok()) << "expected an error containing '" << needle << "'";
-  EXPECT_EQ(mesh.status().code(), code) << mesh.status().ToString();
-  EXPECT_NE(mesh.status().message().find(needle), std::string::npos)
-      << "message: " << mesh.status().message() << "\nexpected to contain: " << needle;
+  ExpectStatus(mesh.status(), code, needle);
 }
 
 TEST(MeshTest, AcceptsValidMeshAndKeepsItsData) {

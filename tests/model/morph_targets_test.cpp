@@ -8,11 +8,14 @@
 #include <cmath>
 #include <limits>
 
+#include "expect_status.h"
 #include "skinserve/model/mesh.h"
 #include "skinserve/reference/synthetic.h"
 
 namespace skinserve {
 namespace {
+
+using testing::ExpectStatus;
 
 // 10 vertices in a unit-ish box; target 0 moves vertices 1 and 4, target 1 vertex 9.
 MeshArrays MorphMesh() {
@@ -29,9 +32,7 @@ void ExpectError(const MeshArrays& arrays, StatusCode code, const std::string& n
                  const MeshOptions& options = {}) {
   auto mesh = Mesh::Create(arrays, options);
   ASSERT_FALSE(mesh.ok()) << "expected an error containing '" << needle << "'";
-  EXPECT_EQ(mesh.status().code(), code) << mesh.status().ToString();
-  EXPECT_NE(mesh.status().message().find(needle), std::string::npos)
-      << "message: " << mesh.status().message() << "\nexpected to contain: " << needle;
+  ExpectStatus(mesh.status(), code, needle);
 }
 
 TEST(MorphTargetsTest, KeepsSparseTargetsAndChargesThem) {
@@ -143,9 +144,7 @@ TEST(MorphTargetsTest, FrameWeightsAreCheckedAgainstTheTargets) {
   EXPECT_TRUE(ValidateMorphWeights(good, 8).ok());
   EXPECT_TRUE(ValidateMorphWeights({}, 0).ok());
   auto expect = [](std::span<const MorphWeight> w, uint32_t targets, const std::string& needle) {
-    Status s = ValidateMorphWeights(w, targets);
-    EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << s.ToString();
-    EXPECT_NE(s.message().find(needle), std::string::npos) << s.message();
+    ExpectStatus(ValidateMorphWeights(w, targets), StatusCode::kInvalidArgument, needle);
   };
   const MorphWeight missing[] = {{0, 1}, {8, 1}};
   expect(missing, 8, "morph_weights[1]: target 8 is not below the mesh's morph_target_count 8");

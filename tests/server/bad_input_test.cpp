@@ -4,17 +4,12 @@
 #include <grpcpp/generic/generic_stub.h>
 #include <gtest/gtest.h>
 
+#include "expect_status.h"
 #include "skinserve/reference/synthetic.h"
 #include "test_server.h"
 
 namespace skinserve::testing {
 namespace {
-
-void ExpectStatus(const Status& s, StatusCode code, const std::string& needle) {
-  EXPECT_EQ(s.code(), code) << s.ToString();
-  EXPECT_NE(s.message().find(needle), std::string::npos)
-      << "message: " << s.message() << "\nexpected to contain: " << needle;
-}
 
 // Sends `messages` as one UploadMesh call; returns its status.
 Status RawUpload(client::SkinClient& c, const std::vector<v1::UploadMeshRequest>& messages) {

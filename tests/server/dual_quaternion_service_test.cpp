@@ -9,6 +9,7 @@
 
 #include <algorithm>
 
+#include "expect_status.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/model/palette.h"
 #include "skinserve/reference/encoded_reference.h"
@@ -18,12 +19,6 @@
 
 namespace skinserve::testing {
 namespace {
-
-void ExpectStatus(const Status& s, StatusCode code, const std::string& needle) {
-  EXPECT_EQ(s.code(), code) << s.ToString();
-  EXPECT_NE(s.message().find(needle), std::string::npos)
-      << "message: " << s.message() << "\nexpected to contain: " << needle;
-}
 
 bool Lists(const v1::BackendInfo& b, v1::SkinningMethod method) {
   return std::find(b.methods().begin(), b.methods().end(), method) != b.methods().end();

@@ -16,6 +16,7 @@
 #include <functional>
 #include <limits>
 
+#include "expect_status.h"
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
@@ -27,12 +28,6 @@ namespace {
 
 constexpr uint32_t kJoints = 40;
 constexpr uint32_t kTargets = 16;
-
-void ExpectStatus(const Status& s, StatusCode code, const std::string& needle) {
-  EXPECT_EQ(s.code(), code) << s.ToString();
-  EXPECT_NE(s.message().find(needle), std::string::npos)
-      << "message: " << s.message() << "\nexpected to contain: " << needle;
-}
 
 MeshArrays MorphArrays(uint32_t vertices = 3001) {
   MeshArrays arrays = MakeSyntheticMesh({.vertex_count = vertices,

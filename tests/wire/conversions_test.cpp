@@ -17,14 +17,10 @@
 #include <map>
 #include <set>
 
+#include "expect_status.h"
+
 namespace skinserve::testing {
 namespace {
-
-void ExpectStatus(const Status& s, StatusCode code, const std::string& needle) {
-  EXPECT_EQ(s.code(), code) << s.ToString();
-  EXPECT_NE(s.message().find(needle), std::string::npos)
-      << "message: " << s.message() << "\nexpected to contain: " << needle;
-}
 
 // Each model code and the gRPC code of the same name, written out here independently.
 const std::map<StatusCode, grpc::StatusCode>& CodesOfTheSameName() {

@@ -15,6 +15,7 @@
 #include <map>
 #include <thread>
 
+#include "expect_status.h"
 #include "skinserve/reference/reference.h"
 #include "skinserve/reference/synthetic.h"
 #include "test_server.h"
@@ -25,12 +26,6 @@ namespace {
 using Stream = grpc::ClientReaderWriter<v1::SkinRequest, v1::SkinResponse>;
 
 constexpr uint32_t kJoints = 77;  // MakeSyntheticMesh's
-
-void ExpectStatus(const Status& s, StatusCode code, const std::string& needle) {
-  EXPECT_EQ(s.code(), code) << s.ToString();
-  EXPECT_NE(s.message().find(needle), std::string::npos)
-      << "message: " << s.message() << "\nexpected to contain: " << needle;
-}
 
 // A mesh uploaded, and the same mesh on this side for the reference.
 struct UploadedMesh {

@@ -9,6 +9,8 @@
 #include <memory>
 #include <string>
 
+#include "expect_status.h"
+
 namespace skinserve::testing {
 namespace {
 
@@ -28,12 +30,6 @@ constexpr RegionWords kWords{.kind = "test region",
                              .max_regions = "--test-max-regions",
                              .budget = "--test-budget-mb",
                              .held = "held"};
-
-void ExpectStatus(const Status& s, StatusCode code, const std::string& needle) {
-  EXPECT_EQ(s.code(), code) << s.ToString();
-  EXPECT_NE(s.message().find(needle), std::string::npos)
-      << "message: " << s.message() << "\nexpected to contain: " << needle;
-}
 
 class OwnedRegionsTest : public ::testing::Test {
  protected:

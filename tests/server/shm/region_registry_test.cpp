@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "expect_status.h"
 #include "shm/sigbus_guard.h"
 
 namespace skinserve::testing {
@@ -25,12 +26,6 @@ using server::RegionOwner;
 using server::RegionRegistry;
 
 constexpr uint64_t kMiB = uint64_t{1} << 20;
-
-void ExpectStatus(const Status& s, StatusCode code, const std::string& needle) {
-  EXPECT_EQ(s.code(), code) << s.ToString();
-  EXPECT_NE(s.message().find(needle), std::string::npos)
-      << "message: " << s.message() << "\nexpected to contain: " << needle;
-}
 
 class RegionRegistryTest : public ::testing::Test {
  protected:
