@@ -52,17 +52,11 @@ GpuRegionRegistry::GpuRegionRegistry(const GpuRegionLimits& limits)
              {.budget_bytes = limits.budget_bytes,
               .max_regions = limits.max_regions,
               .max_per_owner = limits.max_per_owner,
-              .idle_seconds = limits.idle_seconds}) {
-  reaper_ = std::thread([this] { ReapIdle(); });
-}
+              .idle_seconds = limits.idle_seconds}),
+      reaper_(ReapPeriod(limits.idle_seconds), [this] { ReapIdle(); }) {}
 
 GpuRegionRegistry::~GpuRegionRegistry() {
-  {
-    std::lock_guard lock(mutex_);
-    stopping_ = true;
-  }
-  wake_.notify_all();
-  reaper_.join();
+  reaper_.Stop();  // before the regions it reads go
   std::lock_guard lock(mutex_);
   for (auto it = owned_.map().begin(); it != owned_.map().end();) {
     auto next = std::next(it);
@@ -145,9 +139,11 @@ uint64_t GpuRegionRegistry::imported_bytes() const {
 }
 
 void GpuRegionRegistry::ReapIdle() {
-  ReapIdleRegions(
-      mutex_, wake_, stopping_, owned_.map(), limits_.idle_seconds, "GPU region",
-      [&](Regions::iterator it) { EraseLocked(it, nullptr); }, RegionClockNs);
+  // Declared before the lock, so destroyed after it: the regions are let go of unlocked.
+  std::vector<std::shared_ptr<GpuRegion>> idle;
+  std::lock_guard lock(mutex_);
+  idle = TakeIdleRegions(owned_.map(), limits_.idle_seconds, RegionClockNs(), "GPU region",
+                         [&](Regions::iterator it) { EraseLocked(it, nullptr); });
 }
 
 }  // namespace skinserve::server

@@ -11,13 +11,11 @@
 
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -25,6 +23,7 @@
 #include "shm/region_owner.h"
 #include "skinserve/engine/device_memory.h"
 #include "skinserve/model/status.h"
+#include "threads/periodic_thread.h"
 
 namespace skinserve::server {
 
@@ -108,9 +107,7 @@ class GpuRegionRegistry {
   const GpuRegionLimits limits_;
   mutable std::mutex mutex_;
   OwnedRegions<GpuRegion> owned_;  // a name reserved while its import runs
-  bool stopping_ = false;
-  std::condition_variable wake_;
-  std::thread reaper_;
+  PeriodicThread reaper_;          // last: it reads every member above
 };
 
 }  // namespace skinserve::server

@@ -7,24 +7,16 @@
 #include <vector>
 
 #include "rpc/stream_skin_reactor.h"
+#include "threads/watchdog_period.h"
 
 namespace skinserve::server {
 
 OpenStreams::OpenStreams(const StreamLimits& limits)
     : limits_(limits),
-      // At most 1e9 s (31 years), so that the limit, and now less it, stay in range.
-      idle_limit_(std::chrono::duration_cast<std::chrono::nanoseconds>(
-          std::chrono::duration<double>(std::min(limits.idle_seconds, 1e9)))),
-      watchdog_([this] { Watch(); }) {}
+      idle_limit_(LimitNanoseconds(limits.idle_seconds)),
+      watchdog_(WatchdogPeriod(idle_limit_), [this] { EndQuietStreams(); }) {}
 
-OpenStreams::~OpenStreams() {
-  {
-    std::lock_guard lock(mutex_);
-    stopping_ = true;
-  }
-  wake_.notify_all();
-  watchdog_.join();
-}
+OpenStreams::~OpenStreams() = default;
 
 Status OpenStreams::Add(StreamSkinReactor* stream) {
   std::lock_guard lock(mutex_);
@@ -78,36 +70,32 @@ uint64_t OpenStreams::ended_idle() const {
   return ended_idle_;
 }
 
-void OpenStreams::Watch() {
-  // A quarter of the limit, at most 250 ms: a quiet stream ends at most a quarter late.
-  const auto period = std::clamp<std::chrono::nanoseconds>(
-      idle_limit_ / 4, std::chrono::milliseconds(1), std::chrono::milliseconds(250));
-  const std::string why = fmt::format(
-      "this stream sent no frame for {} s with none in flight, the server's limit "
-      "(--stream-idle-seconds {}), and was ended",
-      limits_.idle_seconds, limits_.idle_seconds);
-  std::unique_lock lock(mutex_);
-  while (!wake_.wait_for(lock, period, [&] { return stopping_; })) {
-    const auto cutoff = std::chrono::steady_clock::now() - idle_limit_;
-    // As in DrainAll: held, and ended outside our lock.
-    std::vector<StreamSkinReactor*> quiet;
+void OpenStreams::EndQuietStreams() {
+  const auto cutoff = std::chrono::steady_clock::now() - idle_limit_;
+  // As in DrainAll: held, and ended outside our lock.
+  std::vector<StreamSkinReactor*> quiet;
+  {
+    std::lock_guard lock(mutex_);
     for (StreamSkinReactor* stream : streams_) {
       if (stream->quiet_since() <= cutoff) {
         stream->Hold();
         quiet.push_back(stream);
       }
     }
-    if (quiet.empty()) continue;
-    lock.unlock();
-    uint64_t ended = 0;
-    for (StreamSkinReactor* stream : quiet) {
-      if (stream->EndIfQuietSince(cutoff, why)) ++ended;
-      stream->Release();
-    }
-    if (ended > 0) spdlog::debug("{} idle streams ended (--stream-idle-seconds)", ended);
-    lock.lock();
-    ended_idle_ += ended;
   }
+  if (quiet.empty()) return;
+  const std::string why = fmt::format(
+      "this stream sent no frame for {} s with none in flight, the server's limit "
+      "(--stream-idle-seconds {}), and was ended",
+      limits_.idle_seconds, limits_.idle_seconds);
+  uint64_t ended = 0;
+  for (StreamSkinReactor* stream : quiet) {
+    if (stream->EndIfQuietSince(cutoff, why)) ++ended;
+    stream->Release();
+  }
+  if (ended > 0) spdlog::debug("{} idle streams ended (--stream-idle-seconds)", ended);
+  std::lock_guard lock(mutex_);
+  ended_idle_ += ended;
 }
 
 }  // namespace skinserve::server

@@ -12,10 +12,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <mutex>
-#include <thread>
 #include <unordered_set>
 
 #include "skinserve/model/status.h"
+#include "threads/periodic_thread.h"
 
 namespace skinserve::server {
 
@@ -48,7 +48,7 @@ class OpenStreams {
   uint64_t ended_idle() const;
 
  private:
-  void Watch();  // the watchdog thread
+  void EndQuietStreams();  // the watchdog's round
 
   const StreamLimits limits_;
   const std::chrono::nanoseconds idle_limit_;
@@ -57,9 +57,7 @@ class OpenStreams {
   std::unordered_set<StreamSkinReactor*> streams_;
   bool draining_ = false;
   uint64_t ended_idle_ = 0;
-  bool stopping_ = false;
-  std::condition_variable wake_;  // notified to stop the watchdog
-  std::thread watchdog_;          // started last: it uses every member above
+  PeriodicThread watchdog_;  // last: it uses every member above, and stops first
 };
 
 }  // namespace skinserve::server

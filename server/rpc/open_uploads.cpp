@@ -7,40 +7,18 @@
 #include <vector>
 
 #include "rpc/mesh_upload_reactor.h"
+#include "threads/watchdog_period.h"
 
 namespace skinserve::server {
-namespace {
-
-// At most 1e9 s (31 years), so that the limit, and now less it, stay in range.
-std::chrono::nanoseconds Nanoseconds(double seconds) {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-      std::chrono::duration<double>(std::min(seconds, 1e9)));
-}
-
-// How often the watchdog looks: a quarter of the shorter limit, at most 250 ms, so an
-// upload ends at most a quarter late.
-std::chrono::nanoseconds WatchPeriod(std::chrono::nanoseconds limit) {
-  return std::clamp<std::chrono::nanoseconds>(limit / 4, std::chrono::milliseconds(1),
-                                              std::chrono::milliseconds(250));
-}
-
-}  // namespace
-
 OpenUploads::OpenUploads(const UploadLimits& limits)
     : limits_(limits),
-      idle_limit_(Nanoseconds(limits.idle_seconds)),
-      deadline_(Nanoseconds(limits.deadline_seconds)),
+      idle_limit_(LimitNanoseconds(limits.idle_seconds)),
+      deadline_(LimitNanoseconds(limits.deadline_seconds)),
       budget_(limits.budget_bytes, kUploadBudgetWording),
-      watchdog_([this] { Watch(); }) {}
-
-OpenUploads::~OpenUploads() {
-  {
-    std::lock_guard lock(mutex_);
-    stopping_ = true;
-  }
-  wake_.notify_all();
-  watchdog_.join();
+      watchdog_(WatchdogPeriod(std::min(idle_limit_, deadline_)), [this] { EndOverdueUploads(); }) {
 }
+
+OpenUploads::~OpenUploads() = default;
 
 Status OpenUploads::Add(MeshUploadReactor* upload, const std::string& peer) {
   std::lock_guard lock(mutex_);
@@ -85,8 +63,22 @@ UploadStats OpenUploads::Stats() const {
           .cancelled_deadline = cancelled_deadline_};
 }
 
-void OpenUploads::Watch() {
-  const auto period = WatchPeriod(std::min(idle_limit_, deadline_));
+void OpenUploads::EndOverdueUploads() {
+  const auto now = std::chrono::steady_clock::now();
+  const auto idle_cutoff = now - idle_limit_, deadline_cutoff = now - deadline_;
+  // Ended outside our lock (an upload's OnDone takes it to remove itself); each is held so
+  // that it outlives that call.
+  std::vector<MeshUploadReactor*> overdue;
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& [upload, peer] : uploads_) {
+      if (upload->progress_at() <= idle_cutoff || upload->admitted_at() <= deadline_cutoff) {
+        upload->Hold();
+        overdue.push_back(upload);
+      }
+    }
+  }
+  if (overdue.empty()) return;
   const Status idle = ResourceExhausted(fmt::format(
       "this upload made no progress for {} s, its limit (--upload-idle-seconds {}): neither "
       "its header nor array bytes arrived (empty chunks do not count); it was ended and "
@@ -97,45 +89,29 @@ void OpenUploads::Watch() {
       "{}); it was ended and nothing was stored: send the mesh faster (larger chunks, no "
       "pauses), or ask the operator for a longer limit",
       limits_.deadline_seconds, limits_.deadline_seconds));
-  std::unique_lock lock(mutex_);
-  while (!wake_.wait_for(lock, period, [&] { return stopping_; })) {
-    const auto now = std::chrono::steady_clock::now();
-    const auto idle_cutoff = now - idle_limit_, deadline_cutoff = now - deadline_;
-    // Ended outside our lock (an upload's OnDone takes it to remove itself); each is held
-    // so that it outlives that call.
-    std::vector<MeshUploadReactor*> overdue;
-    for (const auto& [upload, peer] : uploads_) {
-      if (upload->progress_at() <= idle_cutoff || upload->admitted_at() <= deadline_cutoff) {
-        upload->Hold();
-        overdue.push_back(upload);
-      }
+  uint64_t ended_idle = 0, ended_deadline = 0;
+  for (MeshUploadReactor* upload : overdue) {
+    switch (upload->EndIfOverdue(idle_cutoff, deadline_cutoff, idle, deadline)) {
+      case UploadOverdue::kIdle:
+        ++ended_idle;
+        break;
+      case UploadOverdue::kDeadline:
+        ++ended_deadline;
+        break;
+      case UploadOverdue::kNo:
+        break;
     }
-    if (overdue.empty()) continue;
-    lock.unlock();
-    uint64_t ended_idle = 0, ended_deadline = 0;
-    for (MeshUploadReactor* upload : overdue) {
-      switch (upload->EndIfOverdue(idle_cutoff, deadline_cutoff, idle, deadline)) {
-        case UploadOverdue::kIdle:
-          ++ended_idle;
-          break;
-        case UploadOverdue::kDeadline:
-          ++ended_deadline;
-          break;
-        case UploadOverdue::kNo:
-          break;
-      }
-      upload->Release();
-    }
-    if (ended_idle + ended_deadline > 0) {
-      spdlog::debug(
-          "uploads ended: {} idle (--upload-idle-seconds), {} past their deadline "
-          "(--upload-deadline-seconds)",
-          ended_idle, ended_deadline);
-    }
-    lock.lock();
-    cancelled_idle_ += ended_idle;
-    cancelled_deadline_ += ended_deadline;
+    upload->Release();
   }
+  if (ended_idle + ended_deadline > 0) {
+    spdlog::debug(
+        "uploads ended: {} idle (--upload-idle-seconds), {} past their deadline "
+        "(--upload-deadline-seconds)",
+        ended_idle, ended_deadline);
+  }
+  std::lock_guard lock(mutex_);
+  cancelled_idle_ += ended_idle;
+  cancelled_deadline_ += ended_deadline;
 }
 
 }  // namespace skinserve::server

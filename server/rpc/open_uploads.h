@@ -11,16 +11,15 @@
 #pragma once
 
 #include <chrono>
-#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <unordered_map>
 
 #include "frames/inflight_budget.h"
 #include "skinserve/model/status.h"
+#include "threads/periodic_thread.h"
 
 namespace skinserve::server {
 
@@ -69,7 +68,7 @@ class OpenUploads {
   UploadStats Stats() const;
 
  private:
-  void Watch();  // the watchdog thread
+  void EndOverdueUploads();  // the watchdog's round
 
   const UploadLimits limits_;
   const std::chrono::nanoseconds idle_limit_;
@@ -82,9 +81,7 @@ class OpenUploads {
   uint64_t refused_per_connection_ = 0;
   uint64_t cancelled_idle_ = 0;
   uint64_t cancelled_deadline_ = 0;
-  bool stopping_ = false;
-  std::condition_variable wake_;  // notified to stop the watchdog
-  std::thread watchdog_;          // started last: it uses every member above
+  PeriodicThread watchdog_;  // last: it uses every member above, and stops first
 };
 
 }  // namespace skinserve::server

@@ -10,21 +10,15 @@ namespace skinserve::server {
 
 Result<std::unique_ptr<PolicyFile>> PolicyFile::Load(const std::string& path,
                                                      std::chrono::milliseconds refresh) {
-  std::unique_ptr<PolicyFile> file(new PolicyFile(path, refresh));
+  std::unique_ptr<PolicyFile> file(new PolicyFile(path));
   auto loaded = file->Reload();
   if (!loaded.ok()) return loaded.status();
-  file->watcher_ = std::thread([f = file.get()] { f->Watch(); });
+  file->watcher_ =
+      std::make_unique<PeriodicThread>(refresh, [f = file.get()] { f->ReloadOrLog(); });
   return file;
 }
 
-PolicyFile::~PolicyFile() {
-  {
-    std::lock_guard lock(mutex_);
-    stop_ = true;
-  }
-  wake_.notify_one();
-  if (watcher_.joinable()) watcher_.join();
-}
+PolicyFile::~PolicyFile() = default;
 
 Result<bool> PolicyFile::Reload() {
   std::ifstream in(path_);
@@ -49,14 +43,9 @@ Result<bool> PolicyFile::Reload() {
   return true;
 }
 
-void PolicyFile::Watch() {
-  std::unique_lock lock(mutex_);
-  while (!wake_.wait_for(lock, refresh_, [this] { return stop_; })) {
-    lock.unlock();
-    if (auto reloaded = Reload(); !reloaded.ok()) {
-      spdlog::error("{}; the last good policy stays in force", reloaded.status().message());
-    }
-    lock.lock();
+void PolicyFile::ReloadOrLog() {
+  if (auto reloaded = Reload(); !reloaded.ok()) {
+    spdlog::error("{}; the last good policy stays in force", reloaded.status().message());
   }
 }
 

@@ -8,13 +8,12 @@
 #include <grpcpp/server_context.h>
 
 #include <chrono>
-#include <condition_variable>
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 
 #include "security/authz_policy.h"
+#include "threads/periodic_thread.h"
 
 namespace skinserve::server {
 
@@ -31,20 +30,17 @@ class PolicyFile {
   std::shared_ptr<const AuthorizationPolicy> current() const;
 
  private:
-  PolicyFile(std::string path, std::chrono::milliseconds refresh)
-      : path_(std::move(path)), refresh_(refresh) {}
-  void Watch();
+  explicit PolicyFile(std::string path) : path_(std::move(path)) {}
+  // The watcher's round: Reload, logging a file that no longer parses.
+  void ReloadOrLog();
   // Reads and parses the file; true when it changed and parsed (then it is in force).
   Result<bool> Reload();
 
   const std::string path_;
-  const std::chrono::milliseconds refresh_;
   mutable std::mutex mutex_;
   std::shared_ptr<const AuthorizationPolicy> policy_;
   std::string text_;  // the file as last read (parsed or not), to notice changes
-  std::condition_variable wake_;
-  bool stop_ = false;
-  std::thread watcher_;
+  std::unique_ptr<PeriodicThread> watcher_;  // last, so it stops first; once the file loaded
 };
 
 // What every service calls first in each method: OK when `policy` is null (no

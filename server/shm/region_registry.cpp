@@ -56,17 +56,11 @@ RegionRegistry::RegionRegistry(const RegionLimits& limits, int dir_fd)
              {.budget_bytes = limits.budget_bytes,
               .max_regions = limits.max_regions,
               .max_per_owner = limits.max_per_connection,
-              .idle_seconds = limits.idle_seconds}) {
-  reaper_ = std::thread([this] { ReapIdle(); });
-}
+              .idle_seconds = limits.idle_seconds}),
+      reaper_(ReapPeriod(limits.idle_seconds), [this] { ReapIdle(); }) {}
 
 RegionRegistry::~RegionRegistry() {
-  {
-    std::lock_guard lock(mutex_);
-    stopping_ = true;
-  }
-  wake_.notify_all();
-  reaper_.join();
+  reaper_.Stop();  // before the regions it reads go
   std::lock_guard lock(mutex_);
   for (auto it = owned_.map().begin(); it != owned_.map().end();) {
     auto next = std::next(it);
@@ -186,9 +180,11 @@ RegionStats RegionRegistry::Stats() const {
 }
 
 void RegionRegistry::ReapIdle() {
-  ReapIdleRegions(
-      mutex_, wake_, stopping_, owned_.map(), limits_.idle_seconds, "region",
-      [&](Regions::iterator it) { EraseLocked(it, nullptr); }, RegionClockNs);
+  // Declared before the lock, so destroyed after it: the regions are let go of unlocked.
+  std::vector<std::shared_ptr<MappedRegion>> idle;
+  std::lock_guard lock(mutex_);
+  idle = TakeIdleRegions(owned_.map(), limits_.idle_seconds, RegionClockNs(), "region",
+                         [&](Regions::iterator it) { EraseLocked(it, nullptr); });
 }
 
 }  // namespace skinserve::server

@@ -11,7 +11,6 @@
 #pragma once
 
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -19,13 +18,13 @@
 #include <mutex>
 #include <set>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
 #include "shm/mapped_region.h"
 #include "shm/owned_regions.h"
 #include "shm/region_owner.h"
+#include "threads/periodic_thread.h"
 
 namespace skinserve::server {
 
@@ -96,9 +95,7 @@ class RegionRegistry {
   OwnedRegions<MappedRegion> owned_;         // a name reserved while its file is opened
   std::set<std::pair<dev_t, ino_t>> files_;  // the files registered: one registration each
   uint64_t frames_of_removed_ = 0;           // frames written into regions no longer registered
-  bool stopping_ = false;
-  std::condition_variable wake_;
-  std::thread reaper_;
+  PeriodicThread reaper_;                    // last: it reads every member above
 };
 
 // What a frame call may do with regions: the registry (null: shared memory is off) and

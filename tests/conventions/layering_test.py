@@ -12,7 +12,7 @@ import sys
 
 INCLUDE = re.compile(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]')
 # The server's own headers are named by their concern's folder (server/CMakeLists.txt).
-SERVER_HEADERS = re.compile(r'^(rpc|frames|shm|gpu|security|observability|options)/')
+SERVER_HEADERS = re.compile(r'^(rpc|frames|shm|gpu|socket|security|observability|options|threads)/')
 PROTO = re.compile(r'^(skinserve/v1/|skinserve/wire/|grpc|grpcpp/|google/protobuf/)')
 PROGRAM_OPTIONS = re.compile(r'^skinserve/cli/')
 TOOLS = re.compile(r'^(upload_attack\.h|alloc_counter\.h|paper_tables\.h|workload_cache\.h)')
