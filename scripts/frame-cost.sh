@@ -13,6 +13,8 @@
 #     --streams N           (default 32)     --rate FPS  per stream (default 60)
 #     --vertices N          (default 25000)  --bones N   (default 2)
 #     --seconds S           measured seconds per plane (default 6)
+#     --warmup S            unmeasured seconds first, per plane (default 0: the start-up's
+#                           first touches are measured; the switches count the warm-up's too)
 #     --planes LIST         (default grpc,shm; socket: the frame socket, --frame-socket)
 #     --extra "ARGS"        more skinserve-load arguments (e.g. --characters-per-tick 64)
 #     --server-extra "ARGS" more skinserve arguments (e.g. --reflection=false)
@@ -24,7 +26,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bin=${SKINSERVE_BIN:-$root/build/bin}
 shm_dir=${SKINSERVE_SHM_DIR:-/dev/shm}
 backend=simd server_cpus=0 load_cpus=1 threads=1 streams=32 rate=60 vertices=25000 bones=2
-seconds=6 planes=grpc,shm extra="" server_extra=""
+seconds=6 warmup=0 planes=grpc,shm extra="" server_extra=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --backend) backend=$2; shift 2 ;;
@@ -36,6 +38,7 @@ while [ $# -gt 0 ]; do
     --vertices) vertices=$2; shift 2 ;;
     --bones) bones=$2; shift 2 ;;
     --seconds) seconds=$2; shift 2 ;;
+    --warmup) warmup=$2; shift 2 ;;
     --planes) planes=$2; shift 2 ;;
     --extra) extra=$2; shift 2 ;;
     --server-extra) server_extra=$2; shift 2 ;;
@@ -91,7 +94,7 @@ for plane in ${planes//,/ }; do
   # shellcheck disable=SC2086,SC2206 # extra is split on purpose
   cmd=(taskset -c "$load_cpus" "$bin/skinserve-load" --target "$target" --backends "$backend"
     --vertices "$vertices" --bones "$bones" --streams "$streams" --rate "$rate"
-    --duration "$seconds" --warmup 0 --data-planes "$plane" --shm-dir "$shm_dir"
+    --duration "$seconds" --warmup "$warmup" --data-planes "$plane" --shm-dir "$shm_dir"
     "${socket_args[@]}"
     --metrics-url "http://$metrics/metrics" --check-every 50 $extra
     --json "$out/$plane.json")
