@@ -84,7 +84,11 @@ Result<std::shared_ptr<MappedRegion>> MappedRegion::Open(int dir_fd, std::string
   }
   const std::size_t page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
   region->mapped_ = (byte_size + page - 1) / page * page;
-  void* data = mmap(nullptr, region->mapped_, PROT_READ | PROT_WRITE, MAP_SHARED, region->fd_, 0);
+  // MAP_POPULATE: the pages are mapped in now, not one fault at a time by a stream's first
+  // frames (2-3 us a page on the GPU machine's Xeon, 15-18 us on the VM: a 19 MB region of
+  // ticks, 4,700 pages, held its first ticks up; docs/results/2026-11-30-region-populate-vm).
+  void* data = mmap(nullptr, region->mapped_, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE,
+                    region->fd_, 0);
   if (data == MAP_FAILED) {
     return refuse(StatusCode::kInvalidArgument,
                   fmt::format("cannot be mapped: {}", std::strerror(errno)));

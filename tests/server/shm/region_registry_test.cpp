@@ -5,15 +5,19 @@
 #include "shm/region_registry.h"
 
 #include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <thread>
+#include <vector>
 
 #include "expect_status.h"
 #include "shm/sigbus_guard.h"
@@ -97,6 +101,29 @@ TEST_F(RegionRegistryTest, ARegisteredRegionMapsItsFileAndIsListedAndCounted) {
   EXPECT_EQ(stats.mapped_bytes, kMiB);
   EXPECT_EQ(stats.budget_bytes, 4 * kMiB);
   EXPECT_EQ(stats.frames, 1u);
+}
+
+// The registration maps the region's pages in (MAP_POPULATE), so a stream's first frames take
+// no page faults writing it: each costs this VM 15-18 us.
+TEST_F(RegionRegistryTest, ARegionsPagesAreMappedInWhenItIsRegistered) {
+  Create({.budget_bytes = 4 * kMiB});
+  MakeFile("a.bin", kMiB);  // sparse: no page of it exists before the registration
+  ASSERT_TRUE(registry_->Register("a", "/a.bin", kMiB, alice_).ok());
+  auto region = registry_->Acquire("a", alice_);
+  ASSERT_TRUE(region.ok()) << region.status().ToString();
+  const std::span<std::byte> bytes = (*region)->bytes();
+  const std::size_t page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  std::vector<unsigned char> resident(bytes.size() / page);
+  ASSERT_EQ(mincore(bytes.data(), bytes.size(), resident.data()), 0) << std::strerror(errno);
+  EXPECT_EQ(std::count_if(resident.begin(), resident.end(), [](unsigned char r) { return r & 1; }),
+            static_cast<std::ptrdiff_t>(resident.size()))
+      << "pages of the region not resident after its registration";
+  rusage before = {}, after = {};
+  ASSERT_EQ(getrusage(RUSAGE_THREAD, &before), 0);
+  std::memset(bytes.data(), 1, bytes.size());  // a frame's writes
+  ASSERT_EQ(getrusage(RUSAGE_THREAD, &after), 0);
+  // Unpopulated, each of the 256 pages faults once; a few faults elsewhere are allowed.
+  EXPECT_LE(after.ru_minflt - before.ru_minflt, 8) << "of " << resident.size() << " pages";
 }
 
 TEST_F(RegionRegistryTest, ARegionIsItsOwnersOnlyAndAFileIsRegisteredOnce) {
