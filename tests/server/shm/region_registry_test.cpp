@@ -122,8 +122,10 @@ TEST_F(RegionRegistryTest, ARegionsPagesAreMappedInWhenItIsRegistered) {
   ASSERT_EQ(getrusage(RUSAGE_THREAD, &before), 0);
   std::memset(bytes.data(), 1, bytes.size());  // a frame's writes
   ASSERT_EQ(getrusage(RUSAGE_THREAD, &after), 0);
-  // Unpopulated, each of the 256 pages faults once; a few faults elsewhere are allowed.
-  EXPECT_LE(after.ru_minflt - before.ru_minflt, 8) << "of " << resident.size() << " pages";
+  // Unpopulated, each of the 256 pages faults once. Populated, none does; under AddressSanitizer
+  // its shadow of the region faults in, a page per 8 of the region's (32 here).
+  EXPECT_LT(after.ru_minflt - before.ru_minflt, static_cast<long>(resident.size() / 4))
+      << "of " << resident.size() << " pages";
 }
 
 TEST_F(RegionRegistryTest, ARegionIsItsOwnersOnlyAndAFileIsRegisteredOnce) {
