@@ -41,6 +41,13 @@ Result<std::unique_ptr<SharedMemoryRegion>> SharedMemoryRegion::Create(const std
         fmt::format("{} {} ({} bytes): {}", what, region->path_, byte_size, std::strerror(error)));
   };
   if (ftruncate(fd, static_cast<off_t>(byte_size)) != 0) return fail("cannot size");
+  // The file's pages are allocated now, so a folder too small for the region (a container's
+  // /dev/shm is 64 MB unless sized) says so here instead of failing the server's first frame
+  // into it.
+  if (const int error = posix_fallocate(fd, 0, static_cast<off_t>(byte_size)); error != 0) {
+    errno = error;
+    return fail("cannot allocate");
+  }
   void* data = mmap(nullptr, byte_size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
   if (data == MAP_FAILED) return fail("cannot map");
   close(fd);  // the mapping keeps the file

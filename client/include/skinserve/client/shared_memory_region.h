@@ -18,7 +18,8 @@ namespace skinserve::client {
 class SharedMemoryRegion {
  public:
   // Creates `key` (one file name; a leading "/" as in POSIX shared-memory names is
-  // dropped) inside `dir` with `byte_size` bytes, zeroed, and maps it. An existing file of
+  // dropped) inside `dir` with `byte_size` bytes, zeroed, allocated (FAILED_PRECONDITION
+  // naming the file when its file system cannot hold them) and mapped. An existing file of
   // that name is an error (ALREADY_EXISTS): keys are chosen per process, see UniqueKey.
   static Result<std::unique_ptr<SharedMemoryRegion>> Create(const std::string& key,
                                                             uint64_t byte_size,

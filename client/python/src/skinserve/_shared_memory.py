@@ -55,6 +55,13 @@ class SharedMemoryRegion:
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o660)
         try:
             os.ftruncate(fd, byte_size)
+            # Allocated now, as the C++ client's regions are: a file system too small for
+            # the region (a container's /dev/shm) says so here, not at the server's first frame.
+            try:
+                os.posix_fallocate(fd, 0, byte_size)
+            except OSError as e:
+                raise OSError(e.errno, f"cannot allocate {self.path} ({byte_size} bytes): "
+                              f"{e.strerror}") from e
             self._map = mmap.mmap(fd, byte_size)
         except BaseException:
             os.unlink(self.path)
