@@ -71,6 +71,7 @@ Status FrameJob::Prepare(v1::SkinRequest& wire, Engine& engine, const std::strin
   if (Status s = plan->PlanFrame(wire, backend, engine, this); !s.ok()) return s;
   ApplyLayout(plan->layout());
   if (region_part_) {  // a GPU region (output.gpu) or a shared-memory one
+    if (Status s = PlaceInRegion(wire.output()); !s.ok()) return s;
     if (Status s = wire.output().gpu() ? PinGpuRegion(wire.output(), regions)
                                        : PinRegion(wire.output(), regions, plan->region());
         !s.ok()) {
@@ -106,10 +107,6 @@ void FrameJob::ApplyLayout(const FrameLayout& l) {
   headers_offset_ = l.headers_offset;
   wire_used_ = l.wire_used;
   region_part_ = l.in_region;
-  region_positions_ = l.region.positions_offset;
-  region_normals_ = l.region.normals_offset;
-  region_tangents_ = l.region.tangents_offset;
-  region_end_ = l.region.end_offset;
   early_ = l.early;
   if (early_) instance_ready_.assign(instances_, 0);  // keeps its capacity
 }
@@ -240,6 +237,24 @@ Status FrameJob::Begin(uint64_t frame, const std::string& backend) {
 void FrameJob::Refuse(uint64_t frame, const std::string& backend, Status status) {
   if (Status s = Begin(frame, backend); !s.ok()) status = std::move(s);
   Fail(std::move(status));
+}
+
+Status FrameJob::PlaceInRegion(const v1::OutputRegion& output) {
+  const uint64_t offset = output.offset();
+  if (offset % wire::kRegionAlignment != 0) {
+    return InvalidArgument(fmt::format("output.offset = {} in region '{}' is not a multiple of {}",
+                                       offset, output.region(), wire::kRegionAlignment));
+  }
+  // Saturating: an offset past any region is refused by the range check, naming it.
+  const auto at = [offset](uint64_t relative) {
+    uint64_t sum = 0;
+    return __builtin_add_overflow(relative, offset, &sum) ? UINT64_MAX : sum;
+  };
+  region_positions_ = at(layout_.region.positions_offset);
+  region_normals_ = at(layout_.region.normals_offset);
+  region_tangents_ = at(layout_.region.tangents_offset);
+  region_end_ = at(layout_.region.end_offset);
+  return Status::Ok();
 }
 
 Status FrameJob::PinRegion(const v1::OutputRegion& output, const RegionCaller& regions,

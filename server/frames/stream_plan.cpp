@@ -63,21 +63,17 @@ void LayOutParts(bool pack_instances, FrameLayout* l) {
       l->tangents_offset + RoundUp(static_cast<std::size_t>(l->tangent_values) * value_bytes);
 }
 
-// A frame into a region: the vertices go there, the wire carries one header.
-Status LayOutRegion(const v1::OutputRegion& output, FrameLayout* l) {
-  if (output.offset() % wire::kRegionAlignment != 0) {
-    return InvalidArgument(fmt::format("output.offset = {} in region '{}' is not a multiple of {}",
-                                       output.offset(), output.region(), wire::kRegionAlignment));
-  }
+// A frame into a region: the vertices go there, the wire carries one header. Laid out at
+// offset 0; each frame's offset is added (and checked) by FrameJob::PlaceInRegion.
+void LayOutRegion(const v1::OutputRegion& output, FrameLayout* l) {
   l->in_region = true;
-  l->region = wire::LayoutInRegion(output.offset(), l->vertices, l->instances, l->encoding,
-                                   l->want_normals, l->want_tangents);
+  l->region = wire::LayoutInRegion(0, l->vertices, l->instances, l->encoding, l->want_normals,
+                                   l->want_tangents);
   l->part_count = 1;
   l->instances_per_part = 1;
   l->header_room =
       kHeaderRoom + output.region().size() + (l->boxed ? kBoundsRoom * l->instances : 0);
   l->normals_offset = l->tangents_offset = l->headers_offset = 0;
-  return Status::Ok();
 }
 
 // Where the skinned floats go: straight into the output (float32, or a backend that writes
@@ -121,9 +117,7 @@ Status LayOutFrame(const v1::SkinRequest& request, const FramePlan& plan, FrameL
   l.values = 3ull * l.vertices * l.instances;
   l.tangent_values = l.want_tangents ? uint64_t{kValuesPerTangent} * l.vertices * l.instances : 0;
   LayOutParts(request.pack_instances(), &l);
-  if (request.has_output()) {
-    if (Status s = LayOutRegion(request.output(), &l); !s.ok()) return s;
-  }
+  if (request.has_output()) LayOutRegion(request.output(), &l);
   l.wire_used = l.headers_offset + l.part_count * l.header_room;
   l.early = request.early_parts() && !l.in_region && l.part_count > 1 && l.instances > 1;
   LayOutFloats(plan, &l);
@@ -135,9 +129,7 @@ bool StreamPlan::Matches(const v1::SkinRequest& r, const std::string& backend) c
          r.encoding() == encoding_ && std::max<uint32_t>(r.instances(), 1) == instances_ &&
          r.want_normals() == want_normals_ && r.want_tangents() == want_tangents_ &&
          r.pack_instances() == pack_instances_ && r.early_parts() == early_parts_ &&
-         r.has_output() == has_output_ &&
-         (!has_output_ ||
-          (r.output().region() == output_region_ && r.output().offset() == output_offset_));
+         r.has_output() == has_output_ && (!has_output_ || r.output().region() == output_region_);
 }
 
 void StreamPlan::SetKey(const v1::SkinRequest& r, const std::string& backend) {
@@ -152,7 +144,6 @@ void StreamPlan::SetKey(const v1::SkinRequest& r, const std::string& backend) {
   early_parts_ = r.early_parts();
   has_output_ = r.has_output();
   output_region_.assign(has_output_ ? r.output().region() : std::string());
-  output_offset_ = has_output_ ? r.output().offset() : 0;
 }
 
 void StreamPlan::FillJob(SkinJob* job) const {

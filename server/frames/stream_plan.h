@@ -6,10 +6,12 @@
 // frame goes. A frame whose settings match the plan's key reuses it (Engine::Reuse: no
 // lookup, no lock) and checks only what can change from frame to frame: its palette, its
 // morph weights, that its mesh and region still stand, and its range against the region.
-// A frame whose settings differ rebuilds the plan; a failed build keeps nothing, so the
-// next frame builds again. The plan holds the mesh and the region weakly (KeptPlan,
-// RegionHandle): a mesh deleted or a region unregistered is seen by the next frame, which
-// is then planned afresh and answered with the lookup's status (NOT_FOUND ...).
+// The offset into the region is no such setting: a client that double-buffers a region
+// changes it every frame. A frame whose settings differ rebuilds the plan; a failed build
+// keeps nothing, so the next frame builds again. The plan holds the mesh and the region
+// weakly (KeptPlan, RegionHandle): a mesh deleted or a region unregistered is seen by the
+// next frame, which is then planned afresh and answered with the lookup's status
+// (NOT_FOUND ...).
 // Used under its owner's lock (a stream's reactor; a tick's character slot).
 #pragma once
 
@@ -52,7 +54,9 @@ struct FrameLayout {
   // The wire buffer: positions from 0, normals, tangents, then each part's header room.
   std::size_t header_room = 0, normals_offset = 0, tangents_offset = 0, headers_offset = 0,
               wire_used = 0;
-  // SkinRequest.output: the frame goes into a region at `region` (its answer one header).
+  // SkinRequest.output: the frame goes into a region (its answer one header), laid out at
+  // offset 0: each frame adds its own output.offset (FrameJob::PlaceInRegion), which is no
+  // key, since a client double-buffering a region alternates it every frame.
   bool in_region = false;
   wire::RegionLayout region;
 };
@@ -65,7 +69,8 @@ class StreamPlan {
   // Plans `job` (fills its request's mesh_id, backend, method and instances) for
   // `request`: from this plan when the key matches and the mesh is still stored, else
   // built anew and kept. Errors: the engine's (Engine::Plan), the request's method or
-  // encoding unknown, outputs the mesh cannot give, an output offset off the alignment.
+  // encoding unknown, outputs the mesh cannot give (the output offset is each frame's:
+  // FrameJob::PlaceInRegion).
   Status PlanFrame(const v1::SkinRequest& request, const std::string& backend, Engine& engine,
                    SkinJob* job);
   // The layout of the frame PlanFrame planned last.
@@ -91,7 +96,6 @@ class StreamPlan {
   bool want_normals_ = false, want_tangents_ = false, pack_instances_ = false, early_parts_ = false,
        has_output_ = false;
   std::string output_region_;
-  uint64_t output_offset_ = 0;
 
   SkinningMethod method_value_ = SkinningMethod::kLinear;
   KeptPlan kept_;

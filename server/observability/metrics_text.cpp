@@ -206,6 +206,11 @@ void WriteEngineAndInflight(Writer& w, const ServerSnapshot& s) {
   w.Header("skinserve_inline_frames_total", "counter",
            "Frames skinned on the thread that read them (no compute thread was worth waking).");
   w.Sample("skinserve_inline_frames_total", "", static_cast<double>(e.inline_frames));
+  w.Header("skinserve_frame_plans_total", "counter",
+           "Frames planned with a lookup of mesh and backend (built) or on their stream's kept "
+           "plan (reused).");
+  w.Sample("skinserve_frame_plans_total", "kind=\"built\"", static_cast<double>(e.plans_built));
+  w.Sample("skinserve_frame_plans_total", "kind=\"reused\"", static_cast<double>(e.plans_reused));
   w.Header("skinserve_inflight_bytes", "gauge",
            "Memory frames in flight hold (every stream's frame buffers).");
   w.Sample("skinserve_inflight_bytes", "", static_cast<double>(s.inflight.bytes));

@@ -76,6 +76,8 @@ v1::ServerStats ToWire(const ServerSnapshot& s) {
   wire.set_compute_threads(e.compute_threads);
   wire.set_peak_busy_threads(e.peak_busy_threads);
   wire.set_inline_frames(e.inline_frames);
+  wire.set_frame_plans_built(e.plans_built);
+  wire.set_frame_plans_reused(e.plans_reused);
   wire.set_ticks(s.ticks.ticks);
   wire.set_tick_characters(s.ticks.characters);
   wire.set_meshes(e.meshes);

@@ -148,6 +148,12 @@ TEST(StatsSurfacesTest, GetServerStatsAndMetricsShowTheSameSnapshot) {
   expect("skinserve_peak_busy_threads", stats->peak_busy_threads());
   EXPECT_GE(stats->peak_busy_threads(), 1);
   expect("skinserve_inline_frames_total", stats->inline_frames());
+  expect("skinserve_frame_plans_total{kind=\"built\"}", stats->frame_plans_built());
+  expect("skinserve_frame_plans_total{kind=\"reused\"}", stats->frame_plans_reused());
+  // Each single Skin call is planned afresh (the five answered at least; the refused ones
+  // may be too): a call has no stream plan to reuse.
+  EXPECT_GE(stats->frame_plans_built(), 5u);
+  EXPECT_EQ(stats->frame_plans_reused(), 0u);
   expect("skinserve_meshes", stats->meshes());
   expect("skinserve_mesh_bytes", stats->mesh_bytes());
   expect("skinserve_mesh_budget_bytes", stats->mesh_budget_bytes());

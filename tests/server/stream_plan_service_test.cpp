@@ -1,10 +1,13 @@
 // A stream's frame plan (server/frames/stream_plan.h) through a real server over loopback
 // (its Unix socket, for shared memory): a stream whose mesh, backend or region changes
-// between frames is planned anew and answered right against the float64 reference; a mesh
+// between frames is planned anew and answered right against the float64 reference; one
+// that alternates between two places of a region keeps its plan, and each frame lands
+// where it asked (a misaligned place is refused, writing nothing); a mesh
 // deleted or a region unregistered between two frames of a cached plan fails the next
 // frame with a status naming it, and nothing is written into the region after.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 
@@ -73,7 +76,7 @@ class StreamPlanServiceTest : public ::testing::Test {
   // Sends one frame on `stream` and reads its answer.
   FrameResult Send(grpc::ClientReaderWriter<v1::SkinRequest, v1::SkinResponse>& stream,
                    const std::string& mesh_id, const std::string& backend, uint64_t frame,
-                   const std::string& region = "") {
+                   const std::string& region = "", uint64_t offset = 0) {
     v1::SkinRequest request;
     request.set_mesh_id(mesh_id);
     request.set_backend(backend);
@@ -82,8 +85,9 @@ class StreamPlanServiceTest : public ::testing::Test {
     request.set_palette(wire::EncodeFloats(MakeSyntheticPalette(kJoints, 5, frame)));
     RegionOutput output;
     if (!region.empty()) {
-      output = {.name = region, .region = regions_.at(region).get()};
+      output = {.name = region, .region = regions_.at(region).get(), .offset = offset};
       request.mutable_output()->set_region(region);
+      request.mutable_output()->set_offset(offset);
     }
     EXPECT_TRUE(stream.Write(request));
     FrameResult result;
@@ -186,6 +190,50 @@ TEST_F(StreamPlanServiceTest, ARegionUnregisteredBetweenFramesFailsTheNextAndWri
   ExpectReference(Send(*stream, a, "simd", 5), a, 5, "over gRPC");
   ASSERT_TRUE(t_->client->RegisterRegion("r", *regions_.at("r")).ok());
   ExpectReference(Send(*stream, a, "simd", 6, "r"), a, 6, "registered again");
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+}
+
+// A client double-buffering a region alternates its frames' offsets: the offset is no part
+// of the plan's key, so the stream keeps its plan (the engine's counters say so), and each
+// frame is written at its own offset and nowhere else.
+TEST_F(StreamPlanServiceTest, AStreamAlternatingPlacesInARegionKeepsItsPlan) {
+  const std::string a = Upload(3001, 5);
+  const uint64_t slot = wire::RoundUpToRegionAlignment(
+      wire::RegionFrameBytes(3001, 1, VertexEncoding::kFloat32, true));
+  SharedMemoryRegion& region = Region("r", 2 * slot);
+  grpc::ClientContext context;
+  auto stream = t_->client->stub().StreamSkin(&context);
+  const auto before = t_->client->GetServerStats();
+  ASSERT_TRUE(before.ok()) << before.status().ToString();
+  constexpr uint64_t kFrames = 6;
+  for (uint64_t f = 0; f < kFrames; ++f) {
+    const uint64_t offset = (f % 2) * slot;
+    Fill("r");
+    const FrameResult r = Send(*stream, a, "simd", f, "r", offset);
+    const std::string what = "frame " + std::to_string(f) + " at offset " + std::to_string(offset);
+    ExpectReference(r, a, f, what);
+    ASSERT_TRUE(r.in_region()) << what;
+    EXPECT_EQ(r.region_positions.data(), region.bytes().data() + offset) << what;
+    // The other slot is untouched.
+    const auto other = region.bytes().subspan(offset == 0 ? slot : 0, slot);
+    EXPECT_TRUE(std::all_of(other.begin(), other.end(), [](std::byte b) { return b == kCanary; }))
+        << what << " wrote into the other slot";
+  }
+  const auto after = t_->client->GetServerStats();
+  ASSERT_TRUE(after.ok()) << after.status().ToString();
+  EXPECT_EQ(after->frame_plans_built() - before->frame_plans_built(), 1u)
+      << "the plan was rebuilt when only the offset changed";
+  EXPECT_EQ(after->frame_plans_reused() - before->frame_plans_reused(), kFrames - 1);
+
+  // A misaligned offset on the kept plan: refused naming the field, nothing written, and
+  // the stream goes on.
+  Fill("r");
+  const FrameResult bad = Send(*stream, a, "simd", kFrames, "r", slot + 4);
+  EXPECT_EQ(bad.status.code(), StatusCode::kInvalidArgument) << bad.status.ToString();
+  EXPECT_NE(bad.status.message().find("output.offset"), std::string::npos) << bad.status.ToString();
+  EXPECT_TRUE(Untouched("r")) << "the misaligned frame wrote into the region";
+  ExpectReference(Send(*stream, a, "simd", kFrames + 1, "r", slot), a, kFrames + 1, "after it");
   stream->WritesDone();
   EXPECT_TRUE(stream->Finish().ok());
 }

@@ -377,6 +377,7 @@ class Engine::Impl {
     }
     job->backend_index_ = *backend_index;
     job->lease_ = std::move(entry);
+    plans_built_.fetch_add(1, std::memory_order_relaxed);
     job->plan_ = {.planned = true,
                   .instances = std::max<uint32_t>(request.instances, 1),
                   .vertex_count = mesh.vertex_count(),
@@ -396,6 +397,7 @@ class Engine::Impl {
     auto& entry = *static_cast<MeshStore::Entry*>(lease.get());
     if (!entry.stored()) return false;  // deleted or evicted while a frame held it
     entry.MarkUsed();
+    plans_reused_.fetch_add(1, std::memory_order_relaxed);
     job->lease_ = std::move(lease);
     job->plan_ = kept.plan_;
     job->backend_index_ = kept.backend_index_;
@@ -678,6 +680,7 @@ class Engine::Impl {
   animation::AnimationStore animations_;
   std::atomic<bool> shut_down_{false};
   std::atomic<uint64_t> rejected_{0};
+  std::atomic<uint64_t> plans_built_{0}, plans_reused_{0};
   ComputePool pool_;  // last: its threads stop before the rest is destroyed
 };
 
@@ -964,6 +967,8 @@ EngineStats Engine::Stats() const {
   stats.rejected_queue_full = impl_->rejected_.load();
   stats.peak_busy_threads = impl_->pool_.peak_busy();
   stats.inline_frames = impl_->pool_.inline_runs();
+  stats.plans_built = impl_->plans_built_.load(std::memory_order_relaxed);
+  stats.plans_reused = impl_->plans_reused_.load(std::memory_order_relaxed);
   return stats;
 }
 

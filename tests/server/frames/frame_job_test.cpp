@@ -160,6 +160,17 @@ TEST_F(FrameJobTest, ThePlansKeyIsTheSettingsThatFixItAndNothingElse) {
   EXPECT_TRUE(plan.Matches(one, "simd"));
   plan.Reset();
   EXPECT_FALSE(plan.Matches(first, "simd")) << "a reset plan matches nothing";
+
+  // Into a region: its name is a key, the offset is not (a double-buffering client changes
+  // it every frame; each frame places itself).
+  v1::SkinRequest in_region = Request(a, 3);
+  in_region.mutable_output()->set_region("r");
+  ASSERT_TRUE(plan.PlanFrame(in_region, "simd", *engine_, &job).ok());
+  job.Fail(Internal("not skinned"));
+  in_region.mutable_output()->set_offset(1 << 20);
+  EXPECT_TRUE(plan.Matches(in_region, "simd")) << "output.offset is no key";
+  in_region.mutable_output()->set_region("s");
+  EXPECT_FALSE(plan.Matches(in_region, "simd")) << "output.region";
 }
 
 TEST_F(FrameJobTest, AStreamPlansOncePerSettingsAndAnswersTheReference) {

@@ -271,6 +271,8 @@ struct EngineStats {
   uint64_t rejected_queue_full = 0;
   int peak_busy_threads = 0;   // most compute threads ever skinning at once
   uint64_t inline_frames = 0;  // frames Engine::Run skinned on its caller's thread
+  uint64_t plans_built = 0;    // Engine::Plan calls that found their mesh and backend
+  uint64_t plans_reused = 0;   // Engine::Reuse calls that could reuse their kept plan
 };
 
 class Engine {
