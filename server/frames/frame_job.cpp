@@ -245,15 +245,14 @@ Status FrameJob::PlaceInRegion(const v1::OutputRegion& output) {
     return InvalidArgument(fmt::format("output.offset = {} in region '{}' is not a multiple of {}",
                                        offset, output.region(), wire::kRegionAlignment));
   }
-  // Saturating: an offset past any region is refused by the range check, naming it.
-  const auto at = [offset](uint64_t relative) {
-    uint64_t sum = 0;
-    return __builtin_add_overflow(relative, offset, &sum) ? UINT64_MAX : sum;
-  };
-  region_positions_ = at(layout_.region.positions_offset);
-  region_normals_ = at(layout_.region.normals_offset);
-  region_tangents_ = at(layout_.region.tangents_offset);
-  region_end_ = at(layout_.region.end_offset);
+  // The wire contract's rule, as the client computes it; an offset past the region is
+  // refused by the range check (CheckRegionRange), naming it.
+  const wire::RegionLayout at =
+      wire::LayoutInRegion(offset, vertices_, instances_, encoding_, want_normals_, want_tangents_);
+  region_positions_ = at.positions_offset;
+  region_normals_ = at.normals_offset;
+  region_tangents_ = at.tangents_offset;
+  region_end_ = at.end_offset;
   return Status::Ok();
 }
 

@@ -125,8 +125,9 @@ class FrameJob final : public SkinJob, public StreamAnswer {
   // Prepare's steps. The plan's layout, copied: a later frame may change the plan while
   // this one is in flight.
   void ApplyLayout(const FrameLayout& layout);
-  // Moves the plan's region layout (laid out at offset 0) to the request's output.offset,
-  // which must be a multiple of wire::kRegionAlignment (INVALID_ARGUMENT naming it).
+  // Where the frame lies in its region from the request's output.offset, which must be a
+  // multiple of wire::kRegionAlignment (INVALID_ARGUMENT naming it): each frame's own, since
+  // the offset is no part of the plan's key.
   Status PlaceInRegion(const v1::OutputRegion& output);
   // Resolves the request's region through the stream's handle, checks the frame's range
   // against it and pins it.

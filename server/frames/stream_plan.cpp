@@ -63,12 +63,10 @@ void LayOutParts(bool pack_instances, FrameLayout* l) {
       l->tangents_offset + RoundUp(static_cast<std::size_t>(l->tangent_values) * value_bytes);
 }
 
-// A frame into a region: the vertices go there, the wire carries one header. Laid out at
-// offset 0; each frame's offset is added (and checked) by FrameJob::PlaceInRegion.
+// A frame into a region: the vertices go there, the wire carries one header. Where in the
+// region is each frame's own (FrameJob::PlaceInRegion).
 void LayOutRegion(const v1::OutputRegion& output, FrameLayout* l) {
   l->in_region = true;
-  l->region = wire::LayoutInRegion(0, l->vertices, l->instances, l->encoding, l->want_normals,
-                                   l->want_tangents);
   l->part_count = 1;
   l->instances_per_part = 1;
   l->header_room =

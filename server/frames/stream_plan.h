@@ -22,7 +22,6 @@
 #include "skinserve/encoding/vertex_encoding.h"
 #include "skinserve/engine/engine.h"
 #include "skinserve/v1/skinning.pb.h"
-#include "skinserve/wire/region_layout.h"
 
 namespace skinserve::server {
 
@@ -54,11 +53,10 @@ struct FrameLayout {
   // The wire buffer: positions from 0, normals, tangents, then each part's header room.
   std::size_t header_room = 0, normals_offset = 0, tangents_offset = 0, headers_offset = 0,
               wire_used = 0;
-  // SkinRequest.output: the frame goes into a region (its answer one header), laid out at
-  // offset 0: each frame adds its own output.offset (FrameJob::PlaceInRegion), which is no
-  // key, since a client double-buffering a region alternates it every frame.
+  // SkinRequest.output: the frame goes into a region (its answer one header). Where in it
+  // is each frame's own (FrameJob::PlaceInRegion): the offset is no key, since a client
+  // double-buffering a region alternates it every frame.
   bool in_region = false;
-  wire::RegionLayout region;
 };
 
 class StreamPlan {
