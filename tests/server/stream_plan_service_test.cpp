@@ -7,9 +7,9 @@
 // frame with a status naming it, and nothing is written into the region after.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cstring>
 #include <filesystem>
+#include <span>
 
 #include "skinserve/client/frame_stream.h"
 #include "skinserve/client/shared_memory_region.h"
@@ -66,8 +66,10 @@ class StreamPlanServiceTest : public ::testing::Test {
     auto bytes = regions_.at(name)->bytes();
     std::memset(bytes.data(), static_cast<int>(kCanary), bytes.size());
   }
-  bool Untouched(const std::string& name) const {
-    for (std::byte b : regions_.at(name)->bytes()) {
+  // Whether the region (or its `bytes` from `offset`) still holds only the canary.
+  bool Untouched(const std::string& name, uint64_t offset = 0,
+                 uint64_t bytes = std::dynamic_extent) const {
+    for (std::byte b : regions_.at(name)->bytes().subspan(offset, bytes)) {
       if (b != kCanary) return false;
     }
     return true;
@@ -215,9 +217,7 @@ TEST_F(StreamPlanServiceTest, AStreamAlternatingPlacesInARegionKeepsItsPlan) {
     ExpectReference(r, a, f, what);
     ASSERT_TRUE(r.in_region()) << what;
     EXPECT_EQ(r.region_positions.data(), region.bytes().data() + offset) << what;
-    // The other slot is untouched.
-    const auto other = region.bytes().subspan(offset == 0 ? slot : 0, slot);
-    EXPECT_TRUE(std::all_of(other.begin(), other.end(), [](std::byte b) { return b == kCanary; }))
+    EXPECT_TRUE(Untouched("r", offset == 0 ? slot : 0, slot))
         << what << " wrote into the other slot";
   }
   const auto after = t_->client->GetServerStats();
